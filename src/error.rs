@@ -1,0 +1,122 @@
+//! The crate's error type. Every variant names where the problem is (file and field or line)
+//! and what was expected, so that the command line can print it on one line.
+
+use std::path::PathBuf;
+
+/// Result alias used throughout legwise.
+pub type Result<T, E = Error> = std::result::Result<T, E>;
+
+/// What went wrong, and where.
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum Error {
+    /// A file could not be read or written.
+    #[error("{}: {source}", path.display())]
+    Io {
+        /// The file.
+        path: PathBuf,
+        /// The operating-system error.
+        source: std::io::Error,
+    },
+    /// The YAML model file is not valid YAML or does not have the expected shape.
+    #[error("{}: {message}", path.display())]
+    Yaml {
+        /// The model file.
+        path: PathBuf,
+        /// The parser's message, with line and column.
+        message: String,
+    },
+    /// A field of the model file is inconsistent with the URDF or with another field.
+    #[error("{}: field `{field}`: {message}", path.display())]
+    Model {
+        /// The model file.
+        path: PathBuf,
+        /// The offending field, as a YAML path (`legs[0].actuated`).
+        field: String,
+        /// What is wrong and what was expected.
+        message: String,
+    },
+    /// The URDF file is not valid or does not describe the legs as expected.
+    #[error("{}: {message}", path.display())]
+    Urdf {
+        /// The URDF file.
+        path: PathBuf,
+        /// What is wrong.
+        message: String,
+    },
+    /// A measurement file is malformed or holds a pose that cannot be used.
+    #[error("{}: {location}: {message}", path.display())]
+    Measurement {
+        /// The CSV file.
+        path: PathBuf,
+        /// `line N`, `line N, column `c`` or `header`.
+        location: String,
+        /// What is wrong and what was expected.
+        message: String,
+    },
+    /// A leg's inverse kinematics failed.
+    #[error(transparent)]
+    Kinematics(#[from] KinematicsError),
+    /// The pose set does not determine every identified parameter of a leg.
+    #[error(
+        "leg `{leg}`: rank-deficient identification: rank {rank} of {n} parameters; \
+         cannot be identified: {params}"
+    )]
+    Unidentifiable {
+        /// The leg.
+        leg: String,
+        /// Numerical rank of the column-scaled identification Jacobian.
+        rank: usize,
+        /// Number of identified parameters.
+        n: usize,
+        /// The parameters (or combinations) that cannot be identified.
+        params: String,
+    },
+    /// The least-squares solver failed.
+    #[error("{context}: solver failed: {message}")]
+    Solver {
+        /// Which identification (leg or strategy).
+        context: String,
+        /// The solver's message.
+        message: String,
+    },
+    /// A request that cannot be carried out with the given data.
+    #[error("{0}")]
+    Invalid(String),
+}
+
+/// Failures of a leg's inverse kinematics, independent of where the pose came from.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[non_exhaustive]
+pub enum KinematicsError {
+    /// Newton's method on the closure equations did not converge: the pose is out of reach.
+    #[error(
+        "leg `{leg}` cannot reach the pose (closure residual {residual:.3e} m after {iterations} Newton iterations)"
+    )]
+    Unreachable {
+        /// The leg.
+        leg: String,
+        /// Remaining closure error, metres.
+        residual: f64,
+        /// Iterations spent.
+        iterations: usize,
+    },
+    /// The solution is on another branch (working mode) than the home configuration.
+    #[error("leg `{leg}` reaches the pose only on another branch than its home configuration (working-mode change)")]
+    BranchChange {
+        /// The leg.
+        leg: String,
+    },
+    /// The closure Jacobian is singular: the leg is at a serial (type I) singularity.
+    #[error("leg `{leg}` is at a serial (type I) singularity at this pose")]
+    Singular {
+        /// The leg.
+        leg: String,
+    },
+    /// A non-finite number appeared (parameters or pose hold NaN or infinity).
+    #[error("leg `{leg}`: non-finite value in the parameters or the pose")]
+    NonFinite {
+        /// The leg.
+        leg: String,
+    },
+}

@@ -1,0 +1,3 @@
+//! Kinematics as free functions over the immutable model, generic over the scalar.
+pub mod chain;
+pub mod inverse;

@@ -1,0 +1,6 @@
+//! legwise
+pub mod error;
+pub mod kinematics;
+pub mod model;
+pub mod scalar;
+pub mod workspace;

@@ -1,0 +1,223 @@
+//! The model file as written on disk: a serde mirror of the YAML, checked only for syntax and
+//! types (ripgrep's "low args"). Cross-checks against the URDF happen in [`super::mechanism`].
+//!
+//! The reference for every field is `docs/models.md`.
+
+use std::collections::BTreeMap;
+use std::path::Path;
+
+use serde::Deserialize;
+
+use crate::error::{Error, Result};
+
+/// The whole model file.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ModelFile {
+    /// Human-readable name of the mechanism.
+    pub name: String,
+    /// Path of the URDF holding the legs, relative to the model file.
+    pub urdf: String,
+    /// Measured end-effector coordinates, among `x y z roll pitch yaw` (metres, radians).
+    pub measured: Vec<String>,
+    /// Free text naming the working and assembly mode the home configuration selects.
+    #[serde(default)]
+    pub mode: Option<String>,
+    /// The home configuration: it fixes the working mode (branch) of every leg.
+    pub home: HomeEntry,
+    /// The legs, each a serial chain of URDF joints from the base to the platform attachment.
+    pub legs: Vec<LegEntry>,
+    /// Named kinematic parameters, each mapped onto one quantity of the model.
+    pub parameters: Vec<ParameterEntry>,
+    /// The usable workspace.
+    pub workspace: WorkspaceEntry,
+    /// The simulation set-up (optional: real users bring measurements).
+    #[serde(default)]
+    pub simulation: Option<SimulationEntry>,
+}
+
+/// The home configuration.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct HomeEntry {
+    /// The platform pose at home, by measured coordinate name (metres, radians).
+    pub pose: BTreeMap<String, f64>,
+}
+
+/// One leg.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct LegEntry {
+    /// Leg name, used in measurement files and reports.
+    pub name: String,
+    /// URDF joint names from the base to the leg's tip, in order.
+    pub chain: Vec<String>,
+    /// The actuated joint and its actuator model `joint = gain * reading + offset`.
+    pub actuator: ActuatorEntry,
+    /// The point of the platform the leg tip coincides with, in the platform (measured) frame, metres.
+    #[serde(default)]
+    pub attachment: Option<[f64; 3]>,
+    /// Joint values of the leg's moving joints at the home pose (radians or metres); they select
+    /// the working mode. Approximate values are refined by Newton's method.
+    pub home: BTreeMap<String, f64>,
+}
+
+/// Actuator model of a leg.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ActuatorEntry {
+    /// The actuated URDF joint (must be in the leg's chain).
+    pub joint: String,
+    /// Nominal gain (dimensionless).
+    #[serde(default = "one")]
+    pub gain: f64,
+    /// Nominal offset (radians for a revolute joint, metres for a prismatic one).
+    #[serde(default)]
+    pub offset: f64,
+}
+
+fn one() -> f64 {
+    1.0
+}
+
+fn yes() -> bool {
+    true
+}
+
+/// One named parameter. Exactly one target: `joint` + `origin`, `leg` + `actuator`, or
+/// `leg` + `attachment`.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ParameterEntry {
+    /// Parameter name (as in reports and `simulation.real`).
+    pub name: String,
+    /// A URDF joint whose origin holds the parameter.
+    #[serde(default)]
+    pub joint: Option<String>,
+    /// Component of the joint origin: `x y z` (metres) or `roll pitch yaw` (radians).
+    #[serde(default)]
+    pub origin: Option<String>,
+    /// A leg whose actuator or attachment holds the parameter.
+    #[serde(default)]
+    pub leg: Option<String>,
+    /// `gain` or `offset` of the leg's actuator model.
+    #[serde(default)]
+    pub actuator: Option<String>,
+    /// Component `x y z` of the leg's platform attachment (metres).
+    #[serde(default)]
+    pub attachment: Option<String>,
+    /// Identified (true, the default) or held fixed at its nominal value (false).
+    #[serde(default = "yes")]
+    pub identify: bool,
+}
+
+/// The usable workspace.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct WorkspaceEntry {
+    /// The region of the end-effector point in x, y.
+    pub region: RegionEntry,
+    /// Inward safety margin from the region's boundary, metres.
+    #[serde(default)]
+    pub margin: f64,
+    /// Ranges `[min, max]` for measured coordinates other than x and y (e.g. `yaw`); a coordinate
+    /// without a range stays at its home value.
+    #[serde(default)]
+    pub ranges: BTreeMap<String, [f64; 2]>,
+    /// Spacing of the candidate grid for pose selection, metres.
+    #[serde(default)]
+    pub grid: Option<f64>,
+}
+
+/// A planar region.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields, rename_all = "snake_case")]
+pub enum RegionEntry {
+    /// A disc: centre `[x, y]` and radius, metres.
+    Disc {
+        /// Centre `[x, y]`, metres.
+        centre: [f64; 2],
+        /// Radius, metres.
+        radius: f64,
+    },
+    /// An axis-aligned box `[xmin, ymin]`..`[xmax, ymax]`, metres.
+    Box {
+        /// Lower corner, metres.
+        min: [f64; 2],
+        /// Upper corner, metres.
+        max: [f64; 2],
+    },
+    /// A simple polygon, vertices `[x, y]` in order, metres.
+    Polygon {
+        /// The vertices.
+        vertices: Vec<[f64; 2]>,
+    },
+}
+
+/// The simulation set-up.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SimulationEntry {
+    /// "Real" values by parameter name; parameters not listed are perturbed (if `perturbation`
+    /// is given) or equal their nominal value.
+    #[serde(default)]
+    pub real: BTreeMap<String, f64>,
+    /// Standard deviations of a seeded random perturbation of the parameters not in `real`.
+    #[serde(default)]
+    pub perturbation: Option<PerturbationEntry>,
+    /// Measurement noise standard deviation by measured coordinate name, and `readings` for the
+    /// actuator readings (SI units).
+    #[serde(default)]
+    pub noise: BTreeMap<String, f64>,
+    /// Number of identification poses per leg.
+    pub poses_per_leg: usize,
+    /// Seed of the random generator (poses, perturbation, noise).
+    #[serde(default)]
+    pub seed: u64,
+}
+
+/// Standard deviations of the parameter perturbation, by kind of quantity.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct PerturbationEntry {
+    /// Lengths (joint origin x y z, attachments, prismatic offsets), metres.
+    #[serde(default)]
+    pub length: f64,
+    /// Angles (joint origin roll pitch yaw, revolute offsets), radians.
+    #[serde(default)]
+    pub angle: f64,
+    /// Actuator gains, dimensionless.
+    #[serde(default)]
+    pub gain: f64,
+}
+
+impl ModelFile {
+    /// Reads and parses a model file. Syntax and type errors carry the line and column.
+    ///
+    /// # Errors
+    /// [`Error::Io`] if the file cannot be read, [`Error::Yaml`] if it is not a valid model file.
+    pub fn read(path: &Path) -> Result<Self> {
+        let text = std::fs::read_to_string(path).map_err(|source| Error::Io {
+            path: path.to_path_buf(),
+            source,
+        })?;
+        Self::parse(&text, path)
+    }
+
+    /// Parses model-file text; `path` is only used in error messages.
+    ///
+    /// # Errors
+    /// [`Error::Yaml`] if the text is not a valid model file.
+    pub fn parse(text: &str, path: &Path) -> Result<Self> {
+        serde_saphyr::from_str(text).map_err(|err| Error::Yaml {
+            path: path.to_path_buf(),
+            message: one_line(&err.to_string()),
+        })
+    }
+}
+
+/// Keeps the first line of a parser message (`line L column C: what`), dropping the snippet.
+fn one_line(message: &str) -> String {
+    let first = message.lines().map(str::trim).find(|l| !l.is_empty()).unwrap_or("invalid YAML");
+    first.strip_prefix("error: ").unwrap_or(first).to_string()
+}

@@ -1,0 +1,8 @@
+//! What the mechanism is: the model file, the URDF legs and the validated [`Mechanism`].
+pub mod file;
+pub mod joint;
+pub mod leg;
+pub mod mechanism;
+pub mod params;
+
+pub use mechanism::Mechanism;

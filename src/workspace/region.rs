@@ -1,0 +1,136 @@
+//! The usable workspace: a planar region for the end-effector point, a safety margin, and ranges
+//! for the other measured coordinates.
+
+use rand::Rng;
+
+/// A planar region in x, y (metres).
+#[derive(Debug, Clone, PartialEq)]
+pub enum Region {
+    /// A disc.
+    Disc {
+        /// Centre, metres.
+        centre: [f64; 2],
+        /// Radius, metres.
+        radius: f64,
+    },
+    /// An axis-aligned box.
+    Box {
+        /// Lower corner, metres.
+        min: [f64; 2],
+        /// Upper corner, metres.
+        max: [f64; 2],
+    },
+    /// A simple polygon.
+    Polygon {
+        /// Vertices in order, metres.
+        vertices: Vec<[f64; 2]>,
+    },
+}
+
+impl Region {
+    /// Signed distance from `point` to the boundary: positive inside, metres.
+    pub fn depth(&self, point: [f64; 2]) -> f64 {
+        match self {
+            Region::Disc { centre, radius } => {
+                radius - ((point[0] - centre[0]).powi(2) + (point[1] - centre[1]).powi(2)).sqrt()
+            }
+            Region::Box { min, max } => (point[0] - min[0])
+                .min(max[0] - point[0])
+                .min(point[1] - min[1])
+                .min(max[1] - point[1]),
+            Region::Polygon { vertices } => {
+                let mut inside = false;
+                let mut nearest = f64::INFINITY;
+                for (i, a) in vertices.iter().enumerate() {
+                    let b = vertices[(i + 1) % vertices.len()];
+                    if (a[1] > point[1]) != (b[1] > point[1])
+                        && point[0] < a[0] + (point[1] - a[1]) * (b[0] - a[0]) / (b[1] - a[1])
+                    {
+                        inside = !inside;
+                    }
+                    nearest = nearest.min(segment_distance(point, *a, b));
+                }
+                if inside {
+                    nearest
+                } else {
+                    -nearest
+                }
+            }
+        }
+    }
+
+    /// Bounding box `(min, max)`, metres.
+    pub fn bounds(&self) -> ([f64; 2], [f64; 2]) {
+        match self {
+            Region::Disc { centre, radius } => (
+                [centre[0] - radius, centre[1] - radius],
+                [centre[0] + radius, centre[1] + radius],
+            ),
+            Region::Box { min, max } => (*min, *max),
+            Region::Polygon { vertices } => vertices.iter().fold(
+                ([f64::INFINITY; 2], [f64::NEG_INFINITY; 2]),
+                |(lo, hi), v| {
+                    (
+                        [lo[0].min(v[0]), lo[1].min(v[1])],
+                        [hi[0].max(v[0]), hi[1].max(v[1])],
+                    )
+                },
+            ),
+        }
+    }
+}
+
+fn segment_distance(p: [f64; 2], a: [f64; 2], b: [f64; 2]) -> f64 {
+    let (dx, dy) = (b[0] - a[0], b[1] - a[1]);
+    let length2 = dx * dx + dy * dy;
+    let t = if length2 > 0.0 {
+        (((p[0] - a[0]) * dx + (p[1] - a[1]) * dy) / length2).clamp(0.0, 1.0)
+    } else {
+        0.0
+    };
+    ((p[0] - a[0] - t * dx).powi(2) + (p[1] - a[1] - t * dy).powi(2)).sqrt()
+}
+
+/// The usable workspace of a mechanism.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Workspace {
+    /// Region of the end-effector point in x, y.
+    pub region: Region,
+    /// Inward safety margin, metres.
+    pub margin: f64,
+    /// `[min, max]` for coordinates 2..6 (z roll pitch yaw) that vary; `None` keeps the home value.
+    pub ranges: [Option<[f64; 2]>; 6],
+    /// Candidate grid spacing for pose selection, metres.
+    pub grid: Option<f64>,
+}
+
+impl Workspace {
+    /// Is the pose inside the region, at least `margin` from its boundary, and within the ranges?
+    pub fn contains(&self, pose: &[f64; 6]) -> bool {
+        self.region.depth([pose[0], pose[1]]) >= self.margin
+            && self.ranges.iter().zip(pose).all(|(range, value)| {
+                range.is_none_or(|[lo, hi]| (lo..=hi).contains(value))
+            })
+    }
+
+    /// A uniformly random pose of the usable workspace (x, y by rejection in the bounding box,
+    /// the ranged coordinates uniform, the others at `home`); `None` if 100 000 draws all fell
+    /// outside (an empty usable workspace).
+    pub fn sample(&self, home: &[f64; 6], rng: &mut impl Rng) -> Option<[f64; 6]> {
+        let (lo, hi) = self.region.bounds();
+        for _ in 0..100_000 {
+            let mut pose = *home;
+            pose[0] = rng.random_range(lo[0]..=hi[0]);
+            pose[1] = rng.random_range(lo[1]..=hi[1]);
+            for (value, range) in pose.iter_mut().zip(&self.ranges).skip(2) {
+                if let Some([min, max]) = range {
+                    *value = rng.random_range(*min..=*max);
+                }
+            }
+            if self.contains(&pose) {
+                return Some(pose);
+            }
+        }
+        None
+    }
+}

@@ -1,0 +1,3 @@
+//! One integration binary for all legwise tests.
+mod golden;
+mod support;
