@@ -1,6 +1,9 @@
 //! legwise
 pub mod error;
+pub mod identify;
 pub mod kinematics;
+pub mod measure;
 pub mod model;
 pub mod scalar;
+pub mod solver;
 pub mod workspace;

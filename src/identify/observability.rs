@@ -1,0 +1,150 @@
+//! Observability of an identification: singular values, numerical rank, condition number,
+//! observability indices, and the parameters that cannot be identified.
+//!
+//! # Reference
+//! algorithms.md §3 (indices O1–O5) and §5.1 (rank with scaled columns, pivoted QR).
+
+use nalgebra::DMatrix;
+
+/// Relative singular-value threshold on the column-scaled Jacobian below which a direction is
+/// not identifiable.
+pub const RANK_TOLERANCE: f64 = 1e-8;
+
+/// What the singular values of an identification Jacobian say.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Observability {
+    /// Singular values of C in SI units, largest first.
+    pub singular_values: Vec<f64>,
+    /// Singular values of C with unit-norm columns, largest first.
+    pub scaled_singular_values: Vec<f64>,
+    /// Numerical rank of the column-scaled C.
+    pub rank: usize,
+    /// Condition number s_max / s_min of C (infinite when rank-deficient).
+    pub condition: f64,
+    /// Observability indices O1..O5 of C (algorithms.md §3; O1 divided by √m).
+    pub indices: [f64; 5],
+    /// Parameters that cannot be identified (pivoted Gram–Schmidt on the scaled columns).
+    pub unidentifiable: Vec<String>,
+    /// Null-space directions, e.g. `0.707 l1 - 0.707 L1`.
+    pub null_directions: Vec<String>,
+}
+
+/// Analyses identification Jacobian `c` (rows = measurements) whose columns are `names`.
+pub fn analyse(c: &DMatrix<f64>, names: &[String]) -> Observability {
+    let (m, n) = c.shape();
+    let singular_values = sorted_singular_values(c.clone());
+    let mut scaled = c.clone();
+    for mut column in scaled.column_iter_mut() {
+        let norm = column.norm();
+        if norm > 0.0 {
+            column /= norm;
+        }
+    }
+    let svd = scaled.clone().svd(false, true);
+    let mut order: Vec<usize> = (0..svd.singular_values.len()).collect();
+    order.sort_by(|&a, &b| svd.singular_values[b].total_cmp(&svd.singular_values[a]));
+    let scaled_singular_values: Vec<f64> = order.iter().map(|&i| svd.singular_values[i]).collect();
+    let largest = scaled_singular_values.first().copied().unwrap_or(0.0);
+    let rank = scaled_singular_values
+        .iter()
+        .filter(|&&s| s > RANK_TOLERANCE * largest)
+        .count();
+    let mut null_directions = Vec::new();
+    if let Some(v_t) = &svd.v_t {
+        for &i in order.iter().skip(rank) {
+            null_directions.push(direction(v_t.row(i).iter().copied(), names));
+        }
+    }
+    for _ in svd.singular_values.len()..n {
+        null_directions.push("(fewer measurements than parameters)".into());
+    }
+    let unidentifiable = pivoted_deficient_columns(&scaled, rank)
+        .into_iter()
+        .map(|j| names[j].clone())
+        .collect();
+    let condition = if rank == n && n > 0 {
+        singular_values[0] / singular_values[n - 1]
+    } else {
+        f64::INFINITY
+    };
+    Observability {
+        indices: indices(&singular_values, m, n),
+        singular_values,
+        scaled_singular_values,
+        rank,
+        condition,
+        unidentifiable,
+        null_directions,
+    }
+}
+
+/// Singular values, largest first (zeros appended when there are fewer rows than columns).
+pub fn sorted_singular_values(c: DMatrix<f64>) -> Vec<f64> {
+    let n = c.ncols();
+    let mut values: Vec<f64> = c.singular_values().iter().copied().collect();
+    values.sort_by(|a, b| b.total_cmp(a));
+    values.resize(n, 0.0);
+    values
+}
+
+/// O1 = (Π s)^(1/n)/√m, O2 = s_min/s_max, O3 = s_min, O4 = s_min²/s_max, O5 = 1/Σ(1/s).
+pub fn indices(singular_values: &[f64], m: usize, n: usize) -> [f64; 5] {
+    if n == 0 || singular_values.len() < n {
+        return [0.0; 5];
+    }
+    let (max, min) = (singular_values[0], singular_values[n - 1]);
+    if min <= 0.0 {
+        return [0.0; 5];
+    }
+    let log_mean = singular_values[..n].iter().map(|s| s.ln()).sum::<f64>() / n as f64;
+    [
+        log_mean.exp() / (m as f64).sqrt(),
+        min / max,
+        min,
+        min * min / max,
+        1.0 / singular_values[..n].iter().map(|s| 1.0 / s).sum::<f64>(),
+    ]
+}
+
+/// Greedy column-norm-pivoted Gram–Schmidt: after `rank` pivots, the remaining columns are
+/// (numerically) combinations of the pivoted ones.
+fn pivoted_deficient_columns(scaled: &DMatrix<f64>, rank: usize) -> Vec<usize> {
+    let n = scaled.ncols();
+    let mut residual = scaled.clone();
+    let mut remaining: Vec<usize> = (0..n).collect();
+    for _ in 0..rank.min(n) {
+        let (position, &pivot) = remaining
+            .iter()
+            .enumerate()
+            .max_by(|a, b| residual.column(*a.1).norm().total_cmp(&residual.column(*b.1).norm()))
+            .unwrap_or((0, &0));
+        remaining.remove(position);
+        let q = residual.column(pivot).normalize();
+        for &j in &remaining {
+            let projection = q.dot(&residual.column(j));
+            let updated = residual.column(j) - &q * projection;
+            residual.set_column(j, &updated);
+        }
+    }
+    remaining.sort_unstable();
+    remaining
+}
+
+fn direction(components: impl Iterator<Item = f64>, names: &[String]) -> String {
+    let mut terms: Vec<(f64, &String)> = components.zip(names).filter(|(v, _)| v.abs() >= 0.05).collect();
+    terms.sort_by(|a, b| b.0.abs().total_cmp(&a.0.abs()));
+    let sign = terms.first().map_or(1.0, |t| t.0.signum());
+    terms
+        .iter()
+        .enumerate()
+        .map(|(i, (v, name))| {
+            let v = v * sign;
+            match (i, v < 0.0) {
+                (0, _) => format!("{v:.3} {name}"),
+                (_, true) => format!("- {:.3} {name}", -v),
+                (_, false) => format!("+ {v:.3} {name}"),
+            }
+        })
+        .collect::<Vec<_>>()
+        .join(" ")
+}

@@ -1,0 +1,168 @@
+//! The least-squares problem of one leg (divide and conquer) or of several legs stacked
+//! (traditional): the same residual blocks, grouped differently. Implements argmin's
+//! `Operator` (residuals) and `Jacobian` (dual numbers).
+
+use argmin::core::{Error as ArgminError, Jacobian, Operator};
+use nalgebra::{DMatrix, DVector};
+
+use super::jacobian::reading_gradient;
+use super::residual::ResidualBlock;
+use crate::error::KinematicsError;
+use crate::model::Mechanism;
+
+/// Where one leg's identified parameters sit in the problem's parameter vector.
+#[derive(Debug, Clone)]
+pub struct LegSlot {
+    /// Index of the leg in the mechanism.
+    pub leg: usize,
+    /// Indices (into the leg's parameters) of the identified parameters.
+    pub columns: Vec<usize>,
+    /// Offset of the first of them in the problem's parameter vector.
+    pub offset: usize,
+}
+
+/// A failed residual block: which block, and why.
+#[derive(Debug, Clone, thiserror::Error)]
+#[error("residual block {block}: {source}")]
+pub struct BlockError {
+    /// Index of the block in the problem.
+    pub block: usize,
+    /// The kinematic failure.
+    pub source: KinematicsError,
+}
+
+/// Least-squares identification problem over a set of residual blocks.
+#[derive(Debug, Clone)]
+pub struct IdentificationProblem<'a> {
+    mechanism: &'a Mechanism,
+    slots: Vec<LegSlot>,
+    slot_of_leg: Vec<Option<usize>>,
+    blocks: Vec<ResidualBlock>,
+}
+
+impl<'a> IdentificationProblem<'a> {
+    /// A problem identifying the legs `legs` from `blocks` (blocks of other legs are ignored).
+    pub fn new(mechanism: &'a Mechanism, legs: &[usize], blocks: Vec<ResidualBlock>) -> Self {
+        let mut slots = Vec::new();
+        let mut slot_of_leg = vec![None; mechanism.legs.len()];
+        let mut offset = 0;
+        for &leg in legs {
+            let columns = mechanism.legs[leg].identified();
+            slot_of_leg[leg] = Some(slots.len());
+            let count = columns.len();
+            slots.push(LegSlot { leg, columns, offset });
+            offset += count;
+        }
+        let blocks = blocks.into_iter().filter(|b| slot_of_leg[b.leg].is_some()).collect();
+        Self { mechanism, slots, slot_of_leg, blocks }
+    }
+
+    /// The legs and where their parameters sit.
+    pub fn slots(&self) -> &[LegSlot] {
+        &self.slots
+    }
+
+    /// The residual blocks, in row order.
+    pub fn blocks(&self) -> &[ResidualBlock] {
+        &self.blocks
+    }
+
+    /// Number of unknowns.
+    pub fn parameter_count(&self) -> usize {
+        self.slots.iter().map(|s| s.columns.len()).sum()
+    }
+
+    /// The nominal values of the unknowns (the usual starting point).
+    pub fn nominal(&self) -> DVector<f64> {
+        let mut x = DVector::zeros(self.parameter_count());
+        for slot in &self.slots {
+            let leg = &self.mechanism.legs[slot.leg];
+            for (k, &c) in slot.columns.iter().enumerate() {
+                x[slot.offset + k] = leg.params[c].nominal;
+            }
+        }
+        x
+    }
+
+    /// The full parameter vector of the leg in `slot` for unknowns `x` (fixed ones at nominal).
+    pub fn leg_parameters(&self, slot: &LegSlot, x: &DVector<f64>) -> Vec<f64> {
+        let mut phi = self.mechanism.legs[slot.leg].nominal();
+        for (k, &c) in slot.columns.iter().enumerate() {
+            phi[c] = x[slot.offset + k];
+        }
+        phi
+    }
+
+    fn parameters_by_leg(&self, x: &DVector<f64>) -> Vec<Vec<f64>> {
+        self.slots.iter().map(|s| self.leg_parameters(s, x)).collect()
+    }
+
+    /// Residuals `predicted − measured` reading, one per block.
+    ///
+    /// # Errors
+    /// The first block whose leg cannot reach its pose.
+    pub fn residuals(&self, x: &DVector<f64>) -> Result<DVector<f64>, BlockError> {
+        let phis = self.parameters_by_leg(x);
+        let home = &self.mechanism.home_pose;
+        let mut r = DVector::zeros(self.blocks.len());
+        for (i, block) in self.blocks.iter().enumerate() {
+            let slot = self.slot_of_leg[block.leg].unwrap_or_default();
+            let leg = &self.mechanism.legs[block.leg];
+            r[i] = block
+                .evaluate(leg, &phis[slot], home)
+                .map_err(|source| BlockError { block: i, source })?;
+        }
+        Ok(r)
+    }
+
+    /// Residuals and the identification Jacobian ∂r/∂x (block-structured: a block's row is
+    /// non-zero only in its own leg's columns).
+    ///
+    /// # Errors
+    /// The first block whose leg cannot reach its pose.
+    pub fn residuals_and_jacobian(
+        &self,
+        x: &DVector<f64>,
+    ) -> Result<(DVector<f64>, DMatrix<f64>), BlockError> {
+        let phis = self.parameters_by_leg(x);
+        let home = &self.mechanism.home_pose;
+        let mut r = DVector::zeros(self.blocks.len());
+        let mut jacobian = DMatrix::zeros(self.blocks.len(), self.parameter_count());
+        for (i, block) in self.blocks.iter().enumerate() {
+            let s = self.slot_of_leg[block.leg].unwrap_or_default();
+            let slot = &self.slots[s];
+            let leg = &self.mechanism.legs[block.leg];
+            let (predicted, gradient) =
+                reading_gradient(leg, &phis[s], &slot.columns, &block.pose, home)
+                    .map_err(|source| BlockError { block: i, source })?;
+            r[i] = predicted - block.reading;
+            for (k, g) in gradient.into_iter().enumerate() {
+                jacobian[(i, slot.offset + k)] = g;
+            }
+        }
+        Ok((r, jacobian))
+    }
+
+    /// Row indices of the blocks of the leg in `slot`.
+    pub fn rows_of(&self, slot: &LegSlot) -> Vec<usize> {
+        (0..self.blocks.len()).filter(|&i| self.blocks[i].leg == slot.leg).collect()
+    }
+}
+
+impl Operator for IdentificationProblem<'_> {
+    type Param = DVector<f64>;
+    type Output = DVector<f64>;
+
+    fn apply(&self, x: &Self::Param) -> Result<Self::Output, ArgminError> {
+        Ok(self.residuals(x)?)
+    }
+}
+
+impl Jacobian for IdentificationProblem<'_> {
+    type Param = DVector<f64>;
+    type Jacobian = DMatrix<f64>;
+
+    fn jacobian(&self, x: &Self::Param) -> Result<Self::Jacobian, ArgminError> {
+        Ok(self.residuals_and_jacobian(x)?.1)
+    }
+}

@@ -1,0 +1,169 @@
+//! The measurement CSV: a header row, then one row per measured pose.
+//!
+//! Columns: `leg` (optional; the leg whose identification set the row belongs to, empty for a
+//! pose shared by all legs), one column per measured coordinate (`x`, `y`, `yaw` …, metres and
+//! radians) and one per actuated joint, named after its URDF joint, holding the raw reading
+//! (empty when not read). Errors name the file, the line and the column.
+
+use std::path::Path;
+
+use super::{MeasuredPose, MeasurementSet};
+use crate::error::{Error, Result};
+use crate::model::mechanism::COORDINATES;
+use crate::model::Mechanism;
+
+/// Column layout of a measurement file for a mechanism.
+fn expected_columns(mechanism: &Mechanism) -> Vec<String> {
+    let mut columns = vec!["leg".to_string()];
+    columns.extend(mechanism.measured_names().iter().map(|s| s.to_string()));
+    columns.extend(mechanism.actuated_names().iter().map(|s| s.to_string()));
+    columns
+}
+
+/// Reads a measurement file for `mechanism`.
+///
+/// # Errors
+/// [`Error::Io`] if unreadable; [`Error::Measurement`] naming the line and column for a missing
+/// or unknown column, an unknown leg, a non-numeric or non-finite cell, a missing coordinate, or
+/// a file without rows.
+pub fn read(path: &Path, mechanism: &Mechanism) -> Result<MeasurementSet> {
+    let text = std::fs::read_to_string(path).map_err(|source| Error::Io {
+        path: path.to_path_buf(),
+        source,
+    })?;
+    parse(&text, path, mechanism)
+}
+
+/// Parses measurement CSV text; `path` is only used in messages.
+///
+/// # Errors
+/// As [`read`].
+pub fn parse(text: &str, path: &Path, mechanism: &Mechanism) -> Result<MeasurementSet> {
+    let fail = |location: String, message: String| Error::Measurement {
+        path: path.to_path_buf(),
+        location,
+        message,
+    };
+    let expected = expected_columns(mechanism);
+    let mut reader = csv::ReaderBuilder::new()
+        .trim(csv::Trim::All)
+        .flexible(false)
+        .from_reader(text.as_bytes());
+    let header: Vec<String> = reader
+        .headers()
+        .map_err(|e| fail("header".into(), e.to_string()))?
+        .iter()
+        .map(str::to_string)
+        .collect();
+    if header.iter().all(String::is_empty) {
+        return Err(fail("header".into(), format!("empty file; expected the columns {}", expected.join(", "))));
+    }
+    for column in &header {
+        if !expected.contains(column) {
+            return Err(fail("header".into(), format!("unknown column `{column}`; expected the columns {}", expected.join(", "))));
+        }
+    }
+    for column in expected.iter().skip(1) {
+        if !header.contains(column) {
+            return Err(fail("header".into(), format!("missing column `{column}`; expected the columns {}", expected.join(", "))));
+        }
+    }
+    let index = |name: &str| header.iter().position(|h| h == name);
+    let leg_column = index("leg");
+    let coordinate_columns: Vec<(usize, usize)> = mechanism
+        .measured
+        .iter()
+        .map(|&c| (c, index(COORDINATES[c]).unwrap_or_default()))
+        .collect();
+    let reading_columns: Vec<usize> = mechanism
+        .actuated_names()
+        .iter()
+        .map(|name| index(name).unwrap_or_default())
+        .collect();
+    let mut poses = Vec::new();
+    for record in reader.records() {
+        let record = record.map_err(|e| {
+            let line = e.position().map_or(0, |p| p.line());
+            fail(format!("line {line}"), csv_message(&e))
+        })?;
+        let line = record.position().map_or(0, |p| p.line() as usize);
+        if record.iter().all(str::is_empty) {
+            continue;
+        }
+        let cell = |column: usize| record.get(column).unwrap_or("");
+        let number = |column: usize, unit: &str| -> Result<Option<f64>> {
+            let text = cell(column);
+            if text.is_empty() {
+                return Ok(None);
+            }
+            match text.parse::<f64>() {
+                Ok(v) if v.is_finite() => Ok(Some(v)),
+                _ => Err(fail(
+                    format!("line {line}, column `{}`", header[column]),
+                    format!("expected a finite number in {unit}, found `{text}`"),
+                )),
+            }
+        };
+        let leg = match leg_column.map(cell).filter(|s| !s.is_empty()) {
+            None => None,
+            Some(name) => Some(mechanism.leg_index(name).ok_or_else(|| {
+                fail(format!("line {line}, column `leg`"), format!("unknown leg `{name}`; expected one of {} or empty", mechanism.legs.iter().map(|l| l.name.as_str()).collect::<Vec<_>>().join(", ")))
+            })?),
+        };
+        let mut pose = mechanism.home_pose;
+        for &(coordinate, column) in &coordinate_columns {
+            let unit = if coordinate < 3 { "metres" } else { "radians" };
+            pose[coordinate] = number(column, unit)?.ok_or_else(|| {
+                fail(format!("line {line}, column `{}`", header[column]), format!("missing value; expected a number in {unit}"))
+            })?;
+        }
+        let mut readings = Vec::with_capacity(reading_columns.len());
+        for &column in &reading_columns {
+            readings.push(number(column, "SI units (radians or metres)")?);
+        }
+        if let Some(l) = leg {
+            if readings[l].is_none() {
+                return Err(fail(format!("line {line}, column `{}`", mechanism.actuated_names()[l]), format!("the row belongs to leg `{}` but its reading is empty", mechanism.legs[l].name)));
+            }
+        }
+        poses.push(MeasuredPose { line: Some(line), leg, pose, readings });
+    }
+    if poses.is_empty() {
+        return Err(fail("line 2".into(), "no measurement rows after the header".into()));
+    }
+    Ok(MeasurementSet { source: Some(path.to_path_buf()), poses })
+}
+
+fn csv_message(error: &csv::Error) -> String {
+    match error.kind() {
+        csv::ErrorKind::UnequalLengths { expected_len, len, .. } => {
+            format!("expected {expected_len} fields, found {len}")
+        }
+        _ => error.to_string(),
+    }
+}
+
+/// Writes measurements in the layout [`read`] expects (exact round trip of every value).
+///
+/// # Errors
+/// [`Error::Io`] if the file cannot be written.
+pub fn write(path: &Path, mechanism: &Mechanism, set: &MeasurementSet) -> Result<()> {
+    std::fs::write(path, to_csv(mechanism, set)).map_err(|source| Error::Io {
+        path: path.to_path_buf(),
+        source,
+    })
+}
+
+/// The CSV text of a measurement set.
+pub fn to_csv(mechanism: &Mechanism, set: &MeasurementSet) -> String {
+    let mut text = expected_columns(mechanism).join(",");
+    text.push('\n');
+    for pose in &set.poses {
+        let mut cells = vec![pose.leg.map_or(String::new(), |l| mechanism.legs[l].name.clone())];
+        cells.extend(mechanism.measured.iter().map(|&c| format!("{}", pose.pose[c])));
+        cells.extend(pose.readings.iter().map(|r| r.map_or(String::new(), |v| format!("{v}"))));
+        text.push_str(&cells.join(","));
+        text.push('\n');
+    }
+    text
+}

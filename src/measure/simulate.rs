@@ -1,0 +1,151 @@
+//! Seeded simulation of an identification experiment from the model's simulation block.
+//!
+//! "Real" parameters come from `simulation.real` or a seeded perturbation of the nominal
+//! values; true readings are each leg's inverse kinematics with the real parameters at the true
+//! pose; the measured pose and readings get Gaussian noise. Divide and conquer gets
+//! `poses_per_leg` poses per leg (labelled with the leg, only that leg's reading, independent
+//! noise); the traditional strategy gets `poses_per_leg` shared poses with every reading.
+
+use rand::SeedableRng;
+use rand_chacha::ChaCha8Rng;
+use rand_distr::{Distribution, Normal};
+
+use super::{MeasuredPose, MeasurementSet};
+use crate::error::{Error, Result};
+use crate::kinematics::inverse::predict_reading;
+use crate::model::mechanism::Simulation;
+use crate::model::params::{ParamTarget, Unit};
+use crate::model::Mechanism;
+
+/// Options that change a simulation without editing the model file.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct SimulationOptions {
+    /// Replaces the model's seed.
+    pub seed: Option<u64>,
+    /// Multiplies every noise standard deviation (0 gives noise-free data).
+    pub noise_scale: f64,
+    /// Replaces the model's number of poses per leg.
+    pub poses_per_leg: Option<usize>,
+}
+
+impl Default for SimulationOptions {
+    fn default() -> Self {
+        Self { seed: None, noise_scale: 1.0, poses_per_leg: None }
+    }
+}
+
+/// A simulated experiment: the real parameters and the measurements.
+#[derive(Debug, Clone)]
+pub struct SimulatedExperiment {
+    /// Real parameter values per leg (all parameters, in model order).
+    pub real: Vec<Vec<f64>>,
+    /// The simulated measurements.
+    pub measurements: MeasurementSet,
+}
+
+/// The model's simulation block, or an error naming the model file.
+///
+/// # Errors
+/// [`Error::Model`] if the model has no `simulation` block.
+pub fn setup(mechanism: &Mechanism) -> Result<&Simulation> {
+    mechanism.simulation.as_ref().ok_or_else(|| Error::Model {
+        path: mechanism.model_path.clone(),
+        field: "simulation".into(),
+        message: "missing: simulating needs a simulation block (or give --measurements)".into(),
+    })
+}
+
+/// Real parameter values per leg: `simulation.real`, else a seeded perturbation of identified
+/// parameters, else nominal.
+pub fn real_parameters(mechanism: &Mechanism, simulation: &Simulation, seed: u64) -> Vec<Vec<f64>> {
+    let mut rng = ChaCha8Rng::seed_from_u64(seed ^ 0x5eed_0f_2ea1);
+    mechanism
+        .legs
+        .iter()
+        .map(|leg| {
+            leg.params
+                .iter()
+                .map(|p| {
+                    if let Some(&value) = simulation.real.get(&p.name) {
+                        return value;
+                    }
+                    let Some((length, angle, gain)) = simulation.perturbation.filter(|_| p.identified) else {
+                        return p.nominal;
+                    };
+                    let sigma = match (p.target, p.unit) {
+                        (ParamTarget::Gain, _) => gain,
+                        (_, Unit::Radian) => angle,
+                        _ => length,
+                    };
+                    p.nominal + sigma * gaussian(&mut rng)
+                })
+                .collect()
+        })
+        .collect()
+}
+
+fn gaussian(rng: &mut ChaCha8Rng) -> f64 {
+    Normal::new(0.0, 1.0).map_or(0.0, |n| n.sample(rng))
+}
+
+/// Simulates the experiment of the model's simulation block, with random poses spread over the
+/// usable workspace that every leg reaches on its home branch with both the nominal and the real
+/// parameters.
+///
+/// # Errors
+/// No simulation block, or no reachable pose found in the usable workspace.
+pub fn simulate(mechanism: &Mechanism, options: SimulationOptions) -> Result<SimulatedExperiment> {
+    let simulation = setup(mechanism)?;
+    let seed = options.seed.unwrap_or(simulation.seed);
+    let count = options.poses_per_leg.unwrap_or(simulation.poses_per_leg);
+    let real = real_parameters(mechanism, simulation, seed);
+    let mut rng = ChaCha8Rng::seed_from_u64(seed);
+    let legs = mechanism.legs.len();
+    let mut poses = Vec::new();
+    for group in (0..legs).map(Some).chain([None]) {
+        for _ in 0..count {
+            let (true_pose, readings) = reachable_pose(mechanism, &real, &mut rng)?;
+            let mut measured = true_pose;
+            for &c in &mechanism.measured {
+                measured[c] += options.noise_scale * simulation.pose_noise[c] * gaussian(&mut rng);
+            }
+            let readings = (0..legs)
+                .map(|l| {
+                    let noise = options.noise_scale * simulation.reading_noise * gaussian(&mut rng);
+                    (group.is_none_or(|g| g == l)).then(|| readings[l] + noise)
+                })
+                .collect();
+            poses.push(MeasuredPose { line: None, leg: group, pose: measured, readings });
+        }
+    }
+    Ok(SimulatedExperiment {
+        real,
+        measurements: MeasurementSet { source: None, poses },
+    })
+}
+
+/// Draws poses until every leg reaches one with nominal and real parameters; returns the pose
+/// and the true readings.
+fn reachable_pose(mechanism: &Mechanism, real: &[Vec<f64>], rng: &mut ChaCha8Rng) -> Result<([f64; 6], Vec<f64>)> {
+    let home = &mechanism.home_pose;
+    for _ in 0..10_000 {
+        let Some(pose) = mechanism.workspace.sample(home, rng) else { break };
+        let readings: Option<Vec<f64>> = mechanism
+            .legs
+            .iter()
+            .zip(real)
+            .map(|(leg, phi)| {
+                predict_reading(leg, &leg.nominal(), &pose, home).ok()?;
+                predict_reading(leg, phi, &pose, home).ok()
+            })
+            .collect();
+        if let Some(readings) = readings {
+            return Ok((pose, readings));
+        }
+    }
+    Err(Error::Model {
+        path: mechanism.model_path.clone(),
+        field: "workspace".into(),
+        message: "no pose of the usable workspace is reachable by every leg on its home branch".into(),
+    })
+}

@@ -1,0 +1,393 @@
+//! Moré–Garbow–Hillstrom test problems for [`LevenbergMarquardt`], plus a reference run through
+//! the `levenberg-marquardt` crate (a MINPACK port).
+//!
+//! J. J. Moré, B. S. Garbow, K. E. Hillstrom (1981). Testing unconstrained optimization
+//! software. ACM Trans. Math. Softw. 7(1), 17–41. MGH report `f = Σ rᵢ² = 2·cost`.
+
+use super::levenberg_marquardt::LevenbergMarquardt;
+use argmin::core::{Error, Executor, Jacobian, Operator, State, TerminationReason};
+use levenberg_marquardt::LeastSquaresProblem;
+use nalgebra::{DMatrix, DVector, Dyn, Owned};
+
+/// A least-squares problem with analytic residuals and row-major Jacobian.
+#[derive(Clone, Copy)]
+pub(super) struct TestProblem {
+    pub m: usize,
+    pub n: usize,
+    pub x0: &'static [f64],
+    pub res: fn(&[f64]) -> Vec<f64>,
+    pub jac: fn(&[f64]) -> Vec<f64>,
+}
+
+impl Operator for TestProblem {
+    type Param = DVector<f64>;
+    type Output = DVector<f64>;
+    fn apply(&self, x: &DVector<f64>) -> Result<DVector<f64>, Error> {
+        Ok(DVector::from_vec((self.res)(x.as_slice())))
+    }
+}
+
+impl Jacobian for TestProblem {
+    type Param = DVector<f64>;
+    type Jacobian = DMatrix<f64>;
+    fn jacobian(&self, x: &DVector<f64>) -> Result<DMatrix<f64>, Error> {
+        Ok(DMatrix::from_row_slice(self.m, self.n, &(self.jac)(x.as_slice())))
+    }
+}
+
+/// Outcome of a run: minimiser, cost `½‖r‖²`, iterations, residual and Jacobian evaluations.
+pub(super) struct Run {
+    pub x: DVector<f64>,
+    pub cost: f64,
+    pub iters: u64,
+    pub evals: (u64, u64),
+    pub reason: TerminationReason,
+}
+
+/// Run [`LevenbergMarquardt`] through argmin's [`Executor`] from the standard start.
+pub(super) fn run(p: TestProblem, lm: LevenbergMarquardt) -> Result<Run, Error> {
+    let x0 = DVector::from_column_slice(p.x0);
+    let res = Executor::new(p, lm)
+        .configure(|s| s.param(x0).max_iters(1000).counting(true))
+        .run()?;
+    let st = res.state();
+    let count = |k: &str| st.get_func_counts().get(k).copied().unwrap_or(0);
+    Ok(Run {
+        x: st.get_best_param().cloned().unwrap_or_default(),
+        cost: st.get_best_cost(),
+        iters: st.get_iter(),
+        evals: (count("operator_count"), count("jacobian_count")),
+        reason: st.get_termination_reason().cloned().unwrap_or(TerminationReason::Interrupt),
+    })
+}
+
+struct Reference(TestProblem, DVector<f64>);
+
+impl LeastSquaresProblem<f64, Dyn, Dyn> for Reference {
+    type ResidualStorage = Owned<f64, Dyn>;
+    type JacobianStorage = Owned<f64, Dyn, Dyn>;
+    type ParameterStorage = Owned<f64, Dyn>;
+    fn set_params(&mut self, x: &DVector<f64>) {
+        self.1.copy_from(x);
+    }
+    fn params(&self) -> DVector<f64> {
+        self.1.clone()
+    }
+    fn residuals(&self) -> Option<DVector<f64>> {
+        self.0.apply(&self.1).ok()
+    }
+    fn jacobian(&self) -> Option<DMatrix<f64>> {
+        Jacobian::jacobian(&self.0, &self.1).ok()
+    }
+}
+
+/// Minimise with the `levenberg-marquardt` crate at tight tolerances; returns `(x, cost)`.
+pub(super) fn reference(p: TestProblem) -> (DVector<f64>, f64) {
+    let solver = levenberg_marquardt::LevenbergMarquardt::new()
+        .with_ftol(1e-15)
+        .with_xtol(1e-15)
+        .with_gtol(0.0)
+        .with_patience(10_000);
+    let (fitted, report) = solver.minimize(Reference(p, DVector::from_column_slice(p.x0)));
+    assert!(report.termination.was_successful(), "{:?}", report.termination);
+    (fitted.1, report.objective_function)
+}
+
+/// Tight tolerances for comparisons with [`reference`].
+pub(super) fn tight() -> LevenbergMarquardt {
+    LevenbergMarquardt::new().with_ftol(1e-15).and_then(|l| l.with_xtol(1e-15)).unwrap()
+}
+
+fn rel(a: f64, b: f64) -> f64 {
+    (a - b).abs() / a.abs().max(b.abs()).max(f64::MIN_POSITIVE)
+}
+
+/// Solve `p` with default tolerances; check MGH's `f = 2·cost` against `f_star` (absolute
+/// `f_tol` if `f_star == 0`, else relative) and `x` component-wise against `x_star` (relative
+/// `x_tol`, absolute for zero components). Also reports agreement with [`reference`].
+fn check(name: &str, p: TestProblem, f_star: f64, f_tol: f64, x_star: &[f64], x_tol: f64) {
+    let out = run(p, LevenbergMarquardt::new()).unwrap();
+    let f = 2.0 * out.cost;
+    let (x_ref, c_ref) = reference(p);
+    let dx = (0..p.n).map(|i| rel(out.x[i], x_ref[i])).fold(0.0, f64::max);
+    eprintln!(
+        "{name}: iters {}, evals (r, J) {:?}, f = {f:.6e}, {}; vs lm crate: rel dx {dx:.1e}, f {:.6e}",
+        out.iters, out.evals, out.reason, 2.0 * c_ref
+    );
+    assert_eq!(out.reason, TerminationReason::SolverConverged, "{name}");
+    let f_err = if f_star > 0.0 { rel(f, f_star) } else { f };
+    assert!(f_err <= f_tol, "{name}: f = {f:e}, expected {f_star:e}");
+    for (i, &xs) in x_star.iter().enumerate() {
+        let err = if xs == 0.0 { out.x[i].abs() } else { rel(out.x[i], xs) };
+        assert!(err <= x_tol, "{name}: x[{i}] = {:e}, expected {xs:e}", out.x[i]);
+    }
+}
+
+fn rosenbrock() -> TestProblem {
+    let res = |x: &[f64]| vec![10.0 * (x[1] - x[0] * x[0]), 1.0 - x[0]];
+    let jac = |x: &[f64]| vec![-20.0 * x[0], 10.0, -1.0, 0.0];
+    TestProblem { m: 2, n: 2, x0: &[-1.2, 1.0], res, jac }
+}
+
+fn freudenstein_roth() -> TestProblem {
+    let res = |x: &[f64]| {
+        let (a, b) = (x[0], x[1]);
+        vec![-13.0 + a + ((5.0 - b) * b - 2.0) * b, -29.0 + a + ((b + 1.0) * b - 14.0) * b]
+    };
+    let jac = |x: &[f64]| {
+        let b = x[1];
+        vec![1.0, (10.0 - 3.0 * b) * b - 2.0, 1.0, (3.0 * b + 2.0) * b - 14.0]
+    };
+    TestProblem { m: 2, n: 2, x0: &[0.5, -2.0], res, jac }
+}
+
+fn powell_badly_scaled() -> TestProblem {
+    let res = |x: &[f64]| vec![1e4 * x[0] * x[1] - 1.0, (-x[0]).exp() + (-x[1]).exp() - 1.0001];
+    let jac = |x: &[f64]| vec![1e4 * x[1], 1e4 * x[0], -(-x[0]).exp(), -(-x[1]).exp()];
+    TestProblem { m: 2, n: 2, x0: &[0.0, 1.0], res, jac }
+}
+
+fn brown_badly_scaled() -> TestProblem {
+    let res = |x: &[f64]| vec![x[0] - 1e6, x[1] - 2e-6, x[0] * x[1] - 2.0];
+    let jac = |x: &[f64]| vec![1.0, 0.0, 0.0, 1.0, x[1], x[0]];
+    TestProblem { m: 3, n: 2, x0: &[1.0, 1.0], res, jac }
+}
+
+fn beale() -> TestProblem {
+    const Y: [f64; 3] = [1.5, 2.25, 2.625];
+    let res = |x: &[f64]| (1..=3).map(|i| Y[i - 1] - x[0] * (1.0 - x[1].powi(i as i32))).collect();
+    let jac = |x: &[f64]| {
+        let row = |i: i32| [x[1].powi(i) - 1.0, x[0] * f64::from(i) * x[1].powi(i - 1)];
+        (1..=3).flat_map(row).collect()
+    };
+    TestProblem { m: 3, n: 2, x0: &[1.0, 1.0], res, jac }
+}
+
+fn jennrich_sampson() -> TestProblem {
+    let res = |x: &[f64]| {
+        let r = |i: f64| 2.0 + 2.0 * i - (i * x[0]).exp() - (i * x[1]).exp();
+        (1..=10).map(|i| r(f64::from(i))).collect()
+    };
+    let jac = |x: &[f64]| {
+        let row = |i: f64| [-i * (i * x[0]).exp(), -i * (i * x[1]).exp()];
+        (1..=10).flat_map(|i| row(f64::from(i))).collect()
+    };
+    TestProblem { m: 10, n: 2, x0: &[0.3, 0.4], res, jac }
+}
+
+fn helical_valley() -> TestProblem {
+    use std::f64::consts::PI;
+    let res = |x: &[f64]| {
+        let theta = (x[1] / x[0]).atan() / (2.0 * PI) + if x[0] < 0.0 { 0.5 } else { 0.0 };
+        vec![10.0 * (x[2] - 10.0 * theta), 10.0 * (x[0].hypot(x[1]) - 1.0), x[2]]
+    };
+    let jac = |x: &[f64]| {
+        let (r2, rho) = (x[0] * x[0] + x[1] * x[1], x[0].hypot(x[1]));
+        let c = 100.0 / (2.0 * PI * r2);
+        vec![c * x[1], -c * x[0], 10.0, 10.0 * x[0] / rho, 10.0 * x[1] / rho, 0.0, 0.0, 0.0, 1.0]
+    };
+    TestProblem { m: 3, n: 3, x0: &[-1.0, 0.0, 0.0], res, jac }
+}
+
+const BARD_Y: [f64; 15] = [
+    0.14, 0.18, 0.22, 0.25, 0.29, 0.32, 0.35, 0.39, 0.37, 0.58, 0.73, 0.96, 1.34, 2.10, 4.39,
+];
+
+/// `(u, v, w)` of Bard's problem for `i = 1..=15`.
+fn bard_uvw(i: usize) -> (f64, f64, f64) {
+    let (u, v) = (i as f64, 16.0 - i as f64);
+    (u, v, u.min(v))
+}
+
+fn bard() -> TestProblem {
+    let res = |x: &[f64]| {
+        let r = |i: usize| {
+            let (u, v, w) = bard_uvw(i);
+            BARD_Y[i - 1] - (x[0] + u / (v * x[1] + w * x[2]))
+        };
+        (1..=15).map(r).collect()
+    };
+    let jac = |x: &[f64]| {
+        let row = |i: usize| {
+            let (u, v, w) = bard_uvw(i);
+            let d2 = (v * x[1] + w * x[2]).powi(2);
+            [-1.0, u * v / d2, u * w / d2]
+        };
+        (1..=15).flat_map(row).collect()
+    };
+    TestProblem { m: 15, n: 3, x0: &[1.0, 1.0, 1.0], res, jac }
+}
+
+const MEYER_Y: [f64; 16] = [
+    34780.0, 28610.0, 23650.0, 19630.0, 16370.0, 13720.0, 11540.0, 9744.0, 8261.0, 7030.0, 6005.0,
+    5147.0, 4427.0, 3820.0, 3307.0, 2872.0,
+];
+
+fn meyer_t(i: usize) -> f64 {
+    45.0 + 5.0 * i as f64
+}
+
+fn meyer() -> TestProblem {
+    let res = |x: &[f64]| {
+        let r = |i: usize| x[0] * (x[1] / (meyer_t(i) + x[2])).exp() - MEYER_Y[i - 1];
+        (1..=16).map(r).collect()
+    };
+    let jac = |x: &[f64]| {
+        let row = |i: usize| {
+            let d = meyer_t(i) + x[2];
+            let e = (x[1] / d).exp();
+            [e, x[0] * e / d, -x[0] * e * x[1] / (d * d)]
+        };
+        (1..=16).flat_map(row).collect()
+    };
+    TestProblem { m: 16, n: 3, x0: &[0.02, 4000.0, 250.0], res, jac }
+}
+
+fn box_3d() -> TestProblem {
+    let res = |x: &[f64]| {
+        let r = |t: f64| (-t * x[0]).exp() - (-t * x[1]).exp() - x[2] * ((-t).exp() - (-10.0 * t).exp());
+        (1..=10).map(|i| r(0.1 * f64::from(i))).collect()
+    };
+    let jac = |x: &[f64]| {
+        let row = |t: f64| [-t * (-t * x[0]).exp(), t * (-t * x[1]).exp(), (-10.0 * t).exp() - (-t).exp()];
+        (1..=10).flat_map(|i| row(0.1 * f64::from(i))).collect()
+    };
+    TestProblem { m: 10, n: 3, x0: &[0.0, 10.0, 20.0], res, jac }
+}
+
+fn powell_singular() -> TestProblem {
+    let res = |x: &[f64]| {
+        let (s5, s10) = (5f64.sqrt(), 10f64.sqrt());
+        vec![x[0] + 10.0 * x[1], s5 * (x[2] - x[3]), (x[1] - 2.0 * x[2]).powi(2), s10 * (x[0] - x[3]).powi(2)]
+    };
+    let jac = |x: &[f64]| {
+        let (s5, s10) = (5f64.sqrt(), 10f64.sqrt());
+        let (a, b) = (2.0 * (x[1] - 2.0 * x[2]), 2.0 * s10 * (x[0] - x[3]));
+        vec![1.0, 10.0, 0.0, 0.0, 0.0, 0.0, s5, -s5, 0.0, a, -2.0 * a, 0.0, b, 0.0, 0.0, -b]
+    };
+    TestProblem { m: 4, n: 4, x0: &[3.0, -1.0, 0.0, 1.0], res, jac }
+}
+
+const KO_Y: [f64; 11] = [
+    0.1957, 0.1947, 0.1735, 0.1600, 0.0844, 0.0627, 0.0456, 0.0342, 0.0323, 0.0235, 0.0246,
+];
+const KO_U: [f64; 11] = [4.0, 2.0, 1.0, 0.5, 0.25, 0.167, 0.125, 0.1, 0.0833, 0.0714, 0.0625];
+
+fn kowalik_osborne() -> TestProblem {
+    let res = |x: &[f64]| {
+        let r = |(y, u): (&f64, &f64)| y - x[0] * (u * u + u * x[1]) / (u * u + u * x[2] + x[3]);
+        KO_Y.iter().zip(&KO_U).map(r).collect()
+    };
+    let jac = |x: &[f64]| {
+        let row = |u: &f64| {
+            let (num, den) = (u * u + u * x[1], u * u + u * x[2] + x[3]);
+            let q = x[0] * num / (den * den);
+            [-num / den, -x[0] * u / den, q * u, q]
+        };
+        KO_U.iter().flat_map(row).collect()
+    };
+    TestProblem { m: 11, n: 4, x0: &[0.25, 0.39, 0.415, 0.39], res, jac }
+}
+
+fn all() -> Vec<(&'static str, TestProblem)> {
+    vec![
+        ("Rosenbrock", rosenbrock()),
+        ("Freudenstein-Roth", freudenstein_roth()),
+        ("Powell badly scaled", powell_badly_scaled()),
+        ("Brown badly scaled", brown_badly_scaled()),
+        ("Beale", beale()),
+        ("Jennrich-Sampson", jennrich_sampson()),
+        ("Helical valley", helical_valley()),
+        ("Bard", bard()),
+        ("Meyer", meyer()),
+        ("Box 3-D", box_3d()),
+        ("Powell singular", powell_singular()),
+        ("Kowalik-Osborne", kowalik_osborne()),
+    ]
+}
+
+#[test]
+fn analytic_jacobians_match_central_differences() {
+    for (name, p) in all() {
+        let x = DVector::from_iterator(p.n, p.x0.iter().map(|v| v * 1.1 + 0.05));
+        let jac = Jacobian::jacobian(&p, &x).unwrap();
+        for j in 0..p.n {
+            let h = 1e-6 * x[j].abs().max(1.0);
+            let (mut xp, mut xm) = (x.clone(), x.clone());
+            xp[j] += h;
+            xm[j] -= h;
+            let fd = (p.apply(&xp).unwrap() - p.apply(&xm).unwrap()) / (2.0 * h);
+            let scale = jac.column(j).amax().max(1.0);
+            let err = (fd - jac.column(j)).amax() / scale;
+            assert!(err < 1e-6, "{name}: column {j} off by {err:e}");
+        }
+    }
+}
+
+#[test]
+fn mgh_rosenbrock() {
+    check("Rosenbrock", rosenbrock(), 0.0, 1e-20, &[1.0, 1.0], 1e-10);
+}
+
+#[test]
+fn mgh_freudenstein_roth_local_minimum() {
+    // From the standard start MINPACK reaches the local minimum f = 48.9842536792400.
+    let x = [11.4127789869462, -0.896805253274477];
+    check("Freudenstein-Roth", freudenstein_roth(), 48.98425367924, 1e-10, &x, 1e-8);
+}
+
+#[test]
+fn mgh_powell_badly_scaled() {
+    let x = [1.09815932969975e-5, 9.10614673986700];
+    check("Powell badly scaled", powell_badly_scaled(), 0.0, 1e-20, &x, 1e-8);
+}
+
+#[test]
+fn mgh_brown_badly_scaled() {
+    check("Brown badly scaled", brown_badly_scaled(), 0.0, 1e-20, &[1e6, 2e-6], 1e-10);
+}
+
+#[test]
+fn mgh_beale() {
+    check("Beale", beale(), 0.0, 1e-20, &[3.0, 0.5], 1e-9);
+}
+
+#[test]
+fn mgh_jennrich_sampson() {
+    let x = [0.257824976181155, 0.257824976181155];
+    check("Jennrich-Sampson", jennrich_sampson(), 124.362182355, 1e-10, &x, 1e-6);
+}
+
+#[test]
+fn mgh_helical_valley() {
+    check("Helical valley", helical_valley(), 0.0, 1e-20, &[1.0, 0.0, 0.0], 1e-10);
+}
+
+#[test]
+fn mgh_bard() {
+    let x = [0.0824105597447, 1.13303609512, 2.34369510653];
+    check("Bard", bard(), 8.21487730657e-3, 1e-9, &x, 1e-8);
+}
+
+#[test]
+fn mgh_meyer() {
+    let x = [0.00560963646990, 6181.34634622, 345.223634948];
+    check("Meyer", meyer(), 87.9458551718, 1e-9, &x, 1e-6);
+}
+
+#[test]
+fn mgh_box_3d() {
+    check("Box 3-D", box_3d(), 0.0, 1e-20, &[1.0, 10.0, 1.0], 1e-8);
+}
+
+#[test]
+fn mgh_powell_singular() {
+    // Singular Jacobian at x* = 0: only linear convergence, so f and x are checked loosely.
+    check("Powell singular", powell_singular(), 0.0, 1e-20, &[0.0; 4], 1e-5);
+}
+
+#[test]
+fn mgh_kowalik_osborne() {
+    let x = [0.192806935, 0.191282322, 0.123056508, 0.136062327];
+    check("Kowalik-Osborne", kowalik_osborne(), 3.07505603849e-4, 1e-9, &x, 1e-6);
+}

@@ -1,0 +1,110 @@
+//! Least-squares solvers on argmin: Levenberg–Marquardt (hand-written argmin `Solver`) and
+//! argmin's Gauss–Newton, behind one entry point.
+
+use argmin::core::{Executor, State, TerminationStatus};
+use argmin::solver::gaussnewton::GaussNewton;
+use nalgebra::DVector;
+
+use crate::identify::problem::IdentificationProblem;
+
+/// Which solver identifies the parameters.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum SolverKind {
+    /// Levenberg–Marquardt (trust region; robust far from the solution).
+    LevenbergMarquardt,
+    /// Gauss–Newton (argmin; needs a full-rank Jacobian, which the rank check guarantees).
+    GaussNewton,
+}
+
+impl SolverKind {
+    /// Short name (`lm`, `gn`).
+    pub fn short_name(self) -> &'static str {
+        match self {
+            SolverKind::LevenbergMarquardt => "lm",
+            SolverKind::GaussNewton => "gn",
+        }
+    }
+
+    /// Full name.
+    pub fn name(self) -> &'static str {
+        match self {
+            SolverKind::LevenbergMarquardt => "Levenberg-Marquardt",
+            SolverKind::GaussNewton => "Gauss-Newton",
+        }
+    }
+}
+
+/// Iteration cap for both solvers.
+pub const MAX_ITERATIONS: u64 = 100;
+
+/// What a solver run produced.
+#[derive(Debug, Clone)]
+pub struct SolverOutcome {
+    /// The estimate.
+    pub x: DVector<f64>,
+    /// Iterations performed.
+    pub iterations: u64,
+    /// Why the solver stopped.
+    pub termination: String,
+    /// Residual evaluations.
+    pub residual_evaluations: u64,
+    /// Jacobian evaluations.
+    pub jacobian_evaluations: u64,
+}
+
+/// Runs `kind` on `problem` from `x0`.
+///
+/// # Errors
+/// The solver's error (for example a pose the leg cannot reach at a trial parameter vector).
+pub fn solve(
+    problem: &IdentificationProblem<'_>,
+    x0: DVector<f64>,
+    kind: SolverKind,
+) -> Result<SolverOutcome, argmin::core::Error> {
+    match kind {
+        SolverKind::GaussNewton => {
+            // argmin's Gauss–Newton stops when ‖r‖ changes by less than the tolerance.
+            let solver = GaussNewton::new().with_tolerance(1e-15)?;
+            let result = Executor::new(problem.clone(), solver)
+                .configure(|state| state.param(x0).max_iters(MAX_ITERATIONS))
+                .run()?;
+            let state = result.state();
+            Ok(SolverOutcome {
+                x: state.get_best_param().or(state.get_param()).cloned().unwrap_or_default(),
+                iterations: state.get_iter(),
+                termination: termination(state.get_termination_status()),
+                residual_evaluations: count(&result.problem.counts, "operator_count"),
+                jacobian_evaluations: count(&result.problem.counts, "jacobian_count"),
+            })
+        }
+        SolverKind::LevenbergMarquardt => {
+            let solver = levenberg_marquardt::LevenbergMarquardt::new();
+            let result = Executor::new(problem.clone(), solver)
+                .configure(|state| state.param(x0).max_iters(MAX_ITERATIONS))
+                .run()?;
+            let state = result.state();
+            Ok(SolverOutcome {
+                x: state.get_best_param().or(state.get_param()).cloned().unwrap_or_default(),
+                iterations: state.get_iter(),
+                termination: termination(state.get_termination_status()),
+                residual_evaluations: count(&result.problem.counts, "operator_count"),
+                jacobian_evaluations: count(&result.problem.counts, "jacobian_count"),
+            })
+        }
+    }
+}
+
+fn termination(status: &TerminationStatus) -> String {
+    match status {
+        TerminationStatus::Terminated(reason) => reason.text().to_string(),
+        TerminationStatus::NotTerminated => "not terminated".to_string(),
+    }
+}
+
+fn count(counts: &std::collections::HashMap<&'static str, u64>, key: &str) -> u64 {
+    counts.get(key).copied().unwrap_or(0)
+}
+
+pub mod levenberg_marquardt;
+#[cfg(test)]
+mod mgh;
