@@ -15,7 +15,7 @@ use crate::solver::{solve, SolverKind};
 /// How the legs are grouped into least-squares problems.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Strategy {
-    /// Each leg alone, on its own poses and the shared ones (Durango et al.).
+    /// Each leg alone, on the poses labelled with it (Durango et al.).
     DivideAndConquer,
     /// All legs in one problem, on the shared poses only.
     Traditional,
@@ -151,7 +151,7 @@ pub fn identify_problem(
     for (slot, name) in problem.slots().iter().zip(&names) {
         if problem.rows_of(slot).is_empty() {
             return Err(Error::Invalid(format!(
-                "leg `{name}`: no measurements (rows labelled `{name}`, or shared rows with its reading)"
+                "leg `{name}`: no measurements (rows labelled `{name}`, or shared rows with its reading when none is labelled)"
             )));
         }
     }

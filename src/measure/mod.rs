@@ -29,12 +29,13 @@ pub struct MeasurementSet {
 }
 
 impl MeasurementSet {
-    /// Divide and conquer: the blocks of leg `leg` — poses labelled with the leg, and shared
-    /// poses — wherever the leg's reading is present.
+    /// Divide and conquer: the blocks of leg `leg` — the poses labelled with the leg, or, if
+    /// no pose is, the shared poses where the leg's reading is present.
     pub fn leg_blocks(&self, leg: usize) -> Vec<ResidualBlock> {
+        let labelled = self.poses.iter().any(|p| p.leg == Some(leg));
         self.poses
             .iter()
-            .filter(|p| p.leg.is_none_or(|l| l == leg))
+            .filter(|p| if labelled { p.leg == Some(leg) } else { p.leg.is_none() })
             .filter_map(|p| block(p, leg))
             .collect()
     }

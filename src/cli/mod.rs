@@ -1,0 +1,143 @@
+//! The command line: a thin shell over the library (clap derive).
+mod identify;
+mod simulate;
+
+use std::path::PathBuf;
+
+use clap::{Parser, Subcommand, ValueEnum};
+
+use crate::identify::estimate::Strategy;
+use crate::solver::SolverKind;
+
+/// Kinematic identification of parallel mechanisms, leg by leg.
+#[derive(Debug, Parser)]
+#[command(name = "legwise", version, about)]
+pub struct Cli {
+    /// What to do.
+    #[command(subcommand)]
+    pub command: Command,
+}
+
+/// The subcommands.
+#[derive(Debug, Subcommand)]
+pub enum Command {
+    /// Identify the parameters of a mechanism from measurements (or from a simulation).
+    Identify(IdentifyArgs),
+    /// Simulate an identification experiment and write it as a measurement CSV.
+    Simulate(SimulateArgs),
+}
+
+/// Options of `legwise identify`.
+#[derive(Debug, clap::Args)]
+pub struct IdentifyArgs {
+    /// The model file (YAML).
+    #[arg(long)]
+    pub model: PathBuf,
+    /// Measurement CSV; without it, the model's simulation block is simulated.
+    #[arg(long)]
+    pub measurements: Option<PathBuf>,
+    /// Least-squares solver.
+    #[arg(long, value_enum, default_value_t = SolverArg::Lm)]
+    pub solver: SolverArg,
+    /// Divide and conquer, traditional (all legs on shared poses), or both.
+    #[arg(long, value_enum, default_value_t = StrategyArg::Dc)]
+    pub strategy: StrategyArg,
+    /// Also write the report as JSON to this file.
+    #[arg(long)]
+    pub json: Option<PathBuf>,
+    #[command(flatten)]
+    pub simulation: SimulationArgs,
+}
+
+/// Options of `legwise simulate`.
+#[derive(Debug, clap::Args)]
+pub struct SimulateArgs {
+    /// The model file (YAML).
+    #[arg(long)]
+    pub model: PathBuf,
+    /// Where to write the measurement CSV.
+    #[arg(long)]
+    pub out: PathBuf,
+    #[command(flatten)]
+    pub simulation: SimulationArgs,
+}
+
+/// Simulation overrides.
+#[derive(Debug, Clone, clap::Args)]
+pub struct SimulationArgs {
+    /// Random seed (default: the model's `simulation.seed`).
+    #[arg(long)]
+    pub seed: Option<u64>,
+    /// Multiplies every simulated noise standard deviation (0 = noise-free).
+    #[arg(long, default_value_t = 1.0)]
+    pub noise_scale: f64,
+    /// Poses per leg (default: the model's `simulation.poses_per_leg`).
+    #[arg(long)]
+    pub poses_per_leg: Option<usize>,
+}
+
+/// `--solver`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
+pub enum SolverArg {
+    /// Levenberg–Marquardt.
+    Lm,
+    /// Gauss–Newton.
+    Gn,
+}
+
+/// `--strategy`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
+pub enum StrategyArg {
+    /// Divide and conquer: each leg on its own poses.
+    Dc,
+    /// All legs stacked on shared poses.
+    Traditional,
+    /// Both, one after the other.
+    Both,
+}
+
+impl SolverArg {
+    fn kind(self) -> SolverKind {
+        match self {
+            SolverArg::Lm => SolverKind::LevenbergMarquardt,
+            SolverArg::Gn => SolverKind::GaussNewton,
+        }
+    }
+}
+
+impl StrategyArg {
+    fn strategies(self) -> Vec<Strategy> {
+        match self {
+            StrategyArg::Dc => vec![Strategy::DivideAndConquer],
+            StrategyArg::Traditional => vec![Strategy::Traditional],
+            StrategyArg::Both => vec![Strategy::DivideAndConquer, Strategy::Traditional],
+        }
+    }
+}
+
+impl SimulationArgs {
+    fn options(&self) -> anyhow::Result<crate::measure::simulate::SimulationOptions> {
+        if !(self.noise_scale.is_finite() && self.noise_scale >= 0.0) {
+            anyhow::bail!("--noise-scale: expected a non-negative number, found {}", self.noise_scale);
+        }
+        if self.poses_per_leg == Some(0) {
+            anyhow::bail!("--poses-per-leg: expected at least 1");
+        }
+        Ok(crate::measure::simulate::SimulationOptions {
+            seed: self.seed,
+            noise_scale: self.noise_scale,
+            poses_per_leg: self.poses_per_leg,
+        })
+    }
+}
+
+/// Runs a parsed command line.
+///
+/// # Errors
+/// Any error of the library, with context; `main` prints it on one line.
+pub fn run(cli: Cli) -> anyhow::Result<()> {
+    match cli.command {
+        Command::Identify(args) => identify::run(&args),
+        Command::Simulate(args) => simulate::run(&args),
+    }
+}

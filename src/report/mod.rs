@@ -1,0 +1,42 @@
+//! Reports of an identification: the values (this module), terminal tables and JSON.
+pub mod json;
+pub mod terminal;
+
+use crate::identify::estimate::StrategyResult;
+use crate::model::Mechanism;
+
+/// Everything an identification run reports.
+#[derive(Debug, Clone)]
+pub struct IdentifyReport<'a> {
+    /// The mechanism.
+    pub mechanism: &'a Mechanism,
+    /// Where the measurements came from (a file, or a description of the simulation).
+    pub source: String,
+    /// Real parameter values per leg, known in simulation.
+    pub real: Option<Vec<Vec<f64>>>,
+    /// One result per strategy run.
+    pub results: Vec<StrategyResult>,
+}
+
+impl IdentifyReport<'_> {
+    /// Real value of parameter `p` of leg `leg`, if known.
+    pub fn real_value(&self, leg: usize, p: usize) -> Option<f64> {
+        self.real.as_ref().and_then(|r| r.get(leg)).and_then(|r| r.get(p)).copied()
+    }
+
+    /// RMS over a leg's identified parameters of (value − real), for `value` nominal or estimate.
+    pub fn rms_error(&self, result: &StrategyResult, leg: usize, estimate: bool) -> Option<f64> {
+        let parameters = &result.legs[leg].parameters;
+        let errors: Vec<f64> = parameters
+            .iter()
+            .enumerate()
+            .filter(|(_, p)| p.identified)
+            .map(|(i, p)| {
+                let value = if estimate { p.estimate } else { p.nominal };
+                self.real_value(leg, i).map(|r| value - r)
+            })
+            .collect::<Option<_>>()?;
+        (!errors.is_empty())
+            .then(|| (errors.iter().map(|e| e * e).sum::<f64>() / errors.len() as f64).sqrt())
+    }
+}

@@ -1,0 +1,93 @@
+//! The terminal report: per leg, a table of every parameter, then the solver and observability.
+
+use std::fmt::Write;
+
+use super::IdentifyReport;
+use crate::identify::estimate::StrategyResult;
+
+/// Formats a number for a table cell (never prints NaN: non-finite shows as `-`).
+fn number(value: Option<f64>, width: usize) -> String {
+    match value {
+        Some(v) if v.is_finite() => format!("{v:>width$.9}"),
+        _ => format!("{:>width$}", "-"),
+    }
+}
+
+fn scientific(value: Option<f64>, width: usize) -> String {
+    match value {
+        Some(v) if v.is_finite() => format!("{v:>width$.2e}"),
+        _ => format!("{:>width$}", "-"),
+    }
+}
+
+/// The whole report as text.
+pub fn render(report: &IdentifyReport<'_>) -> String {
+    let mut out = String::new();
+    let mechanism = report.mechanism;
+    let _ = writeln!(out, "legwise identify: {} ({})", mechanism.name, mechanism.model_path.display());
+    if let Some(mode) = &mechanism.mode {
+        let _ = writeln!(out, "mode: {mode}");
+    }
+    let _ = writeln!(out, "measurements: {}", report.source);
+    for result in &report.results {
+        render_result(&mut out, report, result);
+    }
+    out
+}
+
+fn render_result(out: &mut String, report: &IdentifyReport<'_>, result: &StrategyResult) {
+    let _ = writeln!(out, "\n=== {} — {} ===", result.strategy.name(), result.solver.name());
+    let known = report.real.is_some();
+    for (l, leg) in result.legs.iter().enumerate() {
+        let _ = writeln!(out, "\nleg {} ({} readings)", leg.leg, leg.measurements);
+        let mut header = format!("  {:<10} {:>4} {:>15} {:>15} {:>10}", "parameter", "unit", "nominal", "identified", "std");
+        if known {
+            let _ = write!(header, " {:>15} {:>11} {:>11}", "real", "err before", "err after");
+        }
+        let _ = writeln!(out, "{header}");
+        for (i, p) in leg.parameters.iter().enumerate() {
+            let fixed = if p.identified { "" } else { "  (fixed)" };
+            let mut row = format!(
+                "  {:<10} {:>4} {} {} {}",
+                p.name,
+                p.unit.to_string(),
+                number(Some(p.nominal), 15),
+                number(Some(p.estimate), 15),
+                scientific(p.std, 10)
+            );
+            if let Some(real) = report.real_value(l, i) {
+                let _ = write!(
+                    row,
+                    " {} {} {}",
+                    number(Some(real), 15),
+                    scientific(Some(p.nominal - real), 11),
+                    scientific(Some(p.estimate - real), 11)
+                );
+            }
+            let _ = writeln!(out, "{row}{fixed}");
+        }
+        if let (Some(before), Some(after)) = (report.rms_error(result, l, false), report.rms_error(result, l, true)) {
+            let _ = writeln!(out, "  parameter error RMS: {before:.3e} before, {after:.3e} after");
+        }
+        if let Some(run) = result.runs.iter().find(|r| r.legs.contains(&leg.leg)) {
+            let shared = if run.legs.len() > 1 { format!(" (one run for legs {})", run.legs.join(", ")) } else { String::new() };
+            let _ = writeln!(
+                out,
+                "  solver: {}, {} iterations, {} residual / {} Jacobian evaluations, {:.2} ms: {}{shared}",
+                result.solver.name(),
+                run.iterations,
+                run.residual_evaluations,
+                run.jacobian_evaluations,
+                run.seconds * 1e3,
+                run.termination
+            );
+        }
+        let sigma = leg.residual_sigma.map_or("-".to_string(), |s| format!("{s:.3e}"));
+        let _ = writeln!(out, "  cost ½‖r‖²: {:.6e} before, {:.6e} after; residual σ̂ {sigma}", leg.initial_cost, leg.final_cost);
+        let values: Vec<String> = leg.observability.singular_values.iter().map(|s| format!("{s:.4}")).collect();
+        let condition = if leg.observability.condition.is_finite() { format!("{:.1}", leg.observability.condition) } else { "infinite".into() };
+        let _ = writeln!(out, "  singular values: [{}]; condition number {condition}", values.join(", "));
+        let [o1, o2, o3, o4, o5] = leg.observability.indices;
+        let _ = writeln!(out, "  observability: O1 {o1:.4}, O2 {o2:.3e}, O3 {o3:.4}, O4 {o4:.3e}, O5 {o5:.4}");
+    }
+}
