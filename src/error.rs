@@ -113,6 +113,15 @@ pub enum KinematicsError {
         /// The leg.
         leg: String,
     },
+    /// The platform cannot be assembled for the given readings (forward kinematics diverged).
+    #[error("the platform cannot be assembled for these readings (closure residual {residual:.3e} m)")]
+    NotAssemblable {
+        /// Remaining closure error, metres.
+        residual: f64,
+    },
+    /// Forward kinematics reached another assembly mode (or a parallel singularity) than home.
+    #[error("forward kinematics reaches another assembly mode than the home configuration (parallel singularity crossed)")]
+    AssemblyModeChange,
     /// A non-finite number appeared (parameters or pose hold NaN or infinity).
     #[error("leg `{leg}`: non-finite value in the parameters or the pose")]
     NonFinite {

@@ -1,3 +1,4 @@
 //! Kinematics as free functions over the immutable model, generic over the scalar.
 pub mod chain;
 pub mod inverse;
+pub mod platform;

@@ -2,7 +2,6 @@
 //! argmin's Gauss–Newton, behind one entry point.
 
 use argmin::core::{Executor, State, TerminationStatus};
-use argmin::solver::gaussnewton::GaussNewton;
 use nalgebra::DVector;
 
 use crate::identify::problem::IdentificationProblem;
@@ -63,14 +62,13 @@ pub fn solve(
 ) -> Result<SolverOutcome, argmin::core::Error> {
     match kind {
         SolverKind::GaussNewton => {
-            // argmin's Gauss–Newton stops when ‖r‖ changes by less than the tolerance.
-            let solver = GaussNewton::new().with_tolerance(1e-15)?;
+            let solver = gauss_newton::StepGaussNewton::new();
             let result = Executor::new(problem.clone(), solver)
                 .configure(|state| state.param(x0).max_iters(MAX_ITERATIONS))
                 .run()?;
             let state = result.state();
             Ok(SolverOutcome {
-                x: state.get_best_param().or(state.get_param()).cloned().unwrap_or_default(),
+                x: state.get_param().cloned().unwrap_or_default(),
                 iterations: state.get_iter(),
                 termination: termination(state.get_termination_status()),
                 residual_evaluations: count(&result.problem.counts, "operator_count"),
@@ -84,7 +82,7 @@ pub fn solve(
                 .run()?;
             let state = result.state();
             Ok(SolverOutcome {
-                x: state.get_best_param().or(state.get_param()).cloned().unwrap_or_default(),
+                x: state.get_param().cloned().unwrap_or_default(),
                 iterations: state.get_iter(),
                 termination: termination(state.get_termination_status()),
                 residual_evaluations: count(&result.problem.counts, "operator_count"),
@@ -105,6 +103,7 @@ fn count(counts: &std::collections::HashMap<&'static str, u64>, key: &str) -> u6
     counts.get(key).copied().unwrap_or(0)
 }
 
+pub mod gauss_newton;
 pub mod levenberg_marquardt;
 #[cfg(test)]
 mod mgh;

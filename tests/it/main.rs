@@ -1,4 +1,6 @@
 //! One integration binary for all legwise tests.
 mod golden;
+mod jacobian;
+mod solvers_agree;
 mod recovery;
 mod support;

@@ -1,0 +1,107 @@
+//! Solvers and strategies agree: D&C equals traditional on the same poses (block-diagonal
+//! stacked Jacobian); LM agrees with the `levenberg-marquardt` crate (MINPACK port).
+use legwise::identify::estimate::{identify, Strategy};
+use legwise::identify::problem::IdentificationProblem;
+use legwise::measure::simulate::{simulate, SimulationOptions};
+use legwise::measure::MeasurementSet;
+use legwise::solver::{solve, SolverKind};
+use nalgebra::{DMatrix, DVector, Dyn, Owned};
+
+use crate::support::{bundled, bundled_models};
+
+/// Only the shared poses of a simulated experiment: every leg's D&C then uses exactly the
+/// traditional strategy's poses.
+fn shared_only(data: &MeasurementSet) -> MeasurementSet {
+    MeasurementSet {
+        source: None,
+        poses: data.poses.iter().filter(|p| p.leg.is_none()).cloned().collect(),
+    }
+}
+
+#[test]
+fn divide_and_conquer_equals_traditional_on_the_same_poses() {
+    for mech in bundled_models() {
+        let data = shared_only(&simulate(&mech, SimulationOptions::default()).unwrap().measurements);
+        for solver in [SolverKind::GaussNewton, SolverKind::LevenbergMarquardt] {
+            let dc = identify(&mech, &data, Strategy::DivideAndConquer, solver).unwrap();
+            let all = identify(&mech, &data, Strategy::Traditional, solver).unwrap();
+            for (a, b) in dc.legs.iter().zip(&all.legs) {
+                for (p, q) in a.parameters.iter().zip(&b.parameters) {
+                    assert!(
+                        (p.estimate - q.estimate).abs() <= 1e-10 * (1.0 + p.estimate.abs()),
+                        "{} {solver:?} {}: D&C {} vs traditional {}",
+                        mech.name, p.name, p.estimate, q.estimate
+                    );
+                    let (sp, sq) = (p.std.unwrap(), q.std.unwrap());
+                    assert!((sp - sq).abs() <= 1e-8 * sp, "{}: std {sp} vs {sq}", p.name);
+                }
+            }
+        }
+    }
+}
+
+#[test]
+fn the_stacked_jacobian_is_block_diagonal() {
+    let mech = bundled("5r.yaml");
+    let data = shared_only(&simulate(&mech, SimulationOptions::default()).unwrap().measurements);
+    let legs: Vec<usize> = (0..mech.legs.len()).collect();
+    let problem = IdentificationProblem::new(&mech, &legs, data.shared_blocks(legs.len()));
+    let (_, c) = problem.residuals_and_jacobian(&problem.nominal()).unwrap();
+    for (i, block) in problem.blocks().iter().enumerate() {
+        for slot in problem.slots() {
+            for k in 0..slot.columns.len() {
+                let value = c[(i, slot.offset + k)];
+                if slot.leg == block.leg {
+                    assert!(value != 0.0 || k == usize::MAX, "own-leg column is structurally non-zero");
+                } else {
+                    assert_eq!(value.to_bits(), 0.0f64.to_bits(), "row {i} touches leg {}", slot.leg);
+                }
+            }
+        }
+    }
+}
+
+/// The 5R leg-1 problem for the MINPACK port.
+struct MinpackLeg<'a> {
+    problem: &'a IdentificationProblem<'a>,
+    x: DVector<f64>,
+}
+
+impl levenberg_marquardt::LeastSquaresProblem<f64, Dyn, Dyn> for MinpackLeg<'_> {
+    type ResidualStorage = Owned<f64, Dyn>;
+    type JacobianStorage = Owned<f64, Dyn, Dyn>;
+    type ParameterStorage = Owned<f64, Dyn>;
+
+    fn set_params(&mut self, x: &DVector<f64>) {
+        self.x.copy_from(x);
+    }
+    fn params(&self) -> DVector<f64> {
+        self.x.clone()
+    }
+    fn residuals(&self) -> Option<DVector<f64>> {
+        self.problem.residuals(&self.x).ok()
+    }
+    fn jacobian(&self) -> Option<DMatrix<f64>> {
+        self.problem.residuals_and_jacobian(&self.x).ok().map(|(_, j)| j)
+    }
+}
+
+#[test]
+fn levenberg_marquardt_agrees_with_the_minpack_port_on_the_noisy_5r_leg() {
+    let mech = bundled("5r.yaml");
+    let data = simulate(&mech, SimulationOptions::default()).unwrap().measurements;
+    for leg in 0..mech.legs.len() {
+        let problem = IdentificationProblem::new(&mech, &[leg], data.leg_blocks(leg));
+        let x0 = problem.nominal();
+        let ours = solve(&problem, x0.clone(), SolverKind::LevenbergMarquardt).unwrap();
+        let (minpack, report) = levenberg_marquardt::LevenbergMarquardt::new()
+            .with_ftol(1e-15)
+            .with_xtol(1e-15)
+            .with_gtol(0.0)
+            .minimize(MinpackLeg { problem: &problem, x: x0 });
+        assert!(report.termination.was_successful(), "{:?}", report.termination);
+        for (a, b) in ours.x.iter().zip(minpack.x.iter()) {
+            assert!((a - b).abs() <= 1e-10 * (1.0 + b.abs()), "leg {leg}: LM {a} vs MINPACK {b}");
+        }
+    }
+}
