@@ -114,7 +114,9 @@ pub enum KinematicsError {
         leg: String,
     },
     /// The platform cannot be assembled for the given readings (forward kinematics diverged).
-    #[error("the platform cannot be assembled for these readings (closure residual {residual:.3e} m)")]
+    #[error(
+        "the platform cannot be assembled for these readings (closure residual {residual:.3e} m)"
+    )]
     NotAssemblable {
         /// Remaining closure error, metres.
         residual: f64,

@@ -45,6 +45,7 @@ pub struct IdentifyArgs {
     /// Also write the report as JSON to this file.
     #[arg(long)]
     pub json: Option<PathBuf>,
+    /// Simulation overrides.
     #[command(flatten)]
     pub simulation: SimulationArgs,
 }
@@ -58,6 +59,7 @@ pub struct SimulateArgs {
     /// Where to write the measurement CSV.
     #[arg(long)]
     pub out: PathBuf,
+    /// Simulation overrides.
     #[command(flatten)]
     pub simulation: SimulationArgs,
 }
@@ -118,7 +120,10 @@ impl StrategyArg {
 impl SimulationArgs {
     fn options(&self) -> anyhow::Result<crate::measure::simulate::SimulationOptions> {
         if !(self.noise_scale.is_finite() && self.noise_scale >= 0.0) {
-            anyhow::bail!("--noise-scale: expected a non-negative number, found {}", self.noise_scale);
+            anyhow::bail!(
+                "--noise-scale: expected a non-negative number, found {}",
+                self.noise_scale
+            );
         }
         if self.poses_per_leg == Some(0) {
             anyhow::bail!("--poses-per-leg: expected at least 1");

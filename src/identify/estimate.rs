@@ -125,7 +125,12 @@ pub fn identify(
             vec![((0..legs).collect(), data.shared_blocks(legs))]
         }
     };
-    let mut result = StrategyResult { strategy, solver, legs: Vec::new(), runs: Vec::new() };
+    let mut result = StrategyResult {
+        strategy,
+        solver,
+        legs: Vec::new(),
+        runs: Vec::new(),
+    };
     for (group, blocks) in groups {
         let problem = IdentificationProblem::new(mechanism, &group, blocks);
         let (estimates, run) = identify_problem(mechanism, data, &problem, solver)?;
@@ -146,8 +151,11 @@ pub fn identify_problem(
     problem: &IdentificationProblem<'_>,
     solver: SolverKind,
 ) -> Result<(Vec<LegEstimate>, SolverRun)> {
-    let names: Vec<String> =
-        problem.slots().iter().map(|s| mechanism.legs[s.leg].name.clone()).collect();
+    let names: Vec<String> = problem
+        .slots()
+        .iter()
+        .map(|s| mechanism.legs[s.leg].name.clone())
+        .collect();
     for (slot, name) in problem.slots().iter().zip(&names) {
         if problem.rows_of(slot).is_empty() {
             return Err(Error::Invalid(format!(
@@ -212,7 +220,11 @@ pub fn identify_problem(
 }
 
 /// The leg's rows and columns of the stacked Jacobian.
-fn leg_jacobian(problem: &IdentificationProblem<'_>, slot: &LegSlot, c: &DMatrix<f64>) -> DMatrix<f64> {
+fn leg_jacobian(
+    problem: &IdentificationProblem<'_>,
+    slot: &LegSlot,
+    c: &DMatrix<f64>,
+) -> DMatrix<f64> {
     let rows = problem.rows_of(slot);
     let n = slot.columns.len();
     DMatrix::from_fn(rows.len(), n, |i, j| c[(rows[i], slot.offset + j)])
@@ -225,7 +237,11 @@ fn leg_observability(
     c: &DMatrix<f64>,
 ) -> Observability {
     let leg = &mechanism.legs[slot.leg];
-    let names: Vec<String> = slot.columns.iter().map(|&i| leg.params[i].name.clone()).collect();
+    let names: Vec<String> = slot
+        .columns
+        .iter()
+        .map(|&i| leg.params[i].name.clone())
+        .collect();
     analyse(&leg_jacobian(problem, slot, c), &names)
 }
 
@@ -244,7 +260,8 @@ fn leg_estimate(
     let sum_squares: f64 = rows.iter().map(|&i| r[i] * r[i]).sum();
     let residual_sigma = (m > n).then(|| (sum_squares / (m - n) as f64).sqrt());
     let c_leg = leg_jacobian(problem, slot, c);
-    let variances = residual_sigma.and_then(|sigma| covariance_diagonal(&c_leg).map(|d| (sigma, d)));
+    let variances =
+        residual_sigma.and_then(|sigma| covariance_diagonal(&c_leg).map(|d| (sigma, d)));
     let phi = problem.leg_parameters(slot, x);
     let parameters = leg
         .params
@@ -300,7 +317,10 @@ fn covariance_diagonal(c: &DMatrix<f64>) -> Option<Vec<f64>> {
 fn located(data: &MeasurementSet, problem: &IdentificationProblem<'_>, error: BlockError) -> Error {
     let block = &problem.blocks()[error.block];
     let pose = block.pose;
-    let pose_text = format!("pose x={}, y={}, z={}, yaw={}", pose[0], pose[1], pose[2], pose[5]);
+    let pose_text = format!(
+        "pose x={}, y={}, z={}, yaw={}",
+        pose[0], pose[1], pose[2], pose[5]
+    );
     match (&data.source, block.line) {
         (Some(path), Some(line)) => Error::Measurement {
             path: path.clone(),

@@ -116,7 +116,12 @@ fn pivoted_deficient_columns(scaled: &DMatrix<f64>, rank: usize) -> Vec<usize> {
         let (position, &pivot) = remaining
             .iter()
             .enumerate()
-            .max_by(|a, b| residual.column(*a.1).norm().total_cmp(&residual.column(*b.1).norm()))
+            .max_by(|a, b| {
+                residual
+                    .column(*a.1)
+                    .norm()
+                    .total_cmp(&residual.column(*b.1).norm())
+            })
             .unwrap_or((0, &0));
         remaining.remove(position);
         let q = residual.column(pivot).normalize();
@@ -131,7 +136,10 @@ fn pivoted_deficient_columns(scaled: &DMatrix<f64>, rank: usize) -> Vec<usize> {
 }
 
 fn direction(components: impl Iterator<Item = f64>, names: &[String]) -> String {
-    let mut terms: Vec<(f64, &String)> = components.zip(names).filter(|(v, _)| v.abs() >= 0.05).collect();
+    let mut terms: Vec<(f64, &String)> = components
+        .zip(names)
+        .filter(|(v, _)| v.abs() >= 0.05)
+        .collect();
     terms.sort_by(|a, b| b.0.abs().total_cmp(&a.0.abs()));
     let sign = terms.first().map_or(1.0, |t| t.0.signum());
     terms
@@ -147,4 +155,59 @@ fn direction(components: impl Iterator<Item = f64>, names: &[String]) -> String 
         })
         .collect::<Vec<_>>()
         .join(" ")
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn names(n: usize) -> Vec<String> {
+        (0..n).map(|i| format!("p{i}")).collect()
+    }
+
+    #[test]
+    fn a_full_rank_matrix_has_no_unidentifiable_parameters() {
+        let c = DMatrix::from_row_slice(4, 2, &[1.0, 0.0, 0.0, 2.0, 1.0, 1.0, 3.0, -1.0]);
+        let o = analyse(&c, &names(2));
+        assert_eq!(o.rank, 2);
+        assert!(o.unidentifiable.is_empty());
+        assert!(o.condition.is_finite() && o.condition >= 1.0);
+    }
+
+    #[test]
+    fn a_duplicated_column_is_named_with_its_null_direction() {
+        // p2 = 2·p0: the combination p0·2 − p2... is not observable.
+        let c = DMatrix::from_row_slice(
+            4,
+            3,
+            &[1.0, 0.5, 2.0, 2.0, -1.0, 4.0, 0.0, 3.0, 0.0, 1.0, 1.0, 2.0],
+        );
+        let o = analyse(&c, &names(3));
+        assert_eq!(o.rank, 2);
+        assert_eq!(o.unidentifiable.len(), 1);
+        assert!(o.unidentifiable[0] == "p0" || o.unidentifiable[0] == "p2");
+        assert_eq!(o.null_directions.len(), 1);
+        assert!(o.null_directions[0].contains("p0") && o.null_directions[0].contains("p2"));
+        assert!(!o.null_directions[0].contains("p1"));
+        assert!(o.condition.is_infinite());
+    }
+
+    #[test]
+    fn fewer_rows_than_parameters_is_rank_deficient() {
+        let c = DMatrix::from_row_slice(2, 3, &[1.0, 0.0, 0.5, 0.0, 1.0, 0.25]);
+        let o = analyse(&c, &names(3));
+        assert_eq!(o.rank, 2);
+        assert_eq!(o.unidentifiable.len(), 1);
+    }
+
+    #[test]
+    fn indices_follow_their_definitions() {
+        let s = [4.0, 2.0, 1.0];
+        let [o1, o2, o3, o4, o5] = indices(&s, 9, 3);
+        assert!((o1 - 2.0 / 3.0).abs() < 1e-12); // (4·2·1)^(1/3) / √9
+        assert!((o2 - 0.25).abs() < 1e-12);
+        assert!((o3 - 1.0).abs() < 1e-12);
+        assert!((o4 - 0.25).abs() < 1e-12);
+        assert!((o5 - 1.0 / 1.75).abs() < 1e-12);
+    }
 }

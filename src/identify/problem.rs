@@ -50,11 +50,23 @@ impl<'a> IdentificationProblem<'a> {
             let columns = mechanism.legs[leg].identified();
             slot_of_leg[leg] = Some(slots.len());
             let count = columns.len();
-            slots.push(LegSlot { leg, columns, offset });
+            slots.push(LegSlot {
+                leg,
+                columns,
+                offset,
+            });
             offset += count;
         }
-        let blocks = blocks.into_iter().filter(|b| slot_of_leg[b.leg].is_some()).collect();
-        Self { mechanism, slots, slot_of_leg, blocks }
+        let blocks = blocks
+            .into_iter()
+            .filter(|b| slot_of_leg[b.leg].is_some())
+            .collect();
+        Self {
+            mechanism,
+            slots,
+            slot_of_leg,
+            blocks,
+        }
     }
 
     /// The legs and where their parameters sit.
@@ -94,7 +106,10 @@ impl<'a> IdentificationProblem<'a> {
     }
 
     fn parameters_by_leg(&self, x: &DVector<f64>) -> Vec<Vec<f64>> {
-        self.slots.iter().map(|s| self.leg_parameters(s, x)).collect()
+        self.slots
+            .iter()
+            .map(|s| self.leg_parameters(s, x))
+            .collect()
     }
 
     /// Residuals `predicted − measured` reading, one per block.
@@ -145,7 +160,9 @@ impl<'a> IdentificationProblem<'a> {
 
     /// Row indices of the blocks of the leg in `slot`.
     pub fn rows_of(&self, slot: &LegSlot) -> Vec<usize> {
-        (0..self.blocks.len()).filter(|&i| self.blocks[i].leg == slot.leg).collect()
+        (0..self.blocks.len())
+            .filter(|&i| self.blocks[i].leg == slot.leg)
+            .collect()
     }
 }
 

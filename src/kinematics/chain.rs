@@ -26,10 +26,9 @@ pub fn joint_motion<T: Scalar>(joint: &JointModel, q: T) -> Transform<T> {
             Translation3::identity(),
             Rotation3::from_axis_angle(&Unit::new_unchecked(axis), q),
         ),
-        JointKind::Prismatic => Transform::from_parts(
-            Translation3::from(axis * q),
-            Rotation3::identity(),
-        ),
+        JointKind::Prismatic => {
+            Transform::from_parts(Translation3::from(axis * q), Rotation3::identity())
+        }
         JointKind::Fixed => Transform::identity(),
     }
 }

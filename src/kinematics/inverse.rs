@@ -234,7 +234,10 @@ fn invert(jacobian: &Matrix3<f64>, dims: usize) -> Option<Matrix3<f64>> {
     let mut inverse = Matrix3::zeros();
     match dims {
         2 => {
-            let block = jacobian.fixed_view::<2, 2>(0, 0).into_owned().try_inverse()?;
+            let block = jacobian
+                .fixed_view::<2, 2>(0, 0)
+                .into_owned()
+                .try_inverse()?;
             inverse.fixed_view_mut::<2, 2>(0, 0).copy_from(&block);
         }
         _ => inverse = jacobian.try_inverse()?,

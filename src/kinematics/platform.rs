@@ -30,7 +30,11 @@ fn layout(mechanism: &Mechanism) -> Layout {
         passive: mechanism
             .legs
             .iter()
-            .map(|leg| (0..leg.moving.len()).filter(|&i| i != leg.actuated).collect())
+            .map(|leg| {
+                (0..leg.moving.len())
+                    .filter(|&i| i != leg.actuated)
+                    .collect()
+            })
             .collect(),
     }
 }
@@ -55,12 +59,27 @@ pub fn forward(
         .map(|(leg, phi)| predict_reading(leg, phi, &home, &home))
         .collect::<Result<_, _>>()?;
     let mut pose = home;
-    let mut joints: Vec<Vec<f64>> = mechanism.legs.iter().map(|l| l.home_joints.clone()).collect();
-    let home_sign = newton(mechanism, &layout, params, &home_readings, &mut pose, &mut joints)?.signum();
+    let mut joints: Vec<Vec<f64>> = mechanism
+        .legs
+        .iter()
+        .map(|l| l.home_joints.clone())
+        .collect();
+    let home_sign = newton(
+        mechanism,
+        &layout,
+        params,
+        &home_readings,
+        &mut pose,
+        &mut joints,
+    )?
+    .signum();
     for steps in [1usize, 8, 32] {
         let mut trial_pose = home;
-        let mut trial_joints: Vec<Vec<f64>> =
-            mechanism.legs.iter().map(|l| l.home_joints.clone()).collect();
+        let mut trial_joints: Vec<Vec<f64>> = mechanism
+            .legs
+            .iter()
+            .map(|l| l.home_joints.clone())
+            .collect();
         let mut ok = true;
         for step in 1..=steps {
             let t = step as f64 / steps as f64;
@@ -69,7 +88,14 @@ pub fn forward(
                 .zip(readings)
                 .map(|(h, r)| h + t * (r - h))
                 .collect();
-            match newton(mechanism, &layout, params, &target, &mut trial_pose, &mut trial_joints) {
+            match newton(
+                mechanism,
+                &layout,
+                params,
+                &target,
+                &mut trial_pose,
+                &mut trial_joints,
+            ) {
                 Ok(sign) if sign * home_sign > 0.0 => {}
                 _ => {
                     ok = false;
@@ -82,7 +108,11 @@ pub fn forward(
         }
     }
     let mut pose = home;
-    let mut joints: Vec<Vec<f64>> = mechanism.legs.iter().map(|l| l.home_joints.clone()).collect();
+    let mut joints: Vec<Vec<f64>> = mechanism
+        .legs
+        .iter()
+        .map(|l| l.home_joints.clone())
+        .collect();
     match newton(mechanism, &layout, params, readings, &mut pose, &mut joints) {
         Ok(_) => Err(KinematicsError::AssemblyModeChange),
         Err(err) => Err(err),
@@ -102,9 +132,16 @@ fn newton(
     let unknowns = layout.pose.len() + layout.passive.iter().map(Vec::len).sum::<usize>();
     let equations: usize = mechanism.legs.iter().map(|l| l.closure_dims).sum();
     if unknowns != equations {
-        return Err(KinematicsError::NotAssemblable { residual: f64::INFINITY });
+        return Err(KinematicsError::NotAssemblable {
+            residual: f64::INFINITY,
+        });
     }
-    let geometries: Vec<_> = mechanism.legs.iter().zip(params).map(|(l, p)| l.geometry(p)).collect();
+    let geometries: Vec<_> = mechanism
+        .legs
+        .iter()
+        .zip(params)
+        .map(|(l, p)| l.geometry(p))
+        .collect();
     for (l, leg) in mechanism.legs.iter().enumerate() {
         joints[l][leg.actuated] = geometries[l].gain * readings[l] + geometries[l].offset;
     }

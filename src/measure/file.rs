@@ -56,16 +56,31 @@ pub fn parse(text: &str, path: &Path, mechanism: &Mechanism) -> Result<Measureme
         .map(str::to_string)
         .collect();
     if header.iter().all(String::is_empty) {
-        return Err(fail("header".into(), format!("empty file; expected the columns {}", expected.join(", "))));
+        return Err(fail(
+            "header".into(),
+            format!("empty file; expected the columns {}", expected.join(", ")),
+        ));
     }
     for column in &header {
         if !expected.contains(column) {
-            return Err(fail("header".into(), format!("unknown column `{column}`; expected the columns {}", expected.join(", "))));
+            return Err(fail(
+                "header".into(),
+                format!(
+                    "unknown column `{column}`; expected the columns {}",
+                    expected.join(", ")
+                ),
+            ));
         }
     }
     for column in expected.iter().skip(1) {
         if !header.contains(column) {
-            return Err(fail("header".into(), format!("missing column `{column}`; expected the columns {}", expected.join(", "))));
+            return Err(fail(
+                "header".into(),
+                format!(
+                    "missing column `{column}`; expected the columns {}",
+                    expected.join(", ")
+                ),
+            ));
         }
     }
     let index = |name: &str| header.iter().position(|h| h == name);
@@ -107,14 +122,28 @@ pub fn parse(text: &str, path: &Path, mechanism: &Mechanism) -> Result<Measureme
         let leg = match leg_column.map(cell).filter(|s| !s.is_empty()) {
             None => None,
             Some(name) => Some(mechanism.leg_index(name).ok_or_else(|| {
-                fail(format!("line {line}, column `leg`"), format!("unknown leg `{name}`; expected one of {} or empty", mechanism.legs.iter().map(|l| l.name.as_str()).collect::<Vec<_>>().join(", ")))
+                fail(
+                    format!("line {line}, column `leg`"),
+                    format!(
+                        "unknown leg `{name}`; expected one of {} or empty",
+                        mechanism
+                            .legs
+                            .iter()
+                            .map(|l| l.name.as_str())
+                            .collect::<Vec<_>>()
+                            .join(", ")
+                    ),
+                )
             })?),
         };
         let mut pose = mechanism.home_pose;
         for &(coordinate, column) in &coordinate_columns {
             let unit = if coordinate < 3 { "metres" } else { "radians" };
             pose[coordinate] = number(column, unit)?.ok_or_else(|| {
-                fail(format!("line {line}, column `{}`", header[column]), format!("missing value; expected a number in {unit}"))
+                fail(
+                    format!("line {line}, column `{}`", header[column]),
+                    format!("missing value; expected a number in {unit}"),
+                )
             })?;
         }
         let mut readings = Vec::with_capacity(reading_columns.len());
@@ -123,20 +152,39 @@ pub fn parse(text: &str, path: &Path, mechanism: &Mechanism) -> Result<Measureme
         }
         if let Some(l) = leg {
             if readings[l].is_none() {
-                return Err(fail(format!("line {line}, column `{}`", mechanism.actuated_names()[l]), format!("the row belongs to leg `{}` but its reading is empty", mechanism.legs[l].name)));
+                return Err(fail(
+                    format!("line {line}, column `{}`", mechanism.actuated_names()[l]),
+                    format!(
+                        "the row belongs to leg `{}` but its reading is empty",
+                        mechanism.legs[l].name
+                    ),
+                ));
             }
         }
-        poses.push(MeasuredPose { line: Some(line), leg, pose, readings });
+        poses.push(MeasuredPose {
+            line: Some(line),
+            leg,
+            pose,
+            readings,
+        });
     }
     if poses.is_empty() {
-        return Err(fail("line 2".into(), "no measurement rows after the header".into()));
+        return Err(fail(
+            "line 2".into(),
+            "no measurement rows after the header".into(),
+        ));
     }
-    Ok(MeasurementSet { source: Some(path.to_path_buf()), poses })
+    Ok(MeasurementSet {
+        source: Some(path.to_path_buf()),
+        poses,
+    })
 }
 
 fn csv_message(error: &csv::Error) -> String {
     match error.kind() {
-        csv::ErrorKind::UnequalLengths { expected_len, len, .. } => {
+        csv::ErrorKind::UnequalLengths {
+            expected_len, len, ..
+        } => {
             format!("expected {expected_len} fields, found {len}")
         }
         _ => error.to_string(),
@@ -159,9 +207,20 @@ pub fn to_csv(mechanism: &Mechanism, set: &MeasurementSet) -> String {
     let mut text = expected_columns(mechanism).join(",");
     text.push('\n');
     for pose in &set.poses {
-        let mut cells = vec![pose.leg.map_or(String::new(), |l| mechanism.legs[l].name.clone())];
-        cells.extend(mechanism.measured.iter().map(|&c| format!("{}", pose.pose[c])));
-        cells.extend(pose.readings.iter().map(|r| r.map_or(String::new(), |v| format!("{v}"))));
+        let mut cells = vec![pose
+            .leg
+            .map_or(String::new(), |l| mechanism.legs[l].name.clone())];
+        cells.extend(
+            mechanism
+                .measured
+                .iter()
+                .map(|&c| format!("{}", pose.pose[c])),
+        );
+        cells.extend(
+            pose.readings
+                .iter()
+                .map(|r| r.map_or(String::new(), |v| format!("{v}"))),
+        );
         text.push_str(&cells.join(","));
         text.push('\n');
     }

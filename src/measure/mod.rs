@@ -35,7 +35,13 @@ impl MeasurementSet {
         let labelled = self.poses.iter().any(|p| p.leg == Some(leg));
         self.poses
             .iter()
-            .filter(|p| if labelled { p.leg == Some(leg) } else { p.leg.is_none() })
+            .filter(|p| {
+                if labelled {
+                    p.leg == Some(leg)
+                } else {
+                    p.leg.is_none()
+                }
+            })
             .filter_map(|p| block(p, leg))
             .collect()
     }
@@ -44,7 +50,12 @@ impl MeasurementSet {
     pub fn shared_blocks(&self, legs: usize) -> Vec<ResidualBlock> {
         let mut blocks = Vec::new();
         for leg in 0..legs {
-            blocks.extend(self.poses.iter().filter(|p| p.leg.is_none()).filter_map(|p| block(p, leg)));
+            blocks.extend(
+                self.poses
+                    .iter()
+                    .filter(|p| p.leg.is_none())
+                    .filter_map(|p| block(p, leg)),
+            );
         }
         blocks
     }

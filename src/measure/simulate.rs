@@ -30,7 +30,11 @@ pub struct SimulationOptions {
 
 impl Default for SimulationOptions {
     fn default() -> Self {
-        Self { seed: None, noise_scale: 1.0, poses_per_leg: None }
+        Self {
+            seed: None,
+            noise_scale: 1.0,
+            poses_per_leg: None,
+        }
     }
 }
 
@@ -58,7 +62,7 @@ pub fn setup(mechanism: &Mechanism) -> Result<&Simulation> {
 /// Real parameter values per leg: `simulation.real`, else a seeded perturbation of identified
 /// parameters, else nominal.
 pub fn real_parameters(mechanism: &Mechanism, simulation: &Simulation, seed: u64) -> Vec<Vec<f64>> {
-    let mut rng = ChaCha8Rng::seed_from_u64(seed ^ 0x5eed_0f_2ea1);
+    let mut rng = ChaCha8Rng::seed_from_u64(seed ^ 0x005e_ed0f_2ea1);
     mechanism
         .legs
         .iter()
@@ -69,7 +73,9 @@ pub fn real_parameters(mechanism: &Mechanism, simulation: &Simulation, seed: u64
                     if let Some(&value) = simulation.real.get(&p.name) {
                         return value;
                     }
-                    let Some((length, angle, gain)) = simulation.perturbation.filter(|_| p.identified) else {
+                    let Some((length, angle, gain)) =
+                        simulation.perturbation.filter(|_| p.identified)
+                    else {
                         return p.nominal;
                     };
                     let sigma = match (p.target, p.unit) {
@@ -115,21 +121,35 @@ pub fn simulate(mechanism: &Mechanism, options: SimulationOptions) -> Result<Sim
                     (group.is_none_or(|g| g == l)).then(|| readings[l] + noise)
                 })
                 .collect();
-            poses.push(MeasuredPose { line: None, leg: group, pose: measured, readings });
+            poses.push(MeasuredPose {
+                line: None,
+                leg: group,
+                pose: measured,
+                readings,
+            });
         }
     }
     Ok(SimulatedExperiment {
         real,
-        measurements: MeasurementSet { source: None, poses },
+        measurements: MeasurementSet {
+            source: None,
+            poses,
+        },
     })
 }
 
 /// Draws poses until every leg reaches one with nominal and real parameters; returns the pose
 /// and the true readings.
-fn reachable_pose(mechanism: &Mechanism, real: &[Vec<f64>], rng: &mut ChaCha8Rng) -> Result<([f64; 6], Vec<f64>)> {
+fn reachable_pose(
+    mechanism: &Mechanism,
+    real: &[Vec<f64>],
+    rng: &mut ChaCha8Rng,
+) -> Result<([f64; 6], Vec<f64>)> {
     let home = &mechanism.home_pose;
     for _ in 0..10_000 {
-        let Some(pose) = mechanism.workspace.sample(home, rng) else { break };
+        let Some(pose) = mechanism.workspace.sample(home, rng) else {
+            break;
+        };
         let readings: Option<Vec<f64>> = mechanism
             .legs
             .iter()
@@ -146,6 +166,7 @@ fn reachable_pose(mechanism: &Mechanism, real: &[Vec<f64>], rng: &mut ChaCha8Rng
     Err(Error::Model {
         path: mechanism.model_path.clone(),
         field: "workspace".into(),
-        message: "no pose of the usable workspace is reachable by every leg on its home branch".into(),
+        message: "no pose of the usable workspace is reachable by every leg on its home branch"
+            .into(),
     })
 }

@@ -218,6 +218,10 @@ impl ModelFile {
 
 /// Keeps the first line of a parser message (`line L column C: what`), dropping the snippet.
 fn one_line(message: &str) -> String {
-    let first = message.lines().map(str::trim).find(|l| !l.is_empty()).unwrap_or("invalid YAML");
+    let first = message
+        .lines()
+        .map(str::trim)
+        .find(|l| !l.is_empty())
+        .unwrap_or("invalid YAML");
     first.strip_prefix("error: ").unwrap_or(first).to_string()
 }

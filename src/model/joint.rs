@@ -51,7 +51,10 @@ impl JointModel {
         let axis = Vector3::from(joint.axis.xyz.0);
         let norm = axis.norm();
         if kind != JointKind::Fixed && !(norm.is_finite() && norm > 1e-12) {
-            return Err(format!("joint `{}` has a zero or non-finite axis", joint.name));
+            return Err(format!(
+                "joint `{}` has a zero or non-finite axis",
+                joint.name
+            ));
         }
         let xyz = joint.origin.xyz.0;
         let rpy = joint.origin.rpy.0;
@@ -62,7 +65,11 @@ impl JointModel {
         Ok(Self {
             name: joint.name.clone(),
             kind,
-            axis: if kind == JointKind::Fixed { Vector3::z() } else { axis / norm },
+            axis: if kind == JointKind::Fixed {
+                Vector3::z()
+            } else {
+                axis / norm
+            },
             origin,
         })
     }

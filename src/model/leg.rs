@@ -66,7 +66,11 @@ impl LegModel {
     /// The geometry for the full parameter vector `phi` (one value per parameter of the leg).
     pub fn geometry<T: Scalar>(&self, phi: &[T]) -> LegGeometry<T> {
         let mut geometry = LegGeometry {
-            origins: self.joints.iter().map(|j| j.origin.map(lift::<T>)).collect(),
+            origins: self
+                .joints
+                .iter()
+                .map(|j| j.origin.map(lift::<T>))
+                .collect(),
             gain: lift(self.gain),
             offset: lift(self.offset),
             attachment: self.attachment.map(lift::<T>),

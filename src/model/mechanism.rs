@@ -75,9 +75,19 @@ impl Mechanism {
         }
         let robot = urdf_rs::read_file(&urdf_path).map_err(|err| Error::Urdf {
             path: urdf_path.clone(),
-            message: err.to_string().lines().next().unwrap_or("invalid URDF").to_string(),
+            message: err
+                .to_string()
+                .lines()
+                .next()
+                .unwrap_or("invalid URDF")
+                .to_string(),
         })?;
-        Builder { path, urdf_path: &urdf_path, robot: &robot }.build(file)
+        Builder {
+            path,
+            urdf_path: &urdf_path,
+            robot: &robot,
+        }
+        .build(file)
     }
 
     /// Index of the leg called `name`.
@@ -151,11 +161,16 @@ impl Builder<'_> {
             let Some(index) = COORDINATES.iter().position(|c| c == name) else {
                 return Err(self.error(
                     format!("measured[{i}]"),
-                    format!("unknown coordinate `{name}`; expected one of x, y, z, roll, pitch, yaw"),
+                    format!(
+                        "unknown coordinate `{name}`; expected one of x, y, z, roll, pitch, yaw"
+                    ),
                 ));
             };
             if measured.contains(&index) {
-                return Err(self.error(format!("measured[{i}]"), format!("`{name}` is listed twice")));
+                return Err(self.error(
+                    format!("measured[{i}]"),
+                    format!("`{name}` is listed twice"),
+                ));
             }
             measured.push(index);
         }
@@ -196,16 +211,27 @@ impl Builder<'_> {
         if file.legs.is_empty() {
             return Err(self.error("legs", "at least one leg is needed"));
         }
-        let joints: HashMap<&str, &urdf_rs::Joint> =
-            self.robot.joints.iter().map(|j| (j.name.as_str(), j)).collect();
-        let children: HashSet<&str> =
-            self.robot.joints.iter().map(|j| j.child.link.as_str()).collect();
+        let joints: HashMap<&str, &urdf_rs::Joint> = self
+            .robot
+            .joints
+            .iter()
+            .map(|j| (j.name.as_str(), j))
+            .collect();
+        let children: HashSet<&str> = self
+            .robot
+            .joints
+            .iter()
+            .map(|j| j.child.link.as_str())
+            .collect();
         let mut seen_legs = HashSet::new();
         let mut used_joints: HashMap<&str, &str> = HashMap::new();
         let mut legs = Vec::new();
         for (l, entry) in file.legs.iter().enumerate() {
             if !seen_legs.insert(entry.name.as_str()) {
-                return Err(self.error(format!("legs[{l}].name"), format!("leg `{}` is defined twice", entry.name)));
+                return Err(self.error(
+                    format!("legs[{l}].name"),
+                    format!("leg `{}` is defined twice", entry.name),
+                ));
             }
             if entry.chain.is_empty() {
                 return Err(self.error(format!("legs[{l}].chain"), "the chain is empty"));
@@ -214,7 +240,10 @@ impl Builder<'_> {
             for (c, name) in entry.chain.iter().enumerate() {
                 let field = format!("legs[{l}].chain[{c}]");
                 let Some(joint) = joints.get(name.as_str()) else {
-                    return Err(self.error(field, format!("joint `{name}` is not in the URDF `{}`", self.urdf_name())));
+                    return Err(self.error(
+                        field,
+                        format!("joint `{name}` is not in the URDF `{}`", self.urdf_name()),
+                    ));
                 };
                 if let Some(other) = used_joints.insert(name.as_str(), entry.name.as_str()) {
                     return Err(self.error(field, format!("joint `{name}` is already in leg `{other}`; legs must not share joints")));
@@ -227,25 +256,44 @@ impl Builder<'_> {
                         return Err(self.error(field, format!("joint `{name}` does not follow `{}`: its parent link is `{}`, expected `{}`", previous.name, joint.parent.link, previous.child.link)));
                     }
                 }
-                chain.push(JointModel::from_urdf(joint).map_err(|m| self.error(format!("legs[{l}].chain[{c}]"), m))?);
+                chain.push(
+                    JointModel::from_urdf(joint)
+                        .map_err(|m| self.error(format!("legs[{l}].chain[{c}]"), m))?,
+                );
             }
             let moving: Vec<usize> = (0..chain.len()).filter(|&j| chain[j].is_moving()).collect();
             if moving.len() != closure_dims {
                 return Err(self.error(format!("legs[{l}].chain"), format!("the chain has {} moving joints; a point closure with the measured coordinates needs exactly {closure_dims}", moving.len())));
             }
             let actuator = &entry.actuator;
-            let Some(actuated) = moving.iter().position(|&j| chain[j].name == actuator.joint) else {
-                return Err(self.error(format!("legs[{l}].actuator.joint"), format!("`{}` is not a moving joint of the leg's chain", actuator.joint)));
+            let Some(actuated) = moving.iter().position(|&j| chain[j].name == actuator.joint)
+            else {
+                return Err(self.error(
+                    format!("legs[{l}].actuator.joint"),
+                    format!(
+                        "`{}` is not a moving joint of the leg's chain",
+                        actuator.joint
+                    ),
+                ));
             };
             if !(actuator.gain.is_finite() && actuator.gain != 0.0) {
-                return Err(self.error(format!("legs[{l}].actuator.gain"), "expected a finite non-zero number"));
+                return Err(self.error(
+                    format!("legs[{l}].actuator.gain"),
+                    "expected a finite non-zero number",
+                ));
             }
             if !actuator.offset.is_finite() {
-                return Err(self.error(format!("legs[{l}].actuator.offset"), "expected a finite number"));
+                return Err(self.error(
+                    format!("legs[{l}].actuator.offset"),
+                    "expected a finite number",
+                ));
             }
             let attachment = entry.attachment.unwrap_or([0.0; 3]);
             if attachment.iter().any(|v| !v.is_finite()) {
-                return Err(self.error(format!("legs[{l}].attachment"), "expected three finite numbers (metres)"));
+                return Err(self.error(
+                    format!("legs[{l}].attachment"),
+                    "expected three finite numbers (metres)",
+                ));
             }
             legs.push(LegModel {
                 name: entry.name.clone(),
@@ -270,22 +318,39 @@ impl Builder<'_> {
         for (p, entry) in entries.iter().enumerate() {
             let field = format!("parameters[{p}]");
             if !names.insert(entry.name.as_str()) {
-                return Err(self.error(format!("{field}.name"), format!("parameter `{}` is defined twice", entry.name)));
+                return Err(self.error(
+                    format!("{field}.name"),
+                    format!("parameter `{}` is defined twice", entry.name),
+                ));
             }
             let (leg, target) = self.target(entry, &field, legs)?;
             if !targets.insert((leg, format!("{target:?}"))) {
-                return Err(self.error(field, format!("parameter `{}` stands for a quantity another parameter already names", entry.name)));
+                return Err(self.error(
+                    field,
+                    format!(
+                        "parameter `{}` stands for a quantity another parameter already names",
+                        entry.name
+                    ),
+                ));
             }
             let model = &legs[leg];
             let (nominal, unit) = match target {
                 ParamTarget::JointOrigin { joint, component } => (
                     model.joints[joint].origin[component],
-                    if component < 3 { Unit::Metre } else { Unit::Radian },
+                    if component < 3 {
+                        Unit::Metre
+                    } else {
+                        Unit::Radian
+                    },
                 ),
                 ParamTarget::Gain => (model.gain, Unit::One),
                 ParamTarget::Offset => (
                     model.offset,
-                    if model.actuated_is_revolute() { Unit::Radian } else { Unit::Metre },
+                    if model.actuated_is_revolute() {
+                        Unit::Radian
+                    } else {
+                        Unit::Metre
+                    },
                 ),
                 ParamTarget::Attachment { component } => (model.attachment[component], Unit::Metre),
             };
@@ -300,15 +365,26 @@ impl Builder<'_> {
         Ok(())
     }
 
-    fn target(&self, entry: &ParameterEntry, field: &str, legs: &[LegModel]) -> Result<(usize, ParamTarget)> {
+    fn target(
+        &self,
+        entry: &ParameterEntry,
+        field: &str,
+        legs: &[LegModel],
+    ) -> Result<(usize, ParamTarget)> {
         let leg_named = |name: &str, key: &str| {
             legs.iter().position(|l| l.name == name).ok_or_else(|| {
-                self.error(format!("{field}.{key}"), format!("no leg is named `{name}`"))
+                self.error(
+                    format!("{field}.{key}"),
+                    format!("no leg is named `{name}`"),
+                )
             })
         };
         let component = |value: &str, key: &str, allowed: &[&str]| {
             allowed.iter().position(|c| *c == value).ok_or_else(|| {
-                self.error(format!("{field}.{key}"), format!("`{value}` is not one of {}", allowed.join(", ")))
+                self.error(
+                    format!("{field}.{key}"),
+                    format!("`{value}` is not one of {}", allowed.join(", ")),
+                )
             })
         };
         match (&entry.joint, &entry.origin, &entry.leg, &entry.actuator, &entry.attachment) {
@@ -346,22 +422,43 @@ impl Builder<'_> {
         }
     }
 
-    fn home(&self, leg: &mut LegModel, index: usize, seeds: &BTreeMap<String, f64>, home_pose: &[f64; 6]) -> Result<()> {
+    fn home(
+        &self,
+        leg: &mut LegModel,
+        index: usize,
+        seeds: &BTreeMap<String, f64>,
+        home_pose: &[f64; 6],
+    ) -> Result<()> {
         let field = format!("legs[{index}].home");
         let mut seed = Vec::new();
         for &j in &leg.moving {
             let name = &leg.joints[j].name;
             match seeds.get(name) {
                 Some(v) if v.is_finite() => seed.push(*v),
-                _ => return Err(self.error(format!("{field}.{name}"), "missing: every moving joint of the leg needs a finite home value")),
+                _ => {
+                    return Err(self.error(
+                        format!("{field}.{name}"),
+                        "missing: every moving joint of the leg needs a finite home value",
+                    ))
+                }
             }
         }
-        if let Some(extra) = seeds.keys().find(|k| !leg.moving.iter().any(|&j| &&leg.joints[j].name == k)) {
-            return Err(self.error(format!("{field}.{extra}"), "not a moving joint of the leg's chain"));
+        if let Some(extra) = seeds
+            .keys()
+            .find(|k| !leg.moving.iter().any(|&j| &&leg.joints[j].name == k))
+        {
+            return Err(self.error(
+                format!("{field}.{extra}"),
+                "not a moving joint of the leg's chain",
+            ));
         }
         let geometry = leg.geometry(&leg.nominal());
-        let solution = newton(leg, &geometry, home_pose, &seed)
-            .map_err(|err| self.error(&field, format!("the home configuration does not close at the home pose: {err}")))?;
+        let solution = newton(leg, &geometry, home_pose, &seed).map_err(|err| {
+            self.error(
+                &field,
+                format!("the home configuration does not close at the home pose: {err}"),
+            )
+        })?;
         leg.branch_sign = solution.normalised_determinant.signum();
         leg.home_joints = solution.q;
         Ok(())
@@ -373,25 +470,45 @@ impl Builder<'_> {
         let region = match &entry.region {
             RegionEntry::Disc { centre, radius } => {
                 if !positive(*radius) || centre.iter().any(|v| !v.is_finite()) {
-                    return Err(self.error("workspace.region.disc", "expected a finite centre and a positive radius (metres)"));
+                    return Err(self.error(
+                        "workspace.region.disc",
+                        "expected a finite centre and a positive radius (metres)",
+                    ));
                 }
-                Region::Disc { centre: *centre, radius: *radius }
+                Region::Disc {
+                    centre: *centre,
+                    radius: *radius,
+                }
             }
             RegionEntry::Box { min, max } => {
                 if !(0..2).all(|i| min[i].is_finite() && max[i].is_finite() && min[i] < max[i]) {
-                    return Err(self.error("workspace.region.box", "expected finite corners with min < max (metres)"));
+                    return Err(self.error(
+                        "workspace.region.box",
+                        "expected finite corners with min < max (metres)",
+                    ));
                 }
-                Region::Box { min: *min, max: *max }
+                Region::Box {
+                    min: *min,
+                    max: *max,
+                }
             }
             RegionEntry::Polygon { vertices } => {
                 if vertices.len() < 3 || vertices.iter().flatten().any(|v| !v.is_finite()) {
-                    return Err(self.error("workspace.region.polygon", "expected at least three finite vertices (metres)"));
+                    return Err(self.error(
+                        "workspace.region.polygon",
+                        "expected at least three finite vertices (metres)",
+                    ));
                 }
-                Region::Polygon { vertices: vertices.clone() }
+                Region::Polygon {
+                    vertices: vertices.clone(),
+                }
             }
         };
         if !(entry.margin.is_finite() && entry.margin >= 0.0) {
-            return Err(self.error("workspace.margin", "expected a non-negative distance (metres)"));
+            return Err(self.error(
+                "workspace.margin",
+                "expected a non-negative distance (metres)",
+            ));
         }
         let mut ranges = [None; 6];
         for (name, range) in &entry.ranges {
@@ -403,7 +520,11 @@ impl Builder<'_> {
                     }
                     ranges[i] = Some(*range);
                 }
-                _ => return Err(self.error(field, "expected a measured coordinate other than x and y")),
+                _ => {
+                    return Err(
+                        self.error(field, "expected a measured coordinate other than x and y")
+                    )
+                }
             }
         }
         if let Some(grid) = entry.grid {
@@ -411,7 +532,12 @@ impl Builder<'_> {
                 return Err(self.error("workspace.grid", "expected a positive spacing (metres)"));
             }
         }
-        let workspace = Workspace { region, margin: entry.margin, ranges, grid: entry.grid };
+        let workspace = Workspace {
+            region,
+            margin: entry.margin,
+            ranges,
+            grid: entry.grid,
+        };
         let (lo, hi) = workspace.region.bounds();
         let largest = (hi[0] - lo[0]).max(hi[1] - lo[1]);
         if entry.margin * 2.0 >= largest {
@@ -420,14 +546,30 @@ impl Builder<'_> {
         Ok(workspace)
     }
 
-    fn simulation(&self, file: &ModelFile, measured: &[usize], legs: &[LegModel]) -> Result<Option<Simulation>> {
-        let Some(entry) = &file.simulation else { return Ok(None) };
+    fn simulation(
+        &self,
+        file: &ModelFile,
+        measured: &[usize],
+        legs: &[LegModel],
+    ) -> Result<Option<Simulation>> {
+        let Some(entry) = &file.simulation else {
+            return Ok(None);
+        };
         for (name, value) in &entry.real {
-            if !legs.iter().any(|l| l.params.iter().any(|p| &p.name == name)) {
-                return Err(self.error(format!("simulation.real.{name}"), "no parameter has this name"));
+            if !legs
+                .iter()
+                .any(|l| l.params.iter().any(|p| &p.name == name))
+            {
+                return Err(self.error(
+                    format!("simulation.real.{name}"),
+                    "no parameter has this name",
+                ));
             }
             if !value.is_finite() {
-                return Err(self.error(format!("simulation.real.{name}"), "expected a finite number"));
+                return Err(self.error(
+                    format!("simulation.real.{name}"),
+                    "expected a finite number",
+                ));
             }
         }
         let mut pose_noise = [0.0; 6];
@@ -435,7 +577,10 @@ impl Builder<'_> {
         for (name, &sigma) in &entry.noise {
             let field = format!("simulation.noise.{name}");
             if !(sigma.is_finite() && sigma >= 0.0) {
-                return Err(self.error(field, "expected a non-negative standard deviation (SI units)"));
+                return Err(self.error(
+                    field,
+                    "expected a non-negative standard deviation (SI units)",
+                ));
             }
             match COORDINATES.iter().position(|c| c == name) {
                 _ if name == "readings" => reading_noise = sigma,
@@ -445,8 +590,14 @@ impl Builder<'_> {
         }
         let perturbation = match &entry.perturbation {
             Some(p) => {
-                if [p.length, p.angle, p.gain].iter().any(|v| !(v.is_finite() && *v >= 0.0)) {
-                    return Err(self.error("simulation.perturbation", "expected non-negative standard deviations"));
+                if [p.length, p.angle, p.gain]
+                    .iter()
+                    .any(|v| !(v.is_finite() && *v >= 0.0))
+                {
+                    return Err(self.error(
+                        "simulation.perturbation",
+                        "expected non-negative standard deviations",
+                    ));
                 }
                 Some((p.length, p.angle, p.gain))
             }
@@ -465,4 +616,3 @@ impl Builder<'_> {
         }))
     }
 }
-

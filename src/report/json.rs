@@ -7,7 +7,11 @@ use super::IdentifyReport;
 use crate::identify::estimate::StrategyResult;
 
 fn finite(value: f64) -> Value {
-    if value.is_finite() { json!(value) } else { Value::Null }
+    if value.is_finite() {
+        json!(value)
+    } else {
+        Value::Null
+    }
 }
 
 fn optional(value: Option<f64>) -> Value {

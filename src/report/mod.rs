@@ -21,7 +21,11 @@ pub struct IdentifyReport<'a> {
 impl IdentifyReport<'_> {
     /// Real value of parameter `p` of leg `leg`, if known.
     pub fn real_value(&self, leg: usize, p: usize) -> Option<f64> {
-        self.real.as_ref().and_then(|r| r.get(leg)).and_then(|r| r.get(p)).copied()
+        self.real
+            .as_ref()
+            .and_then(|r| r.get(leg))
+            .and_then(|r| r.get(p))
+            .copied()
     }
 
     /// RMS over a leg's identified parameters of (value − real), for `value` nominal or estimate.

@@ -24,7 +24,12 @@ fn scientific(value: Option<f64>, width: usize) -> String {
 pub fn render(report: &IdentifyReport<'_>) -> String {
     let mut out = String::new();
     let mechanism = report.mechanism;
-    let _ = writeln!(out, "legwise identify: {} ({})", mechanism.name, mechanism.model_path.display());
+    let _ = writeln!(
+        out,
+        "legwise identify: {} ({})",
+        mechanism.name,
+        mechanism.model_path.display()
+    );
     if let Some(mode) = &mechanism.mode {
         let _ = writeln!(out, "mode: {mode}");
     }
@@ -36,13 +41,25 @@ pub fn render(report: &IdentifyReport<'_>) -> String {
 }
 
 fn render_result(out: &mut String, report: &IdentifyReport<'_>, result: &StrategyResult) {
-    let _ = writeln!(out, "\n=== {} — {} ===", result.strategy.name(), result.solver.name());
+    let _ = writeln!(
+        out,
+        "\n=== {} — {} ===",
+        result.strategy.name(),
+        result.solver.name()
+    );
     let known = report.real.is_some();
     for (l, leg) in result.legs.iter().enumerate() {
         let _ = writeln!(out, "\nleg {} ({} readings)", leg.leg, leg.measurements);
-        let mut header = format!("  {:<10} {:>4} {:>15} {:>15} {:>10}", "parameter", "unit", "nominal", "identified", "std");
+        let mut header = format!(
+            "  {:<10} {:>4} {:>15} {:>15} {:>10}",
+            "parameter", "unit", "nominal", "identified", "std"
+        );
         if known {
-            let _ = write!(header, " {:>15} {:>11} {:>11}", "real", "err before", "err after");
+            let _ = write!(
+                header,
+                " {:>15} {:>11} {:>11}",
+                "real", "err before", "err after"
+            );
         }
         let _ = writeln!(out, "{header}");
         for (i, p) in leg.parameters.iter().enumerate() {
@@ -66,11 +83,21 @@ fn render_result(out: &mut String, report: &IdentifyReport<'_>, result: &Strateg
             }
             let _ = writeln!(out, "{row}{fixed}");
         }
-        if let (Some(before), Some(after)) = (report.rms_error(result, l, false), report.rms_error(result, l, true)) {
-            let _ = writeln!(out, "  parameter error RMS: {before:.3e} before, {after:.3e} after");
+        if let (Some(before), Some(after)) = (
+            report.rms_error(result, l, false),
+            report.rms_error(result, l, true),
+        ) {
+            let _ = writeln!(
+                out,
+                "  parameter error RMS: {before:.3e} before, {after:.3e} after"
+            );
         }
         if let Some(run) = result.runs.iter().find(|r| r.legs.contains(&leg.leg)) {
-            let shared = if run.legs.len() > 1 { format!(" (one run for legs {})", run.legs.join(", ")) } else { String::new() };
+            let shared = if run.legs.len() > 1 {
+                format!(" (one run for legs {})", run.legs.join(", "))
+            } else {
+                String::new()
+            };
             let _ = writeln!(
                 out,
                 "  solver: {}, {} iterations, {} residual / {} Jacobian evaluations, {:.2} ms: {}{shared}",
@@ -82,12 +109,34 @@ fn render_result(out: &mut String, report: &IdentifyReport<'_>, result: &Strateg
                 run.termination
             );
         }
-        let sigma = leg.residual_sigma.map_or("-".to_string(), |s| format!("{s:.3e}"));
-        let _ = writeln!(out, "  cost ½‖r‖²: {:.6e} before, {:.6e} after; residual σ̂ {sigma}", leg.initial_cost, leg.final_cost);
-        let values: Vec<String> = leg.observability.singular_values.iter().map(|s| format!("{s:.4}")).collect();
-        let condition = if leg.observability.condition.is_finite() { format!("{:.1}", leg.observability.condition) } else { "infinite".into() };
-        let _ = writeln!(out, "  singular values: [{}]; condition number {condition}", values.join(", "));
+        let sigma = leg
+            .residual_sigma
+            .map_or("-".to_string(), |s| format!("{s:.3e}"));
+        let _ = writeln!(
+            out,
+            "  cost ½‖r‖²: {:.6e} before, {:.6e} after; residual σ̂ {sigma}",
+            leg.initial_cost, leg.final_cost
+        );
+        let values: Vec<String> = leg
+            .observability
+            .singular_values
+            .iter()
+            .map(|s| format!("{s:.4}"))
+            .collect();
+        let condition = if leg.observability.condition.is_finite() {
+            format!("{:.1}", leg.observability.condition)
+        } else {
+            "infinite".into()
+        };
+        let _ = writeln!(
+            out,
+            "  singular values: [{}]; condition number {condition}",
+            values.join(", ")
+        );
         let [o1, o2, o3, o4, o5] = leg.observability.indices;
-        let _ = writeln!(out, "  observability: O1 {o1:.4}, O2 {o2:.3e}, O3 {o3:.4}, O4 {o4:.3e}, O5 {o5:.4}");
+        let _ = writeln!(
+            out,
+            "  observability: O1 {o1:.4}, O2 {o2:.3e}, O3 {o3:.4}, O4 {o4:.3e}, O5 {o5:.4}"
+        );
     }
 }

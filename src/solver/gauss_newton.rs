@@ -34,7 +34,12 @@ pub struct StepGaussNewton {
 impl StepGaussNewton {
     /// Gauss–Newton stopping when ‖Δx‖ ≤ 1e-12 (‖x‖ + 1e-12).
     pub fn new() -> Self {
-        Self { inner: GaussNewton::new(), xtol: 1e-12, last_step: f64::INFINITY, last_norm: 0.0 }
+        Self {
+            inner: GaussNewton::new(),
+            xtol: 1e-12,
+            last_step: f64::INFINITY,
+            last_norm: 0.0,
+        }
     }
 
     /// Sets the relative step tolerance.
@@ -55,7 +60,9 @@ impl StepGaussNewton {
 
 impl std::fmt::Debug for StepGaussNewton {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.debug_struct("StepGaussNewton").field("xtol", &self.xtol).finish()
+        f.debug_struct("StepGaussNewton")
+            .field("xtol", &self.xtol)
+            .finish()
     }
 }
 
@@ -74,11 +81,19 @@ where
         "Gauss-Newton (step-size stopping)"
     }
 
-    fn init(&mut self, problem: &mut Problem<O>, state: GnState) -> Result<(GnState, Option<KV>), Error> {
+    fn init(
+        &mut self,
+        problem: &mut Problem<O>,
+        state: GnState,
+    ) -> Result<(GnState, Option<KV>), Error> {
         self.inner.init(problem, state)
     }
 
-    fn next_iter(&mut self, problem: &mut Problem<O>, state: GnState) -> Result<(GnState, Option<KV>), Error> {
+    fn next_iter(
+        &mut self,
+        problem: &mut Problem<O>,
+        state: GnState,
+    ) -> Result<(GnState, Option<KV>), Error> {
         let before = state.get_param().cloned().unwrap_or_default();
         let (state, kv) = self.inner.next_iter(problem, state)?;
         let after = state.get_param().cloned().unwrap_or_default();

@@ -1,8 +1,8 @@
 //! Levenberg–Marquardt least-squares solver implemented as an argmin [`Solver`].
 
 use argmin::core::{
-    ArgminError, Error, IterState, Jacobian, KV, Operator, Problem, Solver, State,
-    TerminationReason,
+    ArgminError, Error, IterState, Jacobian, Operator, Problem, Solver, State, TerminationReason,
+    KV,
 };
 use nalgebra::{DMatrix, DVector};
 
@@ -90,7 +90,10 @@ struct Scratch {
 }
 
 fn invalid(text: &str) -> Error {
-    ArgminError::InvalidParameter { text: text.to_string() }.into()
+    ArgminError::InvalidParameter {
+        text: text.to_string(),
+    }
+    .into()
 }
 
 fn exit(text: &str) -> TerminationReason {
@@ -121,7 +124,9 @@ impl LevenbergMarquardt {
     /// relative reduction of the cost in a step are at most `ftol`. Must be positive and finite.
     pub fn with_ftol(mut self, ftol: f64) -> Result<Self, Error> {
         if !(ftol.is_finite() && ftol > 0.0) {
-            return Err(invalid("Levenberg-Marquardt: ftol must be positive and finite."));
+            return Err(invalid(
+                "Levenberg-Marquardt: ftol must be positive and finite.",
+            ));
         }
         self.ftol = ftol;
         Ok(self)
@@ -131,7 +136,9 @@ impl LevenbergMarquardt {
     /// `Δ ≤ xtol·(‖D x‖ + xtol)`. Must be positive and finite.
     pub fn with_xtol(mut self, xtol: f64) -> Result<Self, Error> {
         if !(xtol.is_finite() && xtol > 0.0) {
-            return Err(invalid("Levenberg-Marquardt: xtol must be positive and finite."));
+            return Err(invalid(
+                "Levenberg-Marquardt: xtol must be positive and finite.",
+            ));
         }
         self.xtol = xtol;
         Ok(self)
@@ -241,7 +248,9 @@ impl Scratch {
         self.z.fill(0.0);
         let mut head = self.z.rows_mut(0, nsing);
         head.copy_from(&self.qtr.rows(0, nsing));
-        self.jq.view((0, 0), (nsing, nsing)).solve_upper_triangular_mut(&mut head);
+        self.jq
+            .view((0, 0), (nsing, nsing))
+            .solve_upper_triangular_mut(&mut head);
         nsing
     }
 
@@ -249,7 +258,9 @@ impl Scratch {
     fn solve_augmented(&mut self, sqrt_lambda: f64) -> bool {
         let n = self.qtr.len();
         self.aug.fill(0.0);
-        self.aug.view_mut((0, 0), (n, n)).copy_from(&self.jq.view((0, 0), (n, n)));
+        self.aug
+            .view_mut((0, 0), (n, n))
+            .copy_from(&self.jq.view((0, 0), (n, n)));
         for j in 0..n {
             self.aug[(n + j, j)] = sqrt_lambda * self.d_perm[j];
         }
@@ -257,7 +268,9 @@ impl Scratch {
         self.aug_rhs.rows_mut(0, n).copy_from(&self.qtr);
         householder_qr(&mut self.aug, &mut self.aug_rhs, None);
         self.z.copy_from(&self.aug_rhs.rows(0, n));
-        self.aug.view((0, 0), (n, n)).solve_upper_triangular_mut(&mut self.z)
+        self.aug
+            .view((0, 0), (n, n))
+            .solve_upper_triangular_mut(&mut self.z)
     }
 
     /// Moré's Newton correction for `φ(λ) = ‖D p(λ)‖ − Δ`: `((φ/Δ)/‖y‖)/‖y‖` with
@@ -268,7 +281,10 @@ impl Scratch {
             self.y[j] = self.d_perm[j] * (self.d_perm[j] * self.z[j]) / dxnorm;
         }
         let r = if damped { &self.aug } else { &self.jq };
-        if !r.view((0, 0), (n, n)).tr_solve_upper_triangular_mut(&mut self.y) {
+        if !r
+            .view((0, 0), (n, n))
+            .tr_solve_upper_triangular_mut(&mut self.y)
+        {
             return f64::NAN;
         }
         let ynorm = self.y.norm();
@@ -295,7 +311,10 @@ impl Scratch {
             }
             // Upper bound ‖D⁻¹ Jᵀ r‖ / Δ.
             for j in 0..n {
-                let g = self.jq.view((0, j), (j + 1, 1)).dot(&self.qtr.rows(0, j + 1));
+                let g = self
+                    .jq
+                    .view((0, j), (j + 1, 1))
+                    .dot(&self.qtr.rows(0, j + 1));
                 self.y[j] = g / self.d_perm[j];
             }
             let gnorm = self.y.norm();
@@ -380,7 +399,9 @@ where
     ) -> Result<(LmState, Option<KV>), Error> {
         let x = take(state.take_param(), "parameter vector")?;
         if x.is_empty() {
-            return Err(invalid("Levenberg-Marquardt: parameter vector must not be empty."));
+            return Err(invalid(
+                "Levenberg-Marquardt: parameter vector must not be empty.",
+            ));
         }
         (self.diag, self.delta, self.lambda, self.xnorm) = (DVector::zeros(0), 0.0, 0.0, 0.0);
         (self.accepted_any, self.converged_by) = (false, None);
@@ -393,7 +414,10 @@ where
         }
         if cost <= f64::MIN_POSITIVE {
             self.converged_by = Some("zero residual: cost <= f64::MIN_POSITIVE");
-            return Ok((state.terminate_with(TerminationReason::SolverConverged), None));
+            return Ok((
+                state.terminate_with(TerminationReason::SolverConverged),
+                None,
+            ));
         }
         Ok((state, None))
     }
@@ -436,7 +460,10 @@ where
         if gnorm <= self.gtol {
             self.converged_by = Some("gtol: max_j |cos(J e_j, r)| <= gtol");
             let state = state.param(x).residuals(r);
-            return Ok((state.terminate_with(TerminationReason::SolverConverged), None));
+            return Ok((
+                state.terminate_with(TerminationReason::SolverConverged),
+                None,
+            ));
         }
         for j in 0..n {
             s.d_perm[j] = self.diag[s.perm[j]];
@@ -445,7 +472,10 @@ where
         let (stop, ratio) = loop {
             trials += 1;
             let Some((lambda, pnorm)) = s.lm_step(self.delta, self.lambda) else {
-                break (Some(exit("damped step is not finite (damping overflow).")), 0.0);
+                break (
+                    Some(exit("damped step is not finite (damping overflow).")),
+                    0.0,
+                );
             };
             self.lambda = lambda;
             if !self.accepted_any {
@@ -460,14 +490,25 @@ where
                 break (Some(exit(msg)), 0.0);
             }
             // Actual and predicted relative reductions, both relative to the current cost.
-            let actred = if P1 * fnorm1 < fnorm { 1.0 - (fnorm1 / fnorm).powi(2) } else { -1.0 };
-            let jp = (0..n).map(|i| s.jq.view((i, i), (1, n - i)).dot(&s.z.rows(i, n - i).transpose()));
+            let actred = if P1 * fnorm1 < fnorm {
+                1.0 - (fnorm1 / fnorm).powi(2)
+            } else {
+                -1.0
+            };
+            let jp = (0..n).map(|i| {
+                s.jq.view((i, i), (1, n - i))
+                    .dot(&s.z.rows(i, n - i).transpose())
+            });
             let t1 = (jp.map(|v| v * v).sum::<f64>().sqrt() / fnorm).powi(2);
             let t2 = (lambda.sqrt() * pnorm / fnorm).powi(2);
             let (prered, dirder) = (t1 + 2.0 * t2, -(t1 + t2));
             let ratio = if prered != 0.0 { actred / prered } else { 0.0 };
             if ratio <= P25 {
-                let mut t = if actred >= 0.0 { 0.5 } else { 0.5 * dirder / (dirder + 0.5 * actred) };
+                let mut t = if actred >= 0.0 {
+                    0.5
+                } else {
+                    0.5 * dirder / (dirder + 0.5 * actred)
+                };
                 if P1 * fnorm1 >= fnorm || t < P1 {
                     t = P1;
                 }
@@ -491,7 +532,9 @@ where
             self.converged_by = match (zero, f_conv, x_conv) {
                 (true, _, _) => Some("zero residual: cost <= f64::MIN_POSITIVE"),
                 (_, true, true) => Some("ftol and xtol: relative cost reduction and step size"),
-                (_, true, false) => Some("ftol: actual and predicted relative cost reduction <= ftol"),
+                (_, true, false) => {
+                    Some("ftol: actual and predicted relative cost reduction <= ftol")
+                }
                 (_, false, true) => Some("xtol: trust-region radius <= xtol * (||D x|| + xtol)"),
                 _ => None,
             };
@@ -500,13 +543,21 @@ where
             }
             let eps = f64::EPSILON;
             let stop = if actred.abs() <= eps && prered <= eps && 0.5 * ratio <= 1.0 {
-                Some(exit("ftol is too small; no further reduction in the cost is possible."))
+                Some(exit(
+                    "ftol is too small; no further reduction in the cost is possible.",
+                ))
             } else if self.delta <= eps * self.xnorm {
-                Some(exit("xtol is too small; no further improvement in x is possible."))
+                Some(exit(
+                    "xtol is too small; no further improvement in x is possible.",
+                ))
             } else if gnorm <= eps {
-                Some(exit("gtol is too small; r is orthogonal to the columns of J to machine precision."))
+                Some(exit(
+                    "gtol is too small; r is orthogonal to the columns of J to machine precision.",
+                ))
             } else if !(self.delta.is_finite() && self.delta > 0.0 && self.lambda.is_finite()) {
-                Some(exit("trust-region radius or damping parameter left the finite positive range."))
+                Some(exit(
+                    "trust-region radius or damping parameter left the finite positive range.",
+                ))
             } else {
                 None
             };

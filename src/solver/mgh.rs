@@ -31,7 +31,11 @@ impl Jacobian for TestProblem {
     type Param = DVector<f64>;
     type Jacobian = DMatrix<f64>;
     fn jacobian(&self, x: &DVector<f64>) -> Result<DMatrix<f64>, Error> {
-        Ok(DMatrix::from_row_slice(self.m, self.n, &(self.jac)(x.as_slice())))
+        Ok(DMatrix::from_row_slice(
+            self.m,
+            self.n,
+            &(self.jac)(x.as_slice()),
+        ))
     }
 }
 
@@ -57,7 +61,10 @@ pub(super) fn run(p: TestProblem, lm: LevenbergMarquardt) -> Result<Run, Error> 
         cost: st.get_best_cost(),
         iters: st.get_iter(),
         evals: (count("operator_count"), count("jacobian_count")),
-        reason: st.get_termination_reason().cloned().unwrap_or(TerminationReason::Interrupt),
+        reason: st
+            .get_termination_reason()
+            .cloned()
+            .unwrap_or(TerminationReason::Interrupt),
     })
 }
 
@@ -89,13 +96,20 @@ pub(super) fn reference(p: TestProblem) -> (DVector<f64>, f64) {
         .with_gtol(0.0)
         .with_patience(10_000);
     let (fitted, report) = solver.minimize(Reference(p, DVector::from_column_slice(p.x0)));
-    assert!(report.termination.was_successful(), "{:?}", report.termination);
+    assert!(
+        report.termination.was_successful(),
+        "{:?}",
+        report.termination
+    );
     (fitted.1, report.objective_function)
 }
 
 /// Tight tolerances for comparisons with [`reference`].
 pub(super) fn tight() -> LevenbergMarquardt {
-    LevenbergMarquardt::new().with_ftol(1e-15).and_then(|l| l.with_xtol(1e-15)).unwrap()
+    LevenbergMarquardt::new()
+        .with_ftol(1e-15)
+        .and_then(|l| l.with_xtol(1e-15))
+        .unwrap()
 }
 
 fn rel(a: f64, b: f64) -> f64 {
@@ -109,7 +123,9 @@ fn check(name: &str, p: TestProblem, f_star: f64, f_tol: f64, x_star: &[f64], x_
     let out = run(p, LevenbergMarquardt::new()).unwrap();
     let f = 2.0 * out.cost;
     let (x_ref, c_ref) = reference(p);
-    let dx = (0..p.n).map(|i| rel(out.x[i], x_ref[i])).fold(0.0, f64::max);
+    let dx = (0..p.n)
+        .map(|i| rel(out.x[i], x_ref[i]))
+        .fold(0.0, f64::max);
     eprintln!(
         "{name}: iters {}, evals (r, J) {:?}, f = {f:.6e}, {}; vs lm crate: rel dx {dx:.1e}, f {:.6e}",
         out.iters, out.evals, out.reason, 2.0 * c_ref
@@ -118,49 +134,104 @@ fn check(name: &str, p: TestProblem, f_star: f64, f_tol: f64, x_star: &[f64], x_
     let f_err = if f_star > 0.0 { rel(f, f_star) } else { f };
     assert!(f_err <= f_tol, "{name}: f = {f:e}, expected {f_star:e}");
     for (i, &xs) in x_star.iter().enumerate() {
-        let err = if xs == 0.0 { out.x[i].abs() } else { rel(out.x[i], xs) };
-        assert!(err <= x_tol, "{name}: x[{i}] = {:e}, expected {xs:e}", out.x[i]);
+        let err = if xs == 0.0 {
+            out.x[i].abs()
+        } else {
+            rel(out.x[i], xs)
+        };
+        assert!(
+            err <= x_tol,
+            "{name}: x[{i}] = {:e}, expected {xs:e}",
+            out.x[i]
+        );
     }
 }
 
 fn rosenbrock() -> TestProblem {
     let res = |x: &[f64]| vec![10.0 * (x[1] - x[0] * x[0]), 1.0 - x[0]];
     let jac = |x: &[f64]| vec![-20.0 * x[0], 10.0, -1.0, 0.0];
-    TestProblem { m: 2, n: 2, x0: &[-1.2, 1.0], res, jac }
+    TestProblem {
+        m: 2,
+        n: 2,
+        x0: &[-1.2, 1.0],
+        res,
+        jac,
+    }
 }
 
 fn freudenstein_roth() -> TestProblem {
     let res = |x: &[f64]| {
         let (a, b) = (x[0], x[1]);
-        vec![-13.0 + a + ((5.0 - b) * b - 2.0) * b, -29.0 + a + ((b + 1.0) * b - 14.0) * b]
+        vec![
+            -13.0 + a + ((5.0 - b) * b - 2.0) * b,
+            -29.0 + a + ((b + 1.0) * b - 14.0) * b,
+        ]
     };
     let jac = |x: &[f64]| {
         let b = x[1];
-        vec![1.0, (10.0 - 3.0 * b) * b - 2.0, 1.0, (3.0 * b + 2.0) * b - 14.0]
+        vec![
+            1.0,
+            (10.0 - 3.0 * b) * b - 2.0,
+            1.0,
+            (3.0 * b + 2.0) * b - 14.0,
+        ]
     };
-    TestProblem { m: 2, n: 2, x0: &[0.5, -2.0], res, jac }
+    TestProblem {
+        m: 2,
+        n: 2,
+        x0: &[0.5, -2.0],
+        res,
+        jac,
+    }
 }
 
 fn powell_badly_scaled() -> TestProblem {
-    let res = |x: &[f64]| vec![1e4 * x[0] * x[1] - 1.0, (-x[0]).exp() + (-x[1]).exp() - 1.0001];
+    let res = |x: &[f64]| {
+        vec![
+            1e4 * x[0] * x[1] - 1.0,
+            (-x[0]).exp() + (-x[1]).exp() - 1.0001,
+        ]
+    };
     let jac = |x: &[f64]| vec![1e4 * x[1], 1e4 * x[0], -(-x[0]).exp(), -(-x[1]).exp()];
-    TestProblem { m: 2, n: 2, x0: &[0.0, 1.0], res, jac }
+    TestProblem {
+        m: 2,
+        n: 2,
+        x0: &[0.0, 1.0],
+        res,
+        jac,
+    }
 }
 
 fn brown_badly_scaled() -> TestProblem {
     let res = |x: &[f64]| vec![x[0] - 1e6, x[1] - 2e-6, x[0] * x[1] - 2.0];
     let jac = |x: &[f64]| vec![1.0, 0.0, 0.0, 1.0, x[1], x[0]];
-    TestProblem { m: 3, n: 2, x0: &[1.0, 1.0], res, jac }
+    TestProblem {
+        m: 3,
+        n: 2,
+        x0: &[1.0, 1.0],
+        res,
+        jac,
+    }
 }
 
 fn beale() -> TestProblem {
     const Y: [f64; 3] = [1.5, 2.25, 2.625];
-    let res = |x: &[f64]| (1..=3).map(|i| Y[i - 1] - x[0] * (1.0 - x[1].powi(i as i32))).collect();
+    let res = |x: &[f64]| {
+        (1..=3)
+            .map(|i| Y[i - 1] - x[0] * (1.0 - x[1].powi(i as i32)))
+            .collect()
+    };
     let jac = |x: &[f64]| {
         let row = |i: i32| [x[1].powi(i) - 1.0, x[0] * f64::from(i) * x[1].powi(i - 1)];
         (1..=3).flat_map(row).collect()
     };
-    TestProblem { m: 3, n: 2, x0: &[1.0, 1.0], res, jac }
+    TestProblem {
+        m: 3,
+        n: 2,
+        x0: &[1.0, 1.0],
+        res,
+        jac,
+    }
 }
 
 fn jennrich_sampson() -> TestProblem {
@@ -172,21 +243,47 @@ fn jennrich_sampson() -> TestProblem {
         let row = |i: f64| [-i * (i * x[0]).exp(), -i * (i * x[1]).exp()];
         (1..=10).flat_map(|i| row(f64::from(i))).collect()
     };
-    TestProblem { m: 10, n: 2, x0: &[0.3, 0.4], res, jac }
+    TestProblem {
+        m: 10,
+        n: 2,
+        x0: &[0.3, 0.4],
+        res,
+        jac,
+    }
 }
 
 fn helical_valley() -> TestProblem {
     use std::f64::consts::PI;
     let res = |x: &[f64]| {
         let theta = (x[1] / x[0]).atan() / (2.0 * PI) + if x[0] < 0.0 { 0.5 } else { 0.0 };
-        vec![10.0 * (x[2] - 10.0 * theta), 10.0 * (x[0].hypot(x[1]) - 1.0), x[2]]
+        vec![
+            10.0 * (x[2] - 10.0 * theta),
+            10.0 * (x[0].hypot(x[1]) - 1.0),
+            x[2],
+        ]
     };
     let jac = |x: &[f64]| {
         let (r2, rho) = (x[0] * x[0] + x[1] * x[1], x[0].hypot(x[1]));
         let c = 100.0 / (2.0 * PI * r2);
-        vec![c * x[1], -c * x[0], 10.0, 10.0 * x[0] / rho, 10.0 * x[1] / rho, 0.0, 0.0, 0.0, 1.0]
+        vec![
+            c * x[1],
+            -c * x[0],
+            10.0,
+            10.0 * x[0] / rho,
+            10.0 * x[1] / rho,
+            0.0,
+            0.0,
+            0.0,
+            1.0,
+        ]
     };
-    TestProblem { m: 3, n: 3, x0: &[-1.0, 0.0, 0.0], res, jac }
+    TestProblem {
+        m: 3,
+        n: 3,
+        x0: &[-1.0, 0.0, 0.0],
+        res,
+        jac,
+    }
 }
 
 const BARD_Y: [f64; 15] = [
@@ -215,7 +312,13 @@ fn bard() -> TestProblem {
         };
         (1..=15).flat_map(row).collect()
     };
-    TestProblem { m: 15, n: 3, x0: &[1.0, 1.0, 1.0], res, jac }
+    TestProblem {
+        m: 15,
+        n: 3,
+        x0: &[1.0, 1.0, 1.0],
+        res,
+        jac,
+    }
 }
 
 const MEYER_Y: [f64; 16] = [
@@ -240,38 +343,88 @@ fn meyer() -> TestProblem {
         };
         (1..=16).flat_map(row).collect()
     };
-    TestProblem { m: 16, n: 3, x0: &[0.02, 4000.0, 250.0], res, jac }
+    TestProblem {
+        m: 16,
+        n: 3,
+        x0: &[0.02, 4000.0, 250.0],
+        res,
+        jac,
+    }
 }
 
 fn box_3d() -> TestProblem {
     let res = |x: &[f64]| {
-        let r = |t: f64| (-t * x[0]).exp() - (-t * x[1]).exp() - x[2] * ((-t).exp() - (-10.0 * t).exp());
+        let r = |t: f64| {
+            (-t * x[0]).exp() - (-t * x[1]).exp() - x[2] * ((-t).exp() - (-10.0 * t).exp())
+        };
         (1..=10).map(|i| r(0.1 * f64::from(i))).collect()
     };
     let jac = |x: &[f64]| {
-        let row = |t: f64| [-t * (-t * x[0]).exp(), t * (-t * x[1]).exp(), (-10.0 * t).exp() - (-t).exp()];
+        let row = |t: f64| {
+            [
+                -t * (-t * x[0]).exp(),
+                t * (-t * x[1]).exp(),
+                (-10.0 * t).exp() - (-t).exp(),
+            ]
+        };
         (1..=10).flat_map(|i| row(0.1 * f64::from(i))).collect()
     };
-    TestProblem { m: 10, n: 3, x0: &[0.0, 10.0, 20.0], res, jac }
+    TestProblem {
+        m: 10,
+        n: 3,
+        x0: &[0.0, 10.0, 20.0],
+        res,
+        jac,
+    }
 }
 
 fn powell_singular() -> TestProblem {
     let res = |x: &[f64]| {
         let (s5, s10) = (5f64.sqrt(), 10f64.sqrt());
-        vec![x[0] + 10.0 * x[1], s5 * (x[2] - x[3]), (x[1] - 2.0 * x[2]).powi(2), s10 * (x[0] - x[3]).powi(2)]
+        vec![
+            x[0] + 10.0 * x[1],
+            s5 * (x[2] - x[3]),
+            (x[1] - 2.0 * x[2]).powi(2),
+            s10 * (x[0] - x[3]).powi(2),
+        ]
     };
     let jac = |x: &[f64]| {
         let (s5, s10) = (5f64.sqrt(), 10f64.sqrt());
         let (a, b) = (2.0 * (x[1] - 2.0 * x[2]), 2.0 * s10 * (x[0] - x[3]));
-        vec![1.0, 10.0, 0.0, 0.0, 0.0, 0.0, s5, -s5, 0.0, a, -2.0 * a, 0.0, b, 0.0, 0.0, -b]
+        vec![
+            1.0,
+            10.0,
+            0.0,
+            0.0,
+            0.0,
+            0.0,
+            s5,
+            -s5,
+            0.0,
+            a,
+            -2.0 * a,
+            0.0,
+            b,
+            0.0,
+            0.0,
+            -b,
+        ]
     };
-    TestProblem { m: 4, n: 4, x0: &[3.0, -1.0, 0.0, 1.0], res, jac }
+    TestProblem {
+        m: 4,
+        n: 4,
+        x0: &[3.0, -1.0, 0.0, 1.0],
+        res,
+        jac,
+    }
 }
 
 const KO_Y: [f64; 11] = [
     0.1957, 0.1947, 0.1735, 0.1600, 0.0844, 0.0627, 0.0456, 0.0342, 0.0323, 0.0235, 0.0246,
 ];
-const KO_U: [f64; 11] = [4.0, 2.0, 1.0, 0.5, 0.25, 0.167, 0.125, 0.1, 0.0833, 0.0714, 0.0625];
+const KO_U: [f64; 11] = [
+    4.0, 2.0, 1.0, 0.5, 0.25, 0.167, 0.125, 0.1, 0.0833, 0.0714, 0.0625,
+];
 
 fn kowalik_osborne() -> TestProblem {
     let res = |x: &[f64]| {
@@ -286,7 +439,13 @@ fn kowalik_osborne() -> TestProblem {
         };
         KO_U.iter().flat_map(row).collect()
     };
-    TestProblem { m: 11, n: 4, x0: &[0.25, 0.39, 0.415, 0.39], res, jac }
+    TestProblem {
+        m: 11,
+        n: 4,
+        x0: &[0.25, 0.39, 0.415, 0.39],
+        res,
+        jac,
+    }
 }
 
 fn all() -> Vec<(&'static str, TestProblem)> {
@@ -333,18 +492,39 @@ fn mgh_rosenbrock() {
 fn mgh_freudenstein_roth_local_minimum() {
     // From the standard start MINPACK reaches the local minimum f = 48.9842536792400.
     let x = [11.4127789869462, -0.896805253274477];
-    check("Freudenstein-Roth", freudenstein_roth(), 48.98425367924, 1e-10, &x, 1e-8);
+    check(
+        "Freudenstein-Roth",
+        freudenstein_roth(),
+        48.98425367924,
+        1e-10,
+        &x,
+        1e-8,
+    );
 }
 
 #[test]
 fn mgh_powell_badly_scaled() {
     let x = [1.09815932969975e-5, 9.10614673986700];
-    check("Powell badly scaled", powell_badly_scaled(), 0.0, 1e-20, &x, 1e-8);
+    check(
+        "Powell badly scaled",
+        powell_badly_scaled(),
+        0.0,
+        1e-20,
+        &x,
+        1e-8,
+    );
 }
 
 #[test]
 fn mgh_brown_badly_scaled() {
-    check("Brown badly scaled", brown_badly_scaled(), 0.0, 1e-20, &[1e6, 2e-6], 1e-10);
+    check(
+        "Brown badly scaled",
+        brown_badly_scaled(),
+        0.0,
+        1e-20,
+        &[1e6, 2e-6],
+        1e-10,
+    );
 }
 
 #[test]
@@ -355,12 +535,26 @@ fn mgh_beale() {
 #[test]
 fn mgh_jennrich_sampson() {
     let x = [0.257824976181155, 0.257824976181155];
-    check("Jennrich-Sampson", jennrich_sampson(), 124.362182355, 1e-10, &x, 1e-6);
+    check(
+        "Jennrich-Sampson",
+        jennrich_sampson(),
+        124.362182355,
+        1e-10,
+        &x,
+        1e-6,
+    );
 }
 
 #[test]
 fn mgh_helical_valley() {
-    check("Helical valley", helical_valley(), 0.0, 1e-20, &[1.0, 0.0, 0.0], 1e-10);
+    check(
+        "Helical valley",
+        helical_valley(),
+        0.0,
+        1e-20,
+        &[1.0, 0.0, 0.0],
+        1e-10,
+    );
 }
 
 #[test]
@@ -383,11 +577,25 @@ fn mgh_box_3d() {
 #[test]
 fn mgh_powell_singular() {
     // Singular Jacobian at x* = 0: only linear convergence, so f and x are checked loosely.
-    check("Powell singular", powell_singular(), 0.0, 1e-20, &[0.0; 4], 1e-5);
+    check(
+        "Powell singular",
+        powell_singular(),
+        0.0,
+        1e-20,
+        &[0.0; 4],
+        1e-5,
+    );
 }
 
 #[test]
 fn mgh_kowalik_osborne() {
     let x = [0.192806935, 0.191282322, 0.123056508, 0.136062327];
-    check("Kowalik-Osborne", kowalik_osborne(), 3.07505603849e-4, 1e-9, &x, 1e-6);
+    check(
+        "Kowalik-Osborne",
+        kowalik_osborne(),
+        3.07505603849e-4,
+        1e-9,
+        &x,
+        1e-6,
+    );
 }

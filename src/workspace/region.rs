@@ -108,9 +108,11 @@ impl Workspace {
     /// Is the pose inside the region, at least `margin` from its boundary, and within the ranges?
     pub fn contains(&self, pose: &[f64; 6]) -> bool {
         self.region.depth([pose[0], pose[1]]) >= self.margin
-            && self.ranges.iter().zip(pose).all(|(range, value)| {
-                range.is_none_or(|[lo, hi]| (lo..=hi).contains(value))
-            })
+            && self
+                .ranges
+                .iter()
+                .zip(pose)
+                .all(|(range, value)| range.is_none_or(|[lo, hi]| (lo..=hi).contains(value)))
     }
 
     /// A uniformly random pose of the usable workspace (x, y by rejection in the bounding box,
@@ -132,5 +134,52 @@ impl Workspace {
             }
         }
         None
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn depth_is_positive_inside_and_measures_the_distance_to_the_boundary() {
+        let disc = Region::Disc {
+            centre: [0.0, 1.0],
+            radius: 0.5,
+        };
+        assert!((disc.depth([0.0, 1.2]) - 0.3).abs() < 1e-12);
+        assert!(disc.depth([0.0, 2.0]) < 0.0);
+        let square = Region::Box {
+            min: [0.0, 0.0],
+            max: [1.0, 2.0],
+        };
+        assert!((square.depth([0.25, 1.0]) - 0.25).abs() < 1e-12);
+        let triangle = Region::Polygon {
+            vertices: vec![[0.0, 0.0], [2.0, 0.0], [0.0, 2.0]],
+        };
+        assert!((triangle.depth([0.5, 0.25]) - 0.25).abs() < 1e-12);
+        assert!((triangle.depth([2.0, 2.0]) + 2.0f64.sqrt()).abs() < 1e-12);
+    }
+
+    #[test]
+    fn samples_respect_margin_and_ranges() {
+        use rand::SeedableRng;
+        let mut ranges = [None; 6];
+        ranges[5] = Some([-0.5, 0.5]);
+        let workspace = Workspace {
+            region: Region::Disc {
+                centre: [0.0, 0.0],
+                radius: 0.2,
+            },
+            margin: 0.05,
+            ranges,
+            grid: None,
+        };
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(1);
+        for _ in 0..200 {
+            let pose = workspace.sample(&[0.0; 6], &mut rng).unwrap();
+            assert!(pose[0].hypot(pose[1]) <= 0.15 + 1e-12);
+            assert!(pose[5].abs() <= 0.5);
+        }
     }
 }

@@ -39,19 +39,59 @@ fn identification_jacobian_rows_match_the_closed_form_golden_rows() {
     use legwise::identify::jacobian::reading_gradient;
     let mech = bundled("5r.yaml");
     let cases = [
-        (MIW_CENTRE, [
-            [-0.2653426423, 1.3594794944, 1.2022875474, 0.6345779299, -2.2528832244, -1.0],
-            [-0.2653426423, 1.3594794944, -1.2022875474, 0.6345779299, 2.2528832244, 1.0],
-        ]),
-        ([0.2, 1.3, 0.0, 0.0, 0.0, 0.0], [
-            [0.3398194472, 1.3759560438, 1.1641703502, 0.7334592218, -1.8834508571, -1.0],
-            [0.0060606687, 1.3333471077, -0.9782967393, 0.9059525370, 2.3132736910, 1.0],
-        ]),
+        (
+            MIW_CENTRE,
+            [
+                [
+                    -0.2653426423,
+                    1.3594794944,
+                    1.2022875474,
+                    0.6345779299,
+                    -2.2528832244,
+                    -1.0,
+                ],
+                [
+                    -0.2653426423,
+                    1.3594794944,
+                    -1.2022875474,
+                    0.6345779299,
+                    2.2528832244,
+                    1.0,
+                ],
+            ],
+        ),
+        (
+            [0.2, 1.3, 0.0, 0.0, 0.0, 0.0],
+            [
+                [
+                    0.3398194472,
+                    1.3759560438,
+                    1.1641703502,
+                    0.7334592218,
+                    -1.8834508571,
+                    -1.0,
+                ],
+                [
+                    0.0060606687,
+                    1.3333471077,
+                    -0.9782967393,
+                    0.9059525370,
+                    2.3132736910,
+                    1.0,
+                ],
+            ],
+        ),
     ];
     for (pose, rows) in cases {
         for (leg, row) in mech.legs.iter().zip(rows) {
-            let (_, gradient) =
-                reading_gradient(leg, &leg.nominal(), &leg.identified(), &pose, &mech.home_pose).unwrap();
+            let (_, gradient) = reading_gradient(
+                leg,
+                &leg.nominal(),
+                &leg.identified(),
+                &pose,
+                &mech.home_pose,
+            )
+            .unwrap();
             for (g, expected) in gradient.iter().zip(row) {
                 assert_relative_eq!(*g, expected, epsilon = 1e-9);
             }

@@ -18,7 +18,8 @@ fn dual_jacobian_matches_central_differences_on_every_leg() {
             for leg in &mech.legs {
                 let phi = leg.nominal();
                 let columns: Vec<usize> = (0..phi.len()).collect();
-                let Ok((value, gradient)) = reading_gradient(leg, &phi, &columns, &pose, &home) else {
+                let Ok((value, gradient)) = reading_gradient(leg, &phi, &columns, &pose, &home)
+                else {
                     continue;
                 };
                 let base = predict_reading(leg, &phi, &pose, &home).unwrap();
@@ -36,7 +37,9 @@ fn dual_jacobian_matches_central_differences_on_every_leg() {
                     assert!(
                         (g - difference).abs() <= 1e-6 * scale,
                         "{} {} ∂ψ/∂{}: dual {g} vs central difference {difference} at {pose:?}",
-                        mech.name, leg.name, leg.params[j].name
+                        mech.name,
+                        leg.name,
+                        leg.params[j].name
                     );
                 }
             }

@@ -1,6 +1,7 @@
 //! One integration binary for all legwise tests.
 mod golden;
 mod jacobian;
-mod solvers_agree;
+mod kinematics;
 mod recovery;
+mod solvers_agree;
 mod support;

@@ -14,14 +14,23 @@ use crate::support::{bundled, bundled_models};
 fn shared_only(data: &MeasurementSet) -> MeasurementSet {
     MeasurementSet {
         source: None,
-        poses: data.poses.iter().filter(|p| p.leg.is_none()).cloned().collect(),
+        poses: data
+            .poses
+            .iter()
+            .filter(|p| p.leg.is_none())
+            .cloned()
+            .collect(),
     }
 }
 
 #[test]
 fn divide_and_conquer_equals_traditional_on_the_same_poses() {
     for mech in bundled_models() {
-        let data = shared_only(&simulate(&mech, SimulationOptions::default()).unwrap().measurements);
+        let data = shared_only(
+            &simulate(&mech, SimulationOptions::default())
+                .unwrap()
+                .measurements,
+        );
         for solver in [SolverKind::GaussNewton, SolverKind::LevenbergMarquardt] {
             let dc = identify(&mech, &data, Strategy::DivideAndConquer, solver).unwrap();
             let all = identify(&mech, &data, Strategy::Traditional, solver).unwrap();
@@ -30,7 +39,10 @@ fn divide_and_conquer_equals_traditional_on_the_same_poses() {
                     assert!(
                         (p.estimate - q.estimate).abs() <= 1e-10 * (1.0 + p.estimate.abs()),
                         "{} {solver:?} {}: D&C {} vs traditional {}",
-                        mech.name, p.name, p.estimate, q.estimate
+                        mech.name,
+                        p.name,
+                        p.estimate,
+                        q.estimate
                     );
                     let (sp, sq) = (p.std.unwrap(), q.std.unwrap());
                     assert!((sp - sq).abs() <= 1e-8 * sp, "{}: std {sp} vs {sq}", p.name);
@@ -43,7 +55,11 @@ fn divide_and_conquer_equals_traditional_on_the_same_poses() {
 #[test]
 fn the_stacked_jacobian_is_block_diagonal() {
     let mech = bundled("5r.yaml");
-    let data = shared_only(&simulate(&mech, SimulationOptions::default()).unwrap().measurements);
+    let data = shared_only(
+        &simulate(&mech, SimulationOptions::default())
+            .unwrap()
+            .measurements,
+    );
     let legs: Vec<usize> = (0..mech.legs.len()).collect();
     let problem = IdentificationProblem::new(&mech, &legs, data.shared_blocks(legs.len()));
     let (_, c) = problem.residuals_and_jacobian(&problem.nominal()).unwrap();
@@ -52,9 +68,17 @@ fn the_stacked_jacobian_is_block_diagonal() {
             for k in 0..slot.columns.len() {
                 let value = c[(i, slot.offset + k)];
                 if slot.leg == block.leg {
-                    assert!(value != 0.0 || k == usize::MAX, "own-leg column is structurally non-zero");
+                    assert!(
+                        value != 0.0 || k == usize::MAX,
+                        "own-leg column is structurally non-zero"
+                    );
                 } else {
-                    assert_eq!(value.to_bits(), 0.0f64.to_bits(), "row {i} touches leg {}", slot.leg);
+                    assert_eq!(
+                        value.to_bits(),
+                        0.0f64.to_bits(),
+                        "row {i} touches leg {}",
+                        slot.leg
+                    );
                 }
             }
         }
@@ -82,14 +106,19 @@ impl levenberg_marquardt::LeastSquaresProblem<f64, Dyn, Dyn> for MinpackLeg<'_> 
         self.problem.residuals(&self.x).ok()
     }
     fn jacobian(&self) -> Option<DMatrix<f64>> {
-        self.problem.residuals_and_jacobian(&self.x).ok().map(|(_, j)| j)
+        self.problem
+            .residuals_and_jacobian(&self.x)
+            .ok()
+            .map(|(_, j)| j)
     }
 }
 
 #[test]
 fn levenberg_marquardt_agrees_with_the_minpack_port_on_the_noisy_5r_leg() {
     let mech = bundled("5r.yaml");
-    let data = simulate(&mech, SimulationOptions::default()).unwrap().measurements;
+    let data = simulate(&mech, SimulationOptions::default())
+        .unwrap()
+        .measurements;
     for leg in 0..mech.legs.len() {
         let problem = IdentificationProblem::new(&mech, &[leg], data.leg_blocks(leg));
         let x0 = problem.nominal();
@@ -98,10 +127,20 @@ fn levenberg_marquardt_agrees_with_the_minpack_port_on_the_noisy_5r_leg() {
             .with_ftol(1e-15)
             .with_xtol(1e-15)
             .with_gtol(0.0)
-            .minimize(MinpackLeg { problem: &problem, x: x0 });
-        assert!(report.termination.was_successful(), "{:?}", report.termination);
+            .minimize(MinpackLeg {
+                problem: &problem,
+                x: x0,
+            });
+        assert!(
+            report.termination.was_successful(),
+            "{:?}",
+            report.termination
+        );
         for (a, b) in ours.x.iter().zip(minpack.x.iter()) {
-            assert!((a - b).abs() <= 1e-10 * (1.0 + b.abs()), "leg {leg}: LM {a} vs MINPACK {b}");
+            assert!(
+                (a - b).abs() <= 1e-10 * (1.0 + b.abs()),
+                "leg {leg}: LM {a} vs MINPACK {b}"
+            );
         }
     }
 }

@@ -22,5 +22,8 @@ pub(crate) fn bundled_models() -> Vec<Mechanism> {
         .filter(|p| p.extension().is_some_and(|e| e == "yaml"))
         .collect();
     paths.sort();
-    paths.iter().map(|p| Mechanism::load(p).expect("bundled model loads")).collect()
+    paths
+        .iter()
+        .map(|p| Mechanism::load(p).expect("bundled model loads"))
+        .collect()
 }
