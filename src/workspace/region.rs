@@ -1,6 +1,8 @@
 //! The usable workspace: a planar region for the end-effector point, a safety margin, and ranges
 //! for the other measured coordinates.
 
+use parry2d_f64::shape::{Ball, Cuboid};
+use parry2d_f64::utils::point_in_poly2d;
 use rand::Rng;
 
 /// A planar region in x, y (metres).
@@ -28,32 +30,27 @@ pub enum Region {
 }
 
 impl Region {
-    /// Signed distance from `point` to the boundary: positive inside, metres.
+    /// Signed distance from `point` to the boundary: positive inside, metres (parry queries).
     pub fn depth(&self, point: [f64; 2]) -> f64 {
         match self {
             Region::Disc { centre, radius } => {
-                radius - ((point[0] - centre[0]).powi(2) + (point[1] - centre[1]).powi(2)).sqrt()
+                let local = geometry::vector(point) - geometry::vector(*centre);
+                geometry::signed_depth(&Ball::new(*radius), local)
             }
-            Region::Box { min, max } => (point[0] - min[0])
-                .min(max[0] - point[0])
-                .min(point[1] - min[1])
-                .min(max[1] - point[1]),
+            Region::Box { min, max } => {
+                let half = [(max[0] - min[0]) / 2.0, (max[1] - min[1]) / 2.0];
+                let centre = [min[0] + half[0], min[1] + half[1]];
+                let local = geometry::vector(point) - geometry::vector(centre);
+                geometry::signed_depth(&Cuboid::new(geometry::vector(half)), local)
+            }
             Region::Polygon { vertices } => {
-                let mut inside = false;
-                let mut nearest = f64::INFINITY;
-                for (i, a) in vertices.iter().enumerate() {
-                    let b = vertices[(i + 1) % vertices.len()];
-                    if (a[1] > point[1]) != (b[1] > point[1])
-                        && point[0] < a[0] + (point[1] - a[1]) * (b[0] - a[0]) / (b[1] - a[1])
-                    {
-                        inside = !inside;
-                    }
-                    nearest = nearest.min(segment_distance(point, *a, b));
-                }
-                if inside {
-                    nearest
+                let outline = geometry::closed_polyline(vertices);
+                let distance = geometry::distance_to(&outline, point);
+                let corners: Vec<_> = vertices.iter().map(|v| geometry::vector(*v)).collect();
+                if point_in_poly2d(geometry::vector(point), &corners) {
+                    distance
                 } else {
-                    -nearest
+                    -distance
                 }
             }
         }
@@ -80,15 +77,45 @@ impl Region {
     }
 }
 
-fn segment_distance(p: [f64; 2], a: [f64; 2], b: [f64; 2]) -> f64 {
-    let (dx, dy) = (b[0] - a[0], b[1] - a[1]);
-    let length2 = dx * dx + dy * dy;
-    let t = if length2 > 0.0 {
-        (((p[0] - a[0]) * dx + (p[1] - a[1]) * dy) / length2).clamp(0.0, 1.0)
-    } else {
-        0.0
-    };
-    ((p[0] - a[0] - t * dx).powi(2) + (p[1] - a[1] - t * dy).powi(2)).sqrt()
+/// parry at the boundary: conversions between `[f64; 2]` and parry's glam vectors, and the
+/// shape queries. The only place in legwise that touches parry types.
+pub(crate) mod geometry {
+    use parry2d_f64::math::Vector;
+    use parry2d_f64::query::PointQuery;
+    use parry2d_f64::shape::Polyline;
+
+    /// `[x, y]` → parry vector.
+    pub(crate) fn vector(p: [f64; 2]) -> Vector {
+        Vector::new(p[0], p[1])
+    }
+
+    /// Distance to the boundary of a solid shape centred at the origin, positive inside.
+    pub(crate) fn signed_depth(shape: &impl PointQuery, local: Vector) -> f64 {
+        let distance = unsigned_distance(shape, local);
+        if shape.contains_local_point(local) {
+            distance
+        } else {
+            -distance
+        }
+    }
+
+    /// A closed polyline through `points` (last joined to first).
+    pub(crate) fn closed_polyline(points: &[[f64; 2]]) -> Polyline {
+        let n = points.len() as u32;
+        let indices = (0..n).map(|i| [i, (i + 1) % n]).collect();
+        Polyline::new(points.iter().map(|p| vector(*p)).collect(), Some(indices))
+    }
+
+    /// Distance from `point` to the polyline, metres.
+    pub(crate) fn distance_to(polyline: &Polyline, point: [f64; 2]) -> f64 {
+        unsigned_distance(polyline, vector(point))
+    }
+
+    /// Distance to the shape's boundary (parry's `distance_to_local_point` is signed for some
+    /// shapes when not solid: use the projection instead).
+    fn unsigned_distance(shape: &impl PointQuery, local: Vector) -> f64 {
+        (local - shape.project_local_point(local, false).point).length()
+    }
 }
 
 /// The usable workspace of a mechanism.
