@@ -124,6 +124,14 @@ pub enum KinematicsError {
     /// Forward kinematics reached another assembly mode (or a parallel singularity) than home.
     #[error("forward kinematics reaches another assembly mode than the home configuration (parallel singularity crossed)")]
     AssemblyModeChange,
+    /// The parallel Jacobian is not square: legs and measured coordinates differ in number.
+    #[error("the parallel (type II) measure needs as many legs ({legs}) as measured coordinates ({coordinates})")]
+    NotSquare {
+        /// Number of legs.
+        legs: usize,
+        /// Number of measured coordinates.
+        coordinates: usize,
+    },
     /// A non-finite number appeared (parameters or pose hold NaN or infinity).
     #[error("leg `{leg}`: non-finite value in the parameters or the pose")]
     NonFinite {

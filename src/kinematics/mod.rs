@@ -2,3 +2,4 @@
 pub mod chain;
 pub mod inverse;
 pub mod platform;
+pub mod singularity;

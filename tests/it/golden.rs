@@ -98,3 +98,27 @@ fn identification_jacobian_rows_match_the_closed_form_golden_rows() {
         }
     }
 }
+
+#[test]
+fn singularity_measures_match_the_closed_forms_of_the_5r() {
+    use legwise::kinematics::singularity::{serial_measure, ParallelMeasure};
+    let mech = bundled("5r.yaml");
+    let nominal: Vec<Vec<f64>> = mech.legs.iter().map(|l| l.nominal()).collect();
+    let parallel = ParallelMeasure::new(&mech, nominal.clone()).unwrap();
+    // At the MIW centre: B1 = (−0.97281, 0.58219), B2 = (0.97281, 0.58219) (algorithms.md §1.4).
+    let (p, b1, b2): ([f64; 2], [f64; 2], [f64; 2]) =
+        ([0.0, 1.0956521739], [-0.97281, 0.58219], [0.97281, 0.58219]);
+    let u1 = [(p[0] - b1[0]) / 1.1, (p[1] - b1[1]) / 1.1];
+    let u2 = [(p[0] - b2[0]) / 1.1, (p[1] - b2[1]) / 1.1];
+    let s_ii = (u1[0] * u2[1] - u1[1] * u2[0]).abs();
+    assert_relative_eq!(parallel.at(&MIW_CENTRE).unwrap(), s_ii, epsilon = 1e-4);
+    // Serial measure of leg 1: l sin β / |P − A1|, β between A1→B1 and B1→P.
+    let a1b1 = [(b1[0] + 0.5) / 0.75, b1[1] / 0.75];
+    let sin_beta = (a1b1[0] * u1[1] - a1b1[1] * u1[0]).abs();
+    let reach = (0.5f64.powi(2) + p[1].powi(2)).sqrt();
+    let serial = serial_measure(&mech, 0, &nominal[0], &MIW_CENTRE).unwrap();
+    assert_relative_eq!(serial, 0.75 * sin_beta / reach, epsilon = 1e-4);
+    // The type-II locus crosses the symmetry axis at (0, 0.45) (algorithms.md §1.5).
+    let near = |y: f64| parallel.at(&[0.0, y, 0.0, 0.0, 0.0, 0.0]).unwrap();
+    assert!(near(0.46) > 0.0 && near(0.44) < 0.0 && near(0.4501).abs() < 1e-3);
+}
