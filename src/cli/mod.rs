@@ -1,6 +1,7 @@
 //! The command line: a thin shell over the library (clap derive).
 mod identify;
 mod simulate;
+mod workspace;
 
 use std::path::PathBuf;
 
@@ -25,6 +26,22 @@ pub enum Command {
     Identify(IdentifyArgs),
     /// Simulate an identification experiment and write it as a measurement CSV.
     Simulate(SimulateArgs),
+    /// Compute the singularity-free region and its maximal inscribed workspace (MIW), with a picture.
+    Workspace(WorkspaceArgs),
+}
+
+/// Options of `legwise workspace`.
+#[derive(Debug, clap::Args)]
+pub struct WorkspaceArgs {
+    /// The model file (YAML).
+    #[arg(long)]
+    pub model: PathBuf,
+    /// Where to write the SVG picture (default: `<model name>-workspace.svg`).
+    #[arg(long)]
+    pub svg: Option<PathBuf>,
+    /// Rays cast to trace the region's boundary.
+    #[arg(long, default_value_t = 1440)]
+    pub rays: usize,
 }
 
 /// Options of `legwise identify`.
@@ -144,5 +161,6 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
     match cli.command {
         Command::Identify(args) => identify::run(&args),
         Command::Simulate(args) => simulate::run(&args),
+        Command::Workspace(args) => workspace::run(&args),
     }
 }

@@ -1,2 +1,4 @@
 //! The robot's usable workspace (region, margin, ranges) and candidate poses.
+pub mod miw;
+pub mod picture;
 pub mod region;

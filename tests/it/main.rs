@@ -5,3 +5,4 @@ mod kinematics;
 mod recovery;
 mod solvers_agree;
 mod support;
+mod workspace;

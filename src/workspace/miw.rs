@@ -1,0 +1,208 @@
+//! The maximal inscribed workspace (MIW): the largest disc inside the singularity-free region
+//! of the home working and assembly modes (Liu, Wang & Pritschow 2006), for a mechanism whose
+//! end-effector point is measured in x, y (other coordinates held at their home values).
+//!
+//! Method: the region is `{P : every leg reaches P on its home branch, every serial measure > 0,
+//! the parallel measure > 0}` (signed by the home modes, see
+//! [`crate::kinematics::singularity`]). Its boundary is found along rays cast from a centre
+//! (march, then bisection to 1e-12 m), joined into a closed parry polyline; the radius of the
+//! disc about `c` is the distance from `c` to that polyline. Nelder–Mead (argmin) maximises it;
+//! the rays are re-cast from the new centre until the centre settles.
+
+use argmin::core::{CostFunction, Error as ArgminError, Executor, State};
+use argmin::solver::neldermead::NelderMead;
+use nalgebra::Vector2;
+
+use super::region::geometry;
+use crate::error::{Error, KinematicsError, Result};
+use crate::kinematics::singularity::{serial_measure, ParallelMeasure};
+use crate::model::Mechanism;
+
+/// Options of the MIW computation.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct MiwOptions {
+    /// Rays cast per pass.
+    pub rays: usize,
+    /// Marching step along a ray, metres (the bisection then refines to 1e-12 m).
+    pub step: f64,
+}
+
+impl MiwOptions {
+    /// Defaults scaled to the mechanism: 1440 rays, a step of 1/200 of the usable region's size.
+    pub fn for_mechanism(mechanism: &Mechanism) -> Self {
+        let (lo, hi) = mechanism.workspace.region.bounds();
+        Self {
+            rays: 1440,
+            step: (hi[0] - lo[0]).max(hi[1] - lo[1]) / 200.0,
+        }
+    }
+}
+
+/// The singularity-free region, sampled.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Miw {
+    /// Centre of the maximal inscribed circle, metres.
+    pub centre: [f64; 2],
+    /// Its radius, metres.
+    pub radius: f64,
+    /// Boundary points of the singularity-free region seen from the centre, metres.
+    pub boundary: Vec<[f64; 2]>,
+}
+
+/// How far inside the singularity-free region a point is, as a scale-free measure: the smallest
+/// of the legs' serial measures and the parallel measure; −1 where a leg cannot reach.
+#[derive(Debug, Clone)]
+pub struct SingularityMargin<'a> {
+    mechanism: &'a Mechanism,
+    nominal: Vec<Vec<f64>>,
+    parallel: ParallelMeasure<'a>,
+}
+
+impl<'a> SingularityMargin<'a> {
+    /// The margin function for the nominal parameters.
+    ///
+    /// # Errors
+    /// The home pose is singular or unreachable, or the parallel measure is undefined.
+    pub fn new(mechanism: &'a Mechanism) -> Result<Self> {
+        let nominal: Vec<Vec<f64>> = mechanism.legs.iter().map(|l| l.nominal()).collect();
+        let parallel = ParallelMeasure::new(mechanism, nominal.clone())?;
+        Ok(Self {
+            mechanism,
+            nominal,
+            parallel,
+        })
+    }
+
+    /// The pose at point `p` (other coordinates at home).
+    pub fn pose(&self, p: [f64; 2]) -> [f64; 6] {
+        let mut pose = self.mechanism.home_pose;
+        pose[0] = p[0];
+        pose[1] = p[1];
+        pose
+    }
+
+    /// `(smallest serial measure, parallel measure)` at `p`, or an error where a leg fails.
+    ///
+    /// # Errors
+    /// A leg cannot reach `p` on its home branch.
+    pub fn measures(&self, p: [f64; 2]) -> Result<(f64, f64), KinematicsError> {
+        let pose = self.pose(p);
+        let mut serial = f64::INFINITY;
+        for (l, phi) in self.nominal.iter().enumerate() {
+            serial = serial.min(serial_measure(self.mechanism, l, phi, &pose)?);
+        }
+        Ok((serial, self.parallel.at(&pose)?))
+    }
+
+    /// The margin at `p`: positive inside the singularity-free region.
+    pub fn at(&self, p: [f64; 2]) -> f64 {
+        self.measures(p)
+            .map_or(-1.0, |(serial, parallel)| serial.min(parallel))
+    }
+}
+
+/// Computes the MIW of a mechanism measured in x and y.
+///
+/// # Errors
+/// The home point is not inside a singularity-free region, or the measures are undefined.
+pub fn maximal_inscribed_workspace(mechanism: &Mechanism, options: MiwOptions) -> Result<Miw> {
+    let margin = SingularityMargin::new(mechanism)?;
+    let mut centre = [mechanism.home_pose[0], mechanism.home_pose[1]];
+    if margin.at(centre) <= 0.0 {
+        return Err(Error::Invalid(format!(
+            "{}: the home pose is not inside a singularity-free region",
+            mechanism.model_path.display()
+        )));
+    }
+    let mut result = None;
+    for _ in 0..4 {
+        let boundary = cast_rays(&margin, centre, options);
+        let polyline = geometry::closed_polyline(&boundary);
+        let radius_at = |c: [f64; 2]| {
+            if margin.at(c) > 0.0 {
+                geometry::distance_to(&polyline, c)
+            } else {
+                0.0
+            }
+        };
+        let best = maximise(&radius_at, centre, options.step)?;
+        let moved = ((best[0] - centre[0]).powi(2) + (best[1] - centre[1]).powi(2)).sqrt();
+        centre = best;
+        let radius = radius_at(best);
+        result = Some(Miw {
+            centre,
+            radius,
+            boundary,
+        });
+        if moved < 1e-9 {
+            break;
+        }
+    }
+    result.ok_or_else(|| Error::Invalid("MIW: no pass ran".into()))
+}
+
+/// The first boundary crossing along each of `options.rays` rays from `centre`.
+fn cast_rays(
+    margin: &SingularityMargin<'_>,
+    centre: [f64; 2],
+    options: MiwOptions,
+) -> Vec<[f64; 2]> {
+    (0..options.rays)
+        .map(|k| {
+            let angle = std::f64::consts::TAU * k as f64 / options.rays as f64;
+            let direction = [angle.cos(), angle.sin()];
+            let at = |t: f64| [centre[0] + t * direction[0], centre[1] + t * direction[1]];
+            let (mut inside, mut outside) = (0.0, options.step);
+            for _ in 0..200_000 {
+                if margin.at(at(outside)) <= 0.0 {
+                    break;
+                }
+                inside = outside;
+                outside += options.step;
+            }
+            while outside - inside > 1e-12 {
+                let middle = 0.5 * (inside + outside);
+                if margin.at(at(middle)) > 0.0 {
+                    inside = middle;
+                } else {
+                    outside = middle;
+                }
+            }
+            at(inside)
+        })
+        .collect()
+}
+
+struct NegativeRadius<'f> {
+    radius: &'f dyn Fn([f64; 2]) -> f64,
+}
+
+impl CostFunction for NegativeRadius<'_> {
+    type Param = Vector2<f64>;
+    type Output = f64;
+
+    fn cost(&self, c: &Self::Param) -> Result<f64, ArgminError> {
+        Ok(-(self.radius)([c[0], c[1]]))
+    }
+}
+
+fn maximise(radius: &dyn Fn([f64; 2]) -> f64, start: [f64; 2], scale: f64) -> Result<[f64; 2]> {
+    let simplex = vec![
+        Vector2::new(start[0], start[1]),
+        Vector2::new(start[0] + 5.0 * scale, start[1]),
+        Vector2::new(start[0], start[1] + 5.0 * scale),
+    ];
+    let solver = NelderMead::new(simplex)
+        .with_sd_tolerance(1e-15)
+        .map_err(|e| Error::Invalid(format!("MIW: {e}")))?;
+    let result = Executor::new(NegativeRadius { radius }, solver)
+        .configure(|state| state.max_iters(2000))
+        .run()
+        .map_err(|e| Error::Invalid(format!("MIW: {e}")))?;
+    let best = result
+        .state()
+        .get_best_param()
+        .copied()
+        .unwrap_or(Vector2::new(start[0], start[1]));
+    Ok([best[0], best[1]])
+}
