@@ -48,7 +48,11 @@ impl<'a> ParallelMeasure<'a> {
     /// A leg cannot reach the home pose, the mechanism has not as many legs as measured
     /// coordinates, or the home pose itself is singular.
     pub fn new(mechanism: &'a Mechanism, params: Vec<Vec<f64>>) -> Result<Self, KinematicsError> {
-        let mut measure = Self { mechanism, params, home_sign: 1.0 };
+        let mut measure = Self {
+            mechanism,
+            params,
+            home_sign: 1.0,
+        };
         let home = measure.at(&mechanism.home_pose)?;
         if home == 0.0 {
             return Err(KinematicsError::AssemblyModeChange);
@@ -88,7 +92,9 @@ impl<'a> ParallelMeasure<'a> {
                 seeded[c].eps = 1.0;
                 let moved = attachment_world(&seeded, &attachment);
                 // ∂F/∂X = −∂(X·attachment)/∂X
-                rows[(l, k)] = -(0..leg.closure_dims).map(|d| normal[d] * moved[d].eps).sum::<f64>();
+                rows[(l, k)] = -(0..leg.closure_dims)
+                    .map(|d| normal[d] * moved[d].eps)
+                    .sum::<f64>();
             }
         }
         for mut row in rows.row_iter_mut() {
