@@ -41,8 +41,8 @@ pub(super) fn run(args: &WorkspaceArgs) -> anyhow::Result<()> {
     println!("maximal inscribed workspace (MIW):");
     println!(
         "  centre  x = {:.7} m, y = {:.7} m",
-        miw.centre[0] + 0.0,
-        miw.centre[1] + 0.0
+        tidy(miw.centre[0]),
+        tidy(miw.centre[1])
     );
     println!("  radius  {:.7} m", miw.radius);
     let path = args.svg.clone().unwrap_or_else(|| {
@@ -58,4 +58,9 @@ pub(super) fn run(args: &WorkspaceArgs) -> anyhow::Result<()> {
         .map_err(|e| anyhow::anyhow!("{}: cannot write the picture: {e}", path.display()))?;
     println!("picture written to {}", path.display());
     Ok(())
+}
+
+/// Rounds to the printed precision so that a tiny negative number does not print as `-0.0000000`.
+fn tidy(value: f64) -> f64 {
+    (value * 1e7).round() / 1e7 + 0.0
 }

@@ -78,6 +78,20 @@ pub fn solve_leg(
     direct
 }
 
+/// Solves the leg's joints for `pose` by Newton from `seed` (e.g. the solution at a nearby
+/// pose: a continuation step), and checks the result is on the home branch.
+///
+/// # Errors
+/// As [`solve_leg`].
+pub fn solve_leg_from(
+    leg: &LegModel,
+    geometry: &LegGeometry<f64>,
+    pose: &[f64; 6],
+    seed: &[f64],
+) -> Result<LegSolution, KinematicsError> {
+    newton(leg, geometry, pose, seed).and_then(|s| on_branch(leg, s))
+}
+
 /// Checks the solution is on the home branch.
 fn on_branch(leg: &LegModel, solution: LegSolution) -> Result<LegSolution, KinematicsError> {
     if solution.normalised_determinant * leg.branch_sign > 0.0 {

@@ -14,7 +14,7 @@ use nalgebra::{DMatrix, Vector3};
 use num_dual::Dual64;
 
 use super::chain::{attachment_world, tip_and_jacobian};
-use super::inverse::solve_leg;
+use super::inverse::{solve_leg, LegSolution};
 use crate::error::KinematicsError;
 use crate::model::Mechanism;
 
@@ -68,6 +68,25 @@ impl<'a> ParallelMeasure<'a> {
     /// coordinates in number (no square parallel Jacobian).
     pub fn at(&self, pose: &[f64; 6]) -> Result<f64, KinematicsError> {
         let mechanism = self.mechanism;
+        let solutions = mechanism
+            .legs
+            .iter()
+            .zip(&self.params)
+            .map(|(leg, phi)| solve_leg(leg, &leg.geometry(phi), pose, &mechanism.home_pose))
+            .collect::<Result<Vec<_>, _>>()?;
+        self.at_solutions(pose, &solutions)
+    }
+
+    /// The measure at `pose` from the legs' inverse-kinematics solutions there.
+    ///
+    /// # Errors
+    /// The legs do not match the measured coordinates in number.
+    pub fn at_solutions(
+        &self,
+        pose: &[f64; 6],
+        solutions: &[LegSolution],
+    ) -> Result<f64, KinematicsError> {
+        let mechanism = self.mechanism;
         let coordinates = &mechanism.measured;
         if mechanism.legs.len() != coordinates.len() {
             return Err(KinematicsError::NotSquare {
@@ -77,9 +96,8 @@ impl<'a> ParallelMeasure<'a> {
         }
         let mut rows = DMatrix::zeros(mechanism.legs.len(), coordinates.len());
         let pose_dual = pose.map(Dual64::from);
-        for (l, leg) in mechanism.legs.iter().enumerate() {
+        for (l, (leg, solution)) in mechanism.legs.iter().zip(solutions).enumerate() {
             let geometry = leg.geometry(&self.params[l]);
-            let solution = solve_leg(leg, &geometry, pose, &mechanism.home_pose)?;
             let (_, jacobian) = tip_and_jacobian(leg, &geometry, &solution.q);
             let passive: Vec<Vector3<f64>> = (0..leg.moving.len())
                 .filter(|&i| i != leg.actuated)
@@ -104,6 +122,11 @@ impl<'a> ParallelMeasure<'a> {
             }
         }
         Ok(self.home_sign * rows.determinant())
+    }
+
+    /// The parameters the measure uses, one full vector per leg.
+    pub fn params(&self) -> &[Vec<f64>] {
+        &self.params
     }
 }
 

@@ -31,9 +31,25 @@ pub struct ModelFile {
     pub parameters: Vec<ParameterEntry>,
     /// The usable workspace.
     pub workspace: WorkspaceEntry,
+    /// Pose selection (optional; defaults: D-optimal, `simulation.poses_per_leg` or 18 poses).
+    #[serde(default)]
+    pub selection: Option<SelectionEntry>,
     /// The simulation set-up (optional: real users bring measurements).
     #[serde(default)]
     pub simulation: Option<SimulationEntry>,
+}
+
+/// Pose selection set-up.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SelectionEntry {
+    /// Identification poses to select per leg (and shared poses for the traditional strategy).
+    #[serde(default)]
+    pub poses_per_leg: Option<usize>,
+    /// Design criterion: `D` (maximise det CᵀC, i.e. O1; default), `A` (minimise tr (CᵀC)⁻¹) or
+    /// `E` (maximise the smallest singular value, O3).
+    #[serde(default)]
+    pub criterion: Option<String>,
 }
 
 /// The home configuration.
@@ -127,6 +143,24 @@ pub struct WorkspaceEntry {
     /// Spacing of the candidate grid for pose selection, metres.
     #[serde(default)]
     pub grid: Option<f64>,
+    /// Number of evenly spaced values of each ranged coordinate in the candidate grid.
+    #[serde(default)]
+    pub range_levels: Option<usize>,
+    /// Singularity thresholds a candidate pose must clear.
+    #[serde(default)]
+    pub singularity: Option<SingularityEntry>,
+}
+
+/// Singularity thresholds (scale-free measures, see `docs/models.md`).
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SingularityEntry {
+    /// Smallest allowed serial (type I) measure of every leg (default 0.05).
+    #[serde(default)]
+    pub serial: Option<f64>,
+    /// Smallest allowed parallel (type II) measure (default 0.05).
+    #[serde(default)]
+    pub parallel: Option<f64>,
 }
 
 /// A planar region.

@@ -10,7 +10,9 @@ use super::leg::LegModel;
 use super::params::{ParamTarget, Parameter, Unit};
 use crate::error::{Error, Result};
 use crate::kinematics::inverse::newton;
-use crate::workspace::region::{Region, Workspace};
+use crate::workspace::region::{
+    Region, Workspace, DEFAULT_RANGE_LEVELS, DEFAULT_SINGULARITY_THRESHOLD,
+};
 
 /// Names of the end-effector coordinates, in pose-vector order (metres, radians).
 pub const COORDINATES: [&str; 6] = ORIGIN_COMPONENTS;
@@ -34,8 +36,30 @@ pub struct Mechanism {
     pub legs: Vec<LegModel>,
     /// The usable workspace.
     pub workspace: Workspace,
+    /// Pose selection set-up.
+    pub selection: SelectionSetup,
     /// The simulation set-up, if any.
     pub simulation: Option<Simulation>,
+}
+
+/// Pose selection set-up (validated).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct SelectionSetup {
+    /// Poses to select per leg.
+    pub poses_per_leg: usize,
+    /// Design criterion.
+    pub criterion: SelectionCriterion,
+}
+
+/// Design criterion of the pose selection.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum SelectionCriterion {
+    /// D-optimal: maximise det(CᵀC) (the observability index O1).
+    D,
+    /// A-optimal: minimise tr (CᵀC)⁻¹ (the sum of the parameter variances).
+    A,
+    /// E-optimal: maximise the smallest singular value (O3).
+    E,
 }
 
 /// Simulation set-up (validated).
@@ -142,6 +166,7 @@ impl Builder<'_> {
         }
         let workspace = self.workspace(&file, &measured)?;
         let simulation = self.simulation(&file, &measured, &legs)?;
+        let selection = self.selection(&file, simulation.as_ref())?;
         Ok(Mechanism {
             name: file.name,
             model_path: self.path.to_path_buf(),
@@ -151,7 +176,38 @@ impl Builder<'_> {
             home_pose,
             legs,
             workspace,
+            selection,
             simulation,
+        })
+    }
+
+    fn selection(
+        &self,
+        file: &ModelFile,
+        simulation: Option<&Simulation>,
+    ) -> Result<SelectionSetup> {
+        let entry = file.selection.as_ref();
+        let poses_per_leg = entry
+            .and_then(|e| e.poses_per_leg)
+            .or(simulation.map(|s| s.poses_per_leg))
+            .unwrap_or(18);
+        if poses_per_leg == 0 {
+            return Err(self.error("selection.poses_per_leg", "expected at least one pose"));
+        }
+        let criterion = match entry.and_then(|e| e.criterion.as_deref()) {
+            None | Some("D") | Some("d") => SelectionCriterion::D,
+            Some("A") | Some("a") => SelectionCriterion::A,
+            Some("E") | Some("e") => SelectionCriterion::E,
+            Some(other) => {
+                return Err(self.error(
+                    "selection.criterion",
+                    format!("`{other}` is not one of D, A, E"),
+                ))
+            }
+        };
+        Ok(SelectionSetup {
+            poses_per_leg,
+            criterion,
         })
     }
 
@@ -532,11 +588,27 @@ impl Builder<'_> {
                 return Err(self.error("workspace.grid", "expected a positive spacing (metres)"));
             }
         }
+        let levels = entry.range_levels.unwrap_or(DEFAULT_RANGE_LEVELS);
+        if levels == 0 {
+            return Err(self.error("workspace.range_levels", "expected at least 1"));
+        }
+        let thresholds = entry.singularity.as_ref();
+        let threshold = |value: Option<f64>, name: &str| match value {
+            None => Ok(DEFAULT_SINGULARITY_THRESHOLD),
+            Some(v) if v.is_finite() && (0.0..1.0).contains(&v) => Ok(v),
+            Some(_) => Err(self.error(
+                format!("workspace.singularity.{name}"),
+                "expected a number in [0, 1)",
+            )),
+        };
         let workspace = Workspace {
             region,
             margin: entry.margin,
             ranges,
             grid: entry.grid,
+            range_levels: levels,
+            serial_threshold: threshold(thresholds.and_then(|t| t.serial), "serial")?,
+            parallel_threshold: threshold(thresholds.and_then(|t| t.parallel), "parallel")?,
         };
         let (lo, hi) = workspace.region.bounds();
         let largest = (hi[0] - lo[0]).max(hi[1] - lo[1]);

@@ -24,7 +24,7 @@ const P0001: f64 = 1.0e-4;
 /// `min ‖J p − r‖² + λ‖D p‖²` through a QR factorisation of `[R; √λ·D]` (never an explicit
 /// inverse); `λ` comes from a few of Moré's secular-equation iterations so that `‖D p‖ ≈ Δ`.
 /// Every trial step `x − p` is checked by the ratio `ρ` of actual to predicted reduction:
-/// `Δ` shrinks if `ρ < 0.25`, grows if `ρ > 0.75`, and the step is accepted if `ρ ≥ 1e-4`.
+/// `Δ` shrinks if `ρ ≤ 0.25`, grows if `ρ ≥ 0.75`, and the step is accepted if `ρ ≥ 1e-4`.
 ///
 /// **One iteration** (one `next_iter`) = one Jacobian evaluation followed by as many trial
 /// steps (residual evaluations) as needed until one is accepted or a stopping test fires, i.e.
@@ -41,9 +41,12 @@ const P0001: f64 = 1.0e-4;
 ///
 /// Convergence ends with [`TerminationReason::SolverConverged`]; which test fired is available
 /// from [`LevenbergMarquardt::converged_by`]. Tolerances too small to be met at machine
-/// precision, non-finite residuals/Jacobians and a breakdown of the damped step end with
+/// precision, a non-finite Jacobian or starting residual, and a breakdown of the damped step
+/// end with
 /// [`TerminationReason::SolverExit`] and a readable message; the state then holds the last
-/// accepted point.
+/// accepted point. A trial point where the residuals cannot be evaluated (the problem returns an
+/// error, e.g. a pose out of reach, or a non-finite residual) is a rejected step: the trust
+/// region shrinks and the iterate stays where it was.
 ///
 /// ## Requirements on the optimization problem
 ///
@@ -96,6 +99,22 @@ fn invalid(text: &str) -> Error {
     .into()
 }
 
+/// `value` if it is finite and positive (or zero, with `allow_zero`); otherwise an
+/// `InvalidParameter` error "Levenberg-Marquardt: {what} must be positive and finite.".
+fn validated(value: f64, what: &str, allow_zero: bool) -> Result<f64, Error> {
+    if value.is_finite() && (value > 0.0 || (allow_zero && value >= 0.0)) {
+        return Ok(value);
+    }
+    let rule = if allow_zero {
+        "non-negative"
+    } else {
+        "positive"
+    };
+    Err(invalid(&format!(
+        "Levenberg-Marquardt: {what} must be {rule} and finite."
+    )))
+}
+
 fn exit(text: &str) -> TerminationReason {
     TerminationReason::SolverExit(format!("Levenberg-Marquardt: {text}"))
 }
@@ -123,24 +142,14 @@ impl LevenbergMarquardt {
     /// Relative cost-reduction tolerance: converged when both the actual and the predicted
     /// relative reduction of the cost in a step are at most `ftol`. Must be positive and finite.
     pub fn with_ftol(mut self, ftol: f64) -> Result<Self, Error> {
-        if !(ftol.is_finite() && ftol > 0.0) {
-            return Err(invalid(
-                "Levenberg-Marquardt: ftol must be positive and finite.",
-            ));
-        }
-        self.ftol = ftol;
+        self.ftol = validated(ftol, "ftol", false)?;
         Ok(self)
     }
 
     /// Step tolerance: converged when the trust-region radius satisfies
     /// `Δ ≤ xtol·(‖D x‖ + xtol)`. Must be positive and finite.
     pub fn with_xtol(mut self, xtol: f64) -> Result<Self, Error> {
-        if !(xtol.is_finite() && xtol > 0.0) {
-            return Err(invalid(
-                "Levenberg-Marquardt: xtol must be positive and finite.",
-            ));
-        }
-        self.xtol = xtol;
+        self.xtol = validated(xtol, "xtol", false)?;
         Ok(self)
     }
 
@@ -148,24 +157,14 @@ impl LevenbergMarquardt {
     /// `max_j |(Jᵀr)_j| / (‖J e_j‖·‖r‖) ≤ gtol`. Must be non-negative and finite; `0` (the
     /// default) only stops on an exactly zero cosine.
     pub fn with_gtol(mut self, gtol: f64) -> Result<Self, Error> {
-        if !(gtol.is_finite() && gtol >= 0.0) {
-            return Err(invalid(
-                "Levenberg-Marquardt: gtol must be non-negative and finite.",
-            ));
-        }
-        self.gtol = gtol;
+        self.gtol = validated(gtol, "gtol", true)?;
         Ok(self)
     }
 
     /// Initial trust-region radius factor: `Δ₀ = factor·‖D x₀‖` (or `factor` if that is zero).
     /// MINPACK recommends values in `[0.1, 100]`; default `100`. Must be positive and finite.
     pub fn with_initial_step_bound(mut self, factor: f64) -> Result<Self, Error> {
-        if !(factor.is_finite() && factor > 0.0) {
-            return Err(invalid(
-                "Levenberg-Marquardt: initial step bound must be positive and finite.",
-            ));
-        }
-        self.step_bound = factor;
+        self.step_bound = validated(factor, "initial step bound", false)?;
         Ok(self)
     }
 
@@ -190,8 +189,10 @@ fn householder_qr(a: &mut DMatrix<f64>, b: &mut DVector<f64>, mut perm: Option<&
     let (m, n) = a.shape();
     for k in 0..n.min(m) {
         if let Some(p) = perm.as_deref_mut() {
-            let norm_of = |a: &DMatrix<f64>, j: usize| a.view((k, j), (m - k, 1)).norm();
-            let best = (k..n).fold(k, |b, j| if norm_of(a, j) > norm_of(a, b) { j } else { b });
+            let norms = (k..n).map(|j| (j, a.view((k, j), (m - k, 1)).norm()));
+            let best = norms
+                .fold((k, -1.0), |b, c| if c.1 > b.1 { c } else { b })
+                .0;
             a.swap_columns(k, best);
             p.swap(k, best);
         }
@@ -482,13 +483,24 @@ where
                 self.delta = self.delta.min(pnorm);
             }
             let x_trial = &x - &s.step;
-            let r_trial = problem.apply(&x_trial)?;
-            check_len(r_trial.len(), m, "residual vector")?;
-            let fnorm1 = r_trial.norm();
-            if !fnorm1.is_finite() {
-                let msg = "residual vector contains NaN or infinity at a trial point.";
-                break (Some(exit(msg)), 0.0);
-            }
+            // A trial point outside the model's domain (an error, e.g. a pose a leg cannot reach
+            // with these parameters, or a non-finite residual) is a rejected step: the trust
+            // region shrinks as for a step that increased the cost.
+            let (r_trial, fnorm1) = match problem.apply(&x_trial) {
+                Ok(r_trial) => {
+                    check_len(r_trial.len(), m, "residual vector")?;
+                    let norm = r_trial.norm();
+                    (
+                        r_trial,
+                        if norm.is_finite() {
+                            norm
+                        } else {
+                            f64::INFINITY
+                        },
+                    )
+                }
+                Err(_) => (r.clone(), f64::INFINITY),
+            };
             // Actual and predicted relative reductions, both relative to the current cost.
             let actred = if P1 * fnorm1 < fnorm {
                 1.0 - (fnorm1 / fnorm).powi(2)
@@ -503,6 +515,9 @@ where
             let t2 = (lambda.sqrt() * pnorm / fnorm).powi(2);
             let (prered, dirder) = (t1 + 2.0 * t2, -(t1 + t2));
             let ratio = if prered != 0.0 { actred / prered } else { 0.0 };
+            if !ratio.is_finite() {
+                break (Some(exit("reduction ratio is not finite.")), 0.0);
+            }
             if ratio <= P25 {
                 let mut t = if actred >= 0.0 {
                     0.5
@@ -575,5 +590,334 @@ where
             None => state,
         };
         Ok((state, Some(kv)))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::super::mgh::{max_rel_diff, reference, run, tight, TestProblem};
+    use super::*;
+    use argmin::core::Executor;
+
+    const S: [f64; 7] = [0.038, 0.194, 0.425, 0.626, 1.253, 2.5, 3.74];
+    const RATE: [f64; 7] = [0.05, 0.127, 0.094, 0.2122, 0.2729, 0.2665, 0.3317];
+
+    /// Michaelis–Menten fit `rate = Vmax·S/(Km + S)` from argmin's Gauss–Newton example.
+    fn michaelis_menten() -> TestProblem {
+        let res = |x: &[f64]| {
+            (0..7)
+                .map(|i| RATE[i] - x[0] * S[i] / (x[1] + S[i]))
+                .collect()
+        };
+        let jac = |x: &[f64]| {
+            let row = |s: &f64| [-s / (x[1] + s), x[0] * s / (x[1] + s).powi(2)];
+            S.iter().flat_map(row).collect()
+        };
+        TestProblem {
+            m: 7,
+            n: 2,
+            x0: &[0.9, 0.2],
+            res,
+            jac,
+        }
+    }
+
+    /// `y = a·exp(−b t) + c` on 12 points with a deterministic ±0.01 perturbation.
+    fn exp_decay() -> TestProblem {
+        fn data(i: usize) -> (f64, f64) {
+            let t = 0.5 * i as f64;
+            (
+                t,
+                3.0 * (-0.7 * t).exp() + 0.5 + 0.01 * (1.7 * i as f64).sin(),
+            )
+        }
+        let res = |x: &[f64]| {
+            let r = |(t, y): (f64, f64)| x[0] * (-x[1] * t).exp() + x[2] - y;
+            (0..12).map(|i| r(data(i))).collect()
+        };
+        let jac = |x: &[f64]| {
+            let row = |i: usize| {
+                let t = 0.5 * i as f64;
+                let e = (-x[1] * t).exp();
+                [e, -x[0] * t * e, 1.0]
+            };
+            (0..12).flat_map(row).collect()
+        };
+        TestProblem {
+            m: 12,
+            n: 3,
+            x0: &[1.0, 1.0, 0.0],
+            res,
+            jac,
+        }
+    }
+
+    fn text(err: Error) -> String {
+        match err.downcast_ref::<ArgminError>() {
+            Some(ArgminError::InvalidParameter { text }) => text.clone(),
+            _ => panic!("unexpected error {err}"),
+        }
+    }
+
+    #[test]
+    fn builder_validates() {
+        let lm = LevenbergMarquardt::new;
+        for bad in [0.0, -1.0, f64::NAN, f64::INFINITY] {
+            let msg = "Levenberg-Marquardt: ftol must be positive and finite.";
+            assert_eq!(text(lm().with_ftol(bad).unwrap_err()), msg);
+            let msg = "Levenberg-Marquardt: xtol must be positive and finite.";
+            assert_eq!(text(lm().with_xtol(bad).unwrap_err()), msg);
+            let msg = "Levenberg-Marquardt: initial step bound must be positive and finite.";
+            assert_eq!(text(lm().with_initial_step_bound(bad).unwrap_err()), msg);
+        }
+        for bad in [-1e-300, f64::NAN, f64::INFINITY] {
+            let msg = "Levenberg-Marquardt: gtol must be non-negative and finite.";
+            assert_eq!(text(lm().with_gtol(bad).unwrap_err()), msg);
+        }
+        let ok = lm()
+            .with_ftol(1e-3)
+            .and_then(|l| l.with_xtol(1e-4))
+            .and_then(|l| l.with_gtol(0.0));
+        let ok = ok.and_then(|l| l.with_initial_step_bound(0.1)).unwrap();
+        assert_eq!(
+            (ok.ftol, ok.xtol, ok.gtol, ok.step_bound),
+            (1e-3, 1e-4, 0.0, 0.1)
+        );
+        let d = LevenbergMarquardt::default();
+        assert_eq!(
+            (d.ftol, d.xtol, d.gtol, d.step_bound),
+            (1.49012e-8, 1.49012e-8, 0.0, 100.0)
+        );
+    }
+
+    #[test]
+    fn send_sync_clone() {
+        fn assert_traits<T: Send + Sync + Clone + std::fmt::Debug>() {}
+        assert_traits::<LevenbergMarquardt>();
+    }
+
+    #[test]
+    fn michaelis_menten_known_answer() {
+        let p = michaelis_menten();
+        let out = run(p, tight()).unwrap();
+        let (x_ref, c_ref, _) = reference(p);
+        assert_eq!(out.reason, TerminationReason::SolverConverged);
+        // Published optimum Vmax ≈ 0.362, Km ≈ 0.556 (three digits).
+        assert!(
+            (out.x[0] - 0.362).abs() < 5e-4 && (out.x[1] - 0.556).abs() < 5e-4,
+            "{}",
+            out.x
+        );
+        // Cost is ½‖r‖², not argmin Gauss–Newton's ‖r‖.
+        let r = p.apply(&out.x).unwrap();
+        assert!((out.cost - 0.5 * r.norm_squared()).abs() <= 1e-15 * out.cost);
+        assert!(
+            (out.cost - c_ref).abs() <= 1e-9 * c_ref,
+            "{} vs {c_ref}",
+            out.cost
+        );
+        assert!(max_rel_diff(&out.x, &x_ref) <= 1e-9, "{} vs {x_ref}", out.x);
+    }
+
+    #[test]
+    fn agrees_with_levenberg_marquardt_crate() {
+        for p in [michaelis_menten(), exp_decay()] {
+            let out = run(p, tight()).unwrap();
+            let (x_ref, c_ref, evals) = reference(p);
+            let dx = max_rel_diff(&out.x, &x_ref);
+            eprintln!(
+                "x = {:?}: dx {dx:.1e}, r-evals {} vs {evals}",
+                out.x.as_slice(),
+                out.evals.0
+            );
+            assert!(dx <= 1e-10, "dx = {dx:e}");
+            assert!((out.cost - c_ref).abs() <= 1e-12 * c_ref);
+        }
+    }
+
+    #[test]
+    fn underdetermined_with_unused_parameter() {
+        // m = 1 < n = 3 and x₂ does not enter r, so J has a zero column.
+        let res = |x: &[f64]| vec![x[0] * x[0] + x[1] * x[1] - 1.0];
+        let jac = |x: &[f64]| vec![2.0 * x[0], 2.0 * x[1], 0.0];
+        let p = TestProblem {
+            m: 1,
+            n: 3,
+            x0: &[2.0, 1.0, 5.0],
+            res,
+            jac,
+        };
+        let out = run(p, LevenbergMarquardt::new()).unwrap();
+        assert_eq!(out.reason, TerminationReason::SolverConverged);
+        assert!(out.cost < 1e-20, "{}", out.cost);
+        assert!((out.x[2] - 5.0).abs() <= 1e-15, "{}", out.x);
+    }
+
+    /// `r = (x₀ − 1, x₀ + 1, 10 x₁ − 10)`, NaN where `x₀ > nan_above`, Jacobian NaN if `nan_jac`.
+    #[derive(Clone, Copy)]
+    struct Trap {
+        nan_above: f64,
+        nan_jac: bool,
+        m: usize,
+    }
+    impl Operator for Trap {
+        type Param = DVector<f64>;
+        type Output = DVector<f64>;
+        fn apply(&self, x: &DVector<f64>) -> Result<DVector<f64>, Error> {
+            let nan = if x[0] > self.nan_above { f64::NAN } else { 0.0 };
+            let r = [x[0] - 1.0 + nan, x[0] + 1.0, 10.0 * x[1] - 10.0];
+            Ok(DVector::from_column_slice(&r[..self.m]))
+        }
+    }
+    impl Jacobian for Trap {
+        type Param = DVector<f64>;
+        type Jacobian = DMatrix<f64>;
+        fn jacobian(&self, _: &DVector<f64>) -> Result<DMatrix<f64>, Error> {
+            let v = if self.nan_jac { f64::NAN } else { 1.0 };
+            Ok(DMatrix::from_row_slice(
+                3,
+                2,
+                &[v, 0.0, 1.0, 0.0, 0.0, 10.0],
+            ))
+        }
+    }
+
+    fn run_trap(t: Trap, x0: [f64; 2]) -> Result<(LmState, LevenbergMarquardt), Error> {
+        let res = Executor::new(t, LevenbergMarquardt::new())
+            .configure(|s| s.param(DVector::from_column_slice(&x0)).max_iters(50))
+            .run()?;
+        Ok((res.state, res.solver))
+    }
+
+    fn exit_text(state: &LmState) -> String {
+        match state.get_termination_reason() {
+            Some(TerminationReason::SolverExit(t)) => t.clone(),
+            other => panic!("expected SolverExit, got {other:?}"),
+        }
+    }
+
+    #[test]
+    fn trap_converges_and_reports_test() {
+        let t = Trap {
+            nan_above: f64::INFINITY,
+            nan_jac: false,
+            m: 3,
+        };
+        let (state, solver) = run_trap(t, [-3.0, 5.0]).unwrap();
+        assert_eq!(
+            state.get_termination_reason(),
+            Some(&TerminationReason::SolverConverged)
+        );
+        assert!(solver.converged_by().is_some());
+        let x = state.get_param().unwrap();
+        assert!(x[0].abs() < 1e-12 && (x[1] - 1.0).abs() < 1e-12, "{x}");
+        assert!((state.get_cost() - 1.0).abs() < 1e-12); // ½(1² + 1²)
+    }
+
+    #[test]
+    fn non_finite_values_stop_with_message() {
+        let t = Trap {
+            nan_above: 10.0,
+            nan_jac: false,
+            m: 3,
+        };
+        let (state, _) = run_trap(t, [11.0, 0.0]).unwrap();
+        assert_eq!(
+            exit_text(&state),
+            "Levenberg-Marquardt: residual vector contains NaN or infinity at the initial point."
+        );
+        let t = Trap {
+            nan_above: 10.0,
+            nan_jac: true,
+            m: 3,
+        };
+        let (state, _) = run_trap(t, [1.0, 0.0]).unwrap();
+        assert_eq!(
+            exit_text(&state),
+            "Levenberg-Marquardt: Jacobian contains NaN or infinity."
+        );
+        // A NaN at a trial point (the minimum x₀ = 0 lies beyond the domain x₀ ≤ −2.5) is a
+        // rejected step: the trust region shrinks, the iterate never leaves the domain, the cost
+        // decreases, and the run ends near the domain's edge without an error. (LM is not a
+        // constrained method: at the edge its trust region collapses, so the other coordinate
+        // is not fully converged.)
+        let t = Trap {
+            nan_above: -2.5,
+            nan_jac: false,
+            m: 3,
+        };
+        let (state, _) = run_trap(t, [-3.0, 5.0]).unwrap();
+        let x = state.get_param().unwrap();
+        assert!(state.get_cost().is_finite() && x[0] <= -2.5, "{x:?}");
+        assert!(
+            x[0] > -2.5 - 1e-6,
+            "moved up to the edge of the domain: {x:?}"
+        );
+        let start_cost = 0.5 * (16.0 + 4.0 + 1600.0);
+        assert!(state.get_cost() < start_cost, "cost {}", state.get_cost());
+        assert!(state.get_termination_reason().is_some());
+    }
+
+    /// Fails (as a leg that cannot reach a pose would) for x₀ > 0.5.
+    struct Unreachable;
+    impl Operator for Unreachable {
+        type Param = DVector<f64>;
+        type Output = DVector<f64>;
+        fn apply(&self, x: &DVector<f64>) -> Result<DVector<f64>, Error> {
+            if x[0] > 0.5 {
+                return Err(Error::msg("pose out of reach"));
+            }
+            Ok(DVector::from_column_slice(&[x[0] - 1.0, x[1] - 2.0]))
+        }
+    }
+    impl Jacobian for Unreachable {
+        type Param = DVector<f64>;
+        type Jacobian = DMatrix<f64>;
+        fn jacobian(&self, _: &DVector<f64>) -> Result<DMatrix<f64>, Error> {
+            Ok(DMatrix::identity(2, 2))
+        }
+    }
+
+    #[test]
+    fn an_error_at_a_trial_point_is_a_rejected_step() {
+        let res = Executor::new(Unreachable, LevenbergMarquardt::new())
+            .configure(|s| {
+                s.param(DVector::from_column_slice(&[-10.0, 0.0]))
+                    .max_iters(100)
+            })
+            .run()
+            .unwrap();
+        let x = res.state.get_param().unwrap();
+        assert!(
+            x[0] <= 0.5 && x[0] > 0.5 - 1e-6,
+            "stopped at the edge: {x:?}"
+        );
+        assert!(res.state.get_cost() < 0.5 * (121.0 + 4.0) * 0.05, "{x:?}");
+    }
+
+    #[test]
+    fn zero_residual_start_and_shape_errors() {
+        let t = Trap {
+            nan_above: f64::INFINITY,
+            nan_jac: false,
+            m: 1,
+        };
+        let (state, solver) = run_trap(t, [1.0, 7.0]).unwrap();
+        assert_eq!(
+            state.get_termination_reason(),
+            Some(&TerminationReason::SolverConverged)
+        );
+        assert_eq!(
+            solver.converged_by(),
+            Some("zero residual: cost <= f64::MIN_POSITIVE")
+        );
+        assert_eq!(state.get_iter(), 0);
+        // Residual of length 1 but a 3×2 Jacobian: a usage error, reported as `Err`.
+        let err = run_trap(t, [2.0, 7.0]).unwrap_err();
+        assert!(
+            err.to_string()
+                .contains("Jacobian row count has length 3, expected 1"),
+            "{err}"
+        );
     }
 }

@@ -88,63 +88,92 @@ impl LeastSquaresProblem<f64, Dyn, Dyn> for Reference {
     }
 }
 
-/// Minimise with the `levenberg-marquardt` crate at tight tolerances; returns `(x, cost)`.
-pub(super) fn reference(p: TestProblem) -> (DVector<f64>, f64) {
+/// Minimise with the `levenberg-marquardt` crate at `ftol = xtol = TIGHT`, `gtol = 0`;
+/// returns `(x, cost, residual evaluations)`. Its "no improvement possible at machine
+/// precision" exits count as success here.
+pub(super) fn reference(p: TestProblem) -> (DVector<f64>, f64, usize) {
     let solver = levenberg_marquardt::LevenbergMarquardt::new()
-        .with_ftol(1e-15)
-        .with_xtol(1e-15)
+        .with_ftol(TIGHT)
+        .with_xtol(TIGHT)
         .with_gtol(0.0)
         .with_patience(10_000);
     let (fitted, report) = solver.minimize(Reference(p, DVector::from_column_slice(p.x0)));
-    assert!(
-        report.termination.was_successful(),
-        "{:?}",
-        report.termination
-    );
-    (fitted.1, report.objective_function)
+    use levenberg_marquardt::TerminationReason as T;
+    let ok = matches!(report.termination, T::NoImprovementPossible(_))
+        || report.termination.was_successful();
+    assert!(ok, "{:?}", report.termination);
+    (
+        fitted.1,
+        report.objective_function,
+        report.number_of_evaluations,
+    )
 }
 
-/// Tight tolerances for comparisons with [`reference`].
+/// Tolerance for comparisons with the `levenberg-marquardt` crate. It is tight but above the
+/// round-off floor: below about `1e-13` the accept/reject decisions of both solvers are decided
+/// by round-off in the cost, and two correct implementations then legitimately stop at points
+/// that differ by about `√(ε·2·cost)/σ_min(J)` (≈ 1e-8 relative for Bard or Kowalik–Osborne).
+pub(super) const TIGHT: f64 = 1e-12;
+
+/// [`LevenbergMarquardt`] with `ftol = xtol = TIGHT`.
 pub(super) fn tight() -> LevenbergMarquardt {
     LevenbergMarquardt::new()
-        .with_ftol(1e-15)
-        .and_then(|l| l.with_xtol(1e-15))
+        .with_ftol(TIGHT)
+        .and_then(|l| l.with_xtol(TIGHT))
         .unwrap()
 }
 
-fn rel(a: f64, b: f64) -> f64 {
-    (a - b).abs() / a.abs().max(b.abs()).max(f64::MIN_POSITIVE)
+/// Largest component-wise relative difference; components with `|b| < 1e-6` (zero at the
+/// minimiser) are compared absolutely.
+pub(super) fn max_rel_diff(a: &DVector<f64>, b: &DVector<f64>) -> f64 {
+    a.iter()
+        .zip(b.iter())
+        .map(|(a, b)| (a - b).abs() / b.abs().max(1e-6))
+        .fold(0.0, f64::max)
 }
 
-/// Solve `p` with default tolerances; check MGH's `f = 2·cost` against `f_star` (absolute
-/// `f_tol` if `f_star == 0`, else relative) and `x` component-wise against `x_star` (relative
-/// `x_tol`, absolute for zero components). Also reports agreement with [`reference`].
+/// Check `p` against its published minimum. With default tolerances: convergence, and MGH's
+/// `f = 2·cost` against `f_star` (absolute if `f_star == 0`, else relative `f_tol`; `f` is
+/// quadratic in the error of `x`, so it is accurate long before `x` is). With [`tight`]
+/// tolerances: `x` against `x_star` (relative `x_tol`, absolute for zero components) and
+/// against the `levenberg-marquardt` crate to `1e-10` (see [`max_rel_diff`]).
 fn check(name: &str, p: TestProblem, f_star: f64, f_tol: f64, x_star: &[f64], x_tol: f64) {
     let out = run(p, LevenbergMarquardt::new()).unwrap();
     let f = 2.0 * out.cost;
-    let (x_ref, c_ref) = reference(p);
-    let dx = (0..p.n)
-        .map(|i| rel(out.x[i], x_ref[i]))
-        .fold(0.0, f64::max);
     eprintln!(
-        "{name}: iters {}, evals (r, J) {:?}, f = {f:.6e}, {}; vs lm crate: rel dx {dx:.1e}, f {:.6e}",
-        out.iters, out.evals, out.reason, 2.0 * c_ref
+        "{name}: {} iterations, (r, J) evaluations {:?}, f = {f:.9e}",
+        out.iters, out.evals
     );
     assert_eq!(out.reason, TerminationReason::SolverConverged, "{name}");
-    let f_err = if f_star > 0.0 { rel(f, f_star) } else { f };
+    let f_err = if f_star > 0.0 {
+        (f - f_star).abs() / f_star
+    } else {
+        f
+    };
     assert!(f_err <= f_tol, "{name}: f = {f:e}, expected {f_star:e}");
+    let tight = run(p, tight()).unwrap();
     for (i, &xs) in x_star.iter().enumerate() {
-        let err = if xs == 0.0 {
-            out.x[i].abs()
-        } else {
-            rel(out.x[i], xs)
-        };
+        let d = (tight.x[i] - xs).abs();
+        let err = if xs == 0.0 { d } else { d / xs.abs() };
         assert!(
             err <= x_tol,
             "{name}: x[{i}] = {:e}, expected {xs:e}",
-            out.x[i]
+            tight.x[i]
         );
     }
+    let (x_ref, c_ref, ref_evals) = reference(p);
+    let (dx, dc) = (
+        max_rel_diff(&tight.x, &x_ref),
+        (tight.cost - c_ref).abs() / c_ref.max(1e-300),
+    );
+    eprintln!(
+        "{name} (tol {TIGHT:e}): {} iterations, {} r-evals (crate {ref_evals}), {}; vs crate: dx {dx:.1e}, dcost {dc:.1e}",
+        tight.iters, tight.evals.0, tight.reason
+    );
+    assert!(
+        dx <= 1e-10,
+        "{name}: differs from the levenberg-marquardt crate by {dx:e}"
+    );
 }
 
 fn rosenbrock() -> TestProblem {
@@ -476,42 +505,45 @@ fn analytic_jacobians_match_central_differences() {
             xp[j] += h;
             xm[j] -= h;
             let fd = (p.apply(&xp).unwrap() - p.apply(&xm).unwrap()) / (2.0 * h);
-            let scale = jac.column(j).amax().max(1.0);
-            let err = (fd - jac.column(j)).amax() / scale;
-            assert!(err < 1e-6, "{name}: column {j} off by {err:e}");
+            // Central differences: truncation O(h²), cancellation O(ε·|r|/h).
+            let noise = 1e-15 * p.apply(&x).unwrap().amax() / h;
+            let err = (fd - jac.column(j)).amax() / jac.column(j).amax().max(1.0);
+            assert!(err < 1e-6 + noise, "{name}: column {j} off by {err:e}");
         }
     }
 }
 
+// Published values (MGH 1981 and the MINPACK test reports) carry about six digits, so
+// relative `f` tolerances are 5e-6 and `x` tolerances match the digits given.
+
 #[test]
 fn mgh_rosenbrock() {
-    check("Rosenbrock", rosenbrock(), 0.0, 1e-20, &[1.0, 1.0], 1e-10);
+    check("Rosenbrock", rosenbrock(), 0.0, 1e-20, &[1.0, 1.0], 1e-12);
 }
 
 #[test]
 fn mgh_freudenstein_roth_local_minimum() {
-    // From the standard start MINPACK reaches the local minimum f = 48.9842536792400.
-    let x = [11.4127789869462, -0.896805253274477];
+    // From the standard start LM reaches the local minimum f = 48.9842..., not f = 0 at (5, 4).
     check(
         "Freudenstein-Roth",
         freudenstein_roth(),
-        48.98425367924,
-        1e-10,
-        &x,
-        1e-8,
+        48.9842,
+        5e-6,
+        &[11.4128, -0.896805],
+        1e-5,
     );
 }
 
 #[test]
 fn mgh_powell_badly_scaled() {
-    let x = [1.09815932969975e-5, 9.10614673986700];
+    let x = [1.09816e-5, 9.10615];
     check(
         "Powell badly scaled",
         powell_badly_scaled(),
         0.0,
         1e-20,
         &x,
-        1e-8,
+        1e-5,
     );
 }
 
@@ -523,25 +555,25 @@ fn mgh_brown_badly_scaled() {
         0.0,
         1e-20,
         &[1e6, 2e-6],
-        1e-10,
+        1e-12,
     );
 }
 
 #[test]
 fn mgh_beale() {
-    check("Beale", beale(), 0.0, 1e-20, &[3.0, 0.5], 1e-9);
+    check("Beale", beale(), 0.0, 1e-20, &[3.0, 0.5], 1e-12);
 }
 
 #[test]
 fn mgh_jennrich_sampson() {
-    let x = [0.257824976181155, 0.257824976181155];
+    let x = [0.257825, 0.257825];
     check(
         "Jennrich-Sampson",
         jennrich_sampson(),
-        124.362182355,
-        1e-10,
+        124.362,
+        5e-6,
         &x,
-        1e-6,
+        5e-6,
     );
 }
 
@@ -553,49 +585,50 @@ fn mgh_helical_valley() {
         0.0,
         1e-20,
         &[1.0, 0.0, 0.0],
-        1e-10,
+        1e-12,
     );
 }
 
 #[test]
 fn mgh_bard() {
-    let x = [0.0824105597447, 1.13303609512, 2.34369510653];
-    check("Bard", bard(), 8.21487730657e-3, 1e-9, &x, 1e-8);
+    let x = [0.0824106, 1.13304, 2.34370];
+    check("Bard", bard(), 8.21487e-3, 5e-6, &x, 1e-5);
 }
 
 #[test]
 fn mgh_meyer() {
-    let x = [0.00560963646990, 6181.34634622, 345.223634948];
-    check("Meyer", meyer(), 87.9458551718, 1e-9, &x, 1e-6);
+    // Badly scaled (x ranges over six decades); MINPACK also needs ~116 Jacobians here.
+    let x = [0.00560964, 6181.35, 345.224];
+    check("Meyer", meyer(), 87.9458, 5e-6, &x, 1e-5);
 }
 
 #[test]
 fn mgh_box_3d() {
-    check("Box 3-D", box_3d(), 0.0, 1e-20, &[1.0, 10.0, 1.0], 1e-8);
+    check("Box 3-D", box_3d(), 0.0, 1e-20, &[1.0, 10.0, 1.0], 1e-12);
 }
 
 #[test]
 fn mgh_powell_singular() {
-    // Singular Jacobian at x* = 0: only linear convergence, so f and x are checked loosely.
+    // J is singular at x* = 0, so convergence is only linear and x* is checked absolutely.
     check(
         "Powell singular",
         powell_singular(),
         0.0,
         1e-20,
         &[0.0; 4],
-        1e-5,
+        1e-12,
     );
 }
 
 #[test]
 fn mgh_kowalik_osborne() {
-    let x = [0.192806935, 0.191282322, 0.123056508, 0.136062327];
+    let x = [0.192807, 0.191282, 0.123057, 0.136062];
     check(
         "Kowalik-Osborne",
         kowalik_osborne(),
-        3.07505603849e-4,
-        1e-9,
+        3.07505e-4,
+        5e-6,
         &x,
-        1e-6,
+        1e-5,
     );
 }

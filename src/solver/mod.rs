@@ -33,6 +33,11 @@ impl SolverKind {
     }
 }
 
+/// Relative cost-reduction and step tolerances of Levenberg–Marquardt (MINPACK's defaults are
+/// √ε ≈ 1.5e-8; identification wants the parameters to round-off, and below ~1e-13 the
+/// accept/reject decisions become round-off noise).
+pub const LM_TOLERANCE: f64 = 1e-12;
+
 /// Iteration cap for both solvers.
 pub const MAX_ITERATIONS: u64 = 100;
 
@@ -76,15 +81,21 @@ pub fn solve(
             })
         }
         SolverKind::LevenbergMarquardt => {
-            let solver = levenberg_marquardt::LevenbergMarquardt::new();
+            let solver = levenberg_marquardt::LevenbergMarquardt::new()
+                .with_ftol(LM_TOLERANCE)?
+                .with_xtol(LM_TOLERANCE)?;
             let result = Executor::new(problem.clone(), solver)
                 .configure(|state| state.param(x0).max_iters(MAX_ITERATIONS))
                 .run()?;
             let state = result.state();
+            let mut text = termination(state.get_termination_status());
+            if let Some(test) = result.solver.converged_by() {
+                text = format!("{text} ({test})");
+            }
             Ok(SolverOutcome {
                 x: state.get_param().cloned().unwrap_or_default(),
                 iterations: state.get_iter(),
-                termination: termination(state.get_termination_status()),
+                termination: text,
                 residual_evaluations: count(&result.problem.counts, "operator_count"),
                 jacobian_evaluations: count(&result.problem.counts, "jacobian_count"),
             })

@@ -15,7 +15,8 @@ use nalgebra::Vector2;
 
 use super::region::geometry;
 use crate::error::{Error, KinematicsError, Result};
-use crate::kinematics::singularity::{serial_measure, ParallelMeasure};
+use crate::kinematics::inverse::{solve_leg, solve_leg_from, LegSolution};
+use crate::kinematics::singularity::ParallelMeasure;
 use crate::model::Mechanism;
 
 /// Options of the MIW computation.
@@ -86,18 +87,49 @@ impl<'a> SingularityMargin<'a> {
     /// # Errors
     /// A leg cannot reach `p` on its home branch.
     pub fn measures(&self, p: [f64; 2]) -> Result<(f64, f64), KinematicsError> {
+        self.measures_from(p, None).map(|(measures, _)| measures)
+    }
+
+    /// As [`Self::measures`], solving each leg by Newton from `seeds` (the legs' joints at a
+    /// nearby point: a continuation step) when given, else from home; also returns the
+    /// solutions, to seed the next step.
+    ///
+    /// # Errors
+    /// A leg cannot reach `p` on its home branch.
+    pub fn measures_from(
+        &self,
+        p: [f64; 2],
+        seeds: Option<&[LegSolution]>,
+    ) -> Result<((f64, f64), Vec<LegSolution>), KinematicsError> {
         let pose = self.pose(p);
+        let mechanism = self.mechanism;
+        let mut solutions = Vec::with_capacity(mechanism.legs.len());
         let mut serial = f64::INFINITY;
-        for (l, phi) in self.nominal.iter().enumerate() {
-            serial = serial.min(serial_measure(self.mechanism, l, phi, &pose)?);
+        for (l, (leg, phi)) in mechanism.legs.iter().zip(&self.nominal).enumerate() {
+            let geometry = leg.geometry(phi);
+            let solution = match seeds {
+                Some(seeds) => solve_leg_from(leg, &geometry, &pose, &seeds[l].q)?,
+                None => solve_leg(leg, &geometry, &pose, &mechanism.home_pose)?,
+            };
+            serial = serial.min(solution.normalised_determinant * leg.branch_sign);
+            solutions.push(solution);
         }
-        Ok((serial, self.parallel.at(&pose)?))
+        let parallel = self.parallel.at_solutions(&pose, &solutions)?;
+        Ok(((serial, parallel), solutions))
     }
 
     /// The margin at `p`: positive inside the singularity-free region.
     pub fn at(&self, p: [f64; 2]) -> f64 {
         self.measures(p)
             .map_or(-1.0, |(serial, parallel)| serial.min(parallel))
+    }
+
+    /// The margin at `p` continued from `seeds`, with the solutions there when inside.
+    fn continued(&self, p: [f64; 2], seeds: &[LegSolution]) -> Option<Vec<LegSolution>> {
+        match self.measures_from(p, Some(seeds)) {
+            Ok(((serial, parallel), solutions)) if serial.min(parallel) > 0.0 => Some(solutions),
+            _ => None,
+        }
     }
 }
 
@@ -116,7 +148,7 @@ pub fn maximal_inscribed_workspace(mechanism: &Mechanism, options: MiwOptions) -
     }
     let mut result = None;
     for _ in 0..4 {
-        let boundary = cast_rays(&margin, centre, options);
+        let boundary = cast_rays(&margin, centre, options)?;
         let polyline = geometry::closed_polyline(&boundary);
         let radius_at = |c: [f64; 2]| {
             if margin.at(c) > 0.0 {
@@ -141,36 +173,44 @@ pub fn maximal_inscribed_workspace(mechanism: &Mechanism, options: MiwOptions) -
     result.ok_or_else(|| Error::Invalid("MIW: no pass ran".into()))
 }
 
-/// The first boundary crossing along each of `options.rays` rays from `centre`.
+/// The first boundary crossing along each of `options.rays` rays from `centre`, continuing the
+/// legs' solutions step by step along the ray.
 fn cast_rays(
     margin: &SingularityMargin<'_>,
     centre: [f64; 2],
     options: MiwOptions,
-) -> Vec<[f64; 2]> {
-    (0..options.rays)
+) -> Result<Vec<[f64; 2]>> {
+    let Ok((_, start)) = margin.measures_from(centre, None) else {
+        return Err(Error::Invalid("MIW: a leg cannot reach the centre".into()));
+    };
+    Ok((0..options.rays)
         .map(|k| {
             let angle = std::f64::consts::TAU * k as f64 / options.rays as f64;
             let direction = [angle.cos(), angle.sin()];
             let at = |t: f64| [centre[0] + t * direction[0], centre[1] + t * direction[1]];
             let (mut inside, mut outside) = (0.0, options.step);
+            let mut seeds = start.clone();
             for _ in 0..200_000 {
-                if margin.at(at(outside)) <= 0.0 {
-                    break;
+                match margin.continued(at(outside), &seeds) {
+                    Some(solutions) => seeds = solutions,
+                    None => break,
                 }
                 inside = outside;
                 outside += options.step;
             }
             while outside - inside > 1e-12 {
                 let middle = 0.5 * (inside + outside);
-                if margin.at(at(middle)) > 0.0 {
-                    inside = middle;
-                } else {
-                    outside = middle;
+                match margin.continued(at(middle), &seeds) {
+                    Some(solutions) => {
+                        seeds = solutions;
+                        inside = middle;
+                    }
+                    None => outside = middle,
                 }
             }
             at(inside)
         })
-        .collect()
+        .collect())
 }
 
 struct NegativeRadius<'f> {

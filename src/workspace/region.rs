@@ -129,7 +129,18 @@ pub struct Workspace {
     pub ranges: [Option<[f64; 2]>; 6],
     /// Candidate grid spacing for pose selection, metres.
     pub grid: Option<f64>,
+    /// Evenly spaced values of each ranged coordinate in the candidate grid.
+    pub range_levels: usize,
+    /// Smallest allowed serial (type I) measure of a candidate pose.
+    pub serial_threshold: f64,
+    /// Smallest allowed parallel (type II) measure of a candidate pose.
+    pub parallel_threshold: f64,
 }
+
+/// Default smallest serial and parallel singularity measures of a candidate pose.
+pub const DEFAULT_SINGULARITY_THRESHOLD: f64 = 0.05;
+/// Default number of values of each ranged coordinate in the candidate grid.
+pub const DEFAULT_RANGE_LEVELS: usize = 9;
 
 impl Workspace {
     /// Is the pose inside the region, at least `margin` from its boundary, and within the ranges?
@@ -201,6 +212,9 @@ mod tests {
             margin: 0.05,
             ranges,
             grid: None,
+            range_levels: DEFAULT_RANGE_LEVELS,
+            serial_threshold: DEFAULT_SINGULARITY_THRESHOLD,
+            parallel_threshold: DEFAULT_SINGULARITY_THRESHOLD,
         };
         let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(1);
         for _ in 0..200 {

@@ -36,8 +36,17 @@ fn divide_and_conquer_equals_traditional_on_the_same_poses() {
             let all = identify(&mech, &data, Strategy::Traditional, solver).unwrap();
             for (a, b) in dc.legs.iter().zip(&all.legs) {
                 for (p, q) in a.parameters.iter().zip(&b.parameters) {
+                    // Gauss–Newton's iterates are identical block by block (block-diagonal
+                    // normal equations). Levenberg–Marquardt shares one damping parameter in
+                    // the stacked problem, so it stops at a slightly different point of the
+                    // same minimum: agreement far below the statistical precision σ. A
+                    // coupling bug shows at the scale of σ or above.
+                    let tolerance = match solver {
+                        SolverKind::GaussNewton => 1e-10 * (1.0 + p.estimate.abs()),
+                        SolverKind::LevenbergMarquardt => 1e-6 * p.std.unwrap(),
+                    };
                     assert!(
-                        (p.estimate - q.estimate).abs() <= 1e-10 * (1.0 + p.estimate.abs()),
+                        (p.estimate - q.estimate).abs() <= tolerance,
                         "{} {solver:?} {}: D&C {} vs traditional {}",
                         mech.name,
                         p.name,
@@ -124,8 +133,8 @@ fn levenberg_marquardt_agrees_with_the_minpack_port_on_the_noisy_5r_leg() {
         let x0 = problem.nominal();
         let ours = solve(&problem, x0.clone(), SolverKind::LevenbergMarquardt).unwrap();
         let (minpack, report) = levenberg_marquardt::LevenbergMarquardt::new()
-            .with_ftol(1e-15)
-            .with_xtol(1e-15)
+            .with_ftol(legwise::solver::LM_TOLERANCE)
+            .with_xtol(legwise::solver::LM_TOLERANCE)
             .with_gtol(0.0)
             .minimize(MinpackLeg {
                 problem: &problem,

@@ -7,7 +7,7 @@ use crate::support::bundled;
 fn the_5r_maximal_inscribed_workspace_matches_the_closed_form() {
     let mech = bundled("5r.yaml");
     let options = MiwOptions {
-        rays: 720,
+        rays: 360,
         ..MiwOptions::for_mechanism(&mech)
     };
     let miw = maximal_inscribed_workspace(&mech, options).unwrap();
