@@ -1,4 +1,5 @@
 //! The robot's usable workspace (region, margin, ranges) and candidate poses.
+pub mod candidates;
 pub mod miw;
 pub mod picture;
 pub mod region;

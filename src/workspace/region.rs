@@ -145,7 +145,8 @@ pub const DEFAULT_RANGE_LEVELS: usize = 9;
 impl Workspace {
     /// Is the pose inside the region, at least `margin` from its boundary, and within the ranges?
     pub fn contains(&self, pose: &[f64; 6]) -> bool {
-        self.region.depth([pose[0], pose[1]]) >= self.margin
+        // 1e-12 m: grid points exactly on the usable boundary stay in despite round-off.
+        self.region.depth([pose[0], pose[1]]) >= self.margin - 1e-12
             && self
                 .ranges
                 .iter()

@@ -1,0 +1,169 @@
+//! Candidate identification poses: a grid over the usable workspace (x, y spacing `grid` from the
+//! lower-left corner of the usable region's bounding box, each
+//! ranged coordinate at `range_levels` values), kept when the pose is inside the region with its
+//! margin, every leg reaches it on its home branch, and it clears the serial and parallel
+//! singularity thresholds. Each candidate carries every leg's identification row at the nominal
+//! parameters.
+
+use nalgebra::DVector;
+
+use crate::error::{Error, KinematicsError, Result};
+use crate::identify::jacobian::reading_gradient;
+use crate::kinematics::inverse::solve_leg;
+use crate::kinematics::singularity::ParallelMeasure;
+use crate::model::Mechanism;
+
+/// One feasible candidate pose.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Candidate {
+    /// The pose `[x, y, z, roll, pitch, yaw]`.
+    pub pose: [f64; 6],
+    /// Per leg, the identification row ∂ψ/∂φ (identified parameters) at the nominal values.
+    pub rows: Vec<DVector<f64>>,
+    /// Smallest serial (type I) measure over the legs.
+    pub serial: f64,
+    /// Parallel (type II) measure, when defined.
+    pub parallel: Option<f64>,
+}
+
+/// The candidate pool and what was rejected.
+#[derive(Debug, Clone, PartialEq)]
+pub struct CandidatePool {
+    /// Feasible candidates, in grid order.
+    pub candidates: Vec<Candidate>,
+    /// Grid points inside the region with its margin.
+    pub inside: usize,
+    /// Rejected: a leg cannot reach the pose on its home branch.
+    pub unreachable: usize,
+    /// Rejected: too close to a serial singularity.
+    pub near_serial: usize,
+    /// Rejected: too close to a parallel singularity.
+    pub near_parallel: usize,
+    /// Grid spacing used, metres.
+    pub spacing: f64,
+}
+
+/// Builds the candidate pool of `mechanism` with grid spacing `spacing` (metres; default: the
+/// model's `workspace.grid`).
+///
+/// # Errors
+/// No spacing given anywhere, or an empty pool.
+pub fn candidate_pool(mechanism: &Mechanism, spacing: Option<f64>) -> Result<CandidatePool> {
+    let workspace = &mechanism.workspace;
+    let spacing = spacing.or(workspace.grid).ok_or_else(|| Error::Model {
+        path: mechanism.model_path.clone(),
+        field: "workspace.grid".into(),
+        message: "missing: pose selection needs a candidate grid spacing (metres)".into(),
+    })?;
+    if !(spacing.is_finite() && spacing > 0.0) {
+        return Err(Error::Invalid(format!("grid spacing: expected a positive number of metres, found {spacing}")));
+    }
+    let nominal: Vec<Vec<f64>> = mechanism.legs.iter().map(|l| l.nominal()).collect();
+    let parallel = match ParallelMeasure::new(mechanism, nominal.clone()) {
+        Ok(measure) => Some(measure),
+        Err(KinematicsError::NotSquare { .. }) => None,
+        Err(err) => return Err(err.into()),
+    };
+    let mut pool = CandidatePool {
+        candidates: Vec::new(),
+        inside: 0,
+        unreachable: 0,
+        near_serial: 0,
+        near_parallel: 0,
+        spacing,
+    };
+    for pose in grid(mechanism, spacing) {
+        if !workspace.contains(&pose) {
+            continue;
+        }
+        pool.inside += 1;
+        let mut solutions = Vec::with_capacity(mechanism.legs.len());
+        for (leg, phi) in mechanism.legs.iter().zip(&nominal) {
+            match solve_leg(leg, &leg.geometry(phi), &pose, &mechanism.home_pose) {
+                Ok(solution) => solutions.push((solution.normalised_determinant * leg.branch_sign, solution)),
+                Err(_) => break,
+            }
+        }
+        if solutions.len() < mechanism.legs.len() {
+            pool.unreachable += 1;
+            continue;
+        }
+        let serial = solutions.iter().map(|(s, _)| *s).fold(f64::INFINITY, f64::min);
+        if serial < workspace.serial_threshold {
+            pool.near_serial += 1;
+            continue;
+        }
+        let parallel = match &parallel {
+            Some(measure) => {
+                let legs: Vec<_> = solutions.iter().map(|(_, s)| s.clone()).collect();
+                Some(measure.at_solutions(&pose, &legs)?)
+            }
+            None => None,
+        };
+        if parallel.is_some_and(|p| p < workspace.parallel_threshold) {
+            pool.near_parallel += 1;
+            continue;
+        }
+        let mut rows = Vec::with_capacity(mechanism.legs.len());
+        for (leg, phi) in mechanism.legs.iter().zip(&nominal) {
+            let (_, gradient) = reading_gradient(leg, phi, &leg.identified(), &pose, &mechanism.home_pose)?;
+            rows.push(DVector::from_vec(gradient));
+        }
+        pool.candidates.push(Candidate { pose, rows, serial, parallel });
+    }
+    if pool.candidates.is_empty() {
+        return Err(Error::Invalid(format!(
+            "{}: no feasible candidate pose ({} grid points inside the usable workspace: {} unreachable, {} near a serial singularity, {} near a parallel singularity)",
+            mechanism.model_path.display(),
+            pool.inside,
+            pool.unreachable,
+            pool.near_serial,
+            pool.near_parallel
+        )));
+    }
+    Ok(pool)
+}
+
+/// Grid poses from the lower-left corner of the usable region's bounding box (the region's
+/// bounds moved in by the margin) × ranged coordinate levels.
+fn grid(mechanism: &Mechanism, spacing: f64) -> Vec<[f64; 6]> {
+    let workspace = &mechanism.workspace;
+    let (lo, hi) = workspace.region.bounds();
+    let (lo, hi) = (
+        [lo[0] + workspace.margin, lo[1] + workspace.margin],
+        [hi[0] - workspace.margin, hi[1] - workspace.margin],
+    );
+    let steps = [
+        ((hi[0] - lo[0]) / spacing + 1e-9).floor() as usize,
+        ((hi[1] - lo[1]) / spacing + 1e-9).floor() as usize,
+    ];
+    let mut points = Vec::new();
+    for i in 0..=steps[0] {
+        for j in 0..=steps[1] {
+            let mut pose = mechanism.home_pose;
+            pose[0] = lo[0] + i as f64 * spacing;
+            pose[1] = lo[1] + j as f64 * spacing;
+            points.push(pose);
+        }
+    }
+    for (coordinate, range) in workspace.ranges.iter().enumerate().skip(2) {
+        let Some([min, max]) = *range else { continue };
+        let levels = workspace.range_levels;
+        let values: Vec<f64> = if levels == 1 {
+            vec![(min + max) / 2.0]
+        } else {
+            (0..levels).map(|k| min + (max - min) * k as f64 / (levels - 1) as f64).collect()
+        };
+        points = points
+            .iter()
+            .flat_map(|p| {
+                values.iter().map(move |&v| {
+                    let mut pose = *p;
+                    pose[coordinate] = v;
+                    pose
+                })
+            })
+            .collect();
+    }
+    points
+}
