@@ -113,8 +113,16 @@ pub(crate) mod geometry {
 
     /// Distance to the shape's boundary (parry's `distance_to_local_point` is signed for some
     /// shapes when not solid: use the projection instead).
+    ///
+    /// At a disc's exact centre parry's projection divides by zero (NaN): then the signed
+    /// distance's magnitude is used.
     fn unsigned_distance(shape: &impl PointQuery, local: Vector) -> f64 {
-        (local - shape.project_local_point(local, false).point).length()
+        let distance = (local - shape.project_local_point(local, false).point).length();
+        if distance.is_finite() {
+            distance
+        } else {
+            shape.distance_to_local_point(local, false).abs()
+        }
     }
 }
 
@@ -187,6 +195,7 @@ mod tests {
             radius: 0.5,
         };
         assert!((disc.depth([0.0, 1.2]) - 0.3).abs() < 1e-12);
+        assert!((disc.depth([0.0, 1.0]) - 0.5).abs() < 1e-12, "the exact centre");
         assert!(disc.depth([0.0, 2.0]) < 0.0);
         let square = Region::Box {
             min: [0.0, 0.0],
