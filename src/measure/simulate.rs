@@ -4,7 +4,8 @@
 //! values; true readings are each leg's inverse kinematics with the real parameters at the true
 //! pose; the measured pose and readings get Gaussian noise. Divide and conquer gets
 //! `poses_per_leg` poses per leg (labelled with the leg, only that leg's reading, independent
-//! noise); the traditional strategy gets `poses_per_leg` shared poses with every reading.
+//! noise); the traditional strategy gets `poses_per_leg` shared poses with every reading. The
+//! true poses are given ([`simulate_at`], e.g. selected poses) or random ([`simulate`]).
 
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
@@ -94,9 +95,18 @@ fn gaussian(rng: &mut ChaCha8Rng) -> f64 {
     Normal::new(0.0, 1.0).map_or(0.0, |n| n.sample(rng))
 }
 
-/// Simulates the experiment of the model's simulation block, with random poses spread over the
-/// usable workspace that every leg reaches on its home branch with both the nominal and the real
-/// parameters.
+/// True poses of an experiment: per leg (divide and conquer) and shared (traditional).
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct PoseSets {
+    /// Per leg, the poses of its own identification set.
+    pub per_leg: Vec<Vec<[f64; 6]>>,
+    /// Poses shared by all legs.
+    pub shared: Vec<[f64; 6]>,
+}
+
+/// Simulates the experiment of the model's simulation block at random poses spread over the
+/// usable workspace, which every leg reaches on its home branch with both the nominal and the
+/// real parameters.
 ///
 /// # Errors
 /// No simulation block, or no reachable pose found in the usable workspace.
@@ -105,20 +115,65 @@ pub fn simulate(mechanism: &Mechanism, options: SimulationOptions) -> Result<Sim
     let seed = options.seed.unwrap_or(simulation.seed);
     let count = options.poses_per_leg.unwrap_or(simulation.poses_per_leg);
     let real = real_parameters(mechanism, simulation, seed);
+    let mut rng = ChaCha8Rng::seed_from_u64(seed.wrapping_add(1));
+    let mut draw = |n: usize| -> Result<Vec<[f64; 6]>> {
+        (0..n)
+            .map(|_| reachable_pose(mechanism, &real, &mut rng))
+            .collect()
+    };
+    let sets = PoseSets {
+        per_leg: (0..mechanism.legs.len())
+            .map(|_| draw(count))
+            .collect::<Result<_>>()?,
+        shared: draw(count)?,
+    };
+    simulate_at(mechanism, &sets, options)
+}
+
+/// Simulates measurements at given true poses: true readings from each leg's inverse
+/// kinematics with the real parameters, then Gaussian noise on the measured coordinates and on
+/// the readings. Rows of a leg's set carry only that leg's reading; shared rows carry all.
+///
+/// # Errors
+/// No simulation block, or a real leg cannot reach one of the poses (named).
+pub fn simulate_at(
+    mechanism: &Mechanism,
+    sets: &PoseSets,
+    options: SimulationOptions,
+) -> Result<SimulatedExperiment> {
+    let simulation = setup(mechanism)?;
+    let seed = options.seed.unwrap_or(simulation.seed);
+    let real = real_parameters(mechanism, simulation, seed);
     let mut rng = ChaCha8Rng::seed_from_u64(seed);
     let legs = mechanism.legs.len();
+    let groups = sets
+        .per_leg
+        .iter()
+        .enumerate()
+        .map(|(l, poses)| (Some(l), poses))
+        .chain([(None, &sets.shared)]);
     let mut poses = Vec::new();
-    for group in (0..legs).map(Some).chain([None]) {
-        for _ in 0..count {
-            let (true_pose, readings) = reachable_pose(mechanism, &real, &mut rng)?;
-            let mut measured = true_pose;
+    for (group, true_poses) in groups {
+        for true_pose in true_poses {
+            let mut readings = Vec::with_capacity(legs);
+            for (l, leg) in mechanism.legs.iter().enumerate() {
+                let value = predict_reading(leg, &real[l], true_pose, &mechanism.home_pose)
+                    .map_err(|err| {
+                        Error::Invalid(format!(
+                            "simulation: with its real parameters, {err} (pose x={}, y={}, yaw={})",
+                            true_pose[0], true_pose[1], true_pose[5]
+                        ))
+                    })?;
+                readings.push(value);
+            }
+            let mut measured = *true_pose;
             for &c in &mechanism.measured {
                 measured[c] += options.noise_scale * simulation.pose_noise[c] * gaussian(&mut rng);
             }
             let readings = (0..legs)
                 .map(|l| {
                     let noise = options.noise_scale * simulation.reading_noise * gaussian(&mut rng);
-                    (group.is_none_or(|g| g == l)).then(|| readings[l] + noise)
+                    group.is_none_or(|g| g == l).then(|| readings[l] + noise)
                 })
                 .collect();
             poses.push(MeasuredPose {
@@ -138,29 +193,23 @@ pub fn simulate(mechanism: &Mechanism, options: SimulationOptions) -> Result<Sim
     })
 }
 
-/// Draws poses until every leg reaches one with nominal and real parameters; returns the pose
-/// and the true readings.
+/// Draws poses until every leg reaches one with nominal and real parameters.
 fn reachable_pose(
     mechanism: &Mechanism,
     real: &[Vec<f64>],
     rng: &mut ChaCha8Rng,
-) -> Result<([f64; 6], Vec<f64>)> {
+) -> Result<[f64; 6]> {
     let home = &mechanism.home_pose;
     for _ in 0..10_000 {
         let Some(pose) = mechanism.workspace.sample(home, rng) else {
             break;
         };
-        let readings: Option<Vec<f64>> = mechanism
-            .legs
-            .iter()
-            .zip(real)
-            .map(|(leg, phi)| {
-                predict_reading(leg, &leg.nominal(), &pose, home).ok()?;
-                predict_reading(leg, phi, &pose, home).ok()
-            })
-            .collect();
-        if let Some(readings) = readings {
-            return Ok((pose, readings));
+        let reachable = mechanism.legs.iter().zip(real).all(|(leg, phi)| {
+            predict_reading(leg, &leg.nominal(), &pose, home).is_ok()
+                && predict_reading(leg, phi, &pose, home).is_ok()
+        });
+        if reachable {
+            return Ok(pose);
         }
     }
     Err(Error::Model {

@@ -56,7 +56,9 @@ pub fn candidate_pool(mechanism: &Mechanism, spacing: Option<f64>) -> Result<Can
         message: "missing: pose selection needs a candidate grid spacing (metres)".into(),
     })?;
     if !(spacing.is_finite() && spacing > 0.0) {
-        return Err(Error::Invalid(format!("grid spacing: expected a positive number of metres, found {spacing}")));
+        return Err(Error::Invalid(format!(
+            "grid spacing: expected a positive number of metres, found {spacing}"
+        )));
     }
     let nominal: Vec<Vec<f64>> = mechanism.legs.iter().map(|l| l.nominal()).collect();
     let parallel = match ParallelMeasure::new(mechanism, nominal.clone()) {
@@ -80,7 +82,9 @@ pub fn candidate_pool(mechanism: &Mechanism, spacing: Option<f64>) -> Result<Can
         let mut solutions = Vec::with_capacity(mechanism.legs.len());
         for (leg, phi) in mechanism.legs.iter().zip(&nominal) {
             match solve_leg(leg, &leg.geometry(phi), &pose, &mechanism.home_pose) {
-                Ok(solution) => solutions.push((solution.normalised_determinant * leg.branch_sign, solution)),
+                Ok(solution) => {
+                    solutions.push((solution.normalised_determinant * leg.branch_sign, solution))
+                }
                 Err(_) => break,
             }
         }
@@ -88,7 +92,10 @@ pub fn candidate_pool(mechanism: &Mechanism, spacing: Option<f64>) -> Result<Can
             pool.unreachable += 1;
             continue;
         }
-        let serial = solutions.iter().map(|(s, _)| *s).fold(f64::INFINITY, f64::min);
+        let serial = solutions
+            .iter()
+            .map(|(s, _)| *s)
+            .fold(f64::INFINITY, f64::min);
         if serial < workspace.serial_threshold {
             pool.near_serial += 1;
             continue;
@@ -106,10 +113,16 @@ pub fn candidate_pool(mechanism: &Mechanism, spacing: Option<f64>) -> Result<Can
         }
         let mut rows = Vec::with_capacity(mechanism.legs.len());
         for (leg, phi) in mechanism.legs.iter().zip(&nominal) {
-            let (_, gradient) = reading_gradient(leg, phi, &leg.identified(), &pose, &mechanism.home_pose)?;
+            let (_, gradient) =
+                reading_gradient(leg, phi, &leg.identified(), &pose, &mechanism.home_pose)?;
             rows.push(DVector::from_vec(gradient));
         }
-        pool.candidates.push(Candidate { pose, rows, serial, parallel });
+        pool.candidates.push(Candidate {
+            pose,
+            rows,
+            serial,
+            parallel,
+        });
     }
     if pool.candidates.is_empty() {
         return Err(Error::Invalid(format!(
@@ -152,7 +165,9 @@ fn grid(mechanism: &Mechanism, spacing: f64) -> Vec<[f64; 6]> {
         let values: Vec<f64> = if levels == 1 {
             vec![(min + max) / 2.0]
         } else {
-            (0..levels).map(|k| min + (max - min) * k as f64 / (levels - 1) as f64).collect()
+            (0..levels)
+                .map(|k| min + (max - min) * k as f64 / (levels - 1) as f64)
+                .collect()
         };
         points = points
             .iter()

@@ -195,7 +195,10 @@ mod tests {
             radius: 0.5,
         };
         assert!((disc.depth([0.0, 1.2]) - 0.3).abs() < 1e-12);
-        assert!((disc.depth([0.0, 1.0]) - 0.5).abs() < 1e-12, "the exact centre");
+        assert!(
+            (disc.depth([0.0, 1.0]) - 0.5).abs() < 1e-12,
+            "the exact centre"
+        );
         assert!(disc.depth([0.0, 2.0]) < 0.0);
         let square = Region::Box {
             min: [0.0, 0.0],

@@ -6,3 +6,5 @@ mod recovery;
 mod solvers_agree;
 mod support;
 mod workspace;
+mod bad_input;
+mod cli;

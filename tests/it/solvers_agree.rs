@@ -36,15 +36,10 @@ fn divide_and_conquer_equals_traditional_on_the_same_poses() {
             let all = identify(&mech, &data, Strategy::Traditional, solver).unwrap();
             for (a, b) in dc.legs.iter().zip(&all.legs) {
                 for (p, q) in a.parameters.iter().zip(&b.parameters) {
-                    // Gauss–Newton's iterates are identical block by block (block-diagonal
-                    // normal equations). Levenberg–Marquardt shares one damping parameter in
-                    // the stacked problem, so it stops at a slightly different point of the
-                    // same minimum: agreement far below the statistical precision σ. A
-                    // coupling bug shows at the scale of σ or above.
-                    let tolerance = match solver {
-                        SolverKind::GaussNewton => 1e-10 * (1.0 + p.estimate.abs()),
-                        SolverKind::LevenbergMarquardt => 1e-6 * p.std.unwrap(),
-                    };
+                    // Both solvers end on the stationary point (see solver::refine), so the
+                    // per-leg and the stacked problems must give the same estimate; a coupling
+                    // bug shows at the scale of the standard deviation.
+                    let tolerance = 1e-10 * (1.0 + p.estimate.abs());
                     assert!(
                         (p.estimate - q.estimate).abs() <= tolerance,
                         "{} {solver:?} {}: D&C {} vs traditional {}",
@@ -122,6 +117,12 @@ impl levenberg_marquardt::LeastSquaresProblem<f64, Dyn, Dyn> for MinpackLeg<'_> 
     }
 }
 
+/// Agreement with MINPACK on the model's seeded noisy experiment, both legs.
+///
+/// Both solvers stop by cost-ratio tests whose decisions, near this flat minimum, rest on a
+/// cost known only to ~1e-11 relative: MINPACK's own stopping point can lie up to ~3e-10 from
+/// the stationary point Jᵀr = 0 on other seeds (ours is refined onto it, see
+/// `solver::refine`). On the seeded problem MINPACK stops on it, and the two agree to 1e-10.
 #[test]
 fn levenberg_marquardt_agrees_with_the_minpack_port_on_the_noisy_5r_leg() {
     let mech = bundled("5r.yaml");
@@ -130,15 +131,14 @@ fn levenberg_marquardt_agrees_with_the_minpack_port_on_the_noisy_5r_leg() {
         .measurements;
     for leg in 0..mech.legs.len() {
         let problem = IdentificationProblem::new(&mech, &[leg], data.leg_blocks(leg));
-        let x0 = problem.nominal();
-        let ours = solve(&problem, x0.clone(), SolverKind::LevenbergMarquardt).unwrap();
+        let ours = solve(&problem, problem.nominal(), SolverKind::LevenbergMarquardt).unwrap();
         let (minpack, report) = levenberg_marquardt::LevenbergMarquardt::new()
             .with_ftol(legwise::solver::LM_TOLERANCE)
             .with_xtol(legwise::solver::LM_TOLERANCE)
             .with_gtol(0.0)
             .minimize(MinpackLeg {
                 problem: &problem,
-                x: x0,
+                x: problem.nominal(),
             });
         assert!(
             report.termination.was_successful(),
@@ -149,6 +149,37 @@ fn levenberg_marquardt_agrees_with_the_minpack_port_on_the_noisy_5r_leg() {
             assert!(
                 (a - b).abs() <= 1e-10 * (1.0 + b.abs()),
                 "leg {leg}: LM {a} vs MINPACK {b}"
+            );
+        }
+    }
+}
+
+/// Over many seeds, both solvers end on the stationary point: the Gauss–Newton step from the
+/// estimate is at round-off, and LM and GN agree to 1e-12.
+#[test]
+fn both_solvers_end_on_the_stationary_point_over_many_seeds() {
+    let mech = bundled("5r.yaml");
+    for seed in 1..=12 {
+        let options = SimulationOptions {
+            seed: Some(seed),
+            ..Default::default()
+        };
+        let data = simulate(&mech, options).unwrap().measurements;
+        for leg in 0..mech.legs.len() {
+            let problem = IdentificationProblem::new(&mech, &[leg], data.leg_blocks(leg));
+            let lm = solve(&problem, problem.nominal(), SolverKind::LevenbergMarquardt).unwrap();
+            let gn = solve(&problem, problem.nominal(), SolverKind::GaussNewton).unwrap();
+            let (r, c) = problem.residuals_and_jacobian(&lm.x).unwrap();
+            let step = c.svd(true, true).solve(&r, f64::EPSILON).unwrap();
+            assert!(
+                step.amax() < 1e-12,
+                "seed {seed} leg {leg}: GN step {:.2e} from the LM estimate",
+                step.amax()
+            );
+            let difference = (&lm.x - &gn.x).amax();
+            assert!(
+                difference < 1e-12,
+                "seed {seed} leg {leg}: LM and GN differ by {difference:.2e}"
             );
         }
     }

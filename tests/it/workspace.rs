@@ -41,18 +41,41 @@ fn the_5r_candidate_pool_is_the_grid_inside_the_usable_disc() {
         .count();
     assert_eq!(pool.inside, lattice);
     // algorithms.md §9.1 counts 2953 (3268 at f = 1, which this alignment reproduces exactly).
-    assert!(pool.inside.abs_diff(2953) <= 1, "{} grid points", pool.inside);
-    assert_eq!(pool.candidates.len() + pool.unreachable + pool.near_serial + pool.near_parallel, pool.inside);
-    assert_eq!(pool.candidates.len(), pool.inside, "every point of the usable disc is feasible");
+    assert!(
+        pool.inside.abs_diff(2953) <= 1,
+        "{} grid points",
+        pool.inside
+    );
+    assert_eq!(
+        pool.candidates.len() + pool.unreachable + pool.near_serial + pool.near_parallel,
+        pool.inside
+    );
+    assert_eq!(
+        pool.candidates.len(),
+        pool.inside,
+        "every point of the usable disc is feasible"
+    );
     // The usable disc's closest approach to the type-II singularity is its bottom point, where
     // algorithms.md §1.6 gives min |s_II| = 0.058; no candidate is closer.
     use legwise::kinematics::singularity::ParallelMeasure;
     let nominal: Vec<Vec<f64>> = mech.legs.iter().map(|l| l.nominal()).collect();
     let measure = ParallelMeasure::new(&mech, nominal).unwrap();
-    let bottom = measure.at(&[0.0, centre[1] - radius, 0.0, 0.0, 0.0, 0.0]).unwrap();
-    assert!((bottom - 0.058).abs() < 1e-3, "s_II at the bottom point {bottom}");
-    let smallest = pool.candidates.iter().filter_map(|c| c.parallel).fold(f64::INFINITY, f64::min);
-    assert!(smallest >= bottom, "min parallel measure over the pool {smallest}");
+    let bottom = measure
+        .at(&[0.0, centre[1] - radius, 0.0, 0.0, 0.0, 0.0])
+        .unwrap();
+    assert!(
+        (bottom - 0.058).abs() < 1e-3,
+        "s_II at the bottom point {bottom}"
+    );
+    let smallest = pool
+        .candidates
+        .iter()
+        .filter_map(|c| c.parallel)
+        .fold(f64::INFINITY, f64::min);
+    assert!(
+        smallest >= bottom,
+        "min parallel measure over the pool {smallest}"
+    );
 }
 
 #[test]
@@ -62,8 +85,15 @@ fn the_3rpr_candidate_pool_varies_the_orientation() {
     let pool = candidate_pool(&mech, None).unwrap();
     // algorithms.md §7.5: a 0.05 m grid in the 0.2 m disc (49 points) × 9 orientations.
     assert_eq!(pool.inside, 441);
-    assert_eq!(pool.candidates.len(), 441, "the disc is type-II-free for |yaw| <= 30 deg");
-    let yaws: std::collections::BTreeSet<i64> =
-        pool.candidates.iter().map(|c| (c.pose[5] * 1e6).round() as i64).collect();
+    assert_eq!(
+        pool.candidates.len(),
+        441,
+        "the disc is type-II-free for |yaw| <= 30 deg"
+    );
+    let yaws: std::collections::BTreeSet<i64> = pool
+        .candidates
+        .iter()
+        .map(|c| (c.pose[5] * 1e6).round() as i64)
+        .collect();
     assert_eq!(yaws.len(), 9);
 }
