@@ -11,12 +11,13 @@ pub type Result<T, E = Error> = std::result::Result<T, E>;
 #[non_exhaustive]
 pub enum Error {
     /// A file could not be read or written.
-    #[error("{}: {source}", path.display())]
+    #[error("{}: {error}", path.display())]
     Io {
         /// The file.
         path: PathBuf,
-        /// The operating-system error.
-        source: std::io::Error,
+        /// The operating-system error (part of the message, not a separate cause, so that
+        /// the command line prints it once).
+        error: std::io::Error,
     },
     /// The YAML model file is not valid YAML or does not have the expected shape.
     #[error("{}: {message}", path.display())]
@@ -59,10 +60,13 @@ pub enum Error {
     Kinematics(#[from] KinematicsError),
     /// The pose set does not determine every identified parameter of a leg.
     #[error(
-        "leg `{leg}`: rank-deficient identification: rank {rank} of {n} parameters; \
-         cannot be identified: {params}"
+        "{}leg `{leg}`: rank-deficient identification: rank {rank} of {n} parameters; \
+         cannot be identified: {params}",
+        file_prefix(file)
     )]
     Unidentifiable {
+        /// The measurement file the pose set came from, if any.
+        file: Option<PathBuf>,
         /// The leg.
         leg: String,
         /// Numerical rank of the column-scaled identification Jacobian.
@@ -80,9 +84,23 @@ pub enum Error {
         /// The solver's message.
         message: String,
     },
+    /// A leg has no measurements to be identified from.
+    #[error("{}leg `{leg}`: no measurements (rows labelled `{leg}`, or shared rows with its reading when none is labelled)", file_prefix(file))]
+    NoMeasurements {
+        /// The measurement file, if any.
+        file: Option<PathBuf>,
+        /// The leg.
+        leg: String,
+    },
     /// A request that cannot be carried out with the given data.
     #[error("{0}")]
     Invalid(String),
+}
+
+/// `"path: "` for an optional file, or nothing.
+fn file_prefix(file: &Option<PathBuf>) -> String {
+    file.as_ref()
+        .map_or(String::new(), |p| format!("{}: ", p.display()))
 }
 
 /// Failures of a leg's inverse kinematics, independent of where the pose came from.

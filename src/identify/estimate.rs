@@ -158,9 +158,10 @@ pub fn identify_problem(
         .collect();
     for (slot, name) in problem.slots().iter().zip(&names) {
         if problem.rows_of(slot).is_empty() {
-            return Err(Error::Invalid(format!(
-                "leg `{name}`: no measurements (rows labelled `{name}`, or shared rows with its reading when none is labelled)"
-            )));
+            return Err(Error::NoMeasurements {
+                file: data.source.clone(),
+                leg: name.clone(),
+            });
         }
     }
     let x0 = problem.nominal();
@@ -171,14 +172,18 @@ pub fn identify_problem(
         let observability = leg_observability(mechanism, problem, slot, &c0);
         let n = slot.columns.len();
         if observability.rank < n {
+            let rows = problem.rows_of(slot).len();
             let mut params = observability.unidentifiable.join(", ");
-            if !observability.null_directions.is_empty() {
+            if rows < n {
+                params.push_str(&format!(" (only {rows} measurements for {n} parameters)"));
+            } else if !observability.null_directions.is_empty() {
                 params.push_str(&format!(
                     " (null-space directions, column-scaled: {})",
                     observability.null_directions.join("; ")
                 ));
             }
             return Err(Error::Unidentifiable {
+                file: data.source.clone(),
                 leg: mechanism.legs[slot.leg].name.clone(),
                 rank: observability.rank,
                 n,

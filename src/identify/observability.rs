@@ -55,9 +55,6 @@ pub fn analyse(c: &DMatrix<f64>, names: &[String]) -> Observability {
             null_directions.push(direction(v_t.row(i).iter().copied(), names));
         }
     }
-    for _ in svd.singular_values.len()..n {
-        null_directions.push("(fewer measurements than parameters)".into());
-    }
     let unidentifiable = pivoted_deficient_columns(&scaled, rank)
         .into_iter()
         .map(|j| names[j].clone())

@@ -27,9 +27,9 @@ fn expected_columns(mechanism: &Mechanism) -> Vec<String> {
 /// or unknown column, an unknown leg, a non-numeric or non-finite cell, a missing coordinate, or
 /// a file without rows.
 pub fn read(path: &Path, mechanism: &Mechanism) -> Result<MeasurementSet> {
-    let text = std::fs::read_to_string(path).map_err(|source| Error::Io {
+    let text = std::fs::read_to_string(path).map_err(|error| Error::Io {
         path: path.to_path_buf(),
-        source,
+        error,
     })?;
     parse(&text, path, mechanism)
 }
@@ -61,7 +61,13 @@ pub fn parse(text: &str, path: &Path, mechanism: &Mechanism) -> Result<Measureme
             format!("empty file; expected the columns {}", expected.join(", ")),
         ));
     }
-    for column in &header {
+    for (i, column) in header.iter().enumerate() {
+        if header[..i].contains(column) {
+            return Err(fail(
+                "header".into(),
+                format!("column `{column}` appears twice"),
+            ));
+        }
         if !expected.contains(column) {
             return Err(fail(
                 "header".into(),
@@ -196,9 +202,9 @@ fn csv_message(error: &csv::Error) -> String {
 /// # Errors
 /// [`Error::Io`] if the file cannot be written.
 pub fn write(path: &Path, mechanism: &Mechanism, set: &MeasurementSet) -> Result<()> {
-    std::fs::write(path, to_csv(mechanism, set)).map_err(|source| Error::Io {
+    std::fs::write(path, to_csv(mechanism, set)).map_err(|error| Error::Io {
         path: path.to_path_buf(),
-        source,
+        error,
     })
 }
 

@@ -231,9 +231,9 @@ impl ModelFile {
     /// # Errors
     /// [`Error::Io`] if the file cannot be read, [`Error::Yaml`] if it is not a valid model file.
     pub fn read(path: &Path) -> Result<Self> {
-        let text = std::fs::read_to_string(path).map_err(|source| Error::Io {
+        let text = std::fs::read_to_string(path).map_err(|error| Error::Io {
             path: path.to_path_buf(),
-            source,
+            error,
         })?;
         Self::parse(&text, path)
     }

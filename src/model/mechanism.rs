@@ -99,12 +99,7 @@ impl Mechanism {
         }
         let robot = urdf_rs::read_file(&urdf_path).map_err(|err| Error::Urdf {
             path: urdf_path.clone(),
-            message: err
-                .to_string()
-                .lines()
-                .next()
-                .unwrap_or("invalid URDF")
-                .to_string(),
+            message: urdf_message(&err.to_string()),
         })?;
         Builder {
             path,
@@ -131,6 +126,12 @@ impl Mechanism {
             .map(|leg| leg.joints[leg.moving[leg.actuated]].name.as_str())
             .collect()
     }
+}
+
+/// The first line of a urdf-rs error, without serde's internal `custom: ` prefix.
+fn urdf_message(message: &str) -> String {
+    let first = message.lines().next().unwrap_or("invalid URDF");
+    first.strip_prefix("custom: ").unwrap_or(first).to_string()
 }
 
 struct Builder<'a> {
@@ -491,10 +492,16 @@ impl Builder<'_> {
             let name = &leg.joints[j].name;
             match seeds.get(name) {
                 Some(v) if v.is_finite() => seed.push(*v),
-                _ => {
+                Some(v) => {
                     return Err(self.error(
                         format!("{field}.{name}"),
-                        "missing: every moving joint of the leg needs a finite home value",
+                        format!("expected a finite number, found {v}"),
+                    ))
+                }
+                None => {
+                    return Err(self.error(
+                        format!("{field}.{name}"),
+                        "missing: every moving joint of the leg needs a home value",
                     ))
                 }
             }

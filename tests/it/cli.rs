@@ -1,1 +1,257 @@
-//! placeholder
+//! The real `legwise` binary: bad input exits with code 2 and one `legwise: FILE: …` line on
+//! stderr; good input exits 0 and reports every parameter without NaN. Paths are given
+//! relative to the crate root, as a user would type them.
+use std::process::{Command, Output};
+
+use serde_json::Value;
+
+/// Runs `legwise ARGS` in the crate root.
+fn legwise(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_legwise"))
+        .args(args)
+        .current_dir(env!("CARGO_MANIFEST_DIR"))
+        .output()
+        .expect("the legwise binary runs")
+}
+
+fn text(bytes: &[u8]) -> String {
+    String::from_utf8(bytes.to_vec()).expect("UTF-8 output")
+}
+
+/// Asserts a failed run: exit code 2, nothing on stdout, exactly `expected` (one line) on stderr.
+fn assert_fails_with(args: &[&str], expected: &str) {
+    let out = legwise(args);
+    let stderr = text(&out.stderr);
+    assert_eq!(out.status.code(), Some(2), "{args:?}: stderr {stderr:?}");
+    assert_eq!(stderr, format!("{expected}\n"), "{args:?}");
+    assert_eq!(stderr.lines().count(), 1, "{args:?}: {stderr:?}");
+    // NaN may appear only quoting the offending cell.
+    assert!(
+        !stderr.replace("`NaN`", "").contains("NaN"),
+        "{args:?}: {stderr:?}"
+    );
+    assert_eq!(text(&out.stdout), "", "{args:?}");
+}
+
+/// Asserts a successful run and returns its stdout, checked to hold no NaN or infinity.
+fn assert_succeeds(args: &[&str]) -> String {
+    let out = legwise(args);
+    let (stdout, stderr) = (text(&out.stdout), text(&out.stderr));
+    assert_eq!(out.status.code(), Some(0), "{args:?}: stderr {stderr:?}");
+    assert_eq!(stderr, "", "{args:?}");
+    for word in stdout.split(|c: char| c.is_whitespace() || ",;:()[]".contains(c)) {
+        let word = word.to_lowercase();
+        assert!(
+            !["nan", "inf", "-inf", "infinity"].contains(&word.as_str()),
+            "{args:?}: `{word}` in\n{stdout}"
+        );
+    }
+    stdout
+}
+
+/// Asserts that a terminal report has a table row for each parameter.
+fn assert_reports(stdout: &str, names: &[&str]) {
+    for name in names {
+        assert!(
+            stdout
+                .lines()
+                .any(|l| l.split_whitespace().next() == Some(name)),
+            "no row for `{name}` in\n{stdout}"
+        );
+    }
+}
+
+const PARAMETERS_5R: [&str; 12] = [
+    "l1", "L1", "A1x", "A1y", "k1", "gamma1", "l2", "L2", "A2x", "A2y", "k2", "gamma2",
+];
+
+#[test]
+fn bad_input_exits_with_code_2_and_one_line_naming_the_file() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let out = dir.path().join("never-written.csv");
+    let cases: [(&[&str], &str); 5] = [
+        (
+            &["identify", "--model", "tests/data/5r_syntax_error.yaml"],
+            "legwise: tests/data/5r_syntax_error.yaml: line 12 column 6: while parsing a block \
+             mapping, did not find expected key",
+        ),
+        (
+            &[
+                "simulate",
+                "--model",
+                "tests/data/5r_unknown_field.yaml",
+                "--out",
+                out.to_str().unwrap(),
+            ],
+            "legwise: tests/data/5r_unknown_field.yaml: line 12 column 27: unknown field `gian`, \
+             expected one of joint, gain, offset",
+        ),
+        (
+            &["workspace", "--model", "tests/data/5r_missing_urdf.yaml"],
+            "legwise: tests/data/5r_missing_urdf.yaml: field `urdf`: URDF file \
+             `tests/data/no_such_robot.urdf` not found",
+        ),
+        (
+            &[
+                "identify",
+                "--model",
+                "models/5r.yaml",
+                "--measurements",
+                "tests/data/nan_cell.csv",
+            ],
+            "legwise: tests/data/nan_cell.csv: line 4, column `A1`: expected a finite number in \
+             SI units (radians or metres), found `NaN`",
+        ),
+        (
+            &[
+                "identify",
+                "--model",
+                "models/5r.yaml",
+                "--measurements",
+                "tests/data/unreachable.csv",
+            ],
+            "legwise: tests/data/unreachable.csv: line 5: leg `leg1` cannot reach the pose \
+             (closure residual 1.204e0 m after 40 Newton iterations)",
+        ),
+    ];
+    for (args, expected) in cases {
+        assert_fails_with(args, expected);
+    }
+    assert!(!out.exists());
+}
+
+#[test]
+
+fn a_missing_measurement_file_is_reported_once() {
+    let os_message = std::fs::read_to_string("/nonexistent/legwise/no_such_measurements.csv")
+        .expect_err("missing")
+        .to_string();
+    assert_fails_with(
+        &[
+            "identify",
+            "--model",
+            "models/5r.yaml",
+            "--measurements",
+            "tests/data/no_such_measurements.csv",
+        ],
+        &format!("legwise: tests/data/no_such_measurements.csv: {os_message}"),
+    );
+}
+
+#[test]
+
+fn a_rank_deficient_pose_set_names_the_file_and_the_parameters() {
+    assert_fails_with(
+        &[
+            "identify",
+            "--model",
+            "models/5r.yaml",
+            "--measurements",
+            "tests/data/five_poses.csv",
+        ],
+        "legwise: tests/data/five_poses.csv: leg `leg1`: rank-deficient identification: rank 5 \
+         of 6 parameters; cannot be identified: gamma1 (only 5 measurements for 6 parameters)",
+    );
+}
+
+#[test]
+
+fn a_leg_without_rows_names_the_file() {
+    assert_fails_with(
+        &[
+            "identify",
+            "--model",
+            "models/5r.yaml",
+            "--measurements",
+            "tests/data/no_leg2_rows.csv",
+        ],
+        "legwise: tests/data/no_leg2_rows.csv: leg `leg2`: no measurements (rows labelled \
+         `leg2`, or shared rows with its reading when none is labelled)",
+    );
+}
+
+#[test]
+fn identify_5r_reports_every_parameter() {
+    let stdout = assert_succeeds(&["identify", "--model", "models/5r.yaml"]);
+    assert_reports(&stdout, &PARAMETERS_5R);
+}
+
+#[test]
+fn identify_3rpr_reports_every_parameter() {
+    let stdout = assert_succeeds(&["identify", "--model", "models/3rpr.yaml"]);
+    let names: Vec<String> = (1..=3)
+        .flat_map(|i| {
+            [
+                format!("a{i}x"),
+                format!("a{i}y"),
+                format!("b{i}x"),
+                format!("b{i}y"),
+                format!("k{i}"),
+                format!("rho0_{i}"),
+            ]
+        })
+        .collect();
+    let names: Vec<&str> = names.iter().map(String::as_str).collect();
+    assert_reports(&stdout, &names);
+}
+
+/// Noise-free simulated measurements written as CSV, identified back from the file: the JSON
+/// report holds every parameter with finite values, equal to the model's `simulation.real`.
+#[test]
+fn simulate_then_identify_from_the_csv_writes_a_complete_json_report() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let csv = dir.path().join("m.csv");
+    let json = dir.path().join("r.json");
+    let (csv_arg, json_arg) = (csv.to_str().unwrap(), json.to_str().unwrap());
+    assert_succeeds(&[
+        "simulate",
+        "--model",
+        "models/5r.yaml",
+        "--out",
+        csv_arg,
+        "--noise-scale",
+        "0",
+    ]);
+    let stdout = assert_succeeds(&[
+        "identify",
+        "--model",
+        "models/5r.yaml",
+        "--measurements",
+        csv_arg,
+        "--solver",
+        "gn",
+        "--json",
+        json_arg,
+    ]);
+    assert_reports(&stdout, &PARAMETERS_5R);
+    let report_text = std::fs::read_to_string(&json).expect("JSON report written");
+    assert!(!report_text.contains("NaN"));
+    let report: Value = serde_json::from_str(&report_text).expect("valid JSON");
+    let real = [
+        0.7507, 1.0995, -0.4988, 0.0028, 1.004, 0.0048, 0.7559, 1.0959, 0.4961, 0.0066, -0.9984,
+        3.1418,
+    ];
+    let results = report["results"].as_array().expect("results");
+    assert_eq!(results.len(), 1);
+    let mut seen = Vec::new();
+    for leg in results[0]["legs"].as_array().expect("legs") {
+        for p in leg["parameters"].as_array().expect("parameters") {
+            let name = p["name"].as_str().expect("name");
+            for key in ["nominal", "identified", "std"] {
+                assert!(
+                    p[key].as_f64().is_some_and(f64::is_finite),
+                    "{name}.{key} = {}",
+                    p[key]
+                );
+            }
+            let expected = real[PARAMETERS_5R.iter().position(|n| *n == name).unwrap()];
+            let identified = p["identified"].as_f64().unwrap();
+            assert!(
+                (identified - expected).abs() < 1e-8,
+                "{name}: {identified} vs real {expected}"
+            );
+            seen.push(name.to_string());
+        }
+    }
+    assert_eq!(seen, PARAMETERS_5R);
+}

@@ -1,4 +1,6 @@
 //! One integration binary for all legwise tests.
+mod bad_input;
+mod cli;
 mod golden;
 mod jacobian;
 mod kinematics;
@@ -6,5 +8,3 @@ mod recovery;
 mod solvers_agree;
 mod support;
 mod workspace;
-mod bad_input;
-mod cli;

@@ -1,0 +1,179 @@
+//! Experiment design: the identification poses of each leg (divide and conquer) and the shared
+//! poses of all legs (traditional), selected from the candidate pool for observability.
+//!
+//! # Reference
+//! Durango et al. 2010, §4 (Eq. 6–7); algorithms.md §4 (a D-optimal exchange algorithm in the
+//! spirit of Sun & Hollerbach 2008 / DETMAX).
+
+use nalgebra::DMatrix;
+
+use super::candidates::CandidatePool;
+use super::pose_selection::{select, Criterion, Selection, SelectionError, SelectionOptions};
+use crate::error::{Error, Result};
+use crate::identify::observability::{analyse, Observability};
+use crate::model::mechanism::SelectionCriterion;
+use crate::model::Mechanism;
+
+/// The selected poses of one leg.
+#[derive(Debug, Clone)]
+pub struct LegDesign {
+    /// Index of the leg.
+    pub leg: usize,
+    /// The selected poses.
+    pub poses: Vec<[f64; 6]>,
+    /// Indices of the selected candidates in the pool.
+    pub indices: Vec<usize>,
+    /// Observability of the leg's identification Jacobian (nominal parameters) on the poses.
+    pub observability: Observability,
+    /// What the selection algorithm reports (sweeps, exchanges, certificate).
+    pub selection: Selection,
+}
+
+/// The selected shared poses of all legs (traditional strategy).
+#[derive(Debug, Clone)]
+pub struct SharedDesign {
+    /// The selected poses.
+    pub poses: Vec<[f64; 6]>,
+    /// Indices of the selected candidates in the pool.
+    pub indices: Vec<usize>,
+    /// Each leg's observability on the shared poses.
+    pub legs: Vec<Observability>,
+    /// Observability of the stacked (block-diagonal) Jacobian.
+    pub stacked: Observability,
+    /// What the selection algorithm reports.
+    pub selection: Selection,
+}
+
+fn options(count: usize, criterion: SelectionCriterion) -> SelectionOptions {
+    SelectionOptions {
+        count,
+        criterion: match criterion {
+            SelectionCriterion::D => Criterion::D,
+            SelectionCriterion::A => Criterion::A,
+            SelectionCriterion::E => Criterion::E,
+        },
+        max_sweeps: 50,
+        allow_replicates: false,
+    }
+}
+
+fn names(mechanism: &Mechanism, leg: usize) -> Vec<String> {
+    let model = &mechanism.legs[leg];
+    model.identified().iter().map(|&i| model.params[i].name.clone()).collect()
+}
+
+/// Rows of leg `leg` at the candidates `indices`, stacked.
+fn leg_rows(pool: &CandidatePool, leg: usize, indices: &[usize]) -> DMatrix<f64> {
+    let n = pool.candidates.first().map_or(0, |c| c.rows[leg].len());
+    DMatrix::from_fn(indices.len(), n, |i, j| pool.candidates[indices[i]].rows[leg][j])
+}
+
+/// Selects `count` poses per leg from the pool (divide and conquer).
+///
+/// # Errors
+/// Too few candidates, or a pool that cannot identify some parameters of a leg (named).
+pub fn divide_and_conquer(
+    mechanism: &Mechanism,
+    pool: &CandidatePool,
+    count: usize,
+    criterion: SelectionCriterion,
+) -> Result<Vec<LegDesign>> {
+    let all: Vec<usize> = (0..pool.candidates.len()).collect();
+    (0..mechanism.legs.len())
+        .map(|leg| {
+            let names = names(mechanism, leg);
+            let candidates: Vec<DMatrix<f64>> = pool
+                .candidates
+                .iter()
+                .map(|c| DMatrix::from_row_slice(1, c.rows[leg].len(), c.rows[leg].as_slice()))
+                .collect();
+            let selection = select(&candidates, &options(count, criterion))
+                .map_err(|err| selection_error(mechanism, leg, err, || leg_rows(pool, leg, &all), &names))?;
+            let observability = analyse(&leg_rows(pool, leg, &selection.indices), &names);
+            Ok(LegDesign {
+                leg,
+                poses: selection.indices.iter().map(|&i| pool.candidates[i].pose).collect(),
+                indices: selection.indices.clone(),
+                observability,
+                selection,
+            })
+        })
+        .collect()
+}
+
+/// Selects `count` shared poses for all legs at once (traditional: block-diagonal rows).
+///
+/// # Errors
+/// Too few candidates, or a pool that cannot identify some parameters (named).
+pub fn traditional(
+    mechanism: &Mechanism,
+    pool: &CandidatePool,
+    count: usize,
+    criterion: SelectionCriterion,
+) -> Result<SharedDesign> {
+    let legs = mechanism.legs.len();
+    let widths: Vec<usize> = (0..legs).map(|l| mechanism.legs[l].identified().len()).collect();
+    let total: usize = widths.iter().sum();
+    let block = |index: usize| {
+        let mut matrix = DMatrix::zeros(legs, total);
+        let mut offset = 0;
+        for (leg, &width) in widths.iter().enumerate() {
+            for j in 0..width {
+                matrix[(leg, offset + j)] = pool.candidates[index].rows[leg][j];
+            }
+            offset += width;
+        }
+        matrix
+    };
+    let candidates: Vec<DMatrix<f64>> = (0..pool.candidates.len()).map(block).collect();
+    let all_names: Vec<String> = (0..legs).flat_map(|l| names(mechanism, l)).collect();
+    let stack = |indices: &[usize]| {
+        let mut matrix = DMatrix::zeros(indices.len() * legs, total);
+        for (k, &i) in indices.iter().enumerate() {
+            matrix.view_mut((k * legs, 0), (legs, total)).copy_from(&candidates[i]);
+        }
+        matrix
+    };
+    let all: Vec<usize> = (0..pool.candidates.len()).collect();
+    let selection = select(&candidates, &options(count, criterion)).map_err(|err| {
+        let leg = (0..legs).find(|&l| analyse(&leg_rows(pool, l, &all), &names(mechanism, l)).rank < widths[l]);
+        match leg {
+            Some(l) => selection_error(mechanism, l, err, || leg_rows(pool, l, &all), &names(mechanism, l)),
+            None => selection_error(mechanism, 0, err, || stack(&all), &all_names),
+        }
+    })?;
+    Ok(SharedDesign {
+        poses: selection.indices.iter().map(|&i| pool.candidates[i].pose).collect(),
+        indices: selection.indices.clone(),
+        legs: (0..legs).map(|l| analyse(&leg_rows(pool, l, &selection.indices), &names(mechanism, l))).collect(),
+        stacked: analyse(&stack(&selection.indices), &all_names),
+        selection,
+    })
+}
+
+/// Turns a selection failure into an error; a rank-deficient pool names the parameters.
+fn selection_error(
+    mechanism: &Mechanism,
+    leg: usize,
+    error: SelectionError,
+    pool_rows: impl Fn() -> DMatrix<f64>,
+    names: &[String],
+) -> Error {
+    match error {
+        SelectionError::RankDeficient { .. } => {
+            let observability = analyse(&pool_rows(), names);
+            Error::Unidentifiable {
+                file: None,
+                leg: mechanism.legs[leg].name.clone(),
+                rank: observability.rank,
+                n: names.len(),
+                params: format!(
+                    "{} — the candidate pool cannot identify them (null-space directions, column-scaled: {})",
+                    observability.unidentifiable.join(", "),
+                    observability.null_directions.join("; ")
+                ),
+            }
+        }
+        other => Error::Invalid(format!("pose selection for leg `{}`: {other}", mechanism.legs[leg].name)),
+    }
+}
