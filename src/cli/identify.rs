@@ -8,6 +8,7 @@ use crate::report::{json, terminal, IdentifyReport};
 
 pub(super) fn run(args: &IdentifyArgs) -> anyhow::Result<()> {
     let mechanism = Mechanism::load(&args.model)?;
+    let options = args.simulation.options()?;
     let (data, real, source) = match &args.measurements {
         Some(path) => (
             file::read(path, &mechanism)?,
@@ -15,7 +16,6 @@ pub(super) fn run(args: &IdentifyArgs) -> anyhow::Result<()> {
             path.display().to_string(),
         ),
         None => {
-            let options = args.simulation.options()?;
             let setup = simulate::setup(&mechanism)?;
             let experiment = simulate::simulate(&mechanism, options)?;
             let source = format!(

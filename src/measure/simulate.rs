@@ -160,8 +160,8 @@ pub fn simulate_at(
                 let value = predict_reading(leg, &real[l], true_pose, &mechanism.home_pose)
                     .map_err(|err| {
                         Error::Invalid(format!(
-                            "simulation: with its real parameters, {err} (pose x={}, y={}, yaw={})",
-                            true_pose[0], true_pose[1], true_pose[5]
+                            "simulation: with its real parameters, {err} (pose {})",
+                            pose_text(mechanism, true_pose)
                         ))
                     })?;
                 readings.push(value);
@@ -218,4 +218,14 @@ fn reachable_pose(
         message: "no pose of the usable workspace is reachable by every leg on its home branch"
             .into(),
     })
+}
+
+/// `x=…, y=…` over the measured coordinates of a pose.
+fn pose_text(mechanism: &Mechanism, pose: &[f64; 6]) -> String {
+    mechanism
+        .measured
+        .iter()
+        .map(|&c| format!("{}={}", crate::model::mechanism::COORDINATES[c], pose[c]))
+        .collect::<Vec<_>>()
+        .join(", ")
 }

@@ -192,8 +192,10 @@ pub enum RegionEntry {
 #[derive(Debug, Clone, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct SimulationEntry {
-    /// "Real" values by parameter name; parameters not listed are perturbed (if `perturbation`
-    /// is given) or equal their nominal value.
+    /// "Real" values by parameter name (any parameter, identified or fixed: a fixed parameter
+    /// given a real value different from its nominal one models an error the identification
+    /// cannot absorb). Identified parameters not listed are perturbed (if `perturbation` is
+    /// given); all others equal their nominal value.
     #[serde(default)]
     pub real: BTreeMap<String, f64>,
     /// Standard deviations of a seeded random perturbation of the parameters not in `real`.

@@ -618,9 +618,20 @@ impl Builder<'_> {
             parallel_threshold: threshold(thresholds.and_then(|t| t.parallel), "parallel")?,
         };
         let (lo, hi) = workspace.region.bounds();
-        let largest = (hi[0] - lo[0]).max(hi[1] - lo[1]);
-        if entry.margin * 2.0 >= largest {
-            return Err(self.error("workspace.margin", "the margin leaves no usable region"));
+        let smallest = (hi[0] - lo[0]).min(hi[1] - lo[1]);
+        let centre = [(lo[0] + hi[0]) / 2.0, (lo[1] + hi[1]) / 2.0];
+        let usable = entry.margin * 2.0 < smallest
+            && (workspace.region.depth(centre) >= entry.margin || {
+                // A non-convex polygon may not contain its bounding box's centre: try a few points.
+                use rand::SeedableRng;
+                let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(0);
+                workspace.sample(&[0.0; 6], &mut rng).is_some()
+            });
+        if !usable {
+            return Err(self.error(
+                "workspace.margin",
+                format!("the margin ({} m) leaves no usable region", entry.margin),
+            ));
         }
         Ok(workspace)
     }

@@ -177,3 +177,40 @@ fn selection_error(
         other => Error::Invalid(format!("pose selection for leg `{}`: {other}", mechanism.legs[leg].name)),
     }
 }
+
+/// Selected identification poses of a mechanism: per leg (divide and conquer) and, if asked,
+/// shared (traditional).
+#[derive(Debug, Clone)]
+pub struct ExperimentDesign {
+    /// The candidate pool the poses were selected from.
+    pub candidates: usize,
+    /// Grid spacing of the pool, metres.
+    pub spacing: f64,
+    /// Per leg.
+    pub legs: Vec<LegDesign>,
+    /// Shared by all legs, when requested.
+    pub shared: Option<SharedDesign>,
+}
+
+impl ExperimentDesign {
+    /// Selects `count` poses per leg (and `count` shared poses if `shared`) on a grid of spacing
+    /// `spacing` (default: the model's), with the model's criterion.
+    ///
+    /// # Errors
+    /// As [`super::candidates::candidate_pool`], [`divide_and_conquer`] and [`traditional`].
+    pub fn select(mechanism: &Mechanism, spacing: Option<f64>, count: usize, shared: bool) -> Result<Self> {
+        let pool = super::candidates::candidate_pool(mechanism, spacing)?;
+        let criterion = mechanism.selection.criterion;
+        let legs = divide_and_conquer(mechanism, &pool, count, criterion)?;
+        let shared = if shared { Some(traditional(mechanism, &pool, count, criterion)?) } else { None };
+        Ok(Self { candidates: pool.candidates.len(), spacing: pool.spacing, legs, shared })
+    }
+
+    /// The true poses for a simulated experiment (shared poses empty if not designed).
+    pub fn pose_sets(&self) -> crate::measure::simulate::PoseSets {
+        crate::measure::simulate::PoseSets {
+            per_leg: self.legs.iter().map(|d| d.poses.clone()).collect(),
+            shared: self.shared.as_ref().map(|s| s.poses.clone()).unwrap_or_default(),
+        }
+    }
+}
