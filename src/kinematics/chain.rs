@@ -89,3 +89,23 @@ pub fn tip_and_jacobian(
     }
     (tip, jacobian)
 }
+
+/// World axes of the moving joints for the moving joints' values `q` (f64).
+pub fn moving_axes(
+    leg: &LegModel,
+    geometry: &LegGeometry<f64>,
+    q: &[f64],
+) -> Vec<(JointKind, Vector3<f64>)> {
+    let mut world_from_link = Transform::<f64>::identity();
+    let mut axes = Vec::with_capacity(leg.moving.len());
+    let mut next = 0;
+    for (joint, origin) in leg.joints.iter().zip(&geometry.origins) {
+        world_from_link *= origin_transform(origin);
+        if joint.is_moving() {
+            axes.push((joint.kind, world_from_link.rotation * joint.axis));
+            world_from_link *= joint_motion(joint, q[next]);
+            next += 1;
+        }
+    }
+    axes
+}

@@ -5,10 +5,11 @@ use std::collections::{BTreeMap, HashMap, HashSet};
 use std::path::{Path, PathBuf};
 
 use super::file::{ModelFile, ParameterEntry, RegionEntry};
-use super::joint::{JointModel, ORIGIN_COMPONENTS};
+use super::joint::{JointKind, JointModel, ORIGIN_COMPONENTS};
 use super::leg::LegModel;
 use super::params::{ParamTarget, Parameter, Unit};
 use crate::error::{Error, Result};
+use crate::kinematics::chain::moving_axes;
 use crate::kinematics::inverse::newton;
 use crate::workspace::region::{
     Region, Workspace, DEFAULT_RANGE_LEVELS, DEFAULT_SINGULARITY_THRESHOLD,
@@ -516,6 +517,26 @@ impl Builder<'_> {
             ));
         }
         let geometry = leg.geometry(&leg.nominal());
+        if leg.closure_dims == 2 {
+            // A planar model: revolute joints must turn about z, prismatic ones slide in x, y.
+            let axes = moving_axes(leg, &geometry, &seed);
+            for ((kind, axis), &j) in axes.iter().zip(&leg.moving) {
+                let planar = match kind {
+                    JointKind::Revolute => axis.z.abs() > 1.0 - 1e-9,
+                    _ => axis.z.abs() < 1e-9,
+                };
+                if !planar {
+                    let name = &leg.joints[j].name;
+                    return Err(self.error(
+                        format!("legs[{index}].chain"),
+                        format!(
+                            "joint `{name}` has world axis ({:.3}, {:.3}, {:.3}) at home; a planar model (z not measured) needs revolute axes along z and prismatic axes in the x-y plane (check its <axis> in the URDF)",
+                            axis.x, axis.y, axis.z
+                        ),
+                    ));
+                }
+            }
+        }
         let solution = newton(leg, &geometry, home_pose, &seed).map_err(|err| {
             self.error(
                 &field,

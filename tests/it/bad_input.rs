@@ -151,6 +151,21 @@ fn a_chain_joint_not_in_the_urdf_names_the_chain_entry() {
     );
 }
 
+/// urdf-rs silently gives a joint without `<axis>` the axis x: a planar model catches it.
+#[test]
+fn a_revolute_joint_off_the_plane_is_named() {
+    let (path, msg) = model_error("5r_missing_axis.yaml");
+    assert_eq!(
+        msg,
+        format!(
+            "{}: field `legs[0].chain`: joint `A1` has world axis (1.000, 0.000, 0.000) at home; a \
+             planar model (z not measured) needs revolute axes along z and prismatic axes in the \
+             x-y plane (check its <axis> in the URDF)",
+            path.display()
+        )
+    );
+}
+
 #[test]
 fn a_parameter_on_a_joint_not_in_the_urdf_names_the_parameter_entry() {
     let (path, msg) = model_error("5r_parameter_joint_not_in_urdf.yaml");
