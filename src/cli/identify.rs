@@ -2,13 +2,13 @@
 
 use super::IdentifyArgs;
 use crate::identify::estimate::identify;
-use crate::measure::{file, simulate};
+use crate::measure::file;
 use crate::model::Mechanism;
 use crate::report::{json, terminal, IdentifyReport};
 
 pub(super) fn run(args: &IdentifyArgs) -> anyhow::Result<()> {
     let mechanism = Mechanism::load(&args.model)?;
-    let options = args.simulation.options()?;
+    args.simulation.options()?;
     let (data, real, source) = match &args.measurements {
         Some(path) => (
             file::read(path, &mechanism)?,
@@ -16,15 +16,7 @@ pub(super) fn run(args: &IdentifyArgs) -> anyhow::Result<()> {
             path.display().to_string(),
         ),
         None => {
-            let setup = simulate::setup(&mechanism)?;
-            let experiment = simulate::simulate(&mechanism, options)?;
-            let source = format!(
-                "simulated: seed {}, {} poses per leg and {} shared, noise scale {}",
-                options.seed.unwrap_or(setup.seed),
-                options.poses_per_leg.unwrap_or(setup.poses_per_leg),
-                options.poses_per_leg.unwrap_or(setup.poses_per_leg),
-                options.noise_scale
-            );
+            let (experiment, source) = args.simulation.experiment(&mechanism)?;
             (experiment.measurements, Some(experiment.real), source)
         }
     };

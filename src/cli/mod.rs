@@ -1,5 +1,6 @@
 //! The command line: a thin shell over the library (clap derive).
 mod identify;
+mod select;
 mod simulate;
 mod workspace;
 
@@ -24,6 +25,9 @@ pub struct Cli {
 pub enum Command {
     /// Identify the parameters of a mechanism from measurements (or from a simulation).
     Identify(IdentifyArgs),
+    /// Select the identification poses to measure (observability-optimal, feasible) and write
+    /// them as a measurement CSV with empty readings.
+    Select(SelectArgs),
     /// Simulate an identification experiment and write it as a measurement CSV.
     Simulate(SimulateArgs),
     /// Compute the singularity-free region and its maximal inscribed workspace (MIW), with a picture.
@@ -81,9 +85,44 @@ pub struct SimulateArgs {
     pub simulation: SimulationArgs,
 }
 
+/// Options of `legwise select`.
+#[derive(Debug, clap::Args)]
+pub struct SelectArgs {
+    /// The model file (YAML).
+    #[arg(long)]
+    pub model: PathBuf,
+    /// Where to write the poses (measurement CSV layout, readings empty).
+    #[arg(long)]
+    pub out: PathBuf,
+    /// Per-leg sets (dc), one shared set (traditional), or both.
+    #[arg(long, value_enum, default_value_t = StrategyArg::Dc)]
+    pub strategy: StrategyArg,
+    /// Candidate grid spacing, metres (default: the model's `workspace.grid`).
+    #[arg(long)]
+    pub grid: Option<f64>,
+    /// Poses per leg (default: the model's `selection.poses_per_leg`).
+    #[arg(long)]
+    pub poses_per_leg: Option<usize>,
+}
+
+/// Where simulated identification poses come from.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
+pub enum PosesArg {
+    /// Observability-optimal poses selected from the candidate grid (the paper's protocol).
+    Selected,
+    /// A seeded random spread over the usable workspace.
+    Random,
+}
+
 /// Simulation overrides.
 #[derive(Debug, Clone, clap::Args)]
 pub struct SimulationArgs {
+    /// Where the simulated poses come from.
+    #[arg(long, value_enum, default_value_t = PosesArg::Selected)]
+    pub poses: PosesArg,
+    /// Candidate grid spacing for selected poses, metres (default: the model's `workspace.grid`).
+    #[arg(long)]
+    pub grid: Option<f64>,
     /// Random seed (default: the model's `simulation.seed`).
     #[arg(long)]
     pub seed: Option<u64>,
@@ -135,6 +174,43 @@ impl StrategyArg {
 }
 
 impl SimulationArgs {
+    /// Simulates the model's experiment at selected or random poses; also returns a line
+    /// describing where the measurements came from.
+    fn experiment(
+        &self,
+        mechanism: &crate::model::Mechanism,
+    ) -> anyhow::Result<(crate::measure::simulate::SimulatedExperiment, String)> {
+        use crate::measure::simulate::{setup, simulate, simulate_at};
+        let options = self.options()?;
+        let simulation = setup(mechanism)?;
+        let seed = options.seed.unwrap_or(simulation.seed);
+        let noise = format!("seed {seed}, noise scale {}", options.noise_scale);
+        match self.poses {
+            PosesArg::Random => {
+                let count = options.poses_per_leg.unwrap_or(simulation.poses_per_leg);
+                let experiment = simulate(mechanism, options)?;
+                let text = format!(
+                    "simulated at random poses: {count} per leg and {count} shared, {noise}"
+                );
+                Ok((experiment, text))
+            }
+            PosesArg::Selected => {
+                let count = options
+                    .poses_per_leg
+                    .unwrap_or(mechanism.selection.poses_per_leg);
+                let design = crate::workspace::design::ExperimentDesign::select(
+                    mechanism, self.grid, count, true,
+                )?;
+                let experiment = simulate_at(mechanism, &design.pose_sets(), options)?;
+                let text = format!(
+                    "simulated at selected poses ({:?}-optimal from {} feasible candidates, grid {} m): {count} per leg and {count} shared, {noise}",
+                    mechanism.selection.criterion, design.candidates, design.spacing
+                );
+                Ok((experiment, text))
+            }
+        }
+    }
+
     fn options(&self) -> anyhow::Result<crate::measure::simulate::SimulationOptions> {
         if !(self.noise_scale.is_finite() && self.noise_scale >= 0.0) {
             anyhow::bail!(
@@ -160,6 +236,7 @@ impl SimulationArgs {
 pub fn run(cli: Cli) -> anyhow::Result<()> {
     match cli.command {
         Command::Identify(args) => identify::run(&args),
+        Command::Select(args) => select::run(&args),
         Command::Simulate(args) => simulate::run(&args),
         Command::Workspace(args) => workspace::run(&args),
     }

@@ -1,13 +1,14 @@
 //! `legwise simulate`.
 
 use super::SimulateArgs;
-use crate::measure::{file, simulate};
+use crate::measure::file;
 use crate::model::Mechanism;
 
 pub(super) fn run(args: &SimulateArgs) -> anyhow::Result<()> {
     let mechanism = Mechanism::load(&args.model)?;
-    let experiment = simulate::simulate(&mechanism, args.simulation.options()?)?;
+    let (experiment, source) = args.simulation.experiment(&mechanism)?;
     file::write(&args.out, &mechanism, &experiment.measurements)?;
+    println!("{source}");
     println!(
         "wrote {} measured poses to {}",
         experiment.measurements.poses.len(),

@@ -59,13 +59,19 @@ fn options(count: usize, criterion: SelectionCriterion) -> SelectionOptions {
 
 fn names(mechanism: &Mechanism, leg: usize) -> Vec<String> {
     let model = &mechanism.legs[leg];
-    model.identified().iter().map(|&i| model.params[i].name.clone()).collect()
+    model
+        .identified()
+        .iter()
+        .map(|&i| model.params[i].name.clone())
+        .collect()
 }
 
 /// Rows of leg `leg` at the candidates `indices`, stacked.
 fn leg_rows(pool: &CandidatePool, leg: usize, indices: &[usize]) -> DMatrix<f64> {
     let n = pool.candidates.first().map_or(0, |c| c.rows[leg].len());
-    DMatrix::from_fn(indices.len(), n, |i, j| pool.candidates[indices[i]].rows[leg][j])
+    DMatrix::from_fn(indices.len(), n, |i, j| {
+        pool.candidates[indices[i]].rows[leg][j]
+    })
 }
 
 /// Selects `count` poses per leg from the pool (divide and conquer).
@@ -87,12 +93,17 @@ pub fn divide_and_conquer(
                 .iter()
                 .map(|c| DMatrix::from_row_slice(1, c.rows[leg].len(), c.rows[leg].as_slice()))
                 .collect();
-            let selection = select(&candidates, &options(count, criterion))
-                .map_err(|err| selection_error(mechanism, leg, err, || leg_rows(pool, leg, &all), &names))?;
+            let selection = select(&candidates, &options(count, criterion)).map_err(|err| {
+                selection_error(mechanism, leg, err, || leg_rows(pool, leg, &all), &names)
+            })?;
             let observability = analyse(&leg_rows(pool, leg, &selection.indices), &names);
             Ok(LegDesign {
                 leg,
-                poses: selection.indices.iter().map(|&i| pool.candidates[i].pose).collect(),
+                poses: selection
+                    .indices
+                    .iter()
+                    .map(|&i| pool.candidates[i].pose)
+                    .collect(),
                 indices: selection.indices.clone(),
                 observability,
                 selection,
@@ -112,7 +123,9 @@ pub fn traditional(
     criterion: SelectionCriterion,
 ) -> Result<SharedDesign> {
     let legs = mechanism.legs.len();
-    let widths: Vec<usize> = (0..legs).map(|l| mechanism.legs[l].identified().len()).collect();
+    let widths: Vec<usize> = (0..legs)
+        .map(|l| mechanism.legs[l].identified().len())
+        .collect();
     let total: usize = widths.iter().sum();
     let block = |index: usize| {
         let mut matrix = DMatrix::zeros(legs, total);
@@ -130,22 +143,37 @@ pub fn traditional(
     let stack = |indices: &[usize]| {
         let mut matrix = DMatrix::zeros(indices.len() * legs, total);
         for (k, &i) in indices.iter().enumerate() {
-            matrix.view_mut((k * legs, 0), (legs, total)).copy_from(&candidates[i]);
+            matrix
+                .view_mut((k * legs, 0), (legs, total))
+                .copy_from(&candidates[i]);
         }
         matrix
     };
     let all: Vec<usize> = (0..pool.candidates.len()).collect();
     let selection = select(&candidates, &options(count, criterion)).map_err(|err| {
-        let leg = (0..legs).find(|&l| analyse(&leg_rows(pool, l, &all), &names(mechanism, l)).rank < widths[l]);
+        let leg = (0..legs)
+            .find(|&l| analyse(&leg_rows(pool, l, &all), &names(mechanism, l)).rank < widths[l]);
         match leg {
-            Some(l) => selection_error(mechanism, l, err, || leg_rows(pool, l, &all), &names(mechanism, l)),
+            Some(l) => selection_error(
+                mechanism,
+                l,
+                err,
+                || leg_rows(pool, l, &all),
+                &names(mechanism, l),
+            ),
             None => selection_error(mechanism, 0, err, || stack(&all), &all_names),
         }
     })?;
     Ok(SharedDesign {
-        poses: selection.indices.iter().map(|&i| pool.candidates[i].pose).collect(),
+        poses: selection
+            .indices
+            .iter()
+            .map(|&i| pool.candidates[i].pose)
+            .collect(),
         indices: selection.indices.clone(),
-        legs: (0..legs).map(|l| analyse(&leg_rows(pool, l, &selection.indices), &names(mechanism, l))).collect(),
+        legs: (0..legs)
+            .map(|l| analyse(&leg_rows(pool, l, &selection.indices), &names(mechanism, l)))
+            .collect(),
         stacked: analyse(&stack(&selection.indices), &all_names),
         selection,
     })
@@ -174,7 +202,10 @@ fn selection_error(
                 ),
             }
         }
-        other => Error::Invalid(format!("pose selection for leg `{}`: {other}", mechanism.legs[leg].name)),
+        other => Error::Invalid(format!(
+            "pose selection for leg `{}`: {other}",
+            mechanism.legs[leg].name
+        )),
     }
 }
 
@@ -198,19 +229,37 @@ impl ExperimentDesign {
     ///
     /// # Errors
     /// As [`super::candidates::candidate_pool`], [`divide_and_conquer`] and [`traditional`].
-    pub fn select(mechanism: &Mechanism, spacing: Option<f64>, count: usize, shared: bool) -> Result<Self> {
+    pub fn select(
+        mechanism: &Mechanism,
+        spacing: Option<f64>,
+        count: usize,
+        shared: bool,
+    ) -> Result<Self> {
         let pool = super::candidates::candidate_pool(mechanism, spacing)?;
         let criterion = mechanism.selection.criterion;
         let legs = divide_and_conquer(mechanism, &pool, count, criterion)?;
-        let shared = if shared { Some(traditional(mechanism, &pool, count, criterion)?) } else { None };
-        Ok(Self { candidates: pool.candidates.len(), spacing: pool.spacing, legs, shared })
+        let shared = if shared {
+            Some(traditional(mechanism, &pool, count, criterion)?)
+        } else {
+            None
+        };
+        Ok(Self {
+            candidates: pool.candidates.len(),
+            spacing: pool.spacing,
+            legs,
+            shared,
+        })
     }
 
     /// The true poses for a simulated experiment (shared poses empty if not designed).
     pub fn pose_sets(&self) -> crate::measure::simulate::PoseSets {
         crate::measure::simulate::PoseSets {
             per_leg: self.legs.iter().map(|d| d.poses.clone()).collect(),
-            shared: self.shared.as_ref().map(|s| s.poses.clone()).unwrap_or_default(),
+            shared: self
+                .shared
+                .as_ref()
+                .map(|s| s.poses.clone())
+                .unwrap_or_default(),
         }
     }
 }

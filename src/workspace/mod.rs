@@ -1,5 +1,7 @@
 //! The robot's usable workspace (region, margin, ranges) and candidate poses.
 pub mod candidates;
+pub mod design;
 pub mod miw;
 pub mod picture;
+pub mod pose_selection;
 pub mod region;

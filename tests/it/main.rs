@@ -5,6 +5,7 @@ mod golden;
 mod jacobian;
 mod kinematics;
 mod recovery;
+mod selection;
 mod solvers_agree;
 mod support;
 mod workspace;

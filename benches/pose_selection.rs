@@ -1,0 +1,187 @@
+//! Pose selection with rank-one / block updates (`select`) against the same greedy + exchange
+//! with a from-scratch log det per trial (`select_naive`), on identification rows of the
+//! planar 5R (algorithms.md §2.1) at random poses of the f = 0.95 workspace disc (§9.1).
+//!
+//! Run with `cargo bench --bench pose_selection` (set `POSE_SELECTION_COMPARE=1` to print both
+//! selections first).
+//!
+//! # Reference
+//! algorithms.md §4.3 (complexity of the naive and updated selections).
+use std::f64::consts::PI;
+use std::hint::black_box;
+use std::time::Duration;
+
+use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion};
+use legwise::workspace::pose_selection::{select, select_naive, SelectionOptions};
+use nalgebra::DMatrix;
+use rand::{Rng, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+
+/// One leg of the nominal 5R: base joint (a_x, 0), gain k, offset γ, working mode σ and the
+/// reference angle θ_ref used to unwrap θ (algorithms.md §1.1–§1.2).
+struct Leg {
+    a_x: f64,
+    k: f64,
+    gamma: f64,
+    sigma: f64,
+    theta_ref: f64,
+}
+
+const PSI_REF: f64 = 2.2529;
+const LEGS: [Leg; 2] = [
+    Leg {
+        a_x: -0.5,
+        k: 1.0,
+        gamma: 0.0,
+        sigma: 1.0,
+        theta_ref: PSI_REF,
+    },
+    Leg {
+        a_x: 0.5,
+        k: -1.0,
+        gamma: PI,
+        sigma: -1.0,
+        theta_ref: PI - PSI_REF,
+    },
+];
+
+/// Identification row ∂ψ/∂[l, L, A_x, A_y, k, γ] of `leg` at the end-effector point (x, y)
+/// (algorithms.md §2.1, nominal parameters l = 0.75, L = 1.10, A_y = 0).
+fn leg_row(leg: &Leg, x: f64, y: f64) -> [f64; 6] {
+    let (l, big_l) = (0.75, 1.10);
+    let (dx, dy) = (x - leg.a_x, y);
+    let rho = dx.hypot(dy);
+    let c = (rho * rho + l * l - big_l * big_l) / (2.0 * l * rho);
+    let raw = dy.atan2(dx) + leg.sigma * c.acos();
+    let wrapped = (raw - leg.theta_ref + PI).rem_euclid(2.0 * PI) - PI;
+    let theta = leg.theta_ref + wrapped;
+    let psi = (theta - leg.gamma) / leg.k;
+    let (u, v) = (x - l * theta.cos() - leg.a_x, y - l * theta.sin());
+    let d = l * (u * theta.sin() - v * theta.cos());
+    [
+        (u * theta.cos() + v * theta.sin()) / d / leg.k,
+        big_l / d / leg.k,
+        u / d / leg.k,
+        v / d / leg.k,
+        -psi / leg.k,
+        -1.0 / leg.k,
+    ]
+}
+
+/// `k` seeded random points of the disc of centre (0, 1.0956522), radius 0.95 · 0.6456522.
+fn poses(k: usize, seed: u64) -> Vec<(f64, f64)> {
+    let (centre, radius) = ((0.0, 1.095_652_2), 0.95 * 0.645_652_2);
+    let mut rng = ChaCha8Rng::seed_from_u64(seed);
+    let mut points = Vec::with_capacity(k);
+    while points.len() < k {
+        let (u, v): (f64, f64) = (rng.random_range(-1.0..1.0), rng.random_range(-1.0..1.0));
+        if u * u + v * v <= 1.0 {
+            points.push((centre.0 + radius * u, centre.1 + radius * v));
+        }
+    }
+    points
+}
+
+/// One row per candidate (leg 1, divide and conquer: 6 parameters).
+fn leg_pool(points: &[(f64, f64)]) -> Vec<DMatrix<f64>> {
+    points
+        .iter()
+        .map(|&(x, y)| DMatrix::from_row_slice(1, 6, &leg_row(&LEGS[0], x, y)))
+        .collect()
+}
+
+/// One block-diagonal 2 × 12 matrix per candidate (traditional strategy, both legs).
+fn stacked_pool(points: &[(f64, f64)]) -> Vec<DMatrix<f64>> {
+    points
+        .iter()
+        .map(|&(x, y)| {
+            let mut c = DMatrix::zeros(2, 12);
+            for (i, leg) in LEGS.iter().enumerate() {
+                for (j, value) in leg_row(leg, x, y).into_iter().enumerate() {
+                    c[(i, 6 * i + j)] = value;
+                }
+            }
+            c
+        })
+        .collect()
+}
+
+fn bench(c: &mut Criterion) {
+    // The generator reproduces the golden row of algorithms.md §2.1 at the disc centre.
+    let golden = [
+        -0.2653426423,
+        1.3594794944,
+        1.2022875474,
+        0.6345779299,
+        -2.2528832244,
+        -1.0,
+    ];
+    let row = leg_row(&LEGS[0], 0.0, 1.095_652_2);
+    assert!(
+        row.iter().zip(golden).all(|(a, b)| (a - b).abs() < 1e-6),
+        "{row:?}"
+    );
+
+    let options = SelectionOptions {
+        count: 18,
+        ..Default::default()
+    };
+    let leg = leg_pool(&poses(3000, 1));
+    let stacked = stacked_pool(&poses(3000, 2));
+    let stacked_small = stacked_pool(&poses(1000, 3));
+    // With POSE_SELECTION_COMPARE set: check that both give the same design, and print it.
+    let pools = [
+        ("leg", &leg),
+        ("stacked", &stacked),
+        ("stacked", &stacked_small),
+    ];
+    for (name, pool) in pools
+        .into_iter()
+        .filter(|_| std::env::var_os("POSE_SELECTION_COMPARE").is_some())
+    {
+        let (fast, naive) = (
+            select(pool, &options).unwrap(),
+            select_naive(pool, &options).unwrap(),
+        );
+        println!(
+            "{name} K = {}: log det {:.9} (naive {:.9}), same set: {}, sweeps {}, exchanges {}, \
+             excursions {}, certificate {:.3}",
+            pool.len(),
+            fast.log_det,
+            naive.log_det,
+            fast.indices == naive.indices,
+            fast.sweeps,
+            fast.exchanges,
+            fast.excursions,
+            fast.certificate
+        );
+    }
+
+    let mut group = c.benchmark_group("pose_selection");
+    group
+        .sample_size(20)
+        .measurement_time(Duration::from_secs(3));
+    group.bench_function(BenchmarkId::new("select", "b1_K3000_n6_N18"), |b| {
+        b.iter(|| select(black_box(&leg), &options).unwrap())
+    });
+    group.bench_function(BenchmarkId::new("select", "b2_K3000_n12_N18"), |b| {
+        b.iter(|| select(black_box(&stacked), &options).unwrap())
+    });
+    group.bench_function(BenchmarkId::new("select", "b2_K1000_n12_N18"), |b| {
+        b.iter(|| select(black_box(&stacked_small), &options).unwrap())
+    });
+    group
+        .sample_size(10)
+        .warm_up_time(Duration::from_millis(500))
+        .measurement_time(Duration::from_secs(5));
+    group.bench_function(BenchmarkId::new("select_naive", "b1_K3000_n6_N18"), |b| {
+        b.iter(|| select_naive(black_box(&leg), &options).unwrap())
+    });
+    group.bench_function(BenchmarkId::new("select_naive", "b2_K1000_n12_N18"), |b| {
+        b.iter(|| select_naive(black_box(&stacked_small), &options).unwrap())
+    });
+    group.finish();
+}
+
+criterion_group!(benches, bench);
+criterion_main!(benches);
