@@ -1,0 +1,77 @@
+//! Identification of one leg with Levenberg–Marquardt and Gauss–Newton on identical inputs, and
+//! the divide-and-conquer and all-legs problems on identical shared poses, per bundled model.
+//! Run: `cargo bench --bench solvers`.
+use std::hint::black_box;
+use std::path::PathBuf;
+
+use criterion::{criterion_group, criterion_main, Criterion};
+use legwise::identify::estimate::{identify, Strategy};
+use legwise::identify::problem::IdentificationProblem;
+use legwise::measure::simulate::{simulate, SimulationOptions};
+use legwise::measure::MeasurementSet;
+use legwise::model::Mechanism;
+use legwise::solver::{solve, SolverKind};
+
+fn model(name: &str) -> Mechanism {
+    let path = PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+        .join("models")
+        .join(name);
+    Mechanism::load(&path).expect("bundled model")
+}
+
+fn solvers(c: &mut Criterion) {
+    for name in ["5r.yaml", "3rpr.yaml"] {
+        let mechanism = model(name);
+        let data = simulate(&mechanism, SimulationOptions::default())
+            .expect("simulation")
+            .measurements;
+        let problem = IdentificationProblem::new(&mechanism, &[0], data.leg_blocks(0));
+        let mut group =
+            c.benchmark_group(format!("identify_leg/{}", name.trim_end_matches(".yaml")));
+        for kind in [SolverKind::LevenbergMarquardt, SolverKind::GaussNewton] {
+            group.bench_function(kind.short_name(), |b| {
+                b.iter(|| solve(black_box(&problem), problem.nominal(), kind).expect("solves"))
+            });
+        }
+        group.finish();
+    }
+}
+
+fn strategies(c: &mut Criterion) {
+    for name in ["5r.yaml", "3rpr.yaml"] {
+        let mechanism = model(name);
+        let data = simulate(&mechanism, SimulationOptions::default())
+            .expect("simulation")
+            .measurements;
+        let shared = MeasurementSet {
+            source: None,
+            poses: data
+                .poses
+                .iter()
+                .filter(|p| p.leg.is_none())
+                .cloned()
+                .collect(),
+        };
+        let mut group = c.benchmark_group(format!("strategy/{}", name.trim_end_matches(".yaml")));
+        for (label, strategy) in [
+            ("dc", Strategy::DivideAndConquer),
+            ("all_legs", Strategy::Traditional),
+        ] {
+            group.bench_function(label, |b| {
+                b.iter(|| {
+                    identify(
+                        &mechanism,
+                        black_box(&shared),
+                        strategy,
+                        SolverKind::GaussNewton,
+                    )
+                    .expect("identifies")
+                })
+            });
+        }
+        group.finish();
+    }
+}
+
+criterion_group!(benches, solvers, strategies);
+criterion_main!(benches);
