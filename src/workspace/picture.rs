@@ -46,17 +46,7 @@ pub fn miw_svg(margin: &SingularityMargin<'_>, miw: &Miw, title: &str) -> String
     );
     // Singular curves: zero crossings of the measures between neighbouring grid points.
     let step = [(hi[0] - lo[0]) / GRID as f64, (hi[1] - lo[1]) / GRID as f64];
-    let sample: Vec<Vec<Option<(f64, f64)>>> = (0..=GRID)
-        .map(|i| {
-            (0..=GRID)
-                .map(|j| {
-                    margin
-                        .measures([lo[0] + i as f64 * step[0], lo[1] + j as f64 * step[1]])
-                        .ok()
-                })
-                .collect()
-        })
-        .collect();
+    let sample = margin.sample_grid(lo, step, GRID + 1);
     for i in 0..=GRID {
         for j in 0..=GRID {
             for (di, dj) in [(1, 0), (0, 1)] {
@@ -103,8 +93,8 @@ pub fn miw_svg(margin: &SingularityMargin<'_>, miw: &Miw, title: &str) -> String
     );
     let legend = format!(
         "MIW centre ({:.6}, {:.6}) m, radius {:.6} m",
-        miw.centre[0] + 0.0,
-        miw.centre[1] + 0.0,
+        tidy(miw.centre[0]),
+        tidy(miw.centre[1]),
         miw.radius
     );
     let _ = writeln!(
@@ -133,4 +123,9 @@ fn escape(text: &str) -> String {
     text.replace('&', "&amp;")
         .replace('<', "&lt;")
         .replace('>', "&gt;")
+}
+
+/// Rounds to the printed precision so that a tiny negative number does not print as `-0.000000`.
+fn tidy(value: f64) -> f64 {
+    (value * 1e6).round() / 1e6 + 0.0
 }

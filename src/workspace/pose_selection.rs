@@ -9,7 +9,9 @@
 //!    M = ε·diag(Σ c∘c)/K (ε = [`RIDGE`]): add the candidate of largest gain, N times;
 //! 2. Fedorov exchange: each sweep refactorises M = C_SᵀC_S (Cholesky), then applies the best
 //!    improving swap (design point out, candidate in) per step, at most N steps per sweep,
-//!    until no swap improves the criterion by more than the relative factor [`ACCEPT`].
+//!    until no swap improves the criterion by more than the relative factor [`ACCEPT`]; then
+//!    DETMAX excursions of length 2..=[`EXCURSION_LENGTH`] (add the L best candidates one by
+//!    one, then drop the L least useful points); an improving excursion resumes the exchange.
 //!
 //! For the D criterion the gains come from rank-one identities (matrix determinant lemma,
 //! Sherman–Morrison, the Fedorov swap ratio Δ_ij = (1+d_j)(1−d_i) + d_ij²), with a fast path
@@ -46,7 +48,7 @@ pub const EXCURSION_LENGTH: usize = 4;
 
 /// A Jacobi-scaled symmetric matrix whose inverse has a larger Frobenius norm than this is
 /// treated as numerically singular.
-const MAX_SCALED_INVERSE: f64 = 1e14;
+const MAX_SCALED_INVERSE: f64 = 1.0 / (RANK_TOLERANCE * RANK_TOLERANCE);
 
 /// Design criterion of the selection.
 ///
@@ -189,8 +191,8 @@ pub enum SelectionError {
     },
 }
 
-/// Selects `options.count` candidates by greedy construction and Fedorov exchange, with
-/// rank-one (b = 1) or block (b > 1) updates for the D criterion.
+/// Selects `options.count` candidates by greedy construction, Fedorov exchange and DETMAX
+/// excursions, with rank-one (b = 1) or block (b > 1) updates for the D criterion.
 ///
 /// `candidates` holds one b × n matrix per candidate pose (b = 1 for one leg; b = n_legs for
 /// the stacked traditional design, any block structure). All candidates must have the same
@@ -414,7 +416,7 @@ impl Pool {
         }
     }
 
-    /// The best eligible addition by the D gain ln det(I_b + C_j M⁻¹ C_jᵀ), from Y = M⁻¹ X
+    /// The best eligible addition by the D gain det(I_b + C_j M⁻¹ C_jᵀ), from Y = M⁻¹ X
     /// (ties: lowest index).
     fn best_block_gain(&self, y: &DMatrix<f64>, eligible: &[bool]) -> Option<usize> {
         let b = self.b;
@@ -424,15 +426,7 @@ impl Pool {
             for r in 0..b {
                 g[r * b + r] += 1.0;
             }
-            let det = det_in_place(&mut g, b);
-            (
-                j,
-                if det > 0.0 {
-                    det.ln()
-                } else {
-                    f64::NEG_INFINITY
-                },
-            )
+            (j, det_in_place(&mut g, b))
         }))
     }
 }
@@ -898,7 +892,7 @@ impl<'a> RankOneD<'a> {
 impl Engine for RankOneD<'_> {
     fn greedy_pick(
         &mut self,
-        _design: &[usize],
+        design: &[usize],
         eligible: &[bool],
     ) -> Result<usize, SelectionError> {
         argmax(
@@ -908,7 +902,7 @@ impl Engine for RankOneD<'_> {
         )
         .ok_or(SelectionError::TooFewCandidates {
             available: self.pool.k,
-            requested: self.pool.k + 1,
+            requested: design.len() + 1,
         })
     }
 
@@ -1022,7 +1016,7 @@ impl<'a> BlockD<'a> {
 impl Engine for BlockD<'_> {
     fn greedy_pick(
         &mut self,
-        _design: &[usize],
+        design: &[usize],
         eligible: &[bool],
     ) -> Result<usize, SelectionError> {
         let y = &self.minv * &self.pool.x;
@@ -1030,7 +1024,7 @@ impl Engine for BlockD<'_> {
             .best_block_gain(&y, eligible)
             .ok_or(SelectionError::TooFewCandidates {
                 available: self.pool.k,
-                requested: self.pool.k + 1,
+                requested: design.len() + 1,
             })
     }
 
@@ -1089,6 +1083,27 @@ impl Engine for BlockD<'_> {
         let mut best = (1.0 + ACCEPT, None);
         for &pos in order {
             let di = &d_blocks[design[pos] * bb..(design[pos] + 1) * bb];
+            if b == 2 {
+                // The traditional two-leg design: the same formula with 2 × 2 blocks written out.
+                let (d00, d01, d10, d11) = (di[0], di[1], di[2], di[3]);
+                let (r0, r1) = (pos * 2, pos * 2 + 1);
+                for j in (0..k).filter(|&j| eligible[j]) {
+                    let gi = &g_inverse[j * 4..j * 4 + 4];
+                    let (e00, e01) = (cross[(r0, 2 * j)], cross[(r0, 2 * j + 1)]);
+                    let (e10, e11) = (cross[(r1, 2 * j)], cross[(r1, 2 * j + 1)]);
+                    let (f00, f01) = (e00 * gi[0] + e01 * gi[2], e00 * gi[1] + e01 * gi[3]);
+                    let (f10, f11) = (e10 * gi[0] + e11 * gi[2], e10 * gi[1] + e11 * gi[3]);
+                    let t00 = 1.0 - d00 + f00 * e00 + f01 * e01;
+                    let t01 = -d01 + f00 * e10 + f01 * e11;
+                    let t10 = -d10 + f10 * e00 + f11 * e01;
+                    let t11 = 1.0 - d11 + f10 * e10 + f11 * e11;
+                    let delta = g_det[j] * (t00 * t11 - t01 * t10);
+                    if delta > best.0 {
+                        best = (delta, Some((pos, j)));
+                    }
+                }
+                continue;
+            }
             for j in (0..k).filter(|&j| eligible[j]) {
                 // Δ = det(I + D_j) · det(I − D_i + D_ij (I + D_j)⁻¹ D_ijᵀ)
                 let gi = &g_inverse[j * bb..(j + 1) * bb];
@@ -1180,7 +1195,7 @@ impl Engine for AOptimal<'_> {
         argmax((0..pool.k).filter(|&j| eligible[j]).map(|j| (j, score(j)))).ok_or(
             SelectionError::TooFewCandidates {
                 available: pool.k,
-                requested: pool.k + 1,
+                requested: design.len() + 1,
             },
         )
     }
@@ -1283,7 +1298,7 @@ impl Engine for EOptimal<'_> {
         };
         picked.ok_or(SelectionError::TooFewCandidates {
             available: pool.k,
-            requested: pool.k + 1,
+            requested: design.len() + 1,
         })
     }
 
@@ -1402,7 +1417,7 @@ impl Engine for Naive<'_> {
         }
         argmax(scores.into_iter()).ok_or(SelectionError::TooFewCandidates {
             available: pool.k,
-            requested: pool.k + 1,
+            requested: design.len() + 1,
         })
     }
 
@@ -1632,6 +1647,42 @@ mod tests {
             let pool = Pool::new(&candidates, &options(count)).unwrap();
             follow_sweep(&pool, count, &mut BlockD::new(&pool), |e| e.minv.clone());
         }
+    }
+
+    #[test]
+    fn a_singular_design_is_exchanged_with_the_ridge() {
+        // Design {0, 1, 2} spans only two of three directions: the sweep falls back to the
+        // ridge, and the swaps (same as from scratch) restore full rank.
+        let mut candidates = random_pool(31, 30, 1, 3);
+        for (i, row) in [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [1.0, 1.0, 0.0]]
+            .iter()
+            .enumerate()
+        {
+            candidates[i] = DMatrix::from_row_slice(1, 3, row);
+        }
+        let pool = Pool::new(&candidates, &options(3)).unwrap();
+        let design = vec![0, 1, 2];
+        assert!(pool.exchange_inverse(&design).unwrap().1);
+        let eligible: Vec<bool> = (0..pool.k).map(|j| j >= 3).collect();
+        let mut fast = RankOneD::new(&pool);
+        let mut naive = Naive {
+            pool: &pool,
+            criterion: Criterion::D,
+            ridge: false,
+        };
+        fast.sweep_start(&design).unwrap();
+        naive.sweep_start(&design).unwrap();
+        let chosen = fast.best_swap(&design, &order(&design), &eligible).unwrap();
+        assert_eq!(
+            chosen,
+            naive
+                .best_swap(&design, &order(&design), &eligible)
+                .unwrap()
+        );
+        let (pos, j) = chosen.unwrap();
+        let mut repaired = design.clone();
+        repaired[pos] = j;
+        assert!(log_det(&candidates, &repaired).is_finite());
     }
 
     #[test]

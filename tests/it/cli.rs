@@ -255,3 +255,52 @@ fn simulate_then_identify_from_the_csv_writes_a_complete_json_report() {
     }
     assert_eq!(seen, PARAMETERS_5R);
 }
+
+#[test]
+fn workspace_prints_the_5r_miw_and_writes_the_picture() {
+    let dir = tempfile::tempdir().unwrap();
+    let svg = dir.path().join("miw.svg");
+    let stdout = assert_succeeds(&[
+        "workspace",
+        "--model",
+        "models/5r.yaml",
+        "--rays",
+        "360",
+        "--svg",
+        svg.to_str().unwrap(),
+    ]);
+    assert!(
+        stdout.contains("centre  x = 0.0000000 m, y = 1.0956"),
+        "{stdout}"
+    );
+    assert!(stdout.contains("radius  0.6456"), "{stdout}");
+    let picture = std::fs::read_to_string(&svg).unwrap();
+    assert!(
+        picture.starts_with("<svg")
+            && picture.contains("<circle")
+            && picture.trim_end().ends_with("</svg>")
+    );
+}
+
+#[test]
+fn select_writes_the_poses_to_measure_with_empty_readings() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("poses.csv");
+    let stdout = assert_succeeds(&[
+        "select",
+        "--model",
+        "models/5r.yaml",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    assert!(stdout.contains("leg leg1: O1 "), "{stdout}");
+    let csv = std::fs::read_to_string(&out).unwrap();
+    let rows: Vec<&str> = csv.lines().collect();
+    assert_eq!(rows[0], "leg,x,y,A1,A2");
+    assert_eq!(rows.len(), 1 + 2 * 18);
+    assert!(
+        rows[1..].iter().all(|r| r.ends_with(",,")),
+        "readings are left empty"
+    );
+    assert_eq!(rows.iter().filter(|r| r.starts_with("leg2,")).count(), 18);
+}
