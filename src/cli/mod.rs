@@ -103,6 +103,32 @@ pub struct SelectArgs {
     /// Poses per leg (default: the model's `selection.poses_per_leg`).
     #[arg(long)]
     pub poses_per_leg: Option<usize>,
+    /// Design criterion (default: the model's `selection.criterion`): D maximises det CᵀC (O1),
+    /// A minimises tr (CᵀC)⁻¹, E maximises the smallest singular value (O3).
+    #[arg(long, value_enum)]
+    pub criterion: Option<CriterionArg>,
+}
+
+/// `--criterion`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
+pub enum CriterionArg {
+    /// D-optimal.
+    D,
+    /// A-optimal.
+    A,
+    /// E-optimal.
+    E,
+}
+
+impl CriterionArg {
+    fn criterion(self) -> crate::model::mechanism::SelectionCriterion {
+        use crate::model::mechanism::SelectionCriterion;
+        match self {
+            CriterionArg::D => SelectionCriterion::D,
+            CriterionArg::A => SelectionCriterion::A,
+            CriterionArg::E => SelectionCriterion::E,
+        }
+    }
 }
 
 /// Where simulated identification poses come from.
@@ -198,8 +224,9 @@ impl SimulationArgs {
                 let count = options
                     .poses_per_leg
                     .unwrap_or(mechanism.selection.poses_per_leg);
+                let criterion = mechanism.selection.criterion;
                 let design = crate::workspace::design::ExperimentDesign::select(
-                    mechanism, self.grid, count, true,
+                    mechanism, self.grid, count, criterion, true,
                 )?;
                 let experiment = simulate_at(mechanism, &design.pose_sets(), options)?;
                 let text = format!(

@@ -11,7 +11,10 @@ pub(super) fn run(args: &SelectArgs) -> anyhow::Result<()> {
         .poses_per_leg
         .unwrap_or(mechanism.selection.poses_per_leg);
     let shared = args.strategy != super::StrategyArg::Dc;
-    let design = ExperimentDesign::select(&mechanism, args.grid, count, shared)?;
+    let criterion = args
+        .criterion
+        .map_or(mechanism.selection.criterion, |c| c.criterion());
+    let design = ExperimentDesign::select(&mechanism, args.grid, count, criterion, shared)?;
     println!(
         "legwise select: {} ({})",
         mechanism.name,
@@ -19,7 +22,7 @@ pub(super) fn run(args: &SelectArgs) -> anyhow::Result<()> {
     );
     println!(
         "{} feasible candidate poses (grid {} m); criterion {:?}; {} poses per leg",
-        design.candidates, design.spacing, mechanism.selection.criterion, count
+        design.candidates, design.spacing, criterion, count
     );
     let legs = mechanism.legs.len();
     let mut poses = Vec::new();

@@ -225,7 +225,7 @@ pub struct ExperimentDesign {
 
 impl ExperimentDesign {
     /// Selects `count` poses per leg (and `count` shared poses if `shared`) on a grid of spacing
-    /// `spacing` (default: the model's), with the model's criterion.
+    /// `spacing` (default: the model's), with `criterion`.
     ///
     /// # Errors
     /// As [`super::candidates::candidate_pool`], [`divide_and_conquer`] and [`traditional`].
@@ -233,10 +233,10 @@ impl ExperimentDesign {
         mechanism: &Mechanism,
         spacing: Option<f64>,
         count: usize,
+        criterion: SelectionCriterion,
         shared: bool,
     ) -> Result<Self> {
         let pool = super::candidates::candidate_pool(mechanism, spacing)?;
-        let criterion = mechanism.selection.criterion;
         let legs = divide_and_conquer(mechanism, &pool, count, criterion)?;
         let shared = if shared {
             Some(traditional(mechanism, &pool, count, criterion)?)
