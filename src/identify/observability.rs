@@ -10,6 +10,10 @@ use nalgebra::DMatrix;
 /// not identifiable.
 pub const RANK_TOLERANCE: f64 = 1e-8;
 
+/// Column-scaled condition number above which an identification is reported as weak: the
+/// weakest direction is determined ~10⁴ times worse than the best one.
+pub const WEAK_CONDITION: f64 = 1e4;
+
 /// What the singular values of an identification Jacobian say.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Observability {
@@ -27,6 +31,22 @@ pub struct Observability {
     pub unidentifiable: Vec<String>,
     /// Null-space directions, e.g. `0.707 l1 - 0.707 L1`.
     pub null_directions: Vec<String>,
+    /// Condition number of the column-scaled C (infinite when rank-deficient).
+    pub scaled_condition: f64,
+    /// The least observable direction (column-scaled), e.g. `0.71 k1 + 0.70 gamma1`.
+    pub weakest_direction: String,
+}
+
+impl Observability {
+    /// A warning when the design is full-rank but weak (scaled condition above [`WEAK_CONDITION`]).
+    pub fn warning(&self) -> Option<String> {
+        (self.scaled_condition > WEAK_CONDITION).then(|| {
+            format!(
+                "weakly identifiable: column-scaled condition number {:.1e} (> {:.0e}); least observable direction {}",
+                self.scaled_condition, WEAK_CONDITION, self.weakest_direction
+            )
+        })
+    }
 }
 
 /// Analyses identification Jacobian `c` (rows = measurements) whose columns are `names`.
@@ -50,6 +70,16 @@ pub fn analyse(c: &DMatrix<f64>, names: &[String]) -> Observability {
         .filter(|&&s| s > RANK_TOLERANCE * largest)
         .count();
     let mut null_directions = Vec::new();
+    let weakest_direction = match (&svd.v_t, order.last()) {
+        (Some(v_t), Some(&i)) => direction(v_t.row(i).iter().copied(), names),
+        _ => String::new(),
+    };
+    let smallest = scaled_singular_values.last().copied().unwrap_or(0.0);
+    let scaled_condition = if rank == n && smallest > 0.0 {
+        largest / smallest
+    } else {
+        f64::INFINITY
+    };
     if let Some(v_t) = &svd.v_t {
         for &i in order.iter().skip(rank) {
             null_directions.push(direction(v_t.row(i).iter().copied(), names));
@@ -72,6 +102,8 @@ pub fn analyse(c: &DMatrix<f64>, names: &[String]) -> Observability {
         condition,
         unidentifiable,
         null_directions,
+        scaled_condition,
+        weakest_direction,
     }
 }
 

@@ -68,6 +68,8 @@ fn result(report: &IdentifyReport<'_>, result: &StrategyResult) -> Value {
                 "parameter_error_rms_after": optional(report.rms_error(result, l, true)),
                 "singular_values": o.singular_values.iter().map(|&s| finite(s)).collect::<Vec<_>>(),
                 "condition_number": finite(o.condition),
+                "scaled_condition_number": finite(o.scaled_condition),
+                "warnings": o.warning().into_iter().collect::<Vec<_>>(),
                 "observability": {
                     "O1": finite(o.indices[0]), "O2": finite(o.indices[1]), "O3": finite(o.indices[2]),
                     "O4": finite(o.indices[3]), "O5": finite(o.indices[4]),

@@ -138,5 +138,8 @@ fn render_result(out: &mut String, report: &IdentifyReport<'_>, result: &Strateg
             out,
             "  observability: O1 {o1:.4}, O2 {o2:.3e}, O3 {o3:.4}, O4 {o4:.3e}, O5 {o5:.4}"
         );
+        if let Some(warning) = leg.observability.warning() {
+            let _ = writeln!(out, "  warning: {warning}");
+        }
     }
 }

@@ -140,3 +140,45 @@ fn a_fixed_orientation_pool_is_rank_deficient_in_named_parameters() {
     );
     assert_eq!(observability.rank, 4);
 }
+
+/// Measured at one nominal orientation, the 3-RPR is rank-deficient but the pose noise makes the
+/// measured design full-rank: the identification must warn that it is weak, naming the
+/// direction; the selected 5R design must not.
+#[test]
+fn a_weak_design_is_reported_with_its_least_observable_direction() {
+    use legwise::identify::estimate::{identify, Strategy};
+    use legwise::measure::simulate::{simulate, SimulationOptions};
+    use legwise::solver::SolverKind;
+    let mut mech = bundled("3rpr.yaml");
+    mech.workspace.ranges[5] = None;
+    let data = simulate(&mech, SimulationOptions::default())
+        .unwrap()
+        .measurements;
+    let result = identify(
+        &mech,
+        &data,
+        Strategy::DivideAndConquer,
+        SolverKind::GaussNewton,
+    )
+    .unwrap();
+    for leg in &result.legs {
+        let warning = leg
+            .observability
+            .warning()
+            .expect("a weak design is reported");
+        assert!(
+            warning.starts_with("weakly identifiable: column-scaled condition number"),
+            "{warning}"
+        );
+        let digit = &leg.leg[3..];
+        assert!(
+            warning.contains(&format!("a{digit}")) && warning.contains(&format!("b{digit}")),
+            "{warning}"
+        );
+    }
+    let mech = bundled("5r.yaml");
+    let pool = candidate_pool(&mech, None).unwrap();
+    for design in divide_and_conquer(&mech, &pool, 18, SelectionCriterion::D).unwrap() {
+        assert_eq!(design.observability.warning(), None);
+    }
+}
