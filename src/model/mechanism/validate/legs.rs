@@ -1,0 +1,117 @@
+//! The legs: each chain is a path of URDF joints from the root link, with its actuator and
+//! attachment point.
+
+use std::collections::{HashMap, HashSet};
+
+use super::Builder;
+use crate::error::Result;
+use crate::model::file::ModelFile;
+use crate::model::joint::JointModel;
+use crate::model::leg::LegModel;
+
+impl Builder<'_> {
+    pub(super) fn legs(&self, file: &ModelFile, closure_dims: usize) -> Result<Vec<LegModel>> {
+        if file.legs.is_empty() {
+            return Err(self.error("legs", "at least one leg is needed"));
+        }
+        let joints: HashMap<&str, &urdf_rs::Joint> = self
+            .robot
+            .joints
+            .iter()
+            .map(|j| (j.name.as_str(), j))
+            .collect();
+        let children: HashSet<&str> = self
+            .robot
+            .joints
+            .iter()
+            .map(|j| j.child.link.as_str())
+            .collect();
+        let mut seen_legs = HashSet::new();
+        let mut used_joints: HashMap<&str, &str> = HashMap::new();
+        let mut legs = Vec::new();
+        for (l, entry) in file.legs.iter().enumerate() {
+            if !seen_legs.insert(entry.name.as_str()) {
+                return Err(self.error(
+                    format!("legs[{l}].name"),
+                    format!("leg `{}` is defined twice", entry.name),
+                ));
+            }
+            if entry.chain.is_empty() {
+                return Err(self.error(format!("legs[{l}].chain"), "the chain is empty"));
+            }
+            let mut chain = Vec::new();
+            for (c, name) in entry.chain.iter().enumerate() {
+                let field = format!("legs[{l}].chain[{c}]");
+                let Some(joint) = joints.get(name.as_str()) else {
+                    return Err(self.error(
+                        field,
+                        format!("joint `{name}` is not in the URDF `{}`", self.urdf_name()),
+                    ));
+                };
+                if let Some(other) = used_joints.insert(name.as_str(), entry.name.as_str()) {
+                    return Err(self.error(field, format!("joint `{name}` is already in leg `{other}`; legs must not share joints")));
+                }
+                if c == 0 && children.contains(joint.parent.link.as_str()) {
+                    return Err(self.error(field, format!("joint `{name}` does not start at the URDF root link (its parent `{}` is a child of another joint)", joint.parent.link)));
+                }
+                if let Some(previous) = c.checked_sub(1).map(|p| joints[entry.chain[p].as_str()]) {
+                    if previous.child.link != joint.parent.link {
+                        return Err(self.error(field, format!("joint `{name}` does not follow `{}`: its parent link is `{}`, expected `{}`", previous.name, joint.parent.link, previous.child.link)));
+                    }
+                }
+                chain.push(
+                    JointModel::from_urdf(joint)
+                        .map_err(|m| self.error(format!("legs[{l}].chain[{c}]"), m))?,
+                );
+            }
+            let moving: Vec<usize> = (0..chain.len()).filter(|&j| chain[j].is_moving()).collect();
+            if moving.len() != closure_dims {
+                return Err(self.error(format!("legs[{l}].chain"), format!("the chain has {} moving joints; a point closure with the measured coordinates needs exactly {closure_dims}", moving.len())));
+            }
+            let actuator = &entry.actuator;
+            let Some(actuated) = moving.iter().position(|&j| chain[j].name == actuator.joint)
+            else {
+                return Err(self.error(
+                    format!("legs[{l}].actuator.joint"),
+                    format!(
+                        "`{}` is not a moving joint of the leg's chain",
+                        actuator.joint
+                    ),
+                ));
+            };
+            if !(actuator.gain.is_finite() && actuator.gain != 0.0) {
+                return Err(self.error(
+                    format!("legs[{l}].actuator.gain"),
+                    "expected a finite non-zero number",
+                ));
+            }
+            if !actuator.offset.is_finite() {
+                return Err(self.error(
+                    format!("legs[{l}].actuator.offset"),
+                    "expected a finite number",
+                ));
+            }
+            let attachment = entry.attachment.unwrap_or([0.0; 3]);
+            if attachment.iter().any(|v| !v.is_finite()) {
+                return Err(self.error(
+                    format!("legs[{l}].attachment"),
+                    "expected three finite numbers (metres)",
+                ));
+            }
+            legs.push(LegModel {
+                name: entry.name.clone(),
+                joints: chain,
+                moving,
+                actuated,
+                gain: actuator.gain,
+                offset: actuator.offset,
+                attachment,
+                params: Vec::new(),
+                closure_dims,
+                home_joints: Vec::new(),
+                branch_sign: 1.0,
+            });
+        }
+        Ok(legs)
+    }
+}

@@ -1,0 +1,89 @@
+//! The model file checked against its URDF: [`Builder`] turns a parsed [`ModelFile`] into a
+//! [`Mechanism`], one topic per submodule. Every error names the file and the field.
+
+use std::path::Path;
+
+use crate::error::{Error, Result};
+use crate::model::file::ModelFile;
+use crate::model::mechanism::{Mechanism, COORDINATES};
+
+mod home;
+mod legs;
+mod parameters;
+mod setup;
+mod workspace;
+
+/// Cross-checks a model file against the URDF it names.
+pub(super) struct Builder<'a> {
+    pub(super) path: &'a Path,
+    pub(super) urdf_path: &'a Path,
+    pub(super) robot: &'a urdf_rs::Robot,
+}
+
+impl Builder<'_> {
+    fn error(&self, field: impl Into<String>, message: impl Into<String>) -> Error {
+        Error::Model {
+            path: self.path.to_path_buf(),
+            field: field.into(),
+            message: message.into(),
+        }
+    }
+
+    fn urdf_name(&self) -> String {
+        self.urdf_path
+            .file_name()
+            .map(|n| n.to_string_lossy().into_owned())
+            .unwrap_or_default()
+    }
+
+    pub(super) fn build(&self, file: ModelFile) -> Result<Mechanism> {
+        let measured = self.measured(&file.measured)?;
+        let home_pose = self.home_pose(&file.home.pose, &measured)?;
+        let closure_dims = if measured.contains(&2) { 3 } else { 2 };
+        let mut legs = self.legs(&file, closure_dims)?;
+        self.parameters(&file.parameters, &mut legs)?;
+        for (index, leg) in legs.iter_mut().enumerate() {
+            self.home(leg, index, &file.legs[index].home, &home_pose)?;
+        }
+        let workspace = self.workspace(&file, &measured)?;
+        let simulation = self.simulation(&file, &measured, &legs)?;
+        let selection = self.selection(&file, simulation.as_ref())?;
+        Ok(Mechanism {
+            name: file.name,
+            model_path: self.path.to_path_buf(),
+            urdf_path: self.urdf_path.to_path_buf(),
+            mode: file.mode,
+            measured,
+            home_pose,
+            legs,
+            workspace,
+            selection,
+            simulation,
+        })
+    }
+
+    fn measured(&self, names: &[String]) -> Result<Vec<usize>> {
+        let mut measured = Vec::new();
+        for (i, name) in names.iter().enumerate() {
+            let Some(index) = COORDINATES.iter().position(|c| c == name) else {
+                return Err(self.error(
+                    format!("measured[{i}]"),
+                    format!(
+                        "unknown coordinate `{name}`; expected one of x, y, z, roll, pitch, yaw"
+                    ),
+                ));
+            };
+            if measured.contains(&index) {
+                return Err(self.error(
+                    format!("measured[{i}]"),
+                    format!("`{name}` is listed twice"),
+                ));
+            }
+            measured.push(index);
+        }
+        if !(measured.contains(&0) && measured.contains(&1)) {
+            return Err(self.error("measured", "x and y must be measured"));
+        }
+        Ok(measured)
+    }
+}

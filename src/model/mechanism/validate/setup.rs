@@ -1,0 +1,109 @@
+//! The simulation and pose selection set-ups.
+
+use super::Builder;
+use crate::error::Result;
+use crate::model::file::ModelFile;
+use crate::model::leg::LegModel;
+use crate::model::mechanism::{SelectionCriterion, SelectionSetup, Simulation, COORDINATES};
+
+impl Builder<'_> {
+    pub(super) fn simulation(
+        &self,
+        file: &ModelFile,
+        measured: &[usize],
+        legs: &[LegModel],
+    ) -> Result<Option<Simulation>> {
+        let Some(entry) = &file.simulation else {
+            return Ok(None);
+        };
+        for (name, value) in &entry.real {
+            if !legs
+                .iter()
+                .any(|l| l.params.iter().any(|p| &p.name == name))
+            {
+                return Err(self.error(
+                    format!("simulation.real.{name}"),
+                    "no parameter has this name",
+                ));
+            }
+            if !value.is_finite() {
+                return Err(self.error(
+                    format!("simulation.real.{name}"),
+                    "expected a finite number",
+                ));
+            }
+        }
+        let mut pose_noise = [0.0; 6];
+        let mut reading_noise = 0.0;
+        for (name, &sigma) in &entry.noise {
+            let field = format!("simulation.noise.{name}");
+            if !(sigma.is_finite() && sigma >= 0.0) {
+                return Err(self.error(
+                    field,
+                    "expected a non-negative standard deviation (SI units)",
+                ));
+            }
+            match COORDINATES.iter().position(|c| c == name) {
+                _ if name == "readings" => reading_noise = sigma,
+                Some(i) if measured.contains(&i) => pose_noise[i] = sigma,
+                _ => return Err(self.error(field, "expected `readings` or a measured coordinate")),
+            }
+        }
+        let perturbation = match &entry.perturbation {
+            Some(p) => {
+                if [p.length, p.angle, p.gain]
+                    .iter()
+                    .any(|v| !(v.is_finite() && *v >= 0.0))
+                {
+                    return Err(self.error(
+                        "simulation.perturbation",
+                        "expected non-negative standard deviations",
+                    ));
+                }
+                Some((p.length, p.angle, p.gain))
+            }
+            None => None,
+        };
+        if entry.poses_per_leg == 0 {
+            return Err(self.error("simulation.poses_per_leg", "expected at least one pose"));
+        }
+        Ok(Some(Simulation {
+            real: entry.real.clone(),
+            perturbation,
+            pose_noise,
+            reading_noise,
+            poses_per_leg: entry.poses_per_leg,
+            seed: entry.seed,
+        }))
+    }
+
+    pub(super) fn selection(
+        &self,
+        file: &ModelFile,
+        simulation: Option<&Simulation>,
+    ) -> Result<SelectionSetup> {
+        let entry = file.selection.as_ref();
+        let poses_per_leg = entry
+            .and_then(|e| e.poses_per_leg)
+            .or(simulation.map(|s| s.poses_per_leg))
+            .unwrap_or(18);
+        if poses_per_leg == 0 {
+            return Err(self.error("selection.poses_per_leg", "expected at least one pose"));
+        }
+        let criterion = match entry.and_then(|e| e.criterion.as_deref()) {
+            None | Some("D") | Some("d") => SelectionCriterion::D,
+            Some("A") | Some("a") => SelectionCriterion::A,
+            Some("E") | Some("e") => SelectionCriterion::E,
+            Some(other) => {
+                return Err(self.error(
+                    "selection.criterion",
+                    format!("`{other}` is not one of D, A, E"),
+                ))
+            }
+        };
+        Ok(SelectionSetup {
+            poses_per_leg,
+            criterion,
+        })
+    }
+}

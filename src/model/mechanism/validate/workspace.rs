@@ -1,0 +1,120 @@
+//! The usable workspace: region, margin, ranges, grid and singularity thresholds.
+
+use super::Builder;
+use crate::error::Result;
+use crate::model::file::{ModelFile, RegionEntry};
+use crate::model::mechanism::COORDINATES;
+use crate::workspace::region::{
+    Region, Workspace, DEFAULT_RANGE_LEVELS, DEFAULT_SINGULARITY_THRESHOLD,
+};
+
+impl Builder<'_> {
+    pub(super) fn workspace(&self, file: &ModelFile, measured: &[usize]) -> Result<Workspace> {
+        let entry = &file.workspace;
+        let positive = |v: f64| v.is_finite() && v > 0.0;
+        let region = match &entry.region {
+            RegionEntry::Disc { centre, radius } => {
+                if !positive(*radius) || centre.iter().any(|v| !v.is_finite()) {
+                    return Err(self.error(
+                        "workspace.region.disc",
+                        "expected a finite centre and a positive radius (metres)",
+                    ));
+                }
+                Region::Disc {
+                    centre: *centre,
+                    radius: *radius,
+                }
+            }
+            RegionEntry::Box { min, max } => {
+                if !(0..2).all(|i| min[i].is_finite() && max[i].is_finite() && min[i] < max[i]) {
+                    return Err(self.error(
+                        "workspace.region.box",
+                        "expected finite corners with min < max (metres)",
+                    ));
+                }
+                Region::Box {
+                    min: *min,
+                    max: *max,
+                }
+            }
+            RegionEntry::Polygon { vertices } => {
+                if vertices.len() < 3 || vertices.iter().flatten().any(|v| !v.is_finite()) {
+                    return Err(self.error(
+                        "workspace.region.polygon",
+                        "expected at least three finite vertices (metres)",
+                    ));
+                }
+                Region::Polygon {
+                    vertices: vertices.clone(),
+                }
+            }
+        };
+        if !(entry.margin.is_finite() && entry.margin >= 0.0) {
+            return Err(self.error(
+                "workspace.margin",
+                "expected a non-negative distance (metres)",
+            ));
+        }
+        let mut ranges = [None; 6];
+        for (name, range) in &entry.ranges {
+            let field = format!("workspace.ranges.{name}");
+            match COORDINATES.iter().position(|c| c == name) {
+                Some(i) if i >= 2 && measured.contains(&i) => {
+                    if !(range[0].is_finite() && range[1].is_finite() && range[0] <= range[1]) {
+                        return Err(self.error(field, "expected [min, max] with min <= max"));
+                    }
+                    ranges[i] = Some(*range);
+                }
+                _ => {
+                    return Err(
+                        self.error(field, "expected a measured coordinate other than x and y")
+                    )
+                }
+            }
+        }
+        if let Some(grid) = entry.grid {
+            if !positive(grid) {
+                return Err(self.error("workspace.grid", "expected a positive spacing (metres)"));
+            }
+        }
+        let levels = entry.range_levels.unwrap_or(DEFAULT_RANGE_LEVELS);
+        if levels == 0 {
+            return Err(self.error("workspace.range_levels", "expected at least 1"));
+        }
+        let thresholds = entry.singularity.as_ref();
+        let threshold = |value: Option<f64>, name: &str| match value {
+            None => Ok(DEFAULT_SINGULARITY_THRESHOLD),
+            Some(v) if v.is_finite() && (0.0..1.0).contains(&v) => Ok(v),
+            Some(_) => Err(self.error(
+                format!("workspace.singularity.{name}"),
+                "expected a number in [0, 1)",
+            )),
+        };
+        let workspace = Workspace {
+            region,
+            margin: entry.margin,
+            ranges,
+            grid: entry.grid,
+            range_levels: levels,
+            serial_threshold: threshold(thresholds.and_then(|t| t.serial), "serial")?,
+            parallel_threshold: threshold(thresholds.and_then(|t| t.parallel), "parallel")?,
+        };
+        let (lo, hi) = workspace.region.bounds();
+        let smallest = (hi[0] - lo[0]).min(hi[1] - lo[1]);
+        let centre = [(lo[0] + hi[0]) / 2.0, (lo[1] + hi[1]) / 2.0];
+        let usable = entry.margin * 2.0 < smallest
+            && (workspace.region.depth(centre) >= entry.margin || {
+                // A non-convex polygon may not contain its bounding box's centre: try a few points.
+                use rand::SeedableRng;
+                let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(0);
+                workspace.sample(&[0.0; 6], &mut rng).is_some()
+            });
+        if !usable {
+            return Err(self.error(
+                "workspace.margin",
+                format!("the margin ({} m) leaves no usable region", entry.margin),
+            ));
+        }
+        Ok(workspace)
+    }
+}

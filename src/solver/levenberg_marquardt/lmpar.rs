@@ -1,0 +1,204 @@
+//! QR factorisation and the damped step of Levenberg–Marquardt (MINPACK `qrfac` and `lmpar`).
+
+use nalgebra::{DMatrix, DVector};
+
+use super::P1;
+
+/// Reusable buffers; `jq` holds `R` of `J P = Q R`, `aug` holds `R_λ` of `[R; √λ D P]`.
+#[derive(Clone, Debug, Default)]
+pub(super) struct Scratch {
+    pub(super) jq: DMatrix<f64>,
+    rhs: DVector<f64>,
+    aug: DMatrix<f64>,
+    aug_rhs: DVector<f64>,
+    pub(super) perm: Vec<usize>,
+    pub(super) col_norms: DVector<f64>,
+    pub(super) qtr: DVector<f64>,
+    pub(super) d_perm: DVector<f64>,
+    pub(super) z: DVector<f64>,
+    y: DVector<f64>,
+    pub(super) step: DVector<f64>,
+}
+
+/// Householder QR of `a` (`rows ≥ cols`) in place, applying the reflections to `b` too. With
+/// `perm`, the remaining column of largest norm is moved forward first (MINPACK `qrfac`). On
+/// return the leading `n × n` upper triangle of `a` is `R` and everything below it is zero.
+fn householder_qr(a: &mut DMatrix<f64>, b: &mut DVector<f64>, mut perm: Option<&mut [usize]>) {
+    let (m, n) = a.shape();
+    for k in 0..n.min(m) {
+        if let Some(p) = perm.as_deref_mut() {
+            let norms = (k..n).map(|j| (j, a.view((k, j), (m - k, 1)).norm()));
+            let best = norms
+                .fold((k, -1.0), |b, c| if c.1 > b.1 { c } else { b })
+                .0;
+            a.swap_columns(k, best);
+            p.swap(k, best);
+        }
+        let norm = a.view((k, k), (m - k, 1)).norm();
+        if norm == 0.0 {
+            continue;
+        }
+        let alpha = if a[(k, k)] > 0.0 { -norm } else { norm };
+        a[(k, k)] -= alpha; // Householder vector v = x − α e₁, stored in column k.
+        let vtv = a.view((k, k), (m - k, 1)).norm_squared();
+        for j in k + 1..n {
+            let s = 2.0 * a.view((k, k), (m - k, 1)).dot(&a.view((k, j), (m - k, 1))) / vtv;
+            for i in k..m {
+                a[(i, j)] -= s * a[(i, k)];
+            }
+        }
+        let s = 2.0 * a.view((k, k), (m - k, 1)).dot(&b.rows(k, m - k)) / vtv;
+        for i in k..m {
+            b[i] -= s * a[(i, k)];
+        }
+        a[(k, k)] = alpha;
+        a.view_mut((k + 1, k), (m - k - 1, 1)).fill(0.0);
+    }
+}
+
+impl Scratch {
+    /// Factorise `J P = Q R` and form `Qᵀ r` (zero rows are appended when `m < n`).
+    pub(super) fn factorize(&mut self, jac: &DMatrix<f64>, res: &DVector<f64>) {
+        let (m, n) = jac.shape();
+        self.jq = DMatrix::zeros(m.max(n), n);
+        self.jq.view_mut((0, 0), (m, n)).copy_from(jac);
+        self.rhs = DVector::zeros(m.max(n));
+        self.rhs.rows_mut(0, m).copy_from(res);
+        self.perm = (0..n).collect();
+        self.col_norms = DVector::from_iterator(n, jac.column_iter().map(|c| c.norm()));
+        householder_qr(&mut self.jq, &mut self.rhs, Some(&mut self.perm));
+        self.qtr = self.rhs.rows(0, n).into_owned();
+        for v in [&mut self.z, &mut self.y, &mut self.step, &mut self.d_perm] {
+            *v = DVector::zeros(n);
+        }
+        self.aug = DMatrix::zeros(2 * n, n);
+        self.aug_rhs = DVector::zeros(2 * n);
+    }
+
+    /// `‖D p‖` for the permuted step `z`.
+    fn dnorm_z(&self) -> f64 {
+        self.z.component_mul(&self.d_perm).norm()
+    }
+
+    /// Gauss–Newton step `R z = Qᵀr` (MINPACK: components past the first zero `R_jj` are zero).
+    fn gauss_newton(&mut self) -> usize {
+        let n = self.qtr.len();
+        let nsing = (0..n).find(|&j| self.jq[(j, j)] == 0.0).unwrap_or(n);
+        self.z.fill(0.0);
+        let mut head = self.z.rows_mut(0, nsing);
+        head.copy_from(&self.qtr.rows(0, nsing));
+        self.jq
+            .view((0, 0), (nsing, nsing))
+            .solve_upper_triangular_mut(&mut head);
+        nsing
+    }
+
+    /// Damped step from the QR factorisation of `[R; √λ D P]`, right-hand side `[Qᵀr; 0]`.
+    fn solve_augmented(&mut self, sqrt_lambda: f64) -> bool {
+        let n = self.qtr.len();
+        self.aug.fill(0.0);
+        self.aug
+            .view_mut((0, 0), (n, n))
+            .copy_from(&self.jq.view((0, 0), (n, n)));
+        for j in 0..n {
+            self.aug[(n + j, j)] = sqrt_lambda * self.d_perm[j];
+        }
+        self.aug_rhs.fill(0.0);
+        self.aug_rhs.rows_mut(0, n).copy_from(&self.qtr);
+        householder_qr(&mut self.aug, &mut self.aug_rhs, None);
+        self.z.copy_from(&self.aug_rhs.rows(0, n));
+        self.aug
+            .view((0, 0), (n, n))
+            .solve_upper_triangular_mut(&mut self.z)
+    }
+
+    /// Moré's Newton correction for `φ(λ) = ‖D p(λ)‖ − Δ`: `((φ/Δ)/‖y‖)/‖y‖` with
+    /// `R_λᵀ y = D (D p)/‖D p‖`, where `R_λ` is `R` (`damped == false`) or the damped factor.
+    fn newton_correction(&mut self, fp: f64, delta: f64, dxnorm: f64, damped: bool) -> f64 {
+        let n = self.qtr.len();
+        for j in 0..n {
+            self.y[j] = self.d_perm[j] * (self.d_perm[j] * self.z[j]) / dxnorm;
+        }
+        let r = if damped { &self.aug } else { &self.jq };
+        if !r
+            .view((0, 0), (n, n))
+            .tr_solve_upper_triangular_mut(&mut self.y)
+        {
+            return f64::NAN;
+        }
+        let ynorm = self.y.norm();
+        ((fp / delta) / ynorm) / ynorm
+    }
+
+    /// MINPACK `lmpar`: the step `p` (in `self.step`, to be subtracted from `x`) with
+    /// `‖D p‖ ≈ Δ` unless the Gauss–Newton step fits. Returns `(λ, ‖D p‖)`, or `None` if the
+    /// damped system broke down numerically.
+    pub(super) fn lm_step(&mut self, delta: f64, lambda0: f64) -> Option<(f64, f64)> {
+        let n = self.qtr.len();
+        let nsing = self.gauss_newton();
+        let gn_ok = self.z.iter().all(|v| v.is_finite());
+        let mut dxnorm = if gn_ok { self.dnorm_z() } else { f64::INFINITY };
+        let mut fp = dxnorm - delta;
+        let mut lambda = 0.0;
+        if !gn_ok || fp > P1 * delta {
+            let mut lower = 0.0;
+            if gn_ok && nsing == n {
+                lower = self.newton_correction(fp, delta, dxnorm, false);
+                if !lower.is_finite() {
+                    lower = 0.0;
+                }
+            }
+            // Upper bound ‖D⁻¹ Jᵀ r‖ / Δ.
+            for j in 0..n {
+                let g = self
+                    .jq
+                    .view((0, j), (j + 1, 1))
+                    .dot(&self.qtr.rows(0, j + 1));
+                self.y[j] = g / self.d_perm[j];
+            }
+            let gnorm = self.y.norm();
+            let mut upper = gnorm / delta;
+            if upper == 0.0 {
+                upper = f64::MIN_POSITIVE / delta.min(P1);
+            }
+            lambda = lambda0.max(lower).min(upper);
+            if lambda == 0.0 && gn_ok {
+                lambda = gnorm / dxnorm;
+            }
+            for iter in 1..=10 {
+                if lambda == 0.0 {
+                    lambda = f64::MIN_POSITIVE.max(1e-3 * upper);
+                }
+                if !self.solve_augmented(lambda.sqrt()) {
+                    return None;
+                }
+                dxnorm = self.dnorm_z();
+                let fp_old = fp;
+                fp = dxnorm - delta;
+                if !fp.is_finite() {
+                    return None;
+                }
+                if fp.abs() <= P1 * delta
+                    || (lower == 0.0 && fp <= fp_old && fp_old < 0.0)
+                    || iter == 10
+                {
+                    break;
+                }
+                let correction = self.newton_correction(fp, delta, dxnorm, true);
+                if fp > 0.0 {
+                    lower = lower.max(lambda);
+                } else {
+                    upper = upper.min(lambda);
+                }
+                lambda = lower.max(lambda + correction);
+                if !lambda.is_finite() {
+                    return None;
+                }
+            }
+        }
+        for j in 0..n {
+            self.step[self.perm[j]] = self.z[j];
+        }
+        Some((lambda, dxnorm))
+    }
+}

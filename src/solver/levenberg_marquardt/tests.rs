@@ -1,0 +1,328 @@
+//! Tests of the Levenberg–Marquardt solver: parameter validation, known answers, agreement with
+//! the `levenberg-marquardt` crate, stopping tests and non-finite or unreachable trial points.
+
+use super::super::mgh::{max_rel_diff, reference, run, tight, TestProblem};
+use super::*;
+use argmin::core::Executor;
+
+const S: [f64; 7] = [0.038, 0.194, 0.425, 0.626, 1.253, 2.5, 3.74];
+const RATE: [f64; 7] = [0.05, 0.127, 0.094, 0.2122, 0.2729, 0.2665, 0.3317];
+
+/// Michaelis–Menten fit `rate = Vmax·S/(Km + S)` from argmin's Gauss–Newton example.
+fn michaelis_menten() -> TestProblem {
+    let res = |x: &[f64]| {
+        (0..7)
+            .map(|i| RATE[i] - x[0] * S[i] / (x[1] + S[i]))
+            .collect()
+    };
+    let jac = |x: &[f64]| {
+        let row = |s: &f64| [-s / (x[1] + s), x[0] * s / (x[1] + s).powi(2)];
+        S.iter().flat_map(row).collect()
+    };
+    TestProblem {
+        m: 7,
+        n: 2,
+        x0: &[0.9, 0.2],
+        res,
+        jac,
+    }
+}
+
+/// `y = a·exp(−b t) + c` on 12 points with a deterministic ±0.01 perturbation.
+fn exp_decay() -> TestProblem {
+    fn data(i: usize) -> (f64, f64) {
+        let t = 0.5 * i as f64;
+        (
+            t,
+            3.0 * (-0.7 * t).exp() + 0.5 + 0.01 * (1.7 * i as f64).sin(),
+        )
+    }
+    let res = |x: &[f64]| {
+        let r = |(t, y): (f64, f64)| x[0] * (-x[1] * t).exp() + x[2] - y;
+        (0..12).map(|i| r(data(i))).collect()
+    };
+    let jac = |x: &[f64]| {
+        let row = |i: usize| {
+            let t = 0.5 * i as f64;
+            let e = (-x[1] * t).exp();
+            [e, -x[0] * t * e, 1.0]
+        };
+        (0..12).flat_map(row).collect()
+    };
+    TestProblem {
+        m: 12,
+        n: 3,
+        x0: &[1.0, 1.0, 0.0],
+        res,
+        jac,
+    }
+}
+
+fn text(err: Error) -> String {
+    match err.downcast_ref::<ArgminError>() {
+        Some(ArgminError::InvalidParameter { text }) => text.clone(),
+        _ => panic!("unexpected error {err}"),
+    }
+}
+
+#[test]
+fn builder_validates() {
+    let lm = LevenbergMarquardt::new;
+    for bad in [0.0, -1.0, f64::NAN, f64::INFINITY] {
+        let msg = "Levenberg-Marquardt: ftol must be positive and finite.";
+        assert_eq!(text(lm().with_ftol(bad).unwrap_err()), msg);
+        let msg = "Levenberg-Marquardt: xtol must be positive and finite.";
+        assert_eq!(text(lm().with_xtol(bad).unwrap_err()), msg);
+        let msg = "Levenberg-Marquardt: initial step bound must be positive and finite.";
+        assert_eq!(text(lm().with_initial_step_bound(bad).unwrap_err()), msg);
+    }
+    for bad in [-1e-300, f64::NAN, f64::INFINITY] {
+        let msg = "Levenberg-Marquardt: gtol must be non-negative and finite.";
+        assert_eq!(text(lm().with_gtol(bad).unwrap_err()), msg);
+    }
+    let ok = lm()
+        .with_ftol(1e-3)
+        .and_then(|l| l.with_xtol(1e-4))
+        .and_then(|l| l.with_gtol(0.0));
+    let ok = ok.and_then(|l| l.with_initial_step_bound(0.1)).unwrap();
+    assert_eq!(
+        (ok.ftol, ok.xtol, ok.gtol, ok.step_bound),
+        (1e-3, 1e-4, 0.0, 0.1)
+    );
+    let d = LevenbergMarquardt::default();
+    assert_eq!(
+        (d.ftol, d.xtol, d.gtol, d.step_bound),
+        (1.49012e-8, 1.49012e-8, 0.0, 100.0)
+    );
+}
+
+#[test]
+fn send_sync_clone() {
+    fn assert_traits<T: Send + Sync + Clone + std::fmt::Debug>() {}
+    assert_traits::<LevenbergMarquardt>();
+}
+
+#[test]
+fn michaelis_menten_known_answer() {
+    let p = michaelis_menten();
+    let out = run(p, tight()).unwrap();
+    let (x_ref, c_ref, _) = reference(p);
+    assert_eq!(out.reason, TerminationReason::SolverConverged);
+    // Published optimum Vmax ≈ 0.362, Km ≈ 0.556 (three digits).
+    assert!(
+        (out.x[0] - 0.362).abs() < 5e-4 && (out.x[1] - 0.556).abs() < 5e-4,
+        "{}",
+        out.x
+    );
+    // Cost is ½‖r‖², not argmin Gauss–Newton's ‖r‖.
+    let r = p.apply(&out.x).unwrap();
+    assert!((out.cost - 0.5 * r.norm_squared()).abs() <= 1e-15 * out.cost);
+    assert!(
+        (out.cost - c_ref).abs() <= 1e-9 * c_ref,
+        "{} vs {c_ref}",
+        out.cost
+    );
+    assert!(max_rel_diff(&out.x, &x_ref) <= 1e-9, "{} vs {x_ref}", out.x);
+}
+
+#[test]
+fn agrees_with_levenberg_marquardt_crate() {
+    for p in [michaelis_menten(), exp_decay()] {
+        let out = run(p, tight()).unwrap();
+        let (x_ref, c_ref, evals) = reference(p);
+        let dx = max_rel_diff(&out.x, &x_ref);
+        eprintln!(
+            "x = {:?}: dx {dx:.1e}, r-evals {} vs {evals}",
+            out.x.as_slice(),
+            out.evals.0
+        );
+        assert!(dx <= 1e-10, "dx = {dx:e}");
+        assert!((out.cost - c_ref).abs() <= 1e-12 * c_ref);
+    }
+}
+
+#[test]
+fn underdetermined_with_unused_parameter() {
+    // m = 1 < n = 3 and x₂ does not enter r, so J has a zero column.
+    let res = |x: &[f64]| vec![x[0] * x[0] + x[1] * x[1] - 1.0];
+    let jac = |x: &[f64]| vec![2.0 * x[0], 2.0 * x[1], 0.0];
+    let p = TestProblem {
+        m: 1,
+        n: 3,
+        x0: &[2.0, 1.0, 5.0],
+        res,
+        jac,
+    };
+    let out = run(p, LevenbergMarquardt::new()).unwrap();
+    assert_eq!(out.reason, TerminationReason::SolverConverged);
+    assert!(out.cost < 1e-20, "{}", out.cost);
+    assert!((out.x[2] - 5.0).abs() <= 1e-15, "{}", out.x);
+}
+
+/// `r = (x₀ − 1, x₀ + 1, 10 x₁ − 10)`, NaN where `x₀ > nan_above`, Jacobian NaN if `nan_jac`.
+#[derive(Clone, Copy)]
+struct Trap {
+    nan_above: f64,
+    nan_jac: bool,
+    m: usize,
+}
+impl Operator for Trap {
+    type Param = DVector<f64>;
+    type Output = DVector<f64>;
+    fn apply(&self, x: &DVector<f64>) -> Result<DVector<f64>, Error> {
+        let nan = if x[0] > self.nan_above { f64::NAN } else { 0.0 };
+        let r = [x[0] - 1.0 + nan, x[0] + 1.0, 10.0 * x[1] - 10.0];
+        Ok(DVector::from_column_slice(&r[..self.m]))
+    }
+}
+impl Jacobian for Trap {
+    type Param = DVector<f64>;
+    type Jacobian = DMatrix<f64>;
+    fn jacobian(&self, _: &DVector<f64>) -> Result<DMatrix<f64>, Error> {
+        let v = if self.nan_jac { f64::NAN } else { 1.0 };
+        Ok(DMatrix::from_row_slice(
+            3,
+            2,
+            &[v, 0.0, 1.0, 0.0, 0.0, 10.0],
+        ))
+    }
+}
+
+fn run_trap(t: Trap, x0: [f64; 2]) -> Result<(LmState, LevenbergMarquardt), Error> {
+    let res = Executor::new(t, LevenbergMarquardt::new())
+        .configure(|s| s.param(DVector::from_column_slice(&x0)).max_iters(50))
+        .run()?;
+    Ok((res.state, res.solver))
+}
+
+fn exit_text(state: &LmState) -> String {
+    match state.get_termination_reason() {
+        Some(TerminationReason::SolverExit(t)) => t.clone(),
+        other => panic!("expected SolverExit, got {other:?}"),
+    }
+}
+
+#[test]
+fn trap_converges_and_reports_test() {
+    let t = Trap {
+        nan_above: f64::INFINITY,
+        nan_jac: false,
+        m: 3,
+    };
+    let (state, solver) = run_trap(t, [-3.0, 5.0]).unwrap();
+    assert_eq!(
+        state.get_termination_reason(),
+        Some(&TerminationReason::SolverConverged)
+    );
+    assert!(solver.converged_by().is_some());
+    let x = state.get_param().unwrap();
+    assert!(x[0].abs() < 1e-12 && (x[1] - 1.0).abs() < 1e-12, "{x}");
+    assert!((state.get_cost() - 1.0).abs() < 1e-12); // ½(1² + 1²)
+}
+
+#[test]
+fn non_finite_values_stop_with_message() {
+    let t = Trap {
+        nan_above: 10.0,
+        nan_jac: false,
+        m: 3,
+    };
+    let (state, _) = run_trap(t, [11.0, 0.0]).unwrap();
+    assert_eq!(
+        exit_text(&state),
+        "Levenberg-Marquardt: residual vector contains NaN or infinity at the initial point."
+    );
+    let t = Trap {
+        nan_above: 10.0,
+        nan_jac: true,
+        m: 3,
+    };
+    let (state, _) = run_trap(t, [1.0, 0.0]).unwrap();
+    assert_eq!(
+        exit_text(&state),
+        "Levenberg-Marquardt: Jacobian contains NaN or infinity."
+    );
+    // A NaN at a trial point (the minimum x₀ = 0 lies beyond the domain x₀ ≤ −2.5) is a
+    // rejected step: the trust region shrinks, the iterate never leaves the domain, the cost
+    // decreases, and the run ends near the domain's edge without an error. (LM is not a
+    // constrained method: at the edge its trust region collapses, so the other coordinate
+    // is not fully converged.)
+    let t = Trap {
+        nan_above: -2.5,
+        nan_jac: false,
+        m: 3,
+    };
+    let (state, _) = run_trap(t, [-3.0, 5.0]).unwrap();
+    let x = state.get_param().unwrap();
+    assert!(state.get_cost().is_finite() && x[0] <= -2.5, "{x:?}");
+    assert!(
+        x[0] > -2.5 - 1e-6,
+        "moved up to the edge of the domain: {x:?}"
+    );
+    let start_cost = 0.5 * (16.0 + 4.0 + 1600.0);
+    assert!(state.get_cost() < start_cost, "cost {}", state.get_cost());
+    assert!(state.get_termination_reason().is_some());
+}
+
+/// Fails (as a leg that cannot reach a pose would) for x₀ > 0.5.
+struct Unreachable;
+impl Operator for Unreachable {
+    type Param = DVector<f64>;
+    type Output = DVector<f64>;
+    fn apply(&self, x: &DVector<f64>) -> Result<DVector<f64>, Error> {
+        if x[0] > 0.5 {
+            return Err(Error::msg("pose out of reach"));
+        }
+        Ok(DVector::from_column_slice(&[x[0] - 1.0, x[1] - 2.0]))
+    }
+}
+impl Jacobian for Unreachable {
+    type Param = DVector<f64>;
+    type Jacobian = DMatrix<f64>;
+    fn jacobian(&self, _: &DVector<f64>) -> Result<DMatrix<f64>, Error> {
+        Ok(DMatrix::identity(2, 2))
+    }
+}
+
+#[test]
+fn an_error_at_a_trial_point_is_a_rejected_step() {
+    let res = Executor::new(Unreachable, LevenbergMarquardt::new())
+        .configure(|s| {
+            s.param(DVector::from_column_slice(&[-10.0, 0.0]))
+                .max_iters(100)
+        })
+        .run()
+        .unwrap();
+    let x = res.state.get_param().unwrap();
+    assert!(
+        x[0] <= 0.5 && x[0] > 0.5 - 1e-6,
+        "stopped at the edge: {x:?}"
+    );
+    assert!(res.state.get_cost() < 0.5 * (121.0 + 4.0) * 0.05, "{x:?}");
+}
+
+#[test]
+fn zero_residual_start_and_shape_errors() {
+    let t = Trap {
+        nan_above: f64::INFINITY,
+        nan_jac: false,
+        m: 1,
+    };
+    let (state, solver) = run_trap(t, [1.0, 7.0]).unwrap();
+    assert_eq!(
+        state.get_termination_reason(),
+        Some(&TerminationReason::SolverConverged)
+    );
+    assert_eq!(
+        solver.converged_by(),
+        Some("zero residual: cost <= f64::MIN_POSITIVE")
+    );
+    assert_eq!(state.get_iter(), 0);
+    // Residual of length 1 but a 3×2 Jacobian: a usage error, reported as `Err`.
+    let err = run_trap(t, [2.0, 7.0]).unwrap_err();
+    assert!(
+        err.to_string()
+            .contains("Jacobian row count has length 3, expected 1"),
+        "{err}"
+    );
+}

@@ -1,0 +1,118 @@
+//! A criterion (minimise tr M⁻¹): Woodbury trial traces, M⁻¹ recomputed every step.
+
+use nalgebra::DMatrix;
+
+use super::driver::Engine;
+use super::gains::{accept_ln, argmax, gram_addition, gram_removal};
+use super::linalg::{ln_det_small, spd_inverse};
+use super::pool::Pool;
+use super::{Criterion, SelectionError};
+
+pub(super) struct AOptimal<'a> {
+    pub(super) pool: &'a Pool,
+    pub(super) ridge: bool,
+}
+
+impl Engine for AOptimal<'_> {
+    fn greedy_pick(
+        &mut self,
+        design: &[usize],
+        eligible: &[bool],
+    ) -> Result<usize, SelectionError> {
+        let pool = self.pool;
+        let b = pool.b;
+        let minv = spd_inverse(&pool.gram(design, true)).ok_or_else(|| pool.singular(design))?;
+        let trace = minv.trace();
+        let y = &minv * &pool.x;
+        // tr (M + CᵀC)⁻¹ = tr M⁻¹ − tr(G⁻¹ PᵀP), P = M⁻¹Cᵀ, G = I + C P
+        let score = |j: usize| {
+            let p = y.columns(j * b, b);
+            let g = DMatrix::identity(b, b) + pool.block(j).tr_mul(&p);
+            match g.try_inverse() {
+                Some(g_inverse) => {
+                    let reduction = (g_inverse * p.tr_mul(&p)).trace();
+                    let after = trace - reduction;
+                    if after > 0.0 {
+                        -after.ln()
+                    } else {
+                        f64::NEG_INFINITY
+                    }
+                }
+                None => f64::NEG_INFINITY,
+            }
+        };
+        argmax((0..pool.k).filter(|&j| eligible[j]).map(|j| (j, score(j)))).ok_or(
+            SelectionError::TooFewCandidates {
+                available: pool.k,
+                requested: design.len() + 1,
+            },
+        )
+    }
+
+    fn greedy_added(&mut self, _design: &[usize], _j: usize) {}
+
+    fn sweep_start(&mut self, design: &[usize]) -> Result<(), SelectionError> {
+        self.ridge = self.pool.exchange_inverse(design)?.1;
+        Ok(())
+    }
+
+    fn best_swap(
+        &mut self,
+        design: &[usize],
+        order: &[usize],
+        eligible: &[bool],
+    ) -> Result<Option<(usize, usize)>, SelectionError> {
+        let pool = self.pool;
+        let b = pool.b;
+        let minv =
+            spd_inverse(&pool.gram(design, self.ridge)).ok_or_else(|| pool.singular(design))?;
+        let current = -minv.trace().ln();
+        let y = &minv * &pool.x;
+        let x_design = pool.design_columns(design);
+        let mut scores = DMatrix::from_element(design.len(), pool.k, f64::NEG_INFINITY);
+        for j in (0..pool.k).filter(|&j| eligible[j]) {
+            let p = y.columns(j * b, b).into_owned();
+            let g = DMatrix::identity(b, b) + pool.block(j).tr_mul(&p);
+            let Some(g_inverse) = g.try_inverse() else {
+                continue;
+            };
+            let minv_j = &minv - &p * g_inverse * p.transpose();
+            let trace_j = minv_j.trace();
+            let q_all = &minv_j * &x_design;
+            for pos in 0..design.len() {
+                // removing C_i: tr (M_j − C_iᵀC_i)⁻¹ = tr M_j⁻¹ + tr(H⁻¹ QᵀQ), H = I − C_i Q
+                let q = q_all.columns(pos * b, b);
+                let h = DMatrix::identity(b, b) - x_design.columns(pos * b, b).tr_mul(&q);
+                if !ln_det_small(&h).is_finite() {
+                    continue;
+                }
+                let Some(h_inverse) = h.try_inverse() else {
+                    continue;
+                };
+                let after = trace_j + (h_inverse * q.tr_mul(&q)).trace();
+                if after > 0.0 {
+                    scores[(pos, j)] = -after.ln();
+                }
+            }
+        }
+        let mut best = (current + accept_ln(), None);
+        for &pos in order {
+            for j in 0..pool.k {
+                if scores[(pos, j)] > best.0 {
+                    best = (scores[(pos, j)], Some((pos, j)));
+                }
+            }
+        }
+        Ok(best.1)
+    }
+
+    fn swapped(&mut self, _design: &[usize], _pos: usize, _j: usize) {}
+
+    fn best_addition(&mut self, design: &[usize], eligible: &[bool]) -> Option<usize> {
+        gram_addition(self.pool, design, eligible, Criterion::A)
+    }
+
+    fn best_removal(&mut self, design: &[usize], order: &[usize]) -> Option<usize> {
+        gram_removal(self.pool, design, order, Criterion::A)
+    }
+}

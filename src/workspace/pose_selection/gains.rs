@@ -1,0 +1,90 @@
+//! Criterion values and the gains of adding or removing a candidate, shared by the engines.
+
+use nalgebra::DMatrix;
+
+use super::linalg::{half_ln, ln_det_small, log_det_spd, min_eigenvalue, spd_inverse};
+use super::pool::Pool;
+use super::{Criterion, ACCEPT};
+
+/// The criterion (larger is better, log scale) of the information matrix `m`: ln det M (D),
+/// −ln tr M⁻¹ (A), ln s_min = ½ ln λ_min(M) (E); −∞ when M is singular.
+pub(super) fn gram_value(m: &DMatrix<f64>, criterion: Criterion) -> f64 {
+    match criterion {
+        Criterion::D => log_det_spd(m),
+        Criterion::A => spd_inverse(m).map_or(f64::NEG_INFINITY, |inverse| -inverse.trace().ln()),
+        Criterion::E => half_ln(min_eigenvalue(m.clone())),
+    }
+}
+
+/// D gains of adding each eligible candidate: ln det(I_b + C_j M⁻¹ C_jᵀ) (ln(1 + d_j) for b = 1).
+pub(super) fn d_addition(pool: &Pool, minv: &DMatrix<f64>, eligible: &[bool]) -> Option<usize> {
+    let y = minv * &pool.x;
+    if pool.b == 1 {
+        let d = pool.x.component_mul(&y).row_sum();
+        argmax((0..pool.k).filter(|&j| eligible[j]).map(|j| (j, d[j])))
+    } else {
+        pool.best_block_gain(&y, eligible)
+    }
+}
+
+/// The position whose removal keeps det M largest: max ln det(I_b − C_i M⁻¹ C_iᵀ).
+pub(super) fn d_removal(
+    pool: &Pool,
+    minv: &DMatrix<f64>,
+    design: &[usize],
+    order: &[usize],
+) -> Option<usize> {
+    let b = pool.b;
+    argmax(order.iter().map(|&pos| {
+        let block = pool.block(design[pos]);
+        let h = DMatrix::identity(b, b) - block.tr_mul(&(minv * block));
+        (pos, ln_det_small(&h))
+    }))
+}
+
+/// Best addition by re-evaluating the criterion of each trial information matrix.
+pub(super) fn gram_addition(
+    pool: &Pool,
+    design: &[usize],
+    eligible: &[bool],
+    criterion: Criterion,
+) -> Option<usize> {
+    let m = pool.gram(design, false);
+    argmax((0..pool.k).filter(|&j| eligible[j]).map(|j| {
+        let block = pool.block(j);
+        (j, gram_value(&(&m + block * block.transpose()), criterion))
+    }))
+}
+
+/// Best removal by re-evaluating the criterion of each trial information matrix.
+pub(super) fn gram_removal(
+    pool: &Pool,
+    design: &[usize],
+    order: &[usize],
+    criterion: Criterion,
+) -> Option<usize> {
+    let m = pool.gram(design, false);
+    argmax(order.iter().map(|&pos| {
+        let block = pool.block(design[pos]);
+        (
+            pos,
+            gram_value(&(&m - block * block.transpose()), criterion),
+        )
+    }))
+}
+
+/// The first eligible index of largest score (strictly larger replaces: ties to the lowest).
+pub(super) fn argmax(scores: impl Iterator<Item = (usize, f64)>) -> Option<usize> {
+    let mut best: Option<(usize, f64)> = None;
+    for (j, score) in scores {
+        if best.is_none_or(|(_, b)| score > b) {
+            best = Some((j, score));
+        }
+    }
+    best.map(|(j, _)| j)
+}
+
+/// ln(1 + ACCEPT): the improvement of a log-scale criterion a swap must exceed.
+pub(super) fn accept_ln() -> f64 {
+    ACCEPT.ln_1p()
+}

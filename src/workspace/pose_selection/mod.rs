@@ -1,0 +1,302 @@
+//! Pose selection: choose N of K candidate poses so that the identification Jacobian of the
+//! chosen poses is as informative as possible (D-, A- or E-optimal experiment design).
+//!
+//! This is a D-optimal exchange algorithm in the spirit of Sun & Hollerbach (2008) / DETMAX
+//! (Mitchell 1974), not Sun & Hollerbach's exact algorithm (whose text could not be
+//! retrieved). It has two phases:
+//!
+//! 1. greedy sequential construction from the scale-equivariant ridge start
+//!    M = ε·diag(Σ c∘c)/K (ε = [`RIDGE`]): add the candidate of largest gain, N times;
+//! 2. Fedorov exchange: each sweep refactorises M = C_SᵀC_S (Cholesky), then applies the best
+//!    improving swap (design point out, candidate in) per step, at most N steps per sweep,
+//!    until no swap improves the criterion by more than the relative factor [`ACCEPT`]; then
+//!    DETMAX excursions of length 2..=[`EXCURSION_LENGTH`] (add the L best candidates one by
+//!    one, then drop the L least useful points); an improving excursion resumes the exchange.
+//!
+//! For the D criterion the gains come from rank-one identities (matrix determinant lemma,
+//! Sherman–Morrison, the Fedorov swap ratio Δ_ij = (1+d_j)(1−d_i) + d_ij²), with a fast path
+//! for one row per candidate and a block path (b × b determinants, Woodbury updates) for
+//! candidates of b rows (the stacked traditional design). [`select_naive`] runs the same
+//! algorithm but evaluates every trial design from scratch; it is the reference of the tests
+//! and of the benchmark.
+//!
+//! # Reference
+//! algorithms.md §4 (identities §4.1, algorithm §4.2, complexity §4.3); §3 for the indices.
+
+use nalgebra::DMatrix;
+
+mod a_optimal;
+mod block_d;
+mod driver;
+mod e_optimal;
+mod gains;
+mod linalg;
+mod naive;
+mod pool;
+mod rank_one_d;
+#[cfg(test)]
+mod tests;
+
+use a_optimal::AOptimal;
+use block_d::BlockD;
+use driver::run;
+use e_optimal::EOptimal;
+use linalg::log_det_spd;
+use naive::Naive;
+use pool::Pool;
+use rank_one_d::RankOneD;
+
+/// Ridge factor ε of the start M = ε·diag(Σ_j c_j∘c_j)/K of the greedy construction.
+///
+/// # Reference
+/// algorithms.md §4.2, step 0.
+pub const RIDGE: f64 = 1e-9;
+
+/// A swap is accepted only if it improves the criterion by more than this relative amount
+/// (for D: Δ > 1 + `ACCEPT`).
+///
+/// # Reference
+/// algorithms.md §4.2, step 2.
+pub const ACCEPT: f64 = 1e-12;
+
+/// Longest DETMAX excursion tried once no single swap improves the design.
+///
+/// # Reference
+/// algorithms.md §4.2 (DETMAX, Mitchell 1974: excursions of length 1..k).
+pub const EXCURSION_LENGTH: usize = 4;
+
+/// Design criterion of the selection.
+///
+/// # Reference
+/// algorithms.md §3 (O1, O3, A-optimality) and §4.1.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum Criterion {
+    /// D-optimality: maximise det(CᵀC), i.e. the observability index O1 (default). The
+    /// selected set is invariant to a column scaling (change of parameter units).
+    #[default]
+    D,
+    /// A-optimality: minimise tr (CᵀC)⁻¹ = Σ 1/s_i².
+    A,
+    /// E-optimality: maximise the smallest singular value s_min of C (O3).
+    E,
+}
+
+/// Options of [`select`] and [`select_naive`].
+///
+/// # Reference
+/// algorithms.md §4.2.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct SelectionOptions {
+    /// Number N of poses to select.
+    pub count: usize,
+    /// Design criterion.
+    pub criterion: Criterion,
+    /// Maximum number of exchange sweeps (0: greedy construction only). Default 50.
+    pub max_sweeps: usize,
+    /// Whether a candidate may be selected more than once (measured repeatedly). Default false.
+    pub allow_replicates: bool,
+}
+
+impl Default for SelectionOptions {
+    /// N = 18 (the paper's design size), D-optimal, 50 sweeps, no replicates.
+    fn default() -> Self {
+        Self {
+            count: 18,
+            criterion: Criterion::D,
+            max_sweeps: 50,
+            allow_replicates: false,
+        }
+    }
+}
+
+/// The result of a selection.
+///
+/// # Reference
+/// algorithms.md §4.2, step 3.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Selection {
+    /// Indices of the selected candidates, sorted (repeated if replicates are allowed).
+    pub indices: Vec<usize>,
+    /// Exchange sweeps run; the last one is the one that found no improving swap, unless the
+    /// limit was reached.
+    pub sweeps: usize,
+    /// Exchanges (single swaps) applied in all sweeps.
+    pub exchanges: usize,
+    /// DETMAX excursions (add L best, then remove L least useful points, L ≥ 2) that improved
+    /// the design after the single swaps had converged.
+    pub excursions: usize,
+    /// log det(CᵀC) of the selected design.
+    pub log_det: f64,
+    /// Kiefer–Wolfowitz certificate max_j N·tr(C_j M⁻¹ C_jᵀ) over the pool, M = CᵀC of the
+    /// design (N·d(c_j) for one row per candidate). It is ≥ n; it equals n iff the design is
+    /// D-optimal as an approximate design, and n / certificate bounds its D-efficiency from
+    /// below.
+    pub certificate: f64,
+}
+
+/// Why a selection failed.
+///
+/// # Reference
+/// algorithms.md §4.2 and §5 (identifiability).
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+#[non_exhaustive]
+pub enum SelectionError {
+    /// Fewer distinct candidates than poses requested (without replicates), or none at all.
+    #[error("{requested} poses requested but the pool has only {available} candidates")]
+    TooFewCandidates {
+        /// Candidates in the pool.
+        available: usize,
+        /// Poses requested.
+        requested: usize,
+    },
+    /// The requested poses give fewer rows than parameters, so no design has full rank.
+    #[error("{poses} poses give {rows} rows, fewer than the {n} parameters")]
+    TooFewRows {
+        /// Poses requested.
+        poses: usize,
+        /// Rows they give.
+        rows: usize,
+        /// Parameters.
+        n: usize,
+    },
+    /// The whole pool cannot reach full rank (some parameters are not identifiable from any
+    /// design on it).
+    #[error("the candidate pool has rank {rank} < {n} parameters")]
+    RankDeficient {
+        /// Numerical rank of the column-scaled stacked pool.
+        rank: usize,
+        /// Parameters.
+        n: usize,
+    },
+    /// The selected design is numerically singular although the pool has full rank.
+    #[error("the selected design is singular (rank {rank} < {n}); select more poses")]
+    SingularDesign {
+        /// Numerical rank of the column-scaled design.
+        rank: usize,
+        /// Parameters.
+        n: usize,
+    },
+    /// A candidate has another shape than the first one.
+    #[error("candidate {index} is {rows}×{cols}, expected {expected_rows}×{expected_cols}")]
+    ShapeMismatch {
+        /// Index of the candidate.
+        index: usize,
+        /// Its rows.
+        rows: usize,
+        /// Its columns.
+        cols: usize,
+        /// Rows of the first candidate.
+        expected_rows: usize,
+        /// Columns of the first candidate.
+        expected_cols: usize,
+    },
+    /// The candidates have no rows or no columns.
+    #[error("candidates are {rows}×{cols}: need at least one row and one parameter")]
+    Empty {
+        /// Rows per candidate.
+        rows: usize,
+        /// Columns (parameters).
+        cols: usize,
+    },
+    /// A candidate has a NaN or infinite entry.
+    #[error("candidate {index} has a non-finite entry")]
+    NonFinite {
+        /// Index of the candidate.
+        index: usize,
+    },
+}
+
+/// Selects `options.count` candidates by greedy construction, Fedorov exchange and DETMAX
+/// excursions, with rank-one (b = 1) or block (b > 1) updates for the D criterion.
+///
+/// `candidates` holds one b × n matrix per candidate pose (b = 1 for one leg; b = n_legs for
+/// the stacked traditional design, any block structure). All candidates must have the same
+/// shape. The result is deterministic (ties go to the lowest index) and, for the D criterion,
+/// invariant to a scaling of the columns of all candidates.
+///
+/// A D-optimal exchange algorithm in the spirit of Sun & Hollerbach (2008) / DETMAX
+/// (Mitchell 1974), not Sun & Hollerbach's exact algorithm. The A and E criteria use the same
+/// skeleton with the criterion re-evaluated per trial (Woodbury updates for A, eigenvalues of
+/// the trial M for E); E uses the D gain while the greedy design has fewer rows than
+/// parameters, where s_min is still zero.
+///
+/// # Errors
+/// See [`SelectionError`]: too few candidates or rows, inconsistent or non-finite candidates,
+/// a pool of rank < n, or (rarely) a singular result.
+///
+/// # Reference
+/// algorithms.md §4.1–§4.3.
+pub fn select(
+    candidates: &[DMatrix<f64>],
+    options: &SelectionOptions,
+) -> Result<Selection, SelectionError> {
+    let pool = Pool::new(candidates, options)?;
+    match (options.criterion, pool.b) {
+        (Criterion::D, 1) => run(&pool, options, &mut RankOneD::new(&pool)),
+        (Criterion::D, _) => run(&pool, options, &mut BlockD::new(&pool)),
+        (Criterion::A, _) => run(
+            &pool,
+            options,
+            &mut AOptimal {
+                pool: &pool,
+                ridge: false,
+            },
+        ),
+        (Criterion::E, _) => run(
+            &pool,
+            options,
+            &mut EOptimal {
+                pool: &pool,
+                ridge: false,
+            },
+        ),
+    }
+}
+
+/// Reference implementation of [`select`]: the same greedy construction and exchange, but
+/// every trial design is evaluated from scratch (CᵀC of the trial set, then its log det by
+/// Cholesky for D, tr of its inverse for A, its smallest singular value for E). Slow; used
+/// by the tests and the benchmark.
+///
+/// A D-optimal exchange algorithm in the spirit of Sun & Hollerbach (2008) / DETMAX
+/// (Mitchell 1974), not Sun & Hollerbach's exact algorithm.
+///
+/// # Errors
+/// As [`select`].
+///
+/// # Reference
+/// algorithms.md §4.2 and the "naive" column of §4.3.
+pub fn select_naive(
+    candidates: &[DMatrix<f64>],
+    options: &SelectionOptions,
+) -> Result<Selection, SelectionError> {
+    let pool = Pool::new(candidates, options)?;
+    run(
+        &pool,
+        options,
+        &mut Naive {
+            pool: &pool,
+            criterion: options.criterion,
+            ridge: false,
+        },
+    )
+}
+
+/// log det(CᵀC) of the design made of the candidates `indices` (their rows stacked), or −∞
+/// if it is (numerically) singular or empty.
+///
+/// # Panics
+/// If an index is out of range or the candidates do not all have the same number of columns.
+///
+/// # Reference
+/// algorithms.md §3 (O1 = det(CᵀC)^{1/(2n)}/√m) and §4.
+pub fn log_det(candidates: &[DMatrix<f64>], indices: &[usize]) -> f64 {
+    let Some(n) = candidates.first().map(DMatrix::ncols) else {
+        return f64::NEG_INFINITY;
+    };
+    let mut m = DMatrix::zeros(n, n);
+    for &j in indices {
+        m += candidates[j].tr_mul(&candidates[j]);
+    }
+    log_det_spd(&m)
+}

@@ -1,0 +1,146 @@
+//! The fast engines (rank-one, block, A, E) against the from-scratch reference.
+
+use super::*;
+use crate::workspace::pose_selection::driver::{order, Engine};
+use crate::workspace::pose_selection::linalg::spd_inverse;
+use crate::workspace::pose_selection::{BlockD, Naive, Pool, RankOneD};
+
+#[test]
+fn rank_one_updates_give_the_naive_selection() {
+    let mut exchanges = 0;
+    for seed in 0..6 {
+        let pool = random_pool(seed, 120, 1, 6);
+        exchanges += assert_matches_naive(&pool, &options(12));
+        exchanges += assert_matches_naive(&pool, &options(6));
+        exchanges += assert_matches_naive(&skewed_pool(seed, 120, 1, 6), &options(15));
+    }
+    assert!(exchanges > 0, "the exchange phase was never exercised");
+}
+
+#[test]
+fn block_updates_give_the_naive_selection() {
+    let mut exchanges = 0;
+    for seed in 0..4 {
+        exchanges += assert_matches_naive(&block_diagonal_pool(seed, 60, 2, 4), &options(8));
+        exchanges += assert_matches_naive(&random_pool(100 + seed, 60, 2, 5), &options(6));
+        exchanges += assert_matches_naive(&random_pool(200 + seed, 40, 3, 7), &options(4));
+        exchanges += assert_matches_naive(&skewed_pool(250 + seed, 60, 2, 8), &options(10));
+    }
+    assert!(exchanges > 0, "the exchange phase was never exercised");
+}
+
+/// Runs one exchange sweep from the poor start "the first `count` candidates" with `fast`
+/// and with the from-scratch evaluation; both must choose the same swaps, and the updated
+/// M⁻¹ must equal (C_SᵀC_S)⁻¹ recomputed from scratch.
+fn follow_sweep<E: Engine>(
+    pool: &Pool,
+    count: usize,
+    fast: &mut E,
+    minv: impl Fn(&E) -> DMatrix<f64>,
+) {
+    let mut naive = Naive {
+        pool,
+        criterion: Criterion::D,
+        ridge: false,
+    };
+    let mut design: Vec<usize> = (0..count).collect();
+    let mut eligible: Vec<bool> = (0..pool.k).map(|j| j >= count).collect();
+    fast.sweep_start(&design).unwrap();
+    naive.sweep_start(&design).unwrap();
+    let mut swaps = 0;
+    for _ in 0..count {
+        let order = order(&design);
+        let chosen = fast.best_swap(&design, &order, &eligible).unwrap();
+        assert_eq!(
+            chosen,
+            naive.best_swap(&design, &order, &eligible).unwrap(),
+            "swap {swaps}"
+        );
+        let Some((pos, j)) = chosen else { break };
+        fast.swapped(&design, pos, j);
+        eligible[design[pos]] = true;
+        eligible[j] = false;
+        design[pos] = j;
+        swaps += 1;
+        let scratch = spd_inverse(&pool.gram(&design, false)).unwrap();
+        assert!(
+            (minv(fast) - &scratch).norm() < 1e-9 * scratch.norm(),
+            "M⁻¹ after swap {swaps}"
+        );
+    }
+    assert!(swaps >= 3, "only {swaps} swaps");
+}
+
+#[test]
+fn swaps_and_inverse_updates_follow_the_from_scratch_evaluation() {
+    for (seed, count) in [(21, 10), (22, 7), (23, 14)] {
+        let candidates = random_pool(seed, 80, 1, 6);
+        let pool = Pool::new(&candidates, &options(count)).unwrap();
+        follow_sweep(&pool, count, &mut RankOneD::new(&pool), |e| e.minv.clone());
+    }
+    for (candidates, count) in [
+        (block_diagonal_pool(24, 60, 2, 4), 8),
+        (random_pool(25, 60, 2, 5), 6),
+        (random_pool(26, 60, 3, 7), 5),
+    ] {
+        let pool = Pool::new(&candidates, &options(count)).unwrap();
+        follow_sweep(&pool, count, &mut BlockD::new(&pool), |e| e.minv.clone());
+    }
+}
+
+#[test]
+fn a_singular_design_is_exchanged_with_the_ridge() {
+    // Design {0, 1, 2} spans only two of three directions: the sweep falls back to the
+    // ridge, and the swaps (same as from scratch) restore full rank.
+    let mut candidates = random_pool(31, 30, 1, 3);
+    for (i, row) in [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [1.0, 1.0, 0.0]]
+        .iter()
+        .enumerate()
+    {
+        candidates[i] = DMatrix::from_row_slice(1, 3, row);
+    }
+    let pool = Pool::new(&candidates, &options(3)).unwrap();
+    let design = vec![0, 1, 2];
+    assert!(pool.exchange_inverse(&design).unwrap().1);
+    let eligible: Vec<bool> = (0..pool.k).map(|j| j >= 3).collect();
+    let mut fast = RankOneD::new(&pool);
+    let mut naive = Naive {
+        pool: &pool,
+        criterion: Criterion::D,
+        ridge: false,
+    };
+    fast.sweep_start(&design).unwrap();
+    naive.sweep_start(&design).unwrap();
+    let chosen = fast.best_swap(&design, &order(&design), &eligible).unwrap();
+    assert_eq!(
+        chosen,
+        naive
+            .best_swap(&design, &order(&design), &eligible)
+            .unwrap()
+    );
+    let (pos, j) = chosen.unwrap();
+    let mut repaired = design.clone();
+    repaired[pos] = j;
+    assert!(log_det(&candidates, &repaired).is_finite());
+}
+
+#[test]
+fn a_and_e_criteria_give_the_naive_selection() {
+    for seed in 0..3 {
+        for criterion in [Criterion::A, Criterion::E] {
+            let o = SelectionOptions {
+                criterion,
+                ..options(8)
+            };
+            let pool = random_pool(300 + seed, 50, 1, 4);
+            let (fast, naive) = (select(&pool, &o).unwrap(), select_naive(&pool, &o).unwrap());
+            assert_eq!(fast.indices, naive.indices, "{criterion:?}, seed {seed}");
+            let pool = block_diagonal_pool(400 + seed, 40, 2, 3);
+            let (fast, naive) = (select(&pool, &o).unwrap(), select_naive(&pool, &o).unwrap());
+            assert_eq!(
+                fast.indices, naive.indices,
+                "{criterion:?} blocks, seed {seed}"
+            );
+        }
+    }
+}

@@ -1,0 +1,198 @@
+//! Tests of the pose selection: shared pools and helpers, errors, determinism and log det;
+//! agreement with the naive reference in [`engines`], design quality in [`optimality`].
+
+use super::*;
+use rand::{Rng, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+use rand_distr::StandardNormal;
+
+mod engines;
+mod optimality;
+
+fn options(count: usize) -> SelectionOptions {
+    SelectionOptions {
+        count,
+        ..Default::default()
+    }
+}
+
+/// K random candidates of b × n standard-normal entries.
+fn random_pool(seed: u64, k: usize, b: usize, n: usize) -> Vec<DMatrix<f64>> {
+    let mut rng = ChaCha8Rng::seed_from_u64(seed);
+    (0..k)
+        .map(|_| DMatrix::from_fn(b, n, |_, _| rng.sample(StandardNormal)))
+        .collect()
+}
+
+/// K random block-diagonal candidates: leg l's row has entries only in columns l·w..(l+1)·w.
+fn block_diagonal_pool(seed: u64, k: usize, legs: usize, width: usize) -> Vec<DMatrix<f64>> {
+    let mut rng = ChaCha8Rng::seed_from_u64(seed);
+    (0..k)
+        .map(|_| {
+            let mut c = DMatrix::zeros(legs, legs * width);
+            for l in 0..legs {
+                for p in 0..width {
+                    c[(l, l * width + p)] = rng.sample::<f64, _>(StandardNormal) * (1.0 + p as f64);
+                }
+            }
+            c
+        })
+        .collect()
+}
+
+/// K candidates of b × n rows with correlated columns and log-normal row scales: the greedy
+/// start is poor, so the exchange does real work.
+fn skewed_pool(seed: u64, k: usize, b: usize, n: usize) -> Vec<DMatrix<f64>> {
+    let mut rng = ChaCha8Rng::seed_from_u64(seed);
+    let mixing = DMatrix::from_fn(n, n, |i, j| {
+        if i == j {
+            1.0
+        } else {
+            0.8 * rng.sample::<f64, _>(StandardNormal)
+        }
+    });
+    (0..k)
+        .map(|_| {
+            let scale = (1.5 * rng.sample::<f64, _>(StandardNormal)).exp();
+            DMatrix::from_fn(b, n, |_, _| rng.sample::<f64, _>(StandardNormal) * scale) * &mixing
+        })
+        .collect()
+}
+
+/// Quadratic regression rows [1, x, x²] on 201 grid points of [−1, 1].
+fn quadratic_pool() -> Vec<DMatrix<f64>> {
+    (0..=200)
+        .map(|k| {
+            let x = -1.0 + k as f64 / 100.0;
+            DMatrix::from_row_slice(1, 3, &[1.0, x, x * x])
+        })
+        .collect()
+}
+
+fn relative_gap(a: f64, b: f64) -> f64 {
+    (a - b).abs() / a.abs().max(b.abs()).max(1.0)
+}
+
+fn assert_matches_naive(pool: &[DMatrix<f64>], options: &SelectionOptions) -> usize {
+    let fast = select(pool, options).unwrap();
+    let naive = select_naive(pool, options).unwrap();
+    assert!(
+        fast.indices == naive.indices || relative_gap(fast.log_det, naive.log_det) < 1e-9,
+        "{:?}: fast {:?} ({}) vs naive {:?} ({})",
+        options.criterion,
+        fast.indices,
+        fast.log_det,
+        naive.indices,
+        naive.log_det
+    );
+    assert!(
+        (fast.log_det - log_det(pool, &fast.indices)).abs() < 1e-9 * fast.log_det.abs().max(1.0)
+    );
+    if fast.indices == naive.indices {
+        // Same decisions all the way: same path.
+        assert_eq!(
+            (fast.sweeps, fast.exchanges, fast.excursions),
+            (naive.sweeps, naive.exchanges, naive.excursions)
+        );
+    }
+    fast.exchanges
+}
+
+#[test]
+fn errors_name_what_is_missing() {
+    let pool = random_pool(1, 5, 1, 3);
+    assert_eq!(
+        select(&pool, &options(6)),
+        Err(SelectionError::TooFewCandidates {
+            available: 5,
+            requested: 6
+        })
+    );
+    assert_eq!(
+        select(&[], &options(6)),
+        Err(SelectionError::TooFewCandidates {
+            available: 0,
+            requested: 6
+        })
+    );
+    assert_eq!(
+        select(&pool, &options(2)),
+        Err(SelectionError::TooFewRows {
+            poses: 2,
+            rows: 2,
+            n: 3
+        })
+    );
+    // Replicates: more poses than candidates is fine.
+    let replicated = select(
+        &pool,
+        &SelectionOptions {
+            allow_replicates: true,
+            ..options(6)
+        },
+    )
+    .unwrap();
+    assert_eq!(replicated.indices.len(), 6);
+    // A duplicated column (p2 = 2·p0) cannot be identified from any design.
+    let deficient: Vec<DMatrix<f64>> = random_pool(2, 50, 1, 3)
+        .into_iter()
+        .map(|c| DMatrix::from_row_slice(1, 4, &[c[0], c[1], 2.0 * c[0], c[2]]))
+        .collect();
+    for o in [
+        options(10),
+        SelectionOptions {
+            criterion: Criterion::E,
+            ..options(10)
+        },
+    ] {
+        assert_eq!(
+            select(&deficient, &o),
+            Err(SelectionError::RankDeficient { rank: 3, n: 4 })
+        );
+        assert_eq!(
+            select_naive(&deficient, &o),
+            Err(SelectionError::RankDeficient { rank: 3, n: 4 })
+        );
+    }
+    let mut mixed = random_pool(3, 5, 1, 3);
+    mixed[3] = DMatrix::zeros(1, 4);
+    assert!(matches!(
+        select(&mixed, &options(3)),
+        Err(SelectionError::ShapeMismatch { index: 3, .. })
+    ));
+    mixed[3] = DMatrix::from_row_slice(1, 3, &[0.0, f64::NAN, 1.0]);
+    assert_eq!(
+        select(&mixed, &options(3)),
+        Err(SelectionError::NonFinite { index: 3 })
+    );
+    let message = SelectionError::RankDeficient { rank: 3, n: 4 }.to_string();
+    assert!(!message.contains('\n') && message.contains("rank 3"));
+}
+
+#[test]
+fn the_selection_is_deterministic_and_distinct() {
+    let pool = random_pool(11, 150, 1, 6);
+    let a = select(&pool, &options(18)).unwrap();
+    assert_eq!(a, select(&pool, &options(18)).unwrap());
+    let mut distinct = a.indices.clone();
+    distinct.dedup();
+    assert_eq!(distinct, a.indices);
+    assert!(a.sweeps >= 1 && a.sweeps <= 50);
+    // Exact copies of a candidate: ties go to the lowest index.
+    let mut copies = quadratic_pool();
+    copies.push(copies[200].clone());
+    let s = select(&copies, &options(3)).unwrap();
+    assert_eq!(s.indices, vec![0, 100, 200]);
+}
+
+#[test]
+fn log_det_of_a_design() {
+    let pool: Vec<DMatrix<f64>> = [[2.0, 0.0], [0.0, 3.0], [1.0, 1.0]]
+        .iter()
+        .map(|r| DMatrix::from_row_slice(1, 2, r))
+        .collect();
+    assert!((log_det(&pool, &[0, 1]) - 36f64.ln()).abs() < 1e-12);
+    assert!((log_det(&pool, &[0, 1, 2]) - (5.0f64 * 10.0 - 1.0).ln()).abs() < 1e-12);
+    assert!(log_det(&pool, &[0]).is_infinite() && log_det(&pool, &[0]) < 0.0);
+    assert!(log_det(&pool, &[0, 0]).is_infinite());
+}

@@ -1,0 +1,185 @@
+//! Quality of the selected designs: random subsets, brute force, scaling invariance and the
+//! Kiefer–Wolfowitz certificate.
+
+use super::*;
+use crate::workspace::pose_selection::linalg::min_eigenvalue;
+
+/// Criterion values of a design: (log det, −tr M⁻¹, s_min).
+fn criteria(pool: &[DMatrix<f64>], design: &[usize]) -> (f64, f64, f64) {
+    let n = pool[0].ncols();
+    let mut m = DMatrix::zeros(n, n);
+    for &j in design {
+        m += pool[j].tr_mul(&pool[j]);
+    }
+    let trace = m
+        .clone()
+        .try_inverse()
+        .map_or(f64::INFINITY, |inverse| inverse.trace());
+    (
+        log_det(pool, design),
+        -trace,
+        min_eigenvalue(m).max(0.0).sqrt(),
+    )
+}
+
+#[test]
+fn the_selection_beats_1000_random_subsets() {
+    let (k, count) = (200, 18);
+    let pool = random_pool(7, k, 1, 6);
+    let chosen: Vec<(f64, f64, f64)> = [Criterion::D, Criterion::A, Criterion::E]
+        .into_iter()
+        .map(|criterion| {
+            let selection = select(
+                &pool,
+                &SelectionOptions {
+                    criterion,
+                    ..options(count)
+                },
+            )
+            .unwrap();
+            criteria(&pool, &selection.indices)
+        })
+        .collect();
+    let mut rng = ChaCha8Rng::seed_from_u64(8);
+    let mut best = (f64::NEG_INFINITY, f64::NEG_INFINITY, f64::NEG_INFINITY);
+    for _ in 0..1000 {
+        let subset = rand::seq::index::sample(&mut rng, k, count).into_vec();
+        let c = criteria(&pool, &subset);
+        best = (best.0.max(c.0), best.1.max(c.1), best.2.max(c.2));
+    }
+    assert!(chosen[0].0 >= best.0, "D: {} < {}", chosen[0].0, best.0);
+    assert!(chosen[1].1 >= best.1, "A: {} < {}", chosen[1].1, best.1);
+    assert!(chosen[2].2 >= best.2, "E: {} < {}", chosen[2].2, best.2);
+}
+
+/// All `count`-subsets of 0..k.
+fn subsets(k: usize, count: usize) -> Vec<Vec<usize>> {
+    if count == 0 {
+        return vec![vec![]];
+    }
+    (count - 1..k)
+        .flat_map(|last| {
+            subsets(last, count - 1).into_iter().map(move |mut s| {
+                s.push(last);
+                s
+            })
+        })
+        .collect()
+}
+
+#[test]
+fn the_exchange_is_within_one_percent_of_the_brute_force_optimum() {
+    // Single swaps plus DETMAX excursions are a local search: on 400 such pools, 2 end
+    // 1.3–1.7% below the optimum (7 without excursions); these 100 seeds all reach 1%.
+    let (k, n, count) = (10, 3, 4);
+    let all = subsets(k, count);
+    assert_eq!(all.len(), 210);
+    let mut optimal = 0;
+    for seed in 0..100 {
+        let pool = random_pool(500 + seed, k, 1, n);
+        let optimum = all
+            .iter()
+            .map(|s| log_det(&pool, s))
+            .fold(f64::NEG_INFINITY, f64::max);
+        let selection = select(&pool, &options(count)).unwrap();
+        let efficiency = ((selection.log_det - optimum) / n as f64).exp();
+        assert!(
+            efficiency > 0.99,
+            "seed {seed}: det^(1/n) efficiency {efficiency}"
+        );
+        optimal += usize::from(efficiency > 1.0 - 1e-12);
+    }
+    assert!(optimal >= 95, "only {optimal} of 100 designs are optimal");
+    // Blocks of two rows: 5 parameters, 3 poses of 2 rows.
+    let all = subsets(k, 3);
+    for seed in 0..20 {
+        let pool = random_pool(600 + seed, k, 2, 5);
+        let optimum = all
+            .iter()
+            .map(|s| log_det(&pool, s))
+            .fold(f64::NEG_INFINITY, f64::max);
+        let selection = select(&pool, &options(3)).unwrap();
+        let efficiency = ((selection.log_det - optimum) / 5.0).exp();
+        assert!(
+            efficiency > 0.99,
+            "blocks, seed {seed}: efficiency {efficiency}"
+        );
+    }
+}
+
+#[test]
+fn the_d_optimal_selection_is_invariant_to_column_scaling() {
+    let weights = [1e3, 1e-2, 7.3, 1.0, 0.05, 250.0];
+    let scale = |pool: &[DMatrix<f64>]| -> Vec<DMatrix<f64>> {
+        pool.iter()
+            .map(|c| DMatrix::from_fn(c.nrows(), c.ncols(), |r, p| c[(r, p)] * weights[p]))
+            .collect()
+    };
+    let shift: f64 = 2.0 * weights.iter().map(|w: &f64| w.ln()).sum::<f64>();
+    for seed in 0..4 {
+        for (pool, count) in [
+            (random_pool(700 + seed, 300, 1, 6), 18),
+            (block_diagonal_pool(800 + seed, 150, 2, 3), 10),
+        ] {
+            let plain = select(&pool, &options(count)).unwrap();
+            let scaled = select(&scale(&pool), &options(count)).unwrap();
+            assert_eq!(plain.indices, scaled.indices, "seed {seed}");
+            assert!((scaled.log_det - plain.log_det - shift).abs() < 1e-8 * shift.abs());
+            assert!(relative_gap(plain.certificate, scaled.certificate) < 1e-8);
+        }
+    }
+    // The ridge makes the greedy start scale-equivariant too: same set without exchange.
+    let pool = random_pool(900, 300, 1, 6);
+    let greedy = SelectionOptions {
+        max_sweeps: 0,
+        ..options(18)
+    };
+    assert_eq!(
+        select(&pool, &greedy).unwrap().indices,
+        select(&scale(&pool), &greedy).unwrap().indices
+    );
+}
+
+#[test]
+fn the_kiefer_wolfowitz_certificate_is_n_for_the_known_optimal_design() {
+    let pool = quadratic_pool();
+    // D-optimal support of the quadratic: {−1, 0, 1} with equal weights.
+    let exact = select(&pool, &options(3)).unwrap();
+    assert_eq!(exact.indices, vec![0, 100, 200]);
+    assert!(
+        (exact.certificate - 3.0).abs() < 1e-9,
+        "{}",
+        exact.certificate
+    );
+    let replicated = select(
+        &pool,
+        &SelectionOptions {
+            allow_replicates: true,
+            ..options(9)
+        },
+    )
+    .unwrap();
+    assert_eq!(
+        replicated.indices,
+        vec![0, 0, 0, 100, 100, 100, 200, 200, 200]
+    );
+    assert!((replicated.certificate - 3.0).abs() < 1e-9);
+    // Without replicates: clusters around the support, nearly optimal.
+    let clustered = select(&pool, &options(9)).unwrap();
+    assert!(
+        clustered.certificate >= 3.0 && clustered.certificate < 3.1,
+        "{}",
+        clustered.certificate
+    );
+    assert!(clustered
+        .indices
+        .iter()
+        .all(|&i| i <= 2 || (98..=102).contains(&i) || i >= 198));
+    // On random pools the certificate is at least n.
+    for seed in 0..4 {
+        let s = select(&random_pool(seed, 100, 1, 5), &options(10)).unwrap();
+        assert!(s.certificate >= 5.0 - 1e-9, "{}", s.certificate);
+        let s = select(&block_diagonal_pool(seed, 100, 2, 3), &options(6)).unwrap();
+        assert!(s.certificate >= 6.0 - 1e-9, "{}", s.certificate);
+    }
+}
