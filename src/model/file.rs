@@ -9,6 +9,7 @@ use std::path::Path;
 use serde::Deserialize;
 
 use crate::error::{Error, Result};
+use crate::workspace::region::Region;
 
 /// The whole model file.
 #[derive(Debug, Clone, Deserialize)]
@@ -132,7 +133,7 @@ pub struct ParameterEntry {
 #[serde(deny_unknown_fields)]
 pub struct WorkspaceEntry {
     /// The region of the end-effector point in x, y.
-    pub region: RegionEntry,
+    pub region: Region,
     /// Inward safety margin from the region's boundary, metres.
     #[serde(default)]
     pub margin: f64,
@@ -161,31 +162,6 @@ pub struct SingularityEntry {
     /// Smallest allowed parallel (type II) measure (default 0.05).
     #[serde(default)]
     pub parallel: Option<f64>,
-}
-
-/// A planar region.
-#[derive(Debug, Clone, Deserialize)]
-#[serde(deny_unknown_fields, rename_all = "snake_case")]
-pub enum RegionEntry {
-    /// A disc: centre `[x, y]` and radius, metres.
-    Disc {
-        /// Centre `[x, y]`, metres.
-        centre: [f64; 2],
-        /// Radius, metres.
-        radius: f64,
-    },
-    /// An axis-aligned box `[xmin, ymin]`..`[xmax, ymax]`, metres.
-    Box {
-        /// Lower corner, metres.
-        min: [f64; 2],
-        /// Upper corner, metres.
-        max: [f64; 2],
-    },
-    /// A simple polygon, vertices `[x, y]` in order, metres.
-    Polygon {
-        /// The vertices.
-        vertices: Vec<[f64; 2]>,
-    },
 }
 
 /// The simulation set-up.

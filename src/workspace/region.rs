@@ -5,8 +5,11 @@ use parry2d_f64::shape::{Ball, Cuboid};
 use parry2d_f64::utils::point_in_poly2d;
 use rand::Rng;
 
-/// A planar region in x, y (metres).
-#[derive(Debug, Clone, PartialEq)]
+/// A planar region in x, y (metres). Read straight from the model file (`workspace.region`:
+/// `{disc: {centre, radius}}`, `{box: {min, max}}` or `{polygon: {vertices}}`); its values are
+/// checked when the mechanism is validated.
+#[derive(Debug, Clone, PartialEq, serde::Deserialize)]
+#[serde(deny_unknown_fields, rename_all = "snake_case")]
 pub enum Region {
     /// A disc.
     Disc {

@@ -2,7 +2,7 @@
 
 use super::Builder;
 use crate::error::Result;
-use crate::model::file::{ModelFile, RegionEntry};
+use crate::model::file::ModelFile;
 use crate::model::mechanism::COORDINATES;
 use crate::workspace::region::{
     Region, Workspace, DEFAULT_RANGE_LEVELS, DEFAULT_SINGULARITY_THRESHOLD,
@@ -12,43 +12,33 @@ impl Builder<'_> {
     pub(super) fn workspace(&self, file: &ModelFile, measured: &[usize]) -> Result<Workspace> {
         let entry = &file.workspace;
         let positive = |v: f64| v.is_finite() && v > 0.0;
-        let region = match &entry.region {
-            RegionEntry::Disc { centre, radius } => {
+        let region = entry.region.clone();
+        match &region {
+            Region::Disc { centre, radius } => {
                 if !positive(*radius) || centre.iter().any(|v| !v.is_finite()) {
                     return Err(self.error(
                         "workspace.region.disc",
                         "expected a finite centre and a positive radius (metres)",
                     ));
                 }
-                Region::Disc {
-                    centre: *centre,
-                    radius: *radius,
-                }
             }
-            RegionEntry::Box { min, max } => {
+            Region::Box { min, max } => {
                 if !(0..2).all(|i| min[i].is_finite() && max[i].is_finite() && min[i] < max[i]) {
                     return Err(self.error(
                         "workspace.region.box",
                         "expected finite corners with min < max (metres)",
                     ));
                 }
-                Region::Box {
-                    min: *min,
-                    max: *max,
-                }
             }
-            RegionEntry::Polygon { vertices } => {
+            Region::Polygon { vertices } => {
                 if vertices.len() < 3 || vertices.iter().flatten().any(|v| !v.is_finite()) {
                     return Err(self.error(
                         "workspace.region.polygon",
                         "expected at least three finite vertices (metres)",
                     ));
                 }
-                Region::Polygon {
-                    vertices: vertices.clone(),
-                }
             }
-        };
+        }
         if !(entry.margin.is_finite() && entry.margin >= 0.0) {
             return Err(self.error(
                 "workspace.margin",
