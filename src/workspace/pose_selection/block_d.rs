@@ -45,10 +45,7 @@ impl Engine for BlockD<'_> {
         let y = &self.minv * &self.pool.x;
         self.pool
             .best_block_gain(&y, eligible)
-            .ok_or(SelectionError::TooFewCandidates {
-                available: self.pool.k,
-                requested: design.len() + 1,
-            })
+            .ok_or_else(|| self.pool.exhausted(design.len()))
     }
 
     fn greedy_added(&mut self, design: &[usize], j: usize) {

@@ -11,8 +11,8 @@ pub(super) trait Engine {
     /// The eligible candidate whose addition to `design` is best (ties: lowest index).
     fn greedy_pick(&mut self, design: &[usize], eligible: &[bool])
         -> Result<usize, SelectionError>;
-    /// Candidate `j` has just been appended to `design`.
-    fn greedy_added(&mut self, design: &[usize], j: usize);
+    /// Candidate `j` has just been appended to `design` (engines without cached state: nothing).
+    fn greedy_added(&mut self, _design: &[usize], _j: usize) {}
     /// Start of an exchange sweep: refactorise the information matrix of `design`.
     fn sweep_start(&mut self, design: &[usize]) -> Result<(), SelectionError>;
     /// The best improving swap (position in `design`, incoming candidate), scanning positions

@@ -31,13 +31,8 @@ impl Engine for EOptimal<'_> {
             };
             argmax((0..pool.k).filter(|&j| eligible[j]).map(|j| (j, score(j))))
         };
-        picked.ok_or(SelectionError::TooFewCandidates {
-            available: pool.k,
-            requested: design.len() + 1,
-        })
+        picked.ok_or_else(|| pool.exhausted(design.len()))
     }
-
-    fn greedy_added(&mut self, _design: &[usize], _j: usize) {}
 
     fn sweep_start(&mut self, design: &[usize]) -> Result<(), SelectionError> {
         self.ridge = self.pool.exchange_inverse(design)?.1;

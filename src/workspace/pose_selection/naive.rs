@@ -66,13 +66,8 @@ impl Engine for Naive<'_> {
             trial[last] = j;
             scores.push((j, self.score(&trial, true, criterion)));
         }
-        argmax(scores.into_iter()).ok_or(SelectionError::TooFewCandidates {
-            available: pool.k,
-            requested: design.len() + 1,
-        })
+        argmax(scores.into_iter()).ok_or_else(|| pool.exhausted(design.len()))
     }
-
-    fn greedy_added(&mut self, _design: &[usize], _j: usize) {}
 
     fn sweep_start(&mut self, design: &[usize]) -> Result<(), SelectionError> {
         self.ridge = self.pool.exchange_inverse(design)?.1;

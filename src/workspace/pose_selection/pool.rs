@@ -18,6 +18,14 @@ pub(super) struct Pool {
 }
 
 impl Pool {
+    /// The error when no eligible candidate is left to grow a design of `size` poses.
+    pub(super) fn exhausted(&self, size: usize) -> SelectionError {
+        SelectionError::TooFewCandidates {
+            available: self.k,
+            requested: size + 1,
+        }
+    }
+
     pub(super) fn new(
         candidates: &[DMatrix<f64>],
         options: &SelectionOptions,

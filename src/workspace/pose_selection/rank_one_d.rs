@@ -67,10 +67,7 @@ impl Engine for RankOneD<'_> {
                 .filter(|&j| eligible[j])
                 .map(|j| (j, self.d[j])),
         )
-        .ok_or(SelectionError::TooFewCandidates {
-            available: self.pool.k,
-            requested: design.len() + 1,
-        })
+        .ok_or_else(|| self.pool.exhausted(design.len()))
     }
 
     fn greedy_added(&mut self, design: &[usize], j: usize) {
