@@ -41,8 +41,8 @@ pub(super) fn run(args: &WorkspaceArgs) -> anyhow::Result<()> {
     println!("maximal inscribed workspace (MIW):");
     println!(
         "  centre  x = {:.7} m, y = {:.7} m",
-        tidy(miw.centre[0]),
-        tidy(miw.centre[1])
+        crate::report::tidy(miw.centre[0], 7),
+        crate::report::tidy(miw.centre[1], 7)
     );
     println!("  radius  {:.7} m", miw.radius);
     let path = args.svg.clone().unwrap_or_else(|| {
@@ -58,9 +58,4 @@ pub(super) fn run(args: &WorkspaceArgs) -> anyhow::Result<()> {
         .map_err(|e| anyhow::anyhow!("{}: cannot write the picture: {e}", path.display()))?;
     println!("picture written to {}", path.display());
     Ok(())
-}
-
-/// Rounds to the printed precision so that a tiny negative number does not print as `-0.0000000`.
-fn tidy(value: f64) -> f64 {
-    (value * 1e7).round() / 1e7 + 0.0
 }

@@ -167,7 +167,7 @@ pub fn identify_problem(
     let x0 = problem.nominal();
     let (r0, c0) = problem
         .residuals_and_jacobian(&x0)
-        .map_err(|e| located(data, problem, e))?;
+        .map_err(|e| located(mechanism, data, problem, e))?;
     for slot in problem.slots() {
         let observability = leg_observability(mechanism, problem, slot, &c0);
         let n = slot.columns.len();
@@ -199,7 +199,7 @@ pub fn identify_problem(
     let seconds = started.elapsed().as_secs_f64();
     let (r, c) = problem
         .residuals_and_jacobian(&outcome.x)
-        .map_err(|e| located(data, problem, e))?;
+        .map_err(|e| located(mechanism, data, problem, e))?;
     if !(r.iter().all(|v| v.is_finite()) && outcome.x.iter().all(|v| v.is_finite())) {
         return Err(Error::Solver {
             context: format!("legs {}", names.join(", ")),
@@ -241,12 +241,7 @@ fn leg_observability(
     slot: &LegSlot,
     c: &DMatrix<f64>,
 ) -> Observability {
-    let leg = &mechanism.legs[slot.leg];
-    let names: Vec<String> = slot
-        .columns
-        .iter()
-        .map(|&i| leg.params[i].name.clone())
-        .collect();
+    let names = mechanism.legs[slot.leg].identified_names();
     analyse(&leg_jacobian(problem, slot, c), &names)
 }
 
@@ -319,19 +314,20 @@ fn covariance_diagonal(c: &DMatrix<f64>) -> Option<Vec<f64>> {
 }
 
 /// Turns a failed block into an error naming the measurement file line, or the simulated pose.
-fn located(data: &MeasurementSet, problem: &IdentificationProblem<'_>, error: BlockError) -> Error {
+fn located(
+    mechanism: &Mechanism,
+    data: &MeasurementSet,
+    problem: &IdentificationProblem<'_>,
+    error: BlockError,
+) -> Error {
     let block = &problem.blocks()[error.block];
-    let pose = block.pose;
-    let pose_text = format!(
-        "pose x={}, y={}, z={}, yaw={}",
-        pose[0], pose[1], pose[2], pose[5]
-    );
+    let pose_text = mechanism.pose_text(&block.pose);
     match (&data.source, block.line) {
         (Some(path), Some(line)) => Error::Measurement {
             path: path.clone(),
             location: format!("line {line}"),
             message: error.source.to_string(),
         },
-        _ => Error::Invalid(format!("simulated {pose_text}: {}", error.source)),
+        _ => Error::Invalid(format!("simulated pose {pose_text}: {}", error.source)),
     }
 }

@@ -59,11 +59,7 @@ pub fn forward(
         .map(|(leg, phi)| predict_reading(leg, phi, &home, &home))
         .collect::<Result<_, _>>()?;
     let mut pose = home;
-    let mut joints: Vec<Vec<f64>> = mechanism
-        .legs
-        .iter()
-        .map(|l| l.home_joints.clone())
-        .collect();
+    let mut joints = home_joints(mechanism);
     let home_sign = newton(
         mechanism,
         &layout,
@@ -75,11 +71,7 @@ pub fn forward(
     .signum();
     for steps in [1usize, 8, 32] {
         let mut trial_pose = home;
-        let mut trial_joints: Vec<Vec<f64>> = mechanism
-            .legs
-            .iter()
-            .map(|l| l.home_joints.clone())
-            .collect();
+        let mut trial_joints = home_joints(mechanism);
         let mut ok = true;
         for step in 1..=steps {
             let t = step as f64 / steps as f64;
@@ -108,11 +100,7 @@ pub fn forward(
         }
     }
     let mut pose = home;
-    let mut joints: Vec<Vec<f64>> = mechanism
-        .legs
-        .iter()
-        .map(|l| l.home_joints.clone())
-        .collect();
+    let mut joints = home_joints(mechanism);
     match newton(mechanism, &layout, params, readings, &mut pose, &mut joints) {
         Ok(_) => Err(KinematicsError::AssemblyModeChange),
         Err(err) => Err(err),
@@ -216,4 +204,13 @@ fn newton(
         }
     }
     Err(KinematicsError::NotAssemblable { residual })
+}
+
+/// Every leg's moving joints at home.
+fn home_joints(mechanism: &Mechanism) -> Vec<Vec<f64>> {
+    mechanism
+        .legs
+        .iter()
+        .map(|l| l.home_joints.clone())
+        .collect()
 }

@@ -161,7 +161,7 @@ pub fn simulate_at(
                     .map_err(|err| {
                         Error::Invalid(format!(
                             "simulation: with its real parameters, {err} (pose {})",
-                            pose_text(mechanism, true_pose)
+                            mechanism.pose_text(true_pose)
                         ))
                     })?;
                 readings.push(value);
@@ -218,14 +218,4 @@ fn reachable_pose(
         message: "no pose of the usable workspace is reachable by every leg on its home branch"
             .into(),
     })
-}
-
-/// `x=…, y=…` over the measured coordinates of a pose.
-fn pose_text(mechanism: &Mechanism, pose: &[f64; 6]) -> String {
-    mechanism
-        .measured
-        .iter()
-        .map(|&c| format!("{}={}", crate::model::mechanism::COORDINATES[c], pose[c]))
-        .collect::<Vec<_>>()
-        .join(", ")
 }

@@ -58,6 +58,15 @@ impl LegModel {
             .collect()
     }
 
+    /// Names of the identified parameters, in order.
+    pub fn identified_names(&self) -> Vec<String> {
+        self.params
+            .iter()
+            .filter(|p| p.identified)
+            .map(|p| p.name.clone())
+            .collect()
+    }
+
     /// Is the actuated joint revolute?
     pub fn actuated_is_revolute(&self) -> bool {
         self.joints[self.moving[self.actuated]].kind == JointKind::Revolute

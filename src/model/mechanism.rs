@@ -119,6 +119,20 @@ impl Mechanism {
         self.measured.iter().map(|&i| COORDINATES[i]).collect()
     }
 
+    /// Every leg's nominal parameter vector.
+    pub fn nominal_parameters(&self) -> Vec<Vec<f64>> {
+        self.legs.iter().map(|leg| leg.nominal()).collect()
+    }
+
+    /// `x=…, y=…` over the measured coordinates of `pose`, for messages.
+    pub fn pose_text(&self, pose: &[f64; 6]) -> String {
+        self.measured
+            .iter()
+            .map(|&c| format!("{}={}", COORDINATES[c], pose[c]))
+            .collect::<Vec<_>>()
+            .join(", ")
+    }
+
     /// Names of the actuated joints, one per leg.
     pub fn actuated_names(&self) -> Vec<&str> {
         self.legs

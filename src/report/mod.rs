@@ -3,6 +3,12 @@ pub mod json;
 pub mod terminal;
 
 use crate::identify::estimate::StrategyResult;
+
+/// Rounds `value` to `decimals` decimals so that a tiny negative number does not print as `-0.000…`.
+pub fn tidy(value: f64, decimals: i32) -> f64 {
+    let scale = 10f64.powi(decimals);
+    (value * scale).round() / scale + 0.0
+}
 use crate::model::Mechanism;
 
 /// Everything an identification run reports.

@@ -60,7 +60,7 @@ pub fn candidate_pool(mechanism: &Mechanism, spacing: Option<f64>) -> Result<Can
             "grid spacing: expected a positive number of metres, found {spacing}"
         )));
     }
-    let nominal: Vec<Vec<f64>> = mechanism.legs.iter().map(|l| l.nominal()).collect();
+    let nominal = mechanism.nominal_parameters();
     let parallel = match ParallelMeasure::new(mechanism, nominal.clone()) {
         Ok(measure) => Some(measure),
         Err(KinematicsError::NotSquare { .. }) => None,

@@ -58,12 +58,7 @@ fn options(count: usize, criterion: SelectionCriterion) -> SelectionOptions {
 }
 
 fn names(mechanism: &Mechanism, leg: usize) -> Vec<String> {
-    let model = &mechanism.legs[leg];
-    model
-        .identified()
-        .iter()
-        .map(|&i| model.params[i].name.clone())
-        .collect()
+    mechanism.legs[leg].identified_names()
 }
 
 /// Rows of leg `leg` at the candidates `indices`, stacked.

@@ -65,7 +65,7 @@ impl<'a> SingularityMargin<'a> {
     /// # Errors
     /// The home pose is singular or unreachable, or the parallel measure is undefined.
     pub fn new(mechanism: &'a Mechanism) -> Result<Self> {
-        let nominal: Vec<Vec<f64>> = mechanism.legs.iter().map(|l| l.nominal()).collect();
+        let nominal = mechanism.nominal_parameters();
         let parallel = ParallelMeasure::new(mechanism, nominal.clone())?;
         Ok(Self {
             mechanism,

@@ -93,8 +93,8 @@ pub fn miw_svg(margin: &SingularityMargin<'_>, miw: &Miw, title: &str) -> String
     );
     let legend = format!(
         "MIW centre ({:.6}, {:.6}) m, radius {:.6} m",
-        tidy(miw.centre[0]),
-        tidy(miw.centre[1]),
+        crate::report::tidy(miw.centre[0], 6),
+        crate::report::tidy(miw.centre[1], 6),
         miw.radius
     );
     let _ = writeln!(
@@ -123,9 +123,4 @@ fn escape(text: &str) -> String {
     text.replace('&', "&amp;")
         .replace('<', "&lt;")
         .replace('>', "&gt;")
-}
-
-/// Rounds to the printed precision so that a tiny negative number does not print as `-0.000000`.
-fn tidy(value: f64) -> f64 {
-    (value * 1e6).round() / 1e6 + 0.0
 }

@@ -21,7 +21,7 @@ fn forward_kinematics_golden_values_hold_with_nominal_and_real_parameters() {
     use legwise::measure::simulate::real_parameters;
     let mech = bundled("5r.yaml");
     let readings = [2.2528832244, 2.2528832244];
-    let nominal: Vec<Vec<f64>> = mech.legs.iter().map(|l| l.nominal()).collect();
+    let nominal = mech.nominal_parameters();
     let pose = forward(&mech, &nominal, &readings).unwrap();
     assert_relative_eq!(pose[0], 0.0, epsilon = 1e-9);
     assert_relative_eq!(pose[1], 1.0956521739, epsilon = 1e-9);
@@ -103,7 +103,7 @@ fn identification_jacobian_rows_match_the_closed_form_golden_rows() {
 fn singularity_measures_match_the_closed_forms_of_the_5r() {
     use legwise::kinematics::singularity::{serial_measure, ParallelMeasure};
     let mech = bundled("5r.yaml");
-    let nominal: Vec<Vec<f64>> = mech.legs.iter().map(|l| l.nominal()).collect();
+    let nominal = mech.nominal_parameters();
     let parallel = ParallelMeasure::new(&mech, nominal.clone()).unwrap();
     // At the MIW centre: B1 = (−0.97281, 0.58219), B2 = (0.97281, 0.58219) (algorithms.md §1.4).
     let (p, b1, b2): ([f64; 2], [f64; 2], [f64; 2]) =

@@ -13,7 +13,7 @@ fn forward_kinematics_inverts_inverse_kinematics_over_the_workspace() {
     let mut rng = ChaCha8Rng::seed_from_u64(3);
     for mech in bundled_models() {
         let home = mech.home_pose;
-        let params: Vec<Vec<f64>> = mech.legs.iter().map(|l| l.nominal()).collect();
+        let params = mech.nominal_parameters();
         for _ in 0..100 {
             let pose = mech.workspace.sample(&home, &mut rng).unwrap();
             let readings: Vec<f64> = mech

@@ -66,7 +66,7 @@ fn the_5r_selected_sets_beat_random_sets_and_match_the_full_determinant_exchange
             assert!((selected - 0.437).abs() < 0.01, "leg 1 O1 {selected}");
         }
         // Every selected pose is feasible: reachable on the home branch, clear of singularities.
-        let nominal: Vec<Vec<f64>> = mech.legs.iter().map(|l| l.nominal()).collect();
+        let nominal = mech.nominal_parameters();
         let parallel = ParallelMeasure::new(&mech, nominal.clone()).unwrap();
         for pose in &design.poses {
             assert!(mech.workspace.contains(pose));

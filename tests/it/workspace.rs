@@ -58,7 +58,7 @@ fn the_5r_candidate_pool_is_the_grid_inside_the_usable_disc() {
     // The usable disc's closest approach to the type-II singularity is its bottom point, where
     // algorithms.md §1.6 gives min |s_II| = 0.058; no candidate is closer.
     use legwise::kinematics::singularity::ParallelMeasure;
-    let nominal: Vec<Vec<f64>> = mech.legs.iter().map(|l| l.nominal()).collect();
+    let nominal = mech.nominal_parameters();
     let measure = ParallelMeasure::new(&mech, nominal).unwrap();
     let bottom = measure
         .at(&[0.0, centre[1] - radius, 0.0, 0.0, 0.0, 0.0])
