@@ -5,7 +5,7 @@
 use argmin::core::{Error as ArgminError, Jacobian, Operator};
 use nalgebra::{DMatrix, DVector};
 
-use super::jacobian::reading_gradient;
+use super::jacobian::PreparedLeg;
 use super::residual::ResidualBlock;
 use crate::error::KinematicsError;
 use crate::model::Mechanism;
@@ -105,10 +105,14 @@ impl<'a> IdentificationProblem<'a> {
         phi
     }
 
-    fn parameters_by_leg(&self, x: &DVector<f64>) -> Vec<Vec<f64>> {
+    /// Each slot's leg prepared at the unknowns `x` (built once, reused at every pose).
+    fn prepare(&self, x: &DVector<f64>) -> Vec<PreparedLeg<'a>> {
         self.slots
             .iter()
-            .map(|s| self.leg_parameters(s, x))
+            .map(|slot| {
+                let leg = &self.mechanism.legs[slot.leg];
+                PreparedLeg::new(leg, &self.leg_parameters(slot, x), &slot.columns)
+            })
             .collect()
     }
 
@@ -117,15 +121,15 @@ impl<'a> IdentificationProblem<'a> {
     /// # Errors
     /// The first block whose leg cannot reach its pose.
     pub fn residuals(&self, x: &DVector<f64>) -> Result<DVector<f64>, BlockError> {
-        let phis = self.parameters_by_leg(x);
+        let prepared = self.prepare(x);
         let home = &self.mechanism.home_pose;
         let mut r = DVector::zeros(self.blocks.len());
         for (i, block) in self.blocks.iter().enumerate() {
-            let slot = self.slot_of_leg[block.leg].unwrap_or_default();
-            let leg = &self.mechanism.legs[block.leg];
-            r[i] = block
-                .evaluate(leg, &phis[slot], home)
+            let leg = &prepared[self.slot_of_leg[block.leg].unwrap_or_default()];
+            let predicted = leg
+                .reading(&block.pose, home)
                 .map_err(|source| BlockError { block: i, source })?;
+            r[i] = predicted - block.reading;
         }
         Ok(r)
     }
@@ -139,20 +143,28 @@ impl<'a> IdentificationProblem<'a> {
         &self,
         x: &DVector<f64>,
     ) -> Result<(DVector<f64>, DMatrix<f64>), BlockError> {
-        let phis = self.parameters_by_leg(x);
+        let prepared = self.prepare(x);
         let home = &self.mechanism.home_pose;
         let mut r = DVector::zeros(self.blocks.len());
         let mut jacobian = DMatrix::zeros(self.blocks.len(), self.parameter_count());
+        let mut gradient = vec![
+            0.0;
+            self.slots
+                .iter()
+                .map(|s| s.columns.len())
+                .max()
+                .unwrap_or(0)
+        ];
         for (i, block) in self.blocks.iter().enumerate() {
             let s = self.slot_of_leg[block.leg].unwrap_or_default();
             let slot = &self.slots[s];
-            let leg = &self.mechanism.legs[block.leg];
-            let (predicted, gradient) =
-                reading_gradient(leg, &phis[s], &slot.columns, &block.pose, home)
-                    .map_err(|source| BlockError { block: i, source })?;
+            let row = &mut gradient[..slot.columns.len()];
+            let predicted = prepared[s]
+                .reading_and_gradient(&block.pose, home, row)
+                .map_err(|source| BlockError { block: i, source })?;
             r[i] = predicted - block.reading;
-            for (k, g) in gradient.into_iter().enumerate() {
-                jacobian[(i, slot.offset + k)] = g;
+            for (k, g) in row.iter().enumerate() {
+                jacobian[(i, slot.offset + k)] = *g;
             }
         }
         Ok((r, jacobian))

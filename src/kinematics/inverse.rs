@@ -206,8 +206,13 @@ pub fn reading_at_solution<T: Scalar>(
     pose: &[T; 6],
     solution: &LegSolution,
 ) -> T {
-    let q: Vec<T> = solution.q.iter().map(|&v| lift(v)).collect();
-    let tip = tip_position(leg, geometry, &q);
+    // A leg has as many moving joints as closure equations: at most 3 (checked at load).
+    let mut joints = [lift::<T>(0.0); 3];
+    for (joint, &value) in joints.iter_mut().zip(&solution.q) {
+        *joint = lift(value);
+    }
+    let q = &joints[..solution.q.len()];
+    let tip = tip_position(leg, geometry, q);
     let target = attachment_world(pose, &geometry.attachment);
     let mut actuated = q[leg.actuated];
     for k in 0..leg.closure_dims {

@@ -8,8 +8,7 @@
 use nalgebra::DVector;
 
 use crate::error::{Error, KinematicsError, Result};
-use crate::identify::jacobian::reading_gradient;
-use crate::kinematics::inverse::solve_leg;
+use crate::identify::jacobian::PreparedLeg;
 use crate::kinematics::singularity::ParallelMeasure;
 use crate::model::Mechanism;
 
@@ -66,6 +65,12 @@ pub fn candidate_pool(mechanism: &Mechanism, spacing: Option<f64>) -> Result<Can
         Err(KinematicsError::NotSquare { .. }) => None,
         Err(err) => return Err(err.into()),
     };
+    let prepared: Vec<PreparedLeg<'_>> = mechanism
+        .legs
+        .iter()
+        .zip(&nominal)
+        .map(|(leg, phi)| PreparedLeg::new(leg, phi, &leg.identified()))
+        .collect();
     let mut pool = CandidatePool {
         candidates: Vec::new(),
         inside: 0,
@@ -79,44 +84,40 @@ pub fn candidate_pool(mechanism: &Mechanism, spacing: Option<f64>) -> Result<Can
             continue;
         }
         pool.inside += 1;
-        let mut solutions = Vec::with_capacity(mechanism.legs.len());
-        for (leg, phi) in mechanism.legs.iter().zip(&nominal) {
-            match solve_leg(leg, &leg.geometry(phi), &pose, &mechanism.home_pose) {
-                Ok(solution) => {
-                    solutions.push((solution.normalised_determinant * leg.branch_sign, solution))
-                }
-                Err(_) => break,
-            }
-        }
-        if solutions.len() < mechanism.legs.len() {
+        let Ok(solutions) = prepared
+            .iter()
+            .map(|leg| leg.solve(&pose, &mechanism.home_pose))
+            .collect::<Result<Vec<_>, _>>()
+        else {
             pool.unreachable += 1;
             continue;
-        }
+        };
         let serial = solutions
             .iter()
-            .map(|(s, _)| *s)
+            .zip(&mechanism.legs)
+            .map(|(solution, leg)| solution.normalised_determinant * leg.branch_sign)
             .fold(f64::INFINITY, f64::min);
         if serial < workspace.serial_threshold {
             pool.near_serial += 1;
             continue;
         }
         let parallel = match &parallel {
-            Some(measure) => {
-                let legs: Vec<_> = solutions.iter().map(|(_, s)| s.clone()).collect();
-                Some(measure.at_solutions(&pose, &legs)?)
-            }
+            Some(measure) => Some(measure.at_solutions(&pose, &solutions)?),
             None => None,
         };
         if parallel.is_some_and(|p| p < workspace.parallel_threshold) {
             pool.near_parallel += 1;
             continue;
         }
-        let mut rows = Vec::with_capacity(mechanism.legs.len());
-        for (leg, phi) in mechanism.legs.iter().zip(&nominal) {
-            let (_, gradient) =
-                reading_gradient(leg, phi, &leg.identified(), &pose, &mechanism.home_pose)?;
-            rows.push(DVector::from_vec(gradient));
-        }
+        let rows = prepared
+            .iter()
+            .zip(&solutions)
+            .map(|(leg, solution)| {
+                let mut row = DVector::zeros(leg.columns());
+                leg.reading_and_gradient_at(&pose, solution, row.as_mut_slice());
+                row
+            })
+            .collect();
         pool.candidates.push(Candidate {
             pose,
             rows,
