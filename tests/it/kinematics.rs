@@ -57,12 +57,14 @@ fn leaving_the_home_working_mode_is_an_error_not_another_branch() {
     let mech = bundled("5r.yaml");
     let leg = &mech.legs[0];
     let below = [-0.5, -0.8, 0.0, 0.0, 0.0, 0.0];
-    let result = predict_reading(leg, &leg.nominal(), &below, &mech.home_pose);
-    match result {
-        Err(KinematicsError::BranchChange { .. }) | Err(KinematicsError::Singular { .. }) => {}
-        Err(KinematicsError::Unreachable { .. }) => {}
-        other => panic!("expected an error, got {other:?}"),
-    }
+    // |P − A1| = 0.8 m lies inside the reach annulus [0.35, 1.85]: the pose is reachable, but
+    // only in the other working mode, and that is what the error must say.
+    let err = predict_reading(leg, &leg.nominal(), &below, &mech.home_pose).unwrap_err();
+    assert_eq!(err, KinematicsError::BranchChange { leg: "leg1".into() });
+    assert_eq!(
+        err.to_string(),
+        "leg `leg1` reaches the pose only on another branch than its home configuration (working-mode change)"
+    );
 }
 
 #[test]
