@@ -12,6 +12,9 @@ use crate::identify::jacobian::PreparedLeg;
 use crate::kinematics::singularity::ParallelMeasure;
 use crate::model::Mechanism;
 
+/// Largest candidate grid (poses before the feasibility checks).
+pub const MAX_GRID_POSES: usize = 2_000_000;
+
 /// One feasible candidate pose.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Candidate {
@@ -79,7 +82,7 @@ pub fn candidate_pool(mechanism: &Mechanism, spacing: Option<f64>) -> Result<Can
         near_parallel: 0,
         spacing,
     };
-    for pose in grid(mechanism, spacing) {
+    for pose in grid(mechanism, spacing)? {
         if !workspace.contains(&pose) {
             continue;
         }
@@ -140,7 +143,10 @@ pub fn candidate_pool(mechanism: &Mechanism, spacing: Option<f64>) -> Result<Can
 
 /// Grid poses from the lower-left corner of the usable region's bounding box (the region's
 /// bounds moved in by the margin) × ranged coordinate levels.
-fn grid(mechanism: &Mechanism, spacing: f64) -> Vec<[f64; 6]> {
+///
+/// # Errors
+/// More than [`MAX_GRID_POSES`] poses (a spacing too fine for the region).
+fn grid(mechanism: &Mechanism, spacing: f64) -> Result<Vec<[f64; 6]>> {
     let workspace = &mechanism.workspace;
     let (lo, hi) = workspace.region.bounds();
     let (lo, hi) = (
@@ -148,9 +154,19 @@ fn grid(mechanism: &Mechanism, spacing: f64) -> Vec<[f64; 6]> {
         [hi[0] - workspace.margin, hi[1] - workspace.margin],
     );
     let steps = [
-        ((hi[0] - lo[0]) / spacing + 1e-9).floor() as usize,
-        ((hi[1] - lo[1]) / spacing + 1e-9).floor() as usize,
+        ((hi[0] - lo[0]) / spacing + 1e-9).floor(),
+        ((hi[1] - lo[1]) / spacing + 1e-9).floor(),
     ];
+    let ranged = workspace.ranges.iter().skip(2).flatten().count();
+    let total =
+        (steps[0] + 1.0) * (steps[1] + 1.0) * (workspace.range_levels as f64).powi(ranged as i32);
+    if total > MAX_GRID_POSES as f64 {
+        return Err(Error::Invalid(format!(
+            "grid spacing {spacing} m (workspace.grid or --grid) gives {total:.3e} grid poses; \
+             at most {MAX_GRID_POSES} are allowed: use a larger spacing"
+        )));
+    }
+    let steps = [steps[0] as usize, steps[1] as usize];
     let mut points = Vec::new();
     for i in 0..=steps[0] {
         for j in 0..=steps[1] {
@@ -181,5 +197,5 @@ fn grid(mechanism: &Mechanism, spacing: f64) -> Vec<[f64; 6]> {
             })
             .collect();
     }
-    points
+    Ok(points)
 }

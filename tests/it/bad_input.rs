@@ -346,3 +346,15 @@ fn poses_at_one_distance_from_the_base_joint_are_rank_deficient_and_name_the_par
         }
     }
 }
+
+/// A spacing far too fine for the region is refused before any grid is built.
+#[test]
+fn a_candidate_grid_too_fine_is_refused() {
+    let mech = bundled("5r.yaml");
+    let err = legwise::workspace::candidates::candidate_pool(&mech, Some(1e-6)).unwrap_err();
+    assert_eq!(
+        err.to_string(),
+        "grid spacing 0.000001 m (workspace.grid or --grid) gives 1.505e12 grid poses; at most \
+         2000000 are allowed: use a larger spacing"
+    );
+}
