@@ -245,14 +245,23 @@ impl SimulationArgs {
                 self.noise_scale
             );
         }
-        if self.poses_per_leg == Some(0) {
-            anyhow::bail!("--poses-per-leg: expected at least 1");
-        }
+        check_poses_per_leg(self.poses_per_leg)?;
         Ok(crate::measure::simulate::SimulationOptions {
             seed: self.seed,
             noise_scale: self.noise_scale,
             poses_per_leg: self.poses_per_leg,
         })
+    }
+}
+
+/// `--poses-per-leg` within 1..=[`MAX_POSES_PER_LEG`](crate::model::mechanism::MAX_POSES_PER_LEG).
+fn check_poses_per_leg(count: Option<usize>) -> anyhow::Result<()> {
+    use crate::model::mechanism::MAX_POSES_PER_LEG;
+    match count {
+        Some(n) if !(1..=MAX_POSES_PER_LEG).contains(&n) => {
+            anyhow::bail!("--poses-per-leg: expected between 1 and {MAX_POSES_PER_LEG}, found {n}")
+        }
+        _ => Ok(()),
     }
 }
 

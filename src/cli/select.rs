@@ -7,6 +7,7 @@ use crate::workspace::design::ExperimentDesign;
 
 pub(super) fn run(args: &SelectArgs) -> anyhow::Result<()> {
     let mechanism = Mechanism::load(&args.model)?;
+    super::check_poses_per_leg(args.poses_per_leg)?;
     let count = args
         .poses_per_leg
         .unwrap_or(mechanism.selection.poses_per_leg);

@@ -10,8 +10,11 @@ use crate::workspace::picture::miw_svg;
 
 pub(super) fn run(args: &WorkspaceArgs) -> anyhow::Result<()> {
     let mechanism = Mechanism::load(&args.model)?;
-    if args.rays < 16 {
-        anyhow::bail!("--rays: expected at least 16, found {}", args.rays);
+    if !(16..=100_000).contains(&args.rays) {
+        anyhow::bail!(
+            "--rays: expected between 16 and 100000, found {}",
+            args.rays
+        );
     }
     let options = MiwOptions {
         rays: args.rays,

@@ -14,6 +14,9 @@ mod validate;
 
 use validate::Builder;
 
+/// Largest number of identification poses per leg (simulated or selected).
+pub const MAX_POSES_PER_LEG: usize = 100_000;
+
 /// Names of the end-effector coordinates, in pose-vector order (metres, radians).
 pub const COORDINATES: [&str; 6] = ORIGIN_COMPONENTS;
 

@@ -304,3 +304,33 @@ fn select_writes_the_poses_to_measure_with_empty_readings() {
     );
     assert_eq!(rows.iter().filter(|r| r.starts_with("leg2,")).count(), 18);
 }
+
+#[test]
+fn counts_out_of_range_are_refused_before_any_work() {
+    assert_fails_with(
+        &[
+            "identify",
+            "--model",
+            "models/5r.yaml",
+            "--poses-per-leg",
+            "1000000000",
+        ],
+        "legwise: --poses-per-leg: expected between 1 and 100000, found 1000000000",
+    );
+    assert_fails_with(
+        &[
+            "select",
+            "--model",
+            "models/5r.yaml",
+            "--out",
+            "unused.csv",
+            "--poses-per-leg",
+            "0",
+        ],
+        "legwise: --poses-per-leg: expected between 1 and 100000, found 0",
+    );
+    assert_fails_with(
+        &["workspace", "--model", "models/5r.yaml", "--rays", "8"],
+        "legwise: --rays: expected between 16 and 100000, found 8",
+    );
+}

@@ -4,6 +4,7 @@ use super::Builder;
 use crate::error::Result;
 use crate::model::file::ModelFile;
 use crate::model::leg::LegModel;
+use crate::model::mechanism::MAX_POSES_PER_LEG;
 use crate::model::mechanism::{SelectionCriterion, SelectionSetup, Simulation, COORDINATES};
 
 impl Builder<'_> {
@@ -64,8 +65,11 @@ impl Builder<'_> {
             }
             None => None,
         };
-        if entry.poses_per_leg == 0 {
-            return Err(self.error("simulation.poses_per_leg", "expected at least one pose"));
+        if !(1..=MAX_POSES_PER_LEG).contains(&entry.poses_per_leg) {
+            return Err(self.error(
+                "simulation.poses_per_leg",
+                format!("expected between 1 and {MAX_POSES_PER_LEG} poses"),
+            ));
         }
         Ok(Some(Simulation {
             real: entry.real.clone(),
@@ -87,8 +91,11 @@ impl Builder<'_> {
             .and_then(|e| e.poses_per_leg)
             .or(simulation.map(|s| s.poses_per_leg))
             .unwrap_or(18);
-        if poses_per_leg == 0 {
-            return Err(self.error("selection.poses_per_leg", "expected at least one pose"));
+        if !(1..=MAX_POSES_PER_LEG).contains(&poses_per_leg) {
+            return Err(self.error(
+                "selection.poses_per_leg",
+                format!("expected between 1 and {MAX_POSES_PER_LEG} poses"),
+            ));
         }
         let criterion = match entry.and_then(|e| e.criterion.as_deref()) {
             None | Some("D") | Some("d") => SelectionCriterion::D,
