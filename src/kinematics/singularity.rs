@@ -16,6 +16,7 @@ use num_dual::Dual64;
 use super::chain::{attachment_world, tip_and_jacobian};
 use super::inverse::{solve_leg, LegSolution};
 use crate::error::KinematicsError;
+use crate::model::leg::LegGeometry;
 use crate::model::Mechanism;
 
 /// Serial measure of leg `leg` at `pose` for its full parameter vector `phi`.
@@ -38,6 +39,7 @@ pub fn serial_measure(
 pub struct ParallelMeasure<'a> {
     mechanism: &'a Mechanism,
     params: Vec<Vec<f64>>,
+    geometries: Vec<LegGeometry<f64>>,
     home_sign: f64,
 }
 
@@ -48,9 +50,16 @@ impl<'a> ParallelMeasure<'a> {
     /// A leg cannot reach the home pose, the mechanism has not as many legs as measured
     /// coordinates, or the home pose itself is singular.
     pub fn new(mechanism: &'a Mechanism, params: Vec<Vec<f64>>) -> Result<Self, KinematicsError> {
+        let geometries = mechanism
+            .legs
+            .iter()
+            .zip(&params)
+            .map(|(leg, phi)| leg.geometry(phi))
+            .collect();
         let mut measure = Self {
             mechanism,
             params,
+            geometries,
             home_sign: 1.0,
         };
         let home = measure.at(&mechanism.home_pose)?;
@@ -71,8 +80,8 @@ impl<'a> ParallelMeasure<'a> {
         let solutions = mechanism
             .legs
             .iter()
-            .zip(&self.params)
-            .map(|(leg, phi)| solve_leg(leg, &leg.geometry(phi), pose, &mechanism.home_pose))
+            .zip(&self.geometries)
+            .map(|(leg, geometry)| solve_leg(leg, geometry, pose, &mechanism.home_pose))
             .collect::<Result<Vec<_>, _>>()?;
         self.at_solutions(pose, &solutions)
     }
@@ -97,8 +106,8 @@ impl<'a> ParallelMeasure<'a> {
         let mut rows = DMatrix::zeros(mechanism.legs.len(), coordinates.len());
         let pose_dual = pose.map(Dual64::from);
         for (l, (leg, solution)) in mechanism.legs.iter().zip(solutions).enumerate() {
-            let geometry = leg.geometry(&self.params[l]);
-            let (_, jacobian) = tip_and_jacobian(leg, &geometry, &solution.q);
+            let geometry = &self.geometries[l];
+            let (_, jacobian) = tip_and_jacobian(leg, geometry, &solution.q);
             let passive: Vec<Vector3<f64>> = (0..leg.moving.len())
                 .filter(|&i| i != leg.actuated)
                 .map(|i| jacobian.column(i).into_owned())
@@ -122,6 +131,11 @@ impl<'a> ParallelMeasure<'a> {
             }
         }
         Ok(self.home_sign * rows.determinant())
+    }
+
+    /// The legs' geometries for the measure's parameters (built once).
+    pub fn geometries(&self) -> &[LegGeometry<f64>] {
+        &self.geometries
     }
 
     /// The parameters the measure uses, one full vector per leg.

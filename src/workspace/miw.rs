@@ -55,7 +55,6 @@ pub struct Miw {
 #[derive(Debug, Clone)]
 pub struct SingularityMargin<'a> {
     mechanism: &'a Mechanism,
-    nominal: Vec<Vec<f64>>,
     parallel: ParallelMeasure<'a>,
 }
 
@@ -65,11 +64,9 @@ impl<'a> SingularityMargin<'a> {
     /// # Errors
     /// The home pose is singular or unreachable, or the parallel measure is undefined.
     pub fn new(mechanism: &'a Mechanism) -> Result<Self> {
-        let nominal = mechanism.nominal_parameters();
-        let parallel = ParallelMeasure::new(mechanism, nominal.clone())?;
+        let parallel = ParallelMeasure::new(mechanism, mechanism.nominal_parameters())?;
         Ok(Self {
             mechanism,
-            nominal,
             parallel,
         })
     }
@@ -105,11 +102,11 @@ impl<'a> SingularityMargin<'a> {
         let mechanism = self.mechanism;
         let mut solutions = Vec::with_capacity(mechanism.legs.len());
         let mut serial = f64::INFINITY;
-        for (l, (leg, phi)) in mechanism.legs.iter().zip(&self.nominal).enumerate() {
-            let geometry = leg.geometry(phi);
+        let geometries = self.parallel.geometries();
+        for (l, (leg, geometry)) in mechanism.legs.iter().zip(geometries).enumerate() {
             let solution = match seeds {
-                Some(seeds) => solve_leg_from(leg, &geometry, &pose, &seeds[l].q)?,
-                None => solve_leg(leg, &geometry, &pose, &mechanism.home_pose)?,
+                Some(seeds) => solve_leg_from(leg, geometry, &pose, &seeds[l].q)?,
+                None => solve_leg(leg, geometry, &pose, &mechanism.home_pose)?,
             };
             serial = serial.min(solution.normalised_determinant * leg.branch_sign);
             solutions.push(solution);
