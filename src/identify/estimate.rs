@@ -113,8 +113,18 @@ pub fn identify(
     solver: SolverKind,
 ) -> Result<StrategyResult> {
     let legs = mechanism.legs.len();
+    let identified = mechanism.identified_legs();
+    if identified.is_empty() {
+        return Err(Error::Invalid(format!(
+            "{}: no parameter is identified (every parameter has `identify: false`)",
+            mechanism.model_path.display()
+        )));
+    }
     let groups: Vec<(Vec<usize>, Vec<_>)> = match strategy {
-        Strategy::DivideAndConquer => (0..legs).map(|l| (vec![l], data.leg_blocks(l))).collect(),
+        Strategy::DivideAndConquer => identified
+            .iter()
+            .map(|&l| (vec![l], data.leg_blocks(l)))
+            .collect(),
         Strategy::Traditional => {
             if data.shared_count() == 0 {
                 return Err(Error::Invalid(
@@ -122,7 +132,7 @@ pub fn identify(
                         .into(),
                 ));
             }
-            vec![((0..legs).collect(), data.shared_blocks(legs))]
+            vec![(identified, data.shared_blocks(legs))]
         }
     };
     let mut result = StrategyResult {

@@ -122,6 +122,14 @@ impl Mechanism {
         self.measured.iter().map(|&i| COORDINATES[i]).collect()
     }
 
+    /// Indices of the legs with at least one identified parameter (the others have nothing to
+    /// identify and are left out of pose selection and identification).
+    pub fn identified_legs(&self) -> Vec<usize> {
+        (0..self.legs.len())
+            .filter(|&l| self.legs[l].params.iter().any(|p| p.identified))
+            .collect()
+    }
+
     /// Every leg's nominal parameter vector.
     pub fn nominal_parameters(&self) -> Vec<Vec<f64>> {
         self.legs.iter().map(|leg| leg.nominal()).collect()

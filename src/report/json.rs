@@ -34,14 +34,13 @@ fn result(report: &IdentifyReport<'_>, result: &StrategyResult) -> Value {
     let legs: Vec<Value> = result
         .legs
         .iter()
-        .enumerate()
-        .map(|(l, leg)| {
+        .map(|leg| {
             let parameters: Vec<Value> = leg
                 .parameters
                 .iter()
                 .enumerate()
                 .map(|(i, p)| {
-                    let real = report.real_value(l, i);
+                    let real = report.real_value(&leg.leg, i);
                     json!({
                         "name": p.name,
                         "unit": p.unit.to_string(),
@@ -64,8 +63,8 @@ fn result(report: &IdentifyReport<'_>, result: &StrategyResult) -> Value {
                 "cost_before": finite(leg.initial_cost),
                 "cost_after": finite(leg.final_cost),
                 "residual_sigma": optional(leg.residual_sigma),
-                "parameter_error_rms_before": optional(report.rms_error(result, l, false)),
-                "parameter_error_rms_after": optional(report.rms_error(result, l, true)),
+                "parameter_error_rms_before": optional(report.rms_error(leg, false)),
+                "parameter_error_rms_after": optional(report.rms_error(leg, true)),
                 "singular_values": o.singular_values.iter().map(|&s| finite(s)).collect::<Vec<_>>(),
                 "condition_number": finite(o.condition),
                 "scaled_condition_number": finite(o.scaled_condition),
@@ -92,5 +91,6 @@ fn result(report: &IdentifyReport<'_>, result: &StrategyResult) -> Value {
         "strategy": result.strategy.name(),
         "solver": result.solver.short_name(),
         "legs": legs,
+        "fixed_legs": report.fixed_legs(result),
     })
 }

@@ -2,14 +2,14 @@
 pub mod json;
 pub mod terminal;
 
-use crate::identify::estimate::StrategyResult;
+use crate::identify::estimate::{LegEstimate, StrategyResult};
+use crate::model::Mechanism;
 
 /// Rounds `value` to `decimals` decimals so that a tiny negative number does not print as `-0.000…`.
 pub fn tidy(value: f64, decimals: i32) -> f64 {
     let scale = 10f64.powi(decimals);
     (value * scale).round() / scale + 0.0
 }
-use crate::model::Mechanism;
 
 /// Everything an identification run reports.
 #[derive(Debug, Clone)]
@@ -25,28 +25,39 @@ pub struct IdentifyReport<'a> {
 }
 
 impl IdentifyReport<'_> {
-    /// Real value of parameter `p` of leg `leg`, if known.
-    pub fn real_value(&self, leg: usize, p: usize) -> Option<f64> {
+    /// Real value of parameter `p` of the leg called `leg`, if known.
+    pub fn real_value(&self, leg: &str, p: usize) -> Option<f64> {
+        let index = self.mechanism.leg_index(leg)?;
         self.real
             .as_ref()
-            .and_then(|r| r.get(leg))
+            .and_then(|r| r.get(index))
             .and_then(|r| r.get(p))
             .copied()
     }
 
     /// RMS over a leg's identified parameters of (value − real), for `value` nominal or estimate.
-    pub fn rms_error(&self, result: &StrategyResult, leg: usize, estimate: bool) -> Option<f64> {
-        let parameters = &result.legs[leg].parameters;
-        let errors: Vec<f64> = parameters
+    pub fn rms_error(&self, leg: &LegEstimate, estimate: bool) -> Option<f64> {
+        let errors: Vec<f64> = leg
+            .parameters
             .iter()
             .enumerate()
             .filter(|(_, p)| p.identified)
             .map(|(i, p)| {
                 let value = if estimate { p.estimate } else { p.nominal };
-                self.real_value(leg, i).map(|r| value - r)
+                self.real_value(&leg.leg, i).map(|r| value - r)
             })
             .collect::<Option<_>>()?;
         (!errors.is_empty())
             .then(|| (errors.iter().map(|e| e * e).sum::<f64>() / errors.len() as f64).sqrt())
+    }
+
+    /// Legs of the mechanism that `result` did not identify (every parameter held fixed).
+    pub fn fixed_legs(&self, result: &StrategyResult) -> Vec<String> {
+        self.mechanism
+            .legs
+            .iter()
+            .filter(|leg| !result.legs.iter().any(|e| e.leg == leg.name))
+            .map(|leg| leg.name.clone())
+            .collect()
     }
 }

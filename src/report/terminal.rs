@@ -48,7 +48,13 @@ fn render_result(out: &mut String, report: &IdentifyReport<'_>, result: &Strateg
         result.solver.name()
     );
     let known = report.real.is_some();
-    for (l, leg) in result.legs.iter().enumerate() {
+    for name in report.fixed_legs(result) {
+        let _ = writeln!(
+            out,
+            "\nleg {name}: every parameter is held fixed (identify: false); not identified"
+        );
+    }
+    for leg in &result.legs {
         let _ = writeln!(out, "\nleg {} ({} readings)", leg.leg, leg.measurements);
         let mut header = format!(
             "  {:<10} {:>4} {:>15} {:>15} {:>10}",
@@ -72,7 +78,7 @@ fn render_result(out: &mut String, report: &IdentifyReport<'_>, result: &Strateg
                 number(Some(p.estimate), 15),
                 scientific(p.std, 10)
             );
-            if let Some(real) = report.real_value(l, i) {
+            if let Some(real) = report.real_value(&leg.leg, i) {
                 let _ = write!(
                     row,
                     " {} {} {}",
@@ -83,10 +89,9 @@ fn render_result(out: &mut String, report: &IdentifyReport<'_>, result: &Strateg
             }
             let _ = writeln!(out, "{row}{fixed}");
         }
-        if let (Some(before), Some(after)) = (
-            report.rms_error(result, l, false),
-            report.rms_error(result, l, true),
-        ) {
+        if let (Some(before), Some(after)) =
+            (report.rms_error(leg, false), report.rms_error(leg, true))
+        {
             let _ = writeln!(
                 out,
                 "  parameter error RMS: {before:.3e} before, {after:.3e} after"

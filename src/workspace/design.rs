@@ -36,7 +36,8 @@ pub struct SharedDesign {
     pub poses: Vec<[f64; 6]>,
     /// Indices of the selected candidates in the pool.
     pub indices: Vec<usize>,
-    /// Each leg's observability on the shared poses.
+    /// Each identified leg's observability on the shared poses (legs with every parameter fixed
+    /// are left out).
     pub legs: Vec<Observability>,
     /// Observability of the stacked (block-diagonal) Jacobian.
     pub stacked: Observability,
@@ -69,7 +70,8 @@ fn leg_rows(pool: &CandidatePool, leg: usize, indices: &[usize]) -> DMatrix<f64>
     })
 }
 
-/// Selects `count` poses per leg from the pool (divide and conquer).
+/// Selects `count` poses for each leg with identified parameters from the pool (divide and
+/// conquer).
 ///
 /// # Errors
 /// Too few candidates, or a pool that cannot identify some parameters of a leg (named).
@@ -80,7 +82,9 @@ pub fn divide_and_conquer(
     criterion: SelectionCriterion,
 ) -> Result<Vec<LegDesign>> {
     let all: Vec<usize> = (0..pool.candidates.len()).collect();
-    (0..mechanism.legs.len())
+    mechanism
+        .identified_legs()
+        .into_iter()
         .map(|leg| {
             let names = names(mechanism, leg);
             let candidates: Vec<DMatrix<f64>> = pool
@@ -117,24 +121,26 @@ pub fn traditional(
     count: usize,
     criterion: SelectionCriterion,
 ) -> Result<SharedDesign> {
-    let legs = mechanism.legs.len();
-    let widths: Vec<usize> = (0..legs)
-        .map(|l| mechanism.legs[l].identified().len())
+    let included = mechanism.identified_legs();
+    let legs = included.len();
+    let widths: Vec<usize> = included
+        .iter()
+        .map(|&l| mechanism.legs[l].identified().len())
         .collect();
     let total: usize = widths.iter().sum();
     let block = |index: usize| {
         let mut matrix = DMatrix::zeros(legs, total);
         let mut offset = 0;
-        for (leg, &width) in widths.iter().enumerate() {
+        for (k, (&leg, &width)) in included.iter().zip(&widths).enumerate() {
             for j in 0..width {
-                matrix[(leg, offset + j)] = pool.candidates[index].rows[leg][j];
+                matrix[(k, offset + j)] = pool.candidates[index].rows[leg][j];
             }
             offset += width;
         }
         matrix
     };
     let candidates: Vec<DMatrix<f64>> = (0..pool.candidates.len()).map(block).collect();
-    let all_names: Vec<String> = (0..legs).flat_map(|l| names(mechanism, l)).collect();
+    let all_names: Vec<String> = included.iter().flat_map(|&l| names(mechanism, l)).collect();
     let stack = |indices: &[usize]| {
         let mut matrix = DMatrix::zeros(indices.len() * legs, total);
         for (k, &i) in indices.iter().enumerate() {
@@ -146,8 +152,9 @@ pub fn traditional(
     };
     let all: Vec<usize> = (0..pool.candidates.len()).collect();
     let selection = select(&candidates, &options(count, criterion)).map_err(|err| {
-        let leg = (0..legs)
-            .find(|&l| analyse(&leg_rows(pool, l, &all), &names(mechanism, l)).rank < widths[l]);
+        let leg = included.iter().zip(&widths).find_map(|(&l, &width)| {
+            (analyse(&leg_rows(pool, l, &all), &names(mechanism, l)).rank < width).then_some(l)
+        });
         match leg {
             Some(l) => selection_error(
                 mechanism,
@@ -156,7 +163,7 @@ pub fn traditional(
                 || leg_rows(pool, l, &all),
                 &names(mechanism, l),
             ),
-            None => selection_error(mechanism, 0, err, || stack(&all), &all_names),
+            None => selection_error(mechanism, included[0], err, || stack(&all), &all_names),
         }
     })?;
     Ok(SharedDesign {
@@ -166,8 +173,9 @@ pub fn traditional(
             .map(|&i| pool.candidates[i].pose)
             .collect(),
         indices: selection.indices.clone(),
-        legs: (0..legs)
-            .map(|l| analyse(&leg_rows(pool, l, &selection.indices), &names(mechanism, l)))
+        legs: included
+            .iter()
+            .map(|&l| analyse(&leg_rows(pool, l, &selection.indices), &names(mechanism, l)))
             .collect(),
         stacked: analyse(&stack(&selection.indices), &all_names),
         selection,
@@ -212,8 +220,10 @@ pub struct ExperimentDesign {
     pub candidates: usize,
     /// Grid spacing of the pool, metres.
     pub spacing: f64,
-    /// Per leg.
+    /// Per identified leg (legs with every parameter fixed get no poses of their own).
     pub legs: Vec<LegDesign>,
+    /// Number of legs of the mechanism.
+    pub leg_count: usize,
     /// Shared by all legs, when requested.
     pub shared: Option<SharedDesign>,
 }
@@ -239,6 +249,7 @@ impl ExperimentDesign {
             None
         };
         Ok(Self {
+            leg_count: mechanism.legs.len(),
             candidates: pool.candidates.len(),
             spacing: pool.spacing,
             legs,
@@ -249,7 +260,15 @@ impl ExperimentDesign {
     /// The true poses for a simulated experiment (shared poses empty if not designed).
     pub fn pose_sets(&self) -> crate::measure::simulate::PoseSets {
         crate::measure::simulate::PoseSets {
-            per_leg: self.legs.iter().map(|d| d.poses.clone()).collect(),
+            per_leg: (0..self.leg_count)
+                .map(|leg| {
+                    self.legs
+                        .iter()
+                        .find(|d| d.leg == leg)
+                        .map(|d| d.poses.clone())
+                        .unwrap_or_default()
+                })
+                .collect(),
             shared: self
                 .shared
                 .as_ref()

@@ -61,3 +61,44 @@ fn recovery_also_holds_through_the_measurement_csv() {
         }
     }
 }
+
+/// Calibrating only some legs: a leg whose parameters are all held fixed gets no poses of its
+/// own and is left out of both strategies; the others are still recovered exactly.
+#[test]
+fn a_leg_with_every_parameter_fixed_is_left_out() {
+    use legwise::workspace::design::ExperimentDesign;
+    let mut mech = crate::support::bundled("5r.yaml");
+    for p in &mut mech.legs[1].params {
+        p.identified = false;
+    }
+    let design = ExperimentDesign::select(&mech, None, 18, mech.selection.criterion, true).unwrap();
+    assert_eq!(design.legs.len(), 1);
+    let sets = design.pose_sets();
+    assert_eq!(
+        (
+            sets.per_leg[0].len(),
+            sets.per_leg[1].len(),
+            sets.shared.len()
+        ),
+        (18, 0, 18)
+    );
+    let experiment = legwise::measure::simulate::simulate_at(&mech, &sets, NOISE_FREE).unwrap();
+    for strategy in [Strategy::DivideAndConquer, Strategy::Traditional] {
+        let result = identify(
+            &mech,
+            &experiment.measurements,
+            strategy,
+            SolverKind::GaussNewton,
+        )
+        .unwrap();
+        assert_eq!(result.legs.len(), 1, "{strategy:?}");
+        assert_eq!(result.legs[0].leg, "leg1");
+        for (p, param) in result.legs[0].parameters.iter().enumerate() {
+            assert!(
+                (param.estimate - experiment.real[0][p]).abs() <= 1e-9,
+                "{}",
+                param.name
+            );
+        }
+    }
+}
