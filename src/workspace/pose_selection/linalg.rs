@@ -61,23 +61,29 @@ pub(super) fn ln_det_small(g: &DMatrix<f64>) -> f64 {
     }
 }
 
+/// Row (at or below `col`) of the largest entry in column `col` of the row-major b × b matrix
+/// `a`, or `None` if that column is zero (or NaN) from `col` down: partial pivoting.
+fn pivot_row(a: &[f64], b: usize, col: usize) -> Option<usize> {
+    let mut row = col;
+    let mut largest = a[col * b + col].abs();
+    for r in col + 1..b {
+        let v = a[r * b + col].abs();
+        if v > largest {
+            largest = v;
+            row = r;
+        }
+    }
+    (largest > 0.0).then_some(row)
+}
+
 /// Determinant of the row-major b × b matrix in `a` (overwritten), by Gaussian elimination
 /// with partial pivoting.
 pub(super) fn det_in_place(a: &mut [f64], b: usize) -> f64 {
     let mut det = 1.0;
     for col in 0..b {
-        let mut pivot_row = col;
-        let mut largest = a[col * b + col].abs();
-        for r in col + 1..b {
-            let v = a[r * b + col].abs();
-            if v > largest {
-                largest = v;
-                pivot_row = r;
-            }
-        }
-        if largest <= 0.0 || largest.is_nan() {
+        let Some(pivot_row) = pivot_row(a, b, col) else {
             return 0.0;
-        }
+        };
         if pivot_row != col {
             for c in 0..b {
                 a.swap(col * b + c, pivot_row * b + c);
@@ -106,18 +112,9 @@ pub(super) fn invert_in_place(a: &mut [f64], b: usize, out: &mut [f64]) -> f64 {
     }
     let mut det = 1.0;
     for col in 0..b {
-        let mut pivot_row = col;
-        let mut largest = a[col * b + col].abs();
-        for r in col + 1..b {
-            let v = a[r * b + col].abs();
-            if v > largest {
-                largest = v;
-                pivot_row = r;
-            }
-        }
-        if largest <= 0.0 || largest.is_nan() {
+        let Some(pivot_row) = pivot_row(a, b, col) else {
             return 0.0;
-        }
+        };
         if pivot_row != col {
             for c in 0..b {
                 a.swap(col * b + c, pivot_row * b + c);
