@@ -157,3 +157,14 @@ pub enum KinematicsError {
         leg: String,
     },
 }
+
+/// The first non-empty line of a dependency's error message, without its `prefix` (serde-saphyr
+/// appends a multi-line snippet; urdf-rs prefixes serde's `custom: `), or `fallback`.
+pub(crate) fn first_line(message: &str, prefix: &str, fallback: &str) -> String {
+    let first = message
+        .lines()
+        .map(str::trim)
+        .find(|line| !line.is_empty())
+        .unwrap_or(fallback);
+    first.strip_prefix(prefix).unwrap_or(first).to_string()
+}

@@ -19,7 +19,10 @@ pub struct ResidualBlock {
 }
 
 impl ResidualBlock {
-    /// Predicted minus measured reading for the leg's full parameter vector `phi`.
+    /// Predicted minus measured reading for the leg's full parameter vector `phi`, in any
+    /// scalar (e.g. dual numbers in the parameters or the pose). One-off evaluation: for many
+    /// blocks at one parameter vector, [`crate::identify::jacobian::PreparedLeg`] reuses the
+    /// leg's geometry.
     ///
     /// # Errors
     /// The leg cannot reach the pose on its home branch.

@@ -223,17 +223,7 @@ impl ModelFile {
     pub fn parse(text: &str, path: &Path) -> Result<Self> {
         serde_saphyr::from_str(text).map_err(|err| Error::Yaml {
             path: path.to_path_buf(),
-            message: one_line(&err.to_string()),
+            message: crate::error::first_line(&err.to_string(), "error: ", "invalid YAML"),
         })
     }
-}
-
-/// Keeps the first line of a parser message (`line L column C: what`), dropping the snippet.
-fn one_line(message: &str) -> String {
-    let first = message
-        .lines()
-        .map(str::trim)
-        .find(|l| !l.is_empty())
-        .unwrap_or("invalid YAML");
-    first.strip_prefix("error: ").unwrap_or(first).to_string()
 }

@@ -102,7 +102,7 @@ impl Mechanism {
         }
         let robot = urdf_rs::read_file(&urdf_path).map_err(|err| Error::Urdf {
             path: urdf_path.clone(),
-            message: urdf_message(&err.to_string()),
+            message: crate::error::first_line(&err.to_string(), "custom: ", "invalid URDF"),
         })?;
         Builder {
             path,
@@ -151,10 +151,4 @@ impl Mechanism {
             .map(|leg| leg.joints[leg.moving[leg.actuated]].name.as_str())
             .collect()
     }
-}
-
-/// The first line of a urdf-rs error, without serde's internal `custom: ` prefix.
-fn urdf_message(message: &str) -> String {
-    let first = message.lines().next().unwrap_or("invalid URDF");
-    first.strip_prefix("custom: ").unwrap_or(first).to_string()
 }
