@@ -150,6 +150,18 @@ pub enum KinematicsError {
         /// Number of measured coordinates.
         coordinates: usize,
     },
+    /// Finite inputs too large to compute with: the arithmetic overflowed (e.g. a coordinate of
+    /// 1e308).
+    #[error(
+        "leg `{leg}`: the inverse kinematics overflows: the pose or the parameters are finite but \
+         far too large for a mechanism in metres (largest magnitude {largest:e})"
+    )]
+    Overflow {
+        /// The leg.
+        leg: String,
+        /// The largest magnitude among the pose, the joint values and the parameters.
+        largest: f64,
+    },
     /// A non-finite number appeared (parameters or pose hold NaN or infinity).
     #[error("leg `{leg}`: non-finite value in the parameters or the pose")]
     NonFinite {

@@ -1,6 +1,7 @@
 //! One integration binary for all legwise tests.
 mod bad_input;
 mod cli;
+mod fuzz;
 mod golden;
 mod jacobian;
 mod kinematics;

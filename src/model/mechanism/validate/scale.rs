@@ -27,9 +27,10 @@ impl Builder<'_> {
         if !(workspace.is_finite() && workspace > 0.0) {
             return Ok(());
         }
-        for (index, leg) in legs.iter().enumerate() {
+        for leg in legs {
             let size = leg_size(leg);
-            if !(size.is_finite() && size > 0.0) {
+            // An overflowing sum (origins near 1e308) is infinite: implausible, not skipped.
+            if size.is_nan() || size <= 0.0 {
                 continue;
             }
             let hint = |large: &str, small: &str| {
@@ -85,7 +86,9 @@ fn leg_size(leg: &LegModel) -> f64 {
 
 /// A length for messages: whole metres when large, else four significant digits.
 fn length(value: f64) -> String {
-    if value >= 100.0 {
+    if !value.is_finite() {
+        "more than 1e308".into()
+    } else if value >= 100.0 {
         format!("{value:.0}")
     } else {
         format!("{value:.4}")
