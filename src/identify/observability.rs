@@ -263,4 +263,46 @@ mod tests {
         assert!((o4 - 0.25).abs() < 1e-12);
         assert!((o5 - 1.0 / 1.75).abs() < 1e-12);
     }
+
+    /// [[1, 1], [0, ε]]: s₁ s₂ = |det| = ε and s₁² + s₂² = 2 + ε², so s₁ ≈ √2, s₂ ≈ ε/√2 and
+    /// the condition number is ≈ 2/ε: rank-deficient at the scaled tolerance, yet a finite,
+    /// printed condition (it was "infinite" beside two non-zero singular values).
+    #[test]
+    fn a_numerically_rank_deficient_matrix_has_a_finite_condition_number() {
+        let epsilon = 1e-10;
+        let c = DMatrix::from_row_slice(2, 2, &[1.0, 1.0, 0.0, epsilon]);
+        let o = analyse(&c, &names(2));
+        assert_eq!(o.rank, 1);
+        assert!(o.singular_values[1] > 0.0);
+        assert!((o.condition / (2.0 / epsilon) - 1.0).abs() < 1e-6, "{}", o.condition);
+        assert!(o.scaled_condition.is_finite());
+    }
+
+    #[test]
+    fn only_a_zero_smallest_singular_value_gives_an_infinite_condition_number() {
+        let c = DMatrix::from_row_slice(2, 2, &[1.0, 0.0, 2.0, 0.0]);
+        assert!(analyse(&c, &names(2)).condition.is_infinite());
+    }
+
+    /// Columns of size 1e-300 (a gain of 1e300) and 1e200: squaring them under- or overflows.
+    /// The analysis must not depend on the columns' scale: the rank, the unidentifiable
+    /// parameter (the zero column p2) and the null direction are those of the unit matrix
+    /// [e₁ e₂ 0].
+    #[test]
+    fn the_column_scaling_is_robust_to_extreme_magnitudes() {
+        for scale in [1e-300, 1e200] {
+            let c = DMatrix::from_row_slice(
+                3,
+                3,
+                &[scale, 0.0, 0.0, 0.0, 2.0 * scale, 0.0, 0.0, 0.0, 0.0],
+            );
+            let o = analyse(&c, &names(3));
+            assert_eq!(o.rank, 2, "scale {scale}");
+            assert_eq!(o.unidentifiable, vec!["p2".to_string()], "scale {scale}");
+            assert_eq!(o.null_directions, vec!["1.000 p2".to_string()], "scale {scale}");
+            // Singular values 2·scale and scale (the matrix is diagonal), largest first.
+            assert!((o.singular_values[0] / (2.0 * scale) - 1.0).abs() < 1e-12);
+            assert!((o.singular_values[1] / scale - 1.0).abs() < 1e-12);
+        }
+    }
 }

@@ -176,3 +176,33 @@ proptest! {
         }
     }
 }
+
+// ---- regressions found by this harness ----
+
+/// A quoted CSV cell spanning lines was quoted verbatim in the message (several lines).
+#[test]
+fn a_multi_line_cell_is_quoted_on_one_line() {
+    let mechanism = crate::support::bundled("5r.yaml");
+    let text = "leg,x,y,A1,A2\n,0.1,1.0,\"2.0\n,0.2\",2.1\n";
+    let err = legwise::measure::file::parse(text, Path::new("m.csv"), &mechanism)
+        .expect_err("not a number");
+    assert_eq!(
+        err.to_string(),
+        "m.csv: line 2, column `A1`: expected a finite number in SI units (radians or metres), \
+         found `2.0\\n,0.2`"
+    );
+}
+
+/// quick-xml quotes a mismatched end tag verbatim, line breaks included.
+#[test]
+fn a_mismatched_end_tag_spanning_lines_is_quoted_on_one_line() {
+    let model = bundled_text("models/5r.yaml");
+    let urdf = "<robot name=\"r\">\n<link name=\"a\">\n</lin\nk>\n</robot>\n";
+    let err = Mechanism::parse(&model, Path::new("5r.yaml"), urdf, Path::new("m.urdf"))
+        .expect_err("not well-formed");
+    assert_eq!(
+        err.to_string(),
+        "m.urdf: line 3: not well-formed XML: ill-formed document: expected `</link>`, but \
+         `</lin\\nk>` was found"
+    );
+}
