@@ -193,10 +193,9 @@ impl<'a> IdentificationProblem<'a> {
             .iter()
             .flat_map(|slot| {
                 let leg = &self.mechanism.legs[slot.leg];
-                slot.columns
-                    .iter()
-                    .enumerate()
-                    .map(move |(k, &c)| format!("{} = {}", leg.params[c].name, short(x[slot.offset + k])))
+                slot.columns.iter().enumerate().map(move |(k, &c)| {
+                    format!("{} = {}", leg.params[c].name, short(x[slot.offset + k]))
+                })
             })
             .collect::<Vec<_>>()
             .join(", ");
