@@ -650,3 +650,27 @@ fn a_diverging_gauss_newton_names_the_trial_parameters_not_the_data() {
         "{stderr}"
     );
 }
+
+/// A nominal gain of 1e308 is finite, but the Jacobian overflows: it was "candidate 64 has a
+/// non-finite entry".
+#[test]
+fn a_gain_of_1e308_is_named_as_an_overflow_of_the_nominal_parameters() {
+    use legwise::model::mechanism::SelectionCriterion;
+    use legwise::workspace::design::ExperimentDesign;
+    let path = data("5r_gain_1e308.yaml");
+    let mech = Mechanism::load(&path).expect("the model loads");
+    let err = ExperimentDesign::select(&mech, None, 18, SelectionCriterion::D, false)
+        .expect_err("the Jacobian overflows");
+    let msg = message(&err);
+    let prefix = format!(
+        "{}: the identification Jacobian overflows at candidate pose x=",
+        path.display()
+    );
+    assert!(msg.starts_with(&prefix), "{msg}");
+    assert!(
+        msg.ends_with(
+            ": the nominal parameters are too large to compute with (largest: k1 = 1e308)"
+        ),
+        "{msg}"
+    );
+}
