@@ -241,7 +241,10 @@ fn selection_error(
                 .iter()
                 .flat_map(|l| &l.params)
                 .map(|p| (p.name.as_str(), p.nominal))
-                .fold(("", 0.0f64), |a, b| if b.1.abs() > a.1.abs() { b } else { a });
+                .fold(
+                    ("", 0.0f64),
+                    |a, b| if b.1.abs() > a.1.abs() { b } else { a },
+                );
             Error::Invalid(format!(
                 "{}: the identification Jacobian overflows at candidate pose {}: the nominal \
                  parameters are too large to compute with (largest: {name} = {value:e})",
