@@ -84,5 +84,5 @@ EXAMPLES:
   # the MIW of the bundled 5R and its picture 5r-workspace.svg
   legwise workspace --model models/5r.yaml
   # a finer boundary, the picture elsewhere
-  legwise workspace --model models/3rpr.yaml --rays 4000 --svg pictures/3rpr.svg"
+  legwise workspace --model models/3rpr.yaml --rays 4000 --svg 3rpr-miw.svg"
 );
