@@ -305,8 +305,9 @@ fn measurements_dash_reads_stdin_and_names_it_in_errors() {
     );
 }
 
-/// `legwise simulate --out - | head -3`: the reader goes away after three lines of a CSV far
-/// larger than a pipe's buffer; legwise ends quietly with exit 0, without a panic. The same for
+/// `legwise simulate --out - | head -3`: the reader goes away after three lines of a CSV
+/// (2400 rows, about 180 kB) larger than a pipe's buffer (64 kB on Linux), so the write meets
+/// the closed pipe; legwise ends quietly with exit 0, without a panic. The same for
 /// `--out /dev/stdout`, which is standard output.
 #[test]
 fn a_pipe_closed_early_ends_quietly() {
@@ -319,7 +320,7 @@ fn a_pipe_closed_early_ends_quietly() {
                 "--poses",
                 "random",
                 "--poses-per-leg",
-                "5000",
+                "800",
                 "--out",
                 out,
             ])
@@ -363,4 +364,26 @@ fn a_closed_terminal_pipe_does_not_panic() {
     let result = child.wait_with_output().unwrap();
     assert_eq!(result.status.code(), Some(0), "{}", text(&result.stderr));
     assert_eq!(text(&result.stderr), "");
+}
+
+/// A special file is written in place, never replaced by a renamed temporary file (as root, a
+/// rename would turn /dev/null into a regular file).
+#[cfg(unix)]
+#[test]
+fn a_special_file_output_is_written_in_place() {
+    use std::os::unix::fs::FileTypeExt;
+    let out = legwise(&[
+        "select",
+        "--model",
+        "models/5r.yaml",
+        "--poses-per-leg",
+        "6",
+        "--out",
+        "/dev/null",
+    ]);
+    assert_eq!(out.status.code(), Some(0), "{}", text(&out.stderr));
+    assert!(text(&out.stdout).contains("poses written to /dev/null"));
+    let null = fs::metadata("/dev/null").unwrap();
+    assert!(null.file_type().is_char_device());
+    assert_eq!(fs::read("/dev/null").unwrap(), b"");
 }
