@@ -4,10 +4,11 @@
 macro_rules! exit_status {
     () => {
         "EXIT STATUS:
-  0  success (warnings alone keep 0; a closed standard output, as in `| head`, too)
+  0  success; warnings alone keep 0
   2  bad input or usage: one line `legwise: …` names the file, line, column or option
   3  the run finished but its result must not be trusted: one `legwise: warning: …` line
-     per reason on standard error"
+     per reason on standard error
+  A closed standard output (`legwise … | head`) is not an error: the output stops there."
     };
 }
 
