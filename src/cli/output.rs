@@ -1,7 +1,8 @@
 //! Output files of the command line, one way for every command.
 //!
 //! An output is checked when the command starts, before the long work: its directory must exist
-//! and take a new file, it must not be a directory, and it must not be one of the run's inputs
+//! and take a new file, it must not be a directory or a read-only file, and it must not be one
+//! of the run's inputs
 //! (compared after canonicalisation, and by device and inode, so `./m.csv`, a symbolic link or a
 //! hard link to the measurement file are all caught). It is written to a temporary file in the
 //! same directory, flushed to disk and renamed over the target, so a run that fails or is killed
@@ -163,6 +164,12 @@ fn resolve(flag: &str, path: &Path) -> anyhow::Result<Target> {
         }
         if !metadata.is_file() {
             return Ok(Target::Special(path.to_path_buf()));
+        }
+        if metadata.permissions().readonly() {
+            // The rename would replace it all the same; a read-only file says "keep me".
+            anyhow::bail!(
+                "{shown}: {flag}: the file is read-only; expected a writable file or a new path"
+            );
         }
         let canonical = fs::canonicalize(path).with_context(|| format!("{shown}: {flag}"))?;
         probe(flag, path, &canonical)?;

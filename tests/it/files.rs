@@ -387,3 +387,24 @@ fn a_special_file_output_is_written_in_place() {
     assert!(null.file_type().is_char_device());
     assert_eq!(fs::read("/dev/null").unwrap(), b"");
 }
+
+/// A read-only output file is refused, not replaced by the rename (which the directory's
+/// permissions would allow).
+#[cfg(unix)]
+#[test]
+fn a_read_only_output_is_refused() {
+    use std::os::unix::fs::PermissionsExt;
+    let dir = tempfile::tempdir().unwrap();
+    let csv = dir.path().join("keep.csv");
+    fs::write(&csv, "keep me\n").unwrap();
+    fs::set_permissions(&csv, fs::Permissions::from_mode(0o444)).unwrap();
+    let path = csv.to_str().unwrap();
+    assert_fails_with(
+        &["simulate", "--model", "models/5r.yaml", "--out", path],
+        &format!(
+            "legwise: {path}: --out: the file is read-only; expected a writable file or a new path"
+        ),
+    );
+    assert_eq!(fs::read_to_string(&csv).unwrap(), "keep me\n");
+    assert_eq!(listing(dir.path()), ["keep.csv"]);
+}
