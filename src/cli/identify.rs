@@ -30,7 +30,14 @@ pub(super) fn run(args: &IdentifyArgs) -> anyhow::Result<Verdict> {
         .transpose()?;
     let mut console = Console::new(json_output.as_ref().is_some_and(Output::is_stdout));
     let (data, real, source) = match &args.measurements {
-        Some(path) => (read(path, &mechanism)?, None, path.display().to_string()),
+        Some(path) => {
+            let source = if is_stdin(path) {
+                "standard input".to_string()
+            } else {
+                path.display().to_string()
+            };
+            (read(path, &mechanism)?, None, source)
+        }
         None => {
             let (experiment, source) = args.simulation.experiment(&mechanism)?;
             (experiment.measurements, Some(experiment.real), source)

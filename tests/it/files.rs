@@ -269,7 +269,10 @@ fn measurements_dash_reads_stdin_and_names_it_in_errors() {
     let out = legwise_with_stdin(&args, &valid);
     let stdout = text(&out.stdout);
     assert_eq!(out.status.code(), Some(0), "{}", text(&out.stderr));
-    assert!(stdout.contains("measurements: -\n"), "{stdout}");
+    assert!(
+        stdout.contains("measurements: standard input\n"),
+        "{stdout}"
+    );
     assert!(stdout.contains("leg leg2 (10 readings)"), "{stdout}");
     // The same rows from the file give the same report, line for line after the source line.
     let from_file = text(
