@@ -4,6 +4,7 @@ mod cli;
 mod golden;
 mod jacobian;
 mod kinematics;
+mod mgh;
 mod recovery;
 mod selection;
 mod solvers_agree;
