@@ -50,6 +50,11 @@ pub fn default_budget(n: usize) -> u64 {
     EVALUATIONS_PER_PARAMETER.saturating_mul(n as u64 + 1)
 }
 
+/// Relative rise of the cost that [`refine`] still calls round-off: the computed residuals
+/// carry the error of whatever computes them (an inner Newton solve of the inverse kinematics
+/// stops at ~1e-12), so near the minimum the computed cost is only known to ~1e-10 relative.
+const ROUND_OFF: f64 = 1e-8;
+
 /// Gauss–Newton refinement steps at most (each one residual and one Jacobian evaluation).
 pub const MAX_REFINEMENT_STEPS: usize = 50;
 
@@ -156,10 +161,11 @@ pub struct Refinement {
 /// on a small-residual problem, linearly on a large-residual one (so the steps need not halve).
 ///
 /// The first step is taken only from a converged point (length ≤ 1e-6 (‖x‖ + 1)). A step is
-/// accepted while the cost does not rise by more than round-off (1e-12 relative) and the
-/// step is shorter than the one before; the refinement stops after a step that did not lower
-/// the cost, at a step of round-off length (1e-15 relative), or after
-/// [`MAX_REFINEMENT_STEPS`].
+/// accepted if the cost does not rise by more than round-off (1e-8 relative) and the step is
+/// no longer than the one before. The refinement goes on while the cost decreases (or, at
+/// round-off level where the computed cost cannot tell, while the steps at least halve), and
+/// stops at a step of round-off length (1e-15 relative), after [`MAX_REFINEMENT_STEPS`], or when
+/// the budget is spent.
 pub fn refine<P>(problem: &P, x0: &DVector<f64>, budget: u64) -> Refinement
 where
     P: LeastSquares,
@@ -179,6 +185,7 @@ where
     };
     let mut cost = r.norm_squared();
     let mut limit = 1e-6 * (x0.norm() + 1.0);
+    let mut previous = f64::INFINITY;
     while refinement.steps < MAX_REFINEMENT_STEPS && refinement.residual_evaluations < budget {
         refinement.jacobian_evaluations += 1;
         let Ok(jacobian) = problem.jacobian(&refinement.x) else {
@@ -197,17 +204,19 @@ where
             break;
         };
         let cost_new = r_new.norm_squared();
-        if !(cost_new <= cost * (1.0 + 1e-12)) {
+        if !(cost_new <= cost * (1.0 + ROUND_OFF)) {
             break;
         }
         refinement.x = x;
         refinement.steps += 1;
-        let decreased = cost_new < cost;
+        // Progress: the cost went down, or (at round-off level, where the computed cost no
+        // longer resolves it) the step contracted at least twofold.
+        let progress = cost_new < cost || length <= 0.5 * previous;
         (r, cost) = (r_new, cost_new);
-        if !decreased || length <= 1e-15 * (refinement.x.norm() + 1e-15) {
+        if !progress || length <= 1e-15 * (refinement.x.norm() + 1e-15) {
             break;
         }
-        limit = length;
+        (limit, previous) = (length, length);
     }
     refinement
 }
