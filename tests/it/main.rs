@@ -5,6 +5,7 @@ mod golden;
 mod jacobian;
 mod kinematics;
 mod mgh;
+mod nist;
 mod recovery;
 mod selection;
 mod solvers_agree;
