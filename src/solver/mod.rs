@@ -204,7 +204,8 @@ where
             break;
         };
         let cost_new = r_new.norm_squared();
-        if !(cost_new <= cost * (1.0 + ROUND_OFF)) {
+        // A NaN cost is no better either.
+        if cost_new.is_nan() || cost_new > cost * (1.0 + ROUND_OFF) {
             break;
         }
         refinement.x = x;
@@ -287,4 +288,79 @@ pub mod gauss_newton;
 pub mod levenberg_marquardt;
 pub mod stop;
 
-pub use stop::StopReason;
+pub use stop::{gradient_cosine, StopReason};
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use argmin::core::Error;
+
+    /// `y = a·exp(−b t)` through four exact points of a = 2, b = 0.5.
+    #[derive(Clone)]
+    struct Decay;
+    const T: [f64; 4] = [0.0, 1.0, 2.0, 3.0];
+    impl Operator for Decay {
+        type Param = DVector<f64>;
+        type Output = DVector<f64>;
+        fn apply(&self, x: &DVector<f64>) -> Result<DVector<f64>, Error> {
+            let r = T
+                .iter()
+                .map(|t| x[0] * (-x[1] * t).exp() - 2.0 * (-0.5 * t).exp());
+            Ok(DVector::from_iterator(4, r))
+        }
+    }
+    impl Jacobian for Decay {
+        type Param = DVector<f64>;
+        type Jacobian = DMatrix<f64>;
+        fn jacobian(&self, x: &DVector<f64>) -> Result<DMatrix<f64>, Error> {
+            Ok(DMatrix::from_fn(4, 2, |i, j| {
+                let e = (-x[1] * T[i]).exp();
+                if j == 0 {
+                    e
+                } else {
+                    -x[0] * T[i] * e
+                }
+            }))
+        }
+    }
+
+    #[test]
+    fn both_solvers_converge_and_say_why() {
+        for kind in [SolverKind::LevenbergMarquardt, SolverKind::GaussNewton] {
+            let x0 = DVector::from_column_slice(&[1.5, 0.4]);
+            let out = solve(&Decay, x0, kind).unwrap();
+            assert!(
+                out.converged && out.stop_reason.is_convergence(),
+                "{kind:?}: {out:?}"
+            );
+            assert!((out.x[0] - 2.0).abs() < 1e-12 && (out.x[1] - 0.5).abs() < 1e-12);
+            assert!(out.residual_evaluations <= default_budget(2));
+        }
+    }
+
+    #[test]
+    fn a_spent_budget_is_not_convergence() {
+        for kind in [SolverKind::LevenbergMarquardt, SolverKind::GaussNewton] {
+            let x0 = DVector::from_column_slice(&[1.5, 0.4]);
+            let out = solve_within(&Decay, x0, kind, 2).unwrap();
+            assert_eq!(out.stop_reason, StopReason::EvaluationBudget, "{kind:?}");
+            assert!(!out.converged);
+            assert_eq!(out.residual_evaluations, 2, "{kind:?}");
+            assert_eq!(out.refinement_steps, 0);
+        }
+    }
+
+    #[test]
+    fn stop_reason_keys_are_snake_case_and_distinct() {
+        let keys: Vec<&str> = StopReason::ALL.iter().map(|r| r.key()).collect();
+        for (i, key) in keys.iter().enumerate() {
+            assert!(
+                key.chars().all(|c| c.is_ascii_lowercase() || c == '_'),
+                "{key}"
+            );
+            assert!(!keys[..i].contains(key), "{key}");
+        }
+        let converging = StopReason::ALL.iter().filter(|r| r.is_convergence());
+        assert_eq!(converging.count(), 5);
+    }
+}

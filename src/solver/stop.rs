@@ -2,6 +2,8 @@
 
 use std::fmt;
 
+use nalgebra::{DMatrix, DVector};
+
 /// Why a solver run stopped.
 ///
 /// The first five are convergence: the solver stopped because a test says the estimate is a
@@ -81,12 +83,28 @@ impl fmt::Display for StopReason {
             StopReason::CostReduction => "relative cost reduction below tolerance",
             StopReason::StepSize => "step below tolerance",
             StopReason::Gradient => "residual orthogonal to the Jacobian (gradient test)",
-            StopReason::ToleranceTooSmall => {
-                "no further improvement possible at machine precision"
-            }
+            StopReason::ToleranceTooSmall => "no further improvement possible at machine precision",
             StopReason::EvaluationBudget => "budget of residual evaluations exhausted",
             StopReason::Stalled => "stalled at a point that is not stationary",
             StopReason::NonFinite => "a value became NaN or infinite",
         })
     }
+}
+
+/// MINPACK's scale-invariant measure of stationarity, `max_j |cos(J e_j, r)|`: the largest
+/// cosine between the residual and a non-zero Jacobian column (0 for a zero residual). It is
+/// 0 at a stationary point whatever the units of the parameters, and close to 1 where the
+/// residual still lies along some column however small that column is.
+pub fn gradient_cosine(jacobian: &DMatrix<f64>, residuals: &DVector<f64>) -> f64 {
+    let r_norm = residuals.norm();
+    if r_norm == 0.0 {
+        return 0.0;
+    }
+    jacobian
+        .column_iter()
+        .filter_map(|column| {
+            let c_norm = column.norm();
+            (c_norm > 0.0).then(|| (column.dot(residuals) / c_norm / r_norm).abs())
+        })
+        .fold(0.0, f64::max)
 }

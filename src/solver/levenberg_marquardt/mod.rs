@@ -297,7 +297,10 @@ where
         }
         if self.evaluations >= self.max_evaluations {
             self.stop = Some(StopReason::EvaluationBudget);
-            return Ok((state.terminate_with(termination(StopReason::EvaluationBudget)), None));
+            return Ok((
+                state.terminate_with(termination(StopReason::EvaluationBudget)),
+                None,
+            ));
         }
         Ok((state, None))
     }

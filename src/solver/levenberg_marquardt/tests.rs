@@ -213,3 +213,68 @@ fn zero_residual_start_and_shape_errors() {
         "{err}"
     );
 }
+
+/// `r = (x₀ − 1, 2 + e^{−x₁})` has no minimum: the cost decreases towards ½·4 as x₁ → ∞. The
+/// relative cost reduction per step falls below ftol after some thirty steps, but the residual
+/// still lies along the second column (cosine 1): the run is stalled, not converged.
+#[derive(Clone, Copy)]
+struct NoMinimum;
+impl Operator for NoMinimum {
+    type Param = DVector<f64>;
+    type Output = DVector<f64>;
+    fn apply(&self, x: &DVector<f64>) -> Result<DVector<f64>, Error> {
+        Ok(DVector::from_column_slice(&[
+            x[0] - 1.0,
+            2.0 + (-x[1]).exp(),
+        ]))
+    }
+}
+impl Jacobian for NoMinimum {
+    type Param = DVector<f64>;
+    type Jacobian = DMatrix<f64>;
+    fn jacobian(&self, x: &DVector<f64>) -> Result<DMatrix<f64>, Error> {
+        Ok(DMatrix::from_row_slice(
+            2,
+            2,
+            &[1.0, 0.0, 0.0, -(-x[1]).exp()],
+        ))
+    }
+}
+
+#[test]
+fn progress_stopping_away_from_a_stationary_point_is_stalled() {
+    let solver = LevenbergMarquardt::new()
+        .with_ftol(1e-12)
+        .and_then(|l| l.with_xtol(1e-12))
+        .unwrap();
+    let res = Executor::new(NoMinimum, solver)
+        .configure(|s| {
+            s.param(DVector::from_column_slice(&[0.0, 0.0]))
+                .max_iters(1000)
+        })
+        .run()
+        .unwrap();
+    let x = res.state.get_param().unwrap();
+    assert_eq!(res.solver.stop_reason(), Some(StopReason::Stalled), "{x}");
+    assert!(matches!(
+        res.state.get_termination_reason(),
+        Some(TerminationReason::SolverExit(_))
+    ));
+    // It did go downhill first: x₀ solved, x₁ pushed far up the plateau.
+    assert!((x[0] - 1.0).abs() < 1e-9 && x[1] > 10.0, "{x}");
+}
+
+#[test]
+fn the_evaluation_budget_stops_the_run_unconverged() {
+    let solver = LevenbergMarquardt::new().with_max_evaluations(5).unwrap();
+    let res = Executor::new(NoMinimum, solver)
+        .configure(|s| {
+            s.param(DVector::from_column_slice(&[0.0, 0.0]))
+                .max_iters(1000)
+        })
+        .run()
+        .unwrap();
+    assert_eq!(res.solver.stop_reason(), Some(StopReason::EvaluationBudget));
+    assert_eq!(res.solver.evaluations(), 5);
+    assert!(LevenbergMarquardt::new().with_max_evaluations(0).is_err());
+}
