@@ -6,6 +6,8 @@ mod files;
 mod golden;
 mod jacobian;
 mod kinematics;
+mod mgh;
+mod nist;
 mod recovery;
 mod selection;
 mod solvers_agree;
