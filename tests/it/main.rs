@@ -3,6 +3,7 @@ mod bad_input;
 mod cli;
 mod exit_codes;
 mod files;
+mod fuzz;
 mod golden;
 mod jacobian;
 mod kinematics;
