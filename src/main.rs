@@ -8,7 +8,9 @@ fn main() -> ExitCode {
         Ok(()) => ExitCode::SUCCESS,
         Err(err) => {
             eprintln!("legwise: {err:#}");
-            ExitCode::from(2)
+            // 3: the run finished but its result must not be trusted.
+            let untrusted = err.downcast_ref::<legwise::cli::Untrusted>().is_some();
+            ExitCode::from(if untrusted { 3 } else { 2 })
         }
     }
 }

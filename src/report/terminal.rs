@@ -3,6 +3,7 @@
 use std::fmt::Write;
 
 use super::IdentifyReport;
+use crate::identify::statistics::figure;
 use crate::identify::estimate::StrategyResult;
 
 /// Formats a number for a table cell (never prints NaN: non-finite shows as `-`).
@@ -146,5 +147,57 @@ fn render_result(out: &mut String, report: &IdentifyReport<'_>, result: &Strateg
         if let Some(warning) = leg.observability.warning() {
             let _ = writeln!(out, "  warning: {warning}");
         }
+        render_statistics(out, leg);
+    }
+    let warnings = all_warnings(result);
+    if !warnings.is_empty() {
+        let _ = writeln!(out, "\nwarnings ({}):", warnings.len());
+        for warning in warnings {
+            let _ = writeln!(out, "  - {warning}");
+        }
+    }
+}
+
+/// Every warning of a result: the data's, then each leg's statistics'.
+pub fn all_warnings(result: &StrategyResult) -> Vec<String> {
+    let mut warnings = result.warnings.clone();
+    for leg in &result.legs {
+        warnings.extend(leg.warnings.iter().cloned());
+    }
+    warnings
+}
+
+/// The noise test and outlier lines of a leg.
+fn render_statistics(out: &mut String, leg: &crate::identify::estimate::LegEstimate) {
+    let stats = &leg.statistics;
+    match &stats.noise_test {
+        Some(test) => {
+            let verdict = if test.rejected { "REJECTED" } else { "consistent" };
+            let excluded = if test.excluded > 0 {
+                format!(", {} outlier row(s) left out", test.excluded)
+            } else {
+                String::new()
+            };
+            let _ = writeln!(
+                out,
+                "  noise test: {verdict}: σ̂/σ expected {}, χ² {:.4e} with {} degrees of freedom, p = {:.3e}{excluded}",
+                figure(test.sigma_ratio), test.chi_squared, test.degrees_of_freedom, test.p_value
+            );
+        }
+        None => {
+            let _ = writeln!(
+                out,
+                "  noise test: not done (no non-zero `noise:` block in the model, or no redundancy)"
+            );
+        }
+    }
+    if let (Some(limit), Some(largest)) = (stats.outlier_threshold, stats.largest_t) {
+        let _ = writeln!(
+            out,
+            "  outliers: {} beyond |t| > {} (largest |t| {})",
+            stats.outliers.len(),
+            figure(limit),
+            figure(largest)
+        );
     }
 }
