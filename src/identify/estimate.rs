@@ -159,7 +159,9 @@ pub fn identify(
 /// As [`identify`], with weights, a robust loss or outlier dropping.
 ///
 /// # Errors
-/// As [`identify`]; also `--weights noise` or `--robust` without a declared non-zero noise.
+/// As [`identify`]; also a position far outside the mechanism
+/// ([`crate::measure::checks::check`]), and `--weights noise` or `--robust` without a declared
+/// non-zero noise.
 pub fn identify_with(
     mechanism: &Mechanism,
     data: &MeasurementSet,
@@ -196,7 +198,7 @@ pub fn identify_with(
         legs: Vec::new(),
         runs: Vec::new(),
         options,
-        warnings: crate::measure::checks::warnings(mechanism, data),
+        warnings: crate::measure::checks::check(mechanism, data)?,
     };
     for (group, blocks) in groups {
         let problem = IdentificationProblem::new(mechanism, &group, blocks);

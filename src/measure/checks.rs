@@ -1,21 +1,23 @@
 //! Plausibility checks of a measurement set, before any fit: values far outside what the
-//! mechanism can produce, and rows entered twice. They are warnings, not errors: a multi-turn
-//! encoder or an unwrapped orientation can legitimately pass ±2π, and the decisive evidence
-//! about units is the fit itself (the residuals' noise test makes a wrong-unit result
-//! untrusted, exit 3). One warning per column and kind, naming the first and the largest
-//! offending line.
+//! mechanism can produce, and rows entered twice.
 //!
-//! * An orientation (`roll`, `pitch`, `yaw`) or a revolute reading beyond ±2π: degrees?
-//! * A position farther from the home pose, or a prismatic reading larger, than
-//!   [`SIZE_FACTOR`] × the mechanism's size (the longest chain of joint offsets plus the
-//!   attachment, or the workspace region's extent, whichever is larger): millimetres?
-//! * Two rows with the same leg label, pose and readings: the same measurement counted twice
-//!   (the standard deviations come out √2 too small).
+//! * A position farther from the home pose than [`SIZE_FACTOR`] × the mechanism's size (the
+//!   longest chain of joint offsets plus the attachment, or the workspace region's extent,
+//!   whichever is larger) is an **error** naming the line and column: no leg can reach it, so
+//!   the fit would fail anyway, only without the hint (millimetres?).
+//! * An orientation (`roll`, `pitch`, `yaw`) or a revolute reading beyond ±2π, or a prismatic
+//!   reading larger than [`SIZE_FACTOR`] × the size, is a **warning**: a multi-turn encoder or
+//!   an unwrapped orientation can legitimately pass ±2π, and the decisive evidence about units
+//!   is the fit itself (the residuals' noise test makes a wrong-unit result untrusted, exit 3).
+//!   One warning per column, naming the first and the largest offending line.
+//! * Two rows with the same leg label, pose and readings: a **warning** naming both lines (the
+//!   same measurement counted twice makes the standard deviations √2 too small).
 
 use std::collections::HashMap;
 use std::f64::consts::TAU;
 
 use super::MeasurementSet;
+use crate::error::{Error, Result};
 use crate::model::mechanism::COORDINATES;
 use crate::model::Mechanism;
 
@@ -75,13 +77,18 @@ impl Offenders {
 }
 
 /// The warnings about `data` for `mechanism` (empty when every value is plausible).
-pub fn warnings(mechanism: &Mechanism, data: &MeasurementSet) -> Vec<String> {
-    let mut warnings = range_warnings(mechanism, data);
+///
+/// # Errors
+/// A measured position [`SIZE_FACTOR`] times farther than the mechanism's size from the home
+/// pose ([`Error::Measurement`] naming the line and column, or [`Error::Invalid`] for a
+/// simulated pose).
+pub fn check(mechanism: &Mechanism, data: &MeasurementSet) -> Result<Vec<String>> {
+    let mut warnings = range_warnings(mechanism, data)?;
     warnings.extend(duplicate_warnings(mechanism, data));
-    warnings
+    Ok(warnings)
 }
 
-fn range_warnings(mechanism: &Mechanism, data: &MeasurementSet) -> Vec<String> {
+fn range_warnings(mechanism: &Mechanism, data: &MeasurementSet) -> Result<Vec<String>> {
     let size = mechanism_size(mechanism);
     let limit = SIZE_FACTOR * size;
     let home = mechanism.home_pose;
@@ -94,12 +101,24 @@ fn range_warnings(mechanism: &Mechanism, data: &MeasurementSet) -> Vec<String> {
     for pose in &data.poses {
         for &c in &mechanism.measured {
             let value = pose.pose[c];
-            let implausible = if c < 3 {
-                (value - home[c]).abs() > limit
-            } else {
-                value.abs() > TAU
-            };
-            if implausible {
+            if c < 3 && (value - home[c]).abs() > limit {
+                let name = COORDINATES[c];
+                let message = format!(
+                    "{value} m is more than {SIZE_FACTOR} times the mechanism's size \
+                     ({size:.3} m) from the home pose ({} m): positions in millimetres instead \
+                     of metres?",
+                    home[c]
+                );
+                return Err(match (&data.source, pose.line) {
+                    (Some(path), Some(line)) => Error::Measurement {
+                        path: path.clone(),
+                        location: format!("line {line}, column `{name}`"),
+                        message,
+                    },
+                    _ => Error::Invalid(format!("simulated pose, `{name}`: {message}")),
+                });
+            }
+            if c >= 3 && value.abs() > TAU {
                 coordinates[c].add(pose.line, value);
             }
         }
@@ -121,19 +140,11 @@ fn range_warnings(mechanism: &Mechanism, data: &MeasurementSet) -> Vec<String> {
         if offenders.count == 0 {
             continue;
         }
-        let name = COORDINATES[c];
-        warnings.push(if c < 3 {
-            format!(
-                "column `{name}`: {} lie more than {SIZE_FACTOR} times the mechanism's size \
-                 ({size:.3} m) from the home pose: positions in millimetres instead of metres?",
-                offenders.describe()
-            )
-        } else {
-            format!(
-                "column `{name}`: {} beyond ±2π rad: an orientation in degrees instead of radians?",
-                offenders.describe()
-            )
-        });
+        warnings.push(format!(
+            "column `{}`: {} beyond ±2π rad: an orientation in degrees instead of radians?",
+            COORDINATES[c],
+            offenders.describe()
+        ));
     }
     for (name, (leg, offenders)) in mechanism
         .actuated_names()
@@ -157,7 +168,7 @@ fn range_warnings(mechanism: &Mechanism, data: &MeasurementSet) -> Vec<String> {
             )
         });
     }
-    warnings
+    Ok(warnings)
 }
 
 fn duplicate_warnings(mechanism: &Mechanism, data: &MeasurementSet) -> Vec<String> {

@@ -7,5 +7,6 @@ mod kinematics;
 mod recovery;
 mod selection;
 mod solvers_agree;
+mod statistics_trust;
 mod support;
 mod workspace;
