@@ -123,11 +123,7 @@ pub struct Untrusted(pub Vec<String>);
 
 impl std::fmt::Display for Untrusted {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        write!(
-            f,
-            "the result must not be trusted: {}",
-            self.0.join("; ")
-        )
+        write!(f, "the result must not be trusted: {}", self.0.join("; "))
     }
 }
 

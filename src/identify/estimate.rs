@@ -262,16 +262,16 @@ pub fn identify_problem(
             });
         }
     }
-    let noise = mechanism.noise.filter(|n| n.reading > 0.0 || n.pose.iter().any(|&s| s > 0.0));
-    let needs_noise = |what: &str| {
-        Error::Model {
-            path: mechanism.model_path.clone(),
-            field: "noise".into(),
-            message: format!(
-                "{what} needs the measurement noise: add a `noise:` block with non-zero standard \
+    let noise = mechanism
+        .noise
+        .filter(|n| n.reading > 0.0 || n.pose.iter().any(|&s| s > 0.0));
+    let needs_noise = |what: &str| Error::Model {
+        path: mechanism.model_path.clone(),
+        field: "noise".into(),
+        message: format!(
+            "{what} needs the measurement noise: add a `noise:` block with non-zero standard \
                  deviations (e.g. `noise: {{x: 1.0e-4, y: 1.0e-4, readings: 1.0e-4}}`)"
-            ),
-        }
+        ),
     };
     let fitted = match (options.weights, options.robust) {
         (Weighting::Noise, None) => {
@@ -305,10 +305,11 @@ pub fn identify_problem(
                 )));
             }
             let sigma: Vec<f64> = variances.iter().map(|v| v.sqrt()).collect();
-            let fit = robust::fit(problem, &outcome.x, loss, &sigma, solver).map_err(|e| match e {
-                RobustError::Block(e) => located(mechanism, data, problem, e),
-                RobustError::Solver(e) => solver_error(e.to_string()),
-            })?;
+            let fit =
+                robust::fit(problem, &outcome.x, loss, &sigma, solver).map_err(|e| match e {
+                    RobustError::Block(e) => located(mechanism, data, problem, e),
+                    RobustError::Solver(e) => solver_error(e.to_string()),
+                })?;
             outcome = fit.outcome;
             outcome.x = fit.x;
             (problem.clone().with_weights(&fit.weights), FitKind::Robust)
@@ -419,8 +420,7 @@ fn leg_estimate(
         .filter(|i| !fit.excluded.contains(i))
         .collect();
     let kept_squares: f64 = kept.iter().map(|&i| r[i] * r[i]).sum();
-    let residual_sigma =
-        (kept.len() > n).then(|| (kept_squares / (kept.len() - n) as f64).sqrt());
+    let residual_sigma = (kept.len() > n).then(|| (kept_squares / (kept.len() - n) as f64).sqrt());
     let c_leg = leg_jacobian(problem, slot, c);
     let variances =
         residual_sigma.and_then(|sigma| covariance_diagonal(&c_leg).map(|d| (sigma, d)));

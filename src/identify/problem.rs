@@ -217,8 +217,8 @@ impl<'a> IdentificationProblem<'a> {
                 .map_err(|source| BlockError { block: i, source })?;
             let m = matches[s];
             let n = turns(predicted, block.reading, m.gain, m.revolute);
-            r[i] = self.row_scale(i)
-                * (predicted - block.reading - n * turn_in_reading_units(m.gain));
+            r[i] =
+                self.row_scale(i) * (predicted - block.reading - n * turn_in_reading_units(m.gain));
         }
         Ok(r)
     }

@@ -209,7 +209,7 @@ pub fn studentized(e: &[f64], jacobian: &DMatrix<f64>) -> Vec<Option<f64>> {
                 return None;
             }
             let mut without = total - e[i] * e[i] / free;
-            if !(without > 1e-6 * total) {
+            if without.is_nan() || without <= 1e-6 * total {
                 let shift = e[i] / free;
                 without = (0..m)
                     .filter(|&j| j != i)
@@ -271,7 +271,7 @@ pub fn noise_test(e: &[f64], v: &[f64], parameters: usize, excluded: usize) -> O
         residual_sigma,
         expected_sigma,
         excluded,
-        rejected: !(p_value >= NOISE_TEST_P),
+        rejected: p_value.is_nan() || p_value < NOISE_TEST_P,
     })
 }
 
@@ -396,7 +396,7 @@ fn most_common(values: impl Iterator<Item = f64>) -> f64 {
     let values: Vec<f64> = values.collect();
     let mut best = (0.0, 0);
     for &v in &values {
-        let count = values.iter().filter(|&&w| w == v).count();
+        let count = values.iter().filter(|&&w| w.total_cmp(&v).is_eq()).count();
         if count > best.1 {
             best = (v, count);
         }
@@ -416,11 +416,9 @@ pub fn warnings(
 ) -> Vec<String> {
     let mut warnings = Vec::new();
     if let Some(test) = statistics.noise_test.as_ref().filter(|t| t.rejected) {
-        let largest = statistics
-            .largest_t
-            .map_or(String::new(), |t| {
-                format!(" (largest studentized residual |t| = {})", figure(t))
-            });
+        let largest = statistics.largest_t.map_or(String::new(), |t| {
+            format!(" (largest studentized residual |t| = {})", figure(t))
+        });
         let outliers = match statistics.outliers.first() {
             Some(o) => format!("an outlier row such as {}{largest}", o.place()),
             None => format!("outlier rows{largest}"),

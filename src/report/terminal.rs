@@ -3,8 +3,8 @@
 use std::fmt::Write;
 
 use super::IdentifyReport;
-use crate::identify::statistics::figure;
 use crate::identify::estimate::StrategyResult;
+use crate::identify::statistics::figure;
 
 /// Formats a number for a table cell (never prints NaN: non-finite shows as `-`).
 fn number(value: Option<f64>, width: usize) -> String {
@@ -48,6 +48,7 @@ fn render_result(out: &mut String, report: &IdentifyReport<'_>, result: &Strateg
         result.strategy.name(),
         result.solver.name()
     );
+    let _ = writeln!(out, "fit: {}", fit_text(result));
     let known = report.real.is_some();
     for name in report.fixed_legs(result) {
         let _ = writeln!(
@@ -158,6 +159,24 @@ fn render_result(out: &mut String, report: &IdentifyReport<'_>, result: &Strateg
     }
 }
 
+/// The fit options in words.
+fn fit_text(result: &StrategyResult) -> String {
+    use crate::identify::estimate::Weighting;
+    let options = &result.options;
+    let mut text = match (options.robust, options.weights) {
+        (Some(loss), _) => format!(
+            "robust {} loss scaled by the declared noise (iteratively reweighted); costs and σ̂ are of the weighted residuals",
+            loss.name()
+        ),
+        (None, Weighting::Noise) => "least squares weighted by the declared noise; costs and σ̂ are of the weighted (dimensionless) residuals".to_string(),
+        (None, Weighting::Unweighted) => "unweighted least squares".to_string(),
+    };
+    if options.drop_outliers {
+        text.push_str("; refitted without the outlier rows");
+    }
+    text
+}
+
 /// Every warning of a result: the data's, then each leg's statistics'.
 pub fn all_warnings(result: &StrategyResult) -> Vec<String> {
     let mut warnings = result.warnings.clone();
@@ -172,7 +191,11 @@ fn render_statistics(out: &mut String, leg: &crate::identify::estimate::LegEstim
     let stats = &leg.statistics;
     match &stats.noise_test {
         Some(test) => {
-            let verdict = if test.rejected { "REJECTED" } else { "consistent" };
+            let verdict = if test.rejected {
+                "REJECTED"
+            } else {
+                "consistent"
+            };
             let excluded = if test.excluded > 0 {
                 format!(", {} outlier row(s) left out", test.excluded)
             } else {
