@@ -329,6 +329,17 @@ pub fn identify_problem(
             message: "the estimate is not finite".into(),
         });
     }
+    // Observability is a property of the design: always of the unweighted Jacobian.
+    let unweighted_c = match problem.weights() {
+        Some(_) => {
+            problem
+                .unweighted()
+                .residuals_and_jacobian(&outcome.x)
+                .map_err(|e| located(mechanism, data, problem, e))?
+                .1
+        }
+        None => c.clone(),
+    };
     let mut estimates = Vec::new();
     for slot in problem.slots() {
         let stats = statistics::leg_statistics(problem, slot, &outcome.x, noise.as_ref(), kind)
@@ -343,6 +354,7 @@ pub fn identify_problem(
             r0: &r0,
             r: &r,
             c: &c,
+            unweighted_c: &unweighted_c,
             excluded,
         };
         let mut estimate = leg_estimate(mechanism, problem, slot, &fit);
@@ -393,13 +405,14 @@ fn leg_observability(
     analyse(&leg_jacobian(problem, slot, c), &names)
 }
 
-/// A fitted problem's estimate, residuals before and after, Jacobian, and the rows its σ̂
-/// leaves out.
+/// A fitted problem's estimate, residuals before and after, Jacobian (weighted as fitted, and
+/// unweighted), and the rows its σ̂ leaves out.
 struct Fit<'f> {
     x: &'f DVector<f64>,
     r0: &'f DVector<f64>,
     r: &'f DVector<f64>,
     c: &'f DMatrix<f64>,
+    unweighted_c: &'f DMatrix<f64>,
     excluded: &'f [usize],
 }
 
@@ -448,7 +461,7 @@ fn leg_estimate(
         initial_cost: 0.5 * rows.iter().map(|&i| r0[i] * r0[i]).sum::<f64>(),
         final_cost: 0.5 * sum_squares,
         residual_sigma,
-        observability: leg_observability(mechanism, problem, slot, c),
+        observability: leg_observability(mechanism, problem, slot, fit.unweighted_c),
         statistics: LegStatistics::default(),
         dropped: Vec::new(),
         warnings: Vec::new(),

@@ -345,6 +345,17 @@ fn weights_noise_fits_by_the_inverse_expected_variance() {
         },
     );
     assert!(largest_deviation(&weighted, &clean) < 1.0);
+    // Observability is the design's: the unweighted Jacobian's singular values, whatever the
+    // weights (the weighted ones would be ~1/σ ≈ 4000 times larger).
+    for (leg, reference) in weighted.legs.iter().zip(&clean.legs) {
+        let (a, b) = (
+            &leg.observability.singular_values,
+            &reference.observability.singular_values,
+        );
+        for (x, y) in a.iter().zip(b.iter()) {
+            assert_relative_eq!(*x, *y, max_relative = 1e-2);
+        }
+    }
     for leg in &weighted.legs {
         // Weighted residuals are standardised: σ̂ is the ratio to the declared scatter (the
         // weights are taken at the nominal parameters, the test at the estimate).
