@@ -48,6 +48,7 @@
 //! ```
 pub mod cli;
 pub mod error;
+pub mod evaluate;
 pub mod identify;
 pub mod kinematics;
 pub mod measure;
