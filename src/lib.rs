@@ -53,6 +53,7 @@ pub mod identify;
 pub mod kinematics;
 pub mod measure;
 pub mod model;
+pub mod progress;
 pub mod report;
 pub mod scalar;
 pub mod solver;
