@@ -8,6 +8,7 @@ use nalgebra::Rotation3;
 use serde::Serialize;
 
 use crate::error::{Error, Result};
+use crate::identify::estimate::StrategyResult;
 use crate::kinematics::inverse::predict_reading;
 use crate::kinematics::platform::forward;
 use crate::model::Mechanism;
@@ -219,4 +220,17 @@ pub fn accuracy_map(
         position_error,
         points,
     })
+}
+
+/// The parameters a result identified, one full vector per leg of the mechanism (nominal values
+/// for the legs it did not identify).
+pub fn result_parameters(mechanism: &Mechanism, result: &StrategyResult) -> Vec<Vec<f64>> {
+    mechanism
+        .legs
+        .iter()
+        .map(|leg| match result.legs.iter().find(|e| e.leg == leg.name) {
+            Some(estimate) => estimate.parameters.iter().map(|p| p.estimate).collect(),
+            None => leg.nominal(),
+        })
+        .collect()
 }
