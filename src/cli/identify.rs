@@ -56,9 +56,16 @@ pub(super) fn run(args: &IdentifyArgs) -> anyhow::Result<()> {
 
 /// Refuses outputs that would overwrite an input, and a map without a simulation, before any work.
 fn check_outputs(args: &IdentifyArgs, mechanism: &Mechanism) -> anyhow::Result<()> {
-    let mut inputs = vec![mechanism.model_path.as_path(), mechanism.urdf_path.as_path()];
+    let mut inputs = vec![
+        mechanism.model_path.as_path(),
+        mechanism.urdf_path.as_path(),
+    ];
     inputs.extend(args.measurements.as_deref());
-    let calibrated_urdf = args.after.calibrated.as_ref().map(|p| p.with_extension("urdf"));
+    let calibrated_urdf = args
+        .after
+        .calibrated
+        .as_ref()
+        .map(|p| p.with_extension("urdf"));
     let outputs: Vec<_> = args
         .json
         .iter()

@@ -200,7 +200,10 @@ pub fn evaluation_text(
             improvement,
         );
     }
-    let _ = writeln!(text, "reading residual, measured - predicted by the leg's IK");
+    let _ = writeln!(
+        text,
+        "reading residual, measured - predicted by the leg's IK"
+    );
     for (l, leg) in mechanism.legs.iter().enumerate() {
         let unit = if leg.actuated_is_revolute() {
             "mrad"

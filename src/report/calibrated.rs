@@ -130,16 +130,16 @@ fn calibrated_values(calibration: &Calibration<'_>) -> Vec<Vec<(f64, Option<f64>
         .mechanism
         .legs
         .iter()
-        .map(|leg| {
-            match calibration.result.legs.iter().find(|e| e.leg == leg.name) {
+        .map(
+            |leg| match calibration.result.legs.iter().find(|e| e.leg == leg.name) {
                 Some(estimate) => estimate
                     .parameters
                     .iter()
                     .map(|p| (p.estimate, p.std))
                     .collect(),
                 None => leg.params.iter().map(|p| (p.nominal, None)).collect(),
-            }
-        })
+            },
+        )
         .collect()
 }
 

@@ -79,14 +79,17 @@ fn optional(value: Option<f64>) -> Value {
 /// The report as a JSON value.
 pub fn to_json(report: &IdentifyReport<'_>) -> Value {
     let mut value = header();
-    merge(&mut value, json!({
-        "mechanism": report.mechanism.name,
-        "model": report.mechanism.model_path.display().to_string(),
-        "mode": report.mechanism.mode,
-        "measurements": report.source,
-        "units": "SI (m, rad); costs are 1/2 ||r||^2 in reading units squared",
-        "results": report.results.iter().map(|r| result(report, r)).collect::<Vec<_>>(),
-    }));
+    merge(
+        &mut value,
+        json!({
+            "mechanism": report.mechanism.name,
+            "model": report.mechanism.model_path.display().to_string(),
+            "mode": report.mechanism.mode,
+            "measurements": report.source,
+            "units": "SI (m, rad); costs are 1/2 ||r||^2 in reading units squared",
+            "results": report.results.iter().map(|r| result(report, r)).collect::<Vec<_>>(),
+        }),
+    );
     value
 }
 
