@@ -126,8 +126,8 @@ pub fn map_grid(mechanism: &Mechanism, grid_m: f64, scale: f64) -> Result<Vec<[f
     let (lo, hi) = region.bounds();
     let centre = [(lo[0] + hi[0]) / 2.0, (lo[1] + hi[1]) / 2.0];
     let (nx, ny) = (
-        ((hi[0] - lo[0]) / grid_m).floor(),
-        ((hi[1] - lo[1]) / grid_m).floor(),
+        ((hi[0] - lo[0]) / grid_m + 1e-9).floor(),
+        ((hi[1] - lo[1]) / grid_m + 1e-9).floor(),
     );
     if (nx + 1.0) * (ny + 1.0) * scale * scale > 4.0 * MAX_MAP_POINTS as f64 {
         return Err(too_many(grid_m));

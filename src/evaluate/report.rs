@@ -113,7 +113,8 @@ fn stats_rows(
     columns: &[Option<&ErrorStats>],
     improvement: bool,
 ) {
-    let picks: [(&str, fn(&ErrorStats) -> f64); 4] = [
+    type Pick = fn(&ErrorStats) -> f64;
+    let picks: [(&str, Pick); 4] = [
         ("RMS", |s| s.rms),
         ("median", |s| s.median),
         ("p95", |s| s.p95),

@@ -187,6 +187,7 @@ fn cli_both_strategies_write_the_divide_and_conquer_result_and_evaluate_improves
         let output = legwise(args);
         let stderr = String::from_utf8_lossy(&output.stderr).into_owned();
         assert_eq!(output.status.code(), Some(0), "{args:?}: {stderr}");
+        assert_eq!(stderr, "", "no progress bar when stderr is not a terminal");
         String::from_utf8_lossy(&output.stdout).into_owned()
     };
     let stdout = run(&[
