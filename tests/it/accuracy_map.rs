@@ -221,3 +221,20 @@ fn error_statistics_of_a_known_set() {
     assert!(ErrorStats::of(&[]).is_none());
     assert!(ErrorStats::of(&[1.0, f64::NAN]).is_none());
 }
+
+#[test]
+fn a_map_from_a_measurement_file_is_refused_before_any_work() {
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_legwise"))
+        .args(["identify", "--model", "models/5r.yaml"])
+        .args(["--measurements", "tests/data/valid.csv", "--map", "0.01"])
+        .current_dir(env!("CARGO_MANIFEST_DIR"))
+        .output()
+        .unwrap();
+    assert_eq!(out.status.code(), Some(2));
+    assert!(out.stdout.is_empty(), "refused before identifying");
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        stderr.contains("--map: the accuracy map needs the real parameters"),
+        "{stderr}"
+    );
+}
