@@ -1,24 +1,48 @@
 //! `legwise identify`.
 
-use super::IdentifyArgs;
-use crate::evaluate::accuracy::{accuracy_map, result_parameters, AccuracyMap};
+use std::path::Path;
+
+use super::console::Console;
+use super::output::{Input, Output};
+use super::{IdentifyArgs, Verdict};
+use crate::evaluate::accuracy::{accuracy_map, map_grid, result_parameters, AccuracyMap};
 use crate::evaluate::report::{map_json, map_summary};
 use crate::identify::estimate::{identify, Strategy};
-use crate::measure::file;
+use crate::identify::trust::trust_issues;
+use crate::measure::{file, MeasurementSet};
 use crate::model::Mechanism;
-use crate::report::calibrated::{refuse_overwriting_inputs, write_calibrated, Calibration};
+use crate::report::calibrated::{calibrated_files, urdf_path, Calibration};
 use crate::report::{json, terminal, IdentifyReport};
 
-pub(super) fn run(args: &IdentifyArgs) -> anyhow::Result<()> {
-    let mechanism = Mechanism::load(&args.model)?;
+/// The name of standard input in messages.
+const STDIN: &str = "<stdin>";
+
+pub(super) fn run(args: &IdentifyArgs) -> anyhow::Result<Verdict> {
     args.simulation.options()?;
-    check_outputs(args, &mechanism)?;
+    let mechanism = Mechanism::load(&args.model)?;
+    let measurements = args.measurements.as_deref().filter(|p| !is_stdin(p));
+    let mut inputs = super::model_inputs(&args.model, &mechanism);
+    inputs.extend(measurements.map(|path| Input {
+        role: "measurement file",
+        path,
+    }));
+    let json_output = args
+        .json
+        .as_deref()
+        .map(|path| Output::prepare("--json", path, &inputs))
+        .transpose()?;
+    let calibrated_outputs = calibrated_outputs(args, &inputs)?;
+    check_map(args, &mechanism)?;
+    let mut console = Console::new(json_output.as_ref().is_some_and(Output::is_stdout));
     let (data, real, source) = match &args.measurements {
-        Some(path) => (
-            file::read(path, &mechanism)?,
-            None,
-            path.display().to_string(),
-        ),
+        Some(path) => {
+            let source = if is_stdin(path) {
+                "standard input".to_string()
+            } else {
+                path.display().to_string()
+            };
+            (read(path, &mechanism)?, None, source)
+        }
         None => {
             let (experiment, source) = args.simulation.experiment(&mechanism)?;
             (experiment.measurements, Some(experiment.real), source)
@@ -28,16 +52,19 @@ pub(super) fn run(args: &IdentifyArgs) -> anyhow::Result<()> {
     for strategy in args.strategy.strategies() {
         results.push(identify(&mechanism, &data, strategy, args.solver.kind())?);
     }
+    let verdict = Verdict::from_reasons(trust_issues(&results));
     let report = IdentifyReport {
         mechanism: &mechanism,
         source,
         real,
         results,
     };
-    print!("{}", terminal::render(&report));
     let maps = accuracy_maps(args, &report)?;
-    write_calibrated_model(args, &report)?;
-    if let Some(path) = &args.json {
+    if let Some(outputs) = &calibrated_outputs {
+        write_calibrated(&report, outputs)?;
+    }
+    // The file first: a closed terminal pipe must not lose it.
+    if let Some(output) = &json_output {
         let mut value = json::to_json(&report);
         if let Some((before, after)) = &maps {
             value["accuracy_map_before"] = map_json(before);
@@ -45,40 +72,68 @@ pub(super) fn run(args: &IdentifyArgs) -> anyhow::Result<()> {
                 value["results"][i]["accuracy_map"] = map_json(map);
             }
         }
-        let text = serde_json::to_string_pretty(&value)?;
-        crate::report::calibrated::write_atomically(path, &text).map_err(|e| {
-            anyhow::anyhow!("{}: cannot write the JSON report: {e}", path.display())
-        })?;
-        println!("\nJSON report written to {}", path.display());
+        let text = serde_json::to_string_pretty(&value)? + "\n";
+        output.write("JSON report", text.as_bytes())?;
     }
-    Ok(())
+    console.print(&terminal::render(&report))?;
+    if let Some((before, after)) = &maps {
+        console.print(&maps_text(args, &report, before, after))?;
+    }
+    if let (Some((yaml, urdf)), Some(result)) = (&calibrated_outputs, calibrated_result(&report)) {
+        console.line(format_args!(
+            "\ncalibrated model ({} result) written to {} and {}",
+            result.strategy.name(),
+            yaml.name(),
+            urdf.name()
+        ))?;
+    }
+    if let Some(output) = json_output.filter(|o| !o.is_stdout()) {
+        console.line(format_args!("\nJSON report written to {}", output.name()))?;
+    }
+    Ok(verdict)
 }
 
-/// Refuses outputs that would overwrite an input, and a map without a simulation, before any work.
-fn check_outputs(args: &IdentifyArgs, mechanism: &Mechanism) -> anyhow::Result<()> {
-    let mut inputs = vec![
-        mechanism.model_path.as_path(),
-        mechanism.urdf_path.as_path(),
-    ];
-    inputs.extend(args.measurements.as_deref());
-    let calibrated_urdf = args
-        .after
-        .calibrated
-        .as_ref()
-        .map(|p| p.with_extension("urdf"));
-    let outputs: Vec<_> = args
-        .json
-        .iter()
-        .chain(&args.after.calibrated)
-        .chain(&calibrated_urdf)
-        .map(|p| p.as_path())
-        .collect();
-    refuse_overwriting_inputs(&outputs, &inputs)?;
+/// True for the path `-`.
+fn is_stdin(path: &Path) -> bool {
+    path.as_os_str() == "-"
+}
+
+/// Reads the measurements from `path`, or from standard input for `-`.
+fn read(path: &Path, mechanism: &Mechanism) -> anyhow::Result<MeasurementSet> {
+    Ok(if is_stdin(path) {
+        file::read_from(std::io::stdin().lock(), Path::new(STDIN), mechanism)?
+    } else {
+        file::read(path, mechanism)?
+    })
+}
+
+/// `--calibrated OUT.yaml`: the model file and its URDF, checked against the inputs.
+fn calibrated_outputs(
+    args: &IdentifyArgs,
+    inputs: &[Input<'_>],
+) -> anyhow::Result<Option<(Output, Output)>> {
+    let Some(out) = &args.after.calibrated else {
+        return Ok(None);
+    };
+    if out.as_os_str() == "-" {
+        anyhow::bail!(
+            "--calibrated: expected a file path (the URDF is written beside it), found `-`"
+        );
+    }
+    let urdf = urdf_path(out)?;
+    Ok(Some((
+        Output::prepare("--calibrated", out, inputs)?,
+        Output::prepare("--calibrated", &urdf, inputs)?,
+    )))
+}
+
+/// `--map`: simulation only, with a valid grid, refused before any work otherwise.
+fn check_map(args: &IdentifyArgs, mechanism: &Mechanism) -> anyhow::Result<()> {
     if let Some(grid) = args.after.map {
         if args.measurements.is_some() {
             anyhow::bail!("--map: the accuracy map needs the real parameters, known only in simulation (drop --measurements)");
         }
-        crate::evaluate::accuracy::map_grid(mechanism, grid, args.after.map_scale)?;
+        map_grid(mechanism, grid, args.after.map_scale)?;
     }
     Ok(())
 }
@@ -95,30 +150,57 @@ fn accuracy_maps(
     let scale = args.after.map_scale;
     let nominal = mechanism.nominal_parameters();
     let before = accuracy_map(mechanism, &nominal, real, grid, scale, "map before")?;
-    println!("\naccuracy map over {scale} of the workspace region, grid {grid} m:");
-    println!("{}", map_summary("  before (nominal model)", &before));
     let mut after = Vec::new();
     for result in &report.results {
         let identified = result_parameters(mechanism, result);
-        let label = format!("  after, {}", result.strategy.name());
-        let map = accuracy_map(mechanism, &identified, real, grid, scale, &label)?;
-        println!("{}", map_summary(&label, &map));
-        after.push(map);
+        let label = format!("map after, {}", result.strategy.name());
+        after.push(accuracy_map(
+            mechanism,
+            &identified,
+            real,
+            grid,
+            scale,
+            &label,
+        )?);
     }
     Ok(Some((before, after)))
 }
 
-/// `--calibrated OUT.yaml`: the divide-and-conquer result if there is one, else the first.
-fn write_calibrated_model(args: &IdentifyArgs, report: &IdentifyReport<'_>) -> anyhow::Result<()> {
-    let Some(out) = &args.after.calibrated else {
-        return Ok(());
-    };
-    let Some(result) = report
+/// The accuracy maps in millimetres, for the terminal.
+fn maps_text(
+    args: &IdentifyArgs,
+    report: &IdentifyReport<'_>,
+    before: &AccuracyMap,
+    after: &[AccuracyMap],
+) -> String {
+    let mut text = format!(
+        "\naccuracy map over {} of the workspace region, grid {} m:\n{}\n",
+        args.after.map_scale,
+        before.grid_m,
+        map_summary("  before (nominal model)", before)
+    );
+    for (result, map) in report.results.iter().zip(after) {
+        let label = format!("  after, {}", result.strategy.name());
+        text.push_str(&map_summary(&label, map));
+        text.push('\n');
+    }
+    text
+}
+
+/// The result a calibrated model holds: divide and conquer if it ran, else the first.
+fn calibrated_result<'r>(
+    report: &'r IdentifyReport<'_>,
+) -> Option<&'r crate::identify::estimate::StrategyResult> {
+    report
         .results
         .iter()
         .find(|r| r.strategy == Strategy::DivideAndConquer)
         .or(report.results.first())
-    else {
+}
+
+/// Writes the calibrated model (the URDF first: the model file names it).
+fn write_calibrated(report: &IdentifyReport<'_>, outputs: &(Output, Output)) -> anyhow::Result<()> {
+    let Some(result) = calibrated_result(report) else {
         return Ok(());
     };
     let note = (report.results.len() > 1).then(|| {
@@ -134,13 +216,12 @@ fn write_calibrated_model(args: &IdentifyArgs, report: &IdentifyReport<'_>) -> a
         real: report.real.as_deref(),
         note: note.as_deref(),
     };
-    let inputs: Vec<_> = args.measurements.iter().map(|p| p.as_path()).collect();
-    let urdf = write_calibrated(&calibration, out, &inputs)?;
-    println!(
-        "\ncalibrated model ({} result) written to {} and {}",
-        result.strategy.name(),
-        out.display(),
-        urdf.display()
-    );
+    let (yaml, urdf) = outputs;
+    let urdf_name = std::path::Path::new(&urdf.name())
+        .file_name()
+        .map_or_else(String::new, |n| n.to_string_lossy().into_owned());
+    let files = calibrated_files(&calibration, &urdf_name)?;
+    urdf.write("calibrated URDF", files.urdf.as_bytes())?;
+    yaml.write("calibrated model", files.yaml.as_bytes())?;
     Ok(())
 }

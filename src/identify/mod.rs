@@ -4,3 +4,4 @@ pub mod jacobian;
 pub mod observability;
 pub mod problem;
 pub mod residual;
+pub mod trust;

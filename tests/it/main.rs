@@ -4,6 +4,8 @@ mod bad_input;
 mod calibrated;
 mod cli;
 mod evaluate;
+mod exit_codes;
+mod files;
 mod golden;
 mod jacobian;
 mod kinematics;
