@@ -60,7 +60,8 @@ pub(super) fn run(args: &IdentifyArgs) -> anyhow::Result<Verdict> {
         results,
     };
     let maps = accuracy_maps(args, &report)?;
-    if let Some(outputs) = &calibrated_outputs {
+    let trusted = verdict == Verdict::Trusted;
+    if let Some(outputs) = calibrated_outputs.as_ref().filter(|_| trusted) {
         write_calibrated(&report, outputs)?;
     }
     // The file first: a closed terminal pipe must not lose it.
@@ -80,12 +81,19 @@ pub(super) fn run(args: &IdentifyArgs) -> anyhow::Result<Verdict> {
         console.print(&maps_text(args, &report, before, after))?;
     }
     if let (Some((yaml, urdf)), Some(result)) = (&calibrated_outputs, calibrated_result(&report)) {
-        console.line(format_args!(
-            "\ncalibrated model ({} result) written to {} and {}",
-            result.strategy.name(),
-            yaml.name(),
-            urdf.name()
-        ))?;
+        if trusted {
+            console.line(format_args!(
+                "\ncalibrated model ({} result) written to {} and {}",
+                result.strategy.name(),
+                yaml.name(),
+                urdf.name()
+            ))?;
+        } else {
+            console.line(format_args!(
+                "\ncalibrated model not written to {}: the result must not be trusted",
+                yaml.name()
+            ))?;
+        }
     }
     if let Some(output) = json_output.filter(|o| !o.is_stdout()) {
         console.line(format_args!("\nJSON report written to {}", output.name()))?;
@@ -107,7 +115,8 @@ fn read(path: &Path, mechanism: &Mechanism) -> anyhow::Result<MeasurementSet> {
     })
 }
 
-/// `--calibrated OUT.yaml`: the model file and its URDF, checked against the inputs.
+/// `--calibrated OUT.yaml`: the model file and its URDF, checked against the inputs and against
+/// the JSON report's path.
 fn calibrated_outputs(
     args: &IdentifyArgs,
     inputs: &[Input<'_>],
@@ -115,6 +124,15 @@ fn calibrated_outputs(
     let Some(out) = &args.after.calibrated else {
         return Ok(None);
     };
+    if let Some(json) = &args.json {
+        let urdf = out.with_extension("urdf");
+        if [out, &urdf].iter().any(|p| same_destination(p, json)) {
+            anyhow::bail!(
+                "{}: --calibrated and --json would write the same file; choose another path",
+                json.display()
+            );
+        }
+    }
     if out.as_os_str() == "-" {
         anyhow::bail!(
             "--calibrated: expected a file path (the URDF is written beside it), found `-`"
@@ -224,4 +242,14 @@ fn write_calibrated(report: &IdentifyReport<'_>, outputs: &(Output, Output)) -> 
     urdf.write("calibrated URDF", files.urdf.as_bytes())?;
     yaml.write("calibrated model", files.yaml.as_bytes())?;
     Ok(())
+}
+
+/// Whether two output paths name the same file (their directories compared canonically).
+fn same_destination(a: &Path, b: &Path) -> bool {
+    let resolve = |p: &Path| {
+        let parent = p.parent().filter(|d| !d.as_os_str().is_empty());
+        let dir = parent.unwrap_or(Path::new(".")).canonicalize().ok();
+        (dir, p.file_name().map(|n| n.to_os_string()))
+    };
+    resolve(a) == resolve(b)
 }

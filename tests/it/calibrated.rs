@@ -112,6 +112,22 @@ fn outputs_that_would_overwrite_an_input_are_refused_before_any_work() {
         assert!(output.stdout.is_empty(), "refused before identifying");
     }
     assert_eq!(snapshot(), originals);
+    // Two outputs of one run naming the same file.
+    let out = dir.path().join("cal.yaml");
+    let output = legwise(&[
+        "identify",
+        "--model",
+        model.to_str().unwrap(),
+        "--measurements",
+        csv.to_str().unwrap(),
+        "--calibrated",
+        out.to_str().unwrap(),
+        "--json",
+        sub.join("../cal.urdf").to_str().unwrap(),
+    ]);
+    assert_eq!(output.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&output.stderr).contains("would write the same file"));
+    assert!(!out.exists());
 }
 
 #[test]
