@@ -2,10 +2,13 @@
 mod bad_input;
 mod cli;
 mod golden;
+mod inverse_kinematics;
 mod jacobian;
 mod kinematics;
+mod observability_values;
 mod recovery;
 mod selection;
 mod solvers_agree;
+mod statistics_independent;
 mod support;
 mod workspace;
