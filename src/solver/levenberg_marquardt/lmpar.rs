@@ -20,6 +20,9 @@ pub(super) struct Scratch {
     pub(super) z: DVector<f64>,
     y: DVector<f64>,
     pub(super) step: DVector<f64>,
+    /// `‖D p_GN‖` of the (truncated) Gauss–Newton step of the last [`Scratch::lm_step`]
+    /// (infinite if that step is not finite).
+    pub(super) gauss_newton_dnorm: f64,
 }
 
 /// Householder QR of `a` (`rows ≥ cols`) in place, applying the reflections to `b` too. With
@@ -73,6 +76,7 @@ impl Scratch {
         for v in [&mut self.z, &mut self.y, &mut self.step, &mut self.d_perm] {
             *v = DVector::zeros(n);
         }
+        self.gauss_newton_dnorm = f64::INFINITY;
         self.damped = DMatrix::zeros(n, n);
         self.damped_rhs = DVector::zeros(n);
     }
@@ -189,6 +193,7 @@ impl Scratch {
         let nsing = self.gauss_newton();
         let gn_ok = self.z.iter().all(|v| v.is_finite());
         let mut dxnorm = if gn_ok { self.dnorm_z() } else { f64::INFINITY };
+        self.gauss_newton_dnorm = dxnorm;
         let mut fp = dxnorm - delta;
         let mut lambda = 0.0;
         if !gn_ok || fp > P1 * delta {
