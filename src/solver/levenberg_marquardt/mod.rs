@@ -372,11 +372,19 @@ where
                     0.0,
                 );
             };
+            let g = NEGLIGIBLE_GAUSS_NEWTON_STEP;
+            let stationary =
+                gnorm <= self.stationarity || s.gauss_newton_dnorm <= g * (self.xnorm + g);
             if s.step.iter().all(|&v| v == 0.0) {
-                // The gradient is not zero (the gradient test did not fire), so a zero step
-                // is a numerical breakdown, never a convergence.
-                self.stop = Some(StopReason::Stalled);
-                break (Some(exit("the damped step is exactly zero.")), 0.0);
+                // A zero step cannot make progress: a convergence only at a stationary point,
+                // otherwise a numerical breakdown.
+                let reason = if stationary {
+                    StopReason::StepSize
+                } else {
+                    StopReason::Stalled
+                };
+                self.stop = Some(reason);
+                break (Some(termination(reason)), 0.0);
             }
             self.lambda = lambda;
             if !self.accepted_any {
@@ -463,11 +471,9 @@ where
                 Some(StopReason::ZeroResidual)
             } else if let Some(reason) = progress_stop {
                 // Stopped progressing: a convergence only at a stationary point.
-                let g = NEGLIGIBLE_GAUSS_NEWTON_STEP;
-                let fixed_point = s.gauss_newton_dnorm <= g * (self.xnorm + g);
                 Some(if cost <= eps * self.initial_cost {
                     StopReason::ZeroResidual
-                } else if gnorm <= self.stationarity || fixed_point {
+                } else if stationary {
                     reason
                 } else {
                     StopReason::Stalled
