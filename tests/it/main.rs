@@ -1,6 +1,9 @@
 //! One integration binary for all legwise tests.
 mod bad_input;
 mod cli;
+mod exit_codes;
+mod files;
+mod fuzz;
 mod golden;
 mod jacobian;
 mod kinematics;
