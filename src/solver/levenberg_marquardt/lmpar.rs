@@ -106,12 +106,12 @@ impl Scratch {
     /// one column at a time. A rotation only combines two rows, so the tiny entries of `R` (a
     /// parameter whose Jacobian column is ~1e-47 relative to the others) and their right-hand
     /// side stay at their own scale; a Householder reflection of the whole `2n × n` column
-    /// mixes them with √λ d_j and cancels them, which gave an exactly zero step. Components
+    /// mixes them with √λ d_j and can cancel them (an exactly zero step was seen on NIST BoxBOD
+    /// from start 1). Components
     /// past the first zero diagonal of `S` are set to zero, as for the Gauss–Newton step.
     /// Returns `false` if the triangular solve broke down.
     fn solve_damped(&mut self, sqrt_lambda: f64) -> bool {
         let n = self.qtr.len();
-        self.damped.fill(0.0);
         self.damped.copy_from(&self.jq.view((0, 0), (n, n)));
         self.damped.fill_lower_triangle(0.0, 1);
         self.damped_rhs.copy_from(&self.qtr);
