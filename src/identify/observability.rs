@@ -97,7 +97,10 @@ pub fn analyse(c: &DMatrix<f64>, names: &[String]) -> Observability {
 /// s_max / s_min over the first `n` singular values (largest first): finite whenever s_min is
 /// non-zero, infinite when it is zero (or for `n = 0`).
 fn condition_number(singular_values: &[f64], n: usize) -> f64 {
-    match (singular_values.first(), n.checked_sub(1).and_then(|i| singular_values.get(i))) {
+    match (
+        singular_values.first(),
+        n.checked_sub(1).and_then(|i| singular_values.get(i)),
+    ) {
         (Some(&largest), Some(&smallest)) if smallest > 0.0 => largest / smallest,
         _ => f64::INFINITY,
     }
@@ -274,7 +277,11 @@ mod tests {
         let o = analyse(&c, &names(2));
         assert_eq!(o.rank, 1);
         assert!(o.singular_values[1] > 0.0);
-        assert!((o.condition / (2.0 / epsilon) - 1.0).abs() < 1e-6, "{}", o.condition);
+        assert!(
+            (o.condition / (2.0 / epsilon) - 1.0).abs() < 1e-6,
+            "{}",
+            o.condition
+        );
         assert!(o.scaled_condition.is_finite());
     }
 
@@ -299,7 +306,11 @@ mod tests {
             let o = analyse(&c, &names(3));
             assert_eq!(o.rank, 2, "scale {scale}");
             assert_eq!(o.unidentifiable, vec!["p2".to_string()], "scale {scale}");
-            assert_eq!(o.null_directions, vec!["1.000 p2".to_string()], "scale {scale}");
+            assert_eq!(
+                o.null_directions,
+                vec!["1.000 p2".to_string()],
+                "scale {scale}"
+            );
             // Singular values 2·scale and scale (the matrix is diagonal), largest first.
             assert!((o.singular_values[0] / (2.0 * scale) - 1.0).abs() < 1e-12);
             assert!((o.singular_values[1] / scale - 1.0).abs() < 1e-12);

@@ -42,8 +42,19 @@ pub struct Mechanism {
     pub workspace: Workspace,
     /// Pose selection set-up.
     pub selection: SelectionSetup,
+    /// The declared measurement noise (the model's `noise` block), if any.
+    pub noise: Option<MeasurementNoise>,
     /// The simulation set-up, if any.
     pub simulation: Option<Simulation>,
+}
+
+/// Measurement noise standard deviations (SI units).
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct MeasurementNoise {
+    /// Per pose coordinate `[x, y, z, roll, pitch, yaw]` (zero for unmeasured ones).
+    pub pose: [f64; 6],
+    /// Of the actuator readings.
+    pub reading: f64,
 }
 
 /// Pose selection set-up (validated).

@@ -90,8 +90,14 @@ fn check_unique(kind: &str, declarations: &[Declaration]) -> Result<(), String> 
 
 /// 1-based line of byte offset `position` in `text`.
 fn line_at(text: &str, position: u64) -> usize {
-    let end = usize::try_from(position).unwrap_or(usize::MAX).min(text.len());
-    text.as_bytes()[..end].iter().filter(|&&b| b == b'\n').count() + 1
+    let end = usize::try_from(position)
+        .unwrap_or(usize::MAX)
+        .min(text.len());
+    text.as_bytes()[..end]
+        .iter()
+        .filter(|&&b| b == b'\n')
+        .count()
+        + 1
 }
 
 /// Streams through the XML once: checks it is well-formed and nests at most

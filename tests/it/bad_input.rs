@@ -419,7 +419,15 @@ fn every_parameter_fixed_exits_2_and_writes_nothing() {
         &["identify", "--model", model],
         &["simulate", "--model", model, "--out", out],
         &["select", "--model", model, "--out", out],
-        &["select", "--model", model, "--out", out, "--strategy", "traditional"],
+        &[
+            "select",
+            "--model",
+            model,
+            "--out",
+            out,
+            "--strategy",
+            "traditional",
+        ],
     ];
     for args in runs {
         assert_cli_fails_with(args, ALL_FIXED);
@@ -575,7 +583,10 @@ fn the_reach_limit_is_classified_by_the_inverse_kinematics() {
     let geometry = leg.geometry(&leg.nominal());
     let pose = |y: f64| [-0.5, y, 0.0, 0.0, 0.0, 0.0];
     let at = solve_leg(leg, &geometry, &pose(1.85), &mech.home_pose);
-    assert!(matches!(at, Err(KinematicsError::Singular { .. })), "{at:?}");
+    assert!(
+        matches!(at, Err(KinematicsError::Singular { .. })),
+        "{at:?}"
+    );
     let beyond = solve_leg(leg, &geometry, &pose(1.85 + 1e-12), &mech.home_pose);
     assert!(
         matches!(beyond, Err(KinematicsError::Unreachable { .. })),
@@ -586,7 +597,11 @@ fn the_reach_limit_is_classified_by_the_inverse_kinematics() {
     let (l, big_l) = (0.75, 1.10);
     // Law of cosines at the elbow: |A1P|² = l² + L² + 2 l L cos(elbow).
     let elbow = ((1.849f64.powi(2) - l * l - big_l * big_l) / (2.0 * l * big_l)).acos();
-    assert!((inside.q[1].abs() - elbow).abs() < 1e-9, "{:?} vs {elbow}", inside.q);
+    assert!(
+        (inside.q[1].abs() - elbow).abs() < 1e-9,
+        "{:?} vs {elbow}",
+        inside.q
+    );
 }
 
 /// x = 1e308 is finite (the CSV accepts it) but overflows: it was called "non-finite".
@@ -629,7 +644,9 @@ fn a_diverging_gauss_newton_names_the_trial_parameters_not_the_data() {
     );
     assert!(stderr.contains("), measurement line "), "{stderr}");
     assert!(
-        stderr.contains("the step left the plausible parameters (the pose is usable at the starting ones)"),
+        stderr.contains(
+            "the step left the plausible parameters (the pose is usable at the starting ones)"
+        ),
         "{stderr}"
     );
 }

@@ -12,5 +12,6 @@ mod nist;
 mod recovery;
 mod selection;
 mod solvers_agree;
+mod statistics_trust;
 mod support;
 mod workspace;

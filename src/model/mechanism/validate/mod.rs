@@ -9,6 +9,7 @@ use crate::model::mechanism::{Mechanism, COORDINATES};
 
 mod home;
 mod legs;
+mod noise;
 mod parameters;
 mod scale;
 mod setup;
@@ -48,7 +49,11 @@ impl Builder<'_> {
             self.home(leg, index, &file.legs[index].home, &home_pose)?;
         }
         let workspace = self.workspace(&file, &measured)?;
-        let simulation = self.simulation(&file, &measured, &legs)?;
+        let noise = match &file.noise {
+            Some(entries) => Some(self.noise("noise", entries, &measured)?),
+            None => None,
+        };
+        let simulation = self.simulation(&file, &measured, &legs, noise)?;
         let selection = self.selection(&file, simulation.as_ref())?;
         Ok(Mechanism {
             name: file.name,
@@ -60,6 +65,7 @@ impl Builder<'_> {
             legs,
             workspace,
             selection,
+            noise,
             simulation,
         })
     }

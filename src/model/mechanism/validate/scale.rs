@@ -18,11 +18,13 @@ impl Builder<'_> {
     /// the box diagonal if larger). Skipped when the region is not finite (reported later).
     pub(super) fn scale(&self, file: &ModelFile, legs: &[LegModel]) -> Result<()> {
         let (lo, hi) = file.workspace.region.bounds();
-        let corners = [[lo[0], lo[1]], [lo[0], hi[1]], [hi[0], lo[1]], [hi[0], hi[1]]];
-        let farthest = corners
-            .iter()
-            .map(|c| c[0].hypot(c[1]))
-            .fold(0.0, f64::max);
+        let corners = [
+            [lo[0], lo[1]],
+            [lo[0], hi[1]],
+            [hi[0], lo[1]],
+            [hi[0], hi[1]],
+        ];
+        let farthest = corners.iter().map(|c| c[0].hypot(c[1])).fold(0.0, f64::max);
         let workspace = farthest.max((hi[0] - lo[0]).hypot(hi[1] - lo[1]));
         if !(workspace.is_finite() && workspace > 0.0) {
             return Ok(());
@@ -56,10 +58,7 @@ impl Builder<'_> {
                 ));
             }
             if workspace > MAX_SCALE_RATIO * size {
-                return Err(self.error(
-                    "workspace.region",
-                    hint("the workspace", "the leg"),
-                ));
+                return Err(self.error("workspace.region", hint("the workspace", "the leg")));
             }
         }
         Ok(())
