@@ -79,6 +79,20 @@ pub struct LegEstimate {
     /// What the statistics found, one sentence each (noise rejected, outliers, other turns,
     /// dropped rows).
     pub warnings: Vec<String>,
+    /// Covariance σ̂²(CᵀC)⁻¹ of the identified parameters (model order), from the SVD of the
+    /// leg's identification Jacobian C; `None` without redundancy (m ≤ n).
+    pub covariance: Option<DMatrix<f64>>,
+    /// Each measurement's residual at the estimate, measured minus predicted reading, in row order.
+    pub residuals: Vec<RowResidual>,
+}
+
+/// One measurement's residual at the estimate.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct RowResidual {
+    /// Line of the measurement file (1-based, the header is line 1), if read from a file.
+    pub line: Option<usize>,
+    /// Measured minus predicted reading (rad or m).
+    pub residual: f64,
 }
 
 /// How the rows are weighted.
@@ -294,8 +308,13 @@ pub fn identify_problem(
         message,
     };
     let started = std::time::Instant::now();
-    let mut outcome =
-        solve(&fitted, x0.clone(), solver).map_err(|err| solver_error(err.to_string()))?;
+    let (r_start, c_start) = fitted
+        .residuals_and_jacobian(&x0)
+        .map_err(|e| located(mechanism, data, problem, e))?;
+    let mut outcome = match already_minimal(&x0, &r_start, &c_start) {
+        Some(outcome) => outcome,
+        None => solve(&fitted, x0.clone(), solver).map_err(|err| solver_error(err.to_string()))?,
+    };
     let (fitted, kind) = match options.robust {
         None => (fitted, FitKind::LeastSquares),
         Some(loss) => {
@@ -441,8 +460,8 @@ fn leg_estimate(
     let kept_squares: f64 = kept.iter().map(|&i| r[i] * r[i]).sum();
     let residual_sigma = (kept.len() > n).then(|| (kept_squares / (kept.len() - n) as f64).sqrt());
     let c_leg = leg_jacobian(problem, slot, c);
-    let variances =
-        residual_sigma.and_then(|sigma| covariance_diagonal(&c_leg).map(|d| (sigma, d)));
+    let covariance = residual_sigma
+        .and_then(|sigma| unscaled_covariance(&c_leg).map(|inverse| inverse * (sigma * sigma)));
     let phi = problem.leg_parameters(slot, x);
     let parameters = leg
         .params
@@ -455,7 +474,7 @@ fn leg_estimate(
                 unit: p.unit,
                 nominal: p.nominal,
                 estimate: phi[i],
-                std: column.and_then(|k| variances.as_ref().map(|(s, d)| s * d[k].sqrt())),
+                std: column.and_then(|k| covariance.as_ref().map(|v| v[(k, k)].sqrt())),
                 identified: p.identified,
             }
         })
@@ -471,6 +490,14 @@ fn leg_estimate(
         statistics: LegStatistics::default(),
         dropped: Vec::new(),
         warnings: Vec::new(),
+        covariance,
+        residuals: rows
+            .iter()
+            .map(|&i| RowResidual {
+                line: problem.blocks()[i].line,
+                residual: -r[i] / problem.row_scale(i),
+            })
+            .collect(),
     }
 }
 
@@ -533,8 +560,35 @@ fn refit_without(
     Ok((estimates, run))
 }
 
-/// diag((CᵀC)⁻¹) from the SVD of C (never an explicit inverse of CᵀC); `None` if rank-deficient.
-fn covariance_diagonal(c: &DMatrix<f64>) -> Option<Vec<f64>> {
+/// Relative length of the Gauss–Newton step below which the start is already the minimiser.
+const STATIONARY_STEP: f64 = 1e-12;
+
+/// The outcome of a solve that is not needed: `x0` is already the least-squares minimiser (its
+/// Gauss–Newton step, solved by SVD, is shorter than [`STATIONARY_STEP`]`·(‖x0‖ + 1)`), e.g.
+/// when identifying again from a calibrated model on the same measurements.
+fn already_minimal(
+    x0: &DVector<f64>,
+    r0: &DVector<f64>,
+    c0: &DMatrix<f64>,
+) -> Option<crate::solver::SolverOutcome> {
+    let step = c0.clone().svd(true, true).solve(r0, f64::EPSILON).ok()?;
+    let length = step.norm();
+    (length.is_finite() && length <= STATIONARY_STEP * (x0.norm() + 1.0)).then(|| {
+        crate::solver::SolverOutcome {
+            x: x0.clone(),
+            iterations: 0,
+            converged: true,
+            stop_reason: crate::solver::StopReason::StepSize,
+            refinement_steps: 0,
+            residual_evaluations: 1,
+            jacobian_evaluations: 1,
+        }
+    })
+}
+
+/// (CᵀC)⁻¹ = V Σ⁻² Vᵀ from the SVD of C (never an explicit inverse of CᵀC); `None` if
+/// rank-deficient.
+fn unscaled_covariance(c: &DMatrix<f64>) -> Option<DMatrix<f64>> {
     let n = c.ncols();
     if c.nrows() < n {
         return None;
@@ -545,15 +599,10 @@ fn covariance_diagonal(c: &DMatrix<f64>) -> Option<Vec<f64>> {
     if svd.singular_values.iter().any(|&s| s <= 1e-14 * largest) {
         return None;
     }
-    Some(
-        (0..n)
-            .map(|i| {
-                (0..svd.singular_values.len())
-                    .map(|k| (v_t[(k, i)] / svd.singular_values[k]).powi(2))
-                    .sum()
-            })
-            .collect(),
-    )
+    let scaled = DMatrix::from_fn(svd.singular_values.len(), n, |k, i| {
+        v_t[(k, i)] / svd.singular_values[k]
+    });
+    Some(scaled.transpose() * scaled)
 }
 
 /// Turns a failed block into an error naming the measurement file line, or the simulated pose.

@@ -139,6 +139,8 @@ mod tests {
                 statistics: Default::default(),
                 dropped: Vec::new(),
                 warnings: Vec::new(),
+                covariance: None,
+                residuals: Vec::new(),
             }],
             runs: vec![SolverRun {
                 legs: vec!["leg1".into()],
