@@ -7,7 +7,6 @@
 //! its own stopping.
 
 use super::estimate::{LegEstimate, StrategyResult};
-use crate::solver::StopReason;
 
 /// The reasons the results of an identification must not be trusted (empty: nothing found).
 /// Each names the strategy, the leg or solver run, and the values.
@@ -36,12 +35,6 @@ pub fn trust_issues(results: &[StrategyResult]) -> Vec<String> {
             }
         }
         for run in result.runs.iter().filter(|run| !run.converged) {
-            // A run that stopped on a non-finite value whose legs are already named for their
-            // non-finite numbers: one sentence says it.
-            let covered = run.legs.iter().all(|l| flagged.contains(&l.as_str()));
-            if run.stop_reason == StopReason::NonFinite && covered {
-                continue;
-            }
             issues.push(format!(
                 "{} ({strategy}) did not converge for leg{} {}: {} after {} iterations and {} \
                  residual evaluations; the estimate must not be trusted",
@@ -95,7 +88,7 @@ mod tests {
     use crate::identify::estimate::{ParameterEstimate, SolverRun, Strategy};
     use crate::identify::observability::Observability;
     use crate::model::params::Unit;
-    use crate::solver::SolverKind;
+    use crate::solver::{SolverKind, StopReason};
 
     fn parameter(
         name: &str,
@@ -222,20 +215,5 @@ mod tests {
             "{}",
             issues[0]
         );
-    }
-
-    #[test]
-    fn a_run_stopped_by_a_non_finite_value_is_named_once_with_its_legs_values() {
-        let mut bad = result(vec![parameter("l1", 0.75, Some(f64::INFINITY), true)], 1e-8);
-        (bad.runs[0].converged, bad.runs[0].stop_reason) = (false, StopReason::NonFinite);
-        assert_eq!(
-            trust_issues(std::slice::from_ref(&bad)),
-            ["divide and conquer, leg `leg1`: not a finite number: std(l1) inf"]
-        );
-        // Any other reason to stop is named as well.
-        bad.runs[0].stop_reason = StopReason::Stalled;
-        let issues = trust_issues(&[bad]);
-        assert_eq!(issues.len(), 2, "{issues:?}");
-        assert!(issues[1].contains("stalled"), "{}", issues[1]);
     }
 }
