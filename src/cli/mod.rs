@@ -40,9 +40,16 @@ pub struct WorkspaceArgs {
     /// The model file (YAML).
     #[arg(long)]
     pub model: PathBuf,
-    /// Where to write the SVG picture (default: `<model name>-workspace.svg`).
+    /// Where to write the picture, SVG or PNG by the extension (default:
+    /// `<model name>-workspace.svg`, or `.png` with `--png`).
+    #[arg(long, visible_alias = "svg")]
+    pub out: Option<PathBuf>,
+    /// Write the default picture as PNG instead of SVG.
     #[arg(long)]
-    pub svg: Option<PathBuf>,
+    pub png: bool,
+    /// A pose file to draw on the picture (measurement CSV layout; readings may be empty).
+    #[arg(long)]
+    pub poses: Option<PathBuf>,
     /// Rays cast to trace the region's boundary.
     #[arg(long, default_value_t = 1440)]
     pub rays: usize,

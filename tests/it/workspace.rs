@@ -97,3 +97,37 @@ fn the_3rpr_candidate_pool_varies_the_orientation() {
         .collect();
     assert_eq!(yaws.len(), 9);
 }
+
+/// The 5R's serial singular curves are circles about the base joints A1 = (−0.5, 0) and
+/// A2 = (0.5, 0): radius l + L = 1.85 m (a leg stretched) and L − l = 0.35 m (folded). Every
+/// traced point lies on one of them to far better than the grid spacing (no staircase).
+#[test]
+fn the_5r_serial_curves_are_the_reach_circles_not_a_staircase() {
+    use legwise::workspace::miw::SingularityMargin;
+    use legwise::workspace::picture::singular_curves;
+    let mech = bundled("5r.yaml");
+    let margin = SingularityMargin::new(&mech).unwrap();
+    let (lo, hi) = ([-2.0, -1.2], [2.0, 2.8]);
+    let cells = 50;
+    let (serial, parallel) = singular_curves(&margin, (lo, hi), [0.0, 1.0956522], cells);
+    let spacing = 4.0 / cells as f64;
+    let mut points = 0;
+    let mut worst: f64 = 0.0;
+    for p in serial.iter().flatten() {
+        let off = [-0.5, 0.5]
+            .iter()
+            .flat_map(|ax| {
+                let r = ((p[0] - ax).powi(2) + p[1].powi(2)).sqrt();
+                [(r - 1.85).abs(), (r - 0.35).abs()]
+            })
+            .fold(f64::INFINITY, f64::min);
+        worst = worst.max(off);
+        points += 1;
+    }
+    assert!(points > 60, "{points} points");
+    assert!(
+        worst < 1e-3 * spacing,
+        "farthest point {worst} m off the reach circles (grid {spacing} m)"
+    );
+    assert!(!parallel.is_empty());
+}
