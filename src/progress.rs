@@ -25,21 +25,11 @@ impl Progress {
         Self(Some(bar))
     }
 
-    /// A bar that is never shown.
-    pub fn hidden() -> Self {
-        Self(None)
-    }
-
     /// Advances the bar by `steps`.
     pub fn advance(&self, steps: u64) {
         if let Some(bar) = &self.0 {
             bar.inc(steps);
         }
-    }
-
-    /// Whether the bar is drawn (stderr is a terminal).
-    pub fn is_shown(&self) -> bool {
-        self.0.is_some()
     }
 }
 

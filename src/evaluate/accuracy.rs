@@ -8,6 +8,7 @@ use nalgebra::Rotation3;
 use serde::Serialize;
 
 use crate::error::{Error, Result};
+use crate::identify::estimate::StrategyResult;
 use crate::kinematics::inverse::predict_reading;
 use crate::kinematics::platform::forward;
 use crate::model::Mechanism;
@@ -102,9 +103,10 @@ pub fn orientation_error(reached: &[f64; 6], target: &[f64; 6]) -> f64 {
     rotation(target).angle_to(&rotation(reached))
 }
 
-/// The grid of an accuracy map: every point of spacing `grid_m` (a lattice through the centre
-/// of the region's bounding box) inside the workspace region shrunk by `scale` about that
-/// centre. Coordinates other than x, y stay at their home values (a constant-orientation map).
+/// The grid of an accuracy map: the points of a square lattice of spacing `grid_m` from the
+/// lower-left corner of the region's bounding box (as the candidate grid of pose selection)
+/// that lie inside the workspace region shrunk by `scale` about the centre of that box.
+/// Coordinates other than x, y stay at their home values (a constant-orientation map).
 ///
 /// # Errors
 /// A spacing that is not a positive number of metres, a scale outside (0, 1], or more than
@@ -123,27 +125,32 @@ pub fn map_grid(mechanism: &Mechanism, grid_m: f64, scale: f64) -> Result<Vec<[f
     let region = &mechanism.workspace.region;
     let (lo, hi) = region.bounds();
     let centre = [(lo[0] + hi[0]) / 2.0, (lo[1] + hi[1]) / 2.0];
-    let steps = |axis: usize| (scale * (hi[axis] - lo[axis]) / 2.0 / grid_m).floor();
-    let (nx, ny) = (steps(0), steps(1));
-    if (2.0 * nx + 1.0) * (2.0 * ny + 1.0) > 4.0 * MAX_MAP_POINTS as f64 {
+    let (nx, ny) = (
+        ((hi[0] - lo[0]) / grid_m + 1e-9).floor(),
+        ((hi[1] - lo[1]) / grid_m + 1e-9).floor(),
+    );
+    if (nx + 1.0) * (ny + 1.0) * scale * scale > 4.0 * MAX_MAP_POINTS as f64 {
         return Err(too_many(grid_m));
     }
-    let (nx, ny) = (nx as i64, ny as i64);
     let mut poses = Vec::new();
-    for j in -ny..=ny {
-        for i in -nx..=nx {
-            let (dx, dy) = (i as f64 * grid_m, j as f64 * grid_m);
-            // A point is in the scaled region when its preimage under the homothety is in the region.
-            if region.depth([centre[0] + dx / scale, centre[1] + dy / scale]) >= -1e-12 {
+    for j in 0..=ny as u64 {
+        for i in 0..=nx as u64 {
+            let point = [lo[0] + i as f64 * grid_m, lo[1] + j as f64 * grid_m];
+            // In the scaled region when its preimage under the homothety is in the region.
+            let preimage = [
+                centre[0] + (point[0] - centre[0]) / scale,
+                centre[1] + (point[1] - centre[1]) / scale,
+            ];
+            if region.depth(preimage) >= -1e-12 {
                 let mut pose = mechanism.home_pose;
-                pose[0] = centre[0] + dx;
-                pose[1] = centre[1] + dy;
+                pose[0] = point[0];
+                pose[1] = point[1];
                 poses.push(pose);
+                if poses.len() > MAX_MAP_POINTS {
+                    return Err(too_many(grid_m));
+                }
             }
         }
-    }
-    if poses.len() > MAX_MAP_POINTS {
-        return Err(too_many(grid_m));
     }
     Ok(poses)
 }
@@ -219,4 +226,17 @@ pub fn accuracy_map(
         position_error,
         points,
     })
+}
+
+/// The parameters a result identified, one full vector per leg of the mechanism (nominal values
+/// for the legs it did not identify).
+pub fn result_parameters(mechanism: &Mechanism, result: &StrategyResult) -> Vec<Vec<f64>> {
+    mechanism
+        .legs
+        .iter()
+        .map(|leg| match result.legs.iter().find(|e| e.leg == leg.name) {
+            Some(estimate) => estimate.parameters.iter().map(|p| p.estimate).collect(),
+            None => leg.nominal(),
+        })
+        .collect()
 }

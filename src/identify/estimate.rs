@@ -65,6 +65,20 @@ pub struct LegEstimate {
     pub residual_sigma: Option<f64>,
     /// Observability of the identification Jacobian at the estimate.
     pub observability: Observability,
+    /// Covariance σ̂²(CᵀC)⁻¹ of the identified parameters (model order), from the SVD of the
+    /// leg's identification Jacobian C; `None` without redundancy (m ≤ n).
+    pub covariance: Option<DMatrix<f64>>,
+    /// Each measurement's residual at the estimate, measured minus predicted reading, in row order.
+    pub residuals: Vec<RowResidual>,
+}
+
+/// One measurement's residual at the estimate.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct RowResidual {
+    /// Line of the measurement file (1-based, the header is line 1), if read from a file.
+    pub line: Option<usize>,
+    /// Measured minus predicted reading (rad or m).
+    pub residual: f64,
 }
 
 /// One solver run (one per leg for divide and conquer, one in all for traditional).
@@ -202,10 +216,13 @@ pub fn identify_problem(
         }
     }
     let started = std::time::Instant::now();
-    let outcome = solve(problem, x0.clone(), solver).map_err(|err| Error::Solver {
-        context: format!("legs {}", names.join(", ")),
-        message: err.to_string(),
-    })?;
+    let outcome = match already_minimal(&x0, &r0, &c0) {
+        Some(outcome) => outcome,
+        None => solve(problem, x0.clone(), solver).map_err(|err| Error::Solver {
+            context: format!("legs {}", names.join(", ")),
+            message: err.to_string(),
+        })?,
+    };
     let seconds = started.elapsed().as_secs_f64();
     let (r, c) = problem
         .residuals_and_jacobian(&outcome.x)
@@ -270,8 +287,8 @@ fn leg_estimate(
     let sum_squares: f64 = rows.iter().map(|&i| r[i] * r[i]).sum();
     let residual_sigma = (m > n).then(|| (sum_squares / (m - n) as f64).sqrt());
     let c_leg = leg_jacobian(problem, slot, c);
-    let variances =
-        residual_sigma.and_then(|sigma| covariance_diagonal(&c_leg).map(|d| (sigma, d)));
+    let covariance = residual_sigma
+        .and_then(|sigma| unscaled_covariance(&c_leg).map(|inverse| inverse * (sigma * sigma)));
     let phi = problem.leg_parameters(slot, x);
     let parameters = leg
         .params
@@ -284,7 +301,7 @@ fn leg_estimate(
                 unit: p.unit,
                 nominal: p.nominal,
                 estimate: phi[i],
-                std: column.and_then(|k| variances.as_ref().map(|(s, d)| s * d[k].sqrt())),
+                std: column.and_then(|k| covariance.as_ref().map(|v| v[(k, k)].sqrt())),
                 identified: p.identified,
             }
         })
@@ -297,11 +314,46 @@ fn leg_estimate(
         final_cost: 0.5 * sum_squares,
         residual_sigma,
         observability: leg_observability(mechanism, problem, slot, c),
+        covariance,
+        residuals: rows
+            .iter()
+            .map(|&i| RowResidual {
+                line: problem.blocks()[i].line,
+                residual: -r[i],
+            })
+            .collect(),
     }
 }
 
-/// diag((CᵀC)⁻¹) from the SVD of C (never an explicit inverse of CᵀC); `None` if rank-deficient.
-fn covariance_diagonal(c: &DMatrix<f64>) -> Option<Vec<f64>> {
+/// Relative length of the Gauss–Newton step below which the start is already the minimiser.
+const STATIONARY_STEP: f64 = 1e-12;
+
+/// The outcome of a solve that is not needed: `x0` is already the least-squares minimiser (its
+/// Gauss–Newton step, solved by SVD, is shorter than [`STATIONARY_STEP`]`·(‖x0‖ + 1)`), e.g.
+/// when identifying again from a calibrated model on the same measurements.
+fn already_minimal(
+    x0: &DVector<f64>,
+    r0: &DVector<f64>,
+    c0: &DMatrix<f64>,
+) -> Option<crate::solver::SolverOutcome> {
+    let step = c0.clone().svd(true, true).solve(r0, f64::EPSILON).ok()?;
+    let length = step.norm();
+    (length.is_finite() && length <= STATIONARY_STEP * (x0.norm() + 1.0)).then(|| {
+        crate::solver::SolverOutcome {
+            x: x0.clone(),
+            iterations: 0,
+            termination: format!(
+                "already at the minimum: the Gauss-Newton step from the start is {length:.1e} long"
+            ),
+            residual_evaluations: 1,
+            jacobian_evaluations: 1,
+        }
+    })
+}
+
+/// (CᵀC)⁻¹ = V Σ⁻² Vᵀ from the SVD of C (never an explicit inverse of CᵀC); `None` if
+/// rank-deficient.
+fn unscaled_covariance(c: &DMatrix<f64>) -> Option<DMatrix<f64>> {
     let n = c.ncols();
     if c.nrows() < n {
         return None;
@@ -312,15 +364,10 @@ fn covariance_diagonal(c: &DMatrix<f64>) -> Option<Vec<f64>> {
     if svd.singular_values.iter().any(|&s| s <= 1e-14 * largest) {
         return None;
     }
-    Some(
-        (0..n)
-            .map(|i| {
-                (0..svd.singular_values.len())
-                    .map(|k| (v_t[(k, i)] / svd.singular_values[k]).powi(2))
-                    .sum()
-            })
-            .collect(),
-    )
+    let scaled = DMatrix::from_fn(svd.singular_values.len(), n, |k, i| {
+        v_t[(k, i)] / svd.singular_values[k]
+    });
+    Some(scaled.transpose() * scaled)
 }
 
 /// Turns a failed block into an error naming the measurement file line, or the simulated pose.
