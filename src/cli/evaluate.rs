@@ -6,6 +6,8 @@ use crate::evaluate::report::{evaluation_json, evaluation_text};
 use crate::measure::file;
 use crate::model::Mechanism;
 use crate::report::calibrated::{refuse_overwriting_inputs, write_atomically};
+use crate::report::plots::files::write_evaluate_plots;
+use crate::report::plots::Format;
 
 pub(super) fn run(args: &EvaluateArgs) -> anyhow::Result<()> {
     let mut inputs = vec![args.model.as_path(), args.measurements.as_path()];
@@ -20,9 +22,6 @@ pub(super) fn run(args: &EvaluateArgs) -> anyhow::Result<()> {
     if let Some(path) = &args.json {
         refuse_overwriting_inputs(&[path], &inputs)?;
     }
-    if args.plots.is_some() {
-        anyhow::bail!("--plots: the evaluation pictures are not available in this build yet");
-    }
     let evaluation = evaluate(&mechanism, &file::read(&args.measurements, &mechanism)?)?;
     let against = match &other {
         Some(other) => Some(evaluate(other, &file::read(&args.measurements, other)?)?),
@@ -36,6 +35,23 @@ pub(super) fn run(args: &EvaluateArgs) -> anyhow::Result<()> {
         let text = serde_json::to_string_pretty(&evaluation_json(&evaluation, against.as_ref()))?;
         write_atomically(path, &text)?;
         println!("\nJSON written to {}", path.display());
+    }
+    if let Some(dir) = &args.plots {
+        let name = |path: &std::path::Path| {
+            path.file_name().map_or(path.display().to_string(), |n| {
+                n.to_string_lossy().into_owned()
+            })
+        };
+        let (model, other) = (name(&args.model), args.against.as_deref().map(name));
+        // The other model (typically the nominal one) is drawn first, as "before".
+        let mut drawn = Vec::new();
+        if let (Some(other), Some(against)) = (&other, &against) {
+            drawn.push((other.as_str(), against));
+        }
+        drawn.push((model.as_str(), &evaluation));
+        let format = if args.png { Format::Png } else { Format::Svg };
+        let path = write_evaluate_plots(dir, format, &drawn, &inputs)?;
+        println!("picture written to {}", path.display());
     }
     Ok(())
 }

@@ -37,6 +37,7 @@ pub(super) fn run(args: &IdentifyArgs) -> anyhow::Result<()> {
     print!("{}", terminal::render(&report));
     let maps = accuracy_maps(args, &report)?;
     write_calibrated_model(args, &report)?;
+    write_pictures(args, &report, maps.as_ref(), &data)?;
     if let Some(path) = &args.json {
         let mut value = json::to_json(&report);
         if let Some((before, after)) = &maps {
@@ -74,6 +75,9 @@ fn check_outputs(args: &IdentifyArgs, mechanism: &Mechanism) -> anyhow::Result<(
         .map(|p| p.as_path())
         .collect();
     refuse_overwriting_inputs(&outputs, &inputs)?;
+    if args.pictures.plots.is_some() && args.measurements.is_some() {
+        anyhow::bail!("--plots: the pictures compare with the real parameters, known only in simulation (drop --measurements)");
+    }
     if let Some(grid) = args.after.map {
         if args.measurements.is_some() {
             anyhow::bail!("--map: the accuracy map needs the real parameters, known only in simulation (drop --measurements)");
@@ -142,5 +146,35 @@ fn write_calibrated_model(args: &IdentifyArgs, report: &IdentifyReport<'_>) -> a
         out.display(),
         urdf.display()
     );
+    Ok(())
+}
+
+/// `--plots DIR`: the parameter errors and, with `--map`, the accuracy map with the
+/// identification poses.
+fn write_pictures(
+    args: &IdentifyArgs,
+    report: &IdentifyReport<'_>,
+    maps: Option<&(AccuracyMap, Vec<AccuracyMap>)>,
+    data: &crate::measure::MeasurementSet,
+) -> anyhow::Result<()> {
+    use crate::report::plots::files::{write_identify_plots, Maps};
+    let Some(dir) = &args.pictures.plots else {
+        return Ok(());
+    };
+    let format = if args.pictures.png {
+        crate::report::plots::Format::Png
+    } else {
+        crate::report::plots::Format::Svg
+    };
+    let maps = maps.map(|(before, after)| Maps { before, after });
+    let poses: Vec<[f64; 2]> = data.poses.iter().map(|p| [p.pose[0], p.pose[1]]).collect();
+    let inputs = [
+        report.mechanism.model_path.as_path(),
+        report.mechanism.urdf_path.as_path(),
+    ];
+    let written = write_identify_plots(dir, format, report, maps, &poses, &inputs)?;
+    for path in written {
+        println!("picture written to {}", path.display());
+    }
     Ok(())
 }

@@ -53,9 +53,12 @@ pub struct EvaluateArgs {
     /// Also write the evaluation as JSON to this file.
     #[arg(long)]
     pub json: Option<PathBuf>,
-    /// Directory for the pictures.
-    #[arg(long)]
+    /// Directory for the pictures (created if missing): the distribution of position errors.
+    #[arg(long, value_name = "DIR")]
     pub plots: Option<PathBuf>,
+    /// Draw the pictures as PNG instead of SVG.
+    #[arg(long)]
+    pub png: bool,
 }
 
 /// `identify` options for after the fit: the calibrated model and the accuracy map.
@@ -119,6 +122,21 @@ pub struct IdentifyArgs {
     /// Calibrated model and accuracy map.
     #[command(flatten)]
     pub after: AfterFitArgs,
+    /// Pictures.
+    #[command(flatten)]
+    pub pictures: IdentifyPlotArgs,
+}
+
+/// `identify` options for the pictures.
+#[derive(Debug, Clone, clap::Args)]
+pub struct IdentifyPlotArgs {
+    /// Simulation only: write the pictures to this directory (created if missing): the
+    /// parameter errors before and after, and with `--map` the accuracy map.
+    #[arg(long, value_name = "DIR")]
+    pub plots: Option<PathBuf>,
+    /// Draw the pictures as PNG instead of SVG.
+    #[arg(long)]
+    pub png: bool,
 }
 
 /// Options of `legwise simulate`.

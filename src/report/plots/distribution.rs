@@ -63,9 +63,15 @@ impl ErrorDistribution {
     }
 }
 
+const PLOT_HEIGHT: u32 = 500;
+const LEGEND_ROW: u32 = 22;
+
 impl Figure for ErrorDistribution {
     fn size(&self) -> (u32, u32) {
-        (800, 520)
+        (
+            800,
+            PLOT_HEIGHT + LEGEND_ROW * self.samples.len().max(1) as u32 + 12,
+        )
     }
 
     fn draw<DB: DrawingBackend>(
@@ -74,7 +80,8 @@ impl Figure for ErrorDistribution {
     ) -> Result<(), DrawingAreaErrorKind<DB::ErrorType>> {
         root.fill(&WHITE)?;
         let (lo, hi) = self.range_mm();
-        let mut chart = ChartBuilder::on(root)
+        let (plot_area, legend_area) = root.split_vertically(PLOT_HEIGHT);
+        let mut chart = ChartBuilder::on(&plot_area)
             .caption(&self.title, style::title())
             .margin(16)
             .margin_right(28)
@@ -86,7 +93,7 @@ impl Figure for ErrorDistribution {
             .x_desc("position error (mm, logarithmic)")
             .y_desc("fraction of poses with a smaller error")
             .x_label_formatter(&|v| style::short_number(*v))
-            .y_label_formatter(&|v| style::short_number(*v))
+            .y_label_formatter(&|v| style::tick(*v, 1.0))
             .label_style(style::label())
             .axis_desc_style(style::axis_description())
             .light_line_style(RGBColor(235, 235, 235))
@@ -112,26 +119,25 @@ impl Figure for ErrorDistribution {
                 max: f64::NAN,
             });
             let colour = style::series_colour(s);
-            chart
-                .draw_series(LineSeries::new(steps, colour.stroke_width(2)))?
-                .label(format!(
-                    "{}: RMS {} mm, p95 {} mm ({} poses)",
+            chart.draw_series(LineSeries::new(steps, colour.stroke_width(2)))?;
+            let y = 4 + (s as u32 * LEGEND_ROW) as i32;
+            legend_area.draw(&PathElement::new(
+                vec![(80, y + 7), (104, y + 7)],
+                colour.stroke_width(2),
+            ))?;
+            legend_area.draw(&Text::new(
+                format!(
+                    "{}: RMS {} mm, p95 {} mm, max {} mm ({} poses)",
                     sample.name,
                     style::short_number(stats.rms),
                     style::short_number(stats.p95),
+                    style::short_number(stats.max),
                     mm.len()
-                ))
-                .legend(move |(x, y)| {
-                    PathElement::new(vec![(x, y), (x + 20, y)], colour.stroke_width(2))
-                });
+                ),
+                (112, y),
+                style::label(),
+            ))?;
         }
-        chart
-            .configure_series_labels()
-            .position(SeriesLabelPosition::UpperLeft)
-            .background_style(WHITE.mix(0.9))
-            .border_style(BLACK)
-            .label_font(style::label())
-            .draw()?;
         Ok(())
     }
 }

@@ -65,6 +65,27 @@ impl MapPanel {
             .then(|| 1e3 * (errors.iter().map(|e| e * e).sum::<f64>() / errors.len() as f64).sqrt())
     }
 
+    /// The top of the colour scale (mm): the 99th percentile of the errors, so that a few
+    /// points near a singularity do not darken the whole map (colours saturate above it).
+    fn colour_top_mm(&self) -> f64 {
+        let mut errors: Vec<f64> = self
+            .cells
+            .iter()
+            .filter_map(|c| c.error_m)
+            .filter(|e| e.is_finite())
+            .collect();
+        if errors.is_empty() {
+            return 1.0;
+        }
+        errors.sort_by(f64::total_cmp);
+        let top = 1e3 * errors[((errors.len() - 1) as f64 * 0.99).round() as usize];
+        if top > 0.0 {
+            top
+        } else {
+            1.0
+        }
+    }
+
     fn max_mm(&self) -> f64 {
         self.cells
             .iter()
@@ -79,7 +100,7 @@ impl MapPanel {
 pub const NOT_ASSEMBLABLE: RGBColor = RGBColor(200, 200, 200);
 
 const PANEL: u32 = 560;
-const BAR: u32 = 110;
+const BAR: u32 = 124;
 const TITLE: u32 = 44;
 const FOOTER: u32 = 36;
 const Y_LABELS: u32 = 72;
@@ -142,8 +163,7 @@ impl Figure for ErrorMapFigure {
         let areas = body.split_evenly((1, self.panels.len().max(1)));
         for (panel, area) in self.panels.iter().zip(areas.iter()) {
             let (map_area, bar_area) = area.split_horizontally(PANEL);
-            let max_mm = panel.max_mm();
-            let top_mm = if max_mm > 0.0 { max_mm } else { 1.0 };
+            let top_mm = panel.colour_top_mm();
             self.draw_map(&map_area, panel, bounds, top_mm)?;
             draw_colour_bar(&bar_area, top_mm)?;
         }
@@ -179,15 +199,17 @@ impl ErrorMapFigure {
             .disable_mesh()
             .x_desc("x (m)")
             .y_desc("y (m)")
-            .x_label_formatter(&|v| style::short_number(*v))
-            .y_label_formatter(&|v| style::short_number(*v))
+            .x_label_formatter(&|v| style::tick(*v, hi[0] - lo[0]))
+            .y_label_formatter(&|v| style::tick(*v, hi[1] - lo[1]))
             .label_style(style::label())
             .axis_desc_style(style::axis_description())
             .draw()?;
         let half = 0.5 * self.grid_m;
         chart.draw_series(panel.cells.iter().map(|cell| {
             let colour = match cell.error_m {
-                Some(e) if e.is_finite() => ViridisRGB::get_color_normalized(1e3 * e, 0.0, top_mm),
+                Some(e) if e.is_finite() => {
+                    ViridisRGB::get_color_normalized((1e3 * e).min(top_mm), 0.0, top_mm)
+                }
                 _ => NOT_ASSEMBLABLE,
             };
             Rectangle::new(
@@ -232,7 +254,7 @@ impl ErrorMapFigure {
         ))?;
         area.draw(&Text::new(
             format!(
-                "grid {} mm; colour: position error of the real mechanism commanded by the model",
+                "grid {} mm; colour: position error of the real mechanism commanded by the model, saturating at the 99th percentile of each map",
                 style::short_number(self.grid_m * 1e3)
             ),
             (520, y),

@@ -8,10 +8,12 @@
 //! * [`parameter_errors`] — parameter errors before and after identification (the paper's Fig. 3);
 //! * [`error_map`] — the position-error map over the workspace, before and after (Fig. 4);
 //! * [`distribution`] — the distribution of position errors of one or more models (ECDF);
-//! * [`workspace`] — the singularity-free region, singular curves, MIW and poses.
+//! * [`workspace`] — the singularity-free region, singular curves, MIW and poses;
+//! * [`files`] — which pictures `identify --plots` and `evaluate --plots` write, and where.
 pub mod canvas;
 pub mod distribution;
 pub mod error_map;
+pub mod files;
 pub mod output;
 pub mod parameter_errors;
 pub mod style;

@@ -187,6 +187,8 @@ impl ParameterErrors {
         chart
             .configure_mesh()
             .disable_x_mesh()
+            .light_line_style(TRANSPARENT)
+            .bold_line_style(RGBColor(225, 225, 225))
             .x_labels(count.max(1))
             .x_label_formatter(&|v| {
                 let i = v.round();
@@ -196,7 +198,7 @@ impl ParameterErrors {
                     String::new()
                 }
             })
-            .y_label_formatter(&|v| style::short_number(*v))
+            .y_label_formatter(&|v| style::tick(*v, limit))
             .y_desc(description)
             .label_style(style::label())
             .axis_desc_style(style::axis_description())

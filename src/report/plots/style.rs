@@ -62,9 +62,26 @@ pub fn short_number(value: f64) -> String {
     }
 }
 
+/// A tick label on a linear axis spanning `span`: [`short_number`], with the round-off of the
+/// tick positions (`-1.1e-16` for zero) snapped to zero.
+pub fn tick(value: f64, span: f64) -> String {
+    if value.abs() < 1e-9 * span.abs() {
+        "0".into()
+    } else {
+        short_number(value)
+    }
+}
+
 #[cfg(test)]
 mod tests {
-    use super::short_number;
+    use super::{short_number, tick};
+
+    #[test]
+    fn round_off_ticks_read_zero() {
+        assert_eq!(tick(-1.1e-16, 1.2), "0");
+        assert_eq!(tick(0.2, 1.2), "0.2");
+        assert_eq!(tick(1e-7, 1e-6), "1.0e-7");
+    }
 
     #[test]
     fn short_numbers_keep_three_significant_digits() {
