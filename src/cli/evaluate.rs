@@ -22,6 +22,9 @@ pub(super) fn run(args: &EvaluateArgs) -> anyhow::Result<()> {
     if let Some(path) = &args.json {
         refuse_overwriting_inputs(&[path], &inputs)?;
     }
+    if let Some(dir) = &args.plots {
+        crate::report::plots::output::check_directory(dir)?;
+    }
     let evaluation = evaluate(&mechanism, &file::read(&args.measurements, &mechanism)?)?;
     let against = match &other {
         Some(other) => Some(evaluate(other, &file::read(&args.measurements, other)?)?),

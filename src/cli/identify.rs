@@ -75,8 +75,11 @@ fn check_outputs(args: &IdentifyArgs, mechanism: &Mechanism) -> anyhow::Result<(
         .map(|p| p.as_path())
         .collect();
     refuse_overwriting_inputs(&outputs, &inputs)?;
-    if args.pictures.plots.is_some() && args.measurements.is_some() {
-        anyhow::bail!("--plots: the pictures compare with the real parameters, known only in simulation (drop --measurements)");
+    if let Some(dir) = &args.pictures.plots {
+        if args.measurements.is_some() {
+            anyhow::bail!("--plots: the pictures compare with the real parameters, known only in simulation (drop --measurements)");
+        }
+        crate::report::plots::output::check_directory(dir)?;
     }
     if let Some(grid) = args.after.map {
         if args.measurements.is_some() {

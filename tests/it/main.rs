@@ -7,6 +7,7 @@ mod evaluate;
 mod golden;
 mod jacobian;
 mod kinematics;
+mod plots;
 mod recovery;
 mod selection;
 mod solvers_agree;

@@ -131,3 +131,61 @@ fn the_5r_serial_curves_are_the_reach_circles_not_a_staircase() {
     );
     assert!(!parallel.is_empty());
 }
+
+/// `legwise workspace --poses FILE --out PICTURE.png`: a PNG by the extension, the pose file's
+/// rows drawn per leg (the `select` layout, readings empty), and the SVG variant names them.
+#[test]
+fn workspace_draws_a_pose_file_on_the_picture() {
+    let dir = tempfile::tempdir().unwrap();
+    let poses = dir.path().join("poses.csv");
+    std::fs::write(
+        &poses,
+        "leg,x,y,A1,A2\nleg1,0.1,1.0,,\nleg1,-0.2,1.2,,\nleg2,0.3,0.9,,\n,0.0,1.1,,\n",
+    )
+    .unwrap();
+    let run = |out: &std::path::Path| {
+        std::process::Command::new(env!("CARGO_BIN_EXE_legwise"))
+            .args([
+                "workspace",
+                "--model",
+                "models/5r.yaml",
+                "--rays",
+                "64",
+                "--poses",
+            ])
+            .arg(&poses)
+            .arg("--out")
+            .arg(out)
+            .current_dir(env!("CARGO_MANIFEST_DIR"))
+            .output()
+            .unwrap()
+    };
+    let svg_path = dir.path().join("ws.svg");
+    let out = run(&svg_path);
+    assert_eq!(
+        out.status.code(),
+        Some(0),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let svg = std::fs::read_to_string(&svg_path).unwrap();
+    for wanted in [
+        "x (m)",
+        "y (m)",
+        "leg1 poses of poses.csv (2)",
+        "leg2 poses of poses.csv (1)",
+        "shared poses of poses.csv (1)",
+        "parallel (type II) singularity: the platform gains a freedom",
+    ] {
+        assert!(svg.contains(wanted), "`{wanted}` missing");
+    }
+    let png_path = dir.path().join("ws.png");
+    let out = run(&png_path);
+    assert_eq!(out.status.code(), Some(0));
+    assert!(std::fs::read(&png_path).unwrap().starts_with(b"\x89PNG"));
+    // The pose file is an input: never overwritten by the picture.
+    let out = run(&poses);
+    assert_eq!(out.status.code(), Some(2));
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(stderr.contains("ending in .svg or .png"), "{stderr}");
+}

@@ -72,14 +72,23 @@ pub fn write_new(path: &Path, bytes: &[u8], inputs: &[&Path]) -> Result<()> {
 /// [`Error::Invalid`] when `dir` exists but is not a directory; [`Error::Io`] when it cannot
 /// be created.
 pub fn ensure_directory(dir: &Path) -> Result<()> {
+    check_directory(dir)?;
+    std::fs::create_dir_all(dir).map_err(|error| Error::Io {
+        path: dir.to_path_buf(),
+        error,
+    })
+}
+
+/// Checks, before any work, that `dir` is a directory or does not exist yet.
+///
+/// # Errors
+/// [`Error::Invalid`] when `dir` exists but is not a directory.
+pub fn check_directory(dir: &Path) -> Result<()> {
     if dir.exists() && !dir.is_dir() {
         return Err(Error::Invalid(format!(
             "{}: exists and is not a directory; expected a directory for the pictures",
             dir.display()
         )));
     }
-    std::fs::create_dir_all(dir).map_err(|error| Error::Io {
-        path: dir.to_path_buf(),
-        error,
-    })
+    Ok(())
 }
