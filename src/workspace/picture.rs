@@ -11,10 +11,10 @@ use crate::kinematics::inverse::LegSolution;
 use crate::report::plots::workspace::{PoseGroup, WorkspaceFigure};
 
 /// Grid cells per side sampled to trace the singular curves of the picture.
-pub const GRID: usize = 160;
+pub const GRID: usize = 120;
 
-/// Bisection steps on an edge between a reachable and an unreachable node (2⁻³⁰ of a cell).
-const BISECTIONS: usize = 30;
+/// Bisection steps on an edge between a reachable and an unreachable node (2⁻²⁰ of a cell, then extrapolated).
+const BISECTIONS: usize = 20;
 
 /// The workspace picture of `miw`, with the singular curves of `margin` over the region around
 /// it, and `poses` drawn on top.
