@@ -130,10 +130,8 @@ impl Figure for WorkspaceFigure {
                 )
             })
             .collect();
-        chart.draw_series(std::iter::once(PathElement::new(
-            circle,
-            BLACK.stroke_width(2),
-        )))?;
+        // Dashed, so that a singular curve under the circle stays visible.
+        chart.draw_series(DashedLineSeries::new(circle, 8, 5, BLACK.stroke_width(2)))?;
         chart.draw_series(std::iter::once(
             EmptyElement::at((self.miw_centre[0], self.miw_centre[1]))
                 + PathElement::new(vec![(-6, 0), (6, 0)], BLACK.stroke_width(2))
@@ -183,7 +181,14 @@ impl WorkspaceFigure {
             x0,
             row(2),
         ))?;
-        area.draw(&line(x0, row(3), BLACK))?;
+        area.draw(&PathElement::new(
+            vec![(x0, row(3) + 7), (x0 + 8, row(3) + 7)],
+            BLACK.stroke_width(2),
+        ))?;
+        area.draw(&PathElement::new(
+            vec![(x0 + 13, row(3) + 7), (x0 + 20, row(3) + 7)],
+            BLACK.stroke_width(2),
+        ))?;
         area.draw(&text(
             format!(
                 "MIW: centre ({}, {}) m, radius {:.4} m",
