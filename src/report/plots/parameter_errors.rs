@@ -110,7 +110,9 @@ const TITLE_HEIGHT: u32 = 40;
 impl Figure for ParameterErrors {
     fn size(&self) -> (u32, u32) {
         let bars = self.parameters.len() as u32 * self.series.len().max(1) as u32;
-        let width = (200 + 18 * bars).clamp(720, 2400);
+        let width = (200 + 18 * bars)
+            .max(style::title_width(&self.title))
+            .clamp(720, 2400);
         let panels = self.units().len().max(1) as u32;
         (width, TITLE_HEIGHT + 50 + panels * PANEL_HEIGHT)
     }

@@ -28,6 +28,12 @@ pub fn title() -> TextStyle<'static> {
     (FONT, 20).into()
 }
 
+/// Pixels a figure needs across for its `title` in [`title`] text (DejaVu Sans averages
+/// about 0.55 em a character), with room on both sides.
+pub fn title_width(title: &str) -> u32 {
+    11 * title.chars().count() as u32 + 60
+}
+
 /// Text of a panel caption.
 pub fn caption() -> TextStyle<'static> {
     (FONT, 16).into()
