@@ -5,6 +5,9 @@
 
 use std::collections::HashMap;
 
+/// A curve: its points in order (the last equal to the first for a closed curve).
+pub type Polyline = Vec<[f64; 2]>;
+
 /// A cell edge: the lower-left grid node `(i, j)` and the direction (0: +x, 1: +y).
 type Edge = (usize, usize, u8);
 
@@ -48,7 +51,7 @@ pub fn zero_contours(
     samples: Samples<'_>,
     undefined: Undefined,
     refine: &dyn Fn([f64; 2], [f64; 2]) -> [f64; 2],
-) -> Vec<Vec<[f64; 2]>> {
+) -> Vec<Polyline> {
     let nx = samples.values.len();
     let ny = samples.values.first().map_or(0, Vec::len);
     if nx < 2 || ny < 2 {
@@ -68,10 +71,12 @@ pub fn zero_contours(
             let (pa, pb) = (samples.point(a.0, a.1), samples.point(b.0, b.1));
             match (value(a.0, a.1), value(b.0, b.1)) {
                 (Some(va), Some(vb)) => {
-                    let t = if va == vb {
-                        0.5
+                    // The ends lie on opposite sides, so the difference is not zero.
+                    let difference = va - vb;
+                    let t = if difference.abs() > f64::MIN_POSITIVE {
+                        (va / difference).clamp(0.0, 1.0)
                     } else {
-                        (va / (va - vb)).clamp(0.0, 1.0)
+                        0.5
                     };
                     [pa[0] + t * (pb[0] - pa[0]), pa[1] + t * (pb[1] - pa[1])]
                 }

@@ -5,7 +5,7 @@
 
 use std::collections::VecDeque;
 
-use super::contour::{zero_contours, Samples, Undefined};
+use super::contour::{zero_contours, Polyline, Samples, Undefined};
 use super::miw::{Miw, SingularityMargin};
 use crate::kinematics::inverse::LegSolution;
 use crate::report::plots::workspace::{PoseGroup, WorkspaceFigure};
@@ -37,7 +37,7 @@ pub fn workspace_figure(
     }
     let pad = 0.25 * (hi[0] - lo[0]).max(hi[1] - lo[1]);
     let (lo, hi) = ([lo[0] - pad, lo[1] - pad], [hi[0] + pad, hi[1] + pad]);
-    let (serial, parallel) = singular_curves(margin, (lo, hi), miw.centre, GRID);
+    let SingularCurves { serial, parallel } = singular_curves(margin, (lo, hi), miw.centre, GRID);
     WorkspaceFigure {
         title: title.to_string(),
         region: miw.boundary.clone(),
@@ -50,6 +50,15 @@ pub fn workspace_figure(
     }
 }
 
+/// The singular curves of a region.
+#[derive(Debug, Clone, PartialEq)]
+pub struct SingularCurves {
+    /// Zero crossings of the smallest serial measure (a leg stretched, folded, out of reach).
+    pub serial: Vec<Polyline>,
+    /// Zero crossings of the parallel measure.
+    pub parallel: Vec<Polyline>,
+}
+
 /// Polylines of the serial (smallest leg measure) and parallel zero crossings over the
 /// rectangle `lo`–`hi`, continuing the legs' solutions from `start` (a point inside the
 /// singularity-free region, such as the MIW centre), on a grid of `cells × cells` cells.
@@ -58,7 +67,7 @@ pub fn singular_curves(
     (lo, hi): ([f64; 2], [f64; 2]),
     start: [f64; 2],
     cells: usize,
-) -> (Vec<Vec<[f64; 2]>>, Vec<Vec<[f64; 2]>>) {
+) -> SingularCurves {
     let cells = cells.max(1);
     let step = [
         (hi[0] - lo[0]) / cells as f64,
@@ -116,7 +125,7 @@ pub fn singular_curves(
         Undefined::Skip,
         &|a, _| a,
     );
-    (serial, parallel)
+    SingularCurves { serial, parallel }
 }
 
 /// The measures and the legs' solutions at one grid node.

@@ -109,7 +109,8 @@ fn the_5r_serial_curves_are_the_reach_circles_not_a_staircase() {
     let margin = SingularityMargin::new(&mech).unwrap();
     let (lo, hi) = ([-2.0, -1.2], [2.0, 2.8]);
     let cells = 50;
-    let (serial, parallel) = singular_curves(&margin, (lo, hi), [0.0, 1.0956522], cells);
+    let curves = singular_curves(&margin, (lo, hi), [0.0, 1.0956522], cells);
+    let (serial, parallel) = (curves.serial, curves.parallel);
     let spacing = 4.0 / cells as f64;
     let mut points = 0;
     let mut worst: f64 = 0.0;
