@@ -1,60 +1,74 @@
 //! `legwise evaluate`.
 
-use super::EvaluateArgs;
+use super::console::Console;
+use super::output::{Input, Output};
+use super::{EvaluateArgs, Verdict};
 use crate::evaluate::held_out::evaluate;
 use crate::evaluate::report::{evaluation_json, evaluation_text};
 use crate::measure::file;
 use crate::model::Mechanism;
-use crate::report::calibrated::{refuse_overwriting_inputs, write_atomically};
-use crate::report::plots::files::write_evaluate_plots;
-use crate::report::plots::Format;
+use crate::report::plots::files::{evaluate_picture, POSITION_ERRORS};
 
-pub(super) fn run(args: &EvaluateArgs) -> anyhow::Result<()> {
-    let mut inputs = vec![args.model.as_path(), args.measurements.as_path()];
-    inputs.extend(args.against.as_deref());
+pub(super) fn run(args: &EvaluateArgs) -> anyhow::Result<Verdict> {
     let mechanism = Mechanism::load(&args.model)?;
     let other = args.against.as_deref().map(Mechanism::load).transpose()?;
-    let urdfs: Vec<_> = std::iter::once(&mechanism)
-        .chain(&other)
-        .map(|m| m.urdf_path.clone())
-        .collect();
-    inputs.extend(urdfs.iter().map(|p| p.as_path()));
-    if let Some(path) = &args.json {
-        refuse_overwriting_inputs(&[path], &inputs)?;
+    let mut inputs = super::model_inputs(&args.model, &mechanism);
+    if let (Some(path), Some(other)) = (&args.against, &other) {
+        inputs.extend(super::model_inputs(path, other));
     }
-    if let Some(dir) = &args.plots {
-        crate::report::plots::output::check_directory(dir)?;
-    }
+    inputs.push(Input {
+        role: "measurement file",
+        path: &args.measurements,
+    });
+    let json_output = args
+        .json
+        .as_deref()
+        .map(|path| Output::prepare("--json", path, &inputs))
+        .transpose()?;
+    let format = super::pictures::format(args.png);
+    let picture_output = match &args.plots {
+        Some(dir) => super::pictures::prepare(dir, &[POSITION_ERRORS], format, &inputs)?.pop(),
+        None => None,
+    };
+    let mut console = Console::new(json_output.as_ref().is_some_and(Output::is_stdout));
     let evaluation = evaluate(&mechanism, &file::read(&args.measurements, &mechanism)?)?;
     let against = match &other {
         Some(other) => Some(evaluate(other, &file::read(&args.measurements, other)?)?),
         None => None,
     };
-    print!(
-        "{}",
-        evaluation_text(&mechanism, &evaluation, against.as_ref())
-    );
-    if let Some(path) = &args.json {
-        let text = serde_json::to_string_pretty(&evaluation_json(&evaluation, against.as_ref()))?;
-        write_atomically(path, &text)?;
-        println!("\nJSON written to {}", path.display());
+    // The file first: a closed terminal pipe must not lose it.
+    if let Some(output) = &json_output {
+        let value = evaluation_json(&evaluation, against.as_ref());
+        let text = serde_json::to_string_pretty(&value)? + "\n";
+        output.write("JSON evaluation", text.as_bytes())?;
     }
-    if let Some(dir) = &args.plots {
-        let name = |path: &std::path::Path| {
-            path.file_name().map_or(path.display().to_string(), |n| {
-                n.to_string_lossy().into_owned()
-            })
-        };
-        let (model, other) = (name(&args.model), args.against.as_deref().map(name));
+    if let Some(output) = &picture_output {
         // The other model (typically the nominal one) is drawn first, as "before".
+        let (model, other_name) = (
+            file_name(&args.model),
+            args.against.as_deref().map(file_name),
+        );
         let mut drawn = Vec::new();
-        if let (Some(other), Some(against)) = (&other, &against) {
-            drawn.push((other.as_str(), against));
+        if let (Some(name), Some(against)) = (&other_name, &against) {
+            drawn.push((name.as_str(), against));
         }
         drawn.push((model.as_str(), &evaluation));
-        let format = if args.png { Format::Png } else { Format::Svg };
-        let path = write_evaluate_plots(dir, format, &drawn, &inputs)?;
-        println!("picture written to {}", path.display());
+        output.write("picture", &evaluate_picture(&drawn, format)?)?;
     }
-    Ok(())
+    console.print(&evaluation_text(&mechanism, &evaluation, against.as_ref()))?;
+    if let Some(output) = json_output.filter(|o| !o.is_stdout()) {
+        console.line(format_args!("\nJSON written to {}", output.name()))?;
+    }
+    if let Some(output) = picture_output {
+        console.line(format_args!("picture written to {}", output.name()))?;
+    }
+    Ok(Verdict::Trusted)
+}
+
+/// A model's file name, for the picture's legend.
+fn file_name(path: &std::path::Path) -> String {
+    path.file_name().map_or_else(
+        || path.display().to_string(),
+        |n| n.to_string_lossy().into_owned(),
+    )
 }

@@ -1,31 +1,36 @@
 //! `legwise workspace`.
 
-use std::path::{Path, PathBuf};
+use std::fmt::Write as _;
+use std::path::PathBuf;
 
-use super::WorkspaceArgs;
+use super::console::Console;
+use super::output::{Input, Output};
+use super::{Verdict, WorkspaceArgs};
 use crate::measure::{file, MeasurementSet};
 use crate::model::mechanism::COORDINATES;
 use crate::model::Mechanism;
 use crate::report::plots::workspace::PoseGroup;
-use crate::report::plots::{self, Format};
+use crate::report::plots::{render, Format};
 use crate::workspace::miw::{maximal_inscribed_workspace, MiwOptions, SingularityMargin};
 use crate::workspace::picture::workspace_figure;
 
-pub(super) fn run(args: &WorkspaceArgs) -> anyhow::Result<()> {
+pub(super) fn run(args: &WorkspaceArgs) -> anyhow::Result<Verdict> {
+    let rays = super::checks::count("--rays", args.rays, 16, 100_000)?;
     let mechanism = Mechanism::load(&args.model)?;
-    if !(16..=100_000).contains(&args.rays) {
-        anyhow::bail!(
-            "--rays: expected between 16 and 100000, found {}",
-            args.rays
-        );
-    }
-    let path = picture_path(args)?;
+    let (path, format) = picture_path(args)?;
+    let mut inputs = super::model_inputs(&args.model, &mechanism);
+    inputs.extend(args.poses.as_deref().map(|path| Input {
+        role: "pose file",
+        path,
+    }));
+    let output = Output::prepare("--out", &path, &inputs)?;
     let poses = match &args.poses {
         Some(poses) => pose_groups(&mechanism, &file::read_poses(poses, &mechanism)?),
         None => Vec::new(),
     };
+    let mut console = Console::new(output.is_stdout());
     let options = MiwOptions {
-        rays: args.rays,
+        rays,
         ..MiwOptions::for_mechanism(&mechanism)
     };
     let miw = maximal_inscribed_workspace(&mechanism, options)?;
@@ -35,41 +40,46 @@ pub(super) fn run(args: &WorkspaceArgs) -> anyhow::Result<()> {
         .filter(|&&c| c >= 2)
         .map(|&c| format!("{} = {}", COORDINATES[c], mechanism.home_pose[c]))
         .collect();
-    println!(
+    let mut text = String::new();
+    writeln!(
+        text,
         "legwise workspace: {} ({})",
         mechanism.name,
         mechanism.model_path.display()
-    );
+    )?;
     if let Some(mode) = &mechanism.mode {
-        println!("mode: {mode}");
+        writeln!(text, "mode: {mode}")?;
     }
     if !held.is_empty() {
-        println!(
+        writeln!(
+            text,
             "constant-orientation region at the home values: {}",
             held.join(", ")
-        );
+        )?;
     }
-    println!("maximal inscribed workspace (MIW):");
-    println!(
+    writeln!(text, "maximal inscribed workspace (MIW):")?;
+    writeln!(
+        text,
         "  centre  x = {:.7} m, y = {:.7} m",
         crate::report::tidy(miw.centre[0], 7),
         crate::report::tidy(miw.centre[1], 7)
-    );
-    println!("  radius  {:.7} m", miw.radius);
+    )?;
+    writeln!(text, "  radius  {:.7} m", miw.radius)?;
     let margin = SingularityMargin::new(&mechanism)?;
     let title = format!("{}: singularity-free region and MIW", mechanism.name);
     let figure = workspace_figure(&margin, &miw, &title, poses);
-    let mut inputs: Vec<&Path> = vec![&args.model, &mechanism.model_path];
-    inputs.extend(args.poses.as_deref());
-    plots::write(&figure, &path, &inputs)
-        .map_err(|e| anyhow::anyhow!("cannot write the picture: {e}"))?;
-    println!("picture written to {}", path.display());
-    Ok(())
+    output.write("picture", &render(&figure, format)?)?;
+    console.print(&text)?;
+    console.line(format_args!("picture written to {}", output.name()))?;
+    Ok(Verdict::Trusted)
 }
 
-/// `--out`, checked for a known extension before any work, or the default name.
-fn picture_path(args: &WorkspaceArgs) -> anyhow::Result<PathBuf> {
+/// `--out` (`-`: standard output), its format by the extension (or `--png` for standard
+/// output), checked before any work; or the default `<model name>-workspace.svg|png`.
+fn picture_path(args: &WorkspaceArgs) -> anyhow::Result<(PathBuf, Format)> {
+    let png = super::pictures::format(args.png);
     match &args.out {
+        Some(path) if path.as_os_str() == "-" => Ok((path.clone(), png)),
         Some(path) => {
             let format = Format::from_path(path)?;
             if args.png && format != Format::Png {
@@ -78,23 +88,22 @@ fn picture_path(args: &WorkspaceArgs) -> anyhow::Result<PathBuf> {
                     path.display()
                 );
             }
-            Ok(path.clone())
+            Ok((path.clone(), format))
         }
         None => {
             let stem = args
                 .model
                 .file_stem()
                 .map_or("model".into(), |s| s.to_string_lossy().into_owned());
-            let format = if args.png { Format::Png } else { Format::Svg };
-            Ok(PathBuf::from(format!(
-                "{stem}-workspace.{}",
-                format.extension()
-            )))
+            Ok((
+                PathBuf::from(format!("{stem}-workspace.{}", png.extension())),
+                png,
+            ))
         }
     }
 }
 
-/// The poses of a measurement file, grouped by their leg label (shared poses last).
+/// The poses of a pose file, grouped by their leg label (shared poses last).
 fn pose_groups(mechanism: &Mechanism, set: &MeasurementSet) -> Vec<PoseGroup> {
     let source = set
         .source

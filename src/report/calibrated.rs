@@ -4,8 +4,7 @@
 //! Joint-origin parameters go into the URDF (`OUT.urdf`, beside `OUT.yaml` and named by its
 //! `urdf` field); actuator gains and offsets and platform attachments into the model file. The
 //! model file's header comments say where the values came from and give each parameter's σ.
-//! Outputs never overwrite an input, and each file is written through a temporary file renamed
-//! into place.
+//! This module makes the texts; the command line writes them (never over an input).
 
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
@@ -33,93 +32,39 @@ pub struct Calibration<'a> {
     pub note: Option<&'a str>,
 }
 
-/// Writes the calibrated model to `out` (YAML) and its URDF beside it (`out` with extension
-/// `urdf`); returns the URDF path. `inputs` are further files that must not be overwritten (the
-/// measurement file); the model and its URDF are always protected.
+/// The two files of a calibrated model.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct CalibratedFiles {
+    /// The model file (YAML), naming the URDF.
+    pub yaml: String,
+    /// The URDF.
+    pub urdf: String,
+}
+
+/// The URDF path of the calibrated model file `out`: beside it, extension `urdf`.
 ///
 /// # Errors
-/// An output that is an input (after canonicalisation), an output whose extension is `urdf`,
-/// an unreadable model or URDF, or a failed write.
-pub fn write_calibrated(
-    calibration: &Calibration<'_>,
-    out: &Path,
-    inputs: &[&Path],
-) -> Result<PathBuf> {
-    let mechanism = calibration.mechanism;
+/// [`Error::Invalid`] when `out` itself has the extension `urdf` (both files would coincide).
+pub fn urdf_path(out: &Path) -> Result<PathBuf> {
     if out.extension().is_some_and(|e| e == "urdf") {
         return Err(Error::Invalid(format!(
-            "--calibrated {}: the model file needs another extension than .urdf (the URDF is written beside it)",
+            "{}: --calibrated needs another extension than .urdf (the URDF is written beside it)",
             out.display()
         )));
     }
-    let urdf_out = out.with_extension("urdf");
-    let mut protected = vec![
-        mechanism.model_path.as_path(),
-        mechanism.urdf_path.as_path(),
-    ];
-    protected.extend_from_slice(inputs);
-    refuse_overwriting_inputs(&[out, &urdf_out], &protected)?;
+    Ok(out.with_extension("urdf"))
+}
+
+/// The calibrated model file and URDF; the model file names the URDF `urdf_name` (a path
+/// relative to the model file: normally the file name of [`urdf_path`]).
+///
+/// # Errors
+/// The model file or the URDF cannot be read again, or the model cannot be serialised.
+pub fn calibrated_files(calibration: &Calibration<'_>, urdf_name: &str) -> Result<CalibratedFiles> {
     let values = calibrated_values(calibration);
-    let urdf_text = calibrated_urdf(calibration, &values)?;
-    let yaml_text = calibrated_yaml(calibration, &values, &urdf_out)?;
-    write_atomically(&urdf_out, &urdf_text)?;
-    write_atomically(out, &yaml_text)?;
-    Ok(urdf_out)
-}
-
-/// Fails if one of `outputs` is one of `inputs` (compared after canonicalisation; an output that
-/// does not exist yet is compared through its canonical parent directory).
-///
-/// # Errors
-/// [`Error::Invalid`] naming the output and the input it would overwrite.
-pub fn refuse_overwriting_inputs(outputs: &[&Path], inputs: &[&Path]) -> Result<()> {
-    let inputs: Vec<(PathBuf, &Path)> = inputs.iter().map(|p| (canonical(p), *p)).collect();
-    for output in outputs {
-        let target = canonical(output);
-        if let Some((_, input)) = inputs.iter().find(|(c, _)| *c == target) {
-            return Err(Error::Invalid(format!(
-                "{}: refusing to overwrite an input file ({})",
-                output.display(),
-                input.display()
-            )));
-        }
-    }
-    Ok(())
-}
-
-/// The canonical form of a path that may not exist yet.
-fn canonical(path: &Path) -> PathBuf {
-    if let Ok(p) = path.canonicalize() {
-        return p;
-    }
-    let parent = match path.parent() {
-        Some(p) if !p.as_os_str().is_empty() => p,
-        _ => Path::new("."),
-    };
-    match (parent.canonicalize(), path.file_name()) {
-        (Ok(dir), Some(name)) => dir.join(name),
-        _ => path.to_path_buf(),
-    }
-}
-
-/// Writes `text` to a temporary file beside `path`, then renames it into place.
-///
-/// # Errors
-/// [`Error::Io`] naming `path`.
-pub fn write_atomically(path: &Path, text: &str) -> Result<()> {
-    let name = path.file_name().map_or_else(
-        || "output".to_string(),
-        |n| n.to_string_lossy().into_owned(),
-    );
-    let temporary = path.with_file_name(format!(".{name}.{}.tmp", std::process::id()));
-    let io = |error| Error::Io {
-        path: path.to_path_buf(),
-        error,
-    };
-    std::fs::write(&temporary, text).map_err(io)?;
-    std::fs::rename(&temporary, path).map_err(|error| {
-        let _ = std::fs::remove_file(&temporary);
-        io(error)
+    Ok(CalibratedFiles {
+        urdf: calibrated_urdf(calibration, &values)?,
+        yaml: calibrated_yaml(calibration, &values, urdf_name)?,
     })
 }
 
@@ -190,13 +135,11 @@ fn calibrated_urdf(
 fn calibrated_yaml(
     calibration: &Calibration<'_>,
     values: &[Vec<(f64, Option<f64>)>],
-    urdf_out: &Path,
+    urdf_name: &str,
 ) -> Result<String> {
     let mechanism = calibration.mechanism;
     let mut file = ModelFile::read(&mechanism.model_path)?;
-    file.urdf = urdf_out
-        .file_name()
-        .map_or_else(String::new, |n| n.to_string_lossy().into_owned());
+    file.urdf = urdf_name.to_string();
     for (leg, leg_values) in mechanism.legs.iter().zip(values) {
         let Some(entry) = file.legs.iter_mut().find(|e| e.name == leg.name) else {
             continue;
@@ -225,14 +168,14 @@ fn calibrated_yaml(
         path: mechanism.model_path.clone(),
         message: format!("cannot write the calibrated model: {e}"),
     })?;
-    Ok(format!("{}{body}", header(calibration, values, urdf_out)))
+    Ok(format!("{}{body}", header(calibration, values, urdf_name)))
 }
 
 /// The comment block at the top of the calibrated model file.
 fn header(
     calibration: &Calibration<'_>,
     values: &[Vec<(f64, Option<f64>)>],
-    urdf_out: &Path,
+    urdf_name: &str,
 ) -> String {
     let mechanism = calibration.mechanism;
     let result = calibration.result;
@@ -256,11 +199,7 @@ fn header(
         mechanism.model_path.display()
     ));
     lines.push(format!(
-        "{}, actuator gains and offsets and attachments below.",
-        urdf_out.file_name().map_or_else(
-            || urdf_out.display().to_string(),
-            |n| n.to_string_lossy().into_owned()
-        )
+        "{urdf_name}, actuator gains and offsets and attachments below."
     ));
     if calibration.real.is_some() {
         lines.push(

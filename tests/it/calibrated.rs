@@ -10,7 +10,7 @@ use legwise::identify::problem::IdentificationProblem;
 use legwise::measure::file;
 use legwise::measure::simulate::{simulate, SimulationOptions};
 use legwise::model::Mechanism;
-use legwise::report::calibrated::{write_calibrated, Calibration};
+use legwise::report::calibrated::{calibrated_files, urdf_path, Calibration};
 use legwise::solver::SolverKind;
 use nalgebra::DVector;
 
@@ -35,8 +35,11 @@ fn identifying_again_from_the_calibrated_model_is_a_fixed_point_without_iteratio
             real: None,
             note: None,
         };
-        let urdf = write_calibrated(&calibration, &out, &[&csv]).unwrap();
+        let urdf = urdf_path(&out).unwrap();
         assert_eq!(urdf, dir.path().join("calibrated.urdf"));
+        let files = calibrated_files(&calibration, "calibrated.urdf").unwrap();
+        std::fs::write(&urdf, &files.urdf).unwrap();
+        std::fs::write(&out, &files.yaml).unwrap();
 
         let calibrated = Mechanism::load(&out).unwrap();
         assert_eq!(calibrated.urdf_path, urdf);
@@ -70,7 +73,7 @@ fn identifying_again_from_the_calibrated_model_is_a_fixed_point_without_iteratio
 }
 
 #[test]
-fn outputs_that_would_overwrite_an_input_are_refused() {
+fn outputs_that_would_overwrite_an_input_are_refused_before_any_work() {
     let dir = tempfile::tempdir().unwrap();
     for file_name in ["5r.yaml", "5r.urdf"] {
         std::fs::copy(
@@ -79,48 +82,52 @@ fn outputs_that_would_overwrite_an_input_are_refused() {
         )
         .unwrap();
     }
-    let model = dir.path().join("5r.yaml");
-    let mechanism = Mechanism::load(&model).unwrap();
-    let experiment = simulate(&mechanism, SimulationOptions::default()).unwrap();
     let csv = dir.path().join("m.csv");
-    file::write(&csv, &mechanism, &experiment.measurements).unwrap();
-    let result = identify(
-        &mechanism,
-        &experiment.measurements,
-        Strategy::DivideAndConquer,
-        SolverKind::GaussNewton,
-    )
-    .unwrap();
-    let calibration = Calibration {
-        mechanism: &mechanism,
-        result: &result,
-        source: "test",
-        real: None,
-        note: None,
-    };
-    let snapshot = |p: &Path| std::fs::read(p).unwrap();
-    let originals: Vec<_> = [&model, &dir.path().join("5r.urdf"), &csv]
-        .iter()
-        .map(|p| snapshot(p))
-        .collect();
+    std::fs::copy(crate_path("tests/data/valid.csv"), &csv).unwrap();
+    let snapshot =
+        || ["5r.yaml", "5r.urdf", "m.csv"].map(|f| std::fs::read(dir.path().join(f)).unwrap());
+    let originals = snapshot();
     let sub = dir.path().join("sub");
     std::fs::create_dir(&sub).unwrap();
-    for out in [
-        model.clone(),             // the model itself
-        sub.join("../5r.yml"),     // its URDF would be 5r.urdf, the model's URDF
-        dir.path().join("m.csv"),  // the measurements
-        dir.path().join("m.urdf"), // an extension the URDF needs
+    let model = dir.path().join("5r.yaml");
+    for (out, expected) in [
+        (model.clone(), "would overwrite the model file"),
+        // Its URDF would be 5r.urdf, the model's URDF, reached through another path.
+        (sub.join("../5r.yml"), "would overwrite the URDF"),
+        (csv.clone(), "would overwrite the measurement file"),
+        (dir.path().join("m.urdf"), "another extension than .urdf"),
     ] {
-        let error = write_calibrated(&calibration, &out, &[&csv]).unwrap_err();
-        assert!(error.to_string().contains(".urdf") || error.to_string().contains("refusing"));
+        let output = legwise(&[
+            "identify",
+            "--model",
+            model.to_str().unwrap(),
+            "--measurements",
+            csv.to_str().unwrap(),
+            "--calibrated",
+            out.to_str().unwrap(),
+        ]);
+        let stderr = String::from_utf8_lossy(&output.stderr);
+        assert_eq!(output.status.code(), Some(2), "{out:?}: {stderr}");
+        assert!(stderr.contains(expected), "{out:?}: {stderr}");
+        assert!(output.stdout.is_empty(), "refused before identifying");
     }
-    let after: Vec<_> = [&model, &dir.path().join("5r.urdf"), &csv]
-        .iter()
-        .map(|p| snapshot(p))
-        .collect();
-    assert_eq!(originals, after);
-    write_calibrated(&calibration, &sub.join("..").join("m.yaml"), &[&csv]).unwrap();
-    assert!(Mechanism::load(&dir.path().join("m.yaml")).is_ok());
+    assert_eq!(snapshot(), originals);
+    // Two outputs of one run naming the same file.
+    let out = dir.path().join("cal.yaml");
+    let output = legwise(&[
+        "identify",
+        "--model",
+        model.to_str().unwrap(),
+        "--measurements",
+        csv.to_str().unwrap(),
+        "--calibrated",
+        out.to_str().unwrap(),
+        "--json",
+        sub.join("../cal.urdf").to_str().unwrap(),
+    ]);
+    assert_eq!(output.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&output.stderr).contains("would write the same file"));
+    assert!(!out.exists());
 }
 
 #[test]

@@ -113,7 +113,7 @@ fn json_output_may_not_overwrite_an_input() {
         "models/../models/5r.urdf",
     ]);
     assert_eq!(out.status.code(), Some(2));
-    assert!(String::from_utf8_lossy(&out.stderr).contains("refusing to overwrite an input file"));
+    assert!(String::from_utf8_lossy(&out.stderr).contains("--json would overwrite the URDF"));
     assert_eq!(std::fs::read(crate_path("models/5r.urdf")).unwrap(), before);
 }
 

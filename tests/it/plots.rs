@@ -9,7 +9,7 @@ use legwise::measure::simulate::{simulate, SimulationOptions};
 use legwise::report::plots::distribution::{ErrorDistribution, ErrorSample};
 use legwise::report::plots::error_map::{ErrorMapFigure, MapCell, MapPanel};
 use legwise::report::plots::parameter_errors::ParameterErrors;
-use legwise::report::plots::{render, write, Figure, Format};
+use legwise::report::plots::{render, Figure, Format};
 use legwise::report::IdentifyReport;
 use legwise::solver::SolverKind;
 
@@ -220,40 +220,62 @@ fn a_png_renders_with_the_embedded_font() {
 }
 
 #[test]
-fn bad_picture_paths_are_refused_with_a_clear_error() {
+fn bad_picture_paths_are_refused_before_any_work_with_a_clear_error() {
     let dir = tempfile::tempdir().unwrap();
-    let figure = small_map();
-    let missing = dir.path().join("no/such/dir/map.svg");
-    let error = write(&figure, &missing, &[]).unwrap_err().to_string();
-    assert!(error.contains("does not exist"), "{error}");
-    let jpeg = dir.path().join("map.jpg");
-    let error = write(&figure, &jpeg, &[]).unwrap_err().to_string();
+    let workspace = |out: &Path| {
+        legwise(&[
+            "workspace",
+            "--model",
+            "models/5r.yaml",
+            "--out",
+            out.to_str().unwrap(),
+        ])
+    };
+    let refused = |out: std::process::Output| {
+        assert_eq!(out.status.code(), Some(2));
+        assert!(out.stdout.is_empty(), "nothing done");
+        String::from_utf8_lossy(&out.stderr).into_owned()
+    };
+    let missing = dir.path().join("no/such/dir/ws.svg");
+    let stderr = refused(workspace(&missing));
+    assert!(stderr.contains("no/such/dir"), "{stderr}");
+    let jpeg = dir.path().join("ws.jpg");
+    let stderr = refused(workspace(&jpeg));
     assert!(
-        error.contains("map.jpg") && error.contains("ending in .svg or .png"),
-        "{error}"
+        stderr.contains("ws.jpg") && stderr.contains("ending in .svg or .png"),
+        "{stderr}"
     );
-    let input = dir.path().join("input.svg");
-    std::fs::write(&input, "keep me").unwrap();
-    let error = write(&figure, &input, &[input.as_path()])
-        .unwrap_err()
-        .to_string();
+    let out = legwise(&[
+        "workspace",
+        "--model",
+        "models/5r.yaml",
+        "--png",
+        "--out",
+        dir.path().join("ws.svg").to_str().unwrap(),
+    ]);
+    let stderr = refused(out);
     assert!(
-        error.contains("refusing to overwrite an input file"),
-        "{error}"
+        stderr.contains("--png") && stderr.contains("does not end in .png"),
+        "{stderr}"
     );
-    assert_eq!(std::fs::read_to_string(&input).unwrap(), "keep me");
-    let error = write(&figure, dir.path(), &[]).unwrap_err().to_string();
-    assert!(error.contains("cannot tell the picture format") || error.contains("directory"));
-    // A good path: written whole, no temporary file left behind.
-    let good = dir.path().join("map.png");
-    write(&figure, &good, &[]).unwrap();
-    assert!(std::fs::read(&good).unwrap().starts_with(b"\x89PNG"));
-    let left: Vec<_> = std::fs::read_dir(dir.path())
-        .unwrap()
-        .map(|e| e.unwrap().file_name())
-        .filter(|n| n.to_string_lossy().ends_with(".tmp"))
-        .collect();
-    assert!(left.is_empty(), "{left:?}");
+    // A pose file is an input: never overwritten by the picture.
+    let poses = dir.path().join("poses.svg");
+    std::fs::write(&poses, "leg,x,y,A1,A2\n,0.0,1.1,,\n").unwrap();
+    let out = legwise(&[
+        "workspace",
+        "--model",
+        "models/5r.yaml",
+        "--poses",
+        poses.to_str().unwrap(),
+        "--out",
+        poses.to_str().unwrap(),
+    ]);
+    let stderr = refused(out);
+    assert!(stderr.contains("pose file"), "{stderr}");
+    assert_eq!(
+        std::fs::read_to_string(&poses).unwrap(),
+        "leg,x,y,A1,A2\n,0.0,1.1,,\n"
+    );
 }
 
 fn legwise(args: &[&str]) -> std::process::Output {
@@ -334,5 +356,62 @@ fn identify_plots_needs_a_simulation_and_a_directory() {
     ]);
     assert_eq!(out.status.code(), Some(2));
     let stderr = String::from_utf8_lossy(&out.stderr);
-    assert!(stderr.contains("is not a directory"), "{stderr}");
+    assert!(stderr.contains("--plots expects a directory"), "{stderr}");
+}
+
+#[test]
+fn evaluate_plots_draws_the_distribution_of_every_full_row() {
+    let dir = tempfile::tempdir().unwrap();
+    let csv = dir.path().join("held.csv");
+    let out = legwise(&[
+        "simulate",
+        "--model",
+        "models/5r.yaml",
+        "--poses",
+        "random",
+        "--seed",
+        "7",
+        "--out",
+        csv.to_str().unwrap(),
+    ]);
+    assert_eq!(out.status.code(), Some(0));
+    // Rows holding both readings (the shared poses), counted from the file itself.
+    let full_rows = std::fs::read_to_string(&csv)
+        .unwrap()
+        .lines()
+        .skip(1)
+        .filter(|row| row.split(',').skip(3).all(|cell| !cell.is_empty()))
+        .count();
+    assert!(full_rows > 0);
+    let plots = dir.path().join("pictures");
+    let out = legwise(&[
+        "evaluate",
+        "--model",
+        "models/5r.yaml",
+        "--against",
+        "models/5r.yaml",
+        "--measurements",
+        csv.to_str().unwrap(),
+        "--plots",
+        plots.to_str().unwrap(),
+    ]);
+    assert_eq!(
+        out.status.code(),
+        Some(0),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let svg = std::fs::read_to_string(plots.join("position-errors.svg")).unwrap();
+    let texts = texts(&svg);
+    assert!(
+        texts
+            .iter()
+            .any(|t| t.starts_with("position errors on ") && t.ends_with("held.csv")),
+        "{texts:?}"
+    );
+    let legends: Vec<&String> = texts
+        .iter()
+        .filter(|t| t.starts_with("5r.yaml: RMS ") && t.ends_with(&format!("({full_rows} poses)")))
+        .collect();
+    assert_eq!(legends.len(), 2, "both models named: {texts:?}");
 }

@@ -131,14 +131,3 @@ fn encode_png(
     }
     Ok(bytes)
 }
-
-/// Renders `figure` to `path` in the format its extension names, through a temporary file in
-/// the same directory, refusing to overwrite any of `inputs`.
-///
-/// # Errors
-/// As [`Format::from_path`], [`render`] and [`super::output::write_new`].
-pub fn write(figure: &impl Figure, path: &Path, inputs: &[&Path]) -> Result<()> {
-    let format = Format::from_path(path)?;
-    let bytes = render(figure, format)?;
-    super::output::write_new(path, &bytes, inputs)
-}

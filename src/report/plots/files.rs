@@ -1,12 +1,9 @@
 //! The pictures of `identify --plots DIR` and `evaluate --plots DIR`: which figures, from which
 //! reports, under which file names.
 
-use std::path::{Path, PathBuf};
-
-use super::canvas::{render, Figure, Format};
+use super::canvas::{render, Format};
 use super::distribution::{ErrorDistribution, ErrorSample};
 use super::error_map::{ErrorMapFigure, MapPanel};
-use super::output::{ensure_directory, write_new};
 use super::parameter_errors::ParameterErrors;
 use crate::error::{Error, Result};
 use crate::evaluate::accuracy::AccuracyMap;
@@ -29,40 +26,33 @@ pub struct Maps<'a> {
     pub after: &'a [AccuracyMap],
 }
 
-fn write_one(
-    figure: &impl Figure,
-    dir: &Path,
-    name: &str,
-    format: Format,
-    inputs: &[&Path],
-) -> Result<PathBuf> {
-    let path = dir.join(format!("{name}.{}", format.extension()));
-    write_new(&path, &render(figure, format)?, inputs)?;
-    Ok(path)
+/// The file names (without extension) [`identify_pictures`] draws, with or without maps.
+pub fn identify_picture_names(maps: bool) -> Vec<&'static str> {
+    let mut names = vec![PARAMETER_ERRORS];
+    if maps {
+        names.push(ACCURACY_MAP);
+    }
+    names
 }
 
-/// Writes the identification pictures into `dir`: the parameter errors (needs the real values)
-/// and, when `maps` are given, the accuracy map with the identification `poses` (x, y) on it.
-/// Returns the files written.
+/// The identification pictures, in the order of [`identify_picture_names`]: the parameter
+/// errors (needs the real values) and, when `maps` are given, the accuracy map with the
+/// identification `poses` (x, y) on it.
 ///
 /// # Errors
-/// The report has no real values (measurements from a file); the directory cannot be created
-/// or a picture cannot be drawn or written.
-pub fn write_identify_plots(
-    dir: &Path,
-    format: Format,
+/// The report has no real values (measurements from a file), or a picture cannot be drawn.
+pub fn identify_pictures(
     report: &IdentifyReport<'_>,
     maps: Option<Maps<'_>>,
     poses: &[[f64; 2]],
-    inputs: &[&Path],
-) -> Result<Vec<PathBuf>> {
+    format: Format,
+) -> Result<Vec<Vec<u8>>> {
     let errors = ParameterErrors::from_report(report).ok_or_else(|| {
         Error::Invalid(
             "--plots: the parameter errors need the real values, known only in simulation".into(),
         )
     })?;
-    ensure_directory(dir)?;
-    let mut written = vec![write_one(&errors, dir, PARAMETER_ERRORS, format, inputs)?];
+    let mut pictures = vec![render(&errors, format)?];
     if let Some(maps) = maps {
         let mut panels = vec![MapPanel::from_map("before (nominal model)", maps.before)];
         for (result, map) in report.results.iter().zip(maps.after) {
@@ -80,22 +70,17 @@ pub fn write_identify_plots(
             panels,
             poses: poses.to_vec(),
         };
-        written.push(write_one(&figure, dir, ACCURACY_MAP, format, inputs)?);
+        pictures.push(render(&figure, format)?);
     }
-    Ok(written)
+    Ok(pictures)
 }
 
-/// Writes the evaluation picture into `dir`: the distribution of position errors of each
-/// `(name, evaluation)`, the first drawn as "before". Returns the file written.
+/// The evaluation picture: the distribution of position errors of each `(name, evaluation)`,
+/// the first drawn as "before".
 ///
 /// # Errors
-/// The directory cannot be created or the picture cannot be drawn or written.
-pub fn write_evaluate_plots(
-    dir: &Path,
-    format: Format,
-    evaluations: &[(&str, &Evaluation)],
-    inputs: &[&Path],
-) -> Result<PathBuf> {
+/// The picture cannot be drawn.
+pub fn evaluate_picture(evaluations: &[(&str, &Evaluation)], format: Format) -> Result<Vec<u8>> {
     let measurements = evaluations
         .first()
         .map_or(String::new(), |(_, e)| e.measurements.clone());
@@ -113,6 +98,5 @@ pub fn write_evaluate_plots(
             })
             .collect(),
     };
-    ensure_directory(dir)?;
-    write_one(&figure, dir, POSITION_ERRORS, format, inputs)
+    render(&figure, format)
 }

@@ -2,8 +2,8 @@
 //! embedded DejaVu Sans font so that no system font is needed.
 //!
 //! Each figure is a plain data type (trivially filled from the reports) implementing
-//! [`Figure`]; [`render`] turns it into file bytes and [`write`] writes it to a path, choosing
-//! the format by the extension.
+//! [`Figure`]; [`render`] turns it into the bytes of an SVG or PNG file (the command line
+//! writes them through its checked outputs).
 //!
 //! * [`parameter_errors`] — parameter errors before and after identification (the paper's Fig. 3);
 //! * [`error_map`] — the position-error map over the workspace, before and after (Fig. 4);
@@ -14,9 +14,8 @@ pub mod canvas;
 pub mod distribution;
 pub mod error_map;
 pub mod files;
-pub mod output;
 pub mod parameter_errors;
 pub mod style;
 pub mod workspace;
 
-pub use canvas::{render, write, Figure, Format};
+pub use canvas::{render, Figure, Format};
