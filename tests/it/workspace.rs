@@ -151,7 +151,7 @@ fn workspace_draws_a_pose_file_on_the_picture() {
                 "--model",
                 "models/5r.yaml",
                 "--rays",
-                "64",
+                "16",
                 "--poses",
             ])
             .arg(&poses)
