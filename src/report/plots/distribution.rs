@@ -100,7 +100,13 @@ impl Figure for ErrorDistribution {
             .draw()?;
         for (s, sample) in self.samples.iter().enumerate() {
             let mm = sorted_mm(&sample.errors_m);
+            let y = 4 + (s as u32 * LEGEND_ROW) as i32;
             if mm.is_empty() {
+                legend_area.draw(&Text::new(
+                    format!("{}: no pose could be assembled", sample.name),
+                    (112, y),
+                    style::label(),
+                ))?;
                 continue;
             }
             let n = mm.len() as f64;
@@ -120,7 +126,6 @@ impl Figure for ErrorDistribution {
             });
             let colour = style::series_colour(s);
             chart.draw_series(LineSeries::new(steps, colour.stroke_width(2)))?;
-            let y = 4 + (s as u32 * LEGEND_ROW) as i32;
             legend_area.draw(&PathElement::new(
                 vec![(80, y + 7), (104, y + 7)],
                 colour.stroke_width(2),

@@ -7,7 +7,7 @@ use plotters::prelude::*;
 
 use super::canvas::Figure;
 use super::style;
-use crate::evaluate::accuracy::AccuracyMap;
+use crate::evaluate::accuracy::{AccuracyMap, ErrorStats};
 
 /// One grid point of a map.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -59,10 +59,10 @@ impl MapPanel {
         }
     }
 
-    fn rms_mm(&self) -> Option<f64> {
+    /// The statistics of the assembled points (m), as the terminal and JSON reports give them.
+    fn stats(&self) -> Option<ErrorStats> {
         let errors: Vec<f64> = self.cells.iter().filter_map(|c| c.error_m).collect();
-        (!errors.is_empty())
-            .then(|| 1e3 * (errors.iter().map(|e| e * e).sum::<f64>() / errors.len() as f64).sqrt())
+        ErrorStats::of(&errors)
     }
 
     /// The top of the colour scale (mm): the 99th percentile of the errors, so that a few
@@ -84,15 +84,6 @@ impl MapPanel {
         } else {
             1.0
         }
-    }
-
-    fn max_mm(&self) -> f64 {
-        self.cells
-            .iter()
-            .filter_map(|c| c.error_m)
-            .filter(|e| e.is_finite())
-            .fold(0.0, f64::max)
-            * 1e3
     }
 }
 
@@ -179,12 +170,12 @@ impl ErrorMapFigure {
         (lo, hi): ([f64; 2], [f64; 2]),
         top_mm: f64,
     ) -> Result<(), DrawingAreaErrorKind<DB::ErrorType>> {
-        let caption = match panel.rms_mm() {
-            Some(rms) => format!(
+        let caption = match panel.stats() {
+            Some(stats) => format!(
                 "{}: RMS {} mm, max {} mm",
                 panel.title,
-                style::short_number(rms),
-                style::short_number(panel.max_mm())
+                style::short_number(1e3 * stats.rms),
+                style::short_number(1e3 * stats.max)
             ),
             None => format!("{}: no assemblable point", panel.title),
         };
