@@ -7,7 +7,7 @@ use super::output::{Input, Output};
 use super::{IdentifyArgs, Verdict};
 use crate::evaluate::accuracy::{accuracy_map, map_grid, result_parameters, AccuracyMap};
 use crate::evaluate::report::{map_json, map_summary};
-use crate::identify::estimate::{identify, Strategy};
+use crate::identify::estimate::{identify_with, Strategy};
 use crate::identify::trust::trust_issues;
 use crate::measure::{file, MeasurementSet};
 use crate::model::Mechanism;
@@ -18,8 +18,8 @@ use crate::report::{json, terminal, IdentifyReport};
 const STDIN: &str = "<stdin>";
 
 pub(super) fn run(args: &IdentifyArgs) -> anyhow::Result<Verdict> {
-    args.simulation.options()?;
-    let mechanism = Mechanism::load(&args.model)?;
+    let options = args.simulation.options()?;
+    let mut mechanism = Mechanism::load(&args.model)?;
     let measurements = args.measurements.as_deref().filter(|p| !is_stdin(p));
     let mut inputs = super::model_inputs(&args.model, &mechanism);
     inputs.extend(measurements.map(|path| Input {
@@ -45,12 +45,23 @@ pub(super) fn run(args: &IdentifyArgs) -> anyhow::Result<Verdict> {
         }
         None => {
             let (experiment, source) = args.simulation.experiment(&mechanism)?;
+            // The simulated noise is the declared one scaled: so is what the fit expects.
+            if let Some(noise) = &mut mechanism.noise {
+                noise.pose = noise.pose.map(|s| s * options.noise_scale);
+                noise.reading *= options.noise_scale;
+            }
             (experiment.measurements, Some(experiment.real), source)
         }
     };
     let mut results = Vec::new();
     for strategy in args.strategy.strategies() {
-        results.push(identify(&mechanism, &data, strategy, args.solver.kind())?);
+        results.push(identify_with(
+            &mechanism,
+            &data,
+            strategy,
+            args.solver.kind(),
+            args.fit_options(),
+        )?);
     }
     let verdict = Verdict::from_reasons(trust_issues(&results));
     let report = IdentifyReport {

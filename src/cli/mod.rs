@@ -121,12 +121,58 @@ pub struct IdentifyArgs {
     /// then goes to standard error).
     #[arg(long)]
     pub json: Option<PathBuf>,
+    /// Row weights: none (ordinary least squares, the paper's method) or noise (each row by the
+    /// inverse of its expected residual variance under the model's `noise` block).
+    #[arg(long, value_enum, default_value_t = WeightsArg::None)]
+    pub weights: WeightsArg,
+    /// A robust loss inside the fit (scaled by the model's `noise` block): huber or cauchy.
+    #[arg(long, value_enum)]
+    pub robust: Option<RobustArg>,
+    /// Refit once without the rows flagged as outliers, and list them.
+    #[arg(long)]
+    pub drop_outliers: bool,
     /// Simulation overrides.
     #[command(flatten)]
     pub simulation: SimulationArgs,
     /// Calibrated model and accuracy map.
     #[command(flatten)]
     pub after: AfterFitArgs,
+}
+
+/// `--weights`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
+pub enum WeightsArg {
+    /// Unweighted.
+    None,
+    /// By the declared measurement noise.
+    Noise,
+}
+
+/// `--robust`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
+pub enum RobustArg {
+    /// Huber's loss (quadratic near zero, linear beyond 1.345 σ).
+    Huber,
+    /// Cauchy's loss (logarithmic beyond 2.385 σ: gross outliers get almost no weight).
+    Cauchy,
+}
+
+impl IdentifyArgs {
+    fn fit_options(&self) -> crate::identify::estimate::FitOptions {
+        use crate::identify::estimate::{FitOptions, Weighting};
+        use crate::identify::robust::RobustLoss;
+        FitOptions {
+            weights: match self.weights {
+                WeightsArg::None => Weighting::Unweighted,
+                WeightsArg::Noise => Weighting::Noise,
+            },
+            robust: self.robust.map(|r| match r {
+                RobustArg::Huber => RobustLoss::Huber,
+                RobustArg::Cauchy => RobustLoss::Cauchy,
+            }),
+            drop_outliers: self.drop_outliers,
+        }
+    }
 }
 
 /// Options of `legwise simulate`.

@@ -1,9 +1,10 @@
 //! Whether an identification's result can be trusted: the reasons it must not be, one line
 //! each. The command line prints them as warnings and exits with status 3.
 //!
-//! Checked today: every number a fit reports (costs, estimates, standard deviations, residual
-//! σ̂) is finite. A non-finite value means the fit or its statistics broke down, whatever the
-//! solver said about its own stopping.
+//! Checked: every solver run converged (a typed stop reason that is a convergence test), and
+//! every number a fit reports (costs, estimates, standard deviations, residual σ̂) is finite. A
+//! non-finite value means the fit or its statistics broke down, whatever the solver said about
+//! its own stopping.
 
 use super::estimate::{LegEstimate, StrategyResult};
 
@@ -24,6 +25,26 @@ pub fn trust_issues(results: &[StrategyResult]) -> Vec<String> {
                 ));
                 flagged.push(leg.leg.as_str());
             }
+            if let Some(test) = leg.statistics.noise_test.as_ref().filter(|t| t.rejected) {
+                issues.push(format!(
+                    "{strategy}: leg {}: the residuals reject the declared noise (σ̂ {:.3e} times \
+                     the declared scatter, p = {:.2e}): check the units (degrees vs radians, \
+                     millimetres vs metres), the outliers and the model",
+                    leg.leg, test.sigma_ratio, test.p_value
+                ));
+            }
+        }
+        for run in result.runs.iter().filter(|run| !run.converged) {
+            issues.push(format!(
+                "{} ({strategy}) did not converge for leg{} {}: {} after {} iterations and {} \
+                 residual evaluations; the estimate must not be trusted",
+                result.solver.name(),
+                if run.legs.len() == 1 { "" } else { "s" },
+                run.legs.join(", "),
+                run.stop_reason,
+                run.iterations,
+                run.residual_evaluations
+            ));
         }
         for run in &result.runs {
             let covered = run.legs.iter().any(|l| flagged.contains(&l.as_str()));
@@ -67,7 +88,7 @@ mod tests {
     use crate::identify::estimate::{ParameterEstimate, SolverRun, Strategy};
     use crate::identify::observability::Observability;
     use crate::model::params::Unit;
-    use crate::solver::SolverKind;
+    use crate::solver::{SolverKind, StopReason};
 
     fn parameter(
         name: &str,
@@ -110,17 +131,23 @@ mod tests {
                 observability,
                 covariance: None,
                 residuals: Vec::new(),
+                statistics: Default::default(),
+                dropped: Vec::new(),
+                warnings: Vec::new(),
             }],
             runs: vec![SolverRun {
                 legs: vec!["leg1".into()],
                 iterations: 3,
-                termination: "converged".into(),
+                converged: true,
+                stop_reason: StopReason::CostReduction,
                 initial_cost: 1.0,
                 final_cost,
                 residual_evaluations: 4,
                 jacobian_evaluations: 3,
                 seconds: 0.0,
             }],
+            options: Default::default(),
+            warnings: Vec::new(),
         }
     }
 
@@ -163,6 +190,29 @@ mod tests {
         assert_eq!(
             trust_issues(&[bad]),
             ["divide and conquer, leg `leg1`: not a finite number: l1 inf, std(L1) NaN"]
+        );
+    }
+
+    #[test]
+    fn a_run_that_did_not_converge_is_named_with_its_reason() {
+        let mut bad = result(vec![parameter("l1", 0.75, Some(1e-4), true)], 1e-8);
+        bad.runs[0].converged = false;
+        bad.runs[0].stop_reason = StopReason::EvaluationBudget;
+        let issues = trust_issues(&[bad]);
+        assert_eq!(issues.len(), 1);
+        assert!(
+            issues[0].starts_with(
+                "Levenberg-Marquardt (divide and conquer) did not converge for leg leg1: "
+            ),
+            "{}",
+            issues[0]
+        );
+        assert!(
+            issues[0].ends_with(
+                "after 3 iterations and 4 residual evaluations; the estimate must not be trusted"
+            ),
+            "{}",
+            issues[0]
         );
     }
 }

@@ -36,6 +36,11 @@ pub struct ModelFile {
     /// Pose selection (optional; defaults: D-optimal, `simulation.poses_per_leg` or 18 poses).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub selection: Option<SelectionEntry>,
+    /// Measurement noise: standard deviation by measured coordinate name, and `readings` for
+    /// the actuator readings (SI units). Optional; the residuals of every fit are tested against
+    /// it, and it is the default noise of simulations.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub noise: Option<BTreeMap<String, f64>>,
     /// The simulation set-up (optional: real users bring measurements).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub simulation: Option<SimulationEntry>,
@@ -178,10 +183,10 @@ pub struct SimulationEntry {
     /// Standard deviations of a seeded random perturbation of the parameters not in `real`.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub perturbation: Option<PerturbationEntry>,
-    /// Measurement noise standard deviation by measured coordinate name, and `readings` for the
-    /// actuator readings (SI units).
-    #[serde(default, skip_serializing_if = "BTreeMap::is_empty")]
-    pub noise: BTreeMap<String, f64>,
+    /// Simulated measurement noise standard deviation by measured coordinate name, and
+    /// `readings` for the actuator readings (SI units); default: the top-level `noise` block.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub noise: Option<BTreeMap<String, f64>>,
     /// Number of identification poses per leg.
     pub poses_per_leg: usize,
     /// Seed of the random generator (poses, perturbation, noise).

@@ -5,8 +5,10 @@ use serde_json::{json, Value};
 
 use nalgebra::DMatrix;
 
+use super::terminal::all_warnings;
 use super::IdentifyReport;
-use crate::identify::estimate::{LegEstimate, StrategyResult};
+use crate::identify::estimate::{LegEstimate, StrategyResult, Weighting};
+use crate::identify::statistics::Outlier;
 
 /// Version of the JSON layout documented in `docs/report.md`; raised when a key changes meaning or
 /// disappears (new keys do not change it).
@@ -45,7 +47,7 @@ pub fn correlation(covariance: &DMatrix<f64>) -> DMatrix<f64> {
 }
 
 /// A leg's covariance, correlation and per-row residuals (rows only for measurements from a file).
-fn leg_statistics(leg: &LegEstimate) -> Value {
+fn leg_covariance_and_rows(leg: &LegEstimate) -> Value {
     let names: Vec<&str> = leg
         .parameters
         .iter()
@@ -131,7 +133,20 @@ fn result(report: &IdentifyReport<'_>, result: &StrategyResult) -> Value {
                 "singular_values": o.singular_values.iter().map(|&s| finite(s)).collect::<Vec<_>>(),
                 "condition_number": finite(o.condition),
                 "scaled_condition_number": finite(o.scaled_condition),
-                "warnings": o.warning().into_iter().collect::<Vec<_>>(),
+                "warnings": o.warning().into_iter().chain(leg.warnings.iter().cloned()).collect::<Vec<_>>(),
+                "noise_test": leg.statistics.noise_test.as_ref().map(|t| json!({
+                    "chi_squared": finite(t.chi_squared),
+                    "degrees_of_freedom": t.degrees_of_freedom,
+                    "p_value": finite(t.p_value),
+                    "sigma_ratio": finite(t.sigma_ratio),
+                    "residual_sigma": finite(t.residual_sigma),
+                    "expected_sigma": finite(t.expected_sigma),
+                    "excluded_rows": t.excluded,
+                    "rejected": t.rejected,
+                })),
+                "outlier_threshold": optional(leg.statistics.outlier_threshold),
+                "outliers": leg.statistics.outliers.iter().map(outlier).collect::<Vec<_>>(),
+                "dropped": leg.dropped.iter().map(outlier).collect::<Vec<_>>(),
                 "observability": {
                     "O1": finite(o.indices[0]), "O2": finite(o.indices[1]), "O3": finite(o.indices[2]),
                     "O4": finite(o.indices[3]), "O5": finite(o.indices[4]),
@@ -140,7 +155,8 @@ fn result(report: &IdentifyReport<'_>, result: &StrategyResult) -> Value {
                     "name": result.solver.name(),
                     "legs": run.legs,
                     "iterations": run.iterations,
-                    "termination": run.termination,
+                    "converged": run.converged,
+                    "stop_reason": run.stop_reason.key(),
                     "cost_before": finite(run.initial_cost),
                     "cost_after": finite(run.final_cost),
                     "residual_evaluations": run.residual_evaluations,
@@ -148,14 +164,31 @@ fn result(report: &IdentifyReport<'_>, result: &StrategyResult) -> Value {
                     "seconds": finite(run.seconds),
                 })),
             });
-            merge(&mut value, leg_statistics(leg));
+            merge(&mut value, leg_covariance_and_rows(leg));
             value
         })
         .collect();
     json!({
         "strategy": result.strategy.name(),
         "solver": result.solver.short_name(),
+        "weights": match result.options.weights {
+            Weighting::Unweighted => "none",
+            Weighting::Noise => "noise",
+        },
+        "robust": result.options.robust.map(|r| r.name()),
+        "drop_outliers": result.options.drop_outliers,
+        "warnings": all_warnings(result),
         "legs": legs,
         "fixed_legs": report.fixed_legs(result),
+    })
+}
+
+fn outlier(o: &Outlier) -> Value {
+    json!({
+        "line": o.line,
+        "pose": o.pose,
+        "reading": finite(o.reading),
+        "residual": finite(o.residual),
+        "t": finite(o.t),
     })
 }
