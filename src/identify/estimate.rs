@@ -17,7 +17,7 @@ use crate::error::{Error, Result};
 use crate::measure::MeasurementSet;
 use crate::model::params::Unit;
 use crate::model::Mechanism;
-use crate::solver::{solve, SolverKind, SolverOutcome, StopReason};
+use crate::solver::{solve, SolverKind, StopReason};
 
 /// How the legs are grouped into least-squares problems.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -72,11 +72,6 @@ pub struct LegEstimate {
     pub residual_sigma: Option<f64>,
     /// Observability of the identification Jacobian at the estimate.
     pub observability: Observability,
-    /// Covariance σ̂²(CᵀC)⁻¹ of the identified parameters (model order), from the SVD of the
-    /// leg's identification Jacobian C; `None` without redundancy (m ≤ n).
-    pub covariance: Option<DMatrix<f64>>,
-    /// Each measurement's residual at the estimate, measured minus predicted reading, in row order.
-    pub residuals: Vec<RowResidual>,
     /// Noise test, outliers and turns of the fit.
     pub statistics: LegStatistics,
     /// Rows left out by `--drop-outliers` (the outliers of the first fit).
@@ -84,6 +79,11 @@ pub struct LegEstimate {
     /// What the statistics found, one sentence each (noise rejected, outliers, other turns,
     /// dropped rows).
     pub warnings: Vec<String>,
+    /// Covariance σ̂²(CᵀC)⁻¹ of the identified parameters (model order), from the SVD of the
+    /// leg's identification Jacobian C; `None` without redundancy (m ≤ n).
+    pub covariance: Option<DMatrix<f64>>,
+    /// Each measurement's residual at the estimate, measured minus predicted reading, in row order.
+    pub residuals: Vec<RowResidual>,
 }
 
 /// One measurement's residual at the estimate.
@@ -306,7 +306,10 @@ pub fn identify_problem(
         message,
     };
     let started = std::time::Instant::now();
-    let mut outcome = match already_minimal(&fitted, &x0) {
+    let (r_start, c_start) = fitted
+        .residuals_and_jacobian(&x0)
+        .map_err(|e| located(mechanism, data, problem, e))?;
+    let mut outcome = match already_minimal(&x0, &r_start, &c_start) {
         Some(outcome) => outcome,
         None => solve(&fitted, x0.clone(), solver).map_err(|err| solver_error(err.to_string()))?,
     };
@@ -480,43 +483,19 @@ fn leg_estimate(
         final_cost: 0.5 * sum_squares,
         residual_sigma,
         observability: leg_observability(mechanism, problem, slot, fit.unweighted_c),
+        statistics: LegStatistics::default(),
+        dropped: Vec::new(),
+        warnings: Vec::new(),
         covariance,
         residuals: rows
             .iter()
             .map(|&i| RowResidual {
                 line: problem.blocks()[i].line,
+                // Unweighted: a robust fit may give a row zero weight.
                 residual: -fit.unweighted_r[i],
             })
             .collect(),
-        statistics: LegStatistics::default(),
-        dropped: Vec::new(),
-        warnings: Vec::new(),
     }
-}
-
-/// Relative length of the Gauss–Newton step below which the start is already the minimiser.
-const STATIONARY_STEP: f64 = 1e-12;
-
-/// The outcome of a solve that is not needed: `x0` is already the least-squares minimiser of
-/// `problem` (its Gauss–Newton step, solved by SVD, is shorter than
-/// [`STATIONARY_STEP`]`·(‖x0‖ + 1)`), e.g. when identifying again from a calibrated model on the
-/// same measurements.
-fn already_minimal(
-    problem: &IdentificationProblem<'_>,
-    x0: &DVector<f64>,
-) -> Option<SolverOutcome> {
-    let (r0, c0) = problem.residuals_and_jacobian(x0).ok()?;
-    let step = c0.svd(true, true).solve(&r0, f64::EPSILON).ok()?;
-    let length = step.norm();
-    (length.is_finite() && length <= STATIONARY_STEP * (x0.norm() + 1.0)).then(|| SolverOutcome {
-        x: x0.clone(),
-        iterations: 0,
-        converged: true,
-        stop_reason: StopReason::StepSize,
-        refinement_steps: 0,
-        residual_evaluations: 1,
-        jacobian_evaluations: 1,
-    })
 }
 
 /// `1 / v` for every variance, if all are positive and finite.
@@ -576,6 +555,32 @@ fn refit_without(
         estimate.dropped = before.statistics.outliers;
     }
     Ok((estimates, run))
+}
+
+/// Relative length of the Gauss–Newton step below which the start is already the minimiser.
+const STATIONARY_STEP: f64 = 1e-12;
+
+/// The outcome of a solve that is not needed: `x0` is already the least-squares minimiser (its
+/// Gauss–Newton step, solved by SVD, is shorter than [`STATIONARY_STEP`]`·(‖x0‖ + 1)`), e.g.
+/// when identifying again from a calibrated model on the same measurements.
+fn already_minimal(
+    x0: &DVector<f64>,
+    r0: &DVector<f64>,
+    c0: &DMatrix<f64>,
+) -> Option<crate::solver::SolverOutcome> {
+    let step = c0.clone().svd(true, true).solve(r0, f64::EPSILON).ok()?;
+    let length = step.norm();
+    (length.is_finite() && length <= STATIONARY_STEP * (x0.norm() + 1.0)).then(|| {
+        crate::solver::SolverOutcome {
+            x: x0.clone(),
+            iterations: 0,
+            converged: true,
+            stop_reason: crate::solver::StopReason::StepSize,
+            refinement_steps: 0,
+            residual_evaluations: 1,
+            jacobian_evaluations: 1,
+        }
+    })
 }
 
 /// (CᵀC)⁻¹ = V Σ⁻² Vᵀ from the SVD of C (never an explicit inverse of CᵀC); `None` if

@@ -129,11 +129,11 @@ mod tests {
                 final_cost,
                 residual_sigma: Some(1e-4),
                 observability,
-                covariance: None,
-                residuals: Vec::new(),
                 statistics: Default::default(),
                 dropped: Vec::new(),
                 warnings: Vec::new(),
+                covariance: None,
+                residuals: Vec::new(),
             }],
             runs: vec![SolverRun {
                 legs: vec!["leg1".into()],

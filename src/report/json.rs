@@ -47,7 +47,7 @@ pub fn correlation(covariance: &DMatrix<f64>) -> DMatrix<f64> {
 }
 
 /// A leg's covariance, correlation and per-row residuals (rows only for measurements from a file).
-fn leg_covariance_and_rows(leg: &LegEstimate) -> Value {
+fn leg_statistics(leg: &LegEstimate) -> Value {
     let names: Vec<&str> = leg
         .parameters
         .iter()
@@ -164,7 +164,7 @@ fn result(report: &IdentifyReport<'_>, result: &StrategyResult) -> Value {
                     "seconds": finite(run.seconds),
                 })),
             });
-            merge(&mut value, leg_covariance_and_rows(leg));
+            merge(&mut value, leg_statistics(leg));
             value
         })
         .collect();
