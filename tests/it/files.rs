@@ -245,7 +245,7 @@ fn identify_json_dash_writes_only_json_to_stdout() {
         "--model",
         "models/5r.yaml",
         "--measurements",
-        "tests/data/valid.csv",
+        "tests/data/noisy.csv",
         "--json",
         "-",
     ]);
@@ -253,12 +253,12 @@ fn identify_json_dash_writes_only_json_to_stdout() {
     assert_eq!(out.status.code(), Some(0), "{stderr}");
     let report: serde_json::Value = serde_json::from_str(&stdout).expect("stdout is JSON");
     assert_eq!(report["results"].as_array().unwrap().len(), 1);
-    assert!(stderr.contains("leg leg1 (10 readings)"), "{stderr}");
+    assert!(stderr.contains("leg leg1 (8 readings)"), "{stderr}");
 }
 
 #[test]
 fn measurements_dash_reads_stdin_and_names_it_in_errors() {
-    let valid = fs::read(crate_path("tests/data/valid.csv")).unwrap();
+    let noisy = fs::read(crate_path("tests/data/noisy.csv")).unwrap();
     let args = [
         "identify",
         "--model",
@@ -266,14 +266,14 @@ fn measurements_dash_reads_stdin_and_names_it_in_errors() {
         "--measurements",
         "-",
     ];
-    let out = legwise_with_stdin(&args, &valid);
+    let out = legwise_with_stdin(&args, &noisy);
     let stdout = text(&out.stdout);
     assert_eq!(out.status.code(), Some(0), "{}", text(&out.stderr));
     assert!(
         stdout.contains("measurements: standard input\n"),
         "{stdout}"
     );
-    assert!(stdout.contains("leg leg2 (10 readings)"), "{stdout}");
+    assert!(stdout.contains("leg leg2 (8 readings)"), "{stdout}");
     // The same rows from the file give the same report, line for line after the source line.
     let from_file = text(
         &legwise(&[
@@ -281,7 +281,7 @@ fn measurements_dash_reads_stdin_and_names_it_in_errors() {
             "--model",
             "models/5r.yaml",
             "--measurements",
-            "tests/data/valid.csv",
+            "tests/data/noisy.csv",
         ])
         .stdout,
     );
@@ -356,7 +356,7 @@ fn a_closed_terminal_pipe_does_not_panic() {
             "--model",
             "models/5r.yaml",
             "--measurements",
-            "tests/data/valid.csv",
+            "tests/data/noisy.csv",
         ])
         .current_dir(env!("CARGO_MANIFEST_DIR"))
         .stdout(Stdio::piped())
