@@ -140,7 +140,7 @@ fn outputs_are_replaced_whole_with_the_usual_permissions() {
         let out = legwise(&[
             "select",
             "--model",
-            "models/5r.yaml",
+            "models/3rpr.yaml",
             "--poses-per-leg",
             "6",
             "--out",
@@ -148,8 +148,8 @@ fn outputs_are_replaced_whole_with_the_usual_permissions() {
         ]);
         assert_eq!(out.status.code(), Some(0), "{}", text(&out.stderr));
         let csv = fs::read_to_string(path).unwrap();
-        assert!(csv.starts_with("leg,x,y,A1,A2\n"), "{csv}");
-        assert_eq!(csv.lines().count(), 1 + 2 * 6);
+        assert!(csv.starts_with("leg,x,y,yaw,P1,P2,P3\n"), "{csv}");
+        assert_eq!(csv.lines().count(), 1 + 3 * 6);
     }
     assert_eq!(
         fs::metadata(&old).unwrap().permissions().mode() & 0o777,
@@ -217,7 +217,15 @@ fn an_unwritable_output_fails_before_the_work() {
 
 #[test]
 fn simulate_out_dash_writes_the_csv_to_stdout_and_the_summary_to_stderr() {
-    let out = legwise(&["simulate", "--model", "models/5r.yaml", "--out", "-"]);
+    let out = legwise(&[
+        "simulate",
+        "--model",
+        "models/5r.yaml",
+        "--poses",
+        "random",
+        "--out",
+        "-",
+    ]);
     let (stdout, stderr) = (text(&out.stdout), text(&out.stderr));
     assert_eq!(out.status.code(), Some(0), "{stderr}");
     let rows: Vec<&str> = stdout.lines().collect();
@@ -378,7 +386,7 @@ fn a_special_file_output_is_written_in_place() {
     let out = legwise(&[
         "select",
         "--model",
-        "models/5r.yaml",
+        "models/3rpr.yaml",
         "--poses-per-leg",
         "6",
         "--out",
