@@ -4,6 +4,7 @@
 //! documented in `legwise --help`: 0 success, 2 bad input or usage, 3 finished but untrusted.
 mod checks;
 mod console;
+mod evaluate;
 mod help;
 mod identify;
 mod output;
@@ -43,6 +44,46 @@ pub enum Command {
     /// Compute the singularity-free region and its maximal inscribed workspace (MIW), with a picture.
     #[command(after_help = help::WORKSPACE)]
     Workspace(WorkspaceArgs),
+    /// How well a model explains measurements (typically held out of the fit): pose errors by
+    /// forward kinematics from the readings, and each leg's reading residuals.
+    #[command(after_help = help::EVALUATE)]
+    Evaluate(EvaluateArgs),
+}
+
+/// Options of `legwise evaluate`.
+#[derive(Debug, clap::Args)]
+pub struct EvaluateArgs {
+    /// The model file (YAML), e.g. a calibrated model.
+    #[arg(long)]
+    pub model: PathBuf,
+    /// Measurement CSV (rows with every actuator reading give pose errors).
+    #[arg(long)]
+    pub measurements: PathBuf,
+    /// Another model to evaluate side by side (typically the nominal one), with the improvement.
+    #[arg(long)]
+    pub against: Option<PathBuf>,
+    /// Also write the evaluation as JSON to this file.
+    #[arg(long)]
+    pub json: Option<PathBuf>,
+    /// Directory for the pictures.
+    #[arg(long)]
+    pub plots: Option<PathBuf>,
+}
+
+/// `identify` options for after the fit: the calibrated model and the accuracy map.
+#[derive(Debug, Clone, clap::Args)]
+pub struct AfterFitArgs {
+    /// Write the calibrated model (identified values in place of nominal ones) to this YAML
+    /// file, and its URDF beside it (same name, extension `urdf`).
+    #[arg(long, value_name = "OUT.yaml")]
+    pub calibrated: Option<PathBuf>,
+    /// Simulation only: the accuracy map (model IK commands, real mechanism moves) over a grid
+    /// of this spacing (metres), before and after identification.
+    #[arg(long, value_name = "GRID_M")]
+    pub map: Option<f64>,
+    /// Fraction of the workspace region the accuracy map covers (shrunk about its centre).
+    #[arg(long, default_value_t = 0.95)]
+    pub map_scale: f64,
 }
 
 /// Options of `legwise workspace`.
@@ -80,9 +121,58 @@ pub struct IdentifyArgs {
     /// then goes to standard error).
     #[arg(long)]
     pub json: Option<PathBuf>,
+    /// Row weights: none (ordinary least squares, the paper's method) or noise (each row by the
+    /// inverse of its expected residual variance under the model's `noise` block).
+    #[arg(long, value_enum, default_value_t = WeightsArg::None)]
+    pub weights: WeightsArg,
+    /// A robust loss inside the fit (scaled by the model's `noise` block): huber or cauchy.
+    #[arg(long, value_enum)]
+    pub robust: Option<RobustArg>,
+    /// Refit once without the rows flagged as outliers, and list them.
+    #[arg(long)]
+    pub drop_outliers: bool,
     /// Simulation overrides.
     #[command(flatten)]
     pub simulation: SimulationArgs,
+    /// Calibrated model and accuracy map.
+    #[command(flatten)]
+    pub after: AfterFitArgs,
+}
+
+/// `--weights`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
+pub enum WeightsArg {
+    /// Unweighted.
+    None,
+    /// By the declared measurement noise.
+    Noise,
+}
+
+/// `--robust`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
+pub enum RobustArg {
+    /// Huber's loss (quadratic near zero, linear beyond 1.345 σ).
+    Huber,
+    /// Cauchy's loss (logarithmic beyond 2.385 σ: gross outliers get almost no weight).
+    Cauchy,
+}
+
+impl IdentifyArgs {
+    fn fit_options(&self) -> crate::identify::estimate::FitOptions {
+        use crate::identify::estimate::{FitOptions, Weighting};
+        use crate::identify::robust::RobustLoss;
+        FitOptions {
+            weights: match self.weights {
+                WeightsArg::None => Weighting::Unweighted,
+                WeightsArg::Noise => Weighting::Noise,
+            },
+            robust: self.robust.map(|r| match r {
+                RobustArg::Huber => RobustLoss::Huber,
+                RobustArg::Cauchy => RobustLoss::Cauchy,
+            }),
+            drop_outliers: self.drop_outliers,
+        }
+    }
 }
 
 /// Options of `legwise simulate`.
@@ -316,5 +406,6 @@ pub fn run(cli: Cli) -> anyhow::Result<Verdict> {
         Command::Select(args) => select::run(&args),
         Command::Simulate(args) => simulate::run(&args),
         Command::Workspace(args) => workspace::run(&args),
+        Command::Evaluate(args) => evaluate::run(&args),
     }
 }

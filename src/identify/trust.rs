@@ -25,6 +25,14 @@ pub fn trust_issues(results: &[StrategyResult]) -> Vec<String> {
                 ));
                 flagged.push(leg.leg.as_str());
             }
+            if let Some(test) = leg.statistics.noise_test.as_ref().filter(|t| t.rejected) {
+                issues.push(format!(
+                    "{strategy}: leg {}: the residuals reject the declared noise (σ̂ {:.3e} times \
+                     the declared scatter, p = {:.2e}): check the units (degrees vs radians, \
+                     millimetres vs metres), the outliers and the model",
+                    leg.leg, test.sigma_ratio, test.p_value
+                ));
+            }
         }
         for run in result.runs.iter().filter(|run| !run.converged) {
             issues.push(format!(
@@ -121,6 +129,11 @@ mod tests {
                 final_cost,
                 residual_sigma: Some(1e-4),
                 observability,
+                statistics: Default::default(),
+                dropped: Vec::new(),
+                warnings: Vec::new(),
+                covariance: None,
+                residuals: Vec::new(),
             }],
             runs: vec![SolverRun {
                 legs: vec!["leg1".into()],
@@ -133,6 +146,8 @@ mod tests {
                 jacobian_evaluations: 3,
                 seconds: 0.0,
             }],
+            options: Default::default(),
+            warnings: Vec::new(),
         }
     }
 

@@ -1,8 +1,12 @@
 //! One integration binary for all legwise tests.
+mod accuracy_map;
 mod bad_input;
+mod calibrated;
 mod cli;
+mod evaluate;
 mod exit_codes;
 mod files;
+mod fuzz;
 mod golden;
 mod jacobian;
 mod kinematics;
@@ -11,5 +15,6 @@ mod nist;
 mod recovery;
 mod selection;
 mod solvers_agree;
+mod statistics_trust;
 mod support;
 mod workspace;
