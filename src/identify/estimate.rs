@@ -128,6 +128,8 @@ pub struct SolverRun {
     pub converged: bool,
     /// Why the solver stopped (its `Display` is a sentence for humans).
     pub stop_reason: StopReason,
+    /// Gauss–Newton refinement steps taken after the solver converged.
+    pub refinement_steps: usize,
     /// ½‖r‖² before.
     pub initial_cost: f64,
     /// ½‖r‖² after.
@@ -395,6 +397,7 @@ pub fn identify_problem(
         iterations: outcome.iterations,
         converged: outcome.converged,
         stop_reason: outcome.stop_reason,
+        refinement_steps: outcome.refinement_steps,
         initial_cost: 0.5 * r0.norm_squared(),
         final_cost: 0.5 * r.norm_squared(),
         residual_evaluations: outcome.residual_evaluations,
