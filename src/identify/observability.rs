@@ -24,8 +24,8 @@ pub struct Observability {
     /// Numerical rank of the column-scaled C.
     pub rank: usize,
     /// Condition number s_max / s_min of C: a finite number whenever the smallest singular value
-    /// is above the rounding floor ε·max(m, n)·s_max (a numerically rank-deficient C has a huge
-    /// one), infinite when it is zero to working precision.
+    /// is non-zero (a rank-deficient C has a huge one), infinite only when it is zero or the
+    /// ratio overflows.
     pub condition: f64,
     /// Observability indices O1..O5 of C (docs/method.md §5; O1 divided by √m).
     pub indices: [f64; 5],
@@ -70,7 +70,7 @@ pub fn analyse(c: &DMatrix<f64>, names: &[String]) -> Observability {
         (Some(v_t), Some(&i)) => direction(v_t.row(i).iter().copied(), names),
         _ => String::new(),
     };
-    let scaled_condition = condition_number(&scaled_singular_values, m, n);
+    let scaled_condition = condition_number(&scaled_singular_values, n);
     if let Some(v_t) = &svd.v_t {
         for &i in order.iter().skip(rank) {
             null_directions.push(direction(v_t.row(i).iter().copied(), names));
@@ -80,7 +80,7 @@ pub fn analyse(c: &DMatrix<f64>, names: &[String]) -> Observability {
         .into_iter()
         .map(|j| names[j].clone())
         .collect();
-    let condition = condition_number(&singular_values, m, n);
+    let condition = condition_number(&singular_values, n);
     Observability {
         indices: indices(&singular_values, m, n),
         singular_values,
@@ -94,17 +94,14 @@ pub fn analyse(c: &DMatrix<f64>, names: &[String]) -> Observability {
     }
 }
 
-/// s_max / s_min over the first `n` singular values (largest first) of an `m × n` matrix: a
-/// finite number whenever s_min is above the decomposition's rounding floor
-/// (ε · max(m, n) · s_max), so that it is always the ratio of the singular values printed
-/// beside it; infinite when s_min is zero to working precision (or for `n = 0`).
-fn condition_number(singular_values: &[f64], m: usize, n: usize) -> f64 {
-    let floor = |largest: f64| f64::EPSILON * m.max(n) as f64 * largest;
+/// s_max / s_min over the first `n` singular values (largest first): finite whenever s_min is
+/// non-zero, infinite when it is zero (or for `n = 0`).
+fn condition_number(singular_values: &[f64], n: usize) -> f64 {
     match (
         singular_values.first(),
         n.checked_sub(1).and_then(|i| singular_values.get(i)),
     ) {
-        (Some(&largest), Some(&smallest)) if smallest > floor(largest) => largest / smallest,
+        (Some(&largest), Some(&smallest)) if smallest > 0.0 => largest / smallest,
         _ => f64::INFINITY,
     }
 }

@@ -278,7 +278,7 @@ fn workspace_prints_the_5r_miw_and_writes_the_picture() {
     let picture = std::fs::read_to_string(&svg).unwrap();
     assert!(
         picture.starts_with("<svg")
-            && picture.contains("<circle")
+            && picture.contains("x (m)")
             && picture.trim_end().ends_with("</svg>")
     );
 }

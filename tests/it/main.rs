@@ -14,6 +14,7 @@ mod kinematics;
 mod mgh;
 mod nist;
 mod observability_values;
+mod plots;
 mod recovery;
 mod selection;
 mod solvers_agree;

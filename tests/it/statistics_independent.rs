@@ -12,7 +12,7 @@ use legwise::measure::MeasurementSet;
 use legwise::model::Mechanism;
 use legwise::solver::SolverKind;
 use nalgebra::{DMatrix, DVector};
-use num_dual::{Dual64, DualNum};
+use num_dual::Dual64;
 
 use crate::support::bundled;
 
