@@ -341,3 +341,23 @@ fn located(
         _ => Error::Invalid(format!("simulated pose {pose_text}: {}", error.source)),
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::covariance_diagonal;
+    use nalgebra::DMatrix;
+
+    #[test]
+    fn covariance_diagonal_is_the_inverse_of_the_normal_matrix_or_none_when_singular() {
+        // CᵀC = [[2, 1], [1, 2]]: (CᵀC)⁻¹ = [[2, −1], [−1, 2]]/3.
+        let c = DMatrix::from_row_slice(3, 2, &[1.0, 0.0, 0.0, 1.0, 1.0, 1.0]);
+        let d = covariance_diagonal(&c).unwrap();
+        assert!((d[0] - 2.0 / 3.0).abs() < 1e-15 && (d[1] - 2.0 / 3.0).abs() < 1e-15);
+        let scaled = DMatrix::from_row_slice(3, 2, &[10.0, 0.0, 0.0, 0.5, 0.0, 0.0]);
+        let d = covariance_diagonal(&scaled).unwrap();
+        assert!((d[0] - 0.01).abs() < 1e-17 && (d[1] - 4.0).abs() < 1e-14);
+        // s_min/s_max = 1e-15: singular to working precision, no covariance.
+        let singular = DMatrix::from_row_slice(3, 2, &[10.0, 0.0, 0.0, 1e-14, 0.0, 0.0]);
+        assert_eq!(covariance_diagonal(&singular), None);
+    }
+}

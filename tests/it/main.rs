@@ -5,6 +5,7 @@ mod golden;
 mod inverse_kinematics;
 mod jacobian;
 mod kinematics;
+mod lm_behaviour;
 mod observability_values;
 mod recovery;
 mod selection;
