@@ -1,5 +1,13 @@
 //! The command line: a thin shell over the library (clap derive).
+//!
+//! Every command returns a [`Verdict`]; `main` turns it and any error into the exit status
+//! documented in `legwise --help`: 0 success, 2 bad input or usage, 3 finished but untrusted.
+mod checks;
+mod console;
+mod evaluate;
+mod help;
 mod identify;
+mod output;
 mod select;
 mod simulate;
 mod workspace;
@@ -13,7 +21,7 @@ use crate::solver::SolverKind;
 
 /// Kinematic identification of parallel mechanisms, leg by leg.
 #[derive(Debug, Parser)]
-#[command(name = "legwise", version, about)]
+#[command(name = "legwise", version, about, after_help = help::TOP)]
 pub struct Cli {
     /// What to do.
     #[command(subcommand)]
@@ -24,14 +32,58 @@ pub struct Cli {
 #[derive(Debug, Subcommand)]
 pub enum Command {
     /// Identify the parameters of a mechanism from measurements (or from a simulation).
+    #[command(after_help = help::IDENTIFY)]
     Identify(IdentifyArgs),
     /// Select the identification poses to measure (observability-optimal, feasible) and write
     /// them as a measurement CSV with empty readings.
+    #[command(after_help = help::SELECT)]
     Select(SelectArgs),
     /// Simulate an identification experiment and write it as a measurement CSV.
+    #[command(after_help = help::SIMULATE)]
     Simulate(SimulateArgs),
     /// Compute the singularity-free region and its maximal inscribed workspace (MIW), with a picture.
+    #[command(after_help = help::WORKSPACE)]
     Workspace(WorkspaceArgs),
+    /// How well a model explains measurements (typically held out of the fit): pose errors by
+    /// forward kinematics from the readings, and each leg's reading residuals.
+    #[command(after_help = help::EVALUATE)]
+    Evaluate(EvaluateArgs),
+}
+
+/// Options of `legwise evaluate`.
+#[derive(Debug, clap::Args)]
+pub struct EvaluateArgs {
+    /// The model file (YAML), e.g. a calibrated model.
+    #[arg(long)]
+    pub model: PathBuf,
+    /// Measurement CSV (rows with every actuator reading give pose errors).
+    #[arg(long)]
+    pub measurements: PathBuf,
+    /// Another model to evaluate side by side (typically the nominal one), with the improvement.
+    #[arg(long)]
+    pub against: Option<PathBuf>,
+    /// Also write the evaluation as JSON to this file.
+    #[arg(long)]
+    pub json: Option<PathBuf>,
+    /// Directory for the pictures.
+    #[arg(long)]
+    pub plots: Option<PathBuf>,
+}
+
+/// `identify` options for after the fit: the calibrated model and the accuracy map.
+#[derive(Debug, Clone, clap::Args)]
+pub struct AfterFitArgs {
+    /// Write the calibrated model (identified values in place of nominal ones) to this YAML
+    /// file, and its URDF beside it (same name, extension `urdf`).
+    #[arg(long, value_name = "OUT.yaml")]
+    pub calibrated: Option<PathBuf>,
+    /// Simulation only: the accuracy map (model IK commands, real mechanism moves) over a grid
+    /// of this spacing (metres), before and after identification.
+    #[arg(long, value_name = "GRID_M")]
+    pub map: Option<f64>,
+    /// Fraction of the workspace region the accuracy map covers (shrunk about its centre).
+    #[arg(long, default_value_t = 0.95)]
+    pub map_scale: f64,
 }
 
 /// Options of `legwise workspace`.
@@ -40,12 +92,13 @@ pub struct WorkspaceArgs {
     /// The model file (YAML).
     #[arg(long)]
     pub model: PathBuf,
-    /// Where to write the SVG picture (default: `<model name>-workspace.svg`).
+    /// Where to write the SVG picture (default: `<model name>-workspace.svg`; `-`: standard
+    /// output).
     #[arg(long)]
     pub svg: Option<PathBuf>,
-    /// Rays cast to trace the region's boundary.
-    #[arg(long, default_value_t = 1440)]
-    pub rays: usize,
+    /// Rays cast to trace the region's boundary (16 to 100000).
+    #[arg(long, default_value_t = 1440, allow_negative_numbers = true)]
+    pub rays: i64,
 }
 
 /// Options of `legwise identify`.
@@ -54,7 +107,8 @@ pub struct IdentifyArgs {
     /// The model file (YAML).
     #[arg(long)]
     pub model: PathBuf,
-    /// Measurement CSV; without it, the model's simulation block is simulated.
+    /// Measurement CSV (`-`: standard input); without it, the model's simulation block is
+    /// simulated.
     #[arg(long)]
     pub measurements: Option<PathBuf>,
     /// Least-squares solver.
@@ -63,12 +117,62 @@ pub struct IdentifyArgs {
     /// Divide and conquer, traditional (all legs on shared poses), or both.
     #[arg(long, value_enum, default_value_t = StrategyArg::Dc)]
     pub strategy: StrategyArg,
-    /// Also write the report as JSON to this file.
+    /// Also write the report as JSON to this file (`-`: standard output; the terminal report
+    /// then goes to standard error).
     #[arg(long)]
     pub json: Option<PathBuf>,
+    /// Row weights: none (ordinary least squares, the paper's method) or noise (each row by the
+    /// inverse of its expected residual variance under the model's `noise` block).
+    #[arg(long, value_enum, default_value_t = WeightsArg::None)]
+    pub weights: WeightsArg,
+    /// A robust loss inside the fit (scaled by the model's `noise` block): huber or cauchy.
+    #[arg(long, value_enum)]
+    pub robust: Option<RobustArg>,
+    /// Refit once without the rows flagged as outliers, and list them.
+    #[arg(long)]
+    pub drop_outliers: bool,
     /// Simulation overrides.
     #[command(flatten)]
     pub simulation: SimulationArgs,
+    /// Calibrated model and accuracy map.
+    #[command(flatten)]
+    pub after: AfterFitArgs,
+}
+
+/// `--weights`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
+pub enum WeightsArg {
+    /// Unweighted.
+    None,
+    /// By the declared measurement noise.
+    Noise,
+}
+
+/// `--robust`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
+pub enum RobustArg {
+    /// Huber's loss (quadratic near zero, linear beyond 1.345 σ).
+    Huber,
+    /// Cauchy's loss (logarithmic beyond 2.385 σ: gross outliers get almost no weight).
+    Cauchy,
+}
+
+impl IdentifyArgs {
+    fn fit_options(&self) -> crate::identify::estimate::FitOptions {
+        use crate::identify::estimate::{FitOptions, Weighting};
+        use crate::identify::robust::RobustLoss;
+        FitOptions {
+            weights: match self.weights {
+                WeightsArg::None => Weighting::Unweighted,
+                WeightsArg::Noise => Weighting::Noise,
+            },
+            robust: self.robust.map(|r| match r {
+                RobustArg::Huber => RobustLoss::Huber,
+                RobustArg::Cauchy => RobustLoss::Cauchy,
+            }),
+            drop_outliers: self.drop_outliers,
+        }
+    }
 }
 
 /// Options of `legwise simulate`.
@@ -77,7 +181,7 @@ pub struct SimulateArgs {
     /// The model file (YAML).
     #[arg(long)]
     pub model: PathBuf,
-    /// Where to write the measurement CSV.
+    /// Where to write the measurement CSV (`-`: standard output).
     #[arg(long)]
     pub out: PathBuf,
     /// Simulation overrides.
@@ -91,18 +195,18 @@ pub struct SelectArgs {
     /// The model file (YAML).
     #[arg(long)]
     pub model: PathBuf,
-    /// Where to write the poses (measurement CSV layout, readings empty).
+    /// Where to write the poses (measurement CSV layout, readings empty; `-`: standard output).
     #[arg(long)]
     pub out: PathBuf,
     /// Per-leg sets (dc), one shared set (traditional), or both.
     #[arg(long, value_enum, default_value_t = StrategyArg::Dc)]
     pub strategy: StrategyArg,
     /// Candidate grid spacing, metres (default: the model's `workspace.grid`).
-    #[arg(long)]
+    #[arg(long, allow_negative_numbers = true)]
     pub grid: Option<f64>,
     /// Poses per leg (default: the model's `selection.poses_per_leg`).
-    #[arg(long)]
-    pub poses_per_leg: Option<usize>,
+    #[arg(long, allow_negative_numbers = true)]
+    pub poses_per_leg: Option<i64>,
     /// Design criterion (default: the model's `selection.criterion`): D maximises det CᵀC (O1),
     /// A minimises tr (CᵀC)⁻¹, E maximises the smallest singular value (O3).
     #[arg(long, value_enum)]
@@ -147,17 +251,17 @@ pub struct SimulationArgs {
     #[arg(long, value_enum, default_value_t = PosesArg::Selected)]
     pub poses: PosesArg,
     /// Candidate grid spacing for selected poses, metres (default: the model's `workspace.grid`).
-    #[arg(long)]
+    #[arg(long, allow_negative_numbers = true)]
     pub grid: Option<f64>,
-    /// Random seed (default: the model's `simulation.seed`).
-    #[arg(long)]
-    pub seed: Option<u64>,
+    /// Random seed, 0 to 2^64 − 1 (default: the model's `simulation.seed`).
+    #[arg(long, allow_negative_numbers = true)]
+    pub seed: Option<i128>,
     /// Multiplies every simulated noise standard deviation (0 = noise-free).
-    #[arg(long, default_value_t = 1.0)]
+    #[arg(long, default_value_t = 1.0, allow_negative_numbers = true)]
     pub noise_scale: f64,
     /// Poses per leg (default: the model's `simulation.poses_per_leg`).
-    #[arg(long)]
-    pub poses_per_leg: Option<usize>,
+    #[arg(long, allow_negative_numbers = true)]
+    pub poses_per_leg: Option<i64>,
 }
 
 /// `--solver`.
@@ -238,42 +342,70 @@ impl SimulationArgs {
         }
     }
 
+    /// The simulation options, range-checked (`--grid` too, though only selected poses use it).
     fn options(&self) -> anyhow::Result<crate::measure::simulate::SimulationOptions> {
-        if !(self.noise_scale.is_finite() && self.noise_scale >= 0.0) {
-            anyhow::bail!(
-                "--noise-scale: expected a non-negative number, found {}",
-                self.noise_scale
-            );
-        }
-        check_poses_per_leg(self.poses_per_leg)?;
+        checks::positive_metres("--grid", self.grid)?;
         Ok(crate::measure::simulate::SimulationOptions {
-            seed: self.seed,
-            noise_scale: self.noise_scale,
-            poses_per_leg: self.poses_per_leg,
+            seed: checks::seed("--seed", self.seed)?,
+            noise_scale: checks::non_negative("--noise-scale", self.noise_scale)?,
+            poses_per_leg: poses_per_leg(self.poses_per_leg)?,
         })
     }
 }
 
 /// `--poses-per-leg` within 1..=[`MAX_POSES_PER_LEG`](crate::model::mechanism::MAX_POSES_PER_LEG).
-fn check_poses_per_leg(count: Option<usize>) -> anyhow::Result<()> {
+fn poses_per_leg(count: Option<i64>) -> anyhow::Result<Option<usize>> {
     use crate::model::mechanism::MAX_POSES_PER_LEG;
-    match count {
-        Some(n) if !(1..=MAX_POSES_PER_LEG).contains(&n) => {
-            anyhow::bail!("--poses-per-leg: expected between 1 and {MAX_POSES_PER_LEG}, found {n}")
+    checks::optional_count("--poses-per-leg", count, 1, MAX_POSES_PER_LEG)
+}
+
+/// The inputs every command reads: the model file and its URDF.
+fn model_inputs<'a>(
+    model: &'a std::path::Path,
+    mechanism: &'a crate::model::Mechanism,
+) -> Vec<output::Input<'a>> {
+    vec![
+        output::Input {
+            role: "model file",
+            path: model,
+        },
+        output::Input {
+            role: "URDF",
+            path: &mechanism.urdf_path,
+        },
+    ]
+}
+
+/// Whether a run's result can be trusted; `main` exits 3 on [`Verdict::Untrusted`].
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub enum Verdict {
+    /// The run finished and nothing speaks against its result (warnings alone keep this).
+    Trusted,
+    /// The run finished but its result must not be trusted, for these reasons (one line each).
+    Untrusted(Vec<String>),
+}
+
+impl Verdict {
+    /// [`Verdict::Trusted`] when `reasons` is empty, else [`Verdict::Untrusted`].
+    pub fn from_reasons(reasons: Vec<String>) -> Verdict {
+        if reasons.is_empty() {
+            Verdict::Trusted
+        } else {
+            Verdict::Untrusted(reasons)
         }
-        _ => Ok(()),
     }
 }
 
 /// Runs a parsed command line.
 ///
 /// # Errors
-/// Any error of the library, with context; `main` prints it on one line.
-pub fn run(cli: Cli) -> anyhow::Result<()> {
+/// Any error of the library, with context; `main` prints it on one line and exits 2.
+pub fn run(cli: Cli) -> anyhow::Result<Verdict> {
     match cli.command {
         Command::Identify(args) => identify::run(&args),
         Command::Select(args) => select::run(&args),
         Command::Simulate(args) => simulate::run(&args),
         Command::Workspace(args) => workspace::run(&args),
+        Command::Evaluate(args) => evaluate::run(&args),
     }
 }

@@ -1,16 +1,23 @@
 //! Identification of leg parameters: divide and conquer (each leg alone on its own blocks) or
 //! traditional (all legs stacked on shared poses). Rank check first, then the solver, then the
 //! statistics of the estimate.
+//!
+//! [`FitOptions`] add weighted least squares by the declared noise, a robust loss
+//! ([`super::robust`]) and a refit without the outlier rows; after every fit, each leg's
+//! residuals go through [`super::statistics`] (noise test, outliers, turns) and the data
+//! through [`crate::measure::checks`]: their findings are the results' `warnings`.
 
 use nalgebra::{DMatrix, DVector};
 
 use super::observability::{analyse, Observability};
 use super::problem::{BlockError, IdentificationProblem, LegSlot};
+use super::robust::{self, RobustError, RobustLoss};
+use super::statistics::{self, FitKind, LegStatistics, Outlier};
 use crate::error::{Error, Result};
 use crate::measure::MeasurementSet;
 use crate::model::params::Unit;
 use crate::model::Mechanism;
-use crate::solver::{solve, SolverKind};
+use crate::solver::{solve, SolverKind, StopReason};
 
 /// How the legs are grouped into least-squares problems.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -65,6 +72,49 @@ pub struct LegEstimate {
     pub residual_sigma: Option<f64>,
     /// Observability of the identification Jacobian at the estimate.
     pub observability: Observability,
+    /// Noise test, outliers and turns of the fit.
+    pub statistics: LegStatistics,
+    /// Rows left out by `--drop-outliers` (the outliers of the first fit).
+    pub dropped: Vec<Outlier>,
+    /// What the statistics found, one sentence each (noise rejected, outliers, other turns,
+    /// dropped rows).
+    pub warnings: Vec<String>,
+    /// Covariance σ̂²(CᵀC)⁻¹ of the identified parameters (model order), from the SVD of the
+    /// leg's identification Jacobian C; `None` without redundancy (m ≤ n).
+    pub covariance: Option<DMatrix<f64>>,
+    /// Each measurement's residual at the estimate, measured minus predicted reading, in row order.
+    pub residuals: Vec<RowResidual>,
+}
+
+/// One measurement's residual at the estimate.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct RowResidual {
+    /// Line of the measurement file (1-based, the header is line 1), if read from a file.
+    pub line: Option<usize>,
+    /// Measured minus predicted reading (rad or m).
+    pub residual: f64,
+}
+
+/// How the rows are weighted.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum Weighting {
+    /// Ordinary least squares (the paper's method).
+    #[default]
+    Unweighted,
+    /// Weighted least squares, each row by the inverse of its expected residual variance under
+    /// the declared noise, evaluated at the nominal parameters.
+    Noise,
+}
+
+/// How each fit treats its rows (the defaults are the paper's plain least squares).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub struct FitOptions {
+    /// Row weights.
+    pub weights: Weighting,
+    /// A robust loss (its scale from the declared noise); replaces the weighting.
+    pub robust: Option<RobustLoss>,
+    /// Refit once without the rows flagged as outliers.
+    pub drop_outliers: bool,
 }
 
 /// One solver run (one per leg for divide and conquer, one in all for traditional).
@@ -74,8 +124,10 @@ pub struct SolverRun {
     pub legs: Vec<String>,
     /// Iterations.
     pub iterations: u64,
-    /// Why it stopped.
-    pub termination: String,
+    /// Whether the solver converged; `false` means the estimate must not be trusted.
+    pub converged: bool,
+    /// Why the solver stopped (its `Display` is a sentence for humans).
+    pub stop_reason: StopReason,
     /// ½‖r‖² before.
     pub initial_cost: f64,
     /// ½‖r‖² after.
@@ -99,9 +151,14 @@ pub struct StrategyResult {
     pub legs: Vec<LegEstimate>,
     /// Solver runs.
     pub runs: Vec<SolverRun>,
+    /// The fit options.
+    pub options: FitOptions,
+    /// Warnings about the measurements as a whole (implausible values, duplicate rows).
+    pub warnings: Vec<String>,
 }
 
-/// Identifies the mechanism's parameters from `data` with `strategy` and `solver`.
+/// Identifies the mechanism's parameters from `data` with `strategy` and `solver`, by plain
+/// least squares ([`FitOptions::default`]).
 ///
 /// # Errors
 /// A leg without measurements, a pose a leg cannot reach (naming the file line), a
@@ -111,6 +168,22 @@ pub fn identify(
     data: &MeasurementSet,
     strategy: Strategy,
     solver: SolverKind,
+) -> Result<StrategyResult> {
+    identify_with(mechanism, data, strategy, solver, FitOptions::default())
+}
+
+/// As [`identify`], with weights, a robust loss or outlier dropping.
+///
+/// # Errors
+/// As [`identify`]; also a position far outside the mechanism
+/// ([`crate::measure::checks::check`]), and `--weights noise` or `--robust` without a declared
+/// non-zero noise.
+pub fn identify_with(
+    mechanism: &Mechanism,
+    data: &MeasurementSet,
+    strategy: Strategy,
+    solver: SolverKind,
+    options: FitOptions,
 ) -> Result<StrategyResult> {
     let legs = mechanism.legs.len();
     let identified = mechanism.identified_legs();
@@ -140,10 +213,12 @@ pub fn identify(
         solver,
         legs: Vec::new(),
         runs: Vec::new(),
+        options,
+        warnings: crate::measure::checks::check(mechanism, data)?,
     };
     for (group, blocks) in groups {
         let problem = IdentificationProblem::new(mechanism, &group, blocks);
-        let (estimates, run) = identify_problem(mechanism, data, &problem, solver)?;
+        let (estimates, run) = identify_problem(mechanism, data, &problem, solver, options)?;
         result.legs.extend(estimates);
         result.runs.push(run);
     }
@@ -151,15 +226,17 @@ pub fn identify(
     Ok(result)
 }
 
-/// Identifies one problem: rank check, solver, statistics.
+/// Identifies one problem: rank check, solver, statistics (and, with
+/// [`FitOptions::drop_outliers`], once more without the outlier rows).
 ///
 /// # Errors
-/// As [`identify`].
+/// As [`identify_with`].
 pub fn identify_problem(
     mechanism: &Mechanism,
     data: &MeasurementSet,
     problem: &IdentificationProblem<'_>,
     solver: SolverKind,
+    options: FitOptions,
 ) -> Result<(Vec<LegEstimate>, SolverRun)> {
     let names: Vec<String> = problem
         .slots()
@@ -175,7 +252,7 @@ pub fn identify_problem(
         }
     }
     let x0 = problem.nominal();
-    let (r0, c0) = problem
+    let (_, c0) = problem
         .residuals_and_jacobian(&x0)
         .map_err(|e| located(mechanism, data, problem, e))?;
     for slot in problem.slots() {
@@ -201,11 +278,68 @@ pub fn identify_problem(
             });
         }
     }
-    let started = std::time::Instant::now();
-    let outcome = solve(problem, x0.clone(), solver).map_err(|err| Error::Solver {
+    let noise = mechanism
+        .noise
+        .filter(|n| n.reading > 0.0 || n.pose.iter().any(|&s| s > 0.0));
+    let needs_noise = |what: &str| Error::Model {
+        path: mechanism.model_path.clone(),
+        field: "noise".into(),
+        message: format!(
+            "{what} needs the measurement noise: add a `noise:` block with non-zero standard \
+                 deviations (e.g. `noise: {{x: 1.0e-4, y: 1.0e-4, readings: 1.0e-4}}`)"
+        ),
+    };
+    let fitted = match (options.weights, options.robust) {
+        (Weighting::Noise, None) => {
+            let noise = noise.ok_or_else(|| needs_noise("--weights noise"))?;
+            let variances = statistics::row_variances(problem, &x0, &noise)
+                .map_err(|e| located(mechanism, data, problem, e))?;
+            let weights = positive_inverse(&variances).ok_or_else(|| {
+                needs_noise("--weights noise (a row's expected residual variance is zero)")
+            })?;
+            problem.clone().with_weights(&weights)
+        }
+        _ => problem.unweighted(),
+    };
+    let solver_error = |message: String| Error::Solver {
         context: format!("legs {}", names.join(", ")),
-        message: err.to_string(),
-    })?;
+        message,
+    };
+    let started = std::time::Instant::now();
+    let (r_start, c_start) = fitted
+        .residuals_and_jacobian(&x0)
+        .map_err(|e| located(mechanism, data, problem, e))?;
+    let mut outcome = match already_minimal(&x0, &r_start, &c_start) {
+        Some(outcome) => outcome,
+        None => solve(&fitted, x0.clone(), solver).map_err(|err| solver_error(err.to_string()))?,
+    };
+    let (fitted, kind) = match options.robust {
+        None => (fitted, FitKind::LeastSquares),
+        Some(loss) => {
+            let noise = noise.ok_or_else(|| needs_noise(&format!("--robust {}", loss.name())))?;
+            let variances = statistics::row_variances(problem, &outcome.x, &noise)
+                .map_err(|e| located(mechanism, data, problem, e))?;
+            if variances.iter().any(|&v| !(v > 0.0 && v.is_finite())) {
+                return Err(needs_noise(&format!(
+                    "--robust {} (a row's expected residual variance is zero)",
+                    loss.name()
+                )));
+            }
+            let sigma: Vec<f64> = variances.iter().map(|v| v.sqrt()).collect();
+            let fit =
+                robust::fit(problem, &outcome.x, loss, &sigma, solver).map_err(|e| match e {
+                    RobustError::Block(e) => located(mechanism, data, problem, e),
+                    RobustError::Solver(e) => solver_error(e.to_string()),
+                })?;
+            outcome = fit.outcome;
+            outcome.x = fit.x;
+            (problem.clone().with_weights(&fit.weights), FitKind::Robust)
+        }
+    };
+    let problem = &fitted;
+    let r0 = problem
+        .residuals(&x0)
+        .map_err(|e| located(mechanism, data, problem, e))?;
     let seconds = started.elapsed().as_secs_f64();
     let (r, c) = problem
         .residuals_and_jacobian(&outcome.x)
@@ -216,15 +350,53 @@ pub fn identify_problem(
             message: "the estimate is not finite".into(),
         });
     }
-    let estimates = problem
-        .slots()
-        .iter()
-        .map(|slot| leg_estimate(mechanism, problem, slot, &outcome.x, &r0, &r, &c))
-        .collect();
+    // Observability is a property of the design: always of the unweighted Jacobian.
+    let unweighted_c = match problem.weights() {
+        Some(_) => {
+            problem
+                .unweighted()
+                .residuals_and_jacobian(&outcome.x)
+                .map_err(|e| located(mechanism, data, problem, e))?
+                .1
+        }
+        None => c.clone(),
+    };
+    let mut estimates = Vec::new();
+    for slot in problem.slots() {
+        let stats = statistics::leg_statistics(problem, slot, &outcome.x, noise.as_ref(), kind)
+            .map_err(|e| located(mechanism, data, problem, e))?;
+        // A robust fit's σ̂ (and so its standard deviations) leaves its outliers out.
+        let excluded: &[usize] = match kind {
+            FitKind::Robust => &stats.outlier_rows,
+            FitKind::LeastSquares => &[],
+        };
+        let fit = Fit {
+            x: &outcome.x,
+            r0: &r0,
+            r: &r,
+            c: &c,
+            unweighted_c: &unweighted_c,
+            excluded,
+        };
+        let mut estimate = leg_estimate(mechanism, problem, slot, &fit);
+        estimate.statistics = stats;
+        estimate.warnings = leg_warnings(mechanism, slot, &estimate.statistics);
+        estimates.push(estimate);
+    }
+    if options.drop_outliers {
+        let rows: Vec<usize> = estimates
+            .iter()
+            .flat_map(|e| e.statistics.outlier_rows.iter().copied())
+            .collect();
+        if !rows.is_empty() {
+            return refit_without(mechanism, data, problem, solver, options, &rows, estimates);
+        }
+    }
     let run = SolverRun {
         legs: names,
         iterations: outcome.iterations,
-        termination: outcome.termination,
+        converged: outcome.converged,
+        stop_reason: outcome.stop_reason,
         initial_cost: 0.5 * r0.norm_squared(),
         final_cost: 0.5 * r.norm_squared(),
         residual_evaluations: outcome.residual_evaluations,
@@ -255,23 +427,38 @@ fn leg_observability(
     analyse(&leg_jacobian(problem, slot, c), &names)
 }
 
+/// A fitted problem's estimate, residuals before and after, Jacobian (weighted as fitted, and
+/// unweighted), and the rows its σ̂ leaves out.
+struct Fit<'f> {
+    x: &'f DVector<f64>,
+    r0: &'f DVector<f64>,
+    r: &'f DVector<f64>,
+    c: &'f DMatrix<f64>,
+    unweighted_c: &'f DMatrix<f64>,
+    excluded: &'f [usize],
+}
+
 fn leg_estimate(
     mechanism: &Mechanism,
     problem: &IdentificationProblem<'_>,
     slot: &LegSlot,
-    x: &DVector<f64>,
-    r0: &DVector<f64>,
-    r: &DVector<f64>,
-    c: &DMatrix<f64>,
+    fit: &Fit<'_>,
 ) -> LegEstimate {
+    let Fit { x, r0, r, c, .. } = *fit;
     let leg = &mechanism.legs[slot.leg];
     let rows = problem.rows_of(slot);
     let (m, n) = (rows.len(), slot.columns.len());
     let sum_squares: f64 = rows.iter().map(|&i| r[i] * r[i]).sum();
-    let residual_sigma = (m > n).then(|| (sum_squares / (m - n) as f64).sqrt());
+    let kept: Vec<usize> = rows
+        .iter()
+        .copied()
+        .filter(|i| !fit.excluded.contains(i))
+        .collect();
+    let kept_squares: f64 = kept.iter().map(|&i| r[i] * r[i]).sum();
+    let residual_sigma = (kept.len() > n).then(|| (kept_squares / (kept.len() - n) as f64).sqrt());
     let c_leg = leg_jacobian(problem, slot, c);
-    let variances =
-        residual_sigma.and_then(|sigma| covariance_diagonal(&c_leg).map(|d| (sigma, d)));
+    let covariance = residual_sigma
+        .and_then(|sigma| unscaled_covariance(&c_leg).map(|inverse| inverse * (sigma * sigma)));
     let phi = problem.leg_parameters(slot, x);
     let parameters = leg
         .params
@@ -284,7 +471,7 @@ fn leg_estimate(
                 unit: p.unit,
                 nominal: p.nominal,
                 estimate: phi[i],
-                std: column.and_then(|k| variances.as_ref().map(|(s, d)| s * d[k].sqrt())),
+                std: column.and_then(|k| covariance.as_ref().map(|v| v[(k, k)].sqrt())),
                 identified: p.identified,
             }
         })
@@ -296,12 +483,109 @@ fn leg_estimate(
         initial_cost: 0.5 * rows.iter().map(|&i| r0[i] * r0[i]).sum::<f64>(),
         final_cost: 0.5 * sum_squares,
         residual_sigma,
-        observability: leg_observability(mechanism, problem, slot, c),
+        observability: leg_observability(mechanism, problem, slot, fit.unweighted_c),
+        statistics: LegStatistics::default(),
+        dropped: Vec::new(),
+        warnings: Vec::new(),
+        covariance,
+        residuals: rows
+            .iter()
+            .map(|&i| RowResidual {
+                line: problem.blocks()[i].line,
+                residual: -r[i] / problem.row_scale(i),
+            })
+            .collect(),
     }
 }
 
-/// diag((CᵀC)⁻¹) from the SVD of C (never an explicit inverse of CᵀC); `None` if rank-deficient.
-fn covariance_diagonal(c: &DMatrix<f64>) -> Option<Vec<f64>> {
+/// `1 / v` for every variance, if all are positive and finite.
+fn positive_inverse(variances: &[f64]) -> Option<Vec<f64>> {
+    variances
+        .iter()
+        .map(|&v| (v > 0.0 && v.is_finite()).then(|| 1.0 / v))
+        .collect()
+}
+
+/// The statistics' warnings for the leg in `slot`.
+fn leg_warnings(mechanism: &Mechanism, slot: &LegSlot, stats: &LegStatistics) -> Vec<String> {
+    let leg = &mechanism.legs[slot.leg];
+    let unit = if leg.actuated_is_revolute() {
+        "rad"
+    } else {
+        "m"
+    };
+    let joint = &leg.joints[leg.moving[leg.actuated]].name;
+    statistics::warnings(stats, &leg.name, unit, joint, leg.home_joints[leg.actuated])
+}
+
+/// `--drop-outliers`: refits `problem` without the rows `rows` (the first fit's outliers) and
+/// records them, per leg, as dropped.
+fn refit_without(
+    mechanism: &Mechanism,
+    data: &MeasurementSet,
+    problem: &IdentificationProblem<'_>,
+    solver: SolverKind,
+    options: FitOptions,
+    rows: &[usize],
+    first: Vec<LegEstimate>,
+) -> Result<(Vec<LegEstimate>, SolverRun)> {
+    let reduced = problem.without_rows(rows);
+    let once = FitOptions {
+        drop_outliers: false,
+        ..options
+    };
+    let (mut estimates, run) = identify_problem(mechanism, data, &reduced, solver, once)?;
+    for (estimate, before) in estimates.iter_mut().zip(first) {
+        let mut warnings: Vec<String> = before
+            .statistics
+            .outliers
+            .iter()
+            .map(|o| {
+                format!(
+                            "leg {}: dropped {} (reading {}, studentized residual t = {} in the first fit) and refitted",
+                    estimate.leg,
+                    o.place(),
+                    o.reading,
+                    crate::identify::statistics::figure(o.t)
+                )
+            })
+            .collect();
+        warnings.append(&mut estimate.warnings);
+        estimate.warnings = warnings;
+        estimate.dropped = before.statistics.outliers;
+    }
+    Ok((estimates, run))
+}
+
+/// Relative length of the Gauss–Newton step below which the start is already the minimiser.
+const STATIONARY_STEP: f64 = 1e-12;
+
+/// The outcome of a solve that is not needed: `x0` is already the least-squares minimiser (its
+/// Gauss–Newton step, solved by SVD, is shorter than [`STATIONARY_STEP`]`·(‖x0‖ + 1)`), e.g.
+/// when identifying again from a calibrated model on the same measurements.
+fn already_minimal(
+    x0: &DVector<f64>,
+    r0: &DVector<f64>,
+    c0: &DMatrix<f64>,
+) -> Option<crate::solver::SolverOutcome> {
+    let step = c0.clone().svd(true, true).solve(r0, f64::EPSILON).ok()?;
+    let length = step.norm();
+    (length.is_finite() && length <= STATIONARY_STEP * (x0.norm() + 1.0)).then(|| {
+        crate::solver::SolverOutcome {
+            x: x0.clone(),
+            iterations: 0,
+            converged: true,
+            stop_reason: crate::solver::StopReason::StepSize,
+            refinement_steps: 0,
+            residual_evaluations: 1,
+            jacobian_evaluations: 1,
+        }
+    })
+}
+
+/// (CᵀC)⁻¹ = V Σ⁻² Vᵀ from the SVD of C (never an explicit inverse of CᵀC); `None` if
+/// rank-deficient.
+fn unscaled_covariance(c: &DMatrix<f64>) -> Option<DMatrix<f64>> {
     let n = c.ncols();
     if c.nrows() < n {
         return None;
@@ -312,15 +596,10 @@ fn covariance_diagonal(c: &DMatrix<f64>) -> Option<Vec<f64>> {
     if svd.singular_values.iter().any(|&s| s <= 1e-14 * largest) {
         return None;
     }
-    Some(
-        (0..n)
-            .map(|i| {
-                (0..svd.singular_values.len())
-                    .map(|k| (v_t[(k, i)] / svd.singular_values[k]).powi(2))
-                    .sum()
-            })
-            .collect(),
-    )
+    let scaled = DMatrix::from_fn(svd.singular_values.len(), n, |k, i| {
+        v_t[(k, i)] / svd.singular_values[k]
+    });
+    Some(scaled.transpose() * scaled)
 }
 
 /// Turns a failed block into an error naming the measurement file line, or the simulated pose.

@@ -1,6 +1,10 @@
-//! Identification: residual blocks, dual-number Jacobians, problems, observability, estimates.
+//! Identification: residual blocks, dual-number Jacobians, problems, observability, estimates,
+//! the statistics of each fit, robust losses and the trust verdict.
 pub mod estimate;
 pub mod jacobian;
 pub mod observability;
 pub mod problem;
 pub mod residual;
+pub mod robust;
+pub mod statistics;
+pub mod trust;

@@ -1,13 +1,18 @@
 //! The least-squares problem of one leg (divide and conquer) or of several legs stacked
 //! (traditional): the same residual blocks, grouped differently. Implements argmin's
 //! `Operator` (residuals) and `Jacobian` (dual numbers).
+//!
+//! Rows may carry weights `w_i` (weighted least squares: each residual and its Jacobian row are
+//! multiplied by `√w_i`); a revolute actuator's residual is matched modulo one turn of the
+//! joint ([`super::residual::turns`]).
 
 use argmin::core::{Error as ArgminError, Jacobian, Operator};
 use nalgebra::{DMatrix, DVector};
 
 use super::jacobian::PreparedLeg;
-use super::residual::ResidualBlock;
+use super::residual::{turn_in_reading_units, turns, ResidualBlock};
 use crate::error::KinematicsError;
+use crate::model::params::ParamTarget;
 use crate::model::Mechanism;
 
 /// Where one leg's identified parameters sit in the problem's parameter vector.
@@ -21,14 +26,26 @@ pub struct LegSlot {
     pub offset: usize,
 }
 
-/// A failed residual block: which block, and why.
+/// A failed residual block: which block, and why. At the starting parameters the caller names
+/// the measurement line from [`BlockError::block`] and [`BlockError::source`]; the message of
+/// the error itself is for a failure *during* a solve (a solver passes it on): there the trial
+/// parameters are at fault, not the data, and the message says so with their values.
 #[derive(Debug, Clone, thiserror::Error)]
-#[error("residual block {block}: {source}")]
+#[error(
+    "the solver diverged: at its trial parameters ({parameters}), {location}: {source}; the step \
+     left the plausible parameters (the pose is usable at the starting ones): try the \
+     Levenberg-Marquardt solver, and if it fails too check the units of the readings (radians, \
+     metres)"
+)]
 pub struct BlockError {
     /// Index of the block in the problem.
     pub block: usize,
     /// The kinematic failure.
     pub source: KinematicsError,
+    /// `measurement line N`, or `residual block N` for a pose without a file line.
+    pub location: String,
+    /// The trial parameter values, `name = value, …`.
+    pub parameters: String,
 }
 
 /// Least-squares identification problem over a set of residual blocks.
@@ -38,6 +55,17 @@ pub struct IdentificationProblem<'a> {
     slots: Vec<LegSlot>,
     slot_of_leg: Vec<Option<usize>>,
     blocks: Vec<ResidualBlock>,
+    /// `√w_i` per block, if weighted.
+    row_scales: Option<Vec<f64>>,
+}
+
+/// What turn matching needs of one slot's leg at one parameter vector.
+#[derive(Debug, Clone, Copy)]
+struct TurnMatch {
+    gain: f64,
+    /// Position of the gain among the slot's identified columns, if identified.
+    gain_column: Option<usize>,
+    revolute: bool,
 }
 
 impl<'a> IdentificationProblem<'a> {
@@ -66,7 +94,53 @@ impl<'a> IdentificationProblem<'a> {
             slots,
             slot_of_leg,
             blocks,
+            row_scales: None,
         }
+    }
+
+    /// The same problem with row weights `weights` (one per block, in row order, finite and
+    /// non-negative): residual `i` and its Jacobian row are multiplied by `√weights[i]`.
+    /// A missing weight counts as 1.
+    pub fn with_weights(mut self, weights: &[f64]) -> Self {
+        self.row_scales = Some(
+            (0..self.blocks.len())
+                .map(|i| weights.get(i).copied().unwrap_or(1.0).max(0.0).sqrt())
+                .collect(),
+        );
+        self
+    }
+
+    /// The same problem without row weights.
+    pub fn unweighted(&self) -> Self {
+        Self {
+            row_scales: None,
+            ..self.clone()
+        }
+    }
+
+    /// The row weights, if the problem is weighted.
+    pub fn weights(&self) -> Option<Vec<f64>> {
+        self.row_scales
+            .as_ref()
+            .map(|s| s.iter().map(|v| v * v).collect())
+    }
+
+    /// The same legs without the blocks at rows `rows` (and without weights).
+    pub fn without_rows(&self, rows: &[usize]) -> Self {
+        let legs: Vec<usize> = self.slots.iter().map(|s| s.leg).collect();
+        let blocks = self
+            .blocks
+            .iter()
+            .enumerate()
+            .filter(|(i, _)| !rows.contains(i))
+            .map(|(_, b)| b.clone())
+            .collect();
+        Self::new(self.mechanism, &legs, blocks)
+    }
+
+    /// The mechanism.
+    pub fn mechanism(&self) -> &'a Mechanism {
+        self.mechanism
     }
 
     /// The legs and where their parameters sit.
@@ -116,22 +190,78 @@ impl<'a> IdentificationProblem<'a> {
             .collect()
     }
 
-    /// Residuals `predicted − measured` reading, one per block.
+    /// Each slot's gain and whether its actuator turns, at the unknowns `x`.
+    fn turn_matches(&self, x: &DVector<f64>) -> Vec<TurnMatch> {
+        self.slots
+            .iter()
+            .map(|slot| {
+                let leg = &self.mechanism.legs[slot.leg];
+                TurnMatch {
+                    gain: leg.geometry(&self.leg_parameters(slot, x)).gain,
+                    gain_column: slot
+                        .columns
+                        .iter()
+                        .position(|&c| leg.params[c].target == ParamTarget::Gain),
+                    revolute: leg.actuated_is_revolute(),
+                }
+            })
+            .collect()
+    }
+
+    /// `√w` of row `row` (1 when unweighted).
+    pub fn row_scale(&self, row: usize) -> f64 {
+        self.row_scales.as_ref().map_or(1.0, |s| s[row])
+    }
+
+    /// Residuals `predicted − measured` reading (matched modulo one turn, times `√w_i` if
+    /// weighted), one per block.
     ///
     /// # Errors
     /// The first block whose leg cannot reach its pose.
     pub fn residuals(&self, x: &DVector<f64>) -> Result<DVector<f64>, BlockError> {
         let prepared = self.prepare(x);
+        let matches = self.turn_matches(x);
         let home = &self.mechanism.home_pose;
         let mut r = DVector::zeros(self.blocks.len());
         for (i, block) in self.blocks.iter().enumerate() {
-            let leg = &prepared[self.slot_of_leg[block.leg].unwrap_or_default()];
-            let predicted = leg
+            let s = self.slot_of_leg[block.leg].unwrap_or_default();
+            let predicted = prepared[s]
                 .reading(&block.pose, home)
-                .map_err(|source| BlockError { block: i, source })?;
-            r[i] = predicted - block.reading;
+                .map_err(|source| self.block_error(i, source, x))?;
+            let m = matches[s];
+            let n = turns(predicted, block.reading, m.gain, m.revolute);
+            r[i] =
+                self.row_scale(i) * (predicted - block.reading - n * turn_in_reading_units(m.gain));
         }
         Ok(r)
+    }
+
+    /// Whole turns of the actuated joint removed from each block's residual at `x` (zero for
+    /// prismatic actuators): non-zero where the readings sit on another turn than the leg's
+    /// home value.
+    ///
+    /// # Errors
+    /// The first block whose leg cannot reach its pose.
+    pub fn turns(&self, x: &DVector<f64>) -> Result<Vec<f64>, BlockError> {
+        let prepared = self.prepare(x);
+        let matches = self.turn_matches(x);
+        let home = &self.mechanism.home_pose;
+        self.blocks
+            .iter()
+            .enumerate()
+            .map(|(i, block)| {
+                let s = self.slot_of_leg[block.leg].unwrap_or_default();
+                let predicted = prepared[s]
+                    .reading(&block.pose, home)
+                    .map_err(|source| self.block_error(i, source, x))?;
+                Ok(turns(
+                    predicted,
+                    block.reading,
+                    matches[s].gain,
+                    matches[s].revolute,
+                ))
+            })
+            .collect()
     }
 
     /// Residuals and the identification Jacobian ∂r/∂x (block-structured: a block's row is
@@ -144,6 +274,7 @@ impl<'a> IdentificationProblem<'a> {
         x: &DVector<f64>,
     ) -> Result<(DVector<f64>, DMatrix<f64>), BlockError> {
         let prepared = self.prepare(x);
+        let matches = self.turn_matches(x);
         let home = &self.mechanism.home_pose;
         let mut r = DVector::zeros(self.blocks.len());
         let mut jacobian = DMatrix::zeros(self.blocks.len(), self.parameter_count());
@@ -161,13 +292,53 @@ impl<'a> IdentificationProblem<'a> {
             let row = &mut gradient[..slot.columns.len()];
             let predicted = prepared[s]
                 .reading_and_gradient(&block.pose, home, row)
-                .map_err(|source| BlockError { block: i, source })?;
-            r[i] = predicted - block.reading;
+                .map_err(|source| self.block_error(i, source, x))?;
+            let m = matches[s];
+            let n = turns(predicted, block.reading, m.gain, m.revolute);
+            let turn = turn_in_reading_units(m.gain);
+            if let (Some(k), true) = (m.gain_column, n != 0.0) {
+                // d(−n·2π/gain)/d gain = n·2π/gain².
+                row[k] += n * turn / m.gain;
+            }
+            let scale = self.row_scale(i);
+            r[i] = scale * (predicted - block.reading - n * turn);
             for (k, g) in row.iter().enumerate() {
-                jacobian[(i, slot.offset + k)] = *g;
+                jacobian[(i, slot.offset + k)] = scale * *g;
             }
         }
         Ok((r, jacobian))
+    }
+
+    /// The error for block `block` failing at the unknowns `x`.
+    /// The error of block `block` at the unknowns `x`, located (file line or block) and with the
+    /// trial parameter values.
+    pub fn block_error(
+        &self,
+        block: usize,
+        source: KinematicsError,
+        x: &DVector<f64>,
+    ) -> BlockError {
+        let location = match self.blocks[block].line {
+            Some(line) => format!("measurement line {line}"),
+            None => format!("residual block {block}"),
+        };
+        let parameters = self
+            .slots
+            .iter()
+            .flat_map(|slot| {
+                let leg = &self.mechanism.legs[slot.leg];
+                slot.columns.iter().enumerate().map(move |(k, &c)| {
+                    format!("{} = {}", leg.params[c].name, short(x[slot.offset + k]))
+                })
+            })
+            .collect::<Vec<_>>()
+            .join(", ");
+        BlockError {
+            block,
+            source,
+            location,
+            parameters,
+        }
     }
 
     /// Row indices of the blocks of the leg in `slot`.
@@ -175,6 +346,15 @@ impl<'a> IdentificationProblem<'a> {
         (0..self.blocks.len())
             .filter(|&i| self.blocks[i].leg == slot.leg)
             .collect()
+    }
+}
+
+/// A parameter value for messages: six decimals for ordinary magnitudes, else scientific.
+fn short(value: f64) -> String {
+    if value == 0.0 || (1e-3..1e6).contains(&value.abs()) {
+        format!("{value:.6}")
+    } else {
+        format!("{value:.6e}")
     }
 }
 

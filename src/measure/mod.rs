@@ -1,4 +1,5 @@
 //! Measurements: measured platform poses with actuator readings, from a CSV file or simulated.
+pub mod checks;
 pub mod file;
 pub mod simulate;
 

@@ -2,7 +2,8 @@
 //!
 //! "Real" parameters come from `simulation.real` or a seeded perturbation of the nominal
 //! values; true readings are each leg's inverse kinematics with the real parameters at the true
-//! pose; the measured pose and readings get Gaussian noise. Divide and conquer gets
+//! pose; the measured pose and readings get Gaussian noise (`simulation.noise`, by default the
+//! model's declared `noise` block, applied at validation). Divide and conquer gets
 //! `poses_per_leg` poses per leg (labelled with the leg, only that leg's reading, independent
 //! noise); the traditional strategy gets `poses_per_leg` shared poses with every reading. The
 //! true poses are given ([`simulate_at`], e.g. selected poses) or random ([`simulate`]).

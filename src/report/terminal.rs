@@ -4,6 +4,8 @@ use std::fmt::Write;
 
 use super::IdentifyReport;
 use crate::identify::estimate::StrategyResult;
+use crate::identify::statistics::figure;
+use crate::identify::trust::trust_issues;
 
 /// Formats a number for a table cell (never prints NaN: non-finite shows as `-`).
 fn number(value: Option<f64>, width: usize) -> String {
@@ -34,6 +36,9 @@ pub fn render(report: &IdentifyReport<'_>) -> String {
         let _ = writeln!(out, "mode: {mode}");
     }
     let _ = writeln!(out, "measurements: {}", report.source);
+    for issue in trust_issues(&report.results) {
+        let _ = writeln!(out, "WARNING: {issue}");
+    }
     for result in &report.results {
         render_result(&mut out, report, result);
     }
@@ -47,6 +52,7 @@ fn render_result(out: &mut String, report: &IdentifyReport<'_>, result: &Strateg
         result.strategy.name(),
         result.solver.name()
     );
+    let _ = writeln!(out, "fit: {}", fit_text(result));
     let known = report.real.is_some();
     for name in report.fixed_legs(result) {
         let _ = writeln!(
@@ -103,15 +109,20 @@ fn render_result(out: &mut String, report: &IdentifyReport<'_>, result: &Strateg
             } else {
                 String::new()
             };
+            let verdict = if run.converged {
+                "converged"
+            } else {
+                "NOT CONVERGED"
+            };
             let _ = writeln!(
                 out,
-                "  solver: {}, {} iterations, {} residual / {} Jacobian evaluations, {:.2} ms: {}{shared}",
+                "  solver: {}, {} iterations, {} residual / {} Jacobian evaluations, {:.2} ms: {verdict} ({}){shared}",
                 result.solver.name(),
                 run.iterations,
                 run.residual_evaluations,
                 run.jacobian_evaluations,
                 run.seconds * 1e3,
-                run.termination
+                run.stop_reason
             );
         }
         let sigma = leg
@@ -146,5 +157,79 @@ fn render_result(out: &mut String, report: &IdentifyReport<'_>, result: &Strateg
         if let Some(warning) = leg.observability.warning() {
             let _ = writeln!(out, "  warning: {warning}");
         }
+        render_statistics(out, leg);
+    }
+    let warnings = all_warnings(result);
+    if !warnings.is_empty() {
+        let _ = writeln!(out, "\nwarnings ({}):", warnings.len());
+        for warning in warnings {
+            let _ = writeln!(out, "  - {warning}");
+        }
+    }
+}
+
+/// The fit options in words.
+fn fit_text(result: &StrategyResult) -> String {
+    use crate::identify::estimate::Weighting;
+    let options = &result.options;
+    let mut text = match (options.robust, options.weights) {
+        (Some(loss), _) => format!(
+            "robust {} loss scaled by the declared noise (iteratively reweighted); costs and σ̂ are of the weighted residuals",
+            loss.name()
+        ),
+        (None, Weighting::Noise) => "least squares weighted by the declared noise; costs and σ̂ are of the weighted (dimensionless) residuals".to_string(),
+        (None, Weighting::Unweighted) => "unweighted least squares".to_string(),
+    };
+    if options.drop_outliers {
+        text.push_str("; refitted without the outlier rows");
+    }
+    text
+}
+
+/// Every warning of a result: the data's, then each leg's statistics'.
+pub fn all_warnings(result: &StrategyResult) -> Vec<String> {
+    let mut warnings = result.warnings.clone();
+    for leg in &result.legs {
+        warnings.extend(leg.warnings.iter().cloned());
+    }
+    warnings
+}
+
+/// The noise test and outlier lines of a leg.
+fn render_statistics(out: &mut String, leg: &crate::identify::estimate::LegEstimate) {
+    let stats = &leg.statistics;
+    match &stats.noise_test {
+        Some(test) => {
+            let verdict = if test.rejected {
+                "REJECTED"
+            } else {
+                "consistent"
+            };
+            let excluded = if test.excluded > 0 {
+                format!(", {} outlier row(s) left out", test.excluded)
+            } else {
+                String::new()
+            };
+            let _ = writeln!(
+                out,
+                "  noise test: {verdict}: σ̂/σ expected {}, χ² {:.4e} with {} degrees of freedom, p = {:.3e}{excluded}",
+                figure(test.sigma_ratio), test.chi_squared, test.degrees_of_freedom, test.p_value
+            );
+        }
+        None => {
+            let _ = writeln!(
+                out,
+                "  noise test: not done (no non-zero `noise:` block in the model, or no redundancy)"
+            );
+        }
+    }
+    if let (Some(limit), Some(largest)) = (stats.outlier_threshold, stats.largest_t) {
+        let _ = writeln!(
+            out,
+            "  outliers: {} beyond |t| > {} (largest |t| {})",
+            stats.outliers.len(),
+            figure(limit),
+            figure(largest)
+        );
     }
 }

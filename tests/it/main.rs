@@ -1,15 +1,24 @@
 //! One integration binary for all legwise tests.
+mod accuracy_map;
 mod bad_input;
+mod calibrated;
 mod cli;
+mod evaluate;
+mod exit_codes;
+mod files;
+mod fuzz;
 mod golden;
 mod inverse_kinematics;
 mod jacobian;
 mod kinematics;
 mod lm_behaviour;
+mod mgh;
+mod nist;
 mod observability_values;
 mod recovery;
 mod selection;
 mod solvers_agree;
 mod statistics_independent;
+mod statistics_trust;
 mod support;
 mod workspace;

@@ -9,7 +9,9 @@ use crate::model::mechanism::{Mechanism, COORDINATES};
 
 mod home;
 mod legs;
+mod noise;
 mod parameters;
+mod scale;
 mod setup;
 mod workspace;
 
@@ -42,11 +44,16 @@ impl Builder<'_> {
         let closure_dims = if measured.contains(&2) { 3 } else { 2 };
         let mut legs = self.legs(&file, closure_dims)?;
         self.parameters(&file.parameters, &mut legs)?;
+        self.scale(&file, &legs)?;
         for (index, leg) in legs.iter_mut().enumerate() {
             self.home(leg, index, &file.legs[index].home, &home_pose)?;
         }
         let workspace = self.workspace(&file, &measured)?;
-        let simulation = self.simulation(&file, &measured, &legs)?;
+        let noise = match &file.noise {
+            Some(entries) => Some(self.noise("noise", entries, &measured)?),
+            None => None,
+        };
+        let simulation = self.simulation(&file, &measured, &legs, noise)?;
         let selection = self.selection(&file, simulation.as_ref())?;
         Ok(Mechanism {
             name: file.name,
@@ -58,6 +65,7 @@ impl Builder<'_> {
             legs,
             workspace,
             selection,
+            noise,
             simulation,
         })
     }

@@ -5,14 +5,16 @@ use crate::error::Result;
 use crate::model::file::ModelFile;
 use crate::model::leg::LegModel;
 use crate::model::mechanism::MAX_POSES_PER_LEG;
-use crate::model::mechanism::{SelectionCriterion, SelectionSetup, Simulation, COORDINATES};
+use crate::model::mechanism::{MeasurementNoise, SelectionCriterion, SelectionSetup, Simulation};
 
 impl Builder<'_> {
+    /// The simulation block; its noise defaults to the declared (top-level) noise.
     pub(super) fn simulation(
         &self,
         file: &ModelFile,
         measured: &[usize],
         legs: &[LegModel],
+        declared: Option<MeasurementNoise>,
     ) -> Result<Option<Simulation>> {
         let Some(entry) = &file.simulation else {
             return Ok(None);
@@ -34,22 +36,10 @@ impl Builder<'_> {
                 ));
             }
         }
-        let mut pose_noise = [0.0; 6];
-        let mut reading_noise = 0.0;
-        for (name, &sigma) in &entry.noise {
-            let field = format!("simulation.noise.{name}");
-            if !(sigma.is_finite() && sigma >= 0.0) {
-                return Err(self.error(
-                    field,
-                    "expected a non-negative standard deviation (SI units)",
-                ));
-            }
-            match COORDINATES.iter().position(|c| c == name) {
-                _ if name == "readings" => reading_noise = sigma,
-                Some(i) if measured.contains(&i) => pose_noise[i] = sigma,
-                _ => return Err(self.error(field, "expected `readings` or a measured coordinate")),
-            }
-        }
+        let noise = match &entry.noise {
+            Some(entries) => self.noise("simulation.noise", entries, measured)?,
+            None => declared.unwrap_or_default(),
+        };
         let perturbation = match &entry.perturbation {
             Some(p) => {
                 if [p.length, p.angle, p.gain]
@@ -74,8 +64,8 @@ impl Builder<'_> {
         Ok(Some(Simulation {
             real: entry.real.clone(),
             perturbation,
-            pose_noise,
-            reading_noise,
+            pose_noise: noise.pose,
+            reading_noise: noise.reading,
             poses_per_leg: entry.poses_per_leg,
             seed: entry.seed,
         }))

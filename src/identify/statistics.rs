@@ -1,0 +1,469 @@
+//! Statistics that catch bad data, after every fit: the residuals tested against the declared
+//! measurement noise (χ²), externally studentized residuals that name outlier rows, and the
+//! readings that sit on another turn than the leg's home value.
+//!
+//! **Expected residual variance.** In the inverse method a residual is the predicted reading at
+//! the *measured* pose minus the measured reading, so both noises enter it: the reading's
+//! `σ_q²` and the pose noise mapped through the leg's inverse kinematics,
+//! `v_i = σ_q² + ∇_P ψ · Σ_P · ∇_P ψᵀ` (`Σ_P` diagonal, the declared tracker noise). The gradient
+//! `∇_P ψ` comes from dual numbers seeded on the pose coordinates, one Newton step from the f64
+//! solution (implicit function theorem), like the identification Jacobian.
+//!
+//! **Noise test.** `χ² = Σ r_i² / v_i` over the leg's rows, with `m − n` degrees of freedom
+//! (exact for the `--weights noise` fit, a close approximation for the unweighted one). The
+//! declared noise is rejected when the upper-tail probability is below [`NOISE_TEST_P`].
+//!
+//! **Outliers.** For a least-squares fit, the externally studentized (leave-one-out) residual
+//! `t_i = e_i / (s_(i) √(1 − h_ii))`, with `h_ii` the leverage (hat-matrix diagonal of the
+//! fitted Jacobian, from its SVD) and `s_(i)² = (Σ e² − e_i²/(1 − h_ii)) / (m − n − 1)` the
+//! residual variance without row `i`; under the model it follows Student's t with `m − n − 1`
+//! degrees of freedom. For a robust fit, whose residuals do not follow least-squares algebra,
+//! `t_i = e_i / (σ_i √(1 − h_ii))` with the declared `σ_i = √v_i`, against the normal law. A row
+//! is an outlier beyond the Bonferroni-corrected two-sided quantile at family level
+//! [`OUTLIER_ALPHA`]: on clean data, one fit in a hundred flags a row.
+
+use nalgebra::{DMatrix, DVector};
+use num_dual::Dual64;
+use statrs::distribution::{ChiSquared, ContinuousCDF, Normal, StudentsT};
+
+use super::problem::{BlockError, IdentificationProblem, LegSlot};
+use crate::error::KinematicsError;
+use crate::kinematics::inverse::{reading_at_solution, solve_leg};
+use crate::model::leg::LegModel;
+use crate::model::mechanism::MeasurementNoise;
+
+/// Upper-tail probability of the χ² statistic below which the declared noise is rejected.
+pub const NOISE_TEST_P: f64 = 1e-3;
+
+/// Family-wise level of the outlier test (Bonferroni over a leg's rows).
+pub const OUTLIER_ALPHA: f64 = 0.01;
+
+/// The residuals of one leg tested against the declared noise.
+#[derive(Debug, Clone, PartialEq)]
+pub struct NoiseTest {
+    /// `Σ r_i² / v_i` over the tested rows.
+    pub chi_squared: f64,
+    /// Degrees of freedom: tested rows − identified parameters.
+    pub degrees_of_freedom: usize,
+    /// Upper-tail probability of `chi_squared`.
+    pub p_value: f64,
+    /// `√(χ² / dof)`: the residual scatter in units of the declared one (≈ 1 when it holds).
+    pub sigma_ratio: f64,
+    /// RMS residual `√(Σ r² / dof)` in reading units.
+    pub residual_sigma: f64,
+    /// The declared scatter the test compares with, `residual_sigma / sigma_ratio` (a mean of
+    /// the expected standard deviations `√v_i`), reading units.
+    pub expected_sigma: f64,
+    /// Rows left out of the test (the outliers of a robust fit).
+    pub excluded: usize,
+    /// `p_value < NOISE_TEST_P`.
+    pub rejected: bool,
+}
+
+/// One row flagged as an outlier.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Outlier {
+    /// Line of the measurement file, if read from one.
+    pub line: Option<usize>,
+    /// The measured pose, as `x=…, y=…`.
+    pub pose: String,
+    /// The measured reading.
+    pub reading: f64,
+    /// Its residual (predicted − measured, matched modulo one turn), reading units.
+    pub residual: f64,
+    /// Its studentized residual.
+    pub t: f64,
+}
+
+impl Outlier {
+    /// `line 6` or `simulated pose x=…, y=…`.
+    pub fn place(&self) -> String {
+        match self.line {
+            Some(line) => format!("line {line}"),
+            None => format!("simulated pose {}", self.pose),
+        }
+    }
+}
+
+/// The statistics of one leg's fit.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct LegStatistics {
+    /// The noise test, if the model declares a non-zero noise and `m > n`.
+    pub noise_test: Option<NoiseTest>,
+    /// The outlier threshold on `|t|`, if `m > n + 1`.
+    pub outlier_threshold: Option<f64>,
+    /// Rows beyond the threshold, largest `|t|` first.
+    pub outliers: Vec<Outlier>,
+    /// Largest `|t|` over the rows, if computed.
+    pub largest_t: Option<f64>,
+    /// Problem rows of the outliers (for `--drop-outliers`).
+    pub outlier_rows: Vec<usize>,
+    /// Rows whose readings sit on another turn than the home value: (turns, count, lines).
+    pub other_turn: Option<(f64, usize, Vec<usize>)>,
+}
+
+/// `∂ψ/∂P`: the gradient of the leg's predicted reading with respect to the measured pose
+/// coordinates (zero for the others), at full parameter vector `phi`.
+///
+/// # Errors
+/// The leg cannot reach the pose on its home branch.
+pub fn pose_gradient(
+    leg: &LegModel,
+    phi: &[f64],
+    pose: &[f64; 6],
+    home_pose: &[f64; 6],
+    measured: &[usize],
+) -> Result<[f64; 6], KinematicsError> {
+    let solution = solve_leg(leg, &leg.geometry(phi), pose, home_pose)?;
+    let phi_dual: Vec<Dual64> = phi.iter().map(|&v| Dual64::from(v)).collect();
+    let geometry = leg.geometry(&phi_dual);
+    let mut gradient = [0.0; 6];
+    for &c in measured {
+        let mut seeded = pose.map(Dual64::from);
+        seeded[c].eps = 1.0;
+        gradient[c] = reading_at_solution(leg, &geometry, &seeded, &solution).eps;
+    }
+    Ok(gradient)
+}
+
+/// Expected variance of every residual of `problem` at the unknowns `x`:
+/// `σ_q² + Σ_c (∂ψ/∂P_c)² σ_c²`.
+///
+/// # Errors
+/// The first block whose leg cannot reach its pose.
+pub fn row_variances(
+    problem: &IdentificationProblem<'_>,
+    x: &DVector<f64>,
+    noise: &MeasurementNoise,
+) -> Result<Vec<f64>, BlockError> {
+    let mechanism = problem.mechanism();
+    let phis: Vec<Vec<f64>> = problem
+        .slots()
+        .iter()
+        .map(|slot| problem.leg_parameters(slot, x))
+        .collect();
+    problem
+        .blocks()
+        .iter()
+        .enumerate()
+        .map(|(i, block)| {
+            let s = problem
+                .slots()
+                .iter()
+                .position(|slot| slot.leg == block.leg)
+                .unwrap_or_default();
+            let gradient = pose_gradient(
+                &mechanism.legs[block.leg],
+                &phis[s],
+                &block.pose,
+                &mechanism.home_pose,
+                &mechanism.measured,
+            )
+            .map_err(|source| problem.block_error(i, source, x))?;
+            let pose_part: f64 = (0..6).map(|c| (gradient[c] * noise.pose[c]).powi(2)).sum();
+            Ok(noise.reading.powi(2) + pose_part)
+        })
+        .collect()
+}
+
+/// The orthonormal basis `U` of the column space of `jacobian` (thin SVD, columns of
+/// non-negligible singular values): the hat matrix is `U Uᵀ`.
+fn column_basis(jacobian: &DMatrix<f64>) -> DMatrix<f64> {
+    let svd = jacobian.clone().svd(true, false);
+    let Some(u) = svd.u else {
+        return DMatrix::zeros(jacobian.nrows(), 0);
+    };
+    let largest = svd.singular_values.max();
+    let kept: Vec<usize> = (0..svd.singular_values.len())
+        .filter(|&k| svd.singular_values[k] > 1e-12 * largest)
+        .collect();
+    u.select_columns(&kept)
+}
+
+/// Leverages `h_ii` (diagonal of the hat matrix `J (JᵀJ)⁻¹ Jᵀ`) from the thin SVD of `J`.
+pub fn leverages(jacobian: &DMatrix<f64>) -> Vec<f64> {
+    let u = column_basis(jacobian);
+    (0..jacobian.nrows())
+        .map(|i| u.row(i).norm_squared())
+        .collect()
+}
+
+/// Externally studentized residuals of a least-squares fit with residuals `e` and Jacobian
+/// `jacobian` (`m × n`); `None` for a row of leverage 1 or without `m > n + 1`.
+///
+/// The sum of squares without row `i` is `Σ e² − e_i²/(1 − h_ii)`; when row `i` dominates it
+/// (a gross outlier), that difference cancels, and it is summed directly from the other rows'
+/// leave-one-out residuals `e_j + h_ji e_i / (1 − h_ii)` instead.
+pub fn studentized(e: &[f64], jacobian: &DMatrix<f64>) -> Vec<Option<f64>> {
+    let (m, n) = jacobian.shape();
+    if m <= n + 1 {
+        return vec![None; m];
+    }
+    let u = column_basis(jacobian);
+    let h: Vec<f64> = (0..m).map(|i| u.row(i).norm_squared()).collect();
+    let total: f64 = e.iter().map(|v| v * v).sum();
+    (0..m)
+        .map(|i| {
+            let free = 1.0 - h[i];
+            if free <= 1e-12 {
+                return None;
+            }
+            let mut without = total - e[i] * e[i] / free;
+            if without.is_nan() || without <= 1e-6 * total {
+                let shift = e[i] / free;
+                without = (0..m)
+                    .filter(|&j| j != i)
+                    .map(|j| (e[j] + u.row(j).dot(&u.row(i)) * shift).powi(2))
+                    .sum();
+            }
+            let s = (without.max(0.0) / (m - n - 1) as f64).sqrt();
+            let t = e[i] / (s * free.sqrt());
+            t.is_finite().then_some(t)
+        })
+        .collect()
+}
+
+/// A figure for a message: three decimals in [1e-3, 1e4), else scientific.
+pub fn figure(value: f64) -> String {
+    if value == 0.0 || (1e-3..1e4).contains(&value.abs()) {
+        format!("{value:.3}")
+    } else {
+        format!("{value:.3e}")
+    }
+}
+
+/// The Bonferroni-corrected two-sided threshold on `|t|` for `rows` rows at family level
+/// [`OUTLIER_ALPHA`]: Student's t with `dof` degrees of freedom, or the normal law (`None`).
+pub fn outlier_threshold(rows: usize, dof: Option<usize>) -> Option<f64> {
+    let p = 1.0 - OUTLIER_ALPHA / (2.0 * rows.max(1) as f64);
+    let value = match dof {
+        Some(0) => return None,
+        Some(d) => StudentsT::new(0.0, 1.0, d as f64).ok()?.inverse_cdf(p),
+        None => Normal::new(0.0, 1.0).ok()?.inverse_cdf(p),
+    };
+    value.is_finite().then_some(value)
+}
+
+/// The χ² test of residuals `e` (reading units) against expected variances `v` for a fit of
+/// `parameters` unknowns; `None` without redundancy or with a zero expected variance.
+pub fn noise_test(e: &[f64], v: &[f64], parameters: usize, excluded: usize) -> Option<NoiseTest> {
+    let m = e.len();
+    if m <= parameters || v.iter().any(|&vi| !(vi > 0.0 && vi.is_finite())) {
+        return None;
+    }
+    let dof = m - parameters;
+    let chi_squared: f64 = e.iter().zip(v).map(|(ei, vi)| ei * ei / vi).sum();
+    let p_value = ChiSquared::new(dof as f64).ok()?.sf(chi_squared);
+    let sum_squares: f64 = e.iter().map(|x| x * x).sum();
+    let sigma_ratio = (chi_squared / dof as f64).sqrt();
+    let residual_sigma = (sum_squares / dof as f64).sqrt();
+    // Σ r²/v = Σ r² / v̄ with v̄ the r²-weighted harmonic mean of the variances.
+    let expected_sigma = if chi_squared > 0.0 {
+        residual_sigma / sigma_ratio
+    } else {
+        (m as f64 / v.iter().map(|vi| 1.0 / vi).sum::<f64>()).sqrt()
+    };
+    Some(NoiseTest {
+        chi_squared,
+        degrees_of_freedom: dof,
+        p_value,
+        sigma_ratio,
+        residual_sigma,
+        expected_sigma,
+        excluded,
+        rejected: p_value.is_nan() || p_value < NOISE_TEST_P,
+    })
+}
+
+/// How the leg was fitted, for the statistics.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum FitKind {
+    /// Least squares (unweighted, or weighted by the declared noise: `problem`'s own weights).
+    LeastSquares,
+    /// A robust loss (the problem's weights are the loss's; residuals are standardised by the
+    /// declared noise).
+    Robust,
+}
+
+/// The statistics of the leg in `slot` at the estimate `x` of `problem` (as fitted, with its
+/// weights); `noise` is the declared noise.
+///
+/// # Errors
+/// A block whose leg cannot reach its pose.
+pub fn leg_statistics(
+    problem: &IdentificationProblem<'_>,
+    slot: &LegSlot,
+    x: &DVector<f64>,
+    noise: Option<&MeasurementNoise>,
+    kind: FitKind,
+) -> Result<LegStatistics, BlockError> {
+    let rows = problem.rows_of(slot);
+    let (m, n) = (rows.len(), slot.columns.len());
+    let raw_problem = problem.unweighted();
+    let (raw, raw_jacobian) = raw_problem.residuals_and_jacobian(x)?;
+    let variances = match noise {
+        Some(noise) => Some(row_variances(&raw_problem, x, noise)?),
+        None => None,
+    };
+    let leg_rows = |r: &DVector<f64>| -> Vec<f64> { rows.iter().map(|&i| r[i]).collect() };
+    let leg_jacobian = |j: &DMatrix<f64>, scale: &dyn Fn(usize) -> f64| {
+        DMatrix::from_fn(m, n, |i, k| j[(rows[i], slot.offset + k)] * scale(rows[i]))
+    };
+    let e = leg_rows(&raw);
+    let leg_variances: Option<Vec<f64>> = variances
+        .as_ref()
+        .map(|v| rows.iter().map(|&i| v[i]).collect());
+    let positive = leg_variances
+        .as_ref()
+        .filter(|v| v.iter().all(|&vi| vi > 0.0 && vi.is_finite()));
+    let (t, threshold): (Vec<Option<f64>>, Option<f64>) = match (kind, positive) {
+        (FitKind::Robust, Some(v)) => {
+            let all = variances.as_deref().unwrap_or_default();
+            let j = leg_jacobian(&raw_jacobian, &|i| 1.0 / all[i].sqrt());
+            let h = leverages(&j);
+            let t = e
+                .iter()
+                .zip(v)
+                .zip(&h)
+                .map(|((ei, vi), hi)| {
+                    let free = 1.0 - hi;
+                    (free > 1e-12).then(|| ei / (vi.sqrt() * free.sqrt()))
+                })
+                .collect();
+            (t, outlier_threshold(m, None))
+        }
+        _ => {
+            let (fitted, fitted_jacobian) = problem.residuals_and_jacobian(x)?;
+            let j = leg_jacobian(&fitted_jacobian, &|_| 1.0);
+            let t = studentized(&leg_rows(&fitted), &j);
+            let threshold = (m > n + 1)
+                .then(|| outlier_threshold(m, Some(m - n - 1)))
+                .flatten();
+            (t, threshold)
+        }
+    };
+    let mechanism = problem.mechanism();
+    let mut flagged: Vec<(usize, f64)> = t
+        .iter()
+        .enumerate()
+        .filter_map(|(k, tk)| tk.map(|v| (k, v)))
+        .filter(|(_, v)| threshold.is_some_and(|limit| v.abs() > limit))
+        .collect();
+    flagged.sort_by(|a, b| b.1.abs().total_cmp(&a.1.abs()));
+    let outliers = flagged
+        .iter()
+        .map(|&(k, tk)| {
+            let block = &problem.blocks()[rows[k]];
+            Outlier {
+                line: block.line,
+                pose: mechanism.pose_text(&block.pose),
+                reading: block.reading,
+                residual: e[k],
+                t: tk,
+            }
+        })
+        .collect();
+    let outlier_rows: Vec<usize> = flagged.iter().map(|&(k, _)| rows[k]).collect();
+    let noise_test = leg_variances.as_ref().and_then(|v| {
+        let keep: Vec<usize> = (0..m)
+            .filter(|&k| kind == FitKind::LeastSquares || !outlier_rows.contains(&rows[k]))
+            .collect();
+        let kept_e: Vec<f64> = keep.iter().map(|&k| e[k]).collect();
+        let kept_v: Vec<f64> = keep.iter().map(|&k| v[k]).collect();
+        noise_test(&kept_e, &kept_v, n, m - keep.len())
+    });
+    let turns = problem.turns(x)?;
+    let shifted: Vec<usize> = rows.iter().copied().filter(|&i| turns[i] != 0.0).collect();
+    let other_turn = (!shifted.is_empty()).then(|| {
+        let most = most_common(shifted.iter().map(|&i| turns[i]));
+        let lines = shifted
+            .iter()
+            .filter_map(|&i| problem.blocks()[i].line)
+            .collect();
+        (most, shifted.len(), lines)
+    });
+    Ok(LegStatistics {
+        noise_test,
+        outlier_threshold: threshold,
+        outliers,
+        largest_t: t.iter().flatten().map(|v| v.abs()).reduce(f64::max),
+        outlier_rows,
+        other_turn,
+    })
+}
+
+fn most_common(values: impl Iterator<Item = f64>) -> f64 {
+    let values: Vec<f64> = values.collect();
+    let mut best = (0.0, 0);
+    for &v in &values {
+        let count = values.iter().filter(|&&w| w.total_cmp(&v).is_eq()).count();
+        if count > best.1 {
+            best = (v, count);
+        }
+    }
+    best.0
+}
+
+/// The leg's warnings: a rejected noise test (with the likely causes and the figures),
+/// the outliers, the readings on another turn. `unit` is the reading unit (`rad` or `m`),
+/// `joint` the actuated joint and `home` its home value.
+pub fn warnings(
+    statistics: &LegStatistics,
+    leg: &str,
+    unit: &str,
+    joint: &str,
+    home: f64,
+) -> Vec<String> {
+    let mut warnings = Vec::new();
+    if let Some(test) = statistics.noise_test.as_ref().filter(|t| t.rejected) {
+        let largest = statistics.largest_t.map_or(String::new(), |t| {
+            format!(" (largest studentized residual |t| = {})", figure(t))
+        });
+        let outliers = match statistics.outliers.first() {
+            Some(o) => format!("an outlier row such as {}{largest}", o.place()),
+            None => format!("outlier rows{largest}"),
+        };
+        warnings.push(format!(
+            "leg {leg}: the residuals reject the declared noise: residual σ̂ = {:.3e} {unit} \
+             against {:.3e} {unit} expected, {} times the declared scatter (χ² = {:.4e} \
+             with {} degrees of freedom, p = {:.2e} < {NOISE_TEST_P:e}). Likely causes: readings \
+             or measured angles in degrees instead of radians (a factor 57.3), lengths in \
+             millimetres instead of metres (a factor 1000), {outliers}, a declared noise that is \
+             too small, or a model that does not fit the mechanism. Check the units of the \
+             measurement file and the model.",
+            test.residual_sigma,
+            test.expected_sigma,
+            figure(test.sigma_ratio),
+            test.chi_squared,
+            test.degrees_of_freedom,
+            test.p_value
+        ));
+    }
+    for o in &statistics.outliers {
+        warnings.push(format!(
+            "leg {leg}: {} is an outlier: reading {} {unit}, residual {:.3e} {unit}, studentized \
+             residual t = {} beyond ±{} (Bonferroni, family level {OUTLIER_ALPHA})",
+            o.place(),
+            o.reading,
+            o.residual,
+            figure(o.t),
+            figure(statistics.outlier_threshold.unwrap_or_default())
+        ));
+    }
+    if let Some((turns, count, lines)) = &statistics.other_turn {
+        let lines = if lines.is_empty() {
+            String::new()
+        } else {
+            let shown: Vec<String> = lines.iter().take(8).map(|l| l.to_string()).collect();
+            let more = if lines.len() > 8 { ", …" } else { "" };
+            format!(" (lines {}{more})", shown.join(", "))
+        };
+        warnings.push(format!(
+            "leg {leg}, joint {joint}: {count} reading(s){lines} sit {turns} turn(s) of 2π away \
+             from the turn of the joint's home value {home} rad (or of its offset); they were \
+             matched modulo 2π. If the home value is in degrees, convert it to radians; \
+             otherwise put it on the readings' turn."
+        ));
+    }
+    warnings
+}

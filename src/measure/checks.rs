@@ -1,0 +1,216 @@
+//! Plausibility checks of a measurement set, before any fit: values far outside what the
+//! mechanism can produce, and rows entered twice.
+//!
+//! * A position farther from the home pose than [`SIZE_FACTOR`] × the mechanism's size (the
+//!   longest chain of joint offsets plus the attachment, or the workspace region's extent,
+//!   whichever is larger) is an **error** naming the line and column: no leg can reach it, so
+//!   the fit would fail anyway, only without the hint (millimetres?).
+//! * An orientation (`roll`, `pitch`, `yaw`) or a revolute reading beyond ±2π, or a prismatic
+//!   reading larger than [`SIZE_FACTOR`] × the size, is a **warning**: a multi-turn encoder or
+//!   an unwrapped orientation can legitimately pass ±2π, and the decisive evidence about units
+//!   is the fit itself (the residuals' noise test makes a wrong-unit result untrusted, exit 3).
+//!   One warning per column, naming the first and the largest offending line.
+//! * Two rows with the same leg label, pose and readings: a **warning** naming both lines (the
+//!   same measurement counted twice makes the standard deviations √2 too small).
+
+use std::collections::HashMap;
+use std::f64::consts::TAU;
+
+use super::MeasurementSet;
+use crate::error::{Error, Result};
+use crate::model::mechanism::COORDINATES;
+use crate::model::Mechanism;
+
+/// A position or a prismatic reading this many times the mechanism's size is implausible.
+pub const SIZE_FACTOR: f64 = 100.0;
+
+/// The mechanism's size, metres: the longest leg (sum of its joints' offsets plus the
+/// attachment) or the workspace region's extent, whichever is larger.
+pub fn mechanism_size(mechanism: &Mechanism) -> f64 {
+    let reach = mechanism
+        .legs
+        .iter()
+        .map(|leg| {
+            let chain: f64 = leg
+                .joints
+                .iter()
+                .map(|j| (j.origin[0].powi(2) + j.origin[1].powi(2) + j.origin[2].powi(2)).sqrt())
+                .sum();
+            chain + leg.attachment.iter().map(|a| a * a).sum::<f64>().sqrt()
+        })
+        .fold(0.0, f64::max);
+    let (low, high) = mechanism.workspace.region.bounds();
+    let extent = ((high[0] - low[0]).powi(2) + (high[1] - low[1]).powi(2)).sqrt();
+    reach.max(extent)
+}
+
+/// `value` as written, or in scientific notation when it is huge or tiny (1e308 is not 309
+/// digits).
+fn compact(value: f64) -> String {
+    if value == 0.0 || (1e-4..1e15).contains(&value.abs()) {
+        value.to_string()
+    } else {
+        format!("{value:e}")
+    }
+}
+
+/// Offending values of one column: count, first line and value, largest line and value.
+#[derive(Default)]
+struct Offenders {
+    count: usize,
+    first: Option<(Option<usize>, f64)>,
+    largest: Option<(Option<usize>, f64)>,
+}
+
+impl Offenders {
+    fn add(&mut self, line: Option<usize>, value: f64) {
+        self.count += 1;
+        self.first.get_or_insert((line, value));
+        if self.largest.is_none_or(|(_, v)| value.abs() > v.abs()) {
+            self.largest = Some((line, value));
+        }
+    }
+
+    fn describe(&self) -> String {
+        let at = |(line, value): (Option<usize>, f64)| match line {
+            Some(line) => format!("{} at line {line}", compact(value)),
+            None => format!("{} in a simulated row", compact(value)),
+        };
+        let first = self.first.map(at).unwrap_or_default();
+        let largest = self.largest.map(at).unwrap_or_default();
+        if self.count == 1 {
+            first
+        } else {
+            format!("{} values, first {first}, largest {largest}", self.count)
+        }
+    }
+}
+
+/// The warnings about `data` for `mechanism` (empty when every value is plausible).
+///
+/// # Errors
+/// A measured position [`SIZE_FACTOR`] times farther than the mechanism's size from the home
+/// pose ([`Error::Measurement`] naming the line and column, or [`Error::Invalid`] for a
+/// simulated pose).
+pub fn check(mechanism: &Mechanism, data: &MeasurementSet) -> Result<Vec<String>> {
+    let mut warnings = range_warnings(mechanism, data)?;
+    warnings.extend(duplicate_warnings(mechanism, data));
+    Ok(warnings)
+}
+
+fn range_warnings(mechanism: &Mechanism, data: &MeasurementSet) -> Result<Vec<String>> {
+    let size = mechanism_size(mechanism);
+    let limit = SIZE_FACTOR * size;
+    let home = mechanism.home_pose;
+    let mut coordinates: Vec<Offenders> = (0..6).map(|_| Offenders::default()).collect();
+    let mut readings: Vec<Offenders> = mechanism
+        .legs
+        .iter()
+        .map(|_| Offenders::default())
+        .collect();
+    for pose in &data.poses {
+        for &c in &mechanism.measured {
+            let value = pose.pose[c];
+            if c < 3 && (value - home[c]).abs() > limit {
+                let name = COORDINATES[c];
+                let message = format!(
+                    "{} m is more than {SIZE_FACTOR} times the mechanism's size \
+                     ({size:.3} m) from the home pose ({} m): positions in millimetres instead \
+                     of metres?",
+                    compact(value),
+                    home[c]
+                );
+                return Err(match (&data.source, pose.line) {
+                    (Some(path), Some(line)) => Error::Measurement {
+                        path: path.clone(),
+                        location: format!("line {line}, column `{name}`"),
+                        message,
+                    },
+                    _ => Error::Invalid(format!("simulated pose, `{name}`: {message}")),
+                });
+            }
+            if c >= 3 && value.abs() > TAU {
+                coordinates[c].add(pose.line, value);
+            }
+        }
+        for (l, reading) in pose.readings.iter().enumerate() {
+            let Some(value) = *reading else { continue };
+            let bound = if mechanism.legs[l].actuated_is_revolute() {
+                TAU
+            } else {
+                limit
+            };
+            if value.abs() > bound {
+                readings[l].add(pose.line, value);
+            }
+        }
+    }
+    let mut warnings = Vec::new();
+    for &c in &mechanism.measured {
+        let offenders = &coordinates[c];
+        if offenders.count == 0 {
+            continue;
+        }
+        warnings.push(format!(
+            "column `{}`: {} beyond ±2π rad: an orientation in degrees instead of radians?",
+            COORDINATES[c],
+            offenders.describe()
+        ));
+    }
+    for (name, (leg, offenders)) in mechanism
+        .actuated_names()
+        .iter()
+        .zip(mechanism.legs.iter().zip(&readings))
+    {
+        if offenders.count == 0 {
+            continue;
+        }
+        warnings.push(if leg.actuated_is_revolute() {
+            format!(
+                "column `{name}`: revolute reading {} beyond ±2π rad: readings in degrees \
+                 instead of radians?",
+                offenders.describe()
+            )
+        } else {
+            format!(
+                "column `{name}`: prismatic reading {} larger than {SIZE_FACTOR} times the \
+                 mechanism's size ({size:.3} m): readings in millimetres instead of metres?",
+                offenders.describe()
+            )
+        });
+    }
+    Ok(warnings)
+}
+
+fn duplicate_warnings(mechanism: &Mechanism, data: &MeasurementSet) -> Vec<String> {
+    let mut seen: HashMap<Vec<u64>, usize> = HashMap::new();
+    let mut warnings = Vec::new();
+    for (index, pose) in data.poses.iter().enumerate() {
+        let mut key = vec![pose.leg.map_or(u64::MAX, |l| l as u64)];
+        key.extend(mechanism.measured.iter().map(|&c| pose.pose[c].to_bits()));
+        key.extend(
+            pose.readings
+                .iter()
+                .map(|r| r.map_or(u64::MAX - 1, f64::to_bits)),
+        );
+        match seen.get(&key) {
+            Some(&first) => {
+                let place = |i: usize| {
+                    data.poses[i]
+                        .line
+                        .map_or(format!("simulated row {}", i + 1), |l| format!("line {l}"))
+                };
+                warnings.push(format!(
+                    "{} repeats {} exactly (same leg, pose and readings): a measurement counted \
+                     twice makes the standard deviations too small; remove one of them",
+                    place(index),
+                    place(first)
+                ));
+            }
+            None => {
+                seen.insert(key, index);
+            }
+        }
+    }
+    warnings
+}
