@@ -623,20 +623,20 @@ fn located(
 
 #[cfg(test)]
 mod tests {
-    use super::covariance_diagonal;
+    use super::unscaled_covariance;
     use nalgebra::DMatrix;
 
     #[test]
-    fn covariance_diagonal_is_the_inverse_of_the_normal_matrix_or_none_when_singular() {
+    fn unscaled_covariance_is_the_inverse_of_the_normal_matrix_or_none_when_singular() {
         // CᵀC = [[2, 1], [1, 2]]: (CᵀC)⁻¹ = [[2, −1], [−1, 2]]/3.
         let c = DMatrix::from_row_slice(3, 2, &[1.0, 0.0, 0.0, 1.0, 1.0, 1.0]);
-        let d = covariance_diagonal(&c).unwrap();
-        assert!((d[0] - 2.0 / 3.0).abs() < 1e-15 && (d[1] - 2.0 / 3.0).abs() < 1e-15);
+        let expected = DMatrix::from_row_slice(2, 2, &[2.0, -1.0, -1.0, 2.0]) / 3.0;
+        assert!((unscaled_covariance(&c).unwrap() - expected).amax() < 1e-15);
         let scaled = DMatrix::from_row_slice(3, 2, &[10.0, 0.0, 0.0, 0.5, 0.0, 0.0]);
-        let d = covariance_diagonal(&scaled).unwrap();
-        assert!((d[0] - 0.01).abs() < 1e-17 && (d[1] - 4.0).abs() < 1e-14);
+        let expected = DMatrix::from_row_slice(2, 2, &[0.01, 0.0, 0.0, 4.0]);
+        assert!((unscaled_covariance(&scaled).unwrap() - expected).amax() < 1e-14);
         // s_min/s_max = 1e-15: singular to working precision, no covariance.
         let singular = DMatrix::from_row_slice(3, 2, &[10.0, 0.0, 0.0, 1e-14, 0.0, 0.0]);
-        assert_eq!(covariance_diagonal(&singular), None);
+        assert_eq!(unscaled_covariance(&singular), None);
     }
 }
