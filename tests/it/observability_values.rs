@@ -1,6 +1,8 @@
 //! The observability analysis on small matrices whose answers are known in closed form:
-//! column scaling, the condition numbers (huge but finite when rank-deficient), the indices with s_min ≠ 1, a zero column, and the
-//! exact text of a null direction.
+//! column scaling, the condition numbers (huge but finite when rank-deficient), the indices
+//! with s_min ≠ 1, a zero column, and the exact text of a null direction.
+// Exact comparisons are intended here: zeros and infinities that must be exactly that.
+#![allow(clippy::float_cmp)]
 use legwise::identify::observability::{analyse, indices, sorted_singular_values, WEAK_CONDITION};
 use nalgebra::DMatrix;
 
@@ -159,4 +161,15 @@ fn singular_values_come_largest_first_with_zeros_for_missing_rows() {
     assert_eq!(values.len(), 2);
     close(values[0], 7.0, "s0");
     close(values[1], 1.0, "s1");
+}
+
+#[test]
+fn an_all_zero_jacobian_has_rank_zero_and_infinite_conditions_not_nan() {
+    let c = DMatrix::zeros(3, 2);
+    let o = analyse(&c, &names(2));
+    assert_eq!(o.rank, 0);
+    assert_eq!(o.condition, f64::INFINITY);
+    assert_eq!(o.scaled_condition, f64::INFINITY);
+    assert_eq!(o.unidentifiable, names(2));
+    assert_eq!(o.indices, [0.0; 5]);
 }
