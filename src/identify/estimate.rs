@@ -128,6 +128,8 @@ pub struct SolverRun {
     pub converged: bool,
     /// Why the solver stopped (its `Display` is a sentence for humans).
     pub stop_reason: StopReason,
+    /// Gauss–Newton refinement steps taken after the solver converged.
+    pub refinement_steps: usize,
     /// ½‖r‖² before.
     pub initial_cost: f64,
     /// ½‖r‖² after.
@@ -351,15 +353,12 @@ pub fn identify_problem(
         });
     }
     // Observability is a property of the design: always of the unweighted Jacobian.
-    let unweighted_c = match problem.weights() {
-        Some(_) => {
-            problem
-                .unweighted()
-                .residuals_and_jacobian(&outcome.x)
-                .map_err(|e| located(mechanism, data, problem, e))?
-                .1
-        }
-        None => c.clone(),
+    let (unweighted_r, unweighted_c) = match problem.weights() {
+        Some(_) => problem
+            .unweighted()
+            .residuals_and_jacobian(&outcome.x)
+            .map_err(|e| located(mechanism, data, problem, e))?,
+        None => (r.clone(), c.clone()),
     };
     let mut estimates = Vec::new();
     for slot in problem.slots() {
@@ -375,6 +374,7 @@ pub fn identify_problem(
             r0: &r0,
             r: &r,
             c: &c,
+            unweighted_r: &unweighted_r,
             unweighted_c: &unweighted_c,
             excluded,
         };
@@ -397,6 +397,7 @@ pub fn identify_problem(
         iterations: outcome.iterations,
         converged: outcome.converged,
         stop_reason: outcome.stop_reason,
+        refinement_steps: outcome.refinement_steps,
         initial_cost: 0.5 * r0.norm_squared(),
         final_cost: 0.5 * r.norm_squared(),
         residual_evaluations: outcome.residual_evaluations,
@@ -434,6 +435,7 @@ struct Fit<'f> {
     r0: &'f DVector<f64>,
     r: &'f DVector<f64>,
     c: &'f DMatrix<f64>,
+    unweighted_r: &'f DVector<f64>,
     unweighted_c: &'f DMatrix<f64>,
     excluded: &'f [usize],
 }
@@ -492,7 +494,8 @@ fn leg_estimate(
             .iter()
             .map(|&i| RowResidual {
                 line: problem.blocks()[i].line,
-                residual: -r[i] / problem.row_scale(i),
+                // Unweighted: a robust fit may give a row zero weight.
+                residual: -fit.unweighted_r[i],
             })
             .collect(),
     }

@@ -191,6 +191,10 @@ fn an_error_at_a_trial_point_is_a_rejected_step() {
         "stopped at the edge: {x:?}"
     );
     assert!(res.state.get_cost() < 0.5 * (121.0 + 4.0) * 0.05, "{x:?}");
+    // The edge of the domain is not a minimum (the residual still points across it): the run
+    // must not claim convergence.
+    let reason = res.solver.stop_reason().unwrap();
+    assert!(!reason.is_convergence(), "{reason:?} at {x:?}");
 }
 
 #[test]
