@@ -15,6 +15,7 @@ mod lm_behaviour;
 mod mgh;
 mod nist;
 mod observability_values;
+mod plots;
 mod recovery;
 mod selection;
 mod solvers_agree;
