@@ -623,3 +623,23 @@ fn located(
         _ => Error::Invalid(format!("simulated pose {pose_text}: {}", error.source)),
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::unscaled_covariance;
+    use nalgebra::DMatrix;
+
+    #[test]
+    fn unscaled_covariance_is_the_inverse_of_the_normal_matrix_or_none_when_singular() {
+        // CᵀC = [[2, 1], [1, 2]]: (CᵀC)⁻¹ = [[2, −1], [−1, 2]]/3.
+        let c = DMatrix::from_row_slice(3, 2, &[1.0, 0.0, 0.0, 1.0, 1.0, 1.0]);
+        let expected = DMatrix::from_row_slice(2, 2, &[2.0, -1.0, -1.0, 2.0]) / 3.0;
+        assert!((unscaled_covariance(&c).unwrap() - expected).amax() < 1e-15);
+        let scaled = DMatrix::from_row_slice(3, 2, &[10.0, 0.0, 0.0, 0.5, 0.0, 0.0]);
+        let expected = DMatrix::from_row_slice(2, 2, &[0.01, 0.0, 0.0, 4.0]);
+        assert!((unscaled_covariance(&scaled).unwrap() - expected).amax() < 1e-14);
+        // s_min/s_max = 1e-15: singular to working precision, no covariance.
+        let singular = DMatrix::from_row_slice(3, 2, &[10.0, 0.0, 0.0, 1e-14, 0.0, 0.0]);
+        assert_eq!(unscaled_covariance(&singular), None);
+    }
+}

@@ -11,6 +11,7 @@ mod golden;
 mod inverse_kinematics;
 mod jacobian;
 mod kinematics;
+mod lm_behaviour;
 mod mgh;
 mod nist;
 mod observability_values;

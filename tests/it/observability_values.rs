@@ -175,3 +175,14 @@ fn singular_values_come_largest_first_with_zeros_for_missing_rows() {
     close(values[0], 7.0, "s0");
     close(values[1], 1.0, "s1");
 }
+
+#[test]
+fn an_all_zero_jacobian_has_rank_zero_and_infinite_conditions_not_nan() {
+    let c = DMatrix::zeros(3, 2);
+    let o = analyse(&c, &names(2));
+    assert_eq!(o.rank, 0);
+    assert_eq!(o.condition, f64::INFINITY);
+    assert_eq!(o.scaled_condition, f64::INFINITY);
+    assert_eq!(o.unidentifiable, names(2));
+    assert_eq!(o.indices, [0.0; 5]);
+}
