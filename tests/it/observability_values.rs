@@ -5,7 +5,9 @@
 //! The closed-form values here are exact in binary (ratios of powers of two, zeros, infinity),
 //! so exact float comparisons are the test's point.
 #![allow(clippy::float_cmp)]
-use legwise::identify::observability::{analyse, indices, sorted_singular_values, WEAK_CONDITION};
+use legwise::identify::observability::{
+    analyse, indices, sorted_singular_values, Observability, RANK_TOLERANCE, WEAK_CONDITION,
+};
 use nalgebra::DMatrix;
 
 fn names(n: usize) -> Vec<String> {
@@ -185,4 +187,40 @@ fn an_all_zero_jacobian_has_rank_zero_and_infinite_conditions_not_nan() {
     assert_eq!(o.scaled_condition, f64::INFINITY);
     assert_eq!(o.unidentifiable, names(2));
     assert_eq!(o.indices, [0.0; 5]);
+}
+
+/// The rank tolerance is relative to the largest scaled singular value. Scaled, [[1, 1], [0, ε]]
+/// has unit columns at an angle ≈ ε, so s_max ≈ √2 and s_min ≈ ε/√2 (s_max·s_min = |det| ≈ ε,
+/// s_max² + s_min² = 2): the ratio s_min/s_max ≈ ε/2 decides the rank, not s_min alone.
+#[test]
+fn the_rank_tolerance_is_relative_to_the_largest_singular_value() {
+    for (epsilon, rank) in [(1.5e-8, 1), (3e-8, 2)] {
+        let c = DMatrix::from_row_slice(2, 2, &[1.0, 1.0, 0.0, epsilon]);
+        let o = analyse(&c, &names(2));
+        let s = &o.scaled_singular_values;
+        close(s[0], 2f64.sqrt(), "scaled s_max");
+        assert!((s[1] / (epsilon / 2f64.sqrt()) - 1.0).abs() < 1e-6, "{s:?}");
+        // ε/2 is 0.75 and 1.5 times the tolerance: one rank on each side.
+        assert_eq!(epsilon / 2.0 > RANK_TOLERANCE, rank == 2);
+        assert_eq!(o.rank, rank, "ε = {epsilon}");
+    }
+}
+
+/// The warning is for a scaled condition strictly above the threshold.
+#[test]
+fn the_weak_design_warning_starts_strictly_above_the_threshold() {
+    let at = |scaled_condition: f64| Observability {
+        singular_values: vec![1.0, 1.0],
+        scaled_singular_values: vec![1.0, 1.0],
+        rank: 2,
+        condition: 1.0,
+        indices: [1.0; 5],
+        unidentifiable: Vec::new(),
+        null_directions: Vec::new(),
+        scaled_condition,
+        weakest_direction: "1.000 p0".into(),
+    };
+    assert_eq!(at(WEAK_CONDITION).warning(), None);
+    assert_eq!(at(1.0).warning(), None);
+    assert!(at(WEAK_CONDITION * 1.5).warning().is_some());
 }
