@@ -704,3 +704,39 @@ fn a_gain_of_1e308_is_named_as_an_overflow_of_the_nominal_parameters() {
         "{msg}"
     );
 }
+
+/// The unit a bad cell is expected in follows the coordinate: metres for x, y, z and radians for
+/// roll, pitch, yaw (a model may measure any of the six; the bundled planar ones measure three).
+#[test]
+fn a_bad_coordinate_cell_names_the_unit_of_its_coordinate() {
+    let mut mech = bundled("5r.yaml");
+    mech.measured = (0..6).collect();
+    let readings = ",".repeat(mech.actuated_names().len());
+    let header = format!(
+        "leg,x,y,z,roll,pitch,yaw,{}",
+        mech.actuated_names().join(",")
+    );
+    let path = Path::new("m.csv");
+    for (i, (name, unit)) in [
+        ("x", "metres"),
+        ("y", "metres"),
+        ("z", "metres"),
+        ("roll", "radians"),
+        ("pitch", "radians"),
+        ("yaw", "radians"),
+    ]
+    .into_iter()
+    .enumerate()
+    {
+        let mut cells = vec!["0"; 6];
+        cells[i] = "abc";
+        let text = format!("{header}\n,{}{readings}\n", cells.join(","));
+        let err = legwise::measure::file::parse(&text, path, &mech).expect_err("bad cell");
+        assert_eq!(
+            message(&err),
+            format!(
+                "m.csv: line 2, column `{name}`: expected a finite number in {unit}, found `abc`"
+            )
+        );
+    }
+}
