@@ -728,7 +728,7 @@ fn a_bad_coordinate_cell_names_the_unit_of_its_coordinate() {
     .into_iter()
     .enumerate()
     {
-        let mut cells = vec!["0"; 6];
+        let mut cells = ["0"; 6];
         cells[i] = "abc";
         let text = format!("{header}\n,{}{readings}\n", cells.join(","));
         let err = legwise::measure::file::parse(&text, path, &mech).expect_err("bad cell");
