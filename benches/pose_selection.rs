@@ -1,12 +1,12 @@
 //! Pose selection with rank-one / block updates (`select`) against the same greedy + exchange
 //! with a from-scratch log det per trial (`select_naive`), on identification rows of the
-//! planar 5R (algorithms.md §2.1) at random poses of the f = 0.95 workspace disc (§9.1).
+//! planar 5R (docs/method.md §9) at random poses of the f = 0.95 workspace disc (§8).
 //!
 //! Run with `cargo bench --bench pose_selection` (set `POSE_SELECTION_COMPARE=1` to print both
 //! selections first).
 //!
 //! # Reference
-//! algorithms.md §4.3 (complexity of the naive and updated selections).
+//! docs/method.md §6 (the greedy and exchange phases and their rank-one updates).
 use std::f64::consts::PI;
 use std::hint::black_box;
 use std::time::Duration;
@@ -18,7 +18,7 @@ use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 
 /// One leg of the nominal 5R: base joint (a_x, 0), gain k, offset γ, working mode σ and the
-/// reference angle θ_ref used to unwrap θ (algorithms.md §1.1–§1.2).
+/// reference angle θ_ref used to unwrap θ (docs/method.md §2.2, §9).
 struct Leg {
     a_x: f64,
     k: f64,
@@ -46,7 +46,7 @@ const LEGS: [Leg; 2] = [
 ];
 
 /// Identification row ∂ψ/∂[l, L, A_x, A_y, k, γ] of `leg` at the end-effector point (x, y)
-/// (algorithms.md §2.1, nominal parameters l = 0.75, L = 1.10, A_y = 0).
+/// (docs/method.md §9, nominal parameters l = 0.75, L = 1.10, A_y = 0).
 fn leg_row(leg: &Leg, x: f64, y: f64) -> [f64; 6] {
     let (l, big_l) = (0.75, 1.10);
     let (dx, dy) = (x - leg.a_x, y);
@@ -107,7 +107,7 @@ fn stacked_pool(points: &[(f64, f64)]) -> Vec<DMatrix<f64>> {
 }
 
 fn bench(c: &mut Criterion) {
-    // The generator reproduces the golden row of algorithms.md §2.1 at the disc centre.
+    // The generator reproduces the golden row of docs/method.md §9 at the disc centre.
     let golden = [
         -0.2653426423,
         1.3594794944,

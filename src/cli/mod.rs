@@ -1,5 +1,12 @@
 //! The command line: a thin shell over the library (clap derive).
+//!
+//! Every command returns a [`Verdict`]; `main` turns it and any error into the exit status
+//! documented in `legwise --help`: 0 success, 2 bad input or usage, 3 finished but untrusted.
+mod checks;
+mod console;
+mod help;
 mod identify;
+mod output;
 mod select;
 mod simulate;
 mod workspace;
@@ -13,7 +20,7 @@ use crate::solver::SolverKind;
 
 /// Kinematic identification of parallel mechanisms, leg by leg.
 #[derive(Debug, Parser)]
-#[command(name = "legwise", version, about)]
+#[command(name = "legwise", version, about, after_help = help::TOP)]
 pub struct Cli {
     /// What to do.
     #[command(subcommand)]
@@ -24,13 +31,17 @@ pub struct Cli {
 #[derive(Debug, Subcommand)]
 pub enum Command {
     /// Identify the parameters of a mechanism from measurements (or from a simulation).
+    #[command(after_help = help::IDENTIFY)]
     Identify(IdentifyArgs),
     /// Select the identification poses to measure (observability-optimal, feasible) and write
     /// them as a measurement CSV with empty readings.
+    #[command(after_help = help::SELECT)]
     Select(SelectArgs),
     /// Simulate an identification experiment and write it as a measurement CSV.
+    #[command(after_help = help::SIMULATE)]
     Simulate(SimulateArgs),
     /// Compute the singularity-free region and its maximal inscribed workspace (MIW), with a picture.
+    #[command(after_help = help::WORKSPACE)]
     Workspace(WorkspaceArgs),
 }
 
@@ -40,12 +51,13 @@ pub struct WorkspaceArgs {
     /// The model file (YAML).
     #[arg(long)]
     pub model: PathBuf,
-    /// Where to write the SVG picture (default: `<model name>-workspace.svg`).
+    /// Where to write the SVG picture (default: `<model name>-workspace.svg`; `-`: standard
+    /// output).
     #[arg(long)]
     pub svg: Option<PathBuf>,
-    /// Rays cast to trace the region's boundary.
-    #[arg(long, default_value_t = 1440)]
-    pub rays: usize,
+    /// Rays cast to trace the region's boundary (16 to 100000).
+    #[arg(long, default_value_t = 1440, allow_negative_numbers = true)]
+    pub rays: i64,
 }
 
 /// Options of `legwise identify`.
@@ -54,7 +66,8 @@ pub struct IdentifyArgs {
     /// The model file (YAML).
     #[arg(long)]
     pub model: PathBuf,
-    /// Measurement CSV; without it, the model's simulation block is simulated.
+    /// Measurement CSV (`-`: standard input); without it, the model's simulation block is
+    /// simulated.
     #[arg(long)]
     pub measurements: Option<PathBuf>,
     /// Least-squares solver.
@@ -63,7 +76,8 @@ pub struct IdentifyArgs {
     /// Divide and conquer, traditional (all legs on shared poses), or both.
     #[arg(long, value_enum, default_value_t = StrategyArg::Dc)]
     pub strategy: StrategyArg,
-    /// Also write the report as JSON to this file.
+    /// Also write the report as JSON to this file (`-`: standard output; the terminal report
+    /// then goes to standard error).
     #[arg(long)]
     pub json: Option<PathBuf>,
     /// Row weights: none (ordinary least squares, the paper's method) or noise (each row by the
@@ -117,25 +131,13 @@ impl IdentifyArgs {
     }
 }
 
-/// A run that finished but whose result must not be trusted (exit code 3): the reasons.
-#[derive(Debug, Clone, PartialEq, Eq)]
-pub struct Untrusted(pub Vec<String>);
-
-impl std::fmt::Display for Untrusted {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        write!(f, "the result must not be trusted: {}", self.0.join("; "))
-    }
-}
-
-impl std::error::Error for Untrusted {}
-
 /// Options of `legwise simulate`.
 #[derive(Debug, clap::Args)]
 pub struct SimulateArgs {
     /// The model file (YAML).
     #[arg(long)]
     pub model: PathBuf,
-    /// Where to write the measurement CSV.
+    /// Where to write the measurement CSV (`-`: standard output).
     #[arg(long)]
     pub out: PathBuf,
     /// Simulation overrides.
@@ -149,18 +151,18 @@ pub struct SelectArgs {
     /// The model file (YAML).
     #[arg(long)]
     pub model: PathBuf,
-    /// Where to write the poses (measurement CSV layout, readings empty).
+    /// Where to write the poses (measurement CSV layout, readings empty; `-`: standard output).
     #[arg(long)]
     pub out: PathBuf,
     /// Per-leg sets (dc), one shared set (traditional), or both.
     #[arg(long, value_enum, default_value_t = StrategyArg::Dc)]
     pub strategy: StrategyArg,
     /// Candidate grid spacing, metres (default: the model's `workspace.grid`).
-    #[arg(long)]
+    #[arg(long, allow_negative_numbers = true)]
     pub grid: Option<f64>,
     /// Poses per leg (default: the model's `selection.poses_per_leg`).
-    #[arg(long)]
-    pub poses_per_leg: Option<usize>,
+    #[arg(long, allow_negative_numbers = true)]
+    pub poses_per_leg: Option<i64>,
     /// Design criterion (default: the model's `selection.criterion`): D maximises det CᵀC (O1),
     /// A minimises tr (CᵀC)⁻¹, E maximises the smallest singular value (O3).
     #[arg(long, value_enum)]
@@ -205,17 +207,17 @@ pub struct SimulationArgs {
     #[arg(long, value_enum, default_value_t = PosesArg::Selected)]
     pub poses: PosesArg,
     /// Candidate grid spacing for selected poses, metres (default: the model's `workspace.grid`).
-    #[arg(long)]
+    #[arg(long, allow_negative_numbers = true)]
     pub grid: Option<f64>,
-    /// Random seed (default: the model's `simulation.seed`).
-    #[arg(long)]
-    pub seed: Option<u64>,
+    /// Random seed, 0 to 2^64 − 1 (default: the model's `simulation.seed`).
+    #[arg(long, allow_negative_numbers = true)]
+    pub seed: Option<i128>,
     /// Multiplies every simulated noise standard deviation (0 = noise-free).
-    #[arg(long, default_value_t = 1.0)]
+    #[arg(long, default_value_t = 1.0, allow_negative_numbers = true)]
     pub noise_scale: f64,
     /// Poses per leg (default: the model's `simulation.poses_per_leg`).
-    #[arg(long)]
-    pub poses_per_leg: Option<usize>,
+    #[arg(long, allow_negative_numbers = true)]
+    pub poses_per_leg: Option<i64>,
 }
 
 /// `--solver`.
@@ -296,38 +298,65 @@ impl SimulationArgs {
         }
     }
 
+    /// The simulation options, range-checked (`--grid` too, though only selected poses use it).
     fn options(&self) -> anyhow::Result<crate::measure::simulate::SimulationOptions> {
-        if !(self.noise_scale.is_finite() && self.noise_scale >= 0.0) {
-            anyhow::bail!(
-                "--noise-scale: expected a non-negative number, found {}",
-                self.noise_scale
-            );
-        }
-        check_poses_per_leg(self.poses_per_leg)?;
+        checks::positive_metres("--grid", self.grid)?;
         Ok(crate::measure::simulate::SimulationOptions {
-            seed: self.seed,
-            noise_scale: self.noise_scale,
-            poses_per_leg: self.poses_per_leg,
+            seed: checks::seed("--seed", self.seed)?,
+            noise_scale: checks::non_negative("--noise-scale", self.noise_scale)?,
+            poses_per_leg: poses_per_leg(self.poses_per_leg)?,
         })
     }
 }
 
 /// `--poses-per-leg` within 1..=[`MAX_POSES_PER_LEG`](crate::model::mechanism::MAX_POSES_PER_LEG).
-fn check_poses_per_leg(count: Option<usize>) -> anyhow::Result<()> {
+fn poses_per_leg(count: Option<i64>) -> anyhow::Result<Option<usize>> {
     use crate::model::mechanism::MAX_POSES_PER_LEG;
-    match count {
-        Some(n) if !(1..=MAX_POSES_PER_LEG).contains(&n) => {
-            anyhow::bail!("--poses-per-leg: expected between 1 and {MAX_POSES_PER_LEG}, found {n}")
+    checks::optional_count("--poses-per-leg", count, 1, MAX_POSES_PER_LEG)
+}
+
+/// The inputs every command reads: the model file and its URDF.
+fn model_inputs<'a>(
+    model: &'a std::path::Path,
+    mechanism: &'a crate::model::Mechanism,
+) -> Vec<output::Input<'a>> {
+    vec![
+        output::Input {
+            role: "model file",
+            path: model,
+        },
+        output::Input {
+            role: "URDF",
+            path: &mechanism.urdf_path,
+        },
+    ]
+}
+
+/// Whether a run's result can be trusted; `main` exits 3 on [`Verdict::Untrusted`].
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub enum Verdict {
+    /// The run finished and nothing speaks against its result (warnings alone keep this).
+    Trusted,
+    /// The run finished but its result must not be trusted, for these reasons (one line each).
+    Untrusted(Vec<String>),
+}
+
+impl Verdict {
+    /// [`Verdict::Trusted`] when `reasons` is empty, else [`Verdict::Untrusted`].
+    pub fn from_reasons(reasons: Vec<String>) -> Verdict {
+        if reasons.is_empty() {
+            Verdict::Trusted
+        } else {
+            Verdict::Untrusted(reasons)
         }
-        _ => Ok(()),
     }
 }
 
 /// Runs a parsed command line.
 ///
 /// # Errors
-/// Any error of the library, with context; `main` prints it on one line.
-pub fn run(cli: Cli) -> anyhow::Result<()> {
+/// Any error of the library, with context; `main` prints it on one line and exits 2.
+pub fn run(cli: Cli) -> anyhow::Result<Verdict> {
     match cli.command {
         Command::Identify(args) => identify::run(&args),
         Command::Select(args) => select::run(&args),

@@ -1,41 +1,54 @@
 //! `legwise select`: the identification poses to measure, in the measurement CSV layout.
 
-use super::SelectArgs;
+use std::fmt::Write as _;
+
+use super::console::Console;
+use super::output::Output;
+use super::{SelectArgs, Verdict};
 use crate::measure::{file, MeasuredPose, MeasurementSet};
 use crate::model::Mechanism;
 use crate::workspace::design::ExperimentDesign;
 
-pub(super) fn run(args: &SelectArgs) -> anyhow::Result<()> {
+pub(super) fn run(args: &SelectArgs) -> anyhow::Result<Verdict> {
+    let poses_per_leg = super::poses_per_leg(args.poses_per_leg)?;
+    super::checks::positive_metres("--grid", args.grid)?;
     let mechanism = Mechanism::load(&args.model)?;
-    super::check_poses_per_leg(args.poses_per_leg)?;
-    let count = args
-        .poses_per_leg
-        .unwrap_or(mechanism.selection.poses_per_leg);
+    let output = Output::prepare(
+        "--out",
+        &args.out,
+        &super::model_inputs(&args.model, &mechanism),
+    )?;
+    let mut console = Console::new(output.is_stdout());
+    let count = poses_per_leg.unwrap_or(mechanism.selection.poses_per_leg);
     let shared = args.strategy != super::StrategyArg::Dc;
     let criterion = args
         .criterion
         .map_or(mechanism.selection.criterion, |c| c.criterion());
     let design = ExperimentDesign::select(&mechanism, args.grid, count, criterion, shared)?;
-    println!(
+    let mut text = String::new();
+    writeln!(
+        text,
         "legwise select: {} ({})",
         mechanism.name,
         mechanism.model_path.display()
-    );
-    println!(
+    )?;
+    writeln!(
+        text,
         "{} feasible candidate poses (grid {} m); criterion {:?}; {} poses per leg",
         design.candidates, design.spacing, criterion, count
-    );
+    )?;
     let legs = mechanism.legs.len();
     let mut poses = Vec::new();
     if args.strategy != super::StrategyArg::Traditional {
         for leg_design in &design.legs {
             let o = &leg_design.observability;
-            println!(
+            writeln!(
+                text,
                 "  leg {}: O1 {:.4}, O2 {:.3e}, O3 {:.4}, O4 {:.3e}, O5 {:.4}; condition {:.1}; Kiefer-Wolfowitz {:.2} (n = {})",
                 mechanism.legs[leg_design.leg].name,
                 o.indices[0], o.indices[1], o.indices[2], o.indices[3], o.indices[4],
                 o.condition, leg_design.selection.certificate, o.singular_values.len()
-            );
+            )?;
             poses.extend(leg_design.poses.iter().map(|&pose| MeasuredPose {
                 line: None,
                 leg: Some(leg_design.leg),
@@ -46,10 +59,11 @@ pub(super) fn run(args: &SelectArgs) -> anyhow::Result<()> {
     }
     if let Some(shared) = &design.shared {
         let o = &shared.stacked;
-        println!(
+        writeln!(
+            text,
             "  shared (all legs): O1 {:.4}, O3 {:.4}; condition {:.1}",
             o.indices[0], o.indices[2], o.condition
-        );
+        )?;
         poses.extend(shared.poses.iter().map(|&pose| MeasuredPose {
             line: None,
             leg: None,
@@ -57,17 +71,15 @@ pub(super) fn run(args: &SelectArgs) -> anyhow::Result<()> {
             readings: vec![None; legs],
         }));
     }
-    file::write(
-        &args.out,
-        &mechanism,
-        &MeasurementSet {
-            source: None,
-            poses,
-        },
-    )?;
-    println!(
+    let set = MeasurementSet {
+        source: None,
+        poses,
+    };
+    output.write("pose CSV", file::to_csv(&mechanism, &set).as_bytes())?;
+    console.print(&text)?;
+    console.line(format_args!(
         "poses written to {} (fill in the readings, then `legwise identify --measurements`)",
-        args.out.display()
-    );
-    Ok(())
+        output.name()
+    ))?;
+    Ok(Verdict::Trusted)
 }

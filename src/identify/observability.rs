@@ -2,7 +2,7 @@
 //! observability indices, and the parameters that cannot be identified.
 //!
 //! # Reference
-//! algorithms.md §3 (indices O1–O5) and §5.1 (rank with scaled columns, pivoted QR).
+//! docs/method.md §5 (indices O1–O5) and §7 (rank with scaled columns, pivoted elimination).
 
 use nalgebra::DMatrix;
 
@@ -25,7 +25,7 @@ pub struct Observability {
     pub rank: usize,
     /// Condition number s_max / s_min of C (infinite when rank-deficient).
     pub condition: f64,
-    /// Observability indices O1..O5 of C (algorithms.md §3; O1 divided by √m).
+    /// Observability indices O1..O5 of C (docs/method.md §5; O1 divided by √m).
     pub indices: [f64; 5],
     /// Parameters that cannot be identified (pivoted Gram–Schmidt on the scaled columns).
     pub unidentifiable: Vec<String>,

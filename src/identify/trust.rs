@@ -1,26 +1,221 @@
-//! Whether a finished identification can be trusted: the reasons it cannot (each a sentence),
-//! empty when it can. A non-empty list ends the command with exit code 3.
+//! Whether an identification's result can be trusted: the reasons it must not be, one line
+//! each. The command line prints them as warnings and exits with status 3.
+//!
+//! Checked today:
+//! * every number a fit reports (costs, estimates, standard deviations, residual σ̂) is finite.
+//!   A non-finite value means the fit or its statistics broke down, whatever the solver said
+//!   about its own stopping;
+//! * no leg's residuals reject the declared measurement noise (the χ² test of
+//!   [`super::statistics`]): wrong units, outliers or a wrong model.
 
-use super::estimate::StrategyResult;
+use super::estimate::{LegEstimate, StrategyResult};
 
-/// The reasons the results must not be trusted: every leg whose residuals reject the declared
-/// measurement noise (see [`super::statistics`]).
+/// The reasons the results of an identification must not be trusted (empty: nothing found).
+/// Each names the strategy, the leg or solver run, and the values.
 pub fn trust_issues(results: &[StrategyResult]) -> Vec<String> {
     let mut issues = Vec::new();
     for result in results {
+        let strategy = result.strategy.name();
+        let mut flagged = Vec::new();
         for leg in &result.legs {
+            let values = non_finite(leg);
+            if !values.is_empty() {
+                issues.push(format!(
+                    "{strategy}, leg `{}`: not a finite number: {}",
+                    leg.leg,
+                    values.join(", ")
+                ));
+                flagged.push(leg.leg.as_str());
+            }
+        }
+        // One reason per leg: a non-finite fit's noise test says nothing more.
+        for leg in result
+            .legs
+            .iter()
+            .filter(|l| !flagged.contains(&l.leg.as_str()))
+        {
             if let Some(test) = leg.statistics.noise_test.as_ref().filter(|t| t.rejected) {
                 issues.push(format!(
-                    "{}: leg {}: the residuals reject the declared noise (σ̂ {:.3e} times the \
-                     declared scatter, p = {:.2e}): check the units (degrees vs radians, \
+                    "{strategy}, leg `{}`: the residuals reject the declared noise (σ̂ {} times \
+                     the declared scatter, χ² p = {:.2e}): check the units (degrees vs radians, \
                      millimetres vs metres), the outliers and the model",
-                    result.strategy.name(),
                     leg.leg,
-                    test.sigma_ratio,
+                    super::statistics::figure(test.sigma_ratio),
                     test.p_value
+                ));
+            }
+        }
+        for run in &result.runs {
+            let covered = run.legs.iter().any(|l| flagged.contains(&l.as_str()));
+            if !run.final_cost.is_finite() && !covered {
+                issues.push(format!(
+                    "{strategy}, {} run on {}: not a finite number: final cost {}",
+                    result.solver.name(),
+                    run.legs.join(", "),
+                    run.final_cost
                 ));
             }
         }
     }
     issues
+}
+
+/// The non-finite values of one leg's estimate, as `name value`.
+fn non_finite(leg: &LegEstimate) -> Vec<String> {
+    let mut values = Vec::new();
+    let mut check = |what: String, value: f64| {
+        if !value.is_finite() {
+            values.push(format!("{what} {value}"));
+        }
+    };
+    check("final cost".into(), leg.final_cost);
+    if let Some(sigma) = leg.residual_sigma {
+        check("σ̂".into(), sigma);
+    }
+    for p in leg.parameters.iter().filter(|p| p.identified) {
+        check(p.name.clone(), p.estimate);
+        if let Some(std) = p.std {
+            check(format!("std({})", p.name), std);
+        }
+    }
+    values
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::identify::estimate::{FitOptions, ParameterEstimate, SolverRun, Strategy};
+    use crate::identify::observability::Observability;
+    use crate::identify::statistics::{LegStatistics, NoiseTest};
+    use crate::model::params::Unit;
+    use crate::solver::SolverKind;
+
+    fn parameter(
+        name: &str,
+        estimate: f64,
+        std: Option<f64>,
+        identified: bool,
+    ) -> ParameterEstimate {
+        ParameterEstimate {
+            name: name.into(),
+            unit: Unit::Metre,
+            nominal: 1.0,
+            estimate,
+            std,
+            identified,
+        }
+    }
+
+    fn result(parameters: Vec<ParameterEstimate>, final_cost: f64) -> StrategyResult {
+        let observability = Observability {
+            singular_values: vec![1.0],
+            scaled_singular_values: vec![1.0],
+            rank: 1,
+            condition: 1.0,
+            indices: [1.0; 5],
+            unidentifiable: Vec::new(),
+            null_directions: Vec::new(),
+            scaled_condition: 1.0,
+            weakest_direction: "l1".into(),
+        };
+        StrategyResult {
+            strategy: Strategy::DivideAndConquer,
+            solver: SolverKind::LevenbergMarquardt,
+            legs: vec![LegEstimate {
+                leg: "leg1".into(),
+                parameters,
+                measurements: 10,
+                initial_cost: 1.0,
+                final_cost,
+                residual_sigma: Some(1e-4),
+                observability,
+                statistics: LegStatistics::default(),
+                dropped: Vec::new(),
+                warnings: Vec::new(),
+            }],
+            runs: vec![SolverRun {
+                legs: vec!["leg1".into()],
+                iterations: 3,
+                termination: "converged".into(),
+                initial_cost: 1.0,
+                final_cost,
+                residual_evaluations: 4,
+                jacobian_evaluations: 3,
+                seconds: 0.0,
+            }],
+            options: FitOptions::default(),
+            warnings: Vec::new(),
+        }
+    }
+
+    #[test]
+    fn a_finite_result_has_no_issue() {
+        let ok = result(vec![parameter("l1", 0.75, Some(1e-4), true)], 1e-8);
+        assert!(trust_issues(&[ok]).is_empty());
+    }
+
+    #[test]
+    fn a_rejected_noise_test_is_named_with_its_figures() {
+        let mut bad = result(vec![parameter("l1", 0.75, Some(1e-4), true)], 1e-8);
+        let test = NoiseTest {
+            chi_squared: 120.0,
+            degrees_of_freedom: 12,
+            p_value: 1.5e-19,
+            sigma_ratio: 120f64.sqrt() / 12f64.sqrt(),
+            residual_sigma: 1e-3,
+            expected_sigma: 1e-3 / 10f64.sqrt(),
+            excluded: 0,
+            rejected: true,
+        };
+        bad.legs[0].statistics.noise_test = Some(test.clone());
+        assert_eq!(
+            trust_issues(std::slice::from_ref(&bad)),
+            [
+                "divide and conquer, leg `leg1`: the residuals reject the declared noise (σ̂ 3.162 \
+              times the declared scatter, χ² p = 1.50e-19): check the units (degrees vs radians, \
+              millimetres vs metres), the outliers and the model"
+            ]
+        );
+        bad.legs[0].statistics.noise_test = Some(NoiseTest {
+            rejected: false,
+            ..test
+        });
+        assert!(trust_issues(&[bad]).is_empty());
+    }
+
+    #[test]
+    fn a_non_finite_cost_is_named_once_for_the_leg() {
+        let bad = result(vec![parameter("l1", 0.75, Some(1e-4), true)], f64::NAN);
+        assert_eq!(
+            trust_issues(&[bad]),
+            ["divide and conquer, leg `leg1`: not a finite number: final cost NaN"]
+        );
+    }
+
+    #[test]
+    fn a_run_whose_legs_look_finite_is_named_by_its_cost() {
+        let mut bad = result(vec![parameter("l1", 0.75, Some(1e-4), true)], 1e-8);
+        bad.runs[0].final_cost = f64::INFINITY;
+        assert_eq!(
+            trust_issues(&[bad]),
+            ["divide and conquer, Levenberg-Marquardt run on leg1: not a finite number: final cost \
+              inf"]
+        );
+    }
+
+    #[test]
+    fn non_finite_estimates_and_stds_name_the_parameter_unless_it_is_fixed() {
+        let bad = result(
+            vec![
+                parameter("l1", f64::INFINITY, Some(1e-4), true),
+                parameter("L1", 1.1, Some(f64::NAN), true),
+                parameter("A1x", f64::NAN, None, false),
+            ],
+            1e-8,
+        );
+        assert_eq!(
+            trust_issues(&[bad]),
+            ["divide and conquer, leg `leg1`: not a finite number: l1 inf, std(L1) NaN"]
+        );
+    }
 }

@@ -5,6 +5,7 @@
 //! radians) and one per actuated joint, named after its URDF joint, holding the raw reading
 //! (empty when not read). Errors name the file, the line and the column.
 
+use std::io::{Read, Write};
 use std::path::Path;
 
 use super::{MeasuredPose, MeasurementSet};
@@ -27,11 +28,31 @@ fn expected_columns(mechanism: &Mechanism) -> Vec<String> {
 /// or unknown column, an unknown leg, a non-numeric or non-finite cell, a missing coordinate, or
 /// a file without rows.
 pub fn read(path: &Path, mechanism: &Mechanism) -> Result<MeasurementSet> {
-    let text = std::fs::read_to_string(path).map_err(|error| Error::Io {
+    let file = std::fs::File::open(path).map_err(|error| Error::Io {
         path: path.to_path_buf(),
         error,
     })?;
-    parse(&text, path, mechanism)
+    read_from(file, path, mechanism)
+}
+
+/// Reads a measurement file for `mechanism` from any reader (a file, standard input); `name`
+/// is the file's name in messages (e.g. `<stdin>`).
+///
+/// # Errors
+/// [`Error::Io`] if the reader fails or the text is not UTF-8; otherwise as [`parse`].
+pub fn read_from(
+    mut reader: impl Read,
+    name: &Path,
+    mechanism: &Mechanism,
+) -> Result<MeasurementSet> {
+    let mut text = String::new();
+    reader
+        .read_to_string(&mut text)
+        .map_err(|error| Error::Io {
+            path: name.to_path_buf(),
+            error,
+        })?;
+    parse(&text, name, mechanism)
 }
 
 /// Parses measurement CSV text; `path` is only used in messages.
@@ -199,13 +220,31 @@ fn csv_message(error: &csv::Error) -> String {
 
 /// Writes measurements in the layout [`read`] expects (exact round trip of every value).
 ///
+/// The file is created or truncated and written in place; the command line instead writes a
+/// temporary file and renames it, so that an interrupted run never leaves a cut file.
+///
 /// # Errors
 /// [`Error::Io`] if the file cannot be written.
 pub fn write(path: &Path, mechanism: &Mechanism, set: &MeasurementSet) -> Result<()> {
-    std::fs::write(path, to_csv(mechanism, set)).map_err(|error| Error::Io {
+    let fail = |error| Error::Io {
         path: path.to_path_buf(),
         error,
-    })
+    };
+    let file = std::fs::File::create(path).map_err(fail)?;
+    write_to(file, mechanism, set).map_err(fail)
+}
+
+/// Writes measurements in the layout [`read`] expects to any writer (a file, standard output).
+///
+/// # Errors
+/// The writer's error.
+pub fn write_to(
+    mut writer: impl Write,
+    mechanism: &Mechanism,
+    set: &MeasurementSet,
+) -> std::io::Result<()> {
+    writer.write_all(to_csv(mechanism, set).as_bytes())?;
+    writer.flush()
 }
 
 /// The CSV text of a measurement set.

@@ -3,7 +3,7 @@
 //! argmin's `GaussNewton` stops when ‖r‖ changes by less than a tolerance; near the minimum the
 //! change of ‖r‖ is quadratic in the parameter error, so that rule leaves the parameters
 //! accurate only to about √tol. This wrapper delegates each iteration to argmin's solver and
-//! stops when the step is small: ‖Δx‖ ≤ x_tol (‖x‖ + x_tol) (algorithms.md §8), or when the
+//! stops when the step is small: ‖Δx‖ ≤ x_tol (‖x‖ + x_tol) (docs/method.md §3), or when the
 //! iterate no longer moves.
 
 use argmin::core::{

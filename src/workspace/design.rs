@@ -2,7 +2,7 @@
 //! poses of all legs (traditional), selected from the candidate pool for observability.
 //!
 //! # Reference
-//! Durango et al. 2010, §4 (Eq. 6–7); algorithms.md §4 (a D-optimal exchange algorithm in the
+//! Durango et al. 2010, §4 (Eq. 6–7); docs/method.md §6 (a D-optimal exchange algorithm in the
 //! spirit of Sun & Hollerbach 2008 / DETMAX).
 
 use nalgebra::DMatrix;

@@ -6,7 +6,7 @@ use std::process::{Command, Output};
 use serde_json::Value;
 
 /// Runs `legwise ARGS` in the crate root.
-fn legwise(args: &[&str]) -> Output {
+pub(crate) fn legwise(args: &[&str]) -> Output {
     Command::new(env!("CARGO_BIN_EXE_legwise"))
         .args(args)
         .current_dir(env!("CARGO_MANIFEST_DIR"))
@@ -14,12 +14,13 @@ fn legwise(args: &[&str]) -> Output {
         .expect("the legwise binary runs")
 }
 
-fn text(bytes: &[u8]) -> String {
+/// Output bytes as text (legwise writes UTF-8).
+pub(crate) fn text(bytes: &[u8]) -> String {
     String::from_utf8(bytes.to_vec()).expect("UTF-8 output")
 }
 
 /// Asserts a failed run: exit code 2, nothing on stdout, exactly `expected` (one line) on stderr.
-fn assert_fails_with(args: &[&str], expected: &str) {
+pub(crate) fn assert_fails_with(args: &[&str], expected: &str) {
     let out = legwise(args);
     let stderr = text(&out.stderr);
     assert_eq!(out.status.code(), Some(2), "{args:?}: stderr {stderr:?}");

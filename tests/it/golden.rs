@@ -1,4 +1,4 @@
-//! Golden values of algorithms.md §9.6 and §2.1 for the bundled 5R.
+//! Golden values of the bundled 5R (docs/method.md §9).
 use approx::assert_relative_eq;
 use legwise::kinematics::inverse::predict_reading;
 
@@ -105,7 +105,7 @@ fn singularity_measures_match_the_closed_forms_of_the_5r() {
     let mech = bundled("5r.yaml");
     let nominal = mech.nominal_parameters();
     let parallel = ParallelMeasure::new(&mech, nominal.clone()).unwrap();
-    // At the MIW centre: B1 = (−0.97281, 0.58219), B2 = (0.97281, 0.58219) (algorithms.md §1.4).
+    // At the MIW centre: B1 = (−0.97281, 0.58219), B2 = (0.97281, 0.58219) (docs/method.md §9).
     let (p, b1, b2): ([f64; 2], [f64; 2], [f64; 2]) =
         ([0.0, 1.0956521739], [-0.97281, 0.58219], [0.97281, 0.58219]);
     let u1 = [(p[0] - b1[0]) / 1.1, (p[1] - b1[1]) / 1.1];
@@ -118,7 +118,7 @@ fn singularity_measures_match_the_closed_forms_of_the_5r() {
     let reach = (0.5f64.powi(2) + p[1].powi(2)).sqrt();
     let serial = serial_measure(&mech, 0, &nominal[0], &MIW_CENTRE).unwrap();
     assert_relative_eq!(serial, 0.75 * sin_beta / reach, epsilon = 1e-4);
-    // The type-II locus crosses the symmetry axis at (0, 0.45) (algorithms.md §1.5).
+    // The type-II locus crosses the symmetry axis at (0, 0.45) (docs/method.md §9).
     let near = |y: f64| parallel.at(&[0.0, y, 0.0, 0.0, 0.0, 0.0]).unwrap();
     assert!(near(0.46) > 0.0 && near(0.44) < 0.0 && near(0.4501).abs() < 1e-3);
 }

@@ -69,7 +69,7 @@ fn leaving_the_home_working_mode_is_an_error_not_another_branch() {
 
 #[test]
 fn readings_are_unwrapped_around_home_and_cross_pi_continuously() {
-    // ψ of the 5R spans about [1.18, 3.32] rad over the MIW (algorithms.md §1.2): readings above
+    // ψ of the 5R spans about [1.18, 3.32] rad over the MIW (docs/method.md §9): readings above
     // π must stay above π, not wrap to −π.
     let mech = bundled("5r.yaml");
     let mut rng = ChaCha8Rng::seed_from_u64(5);

@@ -1,6 +1,8 @@
 //! One integration binary for all legwise tests.
 mod bad_input;
 mod cli;
+mod exit_codes;
+mod files;
 mod golden;
 mod jacobian;
 mod kinematics;

@@ -61,7 +61,7 @@ fn the_5r_selected_sets_beat_random_sets_and_match_the_full_determinant_exchange
             "leg {}: O1 {selected} vs full-determinant exchange {brute}",
             design.leg
         );
-        // Reference (algorithms.md §3): leg 1's selected design has O1 = 0.437.
+        // Reference (docs/method.md §9): leg 1's selected design has O1 = 0.437.
         if design.leg == 0 {
             assert!((selected - 0.437).abs() < 0.01, "leg 1 O1 {selected}");
         }

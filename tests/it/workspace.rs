@@ -1,4 +1,4 @@
-//! The usable workspace: the MIW of the bundled 5R (algorithms.md §1.6).
+//! The usable workspace: the MIW of the bundled 5R (docs/method.md §8, §9).
 use legwise::workspace::miw::{maximal_inscribed_workspace, MiwOptions};
 
 use crate::support::bundled;
@@ -40,7 +40,7 @@ fn the_5r_candidate_pool_is_the_grid_inside_the_usable_disc() {
         })
         .count();
     assert_eq!(pool.inside, lattice);
-    // algorithms.md §9.1 counts 2953 (3268 at f = 1, which this alignment reproduces exactly).
+    // docs/method.md §9: about 2950 (3268 at f = 1, which this alignment reproduces exactly).
     assert!(
         pool.inside.abs_diff(2953) <= 1,
         "{} grid points",
@@ -56,7 +56,7 @@ fn the_5r_candidate_pool_is_the_grid_inside_the_usable_disc() {
         "every point of the usable disc is feasible"
     );
     // The usable disc's closest approach to the type-II singularity is its bottom point, where
-    // algorithms.md §1.6 gives min |s_II| = 0.058; no candidate is closer.
+    // docs/method.md §9 gives min |s_II| = 0.058; no candidate is closer.
     use legwise::kinematics::singularity::ParallelMeasure;
     let nominal = mech.nominal_parameters();
     let measure = ParallelMeasure::new(&mech, nominal).unwrap();
@@ -83,7 +83,7 @@ fn the_3rpr_candidate_pool_varies_the_orientation() {
     use legwise::workspace::candidates::candidate_pool;
     let mech = bundled("3rpr.yaml");
     let pool = candidate_pool(&mech, None).unwrap();
-    // algorithms.md §7.5: a 0.05 m grid in the 0.2 m disc (49 points) × 9 orientations.
+    // docs/method.md §10: a 0.05 m grid in the 0.2 m disc (49 points) × 9 orientations.
     assert_eq!(pool.inside, 441);
     assert_eq!(
         pool.candidates.len(),

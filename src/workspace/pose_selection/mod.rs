@@ -21,7 +21,7 @@
 //! and of the benchmark.
 //!
 //! # Reference
-//! algorithms.md §4 (identities §4.1, algorithm §4.2, complexity §4.3); §3 for the indices.
+//! docs/method.md §6 (identities and algorithm); §5 for the indices.
 
 use nalgebra::DMatrix;
 
@@ -49,26 +49,26 @@ use rank_one_d::RankOneD;
 /// Ridge factor ε of the start M = ε·diag(Σ_j c_j∘c_j)/K of the greedy construction.
 ///
 /// # Reference
-/// algorithms.md §4.2, step 0.
+/// docs/method.md §6 (the ridge start).
 pub const RIDGE: f64 = 1e-9;
 
 /// A swap is accepted only if it improves the criterion by more than this relative amount
 /// (for D: Δ > 1 + `ACCEPT`).
 ///
 /// # Reference
-/// algorithms.md §4.2, step 2.
+/// docs/method.md §6 (the exchange phase).
 pub const ACCEPT: f64 = 1e-12;
 
 /// Longest DETMAX excursion tried once no single swap improves the design.
 ///
 /// # Reference
-/// algorithms.md §4.2 (DETMAX, Mitchell 1974: excursions of length 1..k).
+/// docs/method.md §6 (DETMAX, Mitchell 1974: excursions of length 1..k).
 pub const EXCURSION_LENGTH: usize = 4;
 
 /// Design criterion of the selection.
 ///
 /// # Reference
-/// algorithms.md §3 (O1, O3, A-optimality) and §4.1.
+/// docs/method.md §5 (O1, O3, A-optimality) and §6.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub enum Criterion {
     /// D-optimality: maximise det(CᵀC), i.e. the observability index O1 (default). The
@@ -84,7 +84,7 @@ pub enum Criterion {
 /// Options of [`select`] and [`select_naive`].
 ///
 /// # Reference
-/// algorithms.md §4.2.
+/// docs/method.md §6.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct SelectionOptions {
     /// Number N of poses to select.
@@ -112,7 +112,7 @@ impl Default for SelectionOptions {
 /// The result of a selection.
 ///
 /// # Reference
-/// algorithms.md §4.2, step 3.
+/// docs/method.md §6 (the Kiefer–Wolfowitz value).
 #[derive(Debug, Clone, PartialEq)]
 pub struct Selection {
     /// Indices of the selected candidates, sorted (repeated if replicates are allowed).
@@ -137,7 +137,7 @@ pub struct Selection {
 /// Why a selection failed.
 ///
 /// # Reference
-/// algorithms.md §4.2 and §5 (identifiability).
+/// docs/method.md §6 and §7 (identifiability).
 #[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
 #[non_exhaustive]
 pub enum SelectionError {
@@ -225,7 +225,7 @@ pub enum SelectionError {
 /// a pool of rank < n, or (rarely) a singular result.
 ///
 /// # Reference
-/// algorithms.md §4.1–§4.3.
+/// docs/method.md §6.
 pub fn select(
     candidates: &[DMatrix<f64>],
     options: &SelectionOptions,
@@ -265,7 +265,7 @@ pub fn select(
 /// As [`select`].
 ///
 /// # Reference
-/// algorithms.md §4.2 and the "naive" column of §4.3.
+/// docs/method.md §6 (the same algorithm, every trial design from scratch).
 pub fn select_naive(
     candidates: &[DMatrix<f64>],
     options: &SelectionOptions,
@@ -289,7 +289,7 @@ pub fn select_naive(
 /// If an index is out of range or the candidates do not all have the same number of columns.
 ///
 /// # Reference
-/// algorithms.md §3 (O1 = det(CᵀC)^{1/(2n)}/√m) and §4.
+/// docs/method.md §5 (O1 = det(CᵀC)^{1/(2n)}/√m) and §6.
 pub fn log_det(candidates: &[DMatrix<f64>], indices: &[usize]) -> f64 {
     let Some(n) = candidates.first().map(DMatrix::ncols) else {
         return f64::NEG_INFINITY;

@@ -1,0 +1,89 @@
+//! The EXAMPLES and EXIT STATUS sections at the end of `--help`.
+
+/// The exit codes, shared by every command's help.
+macro_rules! exit_status {
+    () => {
+        "EXIT STATUS:
+  0  success; warnings alone keep 0
+  2  bad input or usage: one line `legwise: …` names the file, line, column or option
+  3  the run finished but its result must not be trusted: one `legwise: warning: …` line
+     per reason on standard error
+  A closed standard output (`legwise … | head`) is not an error: the output stops there."
+    };
+}
+
+/// `legwise --help`.
+pub(super) const TOP: &str = concat!(
+    "FILES:
+  A path `-` means standard input for --measurements and standard output for --out, --json and
+  --svg (the human-readable text then goes to standard error). Outputs are written to a
+  temporary file beside the target and renamed; an output that is one of the run's inputs is
+  refused. The method is described in docs/method.md.
+
+",
+    exit_status!(),
+    "
+
+EXAMPLES:
+  legwise identify --model models/5r.yaml
+  legwise select --model models/5r.yaml --out poses.csv
+  legwise identify --model models/5r.yaml --measurements poses.csv
+  legwise workspace --model models/5r.yaml"
+);
+
+/// `legwise identify --help`.
+pub(super) const IDENTIFY: &str = concat!(
+    exit_status!(),
+    "
+
+EXAMPLES:
+  # the bundled 5R, simulated at its selected poses, divide and conquer with Levenberg-Marquardt
+  legwise identify --model models/5r.yaml
+  # the 3-RPR, both strategies, Gauss-Newton, noise-free, with a JSON report
+  legwise identify --model models/3rpr.yaml --strategy both --solver gn --noise-scale 0 --json report.json
+  # from a measurement file, or from standard input
+  legwise identify --model models/5r.yaml --measurements measurements.csv
+  legwise simulate --model models/5r.yaml --out - | legwise identify --model models/5r.yaml --measurements -
+  # the JSON report on standard output (the terminal report goes to standard error)
+  legwise identify --model models/5r.yaml --json - 2>/dev/null"
+);
+
+/// `legwise select --help`.
+pub(super) const SELECT: &str = concat!(
+    exit_status!(),
+    "
+
+EXAMPLES:
+  # 18 D-optimal poses per leg (the model's defaults), to measure and fill in
+  legwise select --model models/5r.yaml --out poses.csv
+  # one shared set for the traditional strategy, E-optimal, on a 1 cm grid
+  legwise select --model models/5r.yaml --strategy traditional --criterion e --grid 0.01 --out shared.csv
+  # the poses on standard output
+  legwise select --model models/3rpr.yaml --poses-per-leg 12 --out -"
+);
+
+/// `legwise simulate --help`.
+pub(super) const SIMULATE: &str = concat!(
+    exit_status!(),
+    "
+
+EXAMPLES:
+  # the model's simulation block at its selected poses
+  legwise simulate --model models/5r.yaml --out measurements.csv
+  # noise-free, at 30 random poses per leg, another seed
+  legwise simulate --model models/5r.yaml --poses random --poses-per-leg 30 --seed 7 --noise-scale 0 --out m.csv
+  # the CSV on standard output (the summary goes to standard error)
+  legwise simulate --model models/5r.yaml --out - | head -3"
+);
+
+/// `legwise workspace --help`.
+pub(super) const WORKSPACE: &str = concat!(
+    exit_status!(),
+    "
+
+EXAMPLES:
+  # the MIW of the bundled 5R and its picture 5r-workspace.svg
+  legwise workspace --model models/5r.yaml
+  # a finer boundary, the picture elsewhere
+  legwise workspace --model models/3rpr.yaml --rays 4000 --svg 3rpr-miw.svg"
+);

@@ -1,0 +1,287 @@
+//! Output files of the command line, one way for every command.
+//!
+//! An output is checked when the command starts, before the long work: its directory must exist
+//! and take a new file, it must not be a directory or a read-only file, and it must not be one
+//! of the run's inputs
+//! (compared after canonicalisation, and by device and inode, so `./m.csv`, a symbolic link or a
+//! hard link to the measurement file are all caught). It is written to a temporary file in the
+//! same directory, flushed to disk and renamed over the target, so a run that fails or is killed
+//! while writing leaves the old file whole. `-` (or the file that is already standard output,
+//! such as `/dev/stdout`) means standard output; other special files (`/dev/null`, a named pipe)
+//! are written in place. A closed standard output (`legwise … | head`) is not an error: the
+//! rest of the output is dropped.
+
+use std::fs;
+use std::io::{self, Write};
+use std::path::{Path, PathBuf};
+
+use anyhow::{anyhow, Context};
+
+/// One input of a run, which no output may overwrite.
+#[derive(Debug, Clone, Copy)]
+pub(super) struct Input<'a> {
+    /// What it is, for messages: "model file", "URDF", "measurement file".
+    pub(super) role: &'a str,
+    /// Its path as the user (or the model file) gave it.
+    pub(super) path: &'a Path,
+}
+
+/// Where an output goes.
+#[derive(Debug, Clone, PartialEq, Eq)]
+enum Target {
+    /// Standard output.
+    Stdout,
+    /// A regular file, written to a temporary file beside it and renamed. The path is the
+    /// canonical one (a symbolic link is followed, not replaced).
+    File(PathBuf),
+    /// An existing special file (device, named pipe): written in place.
+    Special(PathBuf),
+}
+
+/// A checked output path.
+#[derive(Debug, Clone)]
+pub(super) struct Output {
+    /// The option that named it, e.g. `--out`.
+    flag: &'static str,
+    /// The path as given.
+    given: PathBuf,
+    /// Where it is written.
+    target: Target,
+}
+
+impl Output {
+    /// Checks the output `path` given to `flag` against the run's `inputs`.
+    ///
+    /// # Errors
+    /// The path is a directory, its directory does not exist or cannot take a new file, or it
+    /// is one of the inputs; each message names the path (and the input).
+    pub(super) fn prepare(
+        flag: &'static str,
+        path: &Path,
+        inputs: &[Input<'_>],
+    ) -> anyhow::Result<Output> {
+        let target = resolve(flag, path)?;
+        let output = Output {
+            flag,
+            given: path.to_path_buf(),
+            target,
+        };
+        for input in inputs {
+            if output.is_input(input.path) {
+                anyhow::bail!(
+                    "{}: {flag} would overwrite the {} {} (an input of this run); choose another path",
+                    path.display(),
+                    input.role,
+                    input.path.display()
+                );
+            }
+        }
+        Ok(output)
+    }
+
+    /// True when the output goes to standard output (then the human-readable text goes to
+    /// standard error, so that the output stays clean).
+    pub(super) fn is_stdout(&self) -> bool {
+        self.target == Target::Stdout
+    }
+
+    /// The output as given, for messages (`standard output` for `-`).
+    pub(super) fn name(&self) -> String {
+        match self.target {
+            Target::Stdout => "standard output".into(),
+            _ => self.given.display().to_string(),
+        }
+    }
+
+    /// Writes `contents` (the `what`, e.g. "measurement CSV", for messages).
+    ///
+    /// # Errors
+    /// The file cannot be created, written or renamed; the message names the path. A closed
+    /// standard output is not an error.
+    pub(super) fn write(&self, what: &str, contents: &[u8]) -> anyhow::Result<()> {
+        let fail = |error: io::Error| {
+            anyhow!(
+                "{}: cannot write the {what}: {}",
+                self.given.display(),
+                plain(&error)
+            )
+        };
+        match &self.target {
+            Target::Stdout => {
+                let mut stdout = io::stdout().lock();
+                match stdout.write_all(contents).and_then(|()| stdout.flush()) {
+                    Err(e) if e.kind() != io::ErrorKind::BrokenPipe => Err(anyhow!(
+                        "{} ({}): cannot write the {what}: {e}",
+                        self.flag,
+                        self.name()
+                    )),
+                    _ => Ok(()),
+                }
+            }
+            Target::Special(path) => fs::OpenOptions::new()
+                .write(true)
+                .open(path)
+                .and_then(|mut file| file.write_all(contents))
+                .or_else(|e| {
+                    if e.kind() == io::ErrorKind::BrokenPipe {
+                        Ok(())
+                    } else {
+                        Err(e)
+                    }
+                })
+                .map_err(fail),
+            Target::File(path) => replace(path, contents).map_err(fail),
+        }
+    }
+
+    /// True when the output is the file `input`.
+    fn is_input(&self, input: &Path) -> bool {
+        let Target::File(output) = &self.target else {
+            return false;
+        };
+        if fs::canonicalize(input).is_ok_and(|input| &input == output) {
+            return true;
+        }
+        match (fs::metadata(output), fs::metadata(input)) {
+            (Ok(a), Ok(b)) => same_file(&a, &b),
+            _ => false,
+        }
+    }
+}
+
+/// Resolves and checks an output path.
+fn resolve(flag: &str, path: &Path) -> anyhow::Result<Target> {
+    let shown = path.display();
+    if path.as_os_str() == "-" {
+        return Ok(Target::Stdout);
+    }
+    if let Ok(metadata) = fs::metadata(path) {
+        if is_stdout(&metadata) {
+            return Ok(Target::Stdout);
+        }
+        if metadata.is_dir() {
+            anyhow::bail!("{shown}: {flag}: is a directory; expected a file path");
+        }
+        if !metadata.is_file() {
+            return Ok(Target::Special(path.to_path_buf()));
+        }
+        if metadata.permissions().readonly() {
+            // The rename would replace it all the same; a read-only file says "keep me".
+            anyhow::bail!(
+                "{shown}: {flag}: the file is read-only; expected a writable file or a new path"
+            );
+        }
+        let canonical = fs::canonicalize(path).with_context(|| format!("{shown}: {flag}"))?;
+        probe(flag, path, &canonical)?;
+        return Ok(Target::File(canonical));
+    }
+    let name = path
+        .file_name()
+        .ok_or_else(|| anyhow!("{shown}: {flag}: expected a file path"))?;
+    let parent = match path.parent() {
+        Some(p) if !p.as_os_str().is_empty() => p,
+        _ => Path::new("."),
+    };
+    match fs::metadata(parent) {
+        Err(_) => anyhow::bail!(
+            "{shown}: {flag}: the directory {} does not exist",
+            parent.display()
+        ),
+        Ok(m) if !m.is_dir() => {
+            anyhow::bail!("{shown}: {flag}: {} is not a directory", parent.display())
+        }
+        Ok(_) => {}
+    }
+    let canonical = fs::canonicalize(parent)
+        .with_context(|| format!("{shown}: {flag}"))?
+        .join(name);
+    probe(flag, path, &canonical)?;
+    Ok(Target::File(canonical))
+}
+
+/// Checks that the directory of `canonical` takes a new file, by creating (and removing) one.
+fn probe(flag: &str, path: &Path, canonical: &Path) -> anyhow::Result<()> {
+    let directory = canonical.parent().unwrap_or(Path::new("/"));
+    temporary_in(directory, canonical).map(drop).map_err(|e| {
+        anyhow!(
+            "{}: {flag}: cannot create a file in {}: {}",
+            path.display(),
+            directory.display(),
+            plain(&e)
+        )
+    })
+}
+
+/// The operating system's message of `error`, without the temporary file's name that tempfile
+/// appends (`… at path "/dir/.name.XXXXXX.tmp"`): the user never named that file.
+fn plain(error: &io::Error) -> String {
+    let message = error.to_string();
+    match message.rsplit_once(" at path \"") {
+        Some((os_message, _)) => os_message.to_string(),
+        None => message,
+    }
+}
+
+/// A temporary file beside `target`, named after it (`.name.XXXXXX.tmp`).
+fn temporary_in(directory: &Path, target: &Path) -> io::Result<tempfile::NamedTempFile> {
+    let prefix = format!(
+        ".{}.",
+        target.file_name().unwrap_or_default().to_string_lossy()
+    );
+    let mut builder = tempfile::Builder::new();
+    builder.prefix(&prefix).suffix(".tmp");
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::PermissionsExt;
+        // The usual permissions of a new file (less the umask), not the temporary file's 0600.
+        builder.permissions(fs::Permissions::from_mode(0o666));
+    }
+    builder.tempfile_in(directory)
+}
+
+/// Writes `contents` to a temporary file beside `path`, flushes it to disk and renames it over
+/// `path`, keeping the permissions of a file it replaces.
+fn replace(path: &Path, contents: &[u8]) -> io::Result<()> {
+    let directory = path.parent().unwrap_or(Path::new("/"));
+    let mut temporary = temporary_in(directory, path)?;
+    temporary.write_all(contents)?;
+    if let Ok(old) = fs::metadata(path) {
+        temporary.as_file().set_permissions(old.permissions())?;
+    }
+    temporary.as_file().sync_all()?;
+    temporary.persist(path).map_err(|e| e.error)?;
+    Ok(())
+}
+
+/// True when `metadata` is that of the file already open as standard output.
+fn is_stdout(metadata: &fs::Metadata) -> bool {
+    #[cfg(unix)]
+    {
+        use std::os::fd::AsFd;
+        io::stdout()
+            .as_fd()
+            .try_clone_to_owned()
+            .map(fs::File::from)
+            .and_then(|file| file.metadata())
+            .is_ok_and(|stdout| same_file(&stdout, metadata))
+    }
+    #[cfg(not(unix))]
+    {
+        let _ = metadata;
+        false
+    }
+}
+
+/// True when both are the same file (device and inode).
+fn same_file(a: &fs::Metadata, b: &fs::Metadata) -> bool {
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::MetadataExt;
+        a.dev() == b.dev() && a.ino() == b.ino()
+    }
+    #[cfg(not(unix))]
+    {
+        let _ = (a, b);
+        false
+    }
+}
