@@ -20,7 +20,7 @@ pub enum Error {
         error: std::io::Error,
     },
     /// The YAML model file is not valid YAML or does not have the expected shape.
-    #[error("{}: {message}", path.display())]
+    #[error("{}: {}", path.display(), one_line(message))]
     Yaml {
         /// The model file.
         path: PathBuf,
@@ -28,7 +28,7 @@ pub enum Error {
         message: String,
     },
     /// A field of the model file is inconsistent with the URDF or with another field.
-    #[error("{}: field `{field}`: {message}", path.display())]
+    #[error("{}: field `{}`: {}", path.display(), one_line(field), one_line(message))]
     Model {
         /// The model file.
         path: PathBuf,
@@ -38,7 +38,7 @@ pub enum Error {
         message: String,
     },
     /// The URDF file is not valid or does not describe the legs as expected.
-    #[error("{}: {message}", path.display())]
+    #[error("{}: {}", path.display(), one_line(message))]
     Urdf {
         /// The URDF file.
         path: PathBuf,
@@ -46,7 +46,7 @@ pub enum Error {
         message: String,
     },
     /// A measurement file is malformed or holds a pose that cannot be used.
-    #[error("{}: {location}: {message}", path.display())]
+    #[error("{}: {}: {}", path.display(), one_line(location), one_line(message))]
     Measurement {
         /// The CSV file.
         path: PathBuf,
@@ -60,9 +60,11 @@ pub enum Error {
     Kinematics(#[from] KinematicsError),
     /// The pose set does not determine every identified parameter of a leg.
     #[error(
-        "{}leg `{leg}`: rank-deficient identification: rank {rank} of {n} parameters; \
-         cannot be identified: {params}",
-        file_prefix(file)
+        "{}leg `{}`: rank-deficient identification: rank {rank} of {n} parameters; \
+         cannot be identified: {}",
+        file_prefix(file),
+        one_line(leg),
+        one_line(params)
     )]
     Unidentifiable {
         /// The measurement file the pose set came from, if any.
@@ -77,7 +79,7 @@ pub enum Error {
         params: String,
     },
     /// The least-squares solver failed.
-    #[error("{context}: solver failed: {message}")]
+    #[error("{}: solver failed: {}", one_line(context), one_line(message))]
     Solver {
         /// Which identification (leg or strategy).
         context: String,
@@ -93,8 +95,28 @@ pub enum Error {
         leg: String,
     },
     /// A request that cannot be carried out with the given data.
-    #[error("{0}")]
+    #[error("{}", one_line(.0))]
     Invalid(String),
+}
+
+/// `text` on one line: line breaks and other control characters (which a quoted CSV cell or an
+/// XML tag may hold, and which a parser may echo) are shown escaped (`\n`), so that every message
+/// stays one line.
+fn one_line(text: &str) -> std::borrow::Cow<'_, str> {
+    if text.chars().any(char::is_control) {
+        text.chars()
+            .map(|c| {
+                if c.is_control() {
+                    c.escape_default().to_string()
+                } else {
+                    c.to_string()
+                }
+            })
+            .collect::<String>()
+            .into()
+    } else {
+        text.into()
+    }
 }
 
 /// `"path: "` for an optional file, or nothing.
@@ -149,6 +171,18 @@ pub enum KinematicsError {
         legs: usize,
         /// Number of measured coordinates.
         coordinates: usize,
+    },
+    /// Finite inputs too large to compute with: the arithmetic overflowed (e.g. a coordinate of
+    /// 1e308).
+    #[error(
+        "leg `{leg}`: the inverse kinematics overflows: the pose or the parameters are finite but \
+         far too large for a mechanism in metres (largest magnitude {largest:e})"
+    )]
+    Overflow {
+        /// The leg.
+        leg: String,
+        /// The largest magnitude among the pose, the joint values and the parameters.
+        largest: f64,
     },
     /// A non-finite number appeared (parameters or pose hold NaN or infinity).
     #[error("leg `{leg}`: non-finite value in the parameters or the pose")]

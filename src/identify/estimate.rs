@@ -18,7 +18,7 @@ use crate::error::{Error, Result};
 use crate::measure::MeasurementSet;
 use crate::model::params::Unit;
 use crate::model::Mechanism;
-use crate::solver::SolverKind;
+use crate::solver::{SolverKind, StopReason};
 
 /// How the legs are grouped into least-squares problems.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -111,8 +111,10 @@ pub struct SolverRun {
     pub legs: Vec<String>,
     /// Iterations.
     pub iterations: u64,
-    /// Why it stopped.
-    pub termination: String,
+    /// Whether the solver converged; `false` means the estimate must not be trusted.
+    pub converged: bool,
+    /// Why the solver stopped (its `Display` is a sentence for humans).
+    pub stop_reason: StopReason,
     /// ½‖r‖² before.
     pub initial_cost: f64,
     /// ½‖r‖² after.
@@ -342,7 +344,8 @@ pub fn identify_problem(
     let run = SolverRun {
         legs: names,
         iterations: outcome.iterations,
-        termination: outcome.termination,
+        converged: outcome.converged,
+        stop_reason: outcome.stop_reason,
         initial_cost: 0.5 * r0.norm_squared(),
         final_cost: 0.5 * r.norm_squared(),
         residual_evaluations: outcome.residual_evaluations,

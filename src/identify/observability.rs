@@ -23,7 +23,9 @@ pub struct Observability {
     pub scaled_singular_values: Vec<f64>,
     /// Numerical rank of the column-scaled C.
     pub rank: usize,
-    /// Condition number s_max / s_min of C (infinite when rank-deficient).
+    /// Condition number s_max / s_min of C: a finite number whenever the smallest singular value
+    /// is non-zero (a rank-deficient C has a huge one), infinite only when it is zero or the
+    /// ratio overflows.
     pub condition: f64,
     /// Observability indices O1..O5 of C (docs/method.md §5; O1 divided by √m).
     pub indices: [f64; 5],
@@ -31,7 +33,7 @@ pub struct Observability {
     pub unidentifiable: Vec<String>,
     /// Null-space directions, e.g. `0.707 l1 - 0.707 L1`.
     pub null_directions: Vec<String>,
-    /// Condition number of the column-scaled C (infinite when rank-deficient).
+    /// Condition number of the column-scaled C (as [`Observability::condition`]).
     pub scaled_condition: f64,
     /// The least observable direction (column-scaled), e.g. `0.71 k1 + 0.70 gamma1`.
     pub weakest_direction: String,
@@ -53,13 +55,7 @@ impl Observability {
 pub fn analyse(c: &DMatrix<f64>, names: &[String]) -> Observability {
     let (m, n) = c.shape();
     let singular_values = sorted_singular_values(c.clone());
-    let mut scaled = c.clone();
-    for mut column in scaled.column_iter_mut() {
-        let norm = column.norm();
-        if norm > 0.0 {
-            column /= norm;
-        }
-    }
+    let scaled = unit_columns(c);
     let svd = scaled.clone().svd(false, true);
     let mut order: Vec<usize> = (0..svd.singular_values.len()).collect();
     order.sort_by(|&a, &b| svd.singular_values[b].total_cmp(&svd.singular_values[a]));
@@ -74,12 +70,7 @@ pub fn analyse(c: &DMatrix<f64>, names: &[String]) -> Observability {
         (Some(v_t), Some(&i)) => direction(v_t.row(i).iter().copied(), names),
         _ => String::new(),
     };
-    let smallest = scaled_singular_values.last().copied().unwrap_or(0.0);
-    let scaled_condition = if rank == n && smallest > 0.0 {
-        largest / smallest
-    } else {
-        f64::INFINITY
-    };
+    let scaled_condition = condition_number(&scaled_singular_values, n);
     if let Some(v_t) = &svd.v_t {
         for &i in order.iter().skip(rank) {
             null_directions.push(direction(v_t.row(i).iter().copied(), names));
@@ -89,11 +80,7 @@ pub fn analyse(c: &DMatrix<f64>, names: &[String]) -> Observability {
         .into_iter()
         .map(|j| names[j].clone())
         .collect();
-    let condition = if rank == n && n > 0 {
-        singular_values[0] / singular_values[n - 1]
-    } else {
-        f64::INFINITY
-    };
+    let condition = condition_number(&singular_values, n);
     Observability {
         indices: indices(&singular_values, m, n),
         singular_values,
@@ -107,10 +94,50 @@ pub fn analyse(c: &DMatrix<f64>, names: &[String]) -> Observability {
     }
 }
 
+/// s_max / s_min over the first `n` singular values (largest first): finite whenever s_min is
+/// non-zero, infinite when it is zero (or for `n = 0`).
+fn condition_number(singular_values: &[f64], n: usize) -> f64 {
+    match (
+        singular_values.first(),
+        n.checked_sub(1).and_then(|i| singular_values.get(i)),
+    ) {
+        (Some(&largest), Some(&smallest)) if smallest > 0.0 => largest / smallest,
+        _ => f64::INFINITY,
+    }
+}
+
+/// `c` with every non-zero column scaled to unit norm. Each column is first divided by its
+/// largest magnitude, so that the norm neither underflows (entries of 1e-300, whose squares are
+/// 0) nor overflows (1e200): the scaling is the same whatever the units of the parameters.
+pub fn unit_columns(c: &DMatrix<f64>) -> DMatrix<f64> {
+    let mut scaled = c.clone();
+    for mut column in scaled.column_iter_mut() {
+        let largest = column.amax();
+        if largest > 0.0 && largest.is_finite() {
+            column /= largest;
+            let norm = column.norm();
+            column /= norm;
+        }
+    }
+    scaled
+}
+
 /// Singular values, largest first (zeros appended when there are fewer rows than columns).
+/// The matrix is scaled by its largest magnitude first, so that entries far from 1 (1e-300 or
+/// 1e200) neither underflow nor overflow inside the decomposition.
 pub fn sorted_singular_values(c: DMatrix<f64>) -> Vec<f64> {
     let n = c.ncols();
-    let mut values: Vec<f64> = c.singular_values().iter().copied().collect();
+    let largest = c.amax();
+    let scale = if largest > 0.0 && largest.is_finite() {
+        largest
+    } else {
+        1.0
+    };
+    let mut values: Vec<f64> = (c / scale)
+        .singular_values()
+        .iter()
+        .map(|s| s * scale)
+        .collect();
     values.sort_by(|a, b| b.total_cmp(a));
     values.resize(n, 0.0);
     values
@@ -238,5 +265,55 @@ mod tests {
         assert!((o3 - 1.0).abs() < 1e-12);
         assert!((o4 - 0.25).abs() < 1e-12);
         assert!((o5 - 1.0 / 1.75).abs() < 1e-12);
+    }
+
+    /// [[1, 1], [0, ε]]: s₁ s₂ = |det| = ε and s₁² + s₂² = 2 + ε², so s₁ ≈ √2, s₂ ≈ ε/√2 and
+    /// the condition number is ≈ 2/ε: rank-deficient at the scaled tolerance, yet a finite,
+    /// printed condition (it was "infinite" beside two non-zero singular values).
+    #[test]
+    fn a_numerically_rank_deficient_matrix_has_a_finite_condition_number() {
+        let epsilon = 1e-10;
+        let c = DMatrix::from_row_slice(2, 2, &[1.0, 1.0, 0.0, epsilon]);
+        let o = analyse(&c, &names(2));
+        assert_eq!(o.rank, 1);
+        assert!(o.singular_values[1] > 0.0);
+        assert!(
+            (o.condition / (2.0 / epsilon) - 1.0).abs() < 1e-6,
+            "{}",
+            o.condition
+        );
+        assert!(o.scaled_condition.is_finite());
+    }
+
+    #[test]
+    fn only_a_zero_smallest_singular_value_gives_an_infinite_condition_number() {
+        let c = DMatrix::from_row_slice(2, 2, &[1.0, 0.0, 2.0, 0.0]);
+        assert!(analyse(&c, &names(2)).condition.is_infinite());
+    }
+
+    /// Columns of size 1e-300 (a gain of 1e300) and 1e200: squaring them under- or overflows.
+    /// The analysis must not depend on the columns' scale: the rank, the unidentifiable
+    /// parameter (the zero column p2) and the null direction are those of the unit matrix
+    /// [e₁ e₂ 0].
+    #[test]
+    fn the_column_scaling_is_robust_to_extreme_magnitudes() {
+        for scale in [1e-300, 1e200] {
+            let c = DMatrix::from_row_slice(
+                3,
+                3,
+                &[scale, 0.0, 0.0, 0.0, 2.0 * scale, 0.0, 0.0, 0.0, 0.0],
+            );
+            let o = analyse(&c, &names(3));
+            assert_eq!(o.rank, 2, "scale {scale}");
+            assert_eq!(o.unidentifiable, vec!["p2".to_string()], "scale {scale}");
+            assert_eq!(
+                o.null_directions,
+                vec!["1.000 p2".to_string()],
+                "scale {scale}"
+            );
+            // Singular values 2·scale and scale (the matrix is diagonal), largest first.
+            assert!((o.singular_values[0] / (2.0 * scale) - 1.0).abs() < 1e-12);
+            assert!((o.singular_values[1] / scale - 1.0).abs() < 1e-12);
+        }
     }
 }

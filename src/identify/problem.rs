@@ -26,14 +26,26 @@ pub struct LegSlot {
     pub offset: usize,
 }
 
-/// A failed residual block: which block, and why.
+/// A failed residual block: which block, and why. At the starting parameters the caller names
+/// the measurement line from [`BlockError::block`] and [`BlockError::source`]; the message of
+/// the error itself is for a failure *during* a solve (a solver passes it on): there the trial
+/// parameters are at fault, not the data, and the message says so with their values.
 #[derive(Debug, Clone, thiserror::Error)]
-#[error("residual block {block}: {source}")]
+#[error(
+    "the solver diverged: at its trial parameters ({parameters}), {location}: {source}; the step \
+     left the plausible parameters (the pose is usable at the starting ones): try the \
+     Levenberg-Marquardt solver, and if it fails too check the units of the readings (radians, \
+     metres)"
+)]
 pub struct BlockError {
     /// Index of the block in the problem.
     pub block: usize,
     /// The kinematic failure.
     pub source: KinematicsError,
+    /// `measurement line N`, or `residual block N` for a pose without a file line.
+    pub location: String,
+    /// The trial parameter values, `name = value, …`.
+    pub parameters: String,
 }
 
 /// Least-squares identification problem over a set of residual blocks.
@@ -214,7 +226,7 @@ impl<'a> IdentificationProblem<'a> {
             let s = self.slot_of_leg[block.leg].unwrap_or_default();
             let predicted = prepared[s]
                 .reading(&block.pose, home)
-                .map_err(|source| BlockError { block: i, source })?;
+                .map_err(|source| self.block_error(i, source, x))?;
             let m = matches[s];
             let n = turns(predicted, block.reading, m.gain, m.revolute);
             r[i] =
@@ -240,7 +252,7 @@ impl<'a> IdentificationProblem<'a> {
                 let s = self.slot_of_leg[block.leg].unwrap_or_default();
                 let predicted = prepared[s]
                     .reading(&block.pose, home)
-                    .map_err(|source| BlockError { block: i, source })?;
+                    .map_err(|source| self.block_error(i, source, x))?;
                 Ok(turns(
                     predicted,
                     block.reading,
@@ -279,7 +291,7 @@ impl<'a> IdentificationProblem<'a> {
             let row = &mut gradient[..slot.columns.len()];
             let predicted = prepared[s]
                 .reading_and_gradient(&block.pose, home, row)
-                .map_err(|source| BlockError { block: i, source })?;
+                .map_err(|source| self.block_error(i, source, x))?;
             let m = matches[s];
             let n = turns(predicted, block.reading, m.gain, m.revolute);
             let turn = turn_in_reading_units(m.gain);
@@ -296,11 +308,52 @@ impl<'a> IdentificationProblem<'a> {
         Ok((r, jacobian))
     }
 
+    /// The error for block `block` failing at the unknowns `x`.
+    /// The error of block `block` at the unknowns `x`, located (file line or block) and with the
+    /// trial parameter values.
+    pub fn block_error(
+        &self,
+        block: usize,
+        source: KinematicsError,
+        x: &DVector<f64>,
+    ) -> BlockError {
+        let location = match self.blocks[block].line {
+            Some(line) => format!("measurement line {line}"),
+            None => format!("residual block {block}"),
+        };
+        let parameters = self
+            .slots
+            .iter()
+            .flat_map(|slot| {
+                let leg = &self.mechanism.legs[slot.leg];
+                slot.columns.iter().enumerate().map(move |(k, &c)| {
+                    format!("{} = {}", leg.params[c].name, short(x[slot.offset + k]))
+                })
+            })
+            .collect::<Vec<_>>()
+            .join(", ");
+        BlockError {
+            block,
+            source,
+            location,
+            parameters,
+        }
+    }
+
     /// Row indices of the blocks of the leg in `slot`.
     pub fn rows_of(&self, slot: &LegSlot) -> Vec<usize> {
         (0..self.blocks.len())
             .filter(|&i| self.blocks[i].leg == slot.leg)
             .collect()
+    }
+}
+
+/// A parameter value for messages: six decimals for ordinary magnitudes, else scientific.
+fn short(value: f64) -> String {
+    if value == 0.0 || (1e-3..1e6).contains(&value.abs()) {
+        format!("{value:.6}")
+    } else {
+        format!("{value:.6e}")
     }
 }
 

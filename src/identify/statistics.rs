@@ -170,7 +170,7 @@ pub fn row_variances(
                 &mechanism.home_pose,
                 &mechanism.measured,
             )
-            .map_err(|source| BlockError { block: i, source })?;
+            .map_err(|source| problem.block_error(i, source, x))?;
             let pose_part: f64 = (0..6).map(|c| (gradient[c] * noise.pose[c]).powi(2)).sum();
             Ok(noise.reading.powi(2) + pose_part)
         })

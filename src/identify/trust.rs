@@ -1,7 +1,8 @@
 //! Whether an identification's result can be trusted: the reasons it must not be, one line
 //! each. The command line prints them as warnings and exits with status 3.
 //!
-//! Checked today:
+//! Checked:
+//! * every solver run converged (a typed stop reason that is a convergence test);
 //! * every number a fit reports (costs, estimates, standard deviations, residual σ̂) is finite.
 //!   A non-finite value means the fit or its statistics broke down, whatever the solver said
 //!   about its own stopping;
@@ -27,6 +28,18 @@ pub fn trust_issues(results: &[StrategyResult]) -> Vec<String> {
                 ));
                 flagged.push(leg.leg.as_str());
             }
+        }
+        for run in result.runs.iter().filter(|run| !run.converged) {
+            issues.push(format!(
+                "{} ({strategy}) did not converge for leg{} {}: {} after {} iterations and {} \
+                 residual evaluations; the estimate must not be trusted",
+                result.solver.name(),
+                if run.legs.len() == 1 { "" } else { "s" },
+                run.legs.join(", "),
+                run.stop_reason,
+                run.iterations,
+                run.residual_evaluations
+            ));
         }
         // One reason per leg: a non-finite fit's noise test says nothing more.
         for leg in result
@@ -88,7 +101,7 @@ mod tests {
     use crate::identify::observability::Observability;
     use crate::identify::statistics::{LegStatistics, NoiseTest};
     use crate::model::params::Unit;
-    use crate::solver::SolverKind;
+    use crate::solver::{SolverKind, StopReason};
 
     fn parameter(
         name: &str,
@@ -136,7 +149,8 @@ mod tests {
             runs: vec![SolverRun {
                 legs: vec!["leg1".into()],
                 iterations: 3,
-                termination: "converged".into(),
+                converged: true,
+                stop_reason: StopReason::CostReduction,
                 initial_cost: 1.0,
                 final_cost,
                 residual_evaluations: 4,
@@ -216,6 +230,29 @@ mod tests {
         assert_eq!(
             trust_issues(&[bad]),
             ["divide and conquer, leg `leg1`: not a finite number: l1 inf, std(L1) NaN"]
+        );
+    }
+
+    #[test]
+    fn a_run_that_did_not_converge_is_named_with_its_reason() {
+        let mut bad = result(vec![parameter("l1", 0.75, Some(1e-4), true)], 1e-8);
+        bad.runs[0].converged = false;
+        bad.runs[0].stop_reason = StopReason::EvaluationBudget;
+        let issues = trust_issues(&[bad]);
+        assert_eq!(issues.len(), 1);
+        assert!(
+            issues[0].starts_with(
+                "Levenberg-Marquardt (divide and conquer) did not converge for leg leg1: "
+            ),
+            "{}",
+            issues[0]
+        );
+        assert!(
+            issues[0].ends_with(
+                "after 3 iterations and 4 residual evaluations; the estimate must not be trusted"
+            ),
+            "{}",
+            issues[0]
         );
     }
 }

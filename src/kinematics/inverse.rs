@@ -22,8 +22,15 @@ use crate::scalar::{lift, Scalar};
 const MAX_ITERATIONS: usize = 40;
 /// Largest revolute step per Newton iteration, radians (keeps Newton on its branch).
 const MAX_ANGLE_STEP: f64 = 0.5;
-/// Determinant of the column-normalised closure Jacobian below which the leg is singular.
-const SINGULAR_DETERMINANT: f64 = 1e-10;
+/// Determinant of the column-normalised closure Jacobian (the sine of the angle between the
+/// joints' tip velocities, in the plane) at or below which the leg is at a serial singularity.
+/// At a reach limit Newton converges only linearly, and stops with this determinant around
+/// 1e-6 to 1e-5 (the joint error is the square root of the residual): the threshold sits above
+/// that, while usable poses are far above it (the workspace asks for 0.05 by default).
+pub const SINGULAR_DETERMINANT: f64 = 1e-4;
+/// Extra Newton iterations spent, at a reach limit, to tell a pose on it (the residual keeps
+/// halving) from a pose just beyond it (the residual stalls at the distance to the limit).
+const LIMIT_ITERATIONS: usize = 80;
 
 /// A converged inverse-kinematics solution (f64), with what the derivative step needs.
 #[derive(Debug, Clone)]
@@ -117,9 +124,7 @@ pub fn newton(
     let dims = leg.closure_dims;
     let target = attachment_world(pose, &geometry.attachment);
     if !target.iter().all(|v| v.is_finite()) || !seed.iter().all(|v| v.is_finite()) {
-        return Err(KinematicsError::NonFinite {
-            leg: leg.name.clone(),
-        });
+        return Err(not_finite(leg, geometry, pose, seed));
     }
     let tolerance = 1e-13 * (1.0 + target.norm());
     let mut q = seed.to_vec();
@@ -130,34 +135,25 @@ pub fn newton(
         let previous = residual;
         residual = closure.norm();
         if !residual.is_finite() {
-            return Err(KinematicsError::NonFinite {
-                leg: leg.name.clone(),
-            });
+            return Err(not_finite(leg, geometry, pose, &q));
         }
         // Converged: tiny residual, or round-off floor reached after a tiny improvement.
         let stalled = residual < 1e3 * tolerance && residual >= 0.5 * previous;
         if residual <= tolerance || stalled {
-            return finish(leg, &mut q, seed, &jacobian);
+            let determinant = normalised_determinant(&jacobian, dims);
+            if determinant.abs() <= SINGULAR_DETERMINANT {
+                return Err(at_reach_limit(leg, geometry, &target, tolerance, q));
+            }
+            return finish(leg, &mut q, seed, &jacobian, determinant);
         }
         if iteration == MAX_ITERATIONS {
             break;
         }
-        let Some(inverse) = invert(&jacobian, dims) else {
+        let Some(step) = newton_step(leg, &jacobian, &closure) else {
             return Err(KinematicsError::Singular {
                 leg: leg.name.clone(),
             });
         };
-        let mut step = -(inverse * closure);
-        let largest_angle = leg
-            .moving
-            .iter()
-            .enumerate()
-            .filter(|(_, &j)| leg.joints[j].kind == JointKind::Revolute)
-            .map(|(i, _)| step[i].abs())
-            .fold(0.0, f64::max);
-        if largest_angle > MAX_ANGLE_STEP {
-            step *= MAX_ANGLE_STEP / largest_angle;
-        }
         for (value, delta) in q.iter_mut().zip(step.iter()) {
             *value += delta;
         }
@@ -169,27 +165,117 @@ pub fn newton(
     })
 }
 
-/// Unwraps revolute joints around the seed and packages the solution.
+/// A non-finite number appeared: [`KinematicsError::NonFinite`] if an input is NaN or infinite,
+/// [`KinematicsError::Overflow`] (with the largest magnitude) if every input is finite.
+fn not_finite(
+    leg: &LegModel,
+    geometry: &LegGeometry<f64>,
+    pose: &[f64; 6],
+    joints: &[f64],
+) -> KinematicsError {
+    let inputs = pose
+        .iter()
+        .chain(joints)
+        .chain(geometry.origins.iter().flatten())
+        .chain(&geometry.attachment)
+        .chain([&geometry.gain, &geometry.offset]);
+    let mut largest = 0.0f64;
+    for value in inputs {
+        if !value.is_finite() {
+            return KinematicsError::NonFinite {
+                leg: leg.name.clone(),
+            };
+        }
+        largest = largest.max(value.abs());
+    }
+    KinematicsError::Overflow {
+        leg: leg.name.clone(),
+        largest,
+    }
+}
+
+/// The Newton step `−F_q⁻¹ F`, shortened so that no revolute joint turns more than
+/// [`MAX_ANGLE_STEP`]; `None` if the closure Jacobian is singular.
+fn newton_step(
+    leg: &LegModel,
+    jacobian: &Matrix3<f64>,
+    closure: &Vector3<f64>,
+) -> Option<Vector3<f64>> {
+    let inverse = invert(jacobian, leg.closure_dims)?;
+    let mut step = -(inverse * closure);
+    let largest_angle = leg
+        .moving
+        .iter()
+        .enumerate()
+        .filter(|(_, &j)| leg.joints[j].kind == JointKind::Revolute)
+        .map(|(i, _)| step[i].abs())
+        .fold(0.0, f64::max);
+    if largest_angle > MAX_ANGLE_STEP {
+        step *= MAX_ANGLE_STEP / largest_angle;
+    }
+    Some(step)
+}
+
+/// Newton stopped at a (near-)singular configuration `q`: the pose is on the leg's reach limit
+/// (a serial singularity) or just beyond it. Newton goes on: on the limit the residual keeps
+/// shrinking below `tolerance`; beyond it, it stalls at the distance to the limit.
+fn at_reach_limit(
+    leg: &LegModel,
+    geometry: &LegGeometry<f64>,
+    target: &Vector3<f64>,
+    tolerance: f64,
+    mut q: Vec<f64>,
+) -> KinematicsError {
+    let mut smallest = f64::INFINITY;
+    for _ in 0..LIMIT_ITERATIONS {
+        let (tip, jacobian) = tip_and_jacobian(leg, geometry, &q);
+        let closure = closure_error(&tip, target, leg.closure_dims);
+        let residual = closure.norm();
+        if !residual.is_finite() {
+            break;
+        }
+        smallest = smallest.min(residual);
+        if smallest <= tolerance {
+            break;
+        }
+        let Some(step) = newton_step(leg, &jacobian, &closure) else {
+            break;
+        };
+        for (value, delta) in q.iter_mut().zip(step.iter()) {
+            *value += delta;
+        }
+    }
+    if smallest <= tolerance {
+        KinematicsError::Singular {
+            leg: leg.name.clone(),
+        }
+    } else {
+        KinematicsError::Unreachable {
+            leg: leg.name.clone(),
+            residual: smallest,
+            iterations: MAX_ITERATIONS + LIMIT_ITERATIONS,
+        }
+    }
+}
+
+/// Unwraps revolute joints around the seed and packages the solution (its normalised
+/// determinant is above [`SINGULAR_DETERMINANT`]).
 fn finish(
     leg: &LegModel,
     q: &mut [f64],
     seed: &[f64],
     jacobian: &Matrix3<f64>,
+    normalised_determinant: f64,
 ) -> Result<LegSolution, KinematicsError> {
     for (i, &j) in leg.moving.iter().enumerate() {
         if leg.joints[j].kind == JointKind::Revolute {
             q[i] = seed[i] + wrap_angle(q[i] - seed[i]);
         }
     }
-    let dims = leg.closure_dims;
-    let normalised_determinant = normalised_determinant(jacobian, dims);
-    let closure_inverse = match invert(jacobian, dims) {
-        Some(inverse) if normalised_determinant.abs() > SINGULAR_DETERMINANT => inverse,
-        _ => {
-            return Err(KinematicsError::Singular {
-                leg: leg.name.clone(),
-            })
-        }
+    let Some(closure_inverse) = invert(jacobian, leg.closure_dims) else {
+        return Err(KinematicsError::Singular {
+            leg: leg.name.clone(),
+        });
     };
     Ok(LegSolution {
         q: q.to_vec(),

@@ -7,6 +7,7 @@ use std::path::{Path, PathBuf};
 use super::file::ModelFile;
 use super::joint::ORIGIN_COMPONENTS;
 use super::leg::LegModel;
+use super::source::read_text;
 use crate::error::{Error, Result};
 use crate::workspace::region::Workspace;
 
@@ -97,27 +98,52 @@ impl Mechanism {
     /// Loads and validates a model file and the URDF it names.
     ///
     /// # Errors
-    /// [`Error::Io`], [`Error::Yaml`], [`Error::Urdf`] or [`Error::Model`] naming the field.
+    /// [`Error::Io`] if the model file cannot be read or is not a regular file,
+    /// [`Error::Model`] on field `urdf` if the URDF cannot be (not found, not a regular file,
+    /// unreadable), then as [`Mechanism::parse`].
     pub fn load(path: &Path) -> Result<Self> {
-        let file = ModelFile::read(path)?;
+        let text = read_text(path).map_err(|error| Error::Io {
+            path: path.to_path_buf(),
+            error,
+        })?;
+        let file = ModelFile::parse(&text, path)?;
         let urdf_path = path
             .parent()
             .unwrap_or_else(|| Path::new("."))
             .join(&file.urdf);
-        if !urdf_path.is_file() {
-            return Err(Error::Model {
-                path: path.to_path_buf(),
-                field: "urdf".into(),
-                message: format!("URDF file `{}` not found", urdf_path.display()),
-            });
-        }
-        let robot = urdf_rs::read_file(&urdf_path).map_err(|err| Error::Urdf {
-            path: urdf_path.clone(),
-            message: crate::error::first_line(&err.to_string(), "custom: ", "invalid URDF"),
+        let urdf_text = read_text(&urdf_path).map_err(|error| Error::Model {
+            path: path.to_path_buf(),
+            field: "urdf".into(),
+            message: if error.kind() == std::io::ErrorKind::NotFound {
+                format!("URDF file `{}` not found", urdf_path.display())
+            } else {
+                format!("URDF file `{}`: {error}", urdf_path.display())
+            },
         })?;
+        Self::from_file(path, file, &urdf_path, &urdf_text)
+    }
+
+    /// Parses and validates model-file text and URDF text (no file is read: the paths are only
+    /// used in messages). [`Mechanism::load`] without the file system, e.g. for fuzzing.
+    ///
+    /// # Errors
+    /// [`Error::Yaml`], [`Error::Urdf`] (with the line where there is one) or [`Error::Model`]
+    /// naming the field.
+    pub fn parse(
+        model_text: &str,
+        model_path: &Path,
+        urdf_text: &str,
+        urdf_path: &Path,
+    ) -> Result<Self> {
+        let file = ModelFile::parse(model_text, model_path)?;
+        Self::from_file(model_path, file, urdf_path, urdf_text)
+    }
+
+    fn from_file(path: &Path, file: ModelFile, urdf_path: &Path, urdf_text: &str) -> Result<Self> {
+        let robot = super::urdf::parse(urdf_text, urdf_path)?;
         Builder {
             path,
-            urdf_path: &urdf_path,
+            urdf_path,
             robot: &robot,
         }
         .build(file)

@@ -4,5 +4,7 @@ pub mod joint;
 pub mod leg;
 pub mod mechanism;
 pub mod params;
+pub mod source;
+pub mod urdf;
 
 pub use mechanism::Mechanism;

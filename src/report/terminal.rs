@@ -5,6 +5,7 @@ use std::fmt::Write;
 use super::IdentifyReport;
 use crate::identify::estimate::StrategyResult;
 use crate::identify::statistics::figure;
+use crate::identify::trust::trust_issues;
 
 /// Formats a number for a table cell (never prints NaN: non-finite shows as `-`).
 fn number(value: Option<f64>, width: usize) -> String {
@@ -35,6 +36,9 @@ pub fn render(report: &IdentifyReport<'_>) -> String {
         let _ = writeln!(out, "mode: {mode}");
     }
     let _ = writeln!(out, "measurements: {}", report.source);
+    for issue in trust_issues(&report.results) {
+        let _ = writeln!(out, "WARNING: {issue}");
+    }
     for result in &report.results {
         render_result(&mut out, report, result);
     }
@@ -105,15 +109,20 @@ fn render_result(out: &mut String, report: &IdentifyReport<'_>, result: &Strateg
             } else {
                 String::new()
             };
+            let verdict = if run.converged {
+                "converged"
+            } else {
+                "NOT CONVERGED"
+            };
             let _ = writeln!(
                 out,
-                "  solver: {}, {} iterations, {} residual / {} Jacobian evaluations, {:.2} ms: {}{shared}",
+                "  solver: {}, {} iterations, {} residual / {} Jacobian evaluations, {:.2} ms: {verdict} ({}){shared}",
                 result.solver.name(),
                 run.iterations,
                 run.residual_evaluations,
                 run.jacobian_evaluations,
                 run.seconds * 1e3,
-                run.termination
+                run.stop_reason
             );
         }
         let sigma = leg

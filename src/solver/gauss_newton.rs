@@ -3,8 +3,8 @@
 //! argmin's `GaussNewton` stops when ‖r‖ changes by less than a tolerance; near the minimum the
 //! change of ‖r‖ is quadratic in the parameter error, so that rule leaves the parameters
 //! accurate only to about √tol. This wrapper delegates each iteration to argmin's solver and
-//! stops when the step is small: ‖Δx‖ ≤ x_tol (‖x‖ + x_tol) (docs/method.md §3), or when the
-//! iterate no longer moves.
+//! stops when the step is small: ‖Δx‖ ≤ x_tol (‖x‖ + x_tol), or when the iterate no longer
+//! moves. A non-finite step stops the run at the last finite iterate.
 
 use argmin::core::{
     Error, IterState, Jacobian, Operator, Problem, Solver, State, TerminationReason,
@@ -12,6 +12,8 @@ use argmin::core::{
 };
 use argmin::solver::gaussnewton::GaussNewton;
 use nalgebra::{DMatrix, DVector};
+
+use super::stop::StopReason;
 
 type GnState = IterState<DVector<f64>, (), DMatrix<f64>, (), DVector<f64>, f64>;
 
@@ -29,6 +31,7 @@ pub struct StepGaussNewton {
     xtol: f64,
     last_step: f64,
     last_norm: f64,
+    stop: Option<StopReason>,
 }
 
 impl StepGaussNewton {
@@ -39,6 +42,7 @@ impl StepGaussNewton {
             xtol: 1e-12,
             last_step: f64::INFINITY,
             last_norm: 0.0,
+            stop: None,
         }
     }
 
@@ -55,6 +59,12 @@ impl StepGaussNewton {
         }
         self.xtol = xtol;
         Ok(self)
+    }
+
+    /// Why the last run stopped: [`StopReason::StepSize`] or [`StopReason::NonFinite`];
+    /// `None` while it runs or when argmin stopped it (at `max_iters`).
+    pub fn stop_reason(&self) -> Option<StopReason> {
+        self.stop
     }
 }
 
@@ -86,6 +96,7 @@ where
         problem: &mut Problem<O>,
         state: GnState,
     ) -> Result<(GnState, Option<KV>), Error> {
+        (self.stop, self.last_step) = (None, f64::INFINITY);
         self.inner.init(problem, state)
     }
 
@@ -98,10 +109,11 @@ where
         let (state, kv) = self.inner.next_iter(problem, state)?;
         let after = state.get_param().cloned().unwrap_or_default();
         if !after.iter().all(|v| v.is_finite()) {
-            return Err(argmin::core::ArgminError::PotentialBug {
-                text: "Gauss-Newton produced a non-finite step".into(),
-            }
-            .into());
+            self.stop = Some(StopReason::NonFinite);
+            let reason = TerminationReason::SolverExit(
+                "Gauss-Newton: the step is not finite (singular normal equations)".into(),
+            );
+            return Ok((state.param(before).terminate_with(reason), kv));
         }
         self.last_step = (&after - &before).norm();
         self.last_norm = after.norm();
@@ -111,6 +123,7 @@ where
     fn terminate(&mut self, _state: &GnState) -> TerminationStatus {
         // ‖Δx‖ ≤ x_tol (‖x‖ + x_tol)
         if self.last_step <= self.xtol * (self.last_norm + self.xtol) {
+            self.stop = Some(StopReason::StepSize);
             return TerminationStatus::Terminated(TerminationReason::SolverConverged);
         }
         TerminationStatus::NotTerminated

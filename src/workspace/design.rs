@@ -70,17 +70,34 @@ fn leg_rows(pool: &CandidatePool, leg: usize, indices: &[usize]) -> DMatrix<f64>
     })
 }
 
+/// The error for a mechanism none of whose parameters is identified: there is nothing to
+/// select poses for (or to identify).
+pub fn nothing_identified(mechanism: &Mechanism) -> Error {
+    Error::Model {
+        path: mechanism.model_path.clone(),
+        field: "parameters".into(),
+        message: "every parameter has `identify: false`: there is nothing to select poses for \
+                  or to identify; set `identify: true` (the default) on the parameters to \
+                  identify"
+            .into(),
+    }
+}
+
 /// Selects `count` poses for each leg with identified parameters from the pool (divide and
 /// conquer).
 ///
 /// # Errors
-/// Too few candidates, or a pool that cannot identify some parameters of a leg (named).
+/// No identified parameter at all ([`nothing_identified`]), too few candidates, or a pool that
+/// cannot identify some parameters of a leg (named).
 pub fn divide_and_conquer(
     mechanism: &Mechanism,
     pool: &CandidatePool,
     count: usize,
     criterion: SelectionCriterion,
 ) -> Result<Vec<LegDesign>> {
+    if mechanism.identified_legs().is_empty() {
+        return Err(nothing_identified(mechanism));
+    }
     let all: Vec<usize> = (0..pool.candidates.len()).collect();
     mechanism
         .identified_legs()
@@ -114,7 +131,8 @@ pub fn divide_and_conquer(
 /// Selects `count` shared poses for all legs at once (traditional: block-diagonal rows).
 ///
 /// # Errors
-/// Too few candidates, or a pool that cannot identify some parameters (named).
+/// No identified parameter at all ([`nothing_identified`]), too few candidates, or a pool that
+/// cannot identify some parameters (named).
 pub fn traditional(
     mechanism: &Mechanism,
     pool: &CandidatePool,
@@ -122,6 +140,9 @@ pub fn traditional(
     criterion: SelectionCriterion,
 ) -> Result<SharedDesign> {
     let included = mechanism.identified_legs();
+    let Some(&first) = included.first() else {
+        return Err(nothing_identified(mechanism));
+    };
     let legs = included.len();
     let widths: Vec<usize> = included
         .iter()
@@ -163,7 +184,7 @@ pub fn traditional(
                 || leg_rows(pool, l, &all),
                 &names(mechanism, l),
             ),
-            None => selection_error(mechanism, included[0], err, || stack(&all), &all_names),
+            None => selection_error(mechanism, first, err, || stack(&all), &all_names),
         }
     })?;
     Ok(SharedDesign {
@@ -233,7 +254,8 @@ impl ExperimentDesign {
     /// `spacing` (default: the model's), with `criterion`.
     ///
     /// # Errors
-    /// As [`super::candidates::candidate_pool`], [`divide_and_conquer`] and [`traditional`].
+    /// [`nothing_identified`] first (before the pool is built), then as
+    /// [`super::candidates::candidate_pool`], [`divide_and_conquer`] and [`traditional`].
     pub fn select(
         mechanism: &Mechanism,
         spacing: Option<f64>,
@@ -241,6 +263,9 @@ impl ExperimentDesign {
         criterion: SelectionCriterion,
         shared: bool,
     ) -> Result<Self> {
+        if mechanism.identified_legs().is_empty() {
+            return Err(nothing_identified(mechanism));
+        }
         let pool = super::candidates::candidate_pool(mechanism, spacing)?;
         let legs = divide_and_conquer(mechanism, &pool, count, criterion)?;
         let shared = if shared {

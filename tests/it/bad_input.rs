@@ -178,15 +178,15 @@ fn a_parameter_on_a_joint_not_in_the_urdf_names_the_parameter_entry() {
     );
 }
 
-/// urdf-rs re-serialises the XML before parsing it and reports no position, so the message
-/// names the URDF file but not the line.
+/// The streaming pre-scan finds the unclosed `<joint>` of line 9 when `</robot>` closes.
 #[test]
-fn a_malformed_urdf_names_the_urdf_file() {
+fn a_malformed_urdf_names_the_urdf_file_and_line() {
     let (_, msg) = model_error("5r_broken_urdf.yaml");
     assert_eq!(
         msg,
         format!(
-            "{}: Elements not properly nested",
+            "{}: line 9: not well-formed XML: ill-formed document: expected `</joint>`, but \
+             `</robot>` was found",
             data("broken.urdf").display()
         )
     );
@@ -356,5 +356,297 @@ fn a_candidate_grid_too_fine_is_refused() {
         err.to_string(),
         "grid spacing 0.000001 m (workspace.grid or --grid) gives 1.505e12 grid poses; at most \
          2000000 are allowed: use a larger spacing"
+    );
+}
+
+// ---- issue 8: crashes, silent wrong answers and misleading messages ----
+
+/// Runs the built `legwise ARGS` in the crate root; returns (exit code, stdout, stderr).
+fn legwise(args: &[&str]) -> (Option<i32>, String, String) {
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_legwise"))
+        .args(args)
+        .current_dir(env!("CARGO_MANIFEST_DIR"))
+        .output()
+        .expect("the legwise binary runs");
+    let text = |b: &[u8]| String::from_utf8(b.to_vec()).expect("UTF-8 output");
+    (out.status.code(), text(&out.stdout), text(&out.stderr))
+}
+
+/// The binary exits 2 with exactly `expected` (one line) on stderr and nothing on stdout.
+fn assert_cli_fails_with(args: &[&str], expected: &str) {
+    let (code, stdout, stderr) = legwise(args);
+    assert_eq!(code, Some(2), "{args:?}: stderr {stderr:?}");
+    assert_eq!(stderr, format!("legwise: {expected}\n"), "{args:?}");
+    assert_eq!(stdout, "", "{args:?}");
+}
+
+const ALL_FIXED: &str = "tests/data/5r_all_fixed.yaml: field `parameters`: every parameter has \
+    `identify: false`: there is nothing to select poses for or to identify; set `identify: true` \
+    (the default) on the parameters to identify";
+
+/// Every parameter fixed: pose selection (both strategies) refuses at once; it used to panic
+/// (traditional) or return no poses at all (divide and conquer).
+#[test]
+fn every_parameter_fixed_is_refused_by_pose_selection() {
+    use legwise::model::mechanism::SelectionCriterion;
+    use legwise::workspace::design::ExperimentDesign;
+    let mech = Mechanism::load(&data("5r_all_fixed.yaml")).expect("the model itself is valid");
+    assert!(mech.identified_legs().is_empty());
+    for shared in [false, true] {
+        let err = ExperimentDesign::select(&mech, None, 18, SelectionCriterion::D, shared)
+            .expect_err("nothing to select");
+        assert_eq!(
+            message(&err),
+            format!(
+                "{}: field `parameters`: every parameter has `identify: false`: there is nothing \
+                 to select poses for or to identify; set `identify: true` (the default) on the \
+                 parameters to identify",
+                data("5r_all_fixed.yaml").display()
+            )
+        );
+    }
+}
+
+/// The CLI: `identify` (simulated), `simulate` and `select` (both strategies) exit 2 with one
+/// line, and no file is written (`select` wrote a header-only CSV and exited 0).
+#[test]
+fn every_parameter_fixed_exits_2_and_writes_nothing() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let out = dir.path().join("poses.csv");
+    let out = out.to_str().expect("UTF-8 path");
+    let model = "tests/data/5r_all_fixed.yaml";
+    let runs: [&[&str]; 4] = [
+        &["identify", "--model", model],
+        &["simulate", "--model", model, "--out", out],
+        &["select", "--model", model, "--out", out],
+        &[
+            "select",
+            "--model",
+            model,
+            "--out",
+            out,
+            "--strategy",
+            "traditional",
+        ],
+    ];
+    for args in runs {
+        assert_cli_fails_with(args, ALL_FIXED);
+        assert!(!Path::new(out).exists(), "{args:?} wrote {out}");
+    }
+}
+
+/// 30 000 nested elements overflowed urdf-rs's recursive parser (an abort); the pre-scan
+/// refuses the 101st level and names its line.
+#[test]
+fn a_urdf_nested_too_deep_is_refused_before_parsing() {
+    let (_, msg) = model_error("5r_deep_nesting.yaml");
+    assert_eq!(
+        msg,
+        format!(
+            "{}: line 37: element <x> is nested 101 levels deep; at most 100 are accepted (a URDF \
+             needs fewer than 10)",
+            data("deep_nesting.urdf").display()
+        )
+    );
+    assert_cli_fails_with(
+        &["workspace", "--model", "tests/data/5r_deep_nesting.yaml"],
+        "tests/data/deep_nesting.urdf: line 37: element <x> is nested 101 levels deep; at most \
+         100 are accepted (a URDF needs fewer than 10)",
+    );
+}
+
+#[test]
+fn a_duplicate_urdf_joint_is_called_a_duplicate_with_both_lines() {
+    let (_, msg) = model_error("5r_duplicate_joint.yaml");
+    assert_eq!(
+        msg,
+        format!(
+            "{}: line 25: joint `B1` is declared twice (first on line 16); joint names must be \
+             unique",
+            data("duplicate_joint.urdf").display()
+        )
+    );
+}
+
+#[test]
+fn a_joint_on_an_undeclared_link_is_refused_with_its_line() {
+    let (_, msg) = model_error("5r_undeclared_link.yaml");
+    assert_eq!(
+        msg,
+        format!(
+            "{}: line 19: joint `P1`: its child link `tip1` is not declared (no <link \
+             name=\"tip1\"> in the file)",
+            data("undeclared_link.urdf").display()
+        )
+    );
+}
+
+/// `/dev/zero` exists: it was reported "not found" (and reading it would never end).
+#[cfg(unix)]
+#[test]
+fn a_urdf_that_is_a_device_says_what_it_is() {
+    let (path, msg) = model_error("5r_urdf_dev_zero.yaml");
+    assert_eq!(
+        msg,
+        format!(
+            "{}: field `urdf`: URDF file `/dev/zero`: not a regular file (it is a character \
+             device); expected a text file",
+            path.display()
+        )
+    );
+    assert_cli_fails_with(
+        &["workspace", "--model", "/dev/zero"],
+        "/dev/zero: not a regular file (it is a character device); expected a text file",
+    );
+}
+
+/// A URDF in millimetres: the legs add up to 500 + 750 + 1100 = 2350 "m" while the workspace
+/// disc (centre (0, 1.0957), radius 0.6457) reaches √(0.6457² + 1.7413²) = 1.8572 m from the
+/// base origin: 1265 times. It used to fail at pose selection with "select more poses".
+#[test]
+fn a_urdf_in_millimetres_is_named_as_a_unit_problem() {
+    let (path, msg) = model_error("5r_urdf_millimetres.yaml");
+    let reach = (0.6456521739f64.powi(2) + (1.0956521739f64 + 0.6456521739).powi(2)).sqrt();
+    assert_eq!(
+        msg,
+        format!(
+            "{}: field `urdf`: `5r_millimetres.urdf`: the URDF joint origins of leg `leg1` add \
+             up to 2350 m while the workspace region reaches {reach:.4} m: the leg is {:.0} \
+             times the size of the workspace, so the URDF and the model file seem to use \
+             different length units (millimetres vs metres?); legwise expects every length in \
+             metres",
+            path.display(),
+            2350.0 / reach
+        )
+    );
+}
+
+/// A nominal gain of 1e300: ∂ψ/∂k = −(θ − γ)/k² underflows to 0, so k1 (alone) cannot be
+/// identified. The column norms of the other columns (~1e-300) underflowed too, and the
+/// pivoting named l1.
+#[test]
+fn a_gain_of_1e300_names_k1_not_l1() {
+    use legwise::model::mechanism::SelectionCriterion;
+    use legwise::workspace::design::ExperimentDesign;
+    let mech = Mechanism::load(&data("5r_gain_1e300.yaml")).expect("the model loads");
+    let err = ExperimentDesign::select(&mech, None, 18, SelectionCriterion::D, false)
+        .expect_err("k1 is unidentifiable");
+    assert_eq!(
+        message(&err),
+        "leg `leg1`: rank-deficient identification: rank 5 of 6 parameters; cannot be \
+         identified: k1 — the candidate pool cannot identify them (null-space directions, \
+         column-scaled: 1.000 k1)"
+    );
+}
+
+/// A leg1 pose 1e-12 m beyond l1 + L1 = 1.85 m from A1 = (−0.5, 0) was called a working-mode
+/// change; it is out of reach by the residual (≈ 1e-12 m).
+#[test]
+fn a_pose_just_beyond_reach_is_unreachable_not_a_branch_change() {
+    let (path, msg) = measurement_error("beyond_reach.csv");
+    let prefix = format!(
+        "{}: line 12: leg `leg1` cannot reach the pose (closure residual ",
+        path.display()
+    );
+    let rest = msg
+        .strip_prefix(prefix.as_str())
+        .unwrap_or_else(|| panic!("unexpected message: {msg}"));
+    let residual: f64 = rest
+        .split_whitespace()
+        .next()
+        .and_then(|r| r.parse().ok())
+        .unwrap_or_else(|| panic!("no residual in {msg}"));
+    assert!((0.5e-12..2e-12).contains(&residual), "{msg}");
+}
+
+/// A leg1 pose exactly 1.85 m from A1 (the leg stretched) was accepted; it is a serial
+/// singularity.
+#[test]
+fn a_pose_exactly_at_a_serial_singularity_is_refused() {
+    let (path, msg) = measurement_error("serial_singularity.csv");
+    assert_eq!(
+        msg,
+        format!(
+            "{}: line 12: leg `leg1` is at a serial (type I) singularity at this pose",
+            path.display()
+        )
+    );
+}
+
+/// The kinematics at the two poses above, leg1 alone, with the nominal parameters.
+#[test]
+fn the_reach_limit_is_classified_by_the_inverse_kinematics() {
+    use legwise::error::KinematicsError;
+    use legwise::kinematics::inverse::solve_leg;
+    let mech = bundled("5r.yaml");
+    let leg = &mech.legs[0];
+    let geometry = leg.geometry(&leg.nominal());
+    let pose = |y: f64| [-0.5, y, 0.0, 0.0, 0.0, 0.0];
+    let at = solve_leg(leg, &geometry, &pose(1.85), &mech.home_pose);
+    assert!(
+        matches!(at, Err(KinematicsError::Singular { .. })),
+        "{at:?}"
+    );
+    let beyond = solve_leg(leg, &geometry, &pose(1.85 + 1e-12), &mech.home_pose);
+    assert!(
+        matches!(beyond, Err(KinematicsError::Unreachable { .. })),
+        "{beyond:?}"
+    );
+    // 1 mm inside the limit is still an ordinary pose on the home branch.
+    let inside = solve_leg(leg, &geometry, &pose(1.849), &mech.home_pose).expect("reachable");
+    let (l, big_l) = (0.75, 1.10);
+    // Law of cosines at the elbow: |A1P|² = l² + L² + 2 l L cos(elbow).
+    let elbow = ((1.849f64.powi(2) - l * l - big_l * big_l) / (2.0 * l * big_l)).acos();
+    assert!(
+        (inside.q[1].abs() - elbow).abs() < 1e-9,
+        "{:?} vs {elbow}",
+        inside.q
+    );
+}
+
+/// x = 1e308 is finite (the CSV accepts it) but overflows: it was called "non-finite".
+#[test]
+fn a_finite_but_huge_coordinate_is_called_an_overflow() {
+    let (path, msg) = measurement_error("huge_coordinate.csv");
+    assert_eq!(
+        msg,
+        format!(
+            "{}: line 12: leg `leg1`: the inverse kinematics overflows: the pose or the \
+             parameters are finite but far too large for a mechanism in metres (largest \
+             magnitude 1e308)",
+            path.display()
+        )
+    );
+}
+
+/// Gauss–Newton on readings in degrees jumps to absurd parameters, where a pose fails: the
+/// message blamed the data ("cannot reach the pose", no line); it now says the solver
+/// diverged, with the trial parameters and the measurement line.
+#[test]
+fn a_diverging_gauss_newton_names_the_trial_parameters_not_the_data() {
+    let (code, _, stderr) = legwise(&[
+        "identify",
+        "--model",
+        "models/5r.yaml",
+        "--measurements",
+        "tests/data/readings_in_degrees.csv",
+        "--solver",
+        "gn",
+    ]);
+    // A failed run (2 or 3 by the exit-code policy), never a panic (101).
+    assert!(matches!(code, Some(2 | 3)), "{code:?}: {stderr}");
+    assert_eq!(stderr.lines().count(), 1, "{stderr}");
+    assert!(
+        stderr.starts_with(
+            "legwise: legs leg1: solver failed: the solver diverged: at its trial parameters (l1 = "
+        ),
+        "{stderr}"
+    );
+    assert!(stderr.contains("), measurement line "), "{stderr}");
+    assert!(
+        stderr.contains(
+            "the step left the plausible parameters (the pose is usable at the starting ones)"
+        ),
+        "{stderr}"
     );
 }

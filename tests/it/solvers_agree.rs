@@ -181,3 +181,73 @@ fn both_solvers_end_on_the_stationary_point_over_many_seeds() {
         }
     }
 }
+
+/// Every identification run reports convergence and its typed stop reason, in the terminal
+/// report (`converged (…)` on the solver line) and in the JSON (`converged`, `stop_reason`);
+/// a run marked as not converged puts a warning at the top of the terminal report and is
+/// listed by `trust_issues`.
+#[test]
+fn runs_report_convergence_in_the_terminal_and_the_json() {
+    use legwise::identify::trust::trust_issues;
+    use legwise::report::{json::to_json, terminal::render, IdentifyReport};
+    use legwise::solver::StopReason;
+
+    let mech = bundled("5r.yaml");
+    let data = simulate(&mech, SimulationOptions::default())
+        .unwrap()
+        .measurements;
+    let result = identify(
+        &mech,
+        &data,
+        Strategy::DivideAndConquer,
+        SolverKind::LevenbergMarquardt,
+    )
+    .unwrap();
+    assert!(result.runs.iter().all(|r| r.converged));
+    assert!(trust_issues(std::slice::from_ref(&result)).is_empty());
+    let mut report = IdentifyReport {
+        mechanism: &mech,
+        source: "simulation".into(),
+        real: None,
+        results: vec![result],
+    };
+    let json = to_json(&report);
+    let keys: Vec<&str> = StopReason::ALL.iter().map(|r| r.key()).collect();
+    for leg in json["results"][0]["legs"].as_array().unwrap() {
+        assert_eq!(leg["solver"]["converged"], serde_json::Value::Bool(true));
+        let key = leg["solver"]["stop_reason"].as_str().unwrap();
+        assert!(keys.contains(&key), "{key}");
+    }
+    let text = render(&report);
+    assert!(
+        !text.contains("WARNING") && text.contains(": converged ("),
+        "{text}"
+    );
+
+    let run = &mut report.results[0].runs[1];
+    (run.converged, run.stop_reason) = (false, StopReason::EvaluationBudget);
+    let leg = run.legs[0].clone();
+    let issues = trust_issues(&report.results);
+    assert_eq!(issues.len(), 1);
+    assert!(
+        issues[0].contains(&leg) && issues[0].contains("budget"),
+        "{}",
+        issues[0]
+    );
+    let text = render(&report);
+    let first_leg_table = text.find("\nleg ").unwrap();
+    let warning = text.find("WARNING: ").expect("a warning");
+    assert!(
+        warning < first_leg_table,
+        "the warning is not at the top:\n{text}"
+    );
+    assert!(text.contains("NOT CONVERGED (budget of residual evaluations exhausted)"));
+    let json = to_json(&report);
+    let legs = json["results"][0]["legs"].as_array().unwrap();
+    let flagged = legs.iter().find(|l| l["name"] == leg.as_str()).unwrap();
+    assert_eq!(
+        flagged["solver"]["converged"],
+        serde_json::Value::Bool(false)
+    );
+    assert_eq!(flagged["solver"]["stop_reason"], "evaluation_budget");
+}

@@ -1,16 +1,18 @@
-//! QR factorisation and the damped step of Levenberg–Marquardt (MINPACK `qrfac` and `lmpar`).
+//! QR factorisation and the damped step of Levenberg–Marquardt (MINPACK `qrfac`, `qrsolv` and
+//! `lmpar`).
 
 use nalgebra::{DMatrix, DVector};
 
 use super::P1;
 
-/// Reusable buffers; `jq` holds `R` of `J P = Q R`, `aug` holds `R_λ` of `[R; √λ D P]`.
+/// Reusable buffers; `jq` holds `R` of `J P = Q R`, `damped` holds the upper-triangular `S` with
+/// `SᵀS = RᵀR + λ (D P)²` (the R factor of `[R; √λ D P]`).
 #[derive(Clone, Debug, Default)]
 pub(super) struct Scratch {
     pub(super) jq: DMatrix<f64>,
     rhs: DVector<f64>,
-    aug: DMatrix<f64>,
-    aug_rhs: DVector<f64>,
+    damped: DMatrix<f64>,
+    damped_rhs: DVector<f64>,
     pub(super) perm: Vec<usize>,
     pub(super) col_norms: DVector<f64>,
     pub(super) qtr: DVector<f64>,
@@ -71,8 +73,8 @@ impl Scratch {
         for v in [&mut self.z, &mut self.y, &mut self.step, &mut self.d_perm] {
             *v = DVector::zeros(n);
         }
-        self.aug = DMatrix::zeros(2 * n, n);
-        self.aug_rhs = DVector::zeros(2 * n);
+        self.damped = DMatrix::zeros(n, n);
+        self.damped_rhs = DVector::zeros(n);
     }
 
     /// `‖D p‖` for the permuted step `z`.
@@ -93,23 +95,57 @@ impl Scratch {
         nsing
     }
 
-    /// Damped step from the QR factorisation of `[R; √λ D P]`, right-hand side `[Qᵀr; 0]`.
-    fn solve_augmented(&mut self, sqrt_lambda: f64) -> bool {
+    /// Damped step from the R factor `S` of `[R; √λ D P]`, right-hand side `[Qᵀr; 0]`
+    /// (MINPACK `qrsolv`).
+    ///
+    /// Each row `√λ d_j e_jᵀ` of the diagonal block is eliminated into `R` by Givens rotations,
+    /// one column at a time. A rotation only combines two rows, so the tiny entries of `R` (a
+    /// parameter whose Jacobian column is ~1e-47 relative to the others) and their right-hand
+    /// side stay at their own scale; a Householder reflection of the whole `2n × n` column
+    /// mixes them with √λ d_j and cancels them, which gave an exactly zero step. Components
+    /// past the first zero diagonal of `S` are set to zero, as for the Gauss–Newton step.
+    /// Returns `false` if the triangular solve broke down.
+    fn solve_damped(&mut self, sqrt_lambda: f64) -> bool {
         let n = self.qtr.len();
-        self.aug.fill(0.0);
-        self.aug
-            .view_mut((0, 0), (n, n))
-            .copy_from(&self.jq.view((0, 0), (n, n)));
+        self.damped.fill(0.0);
+        self.damped.copy_from(&self.jq.view((0, 0), (n, n)));
+        self.damped.fill_lower_triangle(0.0, 1);
+        self.damped_rhs.copy_from(&self.qtr);
         for j in 0..n {
-            self.aug[(n + j, j)] = sqrt_lambda * self.d_perm[j];
+            let d = sqrt_lambda * self.d_perm[j];
+            if d == 0.0 {
+                continue;
+            }
+            // The row being eliminated (entries j.. only) and its right-hand side (zero).
+            self.y.fill(0.0);
+            self.y[j] = d;
+            let mut extra = 0.0;
+            for k in j..n {
+                if self.y[k] == 0.0 {
+                    continue;
+                }
+                let (cos, sin) = givens(self.damped[(k, k)], self.y[k]);
+                for i in k..n {
+                    let (a, b) = (self.damped[(k, i)], self.y[i]);
+                    self.damped[(k, i)] = cos * a + sin * b;
+                    self.y[i] = -sin * a + cos * b;
+                }
+                let (a, b) = (self.damped_rhs[k], extra);
+                self.damped_rhs[k] = cos * a + sin * b;
+                extra = -sin * a + cos * b;
+            }
         }
-        self.aug_rhs.fill(0.0);
-        self.aug_rhs.rows_mut(0, n).copy_from(&self.qtr);
-        householder_qr(&mut self.aug, &mut self.aug_rhs, None);
-        self.z.copy_from(&self.aug_rhs.rows(0, n));
-        self.aug
-            .view((0, 0), (n, n))
-            .solve_upper_triangular_mut(&mut self.z)
+        // Back substitution, each row's sum in increasing column order as MINPACK forms it.
+        let nsing = (0..n).find(|&j| self.damped[(j, j)] == 0.0).unwrap_or(n);
+        self.z.fill(0.0);
+        for j in (0..nsing).rev() {
+            let mut sum = 0.0;
+            for i in j + 1..nsing {
+                sum += self.damped[(j, i)] * self.z[i];
+            }
+            self.z[j] = (self.damped_rhs[j] - sum) / self.damped[(j, j)];
+        }
+        self.z.iter().all(|v| v.is_finite())
     }
 
     /// Moré's Newton correction for `φ(λ) = ‖D p(λ)‖ − Δ`: `((φ/Δ)/‖y‖)/‖y‖` with
@@ -117,13 +153,28 @@ impl Scratch {
     fn newton_correction(&mut self, fp: f64, delta: f64, dxnorm: f64, damped: bool) -> f64 {
         let n = self.qtr.len();
         for j in 0..n {
-            self.y[j] = self.d_perm[j] * (self.d_perm[j] * self.z[j]) / dxnorm;
+            self.y[j] = self.d_perm[j] * ((self.d_perm[j] * self.z[j]) / dxnorm);
         }
-        let r = if damped { &self.aug } else { &self.jq };
-        if !r
-            .view((0, 0), (n, n))
-            .tr_solve_upper_triangular_mut(&mut self.y)
-        {
+        // Solve R_λᵀ y = b in MINPACK's operation order: for the damped factor column by column
+        // (each solved component subtracted from the rest), for R row by row (a sum in
+        // increasing order, then one subtraction).
+        let r = if damped { &self.damped } else { &self.jq };
+        for j in 0..n {
+            if damped {
+                self.y[j] /= r[(j, j)];
+                let t = self.y[j];
+                for i in j + 1..n {
+                    self.y[i] -= r[(j, i)] * t;
+                }
+            } else {
+                let mut sum = 0.0;
+                for i in 0..j {
+                    sum += r[(i, j)] * self.y[i];
+                }
+                self.y[j] = (self.y[j] - sum) / r[(j, j)];
+            }
+        }
+        if !self.y.iter().all(|v| v.is_finite()) {
             return f64::NAN;
         }
         let ynorm = self.y.norm();
@@ -169,7 +220,7 @@ impl Scratch {
                 if lambda == 0.0 {
                     lambda = f64::MIN_POSITIVE.max(1e-3 * upper);
                 }
-                if !self.solve_augmented(lambda.sqrt()) {
+                if !self.solve_damped(lambda.sqrt()) {
                     return None;
                 }
                 dxnorm = self.dnorm_z();
@@ -200,5 +251,19 @@ impl Scratch {
             self.step[self.perm[j]] = self.z[j];
         }
         Some((lambda, dxnorm))
+    }
+}
+
+/// The rotation `(cos, sin)` that zeroes `b` against `a`: `−sin·a + cos·b = 0`, computed as
+/// MINPACK does (from the cotangent or the tangent, whichever is at most one).
+fn givens(a: f64, b: f64) -> (f64, f64) {
+    if a.abs() < b.abs() {
+        let cotan = a / b;
+        let sin = 0.5 / (0.25 + 0.25 * cotan * cotan).sqrt();
+        (sin * cotan, sin)
+    } else {
+        let tan = b / a;
+        let cos = 0.5 / (0.25 + 0.25 * tan * tan).sqrt();
+        (cos, cos * tan)
     }
 }

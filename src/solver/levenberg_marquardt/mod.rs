@@ -6,6 +6,8 @@ use argmin::core::{
 };
 use nalgebra::{DMatrix, DVector};
 
+use super::stop::StopReason;
+
 mod lmpar;
 #[cfg(test)]
 mod tests;
@@ -27,8 +29,9 @@ const P0001: f64 = 1.0e-4;
 /// Each iteration evaluates the Jacobian `J` once, factorises `J P = Q R` (Householder QR with
 /// column pivoting) and uses Marquardt scaling `D = diag(running max of the column norms of J)`,
 /// which makes the method invariant to the units of the parameters. The damped step solves
-/// `min ‖J p − r‖² + λ‖D p‖²` through a QR factorisation of `[R; √λ·D]` (never an explicit
-/// inverse); `λ` comes from a few of Moré's secular-equation iterations so that `‖D p‖ ≈ Δ`.
+/// `min ‖J p − r‖² + λ‖D p‖²` by eliminating `√λ·D` into `R` with Givens rotations (MINPACK
+/// `qrsolv`; never an explicit inverse); `λ` comes from a few of Moré's secular-equation
+/// iterations so that `‖D p‖ ≈ Δ`.
 /// Every trial step `x − p` is checked by the ratio `ρ` of actual to predicted reduction:
 /// `Δ` shrinks if `ρ ≤ 0.25`, grows if `ρ ≥ 0.75`, and the step is accepted if `ρ ≥ 1e-4`.
 ///
@@ -45,14 +48,27 @@ const P0001: f64 = 1.0e-4;
 ///
 /// ## Stopping tests
 ///
-/// Convergence ends with [`TerminationReason::SolverConverged`]; which test fired is available
-/// from [`LevenbergMarquardt::converged_by`]. Tolerances too small to be met at machine
-/// precision, a non-finite Jacobian or starting residual, and a breakdown of the damped step
-/// end with
-/// [`TerminationReason::SolverExit`] and a readable message; the state then holds the last
-/// accepted point. A trial point where the residuals cannot be evaluated (the problem returns an
-/// error, e.g. a pose out of reach, or a non-finite residual) is a rejected step: the trust
-/// region shrinks and the iterate stays where it was.
+/// Every stop sets a typed [`StopReason`], available from [`LevenbergMarquardt::stop_reason`].
+/// A convergence ([`StopReason::is_convergence`]) ends with
+/// [`TerminationReason::SolverConverged`]; every other stop ends with
+/// [`TerminationReason::SolverExit`] and a readable message, and the state holds the last
+/// accepted point.
+///
+/// The cost-reduction and step tests (and their machine-precision variants) only say that
+/// progress stopped. They count as convergence only at a *stationary* point: MINPACK's
+/// scale-invariant gradient measure `max_j |cos(J e_j, r)|` at most the stationarity tolerance
+/// (default [`STATIONARITY_TOLERANCE`]), or a cost at most ε times the starting cost (an exact
+/// fit). Otherwise the stop is [`StopReason::Stalled`]: for example a parameter driven to where
+/// the model no longer depends on it (its Jacobian column ~1e-47 of the others) makes every
+/// trial step predict a negligible reduction while the residual still lies largely along that
+/// column. A step that comes out exactly zero is also [`StopReason::Stalled`].
+///
+/// The run stops with [`StopReason::EvaluationBudget`] once the residual has been evaluated
+/// `max_evaluations` times (the starting point included) without convergence.
+///
+/// A trial point where the residuals cannot be evaluated (the problem returns an error, e.g. a
+/// pose out of reach, or a non-finite residual) is a rejected step: the trust region shrinks
+/// and the iterate stays where it was.
 ///
 /// ## Requirements on the optimization problem
 ///
@@ -72,15 +88,25 @@ pub struct LevenbergMarquardt {
     xtol: f64,
     gtol: f64,
     step_bound: f64,
+    stationarity: f64,
+    max_evaluations: u64,
+    evaluations: u64,
+    initial_cost: f64,
     /// Scaling `D` (running max of the column norms of `J`); empty before the first iteration.
     diag: DVector<f64>,
     delta: f64,
     lambda: f64,
     xnorm: f64,
     accepted_any: bool,
-    converged_by: Option<&'static str>,
+    stop: Option<StopReason>,
     scratch: Scratch,
 }
+
+/// Default stationarity tolerance on MINPACK's gradient measure `max_j |cos(J e_j, r)|` for
+/// calling a cost-reduction or step stop a convergence. A cost-reduction stop with an undamped
+/// step implies a measure of at most √ftol (≤ 1.2e-4 at MINPACK's default ftol); a stalled
+/// run sits at O(0.1–1).
+pub const STATIONARITY_TOLERANCE: f64 = 1e-3;
 
 fn invalid(text: &str) -> Error {
     ArgminError::InvalidParameter {
@@ -109,6 +135,15 @@ fn exit(text: &str) -> TerminationReason {
     TerminationReason::SolverExit(format!("Levenberg-Marquardt: {text}"))
 }
 
+/// argmin's termination for a typed stop: convergence, or an exit with a message.
+fn termination(reason: StopReason) -> TerminationReason {
+    if reason.is_convergence() {
+        TerminationReason::SolverConverged
+    } else {
+        exit(&reason.to_string())
+    }
+}
+
 impl LevenbergMarquardt {
     /// Construct a solver with MINPACK defaults: `ftol = xtol = 1.49e-8` (≈ √ε),
     /// `gtol = 0` (gradient test only fires on an exactly orthogonal residual) and an initial
@@ -119,12 +154,16 @@ impl LevenbergMarquardt {
             xtol: 1.49012e-8,
             gtol: 0.0,
             step_bound: 100.0,
+            stationarity: STATIONARITY_TOLERANCE,
+            max_evaluations: u64::MAX,
+            evaluations: 0,
+            initial_cost: 0.0,
             diag: DVector::zeros(0),
             delta: 0.0,
             lambda: 0.0,
             xnorm: 0.0,
             accepted_any: false,
-            converged_by: None,
+            stop: None,
             scratch: Scratch::default(),
         }
     }
@@ -158,11 +197,37 @@ impl LevenbergMarquardt {
         Ok(self)
     }
 
-    /// Which convergence test stopped the last run (with its formula), or `None` if the run
-    /// has not converged (yet). Complements [`TerminationReason::SolverConverged`], which
-    /// carries no detail.
-    pub fn converged_by(&self) -> Option<&'static str> {
-        self.converged_by
+    /// Stationarity tolerance on `max_j |cos(J e_j, r)|` for a cost-reduction or step stop to
+    /// count as convergence (default [`STATIONARITY_TOLERANCE`]). Must be non-negative and
+    /// finite.
+    pub fn with_stationarity_tolerance(mut self, tolerance: f64) -> Result<Self, Error> {
+        self.stationarity = validated(tolerance, "stationarity tolerance", true)?;
+        Ok(self)
+    }
+
+    /// Budget of residual evaluations (the starting point included); the run stops with
+    /// [`StopReason::EvaluationBudget`] when it is spent. Default: unlimited (argmin's
+    /// `max_iters` still applies). Must be at least 1.
+    pub fn with_max_evaluations(mut self, budget: u64) -> Result<Self, Error> {
+        if budget == 0 {
+            return Err(invalid(
+                "Levenberg-Marquardt: the evaluation budget must be at least 1.",
+            ));
+        }
+        self.max_evaluations = budget;
+        Ok(self)
+    }
+
+    /// Why the last run stopped, or `None` while it runs (or if argmin stopped it, for
+    /// example at `max_iters`). Complements argmin's [`TerminationReason`], which carries no
+    /// detail.
+    pub fn stop_reason(&self) -> Option<StopReason> {
+        self.stop
+    }
+
+    /// Residual evaluations of the last run, the starting point included.
+    pub fn evaluations(&self) -> u64 {
+        self.evaluations
     }
 }
 
@@ -212,18 +277,28 @@ where
             ));
         }
         (self.diag, self.delta, self.lambda, self.xnorm) = (DVector::zeros(0), 0.0, 0.0, 0.0);
-        (self.accepted_any, self.converged_by) = (false, None);
+        (self.accepted_any, self.stop) = (false, None);
         let r = problem.apply(&x)?;
+        self.evaluations = 1;
         let cost = 0.5 * r.norm_squared();
+        self.initial_cost = cost;
         let state = state.param(x).residuals(r).cost(cost);
         if !cost.is_finite() {
+            self.stop = Some(StopReason::NonFinite);
             let msg = "residual vector contains NaN or infinity at the initial point.";
             return Ok((state.terminate_with(exit(msg)), None));
         }
         if cost <= f64::MIN_POSITIVE {
-            self.converged_by = Some("zero residual: cost <= f64::MIN_POSITIVE");
+            self.stop = Some(StopReason::ZeroResidual);
             return Ok((
                 state.terminate_with(TerminationReason::SolverConverged),
+                None,
+            ));
+        }
+        if self.evaluations >= self.max_evaluations {
+            self.stop = Some(StopReason::EvaluationBudget);
+            return Ok((
+                state.terminate_with(termination(StopReason::EvaluationBudget)),
                 None,
             ));
         }
@@ -243,6 +318,7 @@ where
         check_len(jac.nrows(), m, "Jacobian row count")?;
         check_len(jac.ncols(), n, "Jacobian column count")?;
         if jac.iter().any(|v| !v.is_finite()) {
+            self.stop = Some(StopReason::NonFinite);
             let reason = exit("Jacobian contains NaN or infinity.");
             return Ok((state.param(x).residuals(r).terminate_with(reason), None));
         }
@@ -266,7 +342,7 @@ where
             self.delta = if self.xnorm > 0.0 { f * self.xnorm } else { f };
         }
         if gnorm <= self.gtol {
-            self.converged_by = Some("gtol: max_j |cos(J e_j, r)| <= gtol");
+            self.stop = Some(StopReason::Gradient);
             let state = state.param(x).residuals(r);
             return Ok((
                 state.terminate_with(TerminationReason::SolverConverged),
@@ -280,11 +356,18 @@ where
         let (stop, ratio) = loop {
             trials += 1;
             let Some((lambda, pnorm)) = s.lm_step(self.delta, self.lambda) else {
+                self.stop = Some(StopReason::NonFinite);
                 break (
                     Some(exit("damped step is not finite (damping overflow).")),
                     0.0,
                 );
             };
+            if s.step.iter().all(|&v| v == 0.0) {
+                // The gradient is not zero (the gradient test did not fire), so a zero step
+                // is a numerical breakdown, never a convergence.
+                self.stop = Some(StopReason::Stalled);
+                break (Some(exit("the damped step is exactly zero.")), 0.0);
+            }
             self.lambda = lambda;
             if !self.accepted_any {
                 self.delta = self.delta.min(pnorm);
@@ -293,6 +376,7 @@ where
             // A trial point outside the model's domain (an error, e.g. a pose a leg cannot reach
             // with these parameters, or a non-finite residual) is a rejected step: the trust
             // region shrinks as for a step that increased the cost.
+            self.evaluations += 1;
             let (r_trial, fnorm1) = match problem.apply(&x_trial) {
                 Ok(r_trial) => {
                     check_len(r_trial.len(), m, "residual vector")?;
@@ -323,6 +407,7 @@ where
             let (prered, dirder) = (t1 + 2.0 * t2, -(t1 + t2));
             let ratio = if prered != 0.0 { actred / prered } else { 0.0 };
             if !ratio.is_finite() {
+                self.stop = Some(StopReason::NonFinite);
                 break (Some(exit("reduction ratio is not finite.")), 0.0);
             }
             if ratio <= P25 {
@@ -345,46 +430,51 @@ where
                 (x, r, fnorm, self.accepted_any) = (x_trial, r_trial, fnorm1, true);
                 self.xnorm = x.component_mul(&self.diag).norm();
             }
+            let cost = 0.5 * fnorm * fnorm;
             // zero residual: cost = ½‖r‖² ≤ f64::MIN_POSITIVE
-            let zero = 0.5 * fnorm * fnorm <= f64::MIN_POSITIVE;
+            let zero = cost <= f64::MIN_POSITIVE;
             // ftol: |actred| ≤ ftol and prered ≤ ftol (and ρ ≤ 2)
             let f_conv = actred.abs() <= self.ftol && prered <= self.ftol && 0.5 * ratio <= 1.0;
             // xtol: Δ ≤ xtol·(‖D x‖ + xtol)
             let x_conv = self.delta <= self.xtol * (self.xnorm + self.xtol);
-            self.converged_by = match (zero, f_conv, x_conv) {
-                (true, _, _) => Some("zero residual: cost <= f64::MIN_POSITIVE"),
-                (_, true, true) => Some("ftol and xtol: relative cost reduction and step size"),
-                (_, true, false) => {
-                    Some("ftol: actual and predicted relative cost reduction <= ftol")
-                }
-                (_, false, true) => Some("xtol: trust-region radius <= xtol * (||D x|| + xtol)"),
-                _ => None,
-            };
-            if self.converged_by.is_some() {
-                break (Some(TerminationReason::SolverConverged), ratio);
-            }
             let eps = f64::EPSILON;
-            let stop = if actred.abs() <= eps && prered <= eps && 0.5 * ratio <= 1.0 {
-                Some(exit(
-                    "ftol is too small; no further reduction in the cost is possible.",
-                ))
-            } else if self.delta <= eps * self.xnorm {
-                Some(exit(
-                    "xtol is too small; no further improvement in x is possible.",
-                ))
-            } else if gnorm <= eps {
-                Some(exit(
-                    "gtol is too small; r is orthogonal to the columns of J to machine precision.",
-                ))
-            } else if !(self.delta.is_finite() && self.delta > 0.0 && self.lambda.is_finite()) {
-                Some(exit(
-                    "trust-region radius or damping parameter left the finite positive range.",
-                ))
+            let progress_stop = if f_conv {
+                Some(StopReason::CostReduction)
+            } else if x_conv {
+                Some(StopReason::StepSize)
+            } else if (actred.abs() <= eps && prered <= eps && 0.5 * ratio <= 1.0)
+                || self.delta <= eps * self.xnorm
+            {
+                Some(StopReason::ToleranceTooSmall)
             } else {
                 None
             };
-            if stop.is_some() || accepted {
-                break (stop, ratio);
+            let reason = if zero {
+                Some(StopReason::ZeroResidual)
+            } else if let Some(reason) = progress_stop {
+                // Stopped progressing: a convergence only at a stationary point.
+                Some(if cost <= eps * self.initial_cost {
+                    StopReason::ZeroResidual
+                } else if gnorm <= self.stationarity {
+                    reason
+                } else {
+                    StopReason::Stalled
+                })
+            } else if gnorm <= eps {
+                Some(StopReason::Gradient)
+            } else if !(self.delta.is_finite() && self.delta > 0.0 && self.lambda.is_finite()) {
+                Some(StopReason::NonFinite)
+            } else if self.evaluations >= self.max_evaluations {
+                Some(StopReason::EvaluationBudget)
+            } else {
+                None
+            };
+            if let Some(reason) = reason {
+                self.stop = Some(reason);
+                break (Some(termination(reason)), ratio);
+            }
+            if accepted {
+                break (None, ratio);
             }
         };
         let cost = 0.5 * fnorm * fnorm;

@@ -1,62 +1,9 @@
-//! Tests of the Levenberg–Marquardt solver: parameter validation, known answers, agreement with
-//! the `levenberg-marquardt` crate, stopping tests and non-finite or unreachable trial points.
+//! Tests of the Levenberg–Marquardt solver: parameter validation, stopping tests and
+//! non-finite or unreachable trial points. Known answers and the agreement with the
+//! `levenberg-marquardt` crate are in the integration tests (tests/it/mgh.rs).
 
-use super::super::mgh::{max_rel_diff, reference, run, tight, TestProblem};
 use super::*;
 use argmin::core::Executor;
-
-const S: [f64; 7] = [0.038, 0.194, 0.425, 0.626, 1.253, 2.5, 3.74];
-const RATE: [f64; 7] = [0.05, 0.127, 0.094, 0.2122, 0.2729, 0.2665, 0.3317];
-
-/// Michaelis–Menten fit `rate = Vmax·S/(Km + S)` from argmin's Gauss–Newton example.
-fn michaelis_menten() -> TestProblem {
-    let res = |x: &[f64]| {
-        (0..7)
-            .map(|i| RATE[i] - x[0] * S[i] / (x[1] + S[i]))
-            .collect()
-    };
-    let jac = |x: &[f64]| {
-        let row = |s: &f64| [-s / (x[1] + s), x[0] * s / (x[1] + s).powi(2)];
-        S.iter().flat_map(row).collect()
-    };
-    TestProblem {
-        m: 7,
-        n: 2,
-        x0: &[0.9, 0.2],
-        res,
-        jac,
-    }
-}
-
-/// `y = a·exp(−b t) + c` on 12 points with a deterministic ±0.01 perturbation.
-fn exp_decay() -> TestProblem {
-    fn data(i: usize) -> (f64, f64) {
-        let t = 0.5 * i as f64;
-        (
-            t,
-            3.0 * (-0.7 * t).exp() + 0.5 + 0.01 * (1.7 * i as f64).sin(),
-        )
-    }
-    let res = |x: &[f64]| {
-        let r = |(t, y): (f64, f64)| x[0] * (-x[1] * t).exp() + x[2] - y;
-        (0..12).map(|i| r(data(i))).collect()
-    };
-    let jac = |x: &[f64]| {
-        let row = |i: usize| {
-            let t = 0.5 * i as f64;
-            let e = (-x[1] * t).exp();
-            [e, -x[0] * t * e, 1.0]
-        };
-        (0..12).flat_map(row).collect()
-    };
-    TestProblem {
-        m: 12,
-        n: 3,
-        x0: &[1.0, 1.0, 0.0],
-        res,
-        jac,
-    }
-}
 
 fn text(err: Error) -> String {
     match err.downcast_ref::<ArgminError>() {
@@ -100,63 +47,6 @@ fn builder_validates() {
 fn send_sync_clone() {
     fn assert_traits<T: Send + Sync + Clone + std::fmt::Debug>() {}
     assert_traits::<LevenbergMarquardt>();
-}
-
-#[test]
-fn michaelis_menten_known_answer() {
-    let p = michaelis_menten();
-    let out = run(p, tight()).unwrap();
-    let (x_ref, c_ref, _) = reference(p);
-    assert_eq!(out.reason, TerminationReason::SolverConverged);
-    // Published optimum Vmax ≈ 0.362, Km ≈ 0.556 (three digits).
-    assert!(
-        (out.x[0] - 0.362).abs() < 5e-4 && (out.x[1] - 0.556).abs() < 5e-4,
-        "{}",
-        out.x
-    );
-    // Cost is ½‖r‖², not argmin Gauss–Newton's ‖r‖.
-    let r = p.apply(&out.x).unwrap();
-    assert!((out.cost - 0.5 * r.norm_squared()).abs() <= 1e-15 * out.cost);
-    assert!(
-        (out.cost - c_ref).abs() <= 1e-9 * c_ref,
-        "{} vs {c_ref}",
-        out.cost
-    );
-    assert!(max_rel_diff(&out.x, &x_ref) <= 1e-9, "{} vs {x_ref}", out.x);
-}
-
-#[test]
-fn agrees_with_levenberg_marquardt_crate() {
-    for p in [michaelis_menten(), exp_decay()] {
-        let out = run(p, tight()).unwrap();
-        let (x_ref, c_ref, evals) = reference(p);
-        let dx = max_rel_diff(&out.x, &x_ref);
-        eprintln!(
-            "x = {:?}: dx {dx:.1e}, r-evals {} vs {evals}",
-            out.x.as_slice(),
-            out.evals.0
-        );
-        assert!(dx <= 1e-10, "dx = {dx:e}");
-        assert!((out.cost - c_ref).abs() <= 1e-12 * c_ref);
-    }
-}
-
-#[test]
-fn underdetermined_with_unused_parameter() {
-    // m = 1 < n = 3 and x₂ does not enter r, so J has a zero column.
-    let res = |x: &[f64]| vec![x[0] * x[0] + x[1] * x[1] - 1.0];
-    let jac = |x: &[f64]| vec![2.0 * x[0], 2.0 * x[1], 0.0];
-    let p = TestProblem {
-        m: 1,
-        n: 3,
-        x0: &[2.0, 1.0, 5.0],
-        res,
-        jac,
-    };
-    let out = run(p, LevenbergMarquardt::new()).unwrap();
-    assert_eq!(out.reason, TerminationReason::SolverConverged);
-    assert!(out.cost < 1e-20, "{}", out.cost);
-    assert!((out.x[2] - 5.0).abs() <= 1e-15, "{}", out.x);
 }
 
 /// `r = (x₀ − 1, x₀ + 1, 10 x₁ − 10)`, NaN where `x₀ > nan_above`, Jacobian NaN if `nan_jac`.
@@ -214,7 +104,7 @@ fn trap_converges_and_reports_test() {
         state.get_termination_reason(),
         Some(&TerminationReason::SolverConverged)
     );
-    assert!(solver.converged_by().is_some());
+    assert!(solver.stop_reason().is_some_and(StopReason::is_convergence));
     let x = state.get_param().unwrap();
     assert!(x[0].abs() < 1e-12 && (x[1] - 1.0).abs() < 1e-12, "{x}");
     assert!((state.get_cost() - 1.0).abs() < 1e-12); // ½(1² + 1²)
@@ -313,10 +203,7 @@ fn zero_residual_start_and_shape_errors() {
         state.get_termination_reason(),
         Some(&TerminationReason::SolverConverged)
     );
-    assert_eq!(
-        solver.converged_by(),
-        Some("zero residual: cost <= f64::MIN_POSITIVE")
-    );
+    assert_eq!(solver.stop_reason(), Some(StopReason::ZeroResidual));
     assert_eq!(state.get_iter(), 0);
     // Residual of length 1 but a 3×2 Jacobian: a usage error, reported as `Err`.
     let err = run_trap(t, [2.0, 7.0]).unwrap_err();
@@ -325,4 +212,69 @@ fn zero_residual_start_and_shape_errors() {
             .contains("Jacobian row count has length 3, expected 1"),
         "{err}"
     );
+}
+
+/// `r = (x₀ − 1, 2 + e^{−x₁})` has no minimum: the cost decreases towards ½·4 as x₁ → ∞. The
+/// relative cost reduction per step falls below ftol after some thirty steps, but the residual
+/// still lies along the second column (cosine 1): the run is stalled, not converged.
+#[derive(Clone, Copy)]
+struct NoMinimum;
+impl Operator for NoMinimum {
+    type Param = DVector<f64>;
+    type Output = DVector<f64>;
+    fn apply(&self, x: &DVector<f64>) -> Result<DVector<f64>, Error> {
+        Ok(DVector::from_column_slice(&[
+            x[0] - 1.0,
+            2.0 + (-x[1]).exp(),
+        ]))
+    }
+}
+impl Jacobian for NoMinimum {
+    type Param = DVector<f64>;
+    type Jacobian = DMatrix<f64>;
+    fn jacobian(&self, x: &DVector<f64>) -> Result<DMatrix<f64>, Error> {
+        Ok(DMatrix::from_row_slice(
+            2,
+            2,
+            &[1.0, 0.0, 0.0, -(-x[1]).exp()],
+        ))
+    }
+}
+
+#[test]
+fn progress_stopping_away_from_a_stationary_point_is_stalled() {
+    let solver = LevenbergMarquardt::new()
+        .with_ftol(1e-12)
+        .and_then(|l| l.with_xtol(1e-12))
+        .unwrap();
+    let res = Executor::new(NoMinimum, solver)
+        .configure(|s| {
+            s.param(DVector::from_column_slice(&[0.0, 0.0]))
+                .max_iters(1000)
+        })
+        .run()
+        .unwrap();
+    let x = res.state.get_param().unwrap();
+    assert_eq!(res.solver.stop_reason(), Some(StopReason::Stalled), "{x}");
+    assert!(matches!(
+        res.state.get_termination_reason(),
+        Some(TerminationReason::SolverExit(_))
+    ));
+    // It did go downhill first: x₀ solved, x₁ pushed far up the plateau.
+    assert!((x[0] - 1.0).abs() < 1e-9 && x[1] > 10.0, "{x}");
+}
+
+#[test]
+fn the_evaluation_budget_stops_the_run_unconverged() {
+    let solver = LevenbergMarquardt::new().with_max_evaluations(5).unwrap();
+    let res = Executor::new(NoMinimum, solver)
+        .configure(|s| {
+            s.param(DVector::from_column_slice(&[0.0, 0.0]))
+                .max_iters(1000)
+        })
+        .run()
+        .unwrap();
+    assert_eq!(res.solver.stop_reason(), Some(StopReason::EvaluationBudget));
+    assert_eq!(res.solver.evaluations(), 5);
+    assert!(LevenbergMarquardt::new().with_max_evaluations(0).is_err());
 }

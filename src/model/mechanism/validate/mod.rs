@@ -11,6 +11,7 @@ mod home;
 mod legs;
 mod noise;
 mod parameters;
+mod scale;
 mod setup;
 mod workspace;
 
@@ -43,6 +44,7 @@ impl Builder<'_> {
         let closure_dims = if measured.contains(&2) { 3 } else { 2 };
         let mut legs = self.legs(&file, closure_dims)?;
         self.parameters(&file.parameters, &mut legs)?;
+        self.scale(&file, &legs)?;
         for (index, leg) in legs.iter_mut().enumerate() {
             self.home(leg, index, &file.legs[index].home, &home_pose)?;
         }

@@ -1,0 +1,95 @@
+//! A plausibility check of the length unit: the legs' geometry (URDF) and the workspace region
+//! (model file) must be of comparable size. A URDF written in millimetres next to a model file
+//! in metres would otherwise fail much later with a misleading message (a singular design).
+
+use super::Builder;
+use crate::error::Result;
+use crate::model::file::ModelFile;
+use crate::model::joint::JointKind;
+use crate::model::leg::LegModel;
+
+/// Largest accepted ratio between a leg's size and the workspace's (either way round).
+/// Real mechanisms stay within a factor 10; a unit mix-up gives 1000 (mm vs m).
+pub(super) const MAX_SCALE_RATIO: f64 = 100.0;
+
+impl Builder<'_> {
+    /// Compares each leg's size (the lengths of its joint origins, attachment and prismatic
+    /// offset) with the workspace's (the farthest bounding-box corner from the base origin, or
+    /// the box diagonal if larger). Skipped when the region is not finite (reported later).
+    pub(super) fn scale(&self, file: &ModelFile, legs: &[LegModel]) -> Result<()> {
+        let (lo, hi) = file.workspace.region.bounds();
+        let corners = [
+            [lo[0], lo[1]],
+            [lo[0], hi[1]],
+            [hi[0], lo[1]],
+            [hi[0], hi[1]],
+        ];
+        let farthest = corners.iter().map(|c| c[0].hypot(c[1])).fold(0.0, f64::max);
+        let workspace = farthest.max((hi[0] - lo[0]).hypot(hi[1] - lo[1]));
+        if !(workspace.is_finite() && workspace > 0.0) {
+            return Ok(());
+        }
+        for leg in legs {
+            let size = leg_size(leg);
+            // An overflowing sum (origins near 1e308) is infinite: implausible, not skipped.
+            if size.is_nan() || size <= 0.0 {
+                continue;
+            }
+            let hint = |large: &str, small: &str| {
+                format!(
+                    "the URDF joint origins of leg `{}` add up to {} m while the workspace \
+                     region reaches {} m: {large} is {:.0} times the size of {small}, so the URDF \
+                     and the model file seem to use different length units (millimetres vs \
+                     metres?); legwise expects every length in metres",
+                    leg.name,
+                    length(size),
+                    length(workspace),
+                    (size / workspace).max(workspace / size)
+                )
+            };
+            if size > MAX_SCALE_RATIO * workspace {
+                return Err(self.error(
+                    "urdf",
+                    format!(
+                        "`{}`: {}",
+                        self.urdf_name(),
+                        hint("the leg", "the workspace")
+                    ),
+                ));
+            }
+            if workspace > MAX_SCALE_RATIO * size {
+                return Err(self.error("workspace.region", hint("the workspace", "the leg")));
+            }
+        }
+        Ok(())
+    }
+}
+
+/// Sum of the translation lengths along the leg: joint origins, attachment and the actuator
+/// offset of a prismatic actuator (metres).
+fn leg_size(leg: &LegModel) -> f64 {
+    let origins: f64 = leg
+        .joints
+        .iter()
+        .map(|j| (j.origin[0].powi(2) + j.origin[1].powi(2) + j.origin[2].powi(2)).sqrt())
+        .sum();
+    let attachment = leg.attachment.iter().map(|v| v * v).sum::<f64>().sqrt();
+    let actuated = &leg.joints[leg.moving[leg.actuated]];
+    let offset = if actuated.kind == JointKind::Prismatic {
+        leg.offset.abs()
+    } else {
+        0.0
+    };
+    origins + attachment + offset
+}
+
+/// A length for messages: whole metres when large, else four significant digits.
+fn length(value: f64) -> String {
+    if !value.is_finite() {
+        "more than 1e308".into()
+    } else if value >= 100.0 {
+        format!("{value:.0}")
+    } else {
+        format!("{value:.4}")
+    }
+}
