@@ -48,10 +48,12 @@
 //! ```
 pub mod cli;
 pub mod error;
+pub mod evaluate;
 pub mod identify;
 pub mod kinematics;
 pub mod measure;
 pub mod model;
+pub mod progress;
 pub mod report;
 pub mod scalar;
 pub mod solver;

@@ -45,7 +45,11 @@ EXAMPLES:
   legwise identify --model models/5r.yaml --measurements measurements.csv
   legwise simulate --model models/5r.yaml --out - | legwise identify --model models/5r.yaml --measurements -
   # the JSON report on standard output (the terminal report goes to standard error)
-  legwise identify --model models/5r.yaml --json - 2>/dev/null"
+  legwise identify --model models/5r.yaml --json - 2>/dev/null
+  # after the fit: the calibrated model (calibrated.yaml + calibrated.urdf); in simulation the
+  # accuracy map before and after, 1 cm grid over 0.95 of the workspace region
+  legwise identify --model models/5r.yaml --measurements measurements.csv --calibrated calibrated.yaml
+  legwise identify --model models/5r.yaml --strategy both --map 0.01 --json report.json"
 );
 
 /// `legwise select --help`.
@@ -86,4 +90,16 @@ EXAMPLES:
   legwise workspace --model models/5r.yaml
   # a finer boundary, the picture elsewhere
   legwise workspace --model models/3rpr.yaml --rays 4000 --svg 3rpr-miw.svg"
+);
+
+/// `legwise evaluate --help`.
+pub(super) const EVALUATE: &str = concat!(
+    exit_status!(),
+    "
+
+EXAMPLES:
+  # the calibrated model on poses held out of the fit, side by side with the nominal model
+  legwise evaluate --model calibrated.yaml --measurements held-out.csv --against models/5r.yaml
+  # the same as JSON on standard output (the terminal report goes to standard error)
+  legwise evaluate --model calibrated.yaml --measurements held-out.csv --json -"
 );

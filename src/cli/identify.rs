@@ -5,10 +5,13 @@ use std::path::Path;
 use super::console::Console;
 use super::output::{Input, Output};
 use super::{IdentifyArgs, Verdict};
-use crate::identify::estimate::identify_with;
+use crate::evaluate::accuracy::{accuracy_map, map_grid, result_parameters, AccuracyMap};
+use crate::evaluate::report::{map_json, map_summary};
+use crate::identify::estimate::{identify_with, Strategy};
 use crate::identify::trust::trust_issues;
 use crate::measure::{file, MeasurementSet};
 use crate::model::Mechanism;
+use crate::report::calibrated::{calibrated_files, urdf_path, Calibration};
 use crate::report::{json, terminal, IdentifyReport};
 
 /// The name of standard input in messages.
@@ -28,6 +31,8 @@ pub(super) fn run(args: &IdentifyArgs) -> anyhow::Result<Verdict> {
         .as_deref()
         .map(|path| Output::prepare("--json", path, &inputs))
         .transpose()?;
+    let calibrated_outputs = calibrated_outputs(args, &inputs)?;
+    check_map(args, &mechanism)?;
     let mut console = Console::new(json_output.as_ref().is_some_and(Output::is_stdout));
     let (data, real, source) = match &args.measurements {
         Some(path) => {
@@ -65,12 +70,42 @@ pub(super) fn run(args: &IdentifyArgs) -> anyhow::Result<Verdict> {
         real,
         results,
     };
+    let maps = accuracy_maps(args, &report)?;
+    let trusted = verdict == Verdict::Trusted;
+    if let Some(outputs) = calibrated_outputs.as_ref().filter(|_| trusted) {
+        write_calibrated(&report, outputs)?;
+    }
     // The file first: a closed terminal pipe must not lose it.
     if let Some(output) = &json_output {
-        let text = serde_json::to_string_pretty(&json::to_json(&report))? + "\n";
+        let mut value = json::to_json(&report);
+        if let Some((before, after)) = &maps {
+            value["accuracy_map_before"] = map_json(before);
+            for (i, map) in after.iter().enumerate() {
+                value["results"][i]["accuracy_map"] = map_json(map);
+            }
+        }
+        let text = serde_json::to_string_pretty(&value)? + "\n";
         output.write("JSON report", text.as_bytes())?;
     }
     console.print(&terminal::render(&report))?;
+    if let Some((before, after)) = &maps {
+        console.print(&maps_text(args, &report, before, after))?;
+    }
+    if let (Some((yaml, urdf)), Some(result)) = (&calibrated_outputs, calibrated_result(&report)) {
+        if trusted {
+            console.line(format_args!(
+                "\ncalibrated model ({} result) written to {} and {}",
+                result.strategy.name(),
+                yaml.name(),
+                urdf.name()
+            ))?;
+        } else {
+            console.line(format_args!(
+                "\ncalibrated model not written to {}: the result must not be trusted",
+                yaml.name()
+            ))?;
+        }
+    }
     if let Some(output) = json_output.filter(|o| !o.is_stdout()) {
         console.line(format_args!("\nJSON report written to {}", output.name()))?;
     }
@@ -89,4 +124,143 @@ fn read(path: &Path, mechanism: &Mechanism) -> anyhow::Result<MeasurementSet> {
     } else {
         file::read(path, mechanism)?
     })
+}
+
+/// `--calibrated OUT.yaml`: the model file and its URDF, checked against the inputs and against
+/// the JSON report's path.
+fn calibrated_outputs(
+    args: &IdentifyArgs,
+    inputs: &[Input<'_>],
+) -> anyhow::Result<Option<(Output, Output)>> {
+    let Some(out) = &args.after.calibrated else {
+        return Ok(None);
+    };
+    if let Some(json) = &args.json {
+        let urdf = out.with_extension("urdf");
+        if [out, &urdf].iter().any(|p| same_destination(p, json)) {
+            anyhow::bail!(
+                "{}: --calibrated and --json would write the same file; choose another path",
+                json.display()
+            );
+        }
+    }
+    if out.as_os_str() == "-" {
+        anyhow::bail!(
+            "--calibrated: expected a file path (the URDF is written beside it), found `-`"
+        );
+    }
+    let urdf = urdf_path(out)?;
+    Ok(Some((
+        Output::prepare("--calibrated", out, inputs)?,
+        Output::prepare("--calibrated", &urdf, inputs)?,
+    )))
+}
+
+/// `--map`: simulation only, with a valid grid, refused before any work otherwise.
+fn check_map(args: &IdentifyArgs, mechanism: &Mechanism) -> anyhow::Result<()> {
+    if let Some(grid) = args.after.map {
+        if args.measurements.is_some() {
+            anyhow::bail!("--map: the accuracy map needs the real parameters, known only in simulation (drop --measurements)");
+        }
+        map_grid(mechanism, grid, args.after.map_scale)?;
+    }
+    Ok(())
+}
+
+/// `--map`: the accuracy map of the nominal model, then of each result, against the real mechanism.
+fn accuracy_maps(
+    args: &IdentifyArgs,
+    report: &IdentifyReport<'_>,
+) -> anyhow::Result<Option<(AccuracyMap, Vec<AccuracyMap>)>> {
+    let (Some(grid), Some(real)) = (args.after.map, report.real.as_ref()) else {
+        return Ok(None);
+    };
+    let mechanism = report.mechanism;
+    let scale = args.after.map_scale;
+    let nominal = mechanism.nominal_parameters();
+    let before = accuracy_map(mechanism, &nominal, real, grid, scale, "map before")?;
+    let mut after = Vec::new();
+    for result in &report.results {
+        let identified = result_parameters(mechanism, result);
+        let label = format!("map after, {}", result.strategy.name());
+        after.push(accuracy_map(
+            mechanism,
+            &identified,
+            real,
+            grid,
+            scale,
+            &label,
+        )?);
+    }
+    Ok(Some((before, after)))
+}
+
+/// The accuracy maps in millimetres, for the terminal.
+fn maps_text(
+    args: &IdentifyArgs,
+    report: &IdentifyReport<'_>,
+    before: &AccuracyMap,
+    after: &[AccuracyMap],
+) -> String {
+    let mut text = format!(
+        "\naccuracy map over {} of the workspace region, grid {} m:\n{}\n",
+        args.after.map_scale,
+        before.grid_m,
+        map_summary("  before (nominal model)", before)
+    );
+    for (result, map) in report.results.iter().zip(after) {
+        let label = format!("  after, {}", result.strategy.name());
+        text.push_str(&map_summary(&label, map));
+        text.push('\n');
+    }
+    text
+}
+
+/// The result a calibrated model holds: divide and conquer if it ran, else the first.
+fn calibrated_result<'r>(
+    report: &'r IdentifyReport<'_>,
+) -> Option<&'r crate::identify::estimate::StrategyResult> {
+    report
+        .results
+        .iter()
+        .find(|r| r.strategy == Strategy::DivideAndConquer)
+        .or(report.results.first())
+}
+
+/// Writes the calibrated model (the URDF first: the model file names it).
+fn write_calibrated(report: &IdentifyReport<'_>, outputs: &(Output, Output)) -> anyhow::Result<()> {
+    let Some(result) = calibrated_result(report) else {
+        return Ok(());
+    };
+    let note = (report.results.len() > 1).then(|| {
+        format!(
+            "Several strategies ran; this is the {} result.",
+            result.strategy.name()
+        )
+    });
+    let calibration = Calibration {
+        mechanism: report.mechanism,
+        result,
+        source: &report.source,
+        real: report.real.as_deref(),
+        note: note.as_deref(),
+    };
+    let (yaml, urdf) = outputs;
+    let urdf_name = std::path::Path::new(&urdf.name())
+        .file_name()
+        .map_or_else(String::new, |n| n.to_string_lossy().into_owned());
+    let files = calibrated_files(&calibration, &urdf_name)?;
+    urdf.write("calibrated URDF", files.urdf.as_bytes())?;
+    yaml.write("calibrated model", files.yaml.as_bytes())?;
+    Ok(())
+}
+
+/// Whether two output paths name the same file (their directories compared canonically).
+fn same_destination(a: &Path, b: &Path) -> bool {
+    let resolve = |p: &Path| {
+        let parent = p.parent().filter(|d| !d.as_os_str().is_empty());
+        let dir = parent.unwrap_or(Path::new(".")).canonicalize().ok();
+        (dir, p.file_name().map(|n| n.to_os_string()))
+    };
+    resolve(a) == resolve(b)
 }

@@ -4,6 +4,7 @@
 //! documented in `legwise --help`: 0 success, 2 bad input or usage, 3 finished but untrusted.
 mod checks;
 mod console;
+mod evaluate;
 mod help;
 mod identify;
 mod output;
@@ -43,6 +44,46 @@ pub enum Command {
     /// Compute the singularity-free region and its maximal inscribed workspace (MIW), with a picture.
     #[command(after_help = help::WORKSPACE)]
     Workspace(WorkspaceArgs),
+    /// How well a model explains measurements (typically held out of the fit): pose errors by
+    /// forward kinematics from the readings, and each leg's reading residuals.
+    #[command(after_help = help::EVALUATE)]
+    Evaluate(EvaluateArgs),
+}
+
+/// Options of `legwise evaluate`.
+#[derive(Debug, clap::Args)]
+pub struct EvaluateArgs {
+    /// The model file (YAML), e.g. a calibrated model.
+    #[arg(long)]
+    pub model: PathBuf,
+    /// Measurement CSV (rows with every actuator reading give pose errors).
+    #[arg(long)]
+    pub measurements: PathBuf,
+    /// Another model to evaluate side by side (typically the nominal one), with the improvement.
+    #[arg(long)]
+    pub against: Option<PathBuf>,
+    /// Also write the evaluation as JSON to this file.
+    #[arg(long)]
+    pub json: Option<PathBuf>,
+    /// Directory for the pictures.
+    #[arg(long)]
+    pub plots: Option<PathBuf>,
+}
+
+/// `identify` options for after the fit: the calibrated model and the accuracy map.
+#[derive(Debug, Clone, clap::Args)]
+pub struct AfterFitArgs {
+    /// Write the calibrated model (identified values in place of nominal ones) to this YAML
+    /// file, and its URDF beside it (same name, extension `urdf`).
+    #[arg(long, value_name = "OUT.yaml")]
+    pub calibrated: Option<PathBuf>,
+    /// Simulation only: the accuracy map (model IK commands, real mechanism moves) over a grid
+    /// of this spacing (metres), before and after identification.
+    #[arg(long, value_name = "GRID_M")]
+    pub map: Option<f64>,
+    /// Fraction of the workspace region the accuracy map covers (shrunk about its centre).
+    #[arg(long, default_value_t = 0.95)]
+    pub map_scale: f64,
 }
 
 /// Options of `legwise workspace`.
@@ -93,6 +134,9 @@ pub struct IdentifyArgs {
     /// Simulation overrides.
     #[command(flatten)]
     pub simulation: SimulationArgs,
+    /// Calibrated model and accuracy map.
+    #[command(flatten)]
+    pub after: AfterFitArgs,
 }
 
 /// `--weights`.
@@ -362,5 +406,6 @@ pub fn run(cli: Cli) -> anyhow::Result<Verdict> {
         Command::Select(args) => select::run(&args),
         Command::Simulate(args) => simulate::run(&args),
         Command::Workspace(args) => workspace::run(&args),
+        Command::Evaluate(args) => evaluate::run(&args),
     }
 }

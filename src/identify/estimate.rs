@@ -80,6 +80,20 @@ pub struct LegEstimate {
     /// What the statistics found, one sentence each (noise rejected, outliers, other turns,
     /// dropped rows).
     pub warnings: Vec<String>,
+    /// Covariance σ̂²(CᵀC)⁻¹ of the identified parameters (model order), from the SVD of the
+    /// leg's identification Jacobian C; `None` without redundancy (m ≤ n).
+    pub covariance: Option<DMatrix<f64>>,
+    /// Each measurement's residual at the estimate, measured minus predicted reading, in row order.
+    pub residuals: Vec<RowResidual>,
+}
+
+/// One measurement's residual at the estimate.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct RowResidual {
+    /// Line of the measurement file (1-based, the header is line 1), if read from a file.
+    pub line: Option<usize>,
+    /// Measured minus predicted reading (rad or m).
+    pub residual: f64,
 }
 
 /// How the rows are weighted.
@@ -406,8 +420,8 @@ fn leg_estimate(
     let kept_squares: f64 = kept.iter().map(|&i| r[i] * r[i]).sum();
     let residual_sigma = (kept.len() > n).then(|| (kept_squares / (kept.len() - n) as f64).sqrt());
     let c_leg = leg_jacobian(problem, slot, c);
-    let variances =
-        residual_sigma.and_then(|sigma| covariance_diagonal(&c_leg).map(|d| (sigma, d)));
+    let covariance = residual_sigma
+        .and_then(|sigma| unscaled_covariance(&c_leg).map(|inverse| inverse * (sigma * sigma)));
     let phi = problem.leg_parameters(slot, x);
     let parameters = leg
         .params
@@ -420,7 +434,7 @@ fn leg_estimate(
                 unit: p.unit,
                 nominal: p.nominal,
                 estimate: phi[i],
-                std: column.and_then(|k| variances.as_ref().map(|(s, d)| s * d[k].sqrt())),
+                std: column.and_then(|k| covariance.as_ref().map(|v| v[(k, k)].sqrt())),
                 identified: p.identified,
             }
         })
@@ -436,6 +450,14 @@ fn leg_estimate(
         statistics: LegStatistics::default(),
         dropped: Vec::new(),
         warnings: Vec::new(),
+        covariance,
+        residuals: rows
+            .iter()
+            .map(|&i| RowResidual {
+                line: problem.blocks()[i].line,
+                residual: -r[i] / problem.row_scale(i),
+            })
+            .collect(),
     }
 }
 
@@ -490,8 +512,9 @@ fn refit_without(
     Ok((estimates, run))
 }
 
-/// diag((CᵀC)⁻¹) from the SVD of C (never an explicit inverse of CᵀC); `None` if rank-deficient.
-fn covariance_diagonal(c: &DMatrix<f64>) -> Option<Vec<f64>> {
+/// (CᵀC)⁻¹ = V Σ⁻² Vᵀ from the SVD of C (never an explicit inverse of CᵀC); `None` if
+/// rank-deficient.
+fn unscaled_covariance(c: &DMatrix<f64>) -> Option<DMatrix<f64>> {
     let n = c.ncols();
     if c.nrows() < n {
         return None;
@@ -502,15 +525,10 @@ fn covariance_diagonal(c: &DMatrix<f64>) -> Option<Vec<f64>> {
     if svd.singular_values.iter().any(|&s| s <= 1e-14 * largest) {
         return None;
     }
-    Some(
-        (0..n)
-            .map(|i| {
-                (0..svd.singular_values.len())
-                    .map(|k| (v_t[(k, i)] / svd.singular_values[k]).powi(2))
-                    .sum()
-            })
-            .collect(),
-    )
+    let scaled = DMatrix::from_fn(svd.singular_values.len(), n, |k, i| {
+        v_t[(k, i)] / svd.singular_values[k]
+    });
+    Some(scaled.transpose() * scaled)
 }
 
 /// Turns a failed block into an error naming the measurement file line, or the simulated pose.

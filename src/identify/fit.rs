@@ -2,14 +2,14 @@
 //! noise, or with a robust loss (iteratively reweighted, [`super::robust`]). The result carries
 //! the problem as finally weighted, so its residuals, Jacobian and statistics match the fit.
 
-use nalgebra::DVector;
+use nalgebra::{DMatrix, DVector};
 
 use super::estimate::{FitOptions, Weighting};
 use super::problem::{BlockError, IdentificationProblem};
 use super::robust::{self, RobustError};
 use super::statistics::{row_variances, FitKind};
 use crate::model::mechanism::MeasurementNoise;
-use crate::solver::{solve, SolverKind, SolverOutcome};
+use crate::solver::{solve, SolverKind, SolverOutcome, StopReason};
 
 /// Why a fit failed.
 #[derive(Debug)]
@@ -53,8 +53,7 @@ pub(super) fn fit<'a>(
         }
         _ => problem.unweighted(),
     };
-    let outcome =
-        solve(&weighted, x0.clone(), solver).map_err(|e| FitError::Solver(e.to_string()))?;
+    let outcome = solve_from(&weighted, x0, solver)?;
     let Some(loss) = options.robust else {
         return Ok(Fitted {
             problem: weighted,
@@ -76,7 +75,7 @@ pub(super) fn fit<'a>(
         .collect();
     let robust = robust::fit(problem, &outcome.x, loss, &sigma, solver).map_err(|e| match e {
         RobustError::Block(e) => FitError::Block(e),
-        RobustError::Solver(e) => FitError::Solver(e.to_string()),
+        RobustError::Solver(message) => FitError::Solver(message),
     })?;
     let mut outcome = robust.outcome;
     outcome.x = robust.x;
@@ -93,4 +92,47 @@ fn inverse(variances: &[f64]) -> Option<Vec<f64>> {
         .iter()
         .map(|&v| (v > 0.0 && v.is_finite()).then(|| 1.0 / v))
         .collect()
+}
+
+/// Solves `problem` from `x0`, unless `x0` is already its minimiser ([`already_minimal`]): a
+/// solver started at its answer may find no step to take and call that a stall.
+///
+/// # Errors
+/// A block out of reach at `x0`, or the solver's failure.
+pub(super) fn solve_from(
+    problem: &IdentificationProblem<'_>,
+    x0: &DVector<f64>,
+    solver: SolverKind,
+) -> Result<SolverOutcome, FitError> {
+    let (r0, c0) = problem
+        .residuals_and_jacobian(x0)
+        .map_err(FitError::Block)?;
+    match already_minimal(x0, &r0, &c0) {
+        Some(outcome) => Ok(outcome),
+        None => solve(problem, x0.clone(), solver).map_err(|e| FitError::Solver(e.to_string())),
+    }
+}
+
+/// Relative length of the Gauss–Newton step below which the start is already the minimiser.
+const STATIONARY_STEP: f64 = 1e-12;
+
+/// The outcome of a solve that is not needed: `x0` is already the least-squares minimiser (its
+/// Gauss–Newton step, solved by SVD, is shorter than [`STATIONARY_STEP`]`·(‖x0‖ + 1)`), e.g.
+/// when identifying again from a calibrated model on the same measurements.
+fn already_minimal(
+    x0: &DVector<f64>,
+    r0: &DVector<f64>,
+    c0: &DMatrix<f64>,
+) -> Option<SolverOutcome> {
+    let step = c0.clone().svd(true, true).solve(r0, f64::EPSILON).ok()?;
+    let length = step.norm();
+    (length.is_finite() && length <= STATIONARY_STEP * (x0.norm() + 1.0)).then(|| SolverOutcome {
+        x: x0.clone(),
+        iterations: 0,
+        converged: true,
+        stop_reason: StopReason::StepSize,
+        refinement_steps: 0,
+        residual_evaluations: 1,
+        jacobian_evaluations: 1,
+    })
 }

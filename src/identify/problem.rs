@@ -208,7 +208,8 @@ impl<'a> IdentificationProblem<'a> {
             .collect()
     }
 
-    fn row_scale(&self, row: usize) -> f64 {
+    /// `√w` of row `row` (1 when unweighted).
+    pub fn row_scale(&self, row: usize) -> f64 {
         self.row_scales.as_ref().map_or(1.0, |s| s[row])
     }
 

@@ -16,8 +16,9 @@
 
 use nalgebra::DVector;
 
+use super::fit::{solve_from, FitError};
 use super::problem::{BlockError, IdentificationProblem};
-use crate::solver::{solve, SolverKind, SolverOutcome, StopReason};
+use crate::solver::{SolverKind, SolverOutcome, StopReason};
 
 /// Largest number of reweighting rounds per loss.
 pub const MAX_REWEIGHTINGS: usize = 50;
@@ -73,9 +74,20 @@ pub enum RobustError {
     /// A residual block could not be evaluated at an estimate.
     #[error(transparent)]
     Block(#[from] BlockError),
-    /// A solver run failed.
+    /// A solver run failed (its message).
     #[error("{0}")]
-    Solver(argmin::core::Error),
+    Solver(String),
+}
+
+impl From<FitError> for RobustError {
+    fn from(error: FitError) -> Self {
+        match error {
+            FitError::Block(e) => RobustError::Block(e),
+            FitError::Solver(message) | FitError::NeedsNoise(message) => {
+                RobustError::Solver(message)
+            }
+        }
+    }
 }
 
 /// The result of a robust fit.
@@ -125,7 +137,7 @@ pub fn fit(
                 .map(|(ri, si)| loss.weight(ri / si) / (si * si))
                 .collect();
             let weighted = raw.clone().with_weights(&weights);
-            let mut outcome = solve(&weighted, x.clone(), solver).map_err(RobustError::Solver)?;
+            let mut outcome = solve_from(&weighted, &x, solver)?;
             reweightings += 1;
             let change = (&outcome.x - &x).norm();
             x.clone_from(&outcome.x);
@@ -143,7 +155,7 @@ pub fn fit(
     }
     let mut outcome = match last {
         Some(outcome) => outcome,
-        None => solve(&raw, x.clone(), solver).map_err(RobustError::Solver)?,
+        None => solve_from(&raw, &x, solver)?,
     };
     if !settled && outcome.converged {
         outcome.converged = false;

@@ -28,6 +28,16 @@ pub fn trust_issues(results: &[StrategyResult]) -> Vec<String> {
                 ));
                 flagged.push(leg.leg.as_str());
             }
+            if let Some(test) = leg.statistics.noise_test.as_ref().filter(|t| t.rejected) {
+                issues.push(format!(
+                    "{strategy}, leg `{}`: the residuals reject the declared noise (σ̂ {} times \
+                     the declared scatter, χ² p = {:.2e}): check the units (degrees vs radians, \
+                     millimetres vs metres), the outliers and the model",
+                    leg.leg,
+                    super::statistics::figure(test.sigma_ratio),
+                    test.p_value
+                ));
+            }
         }
         for run in result.runs.iter().filter(|run| !run.converged) {
             issues.push(format!(
@@ -40,23 +50,6 @@ pub fn trust_issues(results: &[StrategyResult]) -> Vec<String> {
                 run.iterations,
                 run.residual_evaluations
             ));
-        }
-        // One reason per leg: a non-finite fit's noise test says nothing more.
-        for leg in result
-            .legs
-            .iter()
-            .filter(|l| !flagged.contains(&l.leg.as_str()))
-        {
-            if let Some(test) = leg.statistics.noise_test.as_ref().filter(|t| t.rejected) {
-                issues.push(format!(
-                    "{strategy}, leg `{}`: the residuals reject the declared noise (σ̂ {} times \
-                     the declared scatter, χ² p = {:.2e}): check the units (degrees vs radians, \
-                     millimetres vs metres), the outliers and the model",
-                    leg.leg,
-                    super::statistics::figure(test.sigma_ratio),
-                    test.p_value
-                ));
-            }
         }
         for run in &result.runs {
             let covered = run.legs.iter().any(|l| flagged.contains(&l.as_str()));
@@ -145,6 +138,8 @@ mod tests {
                 statistics: LegStatistics::default(),
                 dropped: Vec::new(),
                 warnings: Vec::new(),
+                covariance: None,
+                residuals: Vec::new(),
             }],
             runs: vec![SolverRun {
                 legs: vec!["leg1".into()],

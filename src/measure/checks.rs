@@ -46,6 +46,16 @@ pub fn mechanism_size(mechanism: &Mechanism) -> f64 {
     reach.max(extent)
 }
 
+/// `value` as written, or in scientific notation when it is huge or tiny (1e308 is not 309
+/// digits).
+fn compact(value: f64) -> String {
+    if value == 0.0 || (1e-4..1e15).contains(&value.abs()) {
+        value.to_string()
+    } else {
+        format!("{value:e}")
+    }
+}
+
 /// Offending values of one column: count, first line and value, largest line and value.
 #[derive(Default)]
 struct Offenders {
@@ -65,8 +75,8 @@ impl Offenders {
 
     fn describe(&self) -> String {
         let at = |(line, value): (Option<usize>, f64)| match line {
-            Some(line) => format!("{value} at line {line}"),
-            None => format!("{value} in a simulated row"),
+            Some(line) => format!("{} at line {line}", compact(value)),
+            None => format!("{} in a simulated row", compact(value)),
         };
         let first = self.first.map(at).unwrap_or_default();
         let largest = self.largest.map(at).unwrap_or_default();
@@ -106,9 +116,10 @@ fn range_warnings(mechanism: &Mechanism, data: &MeasurementSet) -> Result<Vec<St
             if c < 3 && (value - home[c]).abs() > limit {
                 let name = COORDINATES[c];
                 let message = format!(
-                    "{value} m is more than {SIZE_FACTOR} times the mechanism's size \
+                    "{} m is more than {SIZE_FACTOR} times the mechanism's size \
                      ({size:.3} m) from the home pose ({} m): positions in millimetres instead \
                      of metres?",
+                    compact(value),
                     home[c]
                 );
                 return Err(match (&data.source, pose.line) {

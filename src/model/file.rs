@@ -1,4 +1,5 @@
-//! The model file as written on disk: a serde mirror of the YAML, checked only for syntax and
+//! The model file as written on disk: a serde mirror of the YAML (read, and written back by
+//! the calibrated-model writer), checked only for syntax and
 //! types (ripgrep's "low args"). Cross-checks against the URDF happen in [`super::mechanism`].
 //!
 //! The reference for every field is `docs/models.md`.
@@ -6,13 +7,13 @@
 use std::collections::BTreeMap;
 use std::path::Path;
 
-use serde::Deserialize;
+use serde::{Deserialize, Serialize};
 
 use crate::error::{Error, Result};
 use crate::workspace::region::Region;
 
 /// The whole model file.
-#[derive(Debug, Clone, Deserialize)]
+#[derive(Debug, Clone, Deserialize, Serialize)]
 #[serde(deny_unknown_fields)]
 pub struct ModelFile {
     /// Human-readable name of the mechanism.
@@ -22,7 +23,7 @@ pub struct ModelFile {
     /// Measured end-effector coordinates, among `x y z roll pitch yaw` (metres, radians).
     pub measured: Vec<String>,
     /// Free text naming the working and assembly mode the home configuration selects.
-    #[serde(default)]
+    #[serde(default, skip_serializing_if = "Option::is_none")]
     pub mode: Option<String>,
     /// The home configuration: it fixes the working mode (branch) of every leg.
     pub home: HomeEntry,
@@ -33,33 +34,33 @@ pub struct ModelFile {
     /// The usable workspace.
     pub workspace: WorkspaceEntry,
     /// Pose selection (optional; defaults: D-optimal, `simulation.poses_per_leg` or 18 poses).
-    #[serde(default)]
+    #[serde(default, skip_serializing_if = "Option::is_none")]
     pub selection: Option<SelectionEntry>,
     /// Measurement noise: standard deviation by measured coordinate name, and `readings` for
     /// the actuator readings (SI units). Optional; the residuals of every fit are tested against
     /// it, and it is the default noise of simulations.
-    #[serde(default)]
+    #[serde(default, skip_serializing_if = "Option::is_none")]
     pub noise: Option<BTreeMap<String, f64>>,
     /// The simulation set-up (optional: real users bring measurements).
-    #[serde(default)]
+    #[serde(default, skip_serializing_if = "Option::is_none")]
     pub simulation: Option<SimulationEntry>,
 }
 
 /// Pose selection set-up.
-#[derive(Debug, Clone, Deserialize)]
+#[derive(Debug, Clone, Deserialize, Serialize)]
 #[serde(deny_unknown_fields)]
 pub struct SelectionEntry {
     /// Identification poses to select per leg (and shared poses for the traditional strategy).
-    #[serde(default)]
+    #[serde(default, skip_serializing_if = "Option::is_none")]
     pub poses_per_leg: Option<usize>,
     /// Design criterion: `D` (maximise det CᵀC, i.e. O1; default), `A` (minimise tr (CᵀC)⁻¹) or
     /// `E` (maximise the smallest singular value, O3).
-    #[serde(default)]
+    #[serde(default, skip_serializing_if = "Option::is_none")]
     pub criterion: Option<String>,
 }
 
 /// The home configuration.
-#[derive(Debug, Clone, Deserialize)]
+#[derive(Debug, Clone, Deserialize, Serialize)]
 #[serde(deny_unknown_fields)]
 pub struct HomeEntry {
     /// The platform pose at home, by measured coordinate name (metres, radians).
@@ -67,7 +68,7 @@ pub struct HomeEntry {
 }
 
 /// One leg.
-#[derive(Debug, Clone, Deserialize)]
+#[derive(Debug, Clone, Deserialize, Serialize)]
 #[serde(deny_unknown_fields)]
 pub struct LegEntry {
     /// Leg name, used in measurement files and reports.
@@ -77,7 +78,7 @@ pub struct LegEntry {
     /// The actuated joint and its actuator model `joint = gain * reading + offset`.
     pub actuator: ActuatorEntry,
     /// The point of the platform the leg tip coincides with, in the platform (measured) frame, metres.
-    #[serde(default)]
+    #[serde(default, skip_serializing_if = "Option::is_none")]
     pub attachment: Option<[f64; 3]>,
     /// Joint values of the leg's moving joints at the home pose (radians or metres); they select
     /// the working mode. Approximate values are refined by Newton's method.
@@ -85,7 +86,7 @@ pub struct LegEntry {
 }
 
 /// Actuator model of a leg.
-#[derive(Debug, Clone, Deserialize)]
+#[derive(Debug, Clone, Deserialize, Serialize)]
 #[serde(deny_unknown_fields)]
 pub struct ActuatorEntry {
     /// The actuated URDF joint (must be in the leg's chain).
@@ -108,25 +109,25 @@ fn yes() -> bool {
 
 /// One named parameter. Exactly one target: `joint` + `origin`, `leg` + `actuator`, or
 /// `leg` + `attachment`.
-#[derive(Debug, Clone, Deserialize)]
+#[derive(Debug, Clone, Deserialize, Serialize)]
 #[serde(deny_unknown_fields)]
 pub struct ParameterEntry {
     /// Parameter name (as in reports and `simulation.real`).
     pub name: String,
     /// A URDF joint whose origin holds the parameter.
-    #[serde(default)]
+    #[serde(default, skip_serializing_if = "Option::is_none")]
     pub joint: Option<String>,
     /// Component of the joint origin: `x y z` (metres) or `roll pitch yaw` (radians).
-    #[serde(default)]
+    #[serde(default, skip_serializing_if = "Option::is_none")]
     pub origin: Option<String>,
     /// A leg whose actuator or attachment holds the parameter.
-    #[serde(default)]
+    #[serde(default, skip_serializing_if = "Option::is_none")]
     pub leg: Option<String>,
     /// `gain` or `offset` of the leg's actuator model.
-    #[serde(default)]
+    #[serde(default, skip_serializing_if = "Option::is_none")]
     pub actuator: Option<String>,
     /// Component `x y z` of the leg's platform attachment (metres).
-    #[serde(default)]
+    #[serde(default, skip_serializing_if = "Option::is_none")]
     pub attachment: Option<String>,
     /// Identified (true, the default) or held fixed at its nominal value (false).
     #[serde(default = "yes")]
@@ -134,7 +135,7 @@ pub struct ParameterEntry {
 }
 
 /// The usable workspace.
-#[derive(Debug, Clone, Deserialize)]
+#[derive(Debug, Clone, Deserialize, Serialize)]
 #[serde(deny_unknown_fields)]
 pub struct WorkspaceEntry {
     /// The region of the end-effector point in x, y.
@@ -144,47 +145,47 @@ pub struct WorkspaceEntry {
     pub margin: f64,
     /// Ranges `[min, max]` for measured coordinates other than x and y (e.g. `yaw`); a coordinate
     /// without a range stays at its home value.
-    #[serde(default)]
+    #[serde(default, skip_serializing_if = "BTreeMap::is_empty")]
     pub ranges: BTreeMap<String, [f64; 2]>,
     /// Spacing of the candidate grid for pose selection, metres.
-    #[serde(default)]
+    #[serde(default, skip_serializing_if = "Option::is_none")]
     pub grid: Option<f64>,
     /// Number of evenly spaced values of each ranged coordinate in the candidate grid.
-    #[serde(default)]
+    #[serde(default, skip_serializing_if = "Option::is_none")]
     pub range_levels: Option<usize>,
     /// Singularity thresholds a candidate pose must clear.
-    #[serde(default)]
+    #[serde(default, skip_serializing_if = "Option::is_none")]
     pub singularity: Option<SingularityEntry>,
 }
 
 /// Singularity thresholds (scale-free measures, see `docs/models.md`).
-#[derive(Debug, Clone, Deserialize)]
+#[derive(Debug, Clone, Deserialize, Serialize)]
 #[serde(deny_unknown_fields)]
 pub struct SingularityEntry {
     /// Smallest allowed serial (type I) measure of every leg (default 0.05).
-    #[serde(default)]
+    #[serde(default, skip_serializing_if = "Option::is_none")]
     pub serial: Option<f64>,
     /// Smallest allowed parallel (type II) measure (default 0.05).
-    #[serde(default)]
+    #[serde(default, skip_serializing_if = "Option::is_none")]
     pub parallel: Option<f64>,
 }
 
 /// The simulation set-up.
-#[derive(Debug, Clone, Deserialize)]
+#[derive(Debug, Clone, Deserialize, Serialize)]
 #[serde(deny_unknown_fields)]
 pub struct SimulationEntry {
     /// "Real" values by parameter name (any parameter, identified or fixed: a fixed parameter
     /// given a real value different from its nominal one models an error the identification
     /// cannot absorb). Identified parameters not listed are perturbed (if `perturbation` is
     /// given); all others equal their nominal value.
-    #[serde(default)]
+    #[serde(default, skip_serializing_if = "BTreeMap::is_empty")]
     pub real: BTreeMap<String, f64>,
     /// Standard deviations of a seeded random perturbation of the parameters not in `real`.
-    #[serde(default)]
+    #[serde(default, skip_serializing_if = "Option::is_none")]
     pub perturbation: Option<PerturbationEntry>,
     /// Simulated measurement noise standard deviation by measured coordinate name, and
     /// `readings` for the actuator readings (SI units); default: the top-level `noise` block.
-    #[serde(default)]
+    #[serde(default, skip_serializing_if = "Option::is_none")]
     pub noise: Option<BTreeMap<String, f64>>,
     /// Number of identification poses per leg.
     pub poses_per_leg: usize,
@@ -194,7 +195,7 @@ pub struct SimulationEntry {
 }
 
 /// Standard deviations of the parameter perturbation, by kind of quantity.
-#[derive(Debug, Clone, Deserialize)]
+#[derive(Debug, Clone, Deserialize, Serialize)]
 #[serde(deny_unknown_fields)]
 pub struct PerturbationEntry {
     /// Lengths (joint origin x y z, attachments, prismatic offsets), metres.

@@ -3,10 +3,68 @@
 
 use serde_json::{json, Value};
 
+use nalgebra::DMatrix;
+
 use super::terminal::all_warnings;
 use super::IdentifyReport;
-use crate::identify::estimate::{StrategyResult, Weighting};
+use crate::identify::estimate::{LegEstimate, StrategyResult, Weighting};
 use crate::identify::statistics::Outlier;
+
+/// Version of the JSON layout documented in `docs/report.md`; raised when a key changes meaning or
+/// disappears (new keys do not change it).
+pub const SCHEMA_VERSION: u32 = 1;
+
+/// The keys every legwise JSON document starts with: the schema and the program version.
+pub fn header() -> Value {
+    json!({
+        "schema_version": SCHEMA_VERSION,
+        "legwise_version": env!("CARGO_PKG_VERSION"),
+    })
+}
+
+/// Merges the keys of the object `extra` into the object `value` (later keys win).
+pub fn merge(value: &mut Value, extra: Value) {
+    if let (Value::Object(target), Value::Object(source)) = (value, extra) {
+        target.extend(source);
+    }
+}
+
+/// A matrix as rows of numbers (non-finite entries as `null`).
+pub fn matrix(m: &DMatrix<f64>) -> Value {
+    Value::Array(
+        m.row_iter()
+            .map(|row| Value::Array(row.iter().map(|&v| finite(v)).collect()))
+            .collect(),
+    )
+}
+
+/// The correlation matrix of a covariance matrix: `V_ij / √(V_ii V_jj)`.
+pub fn correlation(covariance: &DMatrix<f64>) -> DMatrix<f64> {
+    let std = covariance.diagonal().map(f64::sqrt);
+    DMatrix::from_fn(covariance.nrows(), covariance.ncols(), |i, j| {
+        covariance[(i, j)] / (std[i] * std[j])
+    })
+}
+
+/// A leg's covariance, correlation and per-row residuals (rows only for measurements from a file).
+fn leg_statistics(leg: &LegEstimate) -> Value {
+    let names: Vec<&str> = leg
+        .parameters
+        .iter()
+        .filter(|p| p.identified)
+        .map(|p| p.name.as_str())
+        .collect();
+    let from_file = leg.residuals.iter().all(|r| r.line.is_some());
+    json!({
+        "covariance_parameters": names,
+        "covariance": leg.covariance.as_ref().map(matrix),
+        "correlation": leg.covariance.as_ref().map(|v| matrix(&correlation(v))),
+        "rows": from_file.then(|| leg.residuals.iter().map(|r| json!({
+            "line": r.line,
+            "residual": finite(r.residual),
+        })).collect::<Vec<_>>()),
+    })
+}
 
 fn finite(value: f64) -> Value {
     if value.is_finite() {
@@ -22,14 +80,19 @@ fn optional(value: Option<f64>) -> Value {
 
 /// The report as a JSON value.
 pub fn to_json(report: &IdentifyReport<'_>) -> Value {
-    json!({
-        "mechanism": report.mechanism.name,
-        "model": report.mechanism.model_path.display().to_string(),
-        "mode": report.mechanism.mode,
-        "measurements": report.source,
-        "units": "SI (m, rad); costs are 1/2 ||r||^2 in reading units squared",
-        "results": report.results.iter().map(|r| result(report, r)).collect::<Vec<_>>(),
-    })
+    let mut value = header();
+    merge(
+        &mut value,
+        json!({
+            "mechanism": report.mechanism.name,
+            "model": report.mechanism.model_path.display().to_string(),
+            "mode": report.mechanism.mode,
+            "measurements": report.source,
+            "units": "SI (m, rad); costs are 1/2 ||r||^2 in reading units squared",
+            "results": report.results.iter().map(|r| result(report, r)).collect::<Vec<_>>(),
+        }),
+    );
+    value
 }
 
 fn result(report: &IdentifyReport<'_>, result: &StrategyResult) -> Value {
@@ -58,7 +121,7 @@ fn result(report: &IdentifyReport<'_>, result: &StrategyResult) -> Value {
                 .collect();
             let run = result.runs.iter().find(|r| r.legs.contains(&leg.leg));
             let o = &leg.observability;
-            json!({
+            let mut value = json!({
                 "name": leg.leg,
                 "measurements": leg.measurements,
                 "parameters": parameters,
@@ -100,7 +163,9 @@ fn result(report: &IdentifyReport<'_>, result: &StrategyResult) -> Value {
                     "jacobian_evaluations": run.jacobian_evaluations,
                     "seconds": finite(run.seconds),
                 })),
-            })
+            });
+            merge(&mut value, leg_statistics(leg));
+            value
         })
         .collect();
     json!({

@@ -1,4 +1,5 @@
 //! Reports of an identification: the values (this module), terminal tables and JSON.
+pub mod calibrated;
 pub mod json;
 pub mod terminal;
 

@@ -82,7 +82,10 @@ pub fn candidate_pool(mechanism: &Mechanism, spacing: Option<f64>) -> Result<Can
         near_parallel: 0,
         spacing,
     };
-    for pose in grid(mechanism, spacing)? {
+    let poses = grid(mechanism, spacing)?;
+    let progress = crate::progress::Progress::new(poses.len() as u64, "candidate poses");
+    for pose in poses {
+        progress.advance(1);
         if !workspace.contains(&pose) {
             continue;
         }

@@ -222,8 +222,10 @@ fn cast_rays(
     let Ok((_, start)) = margin.measures_from(centre, None) else {
         return Err(Error::Invalid("MIW: a leg cannot reach the centre".into()));
     };
+    let progress = crate::progress::Progress::new(options.rays as u64, "workspace: casting rays");
     Ok((0..options.rays)
         .map(|k| {
+            progress.advance(1);
             let angle = std::f64::consts::TAU * k as f64 / options.rays as f64;
             let direction = [angle.cos(), angle.sin()];
             let at = |t: f64| [centre[0] + t * direction[0], centre[1] + t * direction[1]];

@@ -8,7 +8,7 @@ use rand::Rng;
 /// A planar region in x, y (metres). Read straight from the model file (`workspace.region`:
 /// `{disc: {centre, radius}}`, `{box: {min, max}}` or `{polygon: {vertices}}`); its values are
 /// checked when the mechanism is validated.
-#[derive(Debug, Clone, PartialEq, serde::Deserialize)]
+#[derive(Debug, Clone, PartialEq, serde::Deserialize, serde::Serialize)]
 #[serde(deny_unknown_fields, rename_all = "snake_case")]
 pub enum Region {
     /// A disc.

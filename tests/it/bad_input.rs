@@ -604,16 +604,16 @@ fn the_reach_limit_is_classified_by_the_inverse_kinematics() {
     );
 }
 
-/// x = 1e308 is finite (the CSV accepts it) but overflows: it was called "non-finite".
+/// x = 1e308 is finite (the CSV accepts it) but absurd: it was called "non-finite". The
+/// plausibility check names it, in scientific notation, with the likely unit mistake.
 #[test]
-fn a_finite_but_huge_coordinate_is_called_an_overflow() {
+fn a_finite_but_huge_coordinate_is_named_with_its_line_and_column() {
     let (path, msg) = measurement_error("huge_coordinate.csv");
     assert_eq!(
         msg,
         format!(
-            "{}: line 12: leg `leg1`: the inverse kinematics overflows: the pose or the \
-             parameters are finite but far too large for a mechanism in metres (largest \
-             magnitude 1e308)",
+            "{}: line 12, column `x`: 1e308 m is more than 100 times the mechanism's size \
+             (2.350 m) from the home pose (0 m): positions in millimetres instead of metres?",
             path.display()
         )
     );

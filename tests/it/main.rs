@@ -1,6 +1,9 @@
 //! One integration binary for all legwise tests.
+mod accuracy_map;
 mod bad_input;
+mod calibrated;
 mod cli;
+mod evaluate;
 mod exit_codes;
 mod files;
 mod fuzz;

@@ -1,0 +1,242 @@
+//! Error statistics and the accuracy map.
+//!
+//! The accuracy map is the paper's before/after picture: over a grid of the usable region, a
+//! model commands each target pose (each leg's reading from the model's inverse kinematics), the
+//! *real* mechanism moves there (forward kinematics with the real parameters, home assembly mode)
+//! and the distance between the reached and the target pose is recorded.
+use nalgebra::Rotation3;
+use serde::Serialize;
+
+use crate::error::{Error, Result};
+use crate::identify::estimate::StrategyResult;
+use crate::kinematics::inverse::predict_reading;
+use crate::kinematics::platform::forward;
+use crate::model::Mechanism;
+use crate::progress::Progress;
+
+/// Summary of a set of non-negative errors (metres or radians).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct ErrorStats {
+    /// Root mean square.
+    pub rms: f64,
+    /// Median (mean of the two middle values for an even count).
+    pub median: f64,
+    /// 95th percentile (linear interpolation between order statistics).
+    pub p95: f64,
+    /// Largest error.
+    pub max: f64,
+}
+
+/// One commanded pose of an accuracy map.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct MapPoint {
+    /// Target pose `[x, y, z, roll, pitch, yaw]` (m, rad).
+    pub pose: [f64; 6],
+    /// Position error of the real mechanism at this target (m); `None` when not assemblable.
+    pub position_error: Option<f64>,
+    /// Orientation error (rad) where the model measures an orientation and the point assembles.
+    pub orientation_error: Option<f64>,
+}
+
+/// Pose errors over a grid of the usable region (the paper's accuracy map).
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct AccuracyMap {
+    /// Grid spacing (m).
+    pub grid_m: f64,
+    /// Fraction of the workspace region covered (e.g. 0.95 of the MIW disc).
+    pub scale: f64,
+    /// Every grid point, assemblable or not.
+    pub points: Vec<MapPoint>,
+    /// Number of points that could not be reached (the model's IK or the real FK failed).
+    pub non_assemblable: usize,
+    /// Position errors over the assemblable points.
+    pub position_error: ErrorStats,
+    /// Orientation errors, when the model measures an orientation.
+    pub orientation_error: Option<ErrorStats>,
+}
+
+/// Largest accuracy map (grid points inside the region).
+pub const MAX_MAP_POINTS: usize = 2_000_000;
+
+impl ErrorStats {
+    /// Statistics of `errors`; `None` for an empty set or a non-finite error.
+    pub fn of(errors: &[f64]) -> Option<Self> {
+        if errors.is_empty() || errors.iter().any(|e| !e.is_finite()) {
+            return None;
+        }
+        let mut sorted = errors.to_vec();
+        sorted.sort_by(f64::total_cmp);
+        let n = sorted.len();
+        let quantile = |q: f64| {
+            let position = q * (n - 1) as f64;
+            let below = position.floor() as usize;
+            let above = (below + 1).min(n - 1);
+            let weight = position - below as f64;
+            sorted[below] + weight * (sorted[above] - sorted[below])
+        };
+        Some(Self {
+            rms: (sorted.iter().map(|e| e * e).sum::<f64>() / n as f64).sqrt(),
+            median: quantile(0.5),
+            p95: quantile(0.95),
+            max: sorted[n - 1],
+        })
+    }
+}
+
+/// Does the mechanism measure an orientation (roll, pitch or yaw)?
+pub fn measures_orientation(mechanism: &Mechanism) -> bool {
+    mechanism.measured.iter().any(|&c| c >= 3)
+}
+
+/// Distance between the positions of two poses (m).
+pub fn position_error(reached: &[f64; 6], target: &[f64; 6]) -> f64 {
+    ((reached[0] - target[0]).powi(2)
+        + (reached[1] - target[1]).powi(2)
+        + (reached[2] - target[2]).powi(2))
+    .sqrt()
+}
+
+/// Angle of the rotation between the orientations of two poses (rad, in [0, π]); the poses'
+/// roll, pitch, yaw follow the URDF convention `R = Rz(yaw) Ry(pitch) Rx(roll)`.
+pub fn orientation_error(reached: &[f64; 6], target: &[f64; 6]) -> f64 {
+    let rotation = |p: &[f64; 6]| Rotation3::from_euler_angles(p[3], p[4], p[5]);
+    rotation(target).angle_to(&rotation(reached))
+}
+
+/// The grid of an accuracy map: the points of a square lattice of spacing `grid_m` from the
+/// lower-left corner of the region's bounding box (as the candidate grid of pose selection)
+/// that lie inside the workspace region shrunk by `scale` about the centre of that box.
+/// Coordinates other than x, y stay at their home values (a constant-orientation map).
+///
+/// # Errors
+/// A spacing that is not a positive number of metres, a scale outside (0, 1], or more than
+/// [`MAX_MAP_POINTS`] points.
+pub fn map_grid(mechanism: &Mechanism, grid_m: f64, scale: f64) -> Result<Vec<[f64; 6]>> {
+    if !(grid_m.is_finite() && grid_m > 0.0) {
+        return Err(Error::Invalid(format!(
+            "--map: expected a positive grid spacing in metres, found {grid_m}"
+        )));
+    }
+    if !(scale.is_finite() && scale > 0.0 && scale <= 1.0) {
+        return Err(Error::Invalid(format!(
+            "--map-scale: expected a fraction of the workspace region in (0, 1], found {scale}"
+        )));
+    }
+    let region = &mechanism.workspace.region;
+    let (lo, hi) = region.bounds();
+    let centre = [(lo[0] + hi[0]) / 2.0, (lo[1] + hi[1]) / 2.0];
+    let (nx, ny) = (
+        ((hi[0] - lo[0]) / grid_m + 1e-9).floor(),
+        ((hi[1] - lo[1]) / grid_m + 1e-9).floor(),
+    );
+    if (nx + 1.0) * (ny + 1.0) * scale * scale > 4.0 * MAX_MAP_POINTS as f64 {
+        return Err(too_many(grid_m));
+    }
+    let mut poses = Vec::new();
+    for j in 0..=ny as u64 {
+        for i in 0..=nx as u64 {
+            let point = [lo[0] + i as f64 * grid_m, lo[1] + j as f64 * grid_m];
+            // In the scaled region when its preimage under the homothety is in the region.
+            let preimage = [
+                centre[0] + (point[0] - centre[0]) / scale,
+                centre[1] + (point[1] - centre[1]) / scale,
+            ];
+            if region.depth(preimage) >= -1e-12 {
+                let mut pose = mechanism.home_pose;
+                pose[0] = point[0];
+                pose[1] = point[1];
+                poses.push(pose);
+                if poses.len() > MAX_MAP_POINTS {
+                    return Err(too_many(grid_m));
+                }
+            }
+        }
+    }
+    Ok(poses)
+}
+
+fn too_many(grid_m: f64) -> Error {
+    Error::Invalid(format!(
+        "--map: a spacing of {grid_m} m gives more than {MAX_MAP_POINTS} points; choose a coarser grid"
+    ))
+}
+
+/// The pose the real mechanism reaches when `commanding` (a model's parameters, one vector per
+/// leg) commands `target`: each leg's reading from the model's IK, then forward kinematics with
+/// the `real` parameters, in the home assembly mode. `None` if either step fails.
+pub fn reached_pose(
+    mechanism: &Mechanism,
+    commanding: &[Vec<f64>],
+    real: &[Vec<f64>],
+    target: &[f64; 6],
+) -> Option<[f64; 6]> {
+    let readings: Vec<f64> = mechanism
+        .legs
+        .iter()
+        .zip(commanding)
+        .map(|(leg, phi)| predict_reading(leg, phi, target, &mechanism.home_pose).ok())
+        .collect::<Option<_>>()?;
+    forward(mechanism, real, &readings).ok()
+}
+
+/// The accuracy map of `commanding` against the `real` mechanism over [`map_grid`]`(grid_m,
+/// scale)`, with a progress bar labelled `label` on a terminal.
+///
+/// # Errors
+/// As [`map_grid`], or no grid point that the real mechanism reaches.
+pub fn accuracy_map(
+    mechanism: &Mechanism,
+    commanding: &[Vec<f64>],
+    real: &[Vec<f64>],
+    grid_m: f64,
+    scale: f64,
+    label: &str,
+) -> Result<AccuracyMap> {
+    let grid = map_grid(mechanism, grid_m, scale)?;
+    let orientation = measures_orientation(mechanism);
+    let progress = Progress::new(grid.len() as u64, label);
+    let points: Vec<MapPoint> = grid
+        .iter()
+        .map(|target| {
+            let reached = reached_pose(mechanism, commanding, real, target);
+            progress.advance(1);
+            MapPoint {
+                pose: *target,
+                position_error: reached.map(|p| position_error(&p, target)),
+                orientation_error: reached
+                    .filter(|_| orientation)
+                    .map(|p| orientation_error(&p, target)),
+            }
+        })
+        .collect();
+    let errors = |pick: fn(&MapPoint) -> Option<f64>| -> Vec<f64> {
+        points.iter().filter_map(pick).collect()
+    };
+    let position_error = ErrorStats::of(&errors(|p| p.position_error)).ok_or_else(|| {
+        Error::Invalid(format!(
+            "accuracy map ({label}): the real mechanism reaches none of the {} grid points",
+            points.len()
+        ))
+    })?;
+    Ok(AccuracyMap {
+        grid_m,
+        scale,
+        non_assemblable: points.iter().filter(|p| p.position_error.is_none()).count(),
+        orientation_error: ErrorStats::of(&errors(|p| p.orientation_error)),
+        position_error,
+        points,
+    })
+}
+
+/// The parameters a result identified, one full vector per leg of the mechanism (nominal values
+/// for the legs it did not identify).
+pub fn result_parameters(mechanism: &Mechanism, result: &StrategyResult) -> Vec<Vec<f64>> {
+    mechanism
+        .legs
+        .iter()
+        .map(|leg| match result.legs.iter().find(|e| e.leg == leg.name) {
+            Some(estimate) => estimate.parameters.iter().map(|p| p.estimate).collect(),
+            None => leg.nominal(),
+        })
+        .collect()
+}

@@ -1,0 +1,10 @@
+//! After the fit: how accurate a model is, in metres and radians.
+//!
+//! * [`accuracy`] — error statistics and the accuracy map (command a pose with a model's IK,
+//!   move the real mechanism by forward kinematics, measure the pose error);
+//! * [`held_out`] — how well a model explains a measurement file (poses by forward kinematics
+//!   from the readings, per-leg reading residuals);
+//! * [`report`] — their terminal (mm, mrad) and JSON renderings.
+pub mod accuracy;
+pub mod held_out;
+pub mod report;

@@ -1,0 +1,283 @@
+//! Terminal and JSON renderings of evaluations and accuracy maps (schema in `docs/report.md`).
+//! The terminal shows millimetres and milliradians; the JSON keeps SI units.
+
+use std::fmt::Write;
+
+use serde_json::{json, Value};
+
+use super::accuracy::{AccuracyMap, ErrorStats};
+use super::held_out::Evaluation;
+use crate::model::Mechanism;
+use crate::report::json::{header, merge};
+
+fn finite(value: f64) -> Value {
+    if value.is_finite() {
+        json!(value)
+    } else {
+        Value::Null
+    }
+}
+
+fn optional(value: Option<f64>) -> Value {
+    value.map_or(Value::Null, finite)
+}
+
+/// `{"rms", "median", "p95", "max"}`, or `null`.
+pub fn stats_json(stats: Option<&ErrorStats>) -> Value {
+    stats.map_or(Value::Null, |s| {
+        json!({
+            "rms": finite(s.rms),
+            "median": finite(s.median),
+            "p95": finite(s.p95),
+            "max": finite(s.max),
+        })
+    })
+}
+
+/// An accuracy map as JSON.
+pub fn map_json(map: &AccuracyMap) -> Value {
+    json!({
+        "grid_m": finite(map.grid_m),
+        "scale": finite(map.scale),
+        "points": map.points.iter().map(|p| json!({
+            "pose": p.pose.iter().map(|&v| finite(v)).collect::<Vec<_>>(),
+            "position_error_m": optional(p.position_error),
+            "orientation_error_rad": optional(p.orientation_error),
+        })).collect::<Vec<_>>(),
+        "non_assemblable": map.non_assemblable,
+        "position_error_m": stats_json(Some(&map.position_error)),
+        "orientation_error_rad": stats_json(map.orientation_error.as_ref()),
+    })
+}
+
+/// One evaluation as JSON (without the schema header).
+pub fn evaluation_body(evaluation: &Evaluation) -> Value {
+    let residuals: serde_json::Map<String, Value> = evaluation
+        .reading_residual
+        .iter()
+        .map(|leg| {
+            let value = json!({
+                "rms": optional(leg.rms),
+                "max": optional(leg.max),
+                "rows": leg.rows,
+                "unreachable": leg.unreachable,
+            });
+            (leg.leg.clone(), value)
+        })
+        .collect();
+    json!({
+        "model": evaluation.model,
+        "measurements": evaluation.measurements,
+        "rows": evaluation.rows,
+        "full_rows": evaluation.row_errors.len(),
+        "non_assemblable": evaluation.non_assemblable,
+        "position_error_m": stats_json(evaluation.position_error.as_ref()),
+        "orientation_error_rad": stats_json(evaluation.orientation_error.as_ref()),
+        "reading_residual": residuals,
+        "row_errors": evaluation.row_errors.iter().map(|r| json!({
+            "line": r.line,
+            "position_error_m": optional(r.position_error),
+            "orientation_error_rad": optional(r.orientation_error),
+        })).collect::<Vec<_>>(),
+    })
+}
+
+/// The `legwise evaluate` JSON document: header, the evaluation, and `"against"`.
+pub fn evaluation_json(evaluation: &Evaluation, against: Option<&Evaluation>) -> Value {
+    let mut value = header();
+    merge(&mut value, evaluation_body(evaluation));
+    if let Some(other) = against {
+        merge(&mut value, json!({ "against": evaluation_body(other) }));
+    }
+    value
+}
+
+/// Millimetres (or milliradians) with three significant-looking decimals.
+fn milli(value: Option<f64>) -> String {
+    value.map_or_else(|| "-".into(), |v| format!("{:.4}", 1e3 * v))
+}
+
+/// `other / this` as "12.3x", when both are positive.
+fn factor(this: Option<f64>, other: Option<f64>) -> String {
+    match (this, other) {
+        (Some(a), Some(b)) if a > 0.0 && b.is_finite() => format!("{:.1}x", b / a),
+        _ => "-".into(),
+    }
+}
+
+/// The lines of one statistics block: rows `RMS median p95 max` with one column per evaluation.
+fn stats_rows(
+    text: &mut String,
+    title: &str,
+    unit: &str,
+    columns: &[Option<&ErrorStats>],
+    improvement: bool,
+) {
+    type Pick = fn(&ErrorStats) -> f64;
+    let picks: [(&str, Pick); 4] = [
+        ("RMS", |s| s.rms),
+        ("median", |s| s.median),
+        ("p95", |s| s.p95),
+        ("max", |s| s.max),
+    ];
+    let _ = writeln!(text, "{title} ({unit})");
+    for (name, pick) in picks {
+        let values: Vec<Option<f64>> = columns.iter().map(|s| s.map(pick)).collect();
+        let mut line = format!("  {name:<8}");
+        for v in &values {
+            let _ = write!(line, "{:>18}", milli(*v));
+        }
+        if improvement {
+            let _ = write!(line, "{:>14}", factor(values[0], values[1]));
+        }
+        let _ = writeln!(text, "{line}");
+    }
+}
+
+fn lines_text(lines: &[usize]) -> String {
+    const SHOWN: usize = 12;
+    let mut text = lines
+        .iter()
+        .take(SHOWN)
+        .map(usize::to_string)
+        .collect::<Vec<_>>()
+        .join(", ");
+    if lines.len() > SHOWN {
+        let _ = write!(text, ", … ({} in all)", lines.len());
+    }
+    text
+}
+
+/// The terminal report of `legwise evaluate` (mm and mrad), side by side with `against`.
+pub fn evaluation_text(
+    mechanism: &Mechanism,
+    evaluation: &Evaluation,
+    against: Option<&Evaluation>,
+) -> String {
+    let mut text = String::new();
+    let _ = writeln!(
+        text,
+        "legwise evaluate: {} on {} ({} rows, {} with every actuator reading)",
+        evaluation.model,
+        evaluation.measurements,
+        evaluation.rows,
+        evaluation.row_errors.len()
+    );
+    let evaluations: Vec<&Evaluation> = std::iter::once(evaluation).chain(against).collect();
+    let mut head = format!("{:<10}", "");
+    for (i, e) in evaluations.iter().enumerate() {
+        let name = std::path::Path::new(&e.model)
+            .file_name()
+            .map_or_else(|| e.model.clone(), |n| n.to_string_lossy().into_owned());
+        let label = if i == 0 { name } else { format!("vs {name}") };
+        let _ = write!(head, "{label:>18}");
+    }
+    if against.is_some() {
+        let _ = write!(head, "{:>14}", "improvement");
+    }
+    let _ = writeln!(text, "\n{head}");
+    let improvement = against.is_some();
+    let position: Vec<_> = evaluations
+        .iter()
+        .map(|e| e.position_error.as_ref())
+        .collect();
+    stats_rows(
+        &mut text,
+        "position error, forward kinematics from the readings",
+        "mm",
+        &position,
+        improvement,
+    );
+    if evaluations.iter().any(|e| e.orientation_error.is_some()) {
+        let orientation: Vec<_> = evaluations
+            .iter()
+            .map(|e| e.orientation_error.as_ref())
+            .collect();
+        stats_rows(
+            &mut text,
+            "orientation error",
+            "mrad",
+            &orientation,
+            improvement,
+        );
+    }
+    let _ = writeln!(
+        text,
+        "reading residual, measured - predicted by the leg's IK"
+    );
+    for (l, leg) in mechanism.legs.iter().enumerate() {
+        let unit = if leg.actuated_is_revolute() {
+            "mrad"
+        } else {
+            "mm"
+        };
+        for (name, pick) in [("RMS", 0), ("max", 1)] {
+            let values: Vec<Option<f64>> = evaluations
+                .iter()
+                .map(|e| {
+                    e.reading_residual
+                        .get(l)
+                        .and_then(|r| if pick == 0 { r.rms } else { r.max })
+                })
+                .collect();
+            let mut line = format!("  {:<8}", format!("{} {name}", leg.name));
+            for v in &values {
+                let _ = write!(line, "{:>13} {unit:<4}", milli(*v));
+            }
+            if improvement {
+                let _ = write!(line, "{:>14}", factor(values[0], values[1]));
+            }
+            let _ = writeln!(text, "{line}");
+        }
+    }
+    for e in &evaluations {
+        if !e.non_assemblable.is_empty() {
+            let _ = writeln!(
+                text,
+                "{}: cannot be assembled at the readings of {} row(s), CSV lines {}",
+                e.model,
+                e.non_assemblable.len(),
+                lines_text(&e.non_assemblable)
+            );
+        }
+        for leg in &e.reading_residual {
+            if !leg.unreachable.is_empty() {
+                let _ = writeln!(
+                    text,
+                    "{}: leg `{}` cannot reach the measured pose of CSV lines {}",
+                    e.model,
+                    leg.leg,
+                    lines_text(&leg.unreachable)
+                );
+            }
+        }
+    }
+    text
+}
+
+/// One line summarising an accuracy map in millimetres (and milliradians).
+pub fn map_summary(label: &str, map: &AccuracyMap) -> String {
+    let p = &map.position_error;
+    let mut text = format!(
+        "{label}: position error RMS {} mm, median {} mm, p95 {} mm, max {} mm",
+        milli(Some(p.rms)),
+        milli(Some(p.median)),
+        milli(Some(p.p95)),
+        milli(Some(p.max)),
+    );
+    if let Some(o) = &map.orientation_error {
+        let _ = write!(
+            text,
+            "; orientation error RMS {} mrad, max {} mrad",
+            milli(Some(o.rms)),
+            milli(Some(o.max))
+        );
+    }
+    let _ = write!(
+        text,
+        "; not assemblable: {} of {} points",
+        map.non_assemblable,
+        map.points.len()
+    );
+    text
+}

@@ -1,0 +1,236 @@
+//! The calibrated model: the model file and its URDF rewritten with every identified value in
+//! place of its nominal one, loadable by every legwise command.
+//!
+//! Joint-origin parameters go into the URDF (`OUT.urdf`, beside `OUT.yaml` and named by its
+//! `urdf` field); actuator gains and offsets and platform attachments into the model file. The
+//! model file's header comments say where the values came from and give each parameter's σ.
+//! This module makes the texts; the command line writes them (never over an input).
+
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+
+use crate::error::{Error, Result};
+use crate::identify::estimate::StrategyResult;
+use crate::model::file::ModelFile;
+use crate::model::joint::ORIGIN_COMPONENTS;
+use crate::model::params::ParamTarget;
+use crate::model::Mechanism;
+
+/// What the calibrated model is made from.
+#[derive(Debug, Clone, Copy)]
+pub struct Calibration<'a> {
+    /// The model that was identified.
+    pub mechanism: &'a Mechanism,
+    /// The result whose values are written.
+    pub result: &'a StrategyResult,
+    /// Where the measurements came from (a file, or a description of the simulation).
+    pub source: &'a str,
+    /// Real parameters of a simulation (per leg, model order): written as `simulation.real` so
+    /// that the calibrated model simulates the same real mechanism.
+    pub real: Option<&'a [Vec<f64>]>,
+    /// A note for the header, e.g. which of several results this is.
+    pub note: Option<&'a str>,
+}
+
+/// The two files of a calibrated model.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct CalibratedFiles {
+    /// The model file (YAML), naming the URDF.
+    pub yaml: String,
+    /// The URDF.
+    pub urdf: String,
+}
+
+/// The URDF path of the calibrated model file `out`: beside it, extension `urdf`.
+///
+/// # Errors
+/// [`Error::Invalid`] when `out` itself has the extension `urdf` (both files would coincide).
+pub fn urdf_path(out: &Path) -> Result<PathBuf> {
+    if out.extension().is_some_and(|e| e == "urdf") {
+        return Err(Error::Invalid(format!(
+            "{}: --calibrated needs another extension than .urdf (the URDF is written beside it)",
+            out.display()
+        )));
+    }
+    Ok(out.with_extension("urdf"))
+}
+
+/// The calibrated model file and URDF; the model file names the URDF `urdf_name` (a path
+/// relative to the model file: normally the file name of [`urdf_path`]).
+///
+/// # Errors
+/// The model file or the URDF cannot be read again, or the model cannot be serialised.
+pub fn calibrated_files(calibration: &Calibration<'_>, urdf_name: &str) -> Result<CalibratedFiles> {
+    let values = calibrated_values(calibration);
+    Ok(CalibratedFiles {
+        urdf: calibrated_urdf(calibration, &values)?,
+        yaml: calibrated_yaml(calibration, &values, urdf_name)?,
+    })
+}
+
+/// Per leg, every parameter's calibrated value and σ (the nominal value and no σ for legs the
+/// result did not identify).
+fn calibrated_values(calibration: &Calibration<'_>) -> Vec<Vec<(f64, Option<f64>)>> {
+    calibration
+        .mechanism
+        .legs
+        .iter()
+        .map(
+            |leg| match calibration.result.legs.iter().find(|e| e.leg == leg.name) {
+                Some(estimate) => estimate
+                    .parameters
+                    .iter()
+                    .map(|p| (p.estimate, p.std))
+                    .collect(),
+                None => leg.params.iter().map(|p| (p.nominal, None)).collect(),
+            },
+        )
+        .collect()
+}
+
+/// The URDF with the identified joint origins.
+fn calibrated_urdf(
+    calibration: &Calibration<'_>,
+    values: &[Vec<(f64, Option<f64>)>],
+) -> Result<String> {
+    let mechanism = calibration.mechanism;
+    let urdf_error = |message: String| Error::Urdf {
+        path: mechanism.urdf_path.clone(),
+        message,
+    };
+    let mut robot =
+        urdf_rs::read_file(&mechanism.urdf_path).map_err(|e| urdf_error(e.to_string()))?;
+    for (leg, leg_values) in mechanism.legs.iter().zip(values) {
+        for (param, &(value, _)) in leg.params.iter().zip(leg_values) {
+            if let ParamTarget::JointOrigin { joint, component } = param.target {
+                let name = &leg.joints[joint].name;
+                let urdf_joint = robot
+                    .joints
+                    .iter_mut()
+                    .find(|j| &j.name == name)
+                    .ok_or_else(|| urdf_error(format!("joint `{name}` not found")))?;
+                match component {
+                    0..=2 => urdf_joint.origin.xyz.0[component] = value,
+                    _ => urdf_joint.origin.rpy.0[component - 3] = value,
+                }
+            }
+        }
+    }
+    let text = urdf_rs::write_to_string(&robot).map_err(|e| urdf_error(e.to_string()))?;
+    let comment = format!(
+        "<!-- Calibrated URDF written by legwise {}: the joint origins hold the values identified\n     from {} (see the model file beside it). -->\n",
+        env!("CARGO_PKG_VERSION"),
+        calibration.source.replace("--", "- -")
+    );
+    Ok(match text.strip_prefix("<?xml") {
+        Some(_) => match text.find("?>") {
+            Some(end) => format!("{}\n{comment}{}", &text[..end + 2], &text[end + 2..]),
+            None => format!("{comment}{text}"),
+        },
+        None => format!("<?xml version=\"1.0\"?>\n{comment}{text}"),
+    })
+}
+
+/// The model file with the identified actuator and attachment values and the new URDF name.
+fn calibrated_yaml(
+    calibration: &Calibration<'_>,
+    values: &[Vec<(f64, Option<f64>)>],
+    urdf_name: &str,
+) -> Result<String> {
+    let mechanism = calibration.mechanism;
+    let mut file = ModelFile::read(&mechanism.model_path)?;
+    file.urdf = urdf_name.to_string();
+    for (leg, leg_values) in mechanism.legs.iter().zip(values) {
+        let Some(entry) = file.legs.iter_mut().find(|e| e.name == leg.name) else {
+            continue;
+        };
+        for (param, &(value, _)) in leg.params.iter().zip(leg_values) {
+            match param.target {
+                ParamTarget::Gain => entry.actuator.gain = value,
+                ParamTarget::Offset => entry.actuator.offset = value,
+                ParamTarget::Attachment { component } => {
+                    entry.attachment.get_or_insert(leg.attachment)[component] = value
+                }
+                ParamTarget::JointOrigin { .. } => {}
+            }
+        }
+    }
+    if let (Some(real), Some(simulation)) = (calibration.real, file.simulation.as_mut()) {
+        simulation.real = mechanism
+            .legs
+            .iter()
+            .zip(real)
+            .flat_map(|(leg, phi)| leg.params.iter().map(|p| p.name.clone()).zip(phi.clone()))
+            .collect::<BTreeMap<_, _>>();
+        simulation.perturbation = None;
+    }
+    let body = serde_saphyr::to_string(&file).map_err(|e| Error::Yaml {
+        path: mechanism.model_path.clone(),
+        message: format!("cannot write the calibrated model: {e}"),
+    })?;
+    Ok(format!("{}{body}", header(calibration, values, urdf_name)))
+}
+
+/// The comment block at the top of the calibrated model file.
+fn header(
+    calibration: &Calibration<'_>,
+    values: &[Vec<(f64, Option<f64>)>],
+    urdf_name: &str,
+) -> String {
+    let mechanism = calibration.mechanism;
+    let result = calibration.result;
+    let mut lines = vec![
+        format!(
+            "Calibrated model written by legwise {} (identify --calibrated).",
+            env!("CARGO_PKG_VERSION")
+        ),
+        format!("Identified from: {}", calibration.source),
+        format!(
+            "Strategy: {}; solver: {}.",
+            result.strategy.name(),
+            result.solver.name()
+        ),
+    ];
+    if let Some(note) = calibration.note {
+        lines.push(note.to_string());
+    }
+    lines.push(format!(
+        "Original model: {}. Every identified value replaces its nominal one: joint origins in",
+        mechanism.model_path.display()
+    ));
+    lines.push(format!(
+        "{urdf_name}, actuator gains and offsets and attachments below."
+    ));
+    if calibration.real.is_some() {
+        lines.push(
+            "simulation.real lists the simulated real values, so that simulating this model simulates the same mechanism."
+                .into(),
+        );
+    }
+    lines.push("Values (SI units) with their standard deviation σ = σ̂ √diag (CᵀC)⁻¹:".into());
+    for (leg, leg_values) in mechanism.legs.iter().zip(values) {
+        for (param, &(value, std)) in leg.params.iter().zip(leg_values) {
+            let unit = param.unit;
+            let status = match (param.identified, std) {
+                (false, _) => "fixed (not identified)".to_string(),
+                (true, Some(s)) => format!("σ = {s:.3e} {unit}"),
+                (true, None) => "σ unknown (no redundancy, or the leg was not identified)".into(),
+            };
+            let origin = match param.target {
+                ParamTarget::JointOrigin { joint, component } => format!(
+                    " (joint {} origin {})",
+                    leg.joints[joint].name, ORIGIN_COMPONENTS[component]
+                ),
+                _ => String::new(),
+            };
+            lines.push(format!(
+                "  {}: {} = {value} {unit}{origin}, nominal was {}; {status}",
+                leg.name, param.name, param.nominal
+            ));
+        }
+    }
+    lines
+        .iter()
+        .map(|line| format!("# {line}\n"))
+        .collect::<String>()
+}
