@@ -7,6 +7,7 @@ use crate::evaluate::held_out::evaluate;
 use crate::evaluate::report::{evaluation_json, evaluation_text};
 use crate::measure::file;
 use crate::model::Mechanism;
+use crate::report::plots::files::{evaluate_picture, POSITION_ERRORS};
 
 pub(super) fn run(args: &EvaluateArgs) -> anyhow::Result<Verdict> {
     let mechanism = Mechanism::load(&args.model)?;
@@ -24,9 +25,11 @@ pub(super) fn run(args: &EvaluateArgs) -> anyhow::Result<Verdict> {
         .as_deref()
         .map(|path| Output::prepare("--json", path, &inputs))
         .transpose()?;
-    if args.plots.is_some() {
-        anyhow::bail!("--plots: the evaluation pictures are not available in this build yet");
-    }
+    let format = super::pictures::format(args.png);
+    let picture_output = match &args.plots {
+        Some(dir) => super::pictures::prepare(dir, &[POSITION_ERRORS], format, &inputs)?.pop(),
+        None => None,
+    };
     let mut console = Console::new(json_output.as_ref().is_some_and(Output::is_stdout));
     let evaluation = evaluate(&mechanism, &file::read(&args.measurements, &mechanism)?)?;
     let against = match &other {
@@ -39,9 +42,33 @@ pub(super) fn run(args: &EvaluateArgs) -> anyhow::Result<Verdict> {
         let text = serde_json::to_string_pretty(&value)? + "\n";
         output.write("JSON evaluation", text.as_bytes())?;
     }
+    if let Some(output) = &picture_output {
+        // The other model (typically the nominal one) is drawn first, as "before".
+        let (model, other_name) = (
+            file_name(&args.model),
+            args.against.as_deref().map(file_name),
+        );
+        let mut drawn = Vec::new();
+        if let (Some(name), Some(against)) = (&other_name, &against) {
+            drawn.push((name.as_str(), against));
+        }
+        drawn.push((model.as_str(), &evaluation));
+        output.write("picture", &evaluate_picture(&drawn, format)?)?;
+    }
     console.print(&evaluation_text(&mechanism, &evaluation, against.as_ref()))?;
     if let Some(output) = json_output.filter(|o| !o.is_stdout()) {
         console.line(format_args!("\nJSON written to {}", output.name()))?;
     }
+    if let Some(output) = picture_output {
+        console.line(format_args!("picture written to {}", output.name()))?;
+    }
     Ok(Verdict::Trusted)
+}
+
+/// A model's file name, for the picture's legend.
+fn file_name(path: &std::path::Path) -> String {
+    path.file_name().map_or_else(
+        || path.display().to_string(),
+        |n| n.to_string_lossy().into_owned(),
+    )
 }

@@ -12,6 +12,7 @@ use crate::identify::trust::trust_issues;
 use crate::measure::{file, MeasurementSet};
 use crate::model::Mechanism;
 use crate::report::calibrated::{calibrated_files, urdf_path, Calibration};
+use crate::report::plots::files::{identify_picture_names, identify_pictures, Maps};
 use crate::report::{json, terminal, IdentifyReport};
 
 /// The name of standard input in messages.
@@ -32,6 +33,7 @@ pub(super) fn run(args: &IdentifyArgs) -> anyhow::Result<Verdict> {
         .map(|path| Output::prepare("--json", path, &inputs))
         .transpose()?;
     let calibrated_outputs = calibrated_outputs(args, &inputs)?;
+    let picture_outputs = picture_outputs(args, &inputs)?;
     check_map(args, &mechanism)?;
     let mut console = Console::new(json_output.as_ref().is_some_and(Output::is_stdout));
     let (data, real, source) = match &args.measurements {
@@ -87,6 +89,9 @@ pub(super) fn run(args: &IdentifyArgs) -> anyhow::Result<Verdict> {
         let text = serde_json::to_string_pretty(&value)? + "\n";
         output.write("JSON report", text.as_bytes())?;
     }
+    if let Some(outputs) = &picture_outputs {
+        write_pictures(args, &report, maps.as_ref(), &data, outputs)?;
+    }
     console.print(&terminal::render(&report))?;
     if let Some((before, after)) = &maps {
         console.print(&maps_text(args, &report, before, after))?;
@@ -108,6 +113,9 @@ pub(super) fn run(args: &IdentifyArgs) -> anyhow::Result<Verdict> {
     }
     if let Some(output) = json_output.filter(|o| !o.is_stdout()) {
         console.line(format_args!("\nJSON report written to {}", output.name()))?;
+    }
+    for output in picture_outputs.iter().flatten() {
+        console.line(format_args!("picture written to {}", output.name()))?;
     }
     Ok(verdict)
 }
@@ -263,4 +271,39 @@ fn same_destination(a: &Path, b: &Path) -> bool {
         (dir, p.file_name().map(|n| n.to_os_string()))
     };
     resolve(a) == resolve(b)
+}
+
+/// `--plots DIR`: simulation only; one checked output per picture, before any work.
+fn picture_outputs(
+    args: &IdentifyArgs,
+    inputs: &[Input<'_>],
+) -> anyhow::Result<Option<Vec<Output>>> {
+    let Some(dir) = &args.pictures.plots else {
+        return Ok(None);
+    };
+    if args.measurements.is_some() {
+        anyhow::bail!("--plots: the pictures compare with the real parameters, known only in simulation (drop --measurements)");
+    }
+    let names = identify_picture_names(args.after.map.is_some());
+    let format = super::pictures::format(args.pictures.png);
+    Ok(Some(super::pictures::prepare(dir, &names, format, inputs)?))
+}
+
+/// Draws the parameter errors and, with `--map`, the accuracy map with the identification
+/// poses, into `outputs` (from [`picture_outputs`]).
+fn write_pictures(
+    args: &IdentifyArgs,
+    report: &IdentifyReport<'_>,
+    maps: Option<&(AccuracyMap, Vec<AccuracyMap>)>,
+    data: &MeasurementSet,
+    outputs: &[Output],
+) -> anyhow::Result<()> {
+    let maps = maps.map(|(before, after)| Maps { before, after });
+    let poses: Vec<[f64; 2]> = data.poses.iter().map(|p| [p.pose[0], p.pose[1]]).collect();
+    let format = super::pictures::format(args.pictures.png);
+    let pictures = identify_pictures(report, maps, &poses, format)?;
+    for (output, bytes) in outputs.iter().zip(&pictures) {
+        output.write("picture", bytes)?;
+    }
+    Ok(())
 }

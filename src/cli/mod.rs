@@ -8,6 +8,7 @@ mod evaluate;
 mod help;
 mod identify;
 mod output;
+mod pictures;
 mod select;
 mod simulate;
 mod workspace;
@@ -65,9 +66,12 @@ pub struct EvaluateArgs {
     /// Also write the evaluation as JSON to this file.
     #[arg(long)]
     pub json: Option<PathBuf>,
-    /// Directory for the pictures.
-    #[arg(long)]
+    /// Directory for the pictures (created if missing): the distribution of position errors.
+    #[arg(long, value_name = "DIR")]
     pub plots: Option<PathBuf>,
+    /// Draw the pictures as PNG instead of SVG.
+    #[arg(long)]
+    pub png: bool,
 }
 
 /// `identify` options for after the fit: the calibrated model and the accuracy map.
@@ -92,10 +96,16 @@ pub struct WorkspaceArgs {
     /// The model file (YAML).
     #[arg(long)]
     pub model: PathBuf,
-    /// Where to write the SVG picture (default: `<model name>-workspace.svg`; `-`: standard
-    /// output).
+    /// Where to write the picture, SVG or PNG by the extension (default:
+    /// `<model name>-workspace.svg`, or `.png` with `--png`; `-`: standard output).
+    #[arg(long, visible_alias = "svg")]
+    pub out: Option<PathBuf>,
+    /// Draw the picture as PNG instead of SVG (the default name, or standard output).
     #[arg(long)]
-    pub svg: Option<PathBuf>,
+    pub png: bool,
+    /// A pose file to draw on the picture (measurement CSV layout; readings may be empty).
+    #[arg(long)]
+    pub poses: Option<PathBuf>,
     /// Rays cast to trace the region's boundary (16 to 100000).
     #[arg(long, default_value_t = 1440, allow_negative_numbers = true)]
     pub rays: i64,
@@ -137,6 +147,21 @@ pub struct IdentifyArgs {
     /// Calibrated model and accuracy map.
     #[command(flatten)]
     pub after: AfterFitArgs,
+    /// Pictures.
+    #[command(flatten)]
+    pub pictures: IdentifyPlotArgs,
+}
+
+/// `identify` options for the pictures.
+#[derive(Debug, Clone, clap::Args)]
+pub struct IdentifyPlotArgs {
+    /// Simulation only: write the pictures to this directory (created if missing): the
+    /// parameter errors before and after, and with `--map` the accuracy map.
+    #[arg(long, value_name = "DIR")]
+    pub plots: Option<PathBuf>,
+    /// Draw the pictures as PNG instead of SVG.
+    #[arg(long)]
+    pub png: bool,
 }
 
 /// `--weights`.

@@ -129,6 +129,8 @@ pub struct SolverRun {
     pub converged: bool,
     /// Why the solver stopped (its `Display` is a sentence for humans).
     pub stop_reason: StopReason,
+    /// Gauss–Newton refinement steps taken after the solver converged.
+    pub refinement_steps: usize,
     /// ½‖r‖² before.
     pub initial_cost: f64,
     /// ½‖r‖² after.
@@ -314,15 +316,12 @@ pub fn identify_problem(
         });
     }
     // Observability is a property of the design: always of the unweighted Jacobian.
-    let unweighted_c = match problem.weights() {
-        Some(_) => {
-            problem
-                .unweighted()
-                .residuals_and_jacobian(&outcome.x)
-                .map_err(|e| located(mechanism, data, problem, e))?
-                .1
-        }
-        None => c.clone(),
+    let (unweighted_r, unweighted_c) = match problem.weights() {
+        Some(_) => problem
+            .unweighted()
+            .residuals_and_jacobian(&outcome.x)
+            .map_err(|e| located(mechanism, data, problem, e))?,
+        None => (r.clone(), c.clone()),
     };
     let mut estimates = Vec::new();
     for slot in problem.slots() {
@@ -338,6 +337,7 @@ pub fn identify_problem(
             r0: &r0,
             r: &r,
             c: &c,
+            unweighted_r: &unweighted_r,
             unweighted_c: &unweighted_c,
             excluded,
         };
@@ -360,6 +360,7 @@ pub fn identify_problem(
         iterations: outcome.iterations,
         converged: outcome.converged,
         stop_reason: outcome.stop_reason,
+        refinement_steps: outcome.refinement_steps,
         initial_cost: 0.5 * r0.norm_squared(),
         final_cost: 0.5 * r.norm_squared(),
         residual_evaluations: outcome.residual_evaluations,
@@ -397,6 +398,7 @@ struct Fit<'f> {
     r0: &'f DVector<f64>,
     r: &'f DVector<f64>,
     c: &'f DMatrix<f64>,
+    unweighted_r: &'f DVector<f64>,
     unweighted_c: &'f DMatrix<f64>,
     excluded: &'f [usize],
 }
@@ -455,7 +457,8 @@ fn leg_estimate(
             .iter()
             .map(|&i| RowResidual {
                 line: problem.blocks()[i].line,
-                residual: -r[i] / problem.row_scale(i),
+                // Unweighted: a robust fit may give a row zero weight.
+                residual: -fit.unweighted_r[i],
             })
             .collect(),
     }
@@ -547,5 +550,25 @@ fn located(
             message: error.source.to_string(),
         },
         _ => Error::Invalid(format!("simulated pose {pose_text}: {}", error.source)),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::unscaled_covariance;
+    use nalgebra::DMatrix;
+
+    #[test]
+    fn unscaled_covariance_is_the_inverse_of_the_normal_matrix_or_none_when_singular() {
+        // CᵀC = [[2, 1], [1, 2]]: (CᵀC)⁻¹ = [[2, −1], [−1, 2]]/3.
+        let c = DMatrix::from_row_slice(3, 2, &[1.0, 0.0, 0.0, 1.0, 1.0, 1.0]);
+        let expected = DMatrix::from_row_slice(2, 2, &[2.0, -1.0, -1.0, 2.0]) / 3.0;
+        assert!((unscaled_covariance(&c).unwrap() - expected).amax() < 1e-15);
+        let scaled = DMatrix::from_row_slice(3, 2, &[10.0, 0.0, 0.0, 0.5, 0.0, 0.0]);
+        let expected = DMatrix::from_row_slice(2, 2, &[0.01, 0.0, 0.0, 4.0]);
+        assert!((unscaled_covariance(&scaled).unwrap() - expected).amax() < 1e-14);
+        // s_min/s_max = 1e-15: singular to working precision, no covariance.
+        let singular = DMatrix::from_row_slice(3, 2, &[10.0, 0.0, 0.0, 1e-14, 0.0, 0.0]);
+        assert_eq!(unscaled_covariance(&singular), None);
     }
 }

@@ -146,6 +146,7 @@ mod tests {
                 iterations: 3,
                 converged: true,
                 stop_reason: StopReason::CostReduction,
+                refinement_steps: 0,
                 initial_cost: 1.0,
                 final_cost,
                 residual_evaluations: 4,

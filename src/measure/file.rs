@@ -60,6 +60,28 @@ pub fn read_from(
 /// # Errors
 /// As [`read`].
 pub fn parse(text: &str, path: &Path, mechanism: &Mechanism) -> Result<MeasurementSet> {
+    parse_rows(text, path, mechanism, true)
+}
+
+/// Reads a pose file in the measurement layout for drawing: as [`read`], but a labelled row's
+/// reading may be empty (the poses `legwise select` writes, before they are measured).
+///
+/// # Errors
+/// As [`read`], except for empty readings.
+pub fn read_poses(path: &Path, mechanism: &Mechanism) -> Result<MeasurementSet> {
+    let text = std::fs::read_to_string(path).map_err(|error| Error::Io {
+        path: path.to_path_buf(),
+        error,
+    })?;
+    parse_rows(&text, path, mechanism, false)
+}
+
+fn parse_rows(
+    text: &str,
+    path: &Path,
+    mechanism: &Mechanism,
+    require_readings: bool,
+) -> Result<MeasurementSet> {
     let fail = |location: String, message: String| Error::Measurement {
         path: path.to_path_buf(),
         location,
@@ -177,7 +199,7 @@ pub fn parse(text: &str, path: &Path, mechanism: &Mechanism) -> Result<Measureme
         for &column in &reading_columns {
             readings.push(number(column, "SI units (radians or metres)")?);
         }
-        if let Some(l) = leg {
+        if let Some(l) = leg.filter(|_| require_readings) {
             if readings[l].is_none() {
                 return Err(fail(
                     format!("line {line}, column `{}`", mechanism.actuated_names()[l]),

@@ -88,35 +88,58 @@ fn check_unique(kind: &str, declarations: &[Declaration]) -> Result<(), String> 
     Ok(())
 }
 
-/// 1-based line of byte offset `position` in `text`.
-fn line_at(text: &str, position: u64) -> usize {
-    let end = usize::try_from(position)
-        .unwrap_or(usize::MAX)
-        .min(text.len());
-    text.as_bytes()[..end]
-        .iter()
-        .filter(|&&b| b == b'\n')
-        .count()
-        + 1
+/// 1-based line numbers of increasing byte offsets, counted incrementally (linear in the text,
+/// however many elements it holds).
+struct Lines<'a> {
+    text: &'a [u8],
+    offset: usize,
+    line: usize,
+}
+
+impl<'a> Lines<'a> {
+    fn new(text: &'a str) -> Self {
+        Self {
+            text: text.as_bytes(),
+            offset: 0,
+            line: 1,
+        }
+    }
+
+    /// The line of byte `position` (positions before the last one asked give that one's line).
+    fn at(&mut self, position: u64) -> usize {
+        let end = usize::try_from(position)
+            .unwrap_or(usize::MAX)
+            .min(self.text.len());
+        if end > self.offset {
+            self.line += self.text[self.offset..end]
+                .iter()
+                .filter(|&&b| b == b'\n')
+                .count();
+            self.offset = end;
+        }
+        self.line
+    }
 }
 
 /// Streams through the XML once: checks it is well-formed and nests at most
 /// [`MAX_XML_DEPTH`] elements deep, and records the `<link>` and `<joint>` children of the root.
 fn scan(text: &str) -> Result<Declarations, String> {
     let mut reader = Reader::from_str(text);
+    let mut lines = Lines::new(text);
     let mut depth = 0usize;
     let mut declarations = Declarations::default();
     loop {
         let start = reader.buffer_position();
-        let event = reader.read_event().map_err(|err| {
-            format!(
-                "line {}: not well-formed XML: {err}",
-                line_at(text, reader.error_position())
-            )
-        })?;
+        let event = match reader.read_event() {
+            Ok(event) => event,
+            Err(err) => {
+                let line = lines.at(reader.error_position());
+                return Err(format!("line {line}: not well-formed XML: {err}"));
+            }
+        };
         match event {
             Event::Start(ref element) | Event::Empty(ref element) => {
-                let line = line_at(text, start);
+                let line = lines.at(start);
                 if depth >= MAX_XML_DEPTH {
                     return Err(format!(
                         "line {line}: element <{}> is nested {} levels deep; at most \
@@ -138,7 +161,7 @@ fn scan(text: &str) -> Result<Declarations, String> {
     if depth > 0 {
         return Err(format!(
             "line {}: not well-formed XML: {depth} element(s) not closed at the end of the file",
-            line_at(text, text.len() as u64)
+            lines.at(text.len() as u64)
         ));
     }
     Ok(declarations)

@@ -157,6 +157,7 @@ fn result(report: &IdentifyReport<'_>, result: &StrategyResult) -> Value {
                     "iterations": run.iterations,
                     "converged": run.converged,
                     "stop_reason": run.stop_reason.key(),
+                    "refinement_steps": run.refinement_steps,
                     "cost_before": finite(run.initial_cost),
                     "cost_after": finite(run.final_cost),
                     "residual_evaluations": run.residual_evaluations,

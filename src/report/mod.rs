@@ -1,6 +1,7 @@
 //! Reports of an identification: the values (this module), terminal tables and JSON.
 pub mod calibrated;
 pub mod json;
+pub mod plots;
 pub mod terminal;
 
 use crate::identify::estimate::{LegEstimate, StrategyResult};

@@ -114,9 +114,14 @@ fn render_result(out: &mut String, report: &IdentifyReport<'_>, result: &Strateg
             } else {
                 "NOT CONVERGED"
             };
+            let refined = match run.refinement_steps {
+                0 => String::new(),
+                1 => "; refined by 1 Gauss-Newton step".to_string(),
+                n => format!("; refined by {n} Gauss-Newton steps"),
+            };
             let _ = writeln!(
                 out,
-                "  solver: {}, {} iterations, {} residual / {} Jacobian evaluations, {:.2} ms: {verdict} ({}){shared}",
+                "  solver: {}, {} iterations, {} residual / {} Jacobian evaluations, {:.2} ms: {verdict} ({}){refined}{shared}",
                 result.solver.name(),
                 run.iterations,
                 run.residual_evaluations,

@@ -110,7 +110,14 @@ pub fn divide_and_conquer(
                 .map(|c| DMatrix::from_row_slice(1, c.rows[leg].len(), c.rows[leg].as_slice()))
                 .collect();
             let selection = select(&candidates, &options(count, criterion)).map_err(|err| {
-                selection_error(mechanism, leg, err, || leg_rows(pool, leg, &all), &names)
+                selection_error(
+                    mechanism,
+                    pool,
+                    leg,
+                    err,
+                    || leg_rows(pool, leg, &all),
+                    &names,
+                )
             })?;
             let observability = analyse(&leg_rows(pool, leg, &selection.indices), &names);
             Ok(LegDesign {
@@ -179,12 +186,13 @@ pub fn traditional(
         match leg {
             Some(l) => selection_error(
                 mechanism,
+                pool,
                 l,
                 err,
                 || leg_rows(pool, l, &all),
                 &names(mechanism, l),
             ),
-            None => selection_error(mechanism, first, err, || stack(&all), &all_names),
+            None => selection_error(mechanism, pool, first, err, || stack(&all), &all_names),
         }
     })?;
     Ok(SharedDesign {
@@ -206,6 +214,7 @@ pub fn traditional(
 /// Turns a selection failure into an error; a rank-deficient pool names the parameters.
 fn selection_error(
     mechanism: &Mechanism,
+    pool: &CandidatePool,
     leg: usize,
     error: SelectionError,
     pool_rows: impl Fn() -> DMatrix<f64>,
@@ -225,6 +234,23 @@ fn selection_error(
                     observability.null_directions.join("; ")
                 ),
             }
+        }
+        SelectionError::NonFinite { index } => {
+            let (name, value) = mechanism
+                .legs
+                .iter()
+                .flat_map(|l| &l.params)
+                .map(|p| (p.name.as_str(), p.nominal))
+                .fold(
+                    ("", 0.0f64),
+                    |a, b| if b.1.abs() > a.1.abs() { b } else { a },
+                );
+            Error::Invalid(format!(
+                "{}: the identification Jacobian overflows at candidate pose {}: the nominal \
+                 parameters are too large to compute with (largest: {name} = {value:e})",
+                mechanism.model_path.display(),
+                mechanism.pose_text(&pool.candidates[index].pose)
+            ))
         }
         other => Error::Invalid(format!(
             "pose selection for leg `{}`: {other}",

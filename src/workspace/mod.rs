@@ -1,5 +1,6 @@
 //! The robot's usable workspace (region, margin, ranges) and candidate poses.
 pub mod candidates;
+pub mod contour;
 pub mod design;
 pub mod miw;
 pub mod picture;

@@ -1,19 +1,35 @@
-//! An SVG picture of the singularity-free region, the singular curves and the MIW. Plain SVG
-//! text: no fonts or system libraries are needed to write it.
+//! The data of the workspace picture: the singularity-free region, its singular curves traced
+//! smoothly (marching squares on the singularity measures with sub-cell crossings, bisected
+//! on the real measures where a leg loses reach) and the MIW. Drawn by
+//! [`crate::report::plots::workspace`].
 
-use std::fmt::Write;
+use std::collections::VecDeque;
 
+use super::contour::{zero_contours, Polyline, Samples, Undefined};
 use super::miw::{Miw, SingularityMargin};
+use crate::kinematics::inverse::LegSolution;
+use crate::report::plots::workspace::{PoseGroup, WorkspaceFigure};
 
-/// Grid cells per side used to trace the singular curves.
-const GRID: usize = 140;
+/// Grid cells per side sampled to trace the singular curves of the picture.
+pub const GRID: usize = 120;
 
-/// Draws the MIW picture: the singularity-free region seen from the MIW centre (green), the
-/// zero crossings of the serial measures (red: a leg stretched, folded or out of reach) and of
-/// the parallel measure (blue), and the maximal inscribed circle.
-pub fn miw_svg(margin: &SingularityMargin<'_>, miw: &Miw, title: &str) -> String {
+/// Bisection steps on an edge between a reachable and an unreachable node (2⁻²⁰ of a cell, then extrapolated).
+const BISECTIONS: usize = 20;
+
+/// The workspace picture of `miw`, with the singular curves of `margin` over the region around
+/// it, and `poses` drawn on top.
+pub fn workspace_figure(
+    margin: &SingularityMargin<'_>,
+    miw: &Miw,
+    title: &str,
+    poses: Vec<PoseGroup>,
+) -> WorkspaceFigure {
     let (mut lo, mut hi) = ([f64::INFINITY; 2], [f64::NEG_INFINITY; 2]);
-    for p in &miw.boundary {
+    let points = miw
+        .boundary
+        .iter()
+        .chain(poses.iter().flat_map(|g| g.points.iter()));
+    for p in points {
         for k in 0..2 {
             lo[k] = lo[k].min(p[k]);
             hi[k] = hi[k].max(p[k]);
@@ -21,106 +37,198 @@ pub fn miw_svg(margin: &SingularityMargin<'_>, miw: &Miw, title: &str) -> String
     }
     let pad = 0.25 * (hi[0] - lo[0]).max(hi[1] - lo[1]);
     let (lo, hi) = ([lo[0] - pad, lo[1] - pad], [hi[0] + pad, hi[1] + pad]);
-    let size = 640.0;
-    let scale = size / (hi[0] - lo[0]).max(hi[1] - lo[1]);
-    let x = |v: f64| 20.0 + (v - lo[0]) * scale;
-    let y = |v: f64| 40.0 + (hi[1] - v) * scale;
-    let mut svg = String::new();
-    let width = 40.0 + (hi[0] - lo[0]) * scale;
-    let height = 80.0 + (hi[1] - lo[1]) * scale;
-    let _ = writeln!(
-        svg,
-        r#"<svg xmlns="http://www.w3.org/2000/svg" width="{width:.0}" height="{height:.0}" viewBox="0 0 {width:.0} {height:.0}" font-family="sans-serif" font-size="13">"#
-    );
-    let _ = writeln!(svg, r#"<rect width="100%" height="100%" fill="white"/>"#);
-    let _ = writeln!(svg, r#"<text x="20" y="24">{}</text>"#, escape(title));
-    let points: Vec<String> = miw
-        .boundary
+    let SingularCurves { serial, parallel } = singular_curves(margin, (lo, hi), miw.centre, GRID);
+    WorkspaceFigure {
+        title: title.to_string(),
+        region: miw.boundary.clone(),
+        serial,
+        parallel,
+        miw_centre: miw.centre,
+        miw_radius: miw.radius,
+        poses,
+        bounds: (lo, hi),
+    }
+}
+
+/// The singular curves of a region.
+#[derive(Debug, Clone, PartialEq)]
+pub struct SingularCurves {
+    /// Zero crossings of the smallest serial measure (a leg stretched, folded, out of reach).
+    pub serial: Vec<Polyline>,
+    /// Zero crossings of the parallel measure.
+    pub parallel: Vec<Polyline>,
+}
+
+/// Polylines of the serial (smallest leg measure) and parallel zero crossings over the
+/// rectangle `lo`–`hi`, continuing the legs' solutions from `start` (a point inside the
+/// singularity-free region, such as the MIW centre), on a grid of `cells × cells` cells.
+pub fn singular_curves(
+    margin: &SingularityMargin<'_>,
+    (lo, hi): ([f64; 2], [f64; 2]),
+    start: [f64; 2],
+    cells: usize,
+) -> SingularCurves {
+    let cells = cells.max(1);
+    let step = [
+        (hi[0] - lo[0]) / cells as f64,
+        (hi[1] - lo[1]) / cells as f64,
+    ];
+    let sampled = sample_from_home(margin, lo, step, cells + 1, start);
+    let serial: Vec<Vec<Option<f64>>> = sampled
         .iter()
-        .map(|p| format!("{:.2},{:.2}", x(p[0]), y(p[1])))
+        .map(|column| {
+            column
+                .iter()
+                .map(|m| m.as_ref().map(|n| n.serial))
+                .collect()
+        })
         .collect();
-    let _ = writeln!(
-        svg,
-        r##"<polygon points="{}" fill="#d8f0d0" stroke="#4a8a3a" stroke-width="1"/>"##,
-        points.join(" ")
+    let parallel: Vec<Vec<Option<f64>>> = sampled
+        .iter()
+        .map(|column| {
+            column
+                .iter()
+                .map(|m| m.as_ref().map(|n| n.parallel))
+                .collect()
+        })
+        .collect();
+    let node = |p: [f64; 2]| {
+        let i = ((p[0] - lo[0]) / step[0]).round();
+        let j = ((p[1] - lo[1]) / step[1]).round();
+        sampled
+            .get(i as usize)
+            .and_then(|column| column.get(j as usize))
+            .and_then(Option::as_ref)
+    };
+    let reach = |inside: [f64; 2], outside: [f64; 2]| match node(inside) {
+        Some(sample) => reach_limit(margin, (&sample.solutions, sample.serial), inside, outside),
+        None => [
+            0.5 * (inside[0] + outside[0]),
+            0.5 * (inside[1] + outside[1]),
+        ],
+    };
+    let serial = zero_contours(
+        Samples {
+            values: &serial,
+            lo,
+            step,
+        },
+        Undefined::Outside,
+        &reach,
     );
-    // Singular curves: zero crossings of the measures between neighbouring grid points.
-    let step = [(hi[0] - lo[0]) / GRID as f64, (hi[1] - lo[1]) / GRID as f64];
-    let sample = margin.sample_grid(lo, step, GRID + 1);
-    for i in 0..=GRID {
-        for j in 0..=GRID {
-            for (di, dj) in [(1, 0), (0, 1)] {
-                let (a, b) = (i + di, j + dj);
-                if a > GRID || b > GRID {
-                    continue;
-                }
-                let here = [
-                    lo[0] + (i as f64 + 0.5 * di as f64) * step[0],
-                    lo[1] + (j as f64 + 0.5 * dj as f64) * step[1],
-                ];
-                let (serial, parallel) = crossing(sample[i][j], sample[a][b]);
-                if serial {
-                    let _ = writeln!(
-                        svg,
-                        r##"<circle cx="{:.2}" cy="{:.2}" r="1.1" fill="#c0392b"/>"##,
-                        x(here[0]),
-                        y(here[1])
-                    );
-                }
-                if parallel {
-                    let _ = writeln!(
-                        svg,
-                        r##"<circle cx="{:.2}" cy="{:.2}" r="1.1" fill="#2455c3"/>"##,
-                        x(here[0]),
-                        y(here[1])
-                    );
-                }
+    let parallel = zero_contours(
+        Samples {
+            values: &parallel,
+            lo,
+            step,
+        },
+        Undefined::Skip,
+        &|a, _| a,
+    );
+    SingularCurves { serial, parallel }
+}
+
+/// The measures and the legs' solutions at one grid node.
+struct Node {
+    serial: f64,
+    parallel: f64,
+    solutions: Vec<LegSolution>,
+}
+
+/// The measures on the `count × count` grid from `lo`, by continuation from the node nearest
+/// `home` (solved from the mechanism's home joints) to its neighbours, breadth first: a node is defined
+/// when every leg reaches it on its home branch continuing from a defined neighbour, so the
+/// undefined nodes are exactly those beyond a serial singularity or out of reach.
+fn sample_from_home(
+    margin: &SingularityMargin<'_>,
+    lo: [f64; 2],
+    step: [f64; 2],
+    count: usize,
+    home: [f64; 2],
+) -> Vec<Vec<Option<Node>>> {
+    let point = |i: usize, j: usize| [lo[0] + i as f64 * step[0], lo[1] + j as f64 * step[1]];
+    let mut nodes: Vec<Vec<Option<Node>>> = (0..count)
+        .map(|_| (0..count).map(|_| None).collect())
+        .collect();
+    let index = |v: f64, lo: f64, step: f64| {
+        ((v - lo) / step).round().clamp(0.0, (count - 1) as f64) as usize
+    };
+    let start = (
+        index(home[0], lo[0], step[0]),
+        index(home[1], lo[1], step[1]),
+    );
+    let Ok(((serial, parallel), solutions)) = margin.measures_from(point(start.0, start.1), None)
+    else {
+        return nodes;
+    };
+    nodes[start.0][start.1] = Some(Node {
+        serial,
+        parallel,
+        solutions,
+    });
+    let mut queue = VecDeque::from([start]);
+    while let Some((i, j)) = queue.pop_front() {
+        let neighbours = [
+            (i.wrapping_sub(1), j),
+            (i + 1, j),
+            (i, j.wrapping_sub(1)),
+            (i, j + 1),
+        ];
+        for (a, b) in neighbours {
+            if a >= count || b >= count || nodes[a][b].is_some() {
+                continue;
+            }
+            let seeds = &nodes[i][j].as_ref().map(|n| n.solutions.clone());
+            let Some(seeds) = seeds else { continue };
+            if let Ok(((serial, parallel), solutions)) =
+                margin.measures_from(point(a, b), Some(seeds))
+            {
+                nodes[a][b] = Some(Node {
+                    serial,
+                    parallel,
+                    solutions,
+                });
+                queue.push_back((a, b));
             }
         }
     }
-    let _ = writeln!(
-        svg,
-        r##"<circle cx="{:.2}" cy="{:.2}" r="{:.2}" fill="none" stroke="black" stroke-width="2"/>"##,
-        x(miw.centre[0]),
-        y(miw.centre[1]),
-        miw.radius * scale
-    );
-    let _ = writeln!(
-        svg,
-        r##"<path d="M {:.2} {:.2} h 10 m -5 -5 v 10" stroke="black" transform="translate(-5 0)"/>"##,
-        x(miw.centre[0]),
-        y(miw.centre[1])
-    );
-    let legend = format!(
-        "MIW centre ({:.6}, {:.6}) m, radius {:.6} m",
-        crate::report::tidy(miw.centre[0], 6),
-        crate::report::tidy(miw.centre[1], 6),
-        miw.radius
-    );
-    let _ = writeln!(
-        svg,
-        r#"<text x="20" y="{:.0}">{}</text>"#,
-        height - 30.0,
-        escape(&legend)
-    );
-    let key =
-        "green: singularity-free region; red: serial (type I) limits; blue: parallel (type II)";
-    let _ = writeln!(svg, r#"<text x="20" y="{:.0}">{key}</text>"#, height - 12.0);
-    svg.push_str("</svg>\n");
-    svg
+    nodes
 }
 
-/// Does the serial / parallel measure cross zero (or a leg lose reach) between two samples?
-fn crossing(a: Option<(f64, f64)>, b: Option<(f64, f64)>) -> (bool, bool) {
-    match (a, b) {
-        (Some((sa, pa)), Some((sb, pb))) => (sa * sb <= 0.0, pa * pb <= 0.0),
-        (None, None) => (false, false),
-        _ => (true, false),
+/// Where the legs stop reaching on their home branch between `inside` (a node, its legs
+/// solved: `seeds`, its serial measure `serial`) and `outside`: the last point bisection
+/// reaches continuing the legs' solutions, then extrapolated to the zero of the serial
+/// measure, whose square falls linearly to a stretch or fold (Newton stalls just before it).
+fn reach_limit(
+    margin: &SingularityMargin<'_>,
+    (seeds, serial): (&[LegSolution], f64),
+    inside: [f64; 2],
+    outside: [f64; 2],
+) -> [f64; 2] {
+    let at = |t: f64| {
+        [
+            inside[0] + t * (outside[0] - inside[0]),
+            inside[1] + t * (outside[1] - inside[1]),
+        ]
+    };
+    let mut seeds = seeds.to_vec();
+    let (mut good, mut bad, mut at_good) = (0.0, 1.0, serial);
+    for _ in 0..BISECTIONS {
+        let middle = 0.5 * (good + bad);
+        match margin.measures_from(at(middle), Some(&seeds)) {
+            Ok(((s, _), solutions)) => {
+                seeds = solutions;
+                good = middle;
+                at_good = s;
+            }
+            Err(_) => bad = middle,
+        }
     }
-}
-
-fn escape(text: &str) -> String {
-    text.replace('&', "&amp;")
-        .replace('<', "&lt;")
-        .replace('>', "&gt;")
+    let drop = serial * serial - at_good * at_good;
+    let zero = if good > 0.0 && drop > 0.0 {
+        good + at_good * at_good * good / drop
+    } else {
+        good
+    };
+    at(zero.clamp(good, bad))
 }

@@ -339,12 +339,42 @@ fn poses_at_one_distance_from_the_base_joint_are_rank_deficient_and_name_the_par
         .unwrap_or_else(|| panic!("unterminated: {msg}"));
     let directions: Vec<&str> = directions.split("; ").collect();
     assert_eq!(directions.len(), 2, "{msg}");
-    for direction in directions {
-        for word in direction.split_whitespace() {
-            let is_coefficient = word == "+" || word == "-" || word.parse::<f64>().is_ok();
-            assert!(is_coefficient || triple.contains(word), "`{word}` in {msg}");
-        }
+    // Each direction reads `c name (± c name)…` over the triple, first weight positive; the
+    // two are orthonormal (right singular vectors), up to the weights below 0.05 that are not
+    // printed.
+    let vectors: Vec<[f64; 3]> = directions
+        .iter()
+        .map(|direction| {
+            let words: Vec<&str> = direction.split_whitespace().collect();
+            let mut vector = [0.0; 3];
+            let mut sign = 1.0;
+            let mut i = 0;
+            while i < words.len() {
+                if i > 0 {
+                    sign = match words[i] {
+                        "+" => 1.0,
+                        "-" => -1.0,
+                        other => panic!("`{other}` in {msg}"),
+                    };
+                    i += 1;
+                }
+                let weight: f64 = words[i].parse().unwrap_or_else(|_| panic!("{msg}"));
+                assert!(weight > 0.0 && weight <= 1.0, "{msg}");
+                let slot = ["l1", "L1", "gamma1"]
+                    .iter()
+                    .position(|n| *n == words[i + 1]);
+                vector[slot.unwrap_or_else(|| panic!("`{}` in {msg}", words[i + 1]))] =
+                    sign * weight;
+                i += 2;
+            }
+            vector
+        })
+        .collect();
+    let dot = |a: &[f64; 3], b: &[f64; 3]| a.iter().zip(b).map(|(x, y)| x * y).sum::<f64>();
+    for v in &vectors {
+        assert!((dot(v, v) - 1.0).abs() < 0.01, "{msg}");
     }
+    assert!(dot(&vectors[0], &vectors[1]).abs() < 0.1, "{msg}");
 }
 
 /// A spacing far too fine for the region is refused before any grid is built.
@@ -648,5 +678,29 @@ fn a_diverging_gauss_newton_names_the_trial_parameters_not_the_data() {
             "the step left the plausible parameters (the pose is usable at the starting ones)"
         ),
         "{stderr}"
+    );
+}
+
+/// A nominal gain of 1e308 is finite, but the Jacobian overflows: it was "candidate 64 has a
+/// non-finite entry".
+#[test]
+fn a_gain_of_1e308_is_named_as_an_overflow_of_the_nominal_parameters() {
+    use legwise::model::mechanism::SelectionCriterion;
+    use legwise::workspace::design::ExperimentDesign;
+    let path = data("5r_gain_1e308.yaml");
+    let mech = Mechanism::load(&path).expect("the model loads");
+    let err = ExperimentDesign::select(&mech, None, 18, SelectionCriterion::D, false)
+        .expect_err("the Jacobian overflows");
+    let msg = message(&err);
+    let prefix = format!(
+        "{}: the identification Jacobian overflows at candidate pose x=",
+        path.display()
+    );
+    assert!(msg.starts_with(&prefix), "{msg}");
+    assert!(
+        msg.ends_with(
+            ": the nominal parameters are too large to compute with (largest: k1 = 1e308)"
+        ),
+        "{msg}"
     );
 }

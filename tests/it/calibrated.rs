@@ -281,3 +281,46 @@ fn cli_both_strategies_write_the_divide_and_conquer_result_and_evaluate_improves
         "calibrated vs nominal (mm): {rms_line}"
     );
 }
+
+#[test]
+fn row_residuals_of_a_robust_fit_are_the_unweighted_reading_residuals() {
+    use legwise::identify::estimate::{identify_with, FitOptions};
+    use legwise::identify::robust::RobustLoss;
+    use legwise::kinematics::inverse::predict_reading;
+    let mechanism = bundled("5r.yaml");
+    let data = file::read(&crate_path("tests/data/stats_5r_outlier.csv"), &mechanism).unwrap();
+    let options = FitOptions {
+        robust: Some(RobustLoss::Cauchy),
+        ..Default::default()
+    };
+    let result = identify_with(
+        &mechanism,
+        &data,
+        Strategy::DivideAndConquer,
+        SolverKind::LevenbergMarquardt,
+        options,
+    )
+    .unwrap();
+    for estimate in &result.legs {
+        let l = mechanism.leg_index(&estimate.leg).unwrap();
+        let phi: Vec<f64> = estimate.parameters.iter().map(|p| p.estimate).collect();
+        assert_eq!(estimate.residuals.len(), data.leg_blocks(l).len());
+        for row in &estimate.residuals {
+            let pose = data
+                .poses
+                .iter()
+                .find(|p| p.line == row.line)
+                .expect("the residual's CSV line is a row of the file");
+            let predicted =
+                predict_reading(&mechanism.legs[l], &phi, &pose.pose, &mechanism.home_pose)
+                    .unwrap();
+            let expected = pose.readings[l].unwrap() - predicted;
+            assert!(
+                (row.residual - expected).abs() <= 1e-12,
+                "line {:?}: {} vs {expected}",
+                row.line,
+                row.residual
+            );
+        }
+    }
+}

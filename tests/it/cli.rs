@@ -62,6 +62,74 @@ fn assert_reports(stdout: &str, names: &[&str]) {
     }
 }
 
+/// Asserts that every parameter row of a divide-and-conquer LM report on the model's seeded
+/// simulation prints the library's estimate, std and real value, and the errors as
+/// `nominal − real` and `identified − real`.
+fn assert_rows_match_the_library(stdout: &str, model: &str) {
+    use legwise::identify::estimate::{identify, Strategy};
+    use legwise::measure::simulate::{simulate_at, SimulationOptions};
+    let mech = legwise::model::Mechanism::load(
+        &std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join(model),
+    )
+    .unwrap();
+    // The command's default experiment: the model's selected poses, simulated with its seed.
+    let design = legwise::workspace::design::ExperimentDesign::select(
+        &mech,
+        None,
+        mech.selection.poses_per_leg,
+        mech.selection.criterion,
+        true,
+    )
+    .unwrap();
+    let experiment = simulate_at(&mech, &design.pose_sets(), SimulationOptions::default()).unwrap();
+    let result = identify(
+        &mech,
+        &experiment.measurements,
+        Strategy::DivideAndConquer,
+        legwise::solver::SolverKind::LevenbergMarquardt,
+    )
+    .unwrap();
+    let near = |printed: f64, value: f64, relative: f64| {
+        (printed - value).abs() <= relative * value.abs() + 1e-9
+    };
+    for (leg, estimate) in result.legs.iter().enumerate() {
+        for (p, param) in estimate.parameters.iter().enumerate() {
+            let row: Vec<f64> = stdout
+                .lines()
+                .find(|l| l.split_whitespace().next() == Some(param.name.as_str()))
+                .unwrap_or_else(|| panic!("no row for `{}` in\n{stdout}", param.name))
+                .split_whitespace()
+                .skip(2)
+                .map(|w| w.parse().unwrap())
+                .collect();
+            let real = experiment.real[leg][p];
+            let [nominal, identified, std, printed_real, before, after] = row[..] else {
+                panic!("row of `{}`: {row:?}", param.name);
+            };
+            let what = &param.name;
+            assert!(
+                near(nominal, param.nominal, 0.0),
+                "{what} nominal {nominal}"
+            );
+            assert!(
+                near(identified, param.estimate, 0.0),
+                "{what}: {identified} vs library {}",
+                param.estimate
+            );
+            assert!(near(std, param.std.unwrap(), 6e-3), "{what} std {std}");
+            assert!(near(printed_real, real, 0.0), "{what} real {printed_real}");
+            assert!(
+                near(before, param.nominal - real, 6e-3),
+                "{what} error {before}"
+            );
+            assert!(
+                near(after, param.estimate - real, 6e-3),
+                "{what} error {after}"
+            );
+        }
+    }
+}
+
 const PARAMETERS_5R: [&str; 12] = [
     "l1", "L1", "A1x", "A1y", "k1", "gamma1", "l2", "L2", "A2x", "A2y", "k2", "gamma2",
 ];
@@ -175,6 +243,7 @@ fn a_leg_without_rows_names_the_file() {
 fn identify_5r_reports_every_parameter() {
     let stdout = assert_succeeds(&["identify", "--model", "models/5r.yaml"]);
     assert_reports(&stdout, &PARAMETERS_5R);
+    assert_rows_match_the_library(&stdout, "models/5r.yaml");
 }
 
 #[test]
@@ -194,6 +263,7 @@ fn identify_3rpr_reports_every_parameter() {
         .collect();
     let names: Vec<&str> = names.iter().map(String::as_str).collect();
     assert_reports(&stdout, &names);
+    assert_rows_match_the_library(&stdout, "models/3rpr.yaml");
 }
 
 /// Noise-free simulated measurements written as CSV, identified back from the file: the JSON
@@ -234,6 +304,24 @@ fn simulate_then_identify_from_the_csv_writes_a_complete_json_report() {
     ];
     let results = report["results"].as_array().expect("results");
     assert_eq!(results.len(), 1);
+    // The library on the same file: the JSON carries its stds (tiny: the data are noise-free).
+    let mech = legwise::model::Mechanism::load(
+        &std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("models/5r.yaml"),
+    )
+    .unwrap();
+    let data = legwise::measure::file::read(&csv, &mech).unwrap();
+    let library = legwise::identify::estimate::identify(
+        &mech,
+        &data,
+        legwise::identify::estimate::Strategy::DivideAndConquer,
+        legwise::solver::SolverKind::GaussNewton,
+    )
+    .unwrap();
+    let stds: Vec<f64> = library
+        .legs
+        .iter()
+        .flat_map(|l| l.parameters.iter().map(|p| p.std.unwrap()))
+        .collect();
     let mut seen = Vec::new();
     for leg in results[0]["legs"].as_array().expect("legs") {
         for p in leg["parameters"].as_array().expect("parameters") {
@@ -247,6 +335,12 @@ fn simulate_then_identify_from_the_csv_writes_a_complete_json_report() {
             }
             let expected = real[PARAMETERS_5R.iter().position(|n| *n == name).unwrap()];
             let identified = p["identified"].as_f64().unwrap();
+            let std = p["std"].as_f64().unwrap();
+            let library_std = stds[seen.len()];
+            assert!(
+                std > 0.0 && std < 1e-8 && (std - library_std).abs() <= 1e-9 * library_std,
+                "{name}: std {std} vs library {library_std}"
+            );
             assert!(
                 (identified - expected).abs() < 1e-8,
                 "{name}: {identified} vs real {expected}"
@@ -278,7 +372,7 @@ fn workspace_prints_the_5r_miw_and_writes_the_picture() {
     let picture = std::fs::read_to_string(&svg).unwrap();
     assert!(
         picture.starts_with("<svg")
-            && picture.contains("<circle")
+            && picture.contains("x (m)")
             && picture.trim_end().ends_with("</svg>")
     );
 }

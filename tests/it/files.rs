@@ -140,7 +140,7 @@ fn outputs_are_replaced_whole_with_the_usual_permissions() {
         let out = legwise(&[
             "select",
             "--model",
-            "models/5r.yaml",
+            "models/3rpr.yaml",
             "--poses-per-leg",
             "6",
             "--out",
@@ -148,8 +148,8 @@ fn outputs_are_replaced_whole_with_the_usual_permissions() {
         ]);
         assert_eq!(out.status.code(), Some(0), "{}", text(&out.stderr));
         let csv = fs::read_to_string(path).unwrap();
-        assert!(csv.starts_with("leg,x,y,A1,A2\n"), "{csv}");
-        assert_eq!(csv.lines().count(), 1 + 2 * 6);
+        assert!(csv.starts_with("leg,x,y,yaw,P1,P2,P3\n"), "{csv}");
+        assert_eq!(csv.lines().count(), 1 + 3 * 6);
     }
     assert_eq!(
         fs::metadata(&old).unwrap().permissions().mode() & 0o777,
@@ -217,7 +217,15 @@ fn an_unwritable_output_fails_before_the_work() {
 
 #[test]
 fn simulate_out_dash_writes_the_csv_to_stdout_and_the_summary_to_stderr() {
-    let out = legwise(&["simulate", "--model", "models/5r.yaml", "--out", "-"]);
+    let out = legwise(&[
+        "simulate",
+        "--model",
+        "models/5r.yaml",
+        "--poses",
+        "random",
+        "--out",
+        "-",
+    ]);
     let (stdout, stderr) = (text(&out.stdout), text(&out.stderr));
     assert_eq!(out.status.code(), Some(0), "{stderr}");
     let rows: Vec<&str> = stdout.lines().collect();
@@ -245,7 +253,7 @@ fn identify_json_dash_writes_only_json_to_stdout() {
         "--model",
         "models/5r.yaml",
         "--measurements",
-        "tests/data/valid.csv",
+        "tests/data/noisy.csv",
         "--json",
         "-",
     ]);
@@ -253,12 +261,12 @@ fn identify_json_dash_writes_only_json_to_stdout() {
     assert_eq!(out.status.code(), Some(0), "{stderr}");
     let report: serde_json::Value = serde_json::from_str(&stdout).expect("stdout is JSON");
     assert_eq!(report["results"].as_array().unwrap().len(), 1);
-    assert!(stderr.contains("leg leg1 (10 readings)"), "{stderr}");
+    assert!(stderr.contains("leg leg1 (8 readings)"), "{stderr}");
 }
 
 #[test]
 fn measurements_dash_reads_stdin_and_names_it_in_errors() {
-    let valid = fs::read(crate_path("tests/data/valid.csv")).unwrap();
+    let noisy = fs::read(crate_path("tests/data/noisy.csv")).unwrap();
     let args = [
         "identify",
         "--model",
@@ -266,14 +274,14 @@ fn measurements_dash_reads_stdin_and_names_it_in_errors() {
         "--measurements",
         "-",
     ];
-    let out = legwise_with_stdin(&args, &valid);
+    let out = legwise_with_stdin(&args, &noisy);
     let stdout = text(&out.stdout);
     assert_eq!(out.status.code(), Some(0), "{}", text(&out.stderr));
     assert!(
         stdout.contains("measurements: standard input\n"),
         "{stdout}"
     );
-    assert!(stdout.contains("leg leg2 (10 readings)"), "{stdout}");
+    assert!(stdout.contains("leg leg2 (8 readings)"), "{stdout}");
     // The same rows from the file give the same report, line for line after the source line.
     let from_file = text(
         &legwise(&[
@@ -281,7 +289,7 @@ fn measurements_dash_reads_stdin_and_names_it_in_errors() {
             "--model",
             "models/5r.yaml",
             "--measurements",
-            "tests/data/valid.csv",
+            "tests/data/noisy.csv",
         ])
         .stdout,
     );
@@ -356,7 +364,7 @@ fn a_closed_terminal_pipe_does_not_panic() {
             "--model",
             "models/5r.yaml",
             "--measurements",
-            "tests/data/valid.csv",
+            "tests/data/noisy.csv",
         ])
         .current_dir(env!("CARGO_MANIFEST_DIR"))
         .stdout(Stdio::piped())
@@ -378,7 +386,7 @@ fn a_special_file_output_is_written_in_place() {
     let out = legwise(&[
         "select",
         "--model",
-        "models/5r.yaml",
+        "models/3rpr.yaml",
         "--poses-per-leg",
         "6",
         "--out",

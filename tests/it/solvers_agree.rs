@@ -251,3 +251,26 @@ fn runs_report_convergence_in_the_terminal_and_the_json() {
     );
     assert_eq!(flagged["solver"]["stop_reason"], "evaluation_budget");
 }
+
+/// Readings exact at the nominal parameters: the fit starts at the minimum, where the residual
+/// is round-off (its direction, and so the gradient cosine, is noise). The Gauss–Newton step
+/// there is negligible, so the run converges: an exact start is not a stall.
+#[test]
+fn an_exact_start_converges() {
+    let mech = bundled("5r.yaml");
+    let path = crate::support::crate_path("tests/data/valid.csv");
+    let set = legwise::measure::file::read(&path, &mech).unwrap();
+    for solver in [SolverKind::LevenbergMarquardt, SolverKind::GaussNewton] {
+        for strategy in [Strategy::DivideAndConquer, Strategy::Traditional] {
+            let result = identify(&mech, &set, strategy, solver).unwrap();
+            for run in &result.runs {
+                assert!(run.final_cost < 1e-28, "{}", run.final_cost);
+                assert!(
+                    run.converged,
+                    "{solver:?} {strategy:?}: {}",
+                    run.stop_reason
+                );
+            }
+        }
+    }
+}

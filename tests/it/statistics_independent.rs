@@ -12,7 +12,7 @@ use legwise::measure::MeasurementSet;
 use legwise::model::Mechanism;
 use legwise::solver::SolverKind;
 use nalgebra::{DMatrix, DVector};
-use num_dual::{Dual64, DualNum};
+use num_dual::Dual64;
 
 use crate::support::bundled;
 
@@ -132,6 +132,7 @@ fn divide_and_conquer_statistics_match_an_independent_recomputation() {
     let (mech, data) = noisy_5r_with_a_fixed_parameter();
     for solver in [SolverKind::LevenbergMarquardt, SolverKind::GaussNewton] {
         let result = identify(&mech, &data, Strategy::DivideAndConquer, solver).unwrap();
+        assert_eq!(result.strategy.name(), "divide and conquer");
         assert_eq!(result.legs.len(), 2);
         assert_eq!(result.runs.len(), 2);
         for (leg, estimate) in result.legs.iter().enumerate() {
@@ -154,6 +155,7 @@ fn traditional_statistics_match_an_independent_recomputation() {
         SolverKind::LevenbergMarquardt,
     )
     .unwrap();
+    assert_eq!(result.strategy.name(), "traditional (all legs)");
     assert_eq!(result.runs.len(), 1);
     let (mut initial, mut last) = (0.0, 0.0);
     for (leg, estimate) in result.legs.iter().enumerate() {

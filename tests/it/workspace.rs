@@ -97,3 +97,96 @@ fn the_3rpr_candidate_pool_varies_the_orientation() {
         .collect();
     assert_eq!(yaws.len(), 9);
 }
+
+/// The 5R's serial singular curves are circles about the base joints A1 = (−0.5, 0) and
+/// A2 = (0.5, 0): radius l + L = 1.85 m (a leg stretched) and L − l = 0.35 m (folded). Every
+/// traced point lies on one of them to far better than the grid spacing (no staircase).
+#[test]
+fn the_5r_serial_curves_are_the_reach_circles_not_a_staircase() {
+    use legwise::workspace::miw::SingularityMargin;
+    use legwise::workspace::picture::singular_curves;
+    let mech = bundled("5r.yaml");
+    let margin = SingularityMargin::new(&mech).unwrap();
+    let (lo, hi) = ([-2.0, -1.2], [2.0, 2.8]);
+    let cells = 50;
+    let curves = singular_curves(&margin, (lo, hi), [0.0, 1.0956522], cells);
+    let (serial, parallel) = (curves.serial, curves.parallel);
+    let spacing = 4.0 / cells as f64;
+    let mut points = 0;
+    let mut worst: f64 = 0.0;
+    for p in serial.iter().flatten() {
+        let off = [-0.5, 0.5]
+            .iter()
+            .flat_map(|ax| {
+                let r = ((p[0] - ax).powi(2) + p[1].powi(2)).sqrt();
+                [(r - 1.85).abs(), (r - 0.35).abs()]
+            })
+            .fold(f64::INFINITY, f64::min);
+        worst = worst.max(off);
+        points += 1;
+    }
+    assert!(points > 60, "{points} points");
+    assert!(
+        worst < 1e-3 * spacing,
+        "farthest point {worst} m off the reach circles (grid {spacing} m)"
+    );
+    assert!(!parallel.is_empty());
+}
+
+/// `legwise workspace --poses FILE --out PICTURE.png`: a PNG by the extension, the pose file's
+/// rows drawn per leg (the `select` layout, readings empty), and the SVG variant names them.
+#[test]
+fn workspace_draws_a_pose_file_on_the_picture() {
+    let dir = tempfile::tempdir().unwrap();
+    let poses = dir.path().join("poses.csv");
+    std::fs::write(
+        &poses,
+        "leg,x,y,A1,A2\nleg1,0.1,1.0,,\nleg1,-0.2,1.2,,\nleg2,0.3,0.9,,\n,0.0,1.1,,\n",
+    )
+    .unwrap();
+    let run = |out: &std::path::Path| {
+        std::process::Command::new(env!("CARGO_BIN_EXE_legwise"))
+            .args([
+                "workspace",
+                "--model",
+                "models/5r.yaml",
+                "--rays",
+                "16",
+                "--poses",
+            ])
+            .arg(&poses)
+            .arg("--out")
+            .arg(out)
+            .current_dir(env!("CARGO_MANIFEST_DIR"))
+            .output()
+            .unwrap()
+    };
+    let svg_path = dir.path().join("ws.svg");
+    let out = run(&svg_path);
+    assert_eq!(
+        out.status.code(),
+        Some(0),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let svg = std::fs::read_to_string(&svg_path).unwrap();
+    for wanted in [
+        "x (m)",
+        "y (m)",
+        "leg1 poses of poses.csv (2)",
+        "leg2 poses of poses.csv (1)",
+        "shared poses of poses.csv (1)",
+        "parallel (type II) singularity: the platform gains a freedom",
+    ] {
+        assert!(svg.contains(wanted), "`{wanted}` missing");
+    }
+    let png_path = dir.path().join("ws.png");
+    let out = run(&png_path);
+    assert_eq!(out.status.code(), Some(0));
+    assert!(std::fs::read(&png_path).unwrap().starts_with(b"\x89PNG"));
+    // The pose file is an input: never overwritten by the picture.
+    let out = run(&poses);
+    assert_eq!(out.status.code(), Some(2));
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(stderr.contains("ending in .svg or .png"), "{stderr}");
+}

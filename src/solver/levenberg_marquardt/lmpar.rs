@@ -20,6 +20,9 @@ pub(super) struct Scratch {
     pub(super) z: DVector<f64>,
     y: DVector<f64>,
     pub(super) step: DVector<f64>,
+    /// `‖D p_GN‖` of the (truncated) Gauss–Newton step of the last [`Scratch::lm_step`]
+    /// (infinite if that step is not finite).
+    pub(super) gauss_newton_dnorm: f64,
 }
 
 /// Householder QR of `a` (`rows ≥ cols`) in place, applying the reflections to `b` too. With
@@ -73,6 +76,7 @@ impl Scratch {
         for v in [&mut self.z, &mut self.y, &mut self.step, &mut self.d_perm] {
             *v = DVector::zeros(n);
         }
+        self.gauss_newton_dnorm = f64::INFINITY;
         self.damped = DMatrix::zeros(n, n);
         self.damped_rhs = DVector::zeros(n);
     }
@@ -102,12 +106,12 @@ impl Scratch {
     /// one column at a time. A rotation only combines two rows, so the tiny entries of `R` (a
     /// parameter whose Jacobian column is ~1e-47 relative to the others) and their right-hand
     /// side stay at their own scale; a Householder reflection of the whole `2n × n` column
-    /// mixes them with √λ d_j and cancels them, which gave an exactly zero step. Components
+    /// mixes them with √λ d_j and can cancel them (an exactly zero step was seen on NIST BoxBOD
+    /// from start 1). Components
     /// past the first zero diagonal of `S` are set to zero, as for the Gauss–Newton step.
     /// Returns `false` if the triangular solve broke down.
     fn solve_damped(&mut self, sqrt_lambda: f64) -> bool {
         let n = self.qtr.len();
-        self.damped.fill(0.0);
         self.damped.copy_from(&self.jq.view((0, 0), (n, n)));
         self.damped.fill_lower_triangle(0.0, 1);
         self.damped_rhs.copy_from(&self.qtr);
@@ -189,6 +193,7 @@ impl Scratch {
         let nsing = self.gauss_newton();
         let gn_ok = self.z.iter().all(|v| v.is_finite());
         let mut dxnorm = if gn_ok { self.dnorm_z() } else { f64::INFINITY };
+        self.gauss_newton_dnorm = dxnorm;
         let mut fp = dxnorm - delta;
         let mut lambda = 0.0;
         if !gn_ok || fp > P1 * delta {

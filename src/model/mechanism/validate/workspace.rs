@@ -102,7 +102,14 @@ impl Builder<'_> {
         if !usable {
             return Err(self.error(
                 "workspace.margin",
-                format!("the margin ({} m) leaves no usable region", entry.margin),
+                format!(
+                    "the margin ({} m) leaves no usable region",
+                    if entry.margin < 1e6 {
+                        entry.margin.to_string()
+                    } else {
+                        format!("{:e}", entry.margin)
+                    }
+                ),
             ));
         }
         Ok(workspace)

@@ -1,0 +1,102 @@
+//! The pictures of `identify --plots DIR` and `evaluate --plots DIR`: which figures, from which
+//! reports, under which file names.
+
+use super::canvas::{render, Format};
+use super::distribution::{ErrorDistribution, ErrorSample};
+use super::error_map::{ErrorMapFigure, MapPanel};
+use super::parameter_errors::ParameterErrors;
+use crate::error::{Error, Result};
+use crate::evaluate::accuracy::AccuracyMap;
+use crate::evaluate::held_out::Evaluation;
+use crate::report::IdentifyReport;
+
+/// File name (without extension) of the parameter-error picture.
+pub const PARAMETER_ERRORS: &str = "parameter-errors";
+/// File name (without extension) of the accuracy-map picture.
+pub const ACCURACY_MAP: &str = "accuracy-map";
+/// File name (without extension) of the position-error distribution.
+pub const POSITION_ERRORS: &str = "position-errors";
+
+/// The accuracy maps of one identification: the nominal model's, then one per result.
+#[derive(Debug, Clone, Copy)]
+pub struct Maps<'a> {
+    /// The nominal model's map.
+    pub before: &'a AccuracyMap,
+    /// One map per strategy, in the report's order.
+    pub after: &'a [AccuracyMap],
+}
+
+/// The file names (without extension) [`identify_pictures`] draws, with or without maps.
+pub fn identify_picture_names(maps: bool) -> Vec<&'static str> {
+    let mut names = vec![PARAMETER_ERRORS];
+    if maps {
+        names.push(ACCURACY_MAP);
+    }
+    names
+}
+
+/// The identification pictures, in the order of [`identify_picture_names`]: the parameter
+/// errors (needs the real values) and, when `maps` are given, the accuracy map with the
+/// identification `poses` (x, y) on it.
+///
+/// # Errors
+/// The report has no real values (measurements from a file), or a picture cannot be drawn.
+pub fn identify_pictures(
+    report: &IdentifyReport<'_>,
+    maps: Option<Maps<'_>>,
+    poses: &[[f64; 2]],
+    format: Format,
+) -> Result<Vec<Vec<u8>>> {
+    let errors = ParameterErrors::from_report(report).ok_or_else(|| {
+        Error::Invalid(
+            "--plots: the parameter errors need the real values, known only in simulation".into(),
+        )
+    })?;
+    let mut pictures = vec![render(&errors, format)?];
+    if let Some(maps) = maps {
+        let mut panels = vec![MapPanel::from_map("before (nominal model)", maps.before)];
+        for (result, map) in report.results.iter().zip(maps.after) {
+            panels.push(MapPanel::from_map(
+                &format!("after: {}", result.strategy.name()),
+                map,
+            ));
+        }
+        let figure = ErrorMapFigure {
+            title: format!(
+                "{}: position error over {} of the workspace region",
+                report.mechanism.name, maps.before.scale
+            ),
+            grid_m: maps.before.grid_m,
+            panels,
+            poses: poses.to_vec(),
+        };
+        pictures.push(render(&figure, format)?);
+    }
+    Ok(pictures)
+}
+
+/// The evaluation picture: the distribution of position errors of each `(name, evaluation)`,
+/// the first drawn as "before".
+///
+/// # Errors
+/// The picture cannot be drawn.
+pub fn evaluate_picture(evaluations: &[(&str, &Evaluation)], format: Format) -> Result<Vec<u8>> {
+    let measurements = evaluations
+        .first()
+        .map_or(String::new(), |(_, e)| e.measurements.clone());
+    let figure = ErrorDistribution {
+        title: format!("position errors on {measurements}"),
+        samples: evaluations
+            .iter()
+            .map(|(name, evaluation)| ErrorSample {
+                name: (*name).to_string(),
+                errors_m: evaluation
+                    .row_errors
+                    .iter()
+                    .filter_map(|r| r.position_error)
+                    .collect(),
+            })
+            .collect(),
+    };
+    render(&figure, format)
+}

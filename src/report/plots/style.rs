@@ -1,0 +1,101 @@
+//! Shared look of the figures: colours, text sizes, number formatting.
+
+use plotters::style::{RGBColor, TextStyle};
+
+use super::canvas::FONT;
+
+/// Colour of the "before" series (nominal model).
+pub const BEFORE: RGBColor = RGBColor(213, 94, 0);
+
+/// Colours of the "after" series, one per strategy or model, in order (colour-blind safe).
+pub const AFTER: [RGBColor; 4] = [
+    RGBColor(0, 114, 178),
+    RGBColor(0, 158, 115),
+    RGBColor(204, 121, 167),
+    RGBColor(230, 159, 0),
+];
+
+/// The colour of series `index` when series 0 is "before" and the others come after.
+pub fn series_colour(index: usize) -> RGBColor {
+    match index {
+        0 => BEFORE,
+        i => AFTER[(i - 1) % AFTER.len()],
+    }
+}
+
+/// Text of a figure's title.
+pub fn title() -> TextStyle<'static> {
+    (FONT, 20).into()
+}
+
+/// Pixels a figure needs across for its `title` in [`title`] text (DejaVu Sans averages
+/// about 0.55 em a character), with room on both sides.
+pub fn title_width(title: &str) -> u32 {
+    11 * title.chars().count() as u32 + 60
+}
+
+/// Text of a panel caption.
+pub fn caption() -> TextStyle<'static> {
+    (FONT, 16).into()
+}
+
+/// Text of axis descriptions.
+pub fn axis_description() -> TextStyle<'static> {
+    (FONT, 15).into()
+}
+
+/// Text of tick labels and legends.
+pub fn label() -> TextStyle<'static> {
+    (FONT, 13).into()
+}
+
+/// A number with about three significant digits, without exponent for moderate values
+/// (`12.3`, `0.417`, `0`, `-1.5e-5`), for tick labels.
+pub fn short_number(value: f64) -> String {
+    if value == 0.0 || !value.is_finite() {
+        return "0".into();
+    }
+    let magnitude = value.abs().log10().floor() as i32;
+    if !(-3..=4).contains(&magnitude) {
+        return format!("{value:.1e}");
+    }
+    let decimals = (2 - magnitude).max(0) as usize;
+    let text = format!("{value:.decimals$}");
+    if text.contains('.') {
+        text.trim_end_matches('0').trim_end_matches('.').to_string()
+    } else {
+        text
+    }
+}
+
+/// A tick label on a linear axis spanning `span`: [`short_number`], with the round-off of the
+/// tick positions (`-1.1e-16` for zero) snapped to zero.
+pub fn tick(value: f64, span: f64) -> String {
+    if value.abs() < 1e-9 * span.abs() {
+        "0".into()
+    } else {
+        short_number(value)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::{short_number, tick};
+
+    #[test]
+    fn round_off_ticks_read_zero() {
+        assert_eq!(tick(-1.1e-16, 1.2), "0");
+        assert_eq!(tick(0.2, 1.2), "0.2");
+        assert_eq!(tick(1e-7, 1e-6), "1.0e-7");
+    }
+
+    #[test]
+    fn short_numbers_keep_three_significant_digits() {
+        assert_eq!(short_number(12.345), "12.3");
+        assert_eq!(short_number(0.41666), "0.417");
+        assert_eq!(short_number(-2.0), "-2");
+        assert_eq!(short_number(0.0), "0");
+        assert_eq!(short_number(1500.0), "1500");
+        assert_eq!(short_number(1.5e-5), "1.5e-5");
+    }
+}

@@ -1,0 +1,217 @@
+//! The workspace picture: the singularity-free region of the home modes, the singular curves,
+//! the maximal inscribed workspace (MIW) and, optionally, a set of poses, with axes in metres.
+
+use plotters::coord::Shift;
+use plotters::prelude::*;
+
+use super::canvas::Figure;
+use super::style;
+
+/// A set of poses drawn with one marker colour.
+#[derive(Debug, Clone, PartialEq)]
+pub struct PoseGroup {
+    /// Legend entry (`leg1 poses`, `shared poses` …).
+    pub name: String,
+    /// Positions x, y (m).
+    pub points: Vec<[f64; 2]>,
+}
+
+/// The picture's data.
+#[derive(Debug, Clone, PartialEq)]
+pub struct WorkspaceFigure {
+    /// Figure title.
+    pub title: String,
+    /// Boundary of the singularity-free region seen from the MIW centre (m), closed implicitly.
+    pub region: Vec<[f64; 2]>,
+    /// Serial (type I) singular curves: polylines (m).
+    pub serial: Vec<Vec<[f64; 2]>>,
+    /// Parallel (type II) singular curves: polylines (m).
+    pub parallel: Vec<Vec<[f64; 2]>>,
+    /// MIW centre (m).
+    pub miw_centre: [f64; 2],
+    /// MIW radius (m).
+    pub miw_radius: f64,
+    /// Poses to draw.
+    pub poses: Vec<PoseGroup>,
+    /// The part of the plane shown, `(lo, hi)` (m).
+    pub bounds: ([f64; 2], [f64; 2]),
+}
+
+/// Fill of the singularity-free region.
+pub const REGION: RGBColor = RGBColor(216, 240, 208);
+/// Serial singular curves.
+pub const SERIAL: RGBColor = RGBColor(192, 57, 43);
+/// Parallel singular curves.
+pub const PARALLEL: RGBColor = RGBColor(36, 85, 195);
+
+const PLOT: u32 = 640;
+const Y_LABELS: u32 = 72;
+const X_LABELS: u32 = 48;
+const MARGIN: u32 = 16;
+const CAPTION: u32 = 34;
+const LEGEND: u32 = 110;
+
+impl WorkspaceFigure {
+    /// The bounds widened to the plot's aspect (a metre as long in x as in y).
+    fn square_bounds(&self) -> ([f64; 2], [f64; 2]) {
+        let (lo, hi) = self.bounds;
+        let span = [(hi[0] - lo[0]).max(1e-9), (hi[1] - lo[1]).max(1e-9)];
+        let side = span[0].max(span[1]);
+        let centre = [0.5 * (lo[0] + hi[0]), 0.5 * (lo[1] + hi[1])];
+        (
+            [centre[0] - 0.5 * side, centre[1] - 0.5 * side],
+            [centre[0] + 0.5 * side, centre[1] + 0.5 * side],
+        )
+    }
+}
+
+impl Figure for WorkspaceFigure {
+    fn size(&self) -> (u32, u32) {
+        (
+            PLOT + Y_LABELS + 2 * MARGIN,
+            PLOT + X_LABELS + CAPTION + 2 * MARGIN + LEGEND,
+        )
+    }
+
+    fn draw<DB: DrawingBackend>(
+        &self,
+        root: &DrawingArea<DB, Shift>,
+    ) -> Result<(), DrawingAreaErrorKind<DB::ErrorType>> {
+        root.fill(&WHITE)?;
+        let (_, height) = self.size();
+        let (plot_area, legend_area) = root.split_vertically(height - LEGEND);
+        let (lo, hi) = self.square_bounds();
+        let mut chart = ChartBuilder::on(&plot_area)
+            .caption(&self.title, style::caption())
+            .margin(MARGIN)
+            .x_label_area_size(X_LABELS)
+            .y_label_area_size(Y_LABELS)
+            .build_cartesian_2d(lo[0]..hi[0], lo[1]..hi[1])?;
+        chart
+            .configure_mesh()
+            .x_desc("x (m)")
+            .y_desc("y (m)")
+            .x_label_formatter(&|v| style::tick(*v, hi[0] - lo[0]))
+            .y_label_formatter(&|v| style::tick(*v, hi[1] - lo[1]))
+            .label_style(style::label())
+            .axis_desc_style(style::axis_description())
+            .x_labels(8)
+            .y_labels(8)
+            .light_line_style(TRANSPARENT)
+            .bold_line_style(RGBColor(225, 225, 225))
+            .draw()?;
+        let region: Vec<(f64, f64)> = self.region.iter().map(|p| (p[0], p[1])).collect();
+        chart.draw_series(std::iter::once(Polygon::new(
+            region.clone(),
+            REGION.filled(),
+        )))?;
+        let mut outline = region;
+        if let Some(&first) = outline.first() {
+            outline.push(first);
+        }
+        chart.draw_series(std::iter::once(PathElement::new(
+            outline,
+            RGBColor(74, 138, 58).stroke_width(1),
+        )))?;
+        for (curves, colour) in [(&self.serial, SERIAL), (&self.parallel, PARALLEL)] {
+            chart.draw_series(curves.iter().map(|curve| {
+                PathElement::new(
+                    curve.iter().map(|p| (p[0], p[1])).collect::<Vec<_>>(),
+                    colour.stroke_width(2),
+                )
+            }))?;
+        }
+        let circle: Vec<(f64, f64)> = (0..=360)
+            .map(|k| {
+                let angle = std::f64::consts::TAU * f64::from(k) / 360.0;
+                (
+                    self.miw_centre[0] + self.miw_radius * angle.cos(),
+                    self.miw_centre[1] + self.miw_radius * angle.sin(),
+                )
+            })
+            .collect();
+        // Dashed, so that a singular curve under the circle stays visible.
+        chart.draw_series(DashedLineSeries::new(circle, 8, 5, BLACK.stroke_width(2)))?;
+        chart.draw_series(std::iter::once(
+            EmptyElement::at((self.miw_centre[0], self.miw_centre[1]))
+                + PathElement::new(vec![(-6, 0), (6, 0)], BLACK.stroke_width(2))
+                + PathElement::new(vec![(0, -6), (0, 6)], BLACK.stroke_width(2)),
+        ))?;
+        for (g, group) in self.poses.iter().enumerate() {
+            let colour = style::AFTER[g % style::AFTER.len()];
+            chart.draw_series(group.points.iter().map(|p| {
+                EmptyElement::at((p[0], p[1]))
+                    + Circle::new((0, 0), 4, colour.filled())
+                    + Circle::new((0, 0), 4, BLACK.stroke_width(1))
+            }))?;
+        }
+        self.draw_legend(&legend_area)
+    }
+}
+
+impl WorkspaceFigure {
+    fn draw_legend<DB: DrawingBackend>(
+        &self,
+        area: &DrawingArea<DB, Shift>,
+    ) -> Result<(), DrawingAreaErrorKind<DB::ErrorType>> {
+        let x0 = (MARGIN + Y_LABELS) as i32;
+        let row = |k: i32| 4 + 20 * k;
+        let text = |s: String, x: i32, y: i32| Text::new(s, (x + 26, y), style::label());
+        let line = |x: i32, y: i32, colour: RGBColor| {
+            PathElement::new(vec![(x, y + 7), (x + 20, y + 7)], colour.stroke_width(2))
+        };
+        area.draw(&Rectangle::new(
+            [(x0, row(0)), (x0 + 20, row(0) + 14)],
+            REGION.filled(),
+        ))?;
+        area.draw(&text(
+            "singularity-free region of the home working and assembly modes, seen from the MIW centre".into(),
+            x0,
+            row(0),
+        ))?;
+        area.draw(&line(x0, row(1), SERIAL))?;
+        area.draw(&text(
+            "serial (type I) singularity: a leg stretched, folded or out of reach".into(),
+            x0,
+            row(1),
+        ))?;
+        area.draw(&line(x0, row(2), PARALLEL))?;
+        area.draw(&text(
+            "parallel (type II) singularity: the platform gains a freedom".into(),
+            x0,
+            row(2),
+        ))?;
+        area.draw(&PathElement::new(
+            vec![(x0, row(3) + 7), (x0 + 8, row(3) + 7)],
+            BLACK.stroke_width(2),
+        ))?;
+        area.draw(&PathElement::new(
+            vec![(x0 + 13, row(3) + 7), (x0 + 20, row(3) + 7)],
+            BLACK.stroke_width(2),
+        ))?;
+        area.draw(&text(
+            format!(
+                "MIW: centre ({}, {}) m, radius {:.4} m",
+                crate::report::tidy(self.miw_centre[0], 4),
+                crate::report::tidy(self.miw_centre[1], 4),
+                self.miw_radius
+            ),
+            x0,
+            row(3),
+        ))?;
+        let mut x = x0;
+        for (g, group) in self.poses.iter().enumerate() {
+            let colour = style::AFTER[g % style::AFTER.len()];
+            area.draw(
+                &(EmptyElement::at((x + 10, row(4) + 7))
+                    + Circle::new((0, 0), 4, colour.filled())
+                    + Circle::new((0, 0), 4, BLACK.stroke_width(1))),
+            )?;
+            let label = format!("{} ({})", group.name, group.points.len());
+            let width = 40 + 8 * label.chars().count() as i32;
+            area.draw(&text(label, x, row(4)))?;
+            x += width;
+        }
+        Ok(())
+    }
+}
