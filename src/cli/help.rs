@@ -6,8 +6,9 @@ macro_rules! exit_status {
         "EXIT STATUS:
   0  success; warnings alone keep 0
   2  bad input or usage: one line `legwise: …` names the file, line, column or option
-  3  the run finished but its result must not be trusted: one `legwise: warning: …` line
-     per reason on standard error
+  3  the run finished but its result must not be trusted (a solve did not converge, the
+     residuals reject the declared noise, or a reported number is not finite): one
+     `legwise: warning: …` line per reason on standard error
   A closed standard output (`legwise … | head`) is not an error: the output stops there."
     };
 }
@@ -46,6 +47,11 @@ EXAMPLES:
   legwise simulate --model models/5r.yaml --out - | legwise identify --model models/5r.yaml --measurements -
   # the JSON report on standard output (the terminal report goes to standard error)
   legwise identify --model models/5r.yaml --json - 2>/dev/null
+  # bad data: a robust (Cauchy) loss scaled by the declared noise, or a refit without the
+  # outlier rows; weighted least squares with the declared noise
+  legwise identify --model models/5r.yaml --measurements measurements.csv --robust cauchy
+  legwise identify --model models/5r.yaml --measurements measurements.csv --drop-outliers
+  legwise identify --model models/5r.yaml --measurements measurements.csv --weights noise
   # after the fit: the calibrated model (calibrated.yaml + calibrated.urdf); in simulation the
   # accuracy map before and after, 1 cm grid over 0.95 of the workspace region
   legwise identify --model models/5r.yaml --measurements measurements.csv --calibrated calibrated.yaml

@@ -9,15 +9,16 @@
 
 use nalgebra::{DMatrix, DVector};
 
+use super::fit::{self, FitError};
 use super::observability::{analyse, Observability};
 use super::problem::{BlockError, IdentificationProblem, LegSlot};
-use super::robust::{self, RobustError, RobustLoss};
+use super::robust::RobustLoss;
 use super::statistics::{self, FitKind, LegStatistics, Outlier};
 use crate::error::{Error, Result};
 use crate::measure::MeasurementSet;
 use crate::model::params::Unit;
 use crate::model::Mechanism;
-use crate::solver::{solve, SolverKind, StopReason};
+use crate::solver::{SolverKind, StopReason};
 
 /// How the legs are grouped into least-squares problems.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -283,62 +284,24 @@ pub fn identify_problem(
     let noise = mechanism
         .noise
         .filter(|n| n.reading > 0.0 || n.pose.iter().any(|&s| s > 0.0));
-    let needs_noise = |what: &str| Error::Model {
-        path: mechanism.model_path.clone(),
-        field: "noise".into(),
-        message: format!(
-            "{what} needs the measurement noise: add a `noise:` block with non-zero standard \
-                 deviations (e.g. `noise: {{x: 1.0e-4, y: 1.0e-4, readings: 1.0e-4}}`)"
-        ),
-    };
-    let fitted = match (options.weights, options.robust) {
-        (Weighting::Noise, None) => {
-            let noise = noise.ok_or_else(|| needs_noise("--weights noise"))?;
-            let variances = statistics::row_variances(problem, &x0, &noise)
-                .map_err(|e| located(mechanism, data, problem, e))?;
-            let weights = positive_inverse(&variances).ok_or_else(|| {
-                needs_noise("--weights noise (a row's expected residual variance is zero)")
-            })?;
-            problem.clone().with_weights(&weights)
-        }
-        _ => problem.unweighted(),
-    };
-    let solver_error = |message: String| Error::Solver {
-        context: format!("legs {}", names.join(", ")),
-        message,
-    };
     let started = std::time::Instant::now();
-    let (r_start, c_start) = fitted
-        .residuals_and_jacobian(&x0)
-        .map_err(|e| located(mechanism, data, problem, e))?;
-    let mut outcome = match already_minimal(&x0, &r_start, &c_start) {
-        Some(outcome) => outcome,
-        None => solve(&fitted, x0.clone(), solver).map_err(|err| solver_error(err.to_string()))?,
-    };
-    let (fitted, kind) = match options.robust {
-        None => (fitted, FitKind::LeastSquares),
-        Some(loss) => {
-            let noise = noise.ok_or_else(|| needs_noise(&format!("--robust {}", loss.name())))?;
-            let variances = statistics::row_variances(problem, &outcome.x, &noise)
-                .map_err(|e| located(mechanism, data, problem, e))?;
-            if variances.iter().any(|&v| !(v > 0.0 && v.is_finite())) {
-                return Err(needs_noise(&format!(
-                    "--robust {} (a row's expected residual variance is zero)",
-                    loss.name()
-                )));
-            }
-            let sigma: Vec<f64> = variances.iter().map(|v| v.sqrt()).collect();
-            let fit =
-                robust::fit(problem, &outcome.x, loss, &sigma, solver).map_err(|e| match e {
-                    RobustError::Block(e) => located(mechanism, data, problem, e),
-                    RobustError::Solver(e) => solver_error(e.to_string()),
-                })?;
-            outcome = fit.outcome;
-            outcome.x = fit.x;
-            (problem.clone().with_weights(&fit.weights), FitKind::Robust)
-        }
-    };
-    let problem = &fitted;
+    let fitted = fit::fit(problem, &x0, solver, options, noise.as_ref()).map_err(|e| match e {
+        FitError::Block(e) => located(mechanism, data, problem, e),
+        FitError::Solver(message) => Error::Solver {
+            context: format!("legs {}", names.join(", ")),
+            message,
+        },
+        FitError::NeedsNoise(option) => Error::Model {
+            path: mechanism.model_path.clone(),
+            field: "noise".into(),
+            message: format!(
+                "{option} needs the measurement noise: add a `noise:` block with non-zero \
+                 standard deviations (e.g. `noise: {{x: 1.0e-4, y: 1.0e-4, readings: 1.0e-4}}`)"
+            ),
+        },
+    })?;
+    let (outcome, kind) = (fitted.outcome, fitted.kind);
+    let problem = &fitted.problem;
     let r0 = problem
         .residuals(&x0)
         .map_err(|e| located(mechanism, data, problem, e))?;
@@ -501,14 +464,6 @@ fn leg_estimate(
     }
 }
 
-/// `1 / v` for every variance, if all are positive and finite.
-fn positive_inverse(variances: &[f64]) -> Option<Vec<f64>> {
-    variances
-        .iter()
-        .map(|&v| (v > 0.0 && v.is_finite()).then(|| 1.0 / v))
-        .collect()
-}
-
 /// The statistics' warnings for the leg in `slot`.
 fn leg_warnings(mechanism: &Mechanism, slot: &LegSlot, stats: &LegStatistics) -> Vec<String> {
     let leg = &mechanism.legs[slot.leg];
@@ -558,32 +513,6 @@ fn refit_without(
         estimate.dropped = before.statistics.outliers;
     }
     Ok((estimates, run))
-}
-
-/// Relative length of the Gauss–Newton step below which the start is already the minimiser.
-const STATIONARY_STEP: f64 = 1e-12;
-
-/// The outcome of a solve that is not needed: `x0` is already the least-squares minimiser (its
-/// Gauss–Newton step, solved by SVD, is shorter than [`STATIONARY_STEP`]`·(‖x0‖ + 1)`), e.g.
-/// when identifying again from a calibrated model on the same measurements.
-fn already_minimal(
-    x0: &DVector<f64>,
-    r0: &DVector<f64>,
-    c0: &DMatrix<f64>,
-) -> Option<crate::solver::SolverOutcome> {
-    let step = c0.clone().svd(true, true).solve(r0, f64::EPSILON).ok()?;
-    let length = step.norm();
-    (length.is_finite() && length <= STATIONARY_STEP * (x0.norm() + 1.0)).then(|| {
-        crate::solver::SolverOutcome {
-            x: x0.clone(),
-            iterations: 0,
-            converged: true,
-            stop_reason: crate::solver::StopReason::StepSize,
-            refinement_steps: 0,
-            residual_evaluations: 1,
-            jacobian_evaluations: 1,
-        }
-    })
 }
 
 /// (CᵀC)⁻¹ = V Σ⁻² Vᵀ from the SVD of C (never an explicit inverse of CᵀC); `None` if

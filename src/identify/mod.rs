@@ -1,6 +1,7 @@
 //! Identification: residual blocks, dual-number Jacobians, problems, observability, estimates,
 //! the statistics of each fit, robust losses and the trust verdict.
 pub mod estimate;
+mod fit;
 pub mod jacobian;
 pub mod observability;
 pub mod problem;

@@ -16,8 +16,9 @@
 
 use nalgebra::DVector;
 
+use super::fit::{solve_from, FitError};
 use super::problem::{BlockError, IdentificationProblem};
-use crate::solver::{solve, SolverKind, SolverOutcome};
+use crate::solver::{SolverKind, SolverOutcome, StopReason};
 
 /// Largest number of reweighting rounds per loss.
 pub const MAX_REWEIGHTINGS: usize = 50;
@@ -73,9 +74,20 @@ pub enum RobustError {
     /// A residual block could not be evaluated at an estimate.
     #[error(transparent)]
     Block(#[from] BlockError),
-    /// A solver run failed.
+    /// A solver run failed (its message).
     #[error("{0}")]
-    Solver(argmin::core::Error),
+    Solver(String),
+}
+
+impl From<FitError> for RobustError {
+    fn from(error: FitError) -> Self {
+        match error {
+            FitError::Block(e) => RobustError::Block(e),
+            FitError::Solver(message) | FitError::NeedsNoise(message) => {
+                RobustError::Solver(message)
+            }
+        }
+    }
 }
 
 /// The result of a robust fit.
@@ -83,7 +95,9 @@ pub enum RobustError {
 pub struct RobustFit {
     /// The estimate.
     pub x: DVector<f64>,
-    /// The last weighted solve.
+    /// The last weighted solve, with the iterations and evaluations of every round added up.
+    /// It is not converged when the last solve did not converge, or when the reweighting ran
+    /// out of rounds ([`StopReason::EvaluationBudget`]).
     pub outcome: SolverOutcome,
     /// Weighted solves performed (reweighting rounds over all losses).
     pub reweightings: usize,
@@ -109,10 +123,12 @@ pub fn fit(
         RobustLoss::Cauchy => &[RobustLoss::Huber, RobustLoss::Cauchy],
     };
     let mut x = x0.clone();
-    let mut last = None;
+    let mut last: Option<SolverOutcome> = None;
     let mut reweightings = 0;
     let mut weights = vec![1.0; sigma.len()];
+    let mut settled = true;
     for &loss in losses {
+        settled = false;
         for _ in 0..MAX_REWEIGHTINGS {
             let r = raw.residuals(&x)?;
             weights = r
@@ -121,20 +137,30 @@ pub fn fit(
                 .map(|(ri, si)| loss.weight(ri / si) / (si * si))
                 .collect();
             let weighted = raw.clone().with_weights(&weights);
-            let outcome = solve(&weighted, x.clone(), solver).map_err(RobustError::Solver)?;
+            let mut outcome = solve_from(&weighted, &x, solver)?;
             reweightings += 1;
             let change = (&outcome.x - &x).norm();
             x.clone_from(&outcome.x);
+            if let Some(previous) = &last {
+                outcome.iterations += previous.iterations;
+                outcome.residual_evaluations += previous.residual_evaluations;
+                outcome.jacobian_evaluations += previous.jacobian_evaluations;
+            }
             last = Some(outcome);
             if change <= REWEIGHTING_TOLERANCE * (x.norm() + REWEIGHTING_TOLERANCE) {
+                settled = true;
                 break;
             }
         }
     }
-    let outcome = match last {
+    let mut outcome = match last {
         Some(outcome) => outcome,
-        None => solve(&raw, x.clone(), solver).map_err(RobustError::Solver)?,
+        None => solve_from(&raw, &x, solver)?,
     };
+    if !settled && outcome.converged {
+        outcome.converged = false;
+        outcome.stop_reason = StopReason::EvaluationBudget;
+    }
     Ok(RobustFit {
         x,
         outcome,

@@ -98,8 +98,19 @@ pub struct LegStatistics {
     pub largest_t: Option<f64>,
     /// Problem rows of the outliers (for `--drop-outliers`).
     pub outlier_rows: Vec<usize>,
-    /// Rows whose readings sit on another turn than the home value: (turns, count, lines).
-    pub other_turn: Option<(f64, usize, Vec<usize>)>,
+    /// The rows whose readings sit on another turn than the home value, if any.
+    pub other_turn: Option<OtherTurn>,
+}
+
+/// Readings matched modulo 2π: they sit on another turn than the leg's home value.
+#[derive(Debug, Clone, PartialEq)]
+pub struct OtherTurn {
+    /// The most common number of whole turns between prediction and reading.
+    pub turns: f64,
+    /// How many rows were matched across a turn.
+    pub rows: usize,
+    /// Their measurement-file lines (if read from a file).
+    pub lines: Vec<usize>,
 }
 
 /// `∂ψ/∂P`: the gradient of the leg's predicted reading with respect to the measured pose
@@ -374,13 +385,13 @@ pub fn leg_statistics(
     });
     let turns = problem.turns(x)?;
     let shifted: Vec<usize> = rows.iter().copied().filter(|&i| turns[i] != 0.0).collect();
-    let other_turn = (!shifted.is_empty()).then(|| {
-        let most = most_common(shifted.iter().map(|&i| turns[i]));
-        let lines = shifted
+    let other_turn = (!shifted.is_empty()).then(|| OtherTurn {
+        turns: most_common(shifted.iter().map(|&i| turns[i])),
+        rows: shifted.len(),
+        lines: shifted
             .iter()
             .filter_map(|&i| problem.blocks()[i].line)
-            .collect();
-        (most, shifted.len(), lines)
+            .collect(),
     });
     Ok(LegStatistics {
         noise_test,
@@ -450,7 +461,7 @@ pub fn warnings(
             figure(statistics.outlier_threshold.unwrap_or_default())
         ));
     }
-    if let Some((turns, count, lines)) = &statistics.other_turn {
+    if let Some(OtherTurn { turns, rows, lines }) = &statistics.other_turn {
         let lines = if lines.is_empty() {
             String::new()
         } else {
@@ -459,7 +470,7 @@ pub fn warnings(
             format!(" (lines {}{more})", shown.join(", "))
         };
         warnings.push(format!(
-            "leg {leg}, joint {joint}: {count} reading(s){lines} sit {turns} turn(s) of 2π away \
+            "leg {leg}, joint {joint}: {rows} reading(s){lines} sit {turns} turn(s) of 2π away \
              from the turn of the joint's home value {home} rad (or of its offset); they were \
              matched modulo 2π. If the home value is in degrees, convert it to radians; \
              otherwise put it on the readings' turn."

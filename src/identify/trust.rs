@@ -1,10 +1,13 @@
 //! Whether an identification's result can be trusted: the reasons it must not be, one line
 //! each. The command line prints them as warnings and exits with status 3.
 //!
-//! Checked: every solver run converged (a typed stop reason that is a convergence test), and
-//! every number a fit reports (costs, estimates, standard deviations, residual σ̂) is finite. A
-//! non-finite value means the fit or its statistics broke down, whatever the solver said about
-//! its own stopping.
+//! Checked:
+//! * every solver run converged (a typed stop reason that is a convergence test);
+//! * every number a fit reports (costs, estimates, standard deviations, residual σ̂) is finite.
+//!   A non-finite value means the fit or its statistics broke down, whatever the solver said
+//!   about its own stopping;
+//! * no leg's residuals reject the declared measurement noise (the χ² test of
+//!   [`super::statistics`]): wrong units, outliers or a wrong model.
 
 use super::estimate::{LegEstimate, StrategyResult};
 
@@ -27,10 +30,12 @@ pub fn trust_issues(results: &[StrategyResult]) -> Vec<String> {
             }
             if let Some(test) = leg.statistics.noise_test.as_ref().filter(|t| t.rejected) {
                 issues.push(format!(
-                    "{strategy}: leg {}: the residuals reject the declared noise (σ̂ {:.3e} times \
-                     the declared scatter, p = {:.2e}): check the units (degrees vs radians, \
+                    "{strategy}, leg `{}`: the residuals reject the declared noise (σ̂ {} times \
+                     the declared scatter, χ² p = {:.2e}): check the units (degrees vs radians, \
                      millimetres vs metres), the outliers and the model",
-                    leg.leg, test.sigma_ratio, test.p_value
+                    leg.leg,
+                    super::statistics::figure(test.sigma_ratio),
+                    test.p_value
                 ));
             }
         }
@@ -85,8 +90,9 @@ fn non_finite(leg: &LegEstimate) -> Vec<String> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::identify::estimate::{ParameterEstimate, SolverRun, Strategy};
+    use crate::identify::estimate::{FitOptions, ParameterEstimate, SolverRun, Strategy};
     use crate::identify::observability::Observability;
+    use crate::identify::statistics::{LegStatistics, NoiseTest};
     use crate::model::params::Unit;
     use crate::solver::{SolverKind, StopReason};
 
@@ -129,7 +135,7 @@ mod tests {
                 final_cost,
                 residual_sigma: Some(1e-4),
                 observability,
-                statistics: Default::default(),
+                statistics: LegStatistics::default(),
                 dropped: Vec::new(),
                 warnings: Vec::new(),
                 covariance: None,
@@ -147,7 +153,7 @@ mod tests {
                 jacobian_evaluations: 3,
                 seconds: 0.0,
             }],
-            options: Default::default(),
+            options: FitOptions::default(),
             warnings: Vec::new(),
         }
     }
@@ -156,6 +162,35 @@ mod tests {
     fn a_finite_result_has_no_issue() {
         let ok = result(vec![parameter("l1", 0.75, Some(1e-4), true)], 1e-8);
         assert!(trust_issues(&[ok]).is_empty());
+    }
+
+    #[test]
+    fn a_rejected_noise_test_is_named_with_its_figures() {
+        let mut bad = result(vec![parameter("l1", 0.75, Some(1e-4), true)], 1e-8);
+        let test = NoiseTest {
+            chi_squared: 120.0,
+            degrees_of_freedom: 12,
+            p_value: 1.5e-19,
+            sigma_ratio: 120f64.sqrt() / 12f64.sqrt(),
+            residual_sigma: 1e-3,
+            expected_sigma: 1e-3 / 10f64.sqrt(),
+            excluded: 0,
+            rejected: true,
+        };
+        bad.legs[0].statistics.noise_test = Some(test.clone());
+        assert_eq!(
+            trust_issues(std::slice::from_ref(&bad)),
+            [
+                "divide and conquer, leg `leg1`: the residuals reject the declared noise (σ̂ 3.162 \
+              times the declared scatter, χ² p = 1.50e-19): check the units (degrees vs radians, \
+              millimetres vs metres), the outliers and the model"
+            ]
+        );
+        bad.legs[0].statistics.noise_test = Some(NoiseTest {
+            rejected: false,
+            ..test
+        });
+        assert!(trust_issues(&[bad]).is_empty());
     }
 
     #[test]

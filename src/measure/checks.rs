@@ -5,11 +5,13 @@
 //!   longest chain of joint offsets plus the attachment, or the workspace region's extent,
 //!   whichever is larger) is an **error** naming the line and column: no leg can reach it, so
 //!   the fit would fail anyway, only without the hint (millimetres?).
-//! * An orientation (`roll`, `pitch`, `yaw`) or a revolute reading beyond ±2π, or a prismatic
-//!   reading larger than [`SIZE_FACTOR`] × the size, is a **warning**: a multi-turn encoder or
-//!   an unwrapped orientation can legitimately pass ±2π, and the decisive evidence about units
-//!   is the fit itself (the residuals' noise test makes a wrong-unit result untrusted, exit 3).
-//!   One warning per column, naming the first and the largest offending line.
+//! * An orientation (`roll`, `pitch`, `yaw`) beyond ±2π, a revolute reading whose joint value
+//!   (`gain · reading + offset`, nominal) lies more than 2π from the joint's home value, or a
+//!   prismatic reading whose joint value is larger than [`SIZE_FACTOR`] × the size, is a
+//!   **warning**: an unwrapped orientation or an odd actuator model can be legitimate, and the
+//!   decisive evidence about units is the fit itself (the residuals' noise test makes a
+//!   wrong-unit result untrusted, exit 3). One warning per column, naming the first and the
+//!   largest offending line.
 //! * Two rows with the same leg label, pose and readings: a **warning** naming both lines (the
 //!   same measurement counted twice makes the standard deviations √2 too small).
 
@@ -135,12 +137,16 @@ fn range_warnings(mechanism: &Mechanism, data: &MeasurementSet) -> Result<Vec<St
         }
         for (l, reading) in pose.readings.iter().enumerate() {
             let Some(value) = *reading else { continue };
-            let bound = if mechanism.legs[l].actuated_is_revolute() {
-                TAU
+            let leg = &mechanism.legs[l];
+            // The joint value through the nominal actuator model (a geared reading may pass
+            // ±2π while its joint does not).
+            let joint = leg.gain * value + leg.offset;
+            let implausible = if leg.actuated_is_revolute() {
+                (joint - leg.home_joints[leg.actuated]).abs() > TAU
             } else {
-                limit
+                joint.abs() > limit
             };
-            if value.abs() > bound {
+            if implausible {
                 readings[l].add(pose.line, value);
             }
         }
@@ -167,14 +173,16 @@ fn range_warnings(mechanism: &Mechanism, data: &MeasurementSet) -> Result<Vec<St
         }
         warnings.push(if leg.actuated_is_revolute() {
             format!(
-                "column `{name}`: revolute reading {} beyond ±2π rad: readings in degrees \
-                 instead of radians?",
-                offenders.describe()
+                "column `{name}`: revolute reading {} puts the joint (gain · reading + offset) \
+                 more than 2π from its home value {} rad: readings in degrees instead of radians?",
+                offenders.describe(),
+                leg.home_joints[leg.actuated]
             )
         } else {
             format!(
-                "column `{name}`: prismatic reading {} larger than {SIZE_FACTOR} times the \
-                 mechanism's size ({size:.3} m): readings in millimetres instead of metres?",
+                "column `{name}`: prismatic reading {} puts the joint (gain · reading + offset) \
+                 beyond {SIZE_FACTOR} times the mechanism's size ({size:.3} m): readings in \
+                 millimetres instead of metres?",
                 offenders.describe()
             )
         });

@@ -3,10 +3,11 @@
 //! standard start and from x₀ = 0 (where the first trust region comes from the step bound
 //! alone), the stop at an exactly zero residual reached inside the loop, and the stop when
 //! the tolerances are below machine precision.
+use crate::support::Minpack;
 use argmin::core::{Error, Executor, Jacobian, Operator, State, TerminationReason};
 use legwise::solver::levenberg_marquardt::LevenbergMarquardt;
 use legwise::solver::stop::StopReason;
-use nalgebra::{DMatrix, DVector, Dyn, Owned};
+use nalgebra::{DMatrix, DVector};
 
 /// A least-squares problem with analytic residuals and a row-major Jacobian.
 #[derive(Clone, Copy)]
@@ -31,26 +32,6 @@ impl Jacobian for Problem {
     fn jacobian(&self, x: &DVector<f64>) -> Result<DMatrix<f64>, Error> {
         let values = (self.jac)(x.as_slice());
         Ok(DMatrix::from_row_slice(self.m, self.n, &values))
-    }
-}
-
-struct Minpack(Problem, DVector<f64>);
-
-impl levenberg_marquardt::LeastSquaresProblem<f64, Dyn, Dyn> for Minpack {
-    type ResidualStorage = Owned<f64, Dyn>;
-    type JacobianStorage = Owned<f64, Dyn, Dyn>;
-    type ParameterStorage = Owned<f64, Dyn>;
-    fn set_params(&mut self, x: &DVector<f64>) {
-        self.1.copy_from(x);
-    }
-    fn params(&self) -> DVector<f64> {
-        self.1.clone()
-    }
-    fn residuals(&self) -> Option<DVector<f64>> {
-        self.0.apply(&self.1).ok()
-    }
-    fn jacobian(&self) -> Option<DMatrix<f64>> {
-        Jacobian::jacobian(&self.0, &self.1).ok()
     }
 }
 

@@ -6,11 +6,11 @@
 //! J. J. Moré, B. S. Garbow, K. E. Hillstrom (1981). Testing unconstrained optimization
 //! software. ACM Trans. Math. Softw. 7(1), 17–41. MGH report `f = Σ rᵢ² = 2·cost`.
 
+use crate::support::Minpack;
 use argmin::core::{Error, Executor, Jacobian, Operator, State, TerminationReason};
 use legwise::solver::levenberg_marquardt::LevenbergMarquardt;
 use legwise::solver::StopReason;
-use levenberg_marquardt::LeastSquaresProblem;
-use nalgebra::{DMatrix, DVector, Dyn, Owned};
+use nalgebra::{DMatrix, DVector};
 
 /// A least-squares problem with analytic residuals and row-major Jacobian.
 #[derive(Clone, Copy)]
@@ -74,26 +74,6 @@ fn run(p: TestProblem, lm: LevenbergMarquardt) -> Result<Run, Error> {
     })
 }
 
-struct Reference(TestProblem, DVector<f64>);
-
-impl LeastSquaresProblem<f64, Dyn, Dyn> for Reference {
-    type ResidualStorage = Owned<f64, Dyn>;
-    type JacobianStorage = Owned<f64, Dyn, Dyn>;
-    type ParameterStorage = Owned<f64, Dyn>;
-    fn set_params(&mut self, x: &DVector<f64>) {
-        self.1.copy_from(x);
-    }
-    fn params(&self) -> DVector<f64> {
-        self.1.clone()
-    }
-    fn residuals(&self) -> Option<DVector<f64>> {
-        self.0.apply(&self.1).ok()
-    }
-    fn jacobian(&self) -> Option<DMatrix<f64>> {
-        Jacobian::jacobian(&self.0, &self.1).ok()
-    }
-}
-
 /// Minimise with the `levenberg-marquardt` crate at `ftol = xtol = TIGHT`, `gtol = 0`;
 /// returns `(x, cost, residual evaluations)`. Its "no improvement possible at machine
 /// precision" exits count as success here.
@@ -108,7 +88,7 @@ fn reference_at(p: TestProblem, tolerance: f64) -> (DVector<f64>, f64, usize) {
         .with_xtol(tolerance)
         .with_gtol(0.0)
         .with_patience(10_000);
-    let (fitted, report) = solver.minimize(Reference(p, DVector::from_column_slice(p.x0)));
+    let (fitted, report) = solver.minimize(Minpack(p, DVector::from_column_slice(p.x0)));
     use levenberg_marquardt::TerminationReason as T;
     let ok = matches!(report.termination, T::NoImprovementPossible(_))
         || report.termination.was_successful();

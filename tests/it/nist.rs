@@ -17,10 +17,11 @@
 
 use std::path::Path;
 
+use crate::support::Minpack;
 use argmin::core::{Error, Jacobian, Operator};
 use legwise::solver::levenberg_marquardt::STATIONARITY_TOLERANCE;
 use legwise::solver::{default_budget, gradient_cosine, solve, SolverKind, SolverOutcome};
-use nalgebra::{DMatrix, DVector, Dyn, Owned, SVector};
+use nalgebra::{DMatrix, DVector, SVector};
 use num_dual::{DualNum, DualSVec64};
 
 use crate::support::crate_path;
@@ -407,27 +408,6 @@ fn levenberg_marquardt_on_the_nist_strd_problems_from_both_starts() {
     assert!(accurate >= 52, "only {accurate} of 54 fits reach LRE 6");
 }
 
-/// The `levenberg-marquardt` crate's view of a NIST fit.
-struct MinpackFit<'a>(Fit<'a>, DVector<f64>);
-
-impl levenberg_marquardt::LeastSquaresProblem<f64, Dyn, Dyn> for MinpackFit<'_> {
-    type ResidualStorage = Owned<f64, Dyn>;
-    type JacobianStorage = Owned<f64, Dyn, Dyn>;
-    type ParameterStorage = Owned<f64, Dyn>;
-    fn set_params(&mut self, b: &DVector<f64>) {
-        self.1.copy_from(b);
-    }
-    fn params(&self) -> DVector<f64> {
-        self.1.clone()
-    }
-    fn residuals(&self) -> Option<DVector<f64>> {
-        self.0.apply(&self.1).ok()
-    }
-    fn jacobian(&self) -> Option<DMatrix<f64>> {
-        Jacobian::jacobian(&self.0, &self.1).ok()
-    }
-}
-
 /// MINPACK (its port, the `levenberg-marquardt` crate) misses BoxBOD from start 1 and calls it
 /// converged. legwise's stationarity test rejects that point: the residual there lies almost
 /// entirely along the (tiny) b2 column, far above the tolerance, so a legwise run stopping
@@ -443,7 +423,7 @@ fn minpack_false_convergence_on_boxbod_fails_the_stationarity_test() {
         .with_ftol(legwise::solver::LM_TOLERANCE)
         .with_xtol(legwise::solver::LM_TOLERANCE)
         .with_gtol(0.0)
-        .minimize(MinpackFit(
+        .minimize(Minpack(
             fit.clone(),
             DVector::from_column_slice(&data.starts[0]),
         ));

@@ -16,6 +16,7 @@ use legwise::identify::robust::RobustLoss;
 use legwise::identify::statistics::{studentized, NOISE_TEST_P};
 use legwise::identify::trust::trust_issues;
 use legwise::kinematics::inverse::predict_reading;
+use legwise::measure::checks::check;
 use legwise::measure::file::read;
 use legwise::measure::MeasurementSet;
 use legwise::model::Mechanism;
@@ -420,6 +421,29 @@ fn home_values_on_another_turn_or_in_degrees_give_the_clean_offsets_and_a_warnin
 }
 
 #[test]
+fn revolute_readings_are_judged_by_their_joint_value_so_a_geared_actuator_passes() {
+    let mechanism = bundled("5r.yaml");
+    let clean = measurements(&mechanism, "stats_5r_clean.csv");
+    assert!(check(&mechanism, &clean).expect("plausible").is_empty());
+    // A 1:50 gear on leg1: readings 50 times the joint angle, gain 1/50.
+    let mut geared = mechanism.clone();
+    geared.legs[0].gain = 0.02;
+    let mut turned = clean.clone();
+    for pose in &mut turned.poses {
+        pose.readings[0] = pose.readings[0].map(|r| r * 50.0);
+    }
+    assert!(check(&geared, &turned).expect("plausible").is_empty());
+    // The same readings with gain 1: the joint would sit ~20 turns from home.
+    let warnings = check(&mechanism, &turned).expect("warnings only");
+    assert_eq!(warnings.len(), 1, "{warnings:?}");
+    assert!(
+        warnings[0].starts_with("column `A1`: revolute reading 36 values, first "),
+        "{}",
+        warnings[0]
+    );
+}
+
+#[test]
 fn duplicate_rows_are_named_by_both_lines() {
     let result = fit_5r("stats_5r_duplicate.csv", FitOptions::default());
     assert_eq!(result.warnings.len(), 1, "{:?}", result.warnings);
@@ -490,7 +514,9 @@ fn a_3rpr_yaw_in_degrees_exits_3_naming_the_column() {
     assert!(stdout.contains("an orientation in degrees instead of radians?"));
     for leg in ["leg1", "leg2", "leg3"] {
         assert!(
-            stderr.contains(&format!("leg {leg}: the residuals reject")),
+            stderr.contains(&format!(
+                "leg `{leg}`: the residuals reject the declared noise"
+            )),
             "{stderr}"
         );
     }
@@ -514,7 +540,7 @@ fn a_reading_of_1e12_is_named_and_dropped() {
     ];
     let (code, stdout, _) = identify_cli(&args);
     assert_eq!(code, Some(3));
-    assert!(stdout.contains("column `A1`: revolute reading 1000000000000 at line 6"));
+    assert!(stdout.contains("column `A1`: revolute reading 1000000000000 at line 6 puts the joint"));
     assert!(
         stdout.contains("leg leg1: line 6 is an outlier"),
         "{stdout}"

@@ -1,7 +1,9 @@
 //! Shared helpers for the integration tests.
 use std::path::PathBuf;
 
+use argmin::core::{Jacobian, Operator};
 use legwise::model::Mechanism;
+use nalgebra::{DMatrix, DVector, Dyn, Owned};
 
 /// Absolute path of a file in the crate.
 pub(crate) fn crate_path(relative: &str) -> PathBuf {
@@ -26,4 +28,30 @@ pub(crate) fn bundled_models() -> Vec<Mechanism> {
         .iter()
         .map(|p| Mechanism::load(p).expect("bundled model loads"))
         .collect()
+}
+
+/// Any argmin least-squares problem seen by the `levenberg-marquardt` crate (a MINPACK port, the
+/// test oracle), with its current parameters.
+pub(crate) struct Minpack<P>(pub(crate) P, pub(crate) DVector<f64>);
+
+impl<P> levenberg_marquardt::LeastSquaresProblem<f64, Dyn, Dyn> for Minpack<P>
+where
+    P: Operator<Param = DVector<f64>, Output = DVector<f64>>
+        + Jacobian<Param = DVector<f64>, Jacobian = DMatrix<f64>>,
+{
+    type ResidualStorage = Owned<f64, Dyn>;
+    type JacobianStorage = Owned<f64, Dyn, Dyn>;
+    type ParameterStorage = Owned<f64, Dyn>;
+    fn set_params(&mut self, x: &DVector<f64>) {
+        self.1.copy_from(x);
+    }
+    fn params(&self) -> DVector<f64> {
+        self.1.clone()
+    }
+    fn residuals(&self) -> Option<DVector<f64>> {
+        self.0.apply(&self.1).ok()
+    }
+    fn jacobian(&self) -> Option<DMatrix<f64>> {
+        self.0.jacobian(&self.1).ok()
+    }
 }

@@ -1,0 +1,138 @@
+//! One problem fitted as [`FitOptions`] ask: plain least squares, weighted by the declared
+//! noise, or with a robust loss (iteratively reweighted, [`super::robust`]). The result carries
+//! the problem as finally weighted, so its residuals, Jacobian and statistics match the fit.
+
+use nalgebra::{DMatrix, DVector};
+
+use super::estimate::{FitOptions, Weighting};
+use super::problem::{BlockError, IdentificationProblem};
+use super::robust::{self, RobustError};
+use super::statistics::{row_variances, FitKind};
+use crate::model::mechanism::MeasurementNoise;
+use crate::solver::{solve, SolverKind, SolverOutcome, StopReason};
+
+/// Why a fit failed.
+#[derive(Debug)]
+pub(super) enum FitError {
+    /// A residual block could not be evaluated.
+    Block(BlockError),
+    /// The solver failed (its message).
+    Solver(String),
+    /// The option (named) needs a declared, non-zero noise.
+    NeedsNoise(String),
+}
+
+/// A fitted problem.
+pub(super) struct Fitted<'a> {
+    /// The problem with the weights of the fit (none, the noise's, or the final robust ones).
+    pub(super) problem: IdentificationProblem<'a>,
+    /// The solver's outcome (of the last weighted solve for a robust fit), at the estimate.
+    pub(super) outcome: SolverOutcome,
+    /// Least squares or robust.
+    pub(super) kind: FitKind,
+}
+
+/// Fits `problem` from `x0` with `solver` as `options` ask; `noise` is the declared noise (only
+/// if some σ is non-zero).
+pub(super) fn fit<'a>(
+    problem: &IdentificationProblem<'a>,
+    x0: &DVector<f64>,
+    solver: SolverKind,
+    options: FitOptions,
+    noise: Option<&MeasurementNoise>,
+) -> Result<Fitted<'a>, FitError> {
+    let needs_noise = |what: &str| FitError::NeedsNoise(what.to_string());
+    let weighted = match (options.weights, options.robust) {
+        (Weighting::Noise, None) => {
+            let noise = noise.ok_or_else(|| needs_noise("--weights noise"))?;
+            let variances = row_variances(problem, x0, noise).map_err(FitError::Block)?;
+            let weights = inverse(&variances).ok_or_else(|| {
+                needs_noise("--weights noise (a row's expected residual variance is zero)")
+            })?;
+            problem.clone().with_weights(&weights)
+        }
+        _ => problem.unweighted(),
+    };
+    let outcome = solve_from(&weighted, x0, solver)?;
+    let Some(loss) = options.robust else {
+        return Ok(Fitted {
+            problem: weighted,
+            outcome,
+            kind: FitKind::LeastSquares,
+        });
+    };
+    let option = format!("--robust {}", loss.name());
+    let noise = noise.ok_or_else(|| needs_noise(&option))?;
+    let variances = row_variances(problem, &outcome.x, noise).map_err(FitError::Block)?;
+    let sigma: Vec<f64> = inverse(&variances)
+        .ok_or_else(|| {
+            needs_noise(&format!(
+                "{option} (a row's expected residual variance is zero)"
+            ))
+        })?
+        .iter()
+        .map(|w| 1.0 / w.sqrt())
+        .collect();
+    let robust = robust::fit(problem, &outcome.x, loss, &sigma, solver).map_err(|e| match e {
+        RobustError::Block(e) => FitError::Block(e),
+        RobustError::Solver(message) => FitError::Solver(message),
+    })?;
+    let mut outcome = robust.outcome;
+    outcome.x = robust.x;
+    Ok(Fitted {
+        problem: problem.clone().with_weights(&robust.weights),
+        outcome,
+        kind: FitKind::Robust,
+    })
+}
+
+/// `1 / v` for every variance, if all are positive and finite.
+fn inverse(variances: &[f64]) -> Option<Vec<f64>> {
+    variances
+        .iter()
+        .map(|&v| (v > 0.0 && v.is_finite()).then(|| 1.0 / v))
+        .collect()
+}
+
+/// Solves `problem` from `x0`, unless `x0` is already its minimiser ([`already_minimal`]): a
+/// solver started at its answer may find no step to take and call that a stall.
+///
+/// # Errors
+/// A block out of reach at `x0`, or the solver's failure.
+pub(super) fn solve_from(
+    problem: &IdentificationProblem<'_>,
+    x0: &DVector<f64>,
+    solver: SolverKind,
+) -> Result<SolverOutcome, FitError> {
+    let (r0, c0) = problem
+        .residuals_and_jacobian(x0)
+        .map_err(FitError::Block)?;
+    match already_minimal(x0, &r0, &c0) {
+        Some(outcome) => Ok(outcome),
+        None => solve(problem, x0.clone(), solver).map_err(|e| FitError::Solver(e.to_string())),
+    }
+}
+
+/// Relative length of the Gauss–Newton step below which the start is already the minimiser.
+const STATIONARY_STEP: f64 = 1e-12;
+
+/// The outcome of a solve that is not needed: `x0` is already the least-squares minimiser (its
+/// Gauss–Newton step, solved by SVD, is shorter than [`STATIONARY_STEP`]`·(‖x0‖ + 1)`), e.g.
+/// when identifying again from a calibrated model on the same measurements.
+fn already_minimal(
+    x0: &DVector<f64>,
+    r0: &DVector<f64>,
+    c0: &DMatrix<f64>,
+) -> Option<SolverOutcome> {
+    let step = c0.clone().svd(true, true).solve(r0, f64::EPSILON).ok()?;
+    let length = step.norm();
+    (length.is_finite() && length <= STATIONARY_STEP * (x0.norm() + 1.0)).then(|| SolverOutcome {
+        x: x0.clone(),
+        iterations: 0,
+        converged: true,
+        stop_reason: StopReason::StepSize,
+        refinement_steps: 0,
+        residual_evaluations: 1,
+        jacobian_evaluations: 1,
+    })
+}
