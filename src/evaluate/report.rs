@@ -8,19 +8,7 @@ use serde_json::{json, Value};
 use super::accuracy::{AccuracyMap, ErrorStats};
 use super::held_out::Evaluation;
 use crate::model::Mechanism;
-use crate::report::json::{header, merge};
-
-fn finite(value: f64) -> Value {
-    if value.is_finite() {
-        json!(value)
-    } else {
-        Value::Null
-    }
-}
-
-fn optional(value: Option<f64>) -> Value {
-    value.map_or(Value::Null, finite)
-}
+use crate::report::json::{finite, header, merge, optional};
 
 /// `{"rms", "median", "p95", "max"}`, or `null`.
 pub fn stats_json(stats: Option<&ErrorStats>) -> Value {

@@ -66,7 +66,8 @@ fn leg_statistics(leg: &LegEstimate) -> Value {
     })
 }
 
-fn finite(value: f64) -> Value {
+/// A number, or `null` when it is not finite (JSON has no NaN or infinity).
+pub fn finite(value: f64) -> Value {
     if value.is_finite() {
         json!(value)
     } else {
@@ -74,7 +75,8 @@ fn finite(value: f64) -> Value {
     }
 }
 
-fn optional(value: Option<f64>) -> Value {
+/// [`finite`] of an optional number (`None` is `null`).
+pub fn optional(value: Option<f64>) -> Value {
     value.map_or(Value::Null, finite)
 }
 
