@@ -9,8 +9,8 @@ use std::path::Path;
 
 use serde::{Deserialize, Serialize};
 
-use crate::error::{Error, Result};
 use super::region::Region;
+use crate::error::{Error, Result};
 
 /// The whole model file.
 #[derive(Debug, Clone, Deserialize, Serialize)]

@@ -8,8 +8,8 @@ use super::file::ModelFile;
 use super::joint::ORIGIN_COMPONENTS;
 use super::leg::LegModel;
 use super::source::read_text;
-use crate::error::{Error, Result};
 use super::workspace::Workspace;
+use crate::error::{Error, Result};
 
 mod validate;
 

@@ -129,18 +129,25 @@ impl Region {
             ),
             Region::Box { min, max } => ([min[0], min[1], 0.0], [max[0], max[1], 0.0]),
             Region::Polygon { vertices } => fold(&mut vertices.iter().map(|v| [v[0], v[1], 0.0])),
-            Region::Ball { centre, radius } => (
-                centre.map(|c| c - radius),
-                centre.map(|c| c + radius),
-            ),
+            Region::Ball { centre, radius } => {
+                (centre.map(|c| c - radius), centre.map(|c| c + radius))
+            }
             Region::Cuboid { min, max } => (*min, *max),
             Region::Cylinder {
                 centre,
                 radius,
                 height,
             } => (
-                [centre[0] - radius, centre[1] - radius, centre[2] - height / 2.0],
-                [centre[0] + radius, centre[1] + radius, centre[2] + height / 2.0],
+                [
+                    centre[0] - radius,
+                    centre[1] - radius,
+                    centre[2] - height / 2.0,
+                ],
+                [
+                    centre[0] + radius,
+                    centre[1] + radius,
+                    centre[2] + height / 2.0,
+                ],
             ),
             Region::Polyhedron { vertices } => fold(&mut vertices.iter().copied()),
         }
@@ -203,10 +210,19 @@ mod tests {
             radius: 0.5,
             height: 2.0,
         };
-        assert!((cylinder.depth([1.3, 0.0, 1.0]) - 0.2).abs() < 1e-12, "side");
+        assert!(
+            (cylinder.depth([1.3, 0.0, 1.0]) - 0.2).abs() < 1e-12,
+            "side"
+        );
         assert!((cylinder.depth([1.0, 0.0, 1.9]) - 0.1).abs() < 1e-12, "top");
-        assert!((cylinder.depth([1.0, 0.0, -0.25]) + 0.25).abs() < 1e-12, "below");
-        assert!((cylinder.depth([1.0, 1.0, 1.0]) + 0.5).abs() < 1e-12, "beside");
+        assert!(
+            (cylinder.depth([1.0, 0.0, -0.25]) + 0.25).abs() < 1e-12,
+            "below"
+        );
+        assert!(
+            (cylinder.depth([1.0, 1.0, 1.0]) + 0.5).abs() < 1e-12,
+            "beside"
+        );
         // The unit cube as a polyhedron (with an inner point that is not a vertex of the hull).
         let mut corners: Vec<[f64; 3]> = (0..8)
             .map(|k| [(k & 1) as f64, ((k >> 1) & 1) as f64, ((k >> 2) & 1) as f64])

@@ -2,9 +2,7 @@
 //! [`crate::model`] (re-exported here for the workspace computations).
 
 pub use crate::model::region::Region;
-pub use crate::model::workspace::{
-    Workspace, DEFAULT_RANGE_LEVELS, DEFAULT_SINGULARITY_THRESHOLD,
-};
+pub use crate::model::workspace::{Workspace, DEFAULT_RANGE_LEVELS, DEFAULT_SINGULARITY_THRESHOLD};
 
 /// The planar parry queries the MIW uses.
 pub(crate) mod geometry {

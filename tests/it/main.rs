@@ -19,6 +19,7 @@ mod plots;
 mod recovery;
 mod selection;
 mod solvers_agree;
+mod spatial;
 mod statistics_independent;
 mod statistics_trust;
 mod support;

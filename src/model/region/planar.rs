@@ -20,10 +20,7 @@ pub(super) fn disc_depth(centre: [f64; 2], radius: f64, point: [f64; 2]) -> f64 
 pub(super) fn box_depth(min: [f64; 2], max: [f64; 2], point: [f64; 2]) -> f64 {
     let half = [(max[0] - min[0]) / 2.0, (max[1] - min[1]) / 2.0];
     let centre = [min[0] + half[0], min[1] + half[1]];
-    signed_depth(
-        &Cuboid::new(vector(half)),
-        vector(point) - vector(centre),
-    )
+    signed_depth(&Cuboid::new(vector(half)), vector(point) - vector(centre))
 }
 
 /// Signed distance from `point` to a polygon's outline, positive inside, metres.

@@ -19,10 +19,7 @@ pub(super) fn ball_depth(centre: [f64; 3], radius: f64, point: [f64; 3]) -> f64 
 pub(super) fn cuboid_depth(min: [f64; 3], max: [f64; 3], point: [f64; 3]) -> f64 {
     let half: [f64; 3] = std::array::from_fn(|i| (max[i] - min[i]) / 2.0);
     let centre: [f64; 3] = std::array::from_fn(|i| min[i] + half[i]);
-    signed_depth(
-        &Cuboid::new(vector(half)),
-        vector(point) - vector(centre),
-    )
+    signed_depth(&Cuboid::new(vector(half)), vector(point) - vector(centre))
 }
 
 /// Signed distance from `point` to the boundary of a cylinder with a vertical (z) axis,

@@ -23,7 +23,11 @@ impl Builder<'_> {
         let [z_lo, z_hi] = region.z_bounds().unwrap_or([0.0; 2]);
         let corners = (0..8).map(|k| {
             let pick = |bit: usize, low: f64, high: f64| if k >> bit & 1 == 0 { low } else { high };
-            [pick(0, lo[0], hi[0]), pick(1, lo[1], hi[1]), pick(2, z_lo, z_hi)]
+            [
+                pick(0, lo[0], hi[0]),
+                pick(1, lo[1], hi[1]),
+                pick(2, z_lo, z_hi),
+            ]
         });
         let norm = |v: [f64; 3]| v[0].hypot(v[1]).hypot(v[2]);
         let farthest = corners.map(norm).fold(0.0, f64::max);

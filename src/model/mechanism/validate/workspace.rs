@@ -150,7 +150,11 @@ impl Builder<'_> {
         let centre = [
             (lo[0] + hi[0]) / 2.0,
             (lo[1] + hi[1]) / 2.0,
-            if z_hi.is_finite() { (z_lo + z_hi) / 2.0 } else { 0.0 },
+            if z_hi.is_finite() {
+                (z_lo + z_hi) / 2.0
+            } else {
+                0.0
+            },
         ];
         let usable = entry.margin * 2.0 < smallest
             && (workspace.region.depth(centre) >= entry.margin || {
