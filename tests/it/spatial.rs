@@ -533,6 +533,8 @@ fn spatial_regions_are_validated() {
 }
 
 #[test]
+// The cells are decimal literals: parsed, they must be exactly the same doubles.
+#[allow(clippy::float_cmp)]
 fn spatial_measurement_columns_are_read_and_a_missing_coordinate_is_named() {
     use legwise::measure::file::parse;
     let delta = bundled("delta.yaml");
