@@ -56,5 +56,6 @@ pub mod model;
 pub mod progress;
 pub mod report;
 pub mod scalar;
+pub mod selection;
 pub mod solver;
 pub mod workspace;

@@ -26,6 +26,7 @@
 use nalgebra::DMatrix;
 
 mod a_optimal;
+pub mod design;
 mod block_d;
 mod driver;
 mod e_optimal;
