@@ -191,6 +191,47 @@ mod tests {
     }
 
     #[test]
+    fn degenerate_polyhedra_enclose_no_volume_and_never_panic() {
+        let cases: Vec<Vec<[f64; 3]>> = vec![
+            vec![[0.0; 3]; 4],
+            vec![[0.0; 3], [1.0, 0.0, 0.0], [2.0, 0.0, 0.0], [3.0, 0.0, 0.0]],
+            vec![
+                [0.0; 3],
+                [1.0, 0.0, 0.0],
+                [0.0, 1.0, 0.0],
+                [1.0, 1.0, 0.0],
+                [0.5, 0.5, 0.0],
+            ],
+            vec![
+                [0.0; 3],
+                [1e300, 0.0, 0.0],
+                [0.0, 1e300, 0.0],
+                [0.0, 0.0, 1e300],
+            ],
+            vec![
+                [0.0; 3],
+                [1e-300, 0.0, 0.0],
+                [0.0, 1e-300, 0.0],
+                [0.0, 0.0, 1e-300],
+            ],
+            vec![
+                [0.0; 3],
+                [1.0, 0.0, 0.0],
+                [0.0, 1.0, 0.0],
+                [0.0, 0.0, 1e-15],
+            ],
+        ];
+        for (k, vertices) in cases.into_iter().enumerate() {
+            let region = Region::Polyhedron { vertices };
+            if k < 3 {
+                assert!(!region.encloses_volume(), "case {k}");
+            }
+            let depth = region.depth([0.1, 0.1, 0.1]);
+            assert!(!depth.is_nan(), "case {k}: {depth}");
+        }
+    }
+
+    #[test]
     fn spatial_depths_match_closed_forms() {
         let ball = Region::Ball {
             centre: [0.0, 0.0, 1.0],

@@ -26,8 +26,8 @@
 use nalgebra::DMatrix;
 
 mod a_optimal;
-pub mod design;
 mod block_d;
+pub mod design;
 mod driver;
 mod e_optimal;
 mod gains;
