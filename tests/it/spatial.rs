@@ -761,3 +761,33 @@ fn bad_spatial_models_exit_2_with_one_line_naming_the_file() {
         )
     );
 }
+
+#[test]
+fn the_calibrated_delta_reloads_with_the_real_geometry_and_its_cylinder() {
+    let directory = tempfile::tempdir().unwrap();
+    let calibrated = directory.path().join("calibrated.yaml");
+    let out = legwise(&[
+        "identify",
+        "--model",
+        "models/delta.yaml",
+        "--noise-scale",
+        "0",
+        "--calibrated",
+        calibrated.to_str().unwrap(),
+    ]);
+    assert_eq!(out.status.code(), Some(0), "{}", text(&out.stderr));
+    let original = bundled("delta.yaml");
+    let reloaded = Mechanism::load(&calibrated).unwrap();
+    assert_eq!(reloaded.workspace, original.workspace);
+    assert_eq!(reloaded.measured, original.measured);
+    for (leg, real) in reloaded.legs.iter().zip(real_parameters(&original)) {
+        for (p, value) in leg.params.iter().zip(real) {
+            assert!(
+                (p.nominal - value).abs() <= 1e-9,
+                "{}: {} vs {value}",
+                p.name,
+                p.nominal
+            );
+        }
+    }
+}
