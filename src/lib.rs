@@ -57,4 +57,5 @@ pub mod progress;
 pub mod report;
 pub mod scalar;
 pub mod solver;
+pub mod study;
 pub mod workspace;
