@@ -524,13 +524,14 @@ pub fn verdict_sentence(first: Arm, second: Arm, equal_poses: bool, difference: 
         )
     } else {
         format!(
-            "No significant difference between {} and {second_name}: {} mm [{}, {}] {tail}, {} − {}.",
+            "No significant difference between {} and {second_name}: the mean paired difference \
+             ({} − {}) of RMS position error over the map is {} mm [{}, {}] (95 % CI).",
             first.name(),
+            first.name(),
+            second.name(),
             millimetres(mm.value),
             millimetres(mm.low),
             millimetres(mm.high),
-            first.name(),
-            second.name()
         )
     }
 }
@@ -541,12 +542,16 @@ fn capitalised(text: &str) -> String {
     chars.next().map_or_else(String::new, |c| c.to_uppercase().chain(chars).collect())
 }
 
-/// Millimetres with four significant digits (`0.01234`, `1.234`).
+/// Millimetres with four significant digits (`0.01234`, `1.234`; `1.234e-7` below a
+/// micrometre's thousandth).
 pub fn millimetres(value: f64) -> String {
     if value == 0.0 || !value.is_finite() {
         return format!("{value}");
     }
     let magnitude = value.abs().log10().floor() as i32;
-    let decimals = (3 - magnitude).clamp(0, 12) as usize;
+    if magnitude < -6 {
+        return format!("{value:.3e}");
+    }
+    let decimals = (3 - magnitude).max(0) as usize;
     format!("{value:.decimals$}")
 }

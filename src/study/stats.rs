@@ -122,6 +122,28 @@ pub fn paired_difference(a: &[f64], b: &[f64]) -> Estimate {
     mean_interval(&differences)
 }
 
+/// A proportion `successes / trials` with its Wilson score interval (well-behaved at 0 and 1).
+pub fn proportion_interval(successes: usize, trials: usize) -> Estimate {
+    if trials == 0 {
+        return Estimate {
+            value: f64::NAN,
+            low: f64::NAN,
+            high: f64::NAN,
+        };
+    }
+    let z = statrs::distribution::Normal::new(0.0, 1.0)
+        .map_or(f64::NAN, |n| n.inverse_cdf(0.5 + CONFIDENCE / 2.0));
+    let n = trials as f64;
+    let p = successes as f64 / n;
+    let centre = (p + z * z / (2.0 * n)) / (1.0 + z * z / n);
+    let half = z / (1.0 + z * z / n) * (p * (1.0 - p) / n + z * z / (4.0 * n * n)).sqrt();
+    Estimate {
+        value: p,
+        low: (centre - half).max(0.0),
+        high: (centre + half).min(1.0),
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -135,6 +157,15 @@ mod tests {
         let sd = 2.5f64.sqrt();
         assert!((s.low - sd * (4.0f64 / 11.143_287).sqrt()).abs() < 1e-5);
         assert!((s.high - sd * (4.0f64 / 0.484_419).sqrt()).abs() < 1e-5);
+    }
+
+    #[test]
+    fn wilson_interval_of_a_worked_example() {
+        // 8 of 10: Wilson 95 % interval [0.4902, 0.9433] (z = 1.959964).
+        let p = proportion_interval(8, 10);
+        assert!((p.value - 0.8).abs() < 1e-15);
+        assert!((p.low - 0.490_16).abs() < 1e-4 && (p.high - 0.943_32).abs() < 1e-4);
+        assert!((proportion_interval(10, 10).high - 1.0).abs() < 1e-15);
     }
 
     #[test]
