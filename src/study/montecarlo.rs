@@ -390,7 +390,10 @@ impl Study {
                 .find(|e| &e.leg == leg_name)
                 .map(|e| &e.parameters[p.column])
                 .ok_or_else(|| {
-                    Error::Invalid(format!("{}: leg `{leg_name}` missing", result.strategy.name()))
+                    Error::Invalid(format!(
+                        "{}: leg `{leg_name}` missing",
+                        result.strategy.name()
+                    ))
                 })?;
             errors.push(estimate.estimate - real[p.leg][p.column]);
             predicted_std.push(estimate.std.unwrap_or(f64::NAN));
@@ -439,7 +442,10 @@ impl Study {
 
     /// The summary of `trials` (reduced in the given order; failed trials left out).
     pub fn summarise(&self, trials: Vec<Trial>) -> MonteCarlo {
-        let values: Vec<&TrialValues> = trials.iter().filter_map(|t| t.outcome.as_ref().ok()).collect();
+        let values: Vec<&TrialValues> = trials
+            .iter()
+            .filter_map(|t| t.outcome.as_ref().ok())
+            .collect();
         let nominal: Vec<f64> = values.iter().map(|v| v.nominal_map_rms).collect();
         let map_of = |a: usize| -> Vec<f64> { values.iter().map(|v| v.arms[a].map_rms).collect() };
         let poses = self.poses();
@@ -497,7 +503,12 @@ impl Study {
 
 /// The sentence a paired difference `first − second` (metres, RMS position error over the
 /// map) supports: which arm is more accurate and by how much, or no significant difference.
-pub fn verdict_sentence(first: Arm, second: Arm, equal_poses: bool, difference: &Estimate) -> String {
+pub fn verdict_sentence(
+    first: Arm,
+    second: Arm,
+    equal_poses: bool,
+    difference: &Estimate,
+) -> String {
     let mm = difference.scaled(1e3);
     let second_name = if equal_poses {
         "traditional at an equal number of poses".to_string()
@@ -539,7 +550,9 @@ pub fn verdict_sentence(first: Arm, second: Arm, equal_poses: bool, difference: 
 /// `text` with its first letter in upper case.
 fn capitalised(text: &str) -> String {
     let mut chars = text.chars();
-    chars.next().map_or_else(String::new, |c| c.to_uppercase().chain(chars).collect())
+    chars
+        .next()
+        .map_or_else(String::new, |c| c.to_uppercase().chain(chars).collect())
 }
 
 /// Millimetres with four significant digits (`0.01234`, `1.234`; `1.234e-7` below a

@@ -161,7 +161,11 @@ pub fn error_distributions(study: &MonteCarlo) -> Histograms {
     }];
     for (p, parameter) in study.parameters.iter().enumerate() {
         panels.push(HistogramPanel {
-            caption: format!("{} error ({})", parameter.name, display_unit(parameter.unit)),
+            caption: format!(
+                "{} error ({})",
+                parameter.name,
+                display_unit(parameter.unit)
+            ),
             series: series(&|a| values.iter().map(|v| v.arms[a].errors[p] * 1e3).collect()),
         });
     }

@@ -89,7 +89,10 @@ fn t_interval(x: &[f64]) -> (f64, f64, f64) {
 fn one_and_two_threads_give_identical_reports_and_every_statistic_follows_from_the_trials() {
     let one = montecarlo_json("models/5r.yaml", 1, &[]);
     let two = montecarlo_json("models/5r.yaml", 2, &[]);
-    assert!(one == two, "the JSON reports differ between 1 and 2 threads");
+    assert!(
+        one == two,
+        "the JSON reports differ between 1 and 2 threads"
+    );
     let report: Value = serde_json::from_str(&one).expect("JSON");
     assert_eq!(report["failed"], 0);
     let trials = report["per_trial"].as_array().expect("per_trial");
@@ -116,7 +119,11 @@ fn one_and_two_threads_give_identical_reports_and_every_statistic_follows_from_t
         for (p, stats) in arm["parameters"].as_array().unwrap().iter().enumerate() {
             let what = format!("{key} {}", names[p]["name"]);
             let errors = per_trial(key, "errors", Some(p));
-            assert_estimate(&stats["mean_error"], t_interval(&errors), &format!("{what} mean"));
+            assert_estimate(
+                &stats["mean_error"],
+                t_interval(&errors),
+                &format!("{what} mean"),
+            );
             let (m, _, _) = t_interval(&errors);
             let ss = errors.iter().map(|e| (e - m) * (e - m)).sum::<f64>();
             let s = (ss / 5.0).sqrt();
@@ -138,7 +145,11 @@ fn one_and_two_threads_give_identical_reports_and_every_statistic_follows_from_t
         let other = per_trial(comparison["second"].as_str().unwrap(), "map_rms_m", None);
         let differences: Vec<f64> = dc.iter().zip(&other).map(|(a, b)| a - b).collect();
         let (d, lo, hi) = t_interval(&differences);
-        assert_estimate(&comparison["map_rms_difference_m"], (d, lo, hi), "difference");
+        assert_estimate(
+            &comparison["map_rms_difference_m"],
+            (d, lo, hi),
+            "difference",
+        );
         // The sentence follows from the interval.
         let sentence = comparison["sentence"].as_str().unwrap();
         let expected = if hi < 0.0 {
@@ -172,10 +183,17 @@ fn the_interval_formulas_match_a_worked_example() {
     // RMS of 1..5 is √11; its interval is that of the mean of the squares 1, 4, 9, 16, 25.
     let r = rms_interval(&x);
     let squares = [1.0, 4.0, 9.0, 16.0, 25.0];
-    let var = squares.iter().map(|v: &f64| (v - 11.0).powi(2)).sum::<f64>() / 4.0;
+    let var = squares
+        .iter()
+        .map(|v: &f64| (v - 11.0).powi(2))
+        .sum::<f64>()
+        / 4.0;
     let half = 2.776_445 * (var / 5.0).sqrt();
     assert!((r.value - 11.0f64.sqrt()).abs() < 1e-12);
-    assert!(half > 11.0, "this sample's interval of the mean square reaches below zero");
+    assert!(
+        half > 11.0,
+        "this sample's interval of the mean square reaches below zero"
+    );
     assert!(r.low.abs() < 1e-15, "clamped at zero: {}", r.low);
     assert!((r.high - (11.0 + half).sqrt()).abs() < 1e-5);
 }
