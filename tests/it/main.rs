@@ -13,6 +13,7 @@ mod jacobian;
 mod kinematics;
 mod lm_behaviour;
 mod mgh;
+mod montecarlo;
 mod nist;
 mod observability_values;
 mod plots;
