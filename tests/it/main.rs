@@ -3,6 +3,7 @@ mod accuracy_map;
 mod bad_input;
 mod calibrated;
 mod cli;
+mod estimate_options;
 mod evaluate;
 mod exit_codes;
 mod files;
