@@ -19,6 +19,7 @@ mod observability_values;
 mod plots;
 mod recovery;
 mod selection;
+mod solver_refine;
 mod solvers_agree;
 mod statistics_independent;
 mod statistics_trust;
