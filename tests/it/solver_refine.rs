@@ -10,7 +10,9 @@ use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::Arc;
 
 use argmin::core::{Error, Jacobian, Operator};
-use legwise::solver::{refine, solve, SolverKind, MAX_REFINEMENT_STEPS};
+use legwise::solver::{
+    default_budget, refine, solve, SolverKind, EVALUATIONS_PER_PARAMETER, MAX_REFINEMENT_STEPS,
+};
 use nalgebra::{DMatrix, DVector};
 
 #[derive(Clone)]
@@ -184,6 +186,7 @@ fn solve_counts_every_evaluation_the_refinement_included() {
         let problem = Power::new(2, 3.0, 0.0);
         let outcome = solve(&problem, start(0.5f64.powi(20), 2.0), kind).unwrap();
         assert!(outcome.converged, "{kind:?}: {:?}", outcome.stop_reason);
+        assert!(outcome.refinement_steps >= 2, "{kind:?}: {outcome:?}");
         let (residuals, jacobians) = problem.counts();
         assert_eq!(outcome.residual_evaluations, residuals, "{kind:?}");
         assert_eq!(outcome.jacobian_evaluations, jacobians, "{kind:?}");
@@ -193,4 +196,13 @@ fn solve_counts_every_evaluation_the_refinement_included() {
             outcome.x
         );
     }
+}
+
+#[test]
+fn the_default_budget_is_a_thousand_evaluations_per_unknown_plus_one() {
+    assert_eq!(EVALUATIONS_PER_PARAMETER, 1000);
+    for (n, budget) in [(0, 1000), (1, 2000), (2, 3000), (6, 7000)] {
+        assert_eq!(default_budget(n), budget, "n = {n}");
+    }
+    assert_eq!(default_budget(usize::MAX), u64::MAX, "saturates");
 }
