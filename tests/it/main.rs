@@ -18,6 +18,7 @@ mod nist;
 mod observability_values;
 mod plots;
 mod recovery;
+mod robust_stationarity;
 mod selection;
 mod solver_refine;
 mod solvers_agree;
