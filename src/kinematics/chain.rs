@@ -47,16 +47,7 @@ pub fn attachment_world<T: Scalar>(pose: &[T; 6], attachment: &[T; 3]) -> Vector
 
 /// Position of the leg tip (origin of the last chain link) for the moving joints' values `q`.
 pub fn tip_position<T: Scalar>(leg: &LegModel, geometry: &LegGeometry<T>, q: &[T]) -> Vector3<T> {
-    let mut world_from_link = Transform::<T>::identity();
-    let mut next = 0;
-    for (joint, origin) in leg.joints.iter().zip(&geometry.origins) {
-        world_from_link *= origin_transform(origin);
-        if joint.is_moving() {
-            world_from_link *= joint_motion(joint, q[next]);
-            next += 1;
-        }
-    }
-    world_from_link.translation.vector
+    chain_tip(leg, geometry.origins.iter().map(origin_transform), q)
 }
 
 /// Tip position and the geometric Jacobian ∂tip/∂q (column j for moving joint j; unused columns
@@ -66,11 +57,67 @@ pub fn tip_and_jacobian(
     geometry: &LegGeometry<f64>,
     q: &[f64],
 ) -> (Vector3<f64>, Matrix3<f64>) {
+    chain_tip_and_jacobian(leg, geometry.origins.iter().map(origin_transform), q)
+}
+
+/// A leg's joint origins as transforms, computed once for one parameter vector (the
+/// trigonometry of the origins' angles is then not redone at every pose and Newton iteration).
+/// Gives the same numbers as [`tip_position`] and [`tip_and_jacobian`] on the geometry.
+#[derive(Debug, Clone)]
+pub struct ChainFrames<T: Scalar> {
+    origins: Vec<Transform<T>>,
+}
+
+impl<T: Scalar> ChainFrames<T> {
+    /// The origin transforms of `geometry`'s joints.
+    pub fn new(geometry: &LegGeometry<T>) -> Self {
+        Self {
+            origins: geometry.origins.iter().map(origin_transform).collect(),
+        }
+    }
+
+    /// As [`tip_position`].
+    pub fn tip(&self, leg: &LegModel, q: &[T]) -> Vector3<T> {
+        chain_tip(leg, self.origins.iter().copied(), q)
+    }
+}
+
+impl ChainFrames<f64> {
+    /// As [`tip_and_jacobian`].
+    pub fn tip_and_jacobian(&self, leg: &LegModel, q: &[f64]) -> (Vector3<f64>, Matrix3<f64>) {
+        chain_tip_and_jacobian(leg, self.origins.iter().copied(), q)
+    }
+}
+
+/// The tip position for the joints' origin transforms `origins` (one per chain joint).
+fn chain_tip<T: Scalar>(
+    leg: &LegModel,
+    origins: impl Iterator<Item = Transform<T>>,
+    q: &[T],
+) -> Vector3<T> {
+    let mut world_from_link = Transform::<T>::identity();
+    let mut next = 0;
+    for (joint, origin) in leg.joints.iter().zip(origins) {
+        world_from_link *= origin;
+        if joint.is_moving() {
+            world_from_link *= joint_motion(joint, q[next]);
+            next += 1;
+        }
+    }
+    world_from_link.translation.vector
+}
+
+/// The tip position and ∂tip/∂q for the joints' origin transforms `origins`.
+fn chain_tip_and_jacobian(
+    leg: &LegModel,
+    origins: impl Iterator<Item = Transform<f64>>,
+    q: &[f64],
+) -> (Vector3<f64>, Matrix3<f64>) {
     let mut world_from_link = Transform::<f64>::identity();
     let mut axes = [(JointKind::Fixed, Vector3::zeros(), Vector3::zeros()); 3];
     let mut next = 0;
-    for (joint, origin) in leg.joints.iter().zip(&geometry.origins) {
-        world_from_link *= origin_transform(origin);
+    for (joint, origin) in leg.joints.iter().zip(origins) {
+        world_from_link *= origin;
         if joint.is_moving() {
             let axis_world = world_from_link.rotation * joint.axis;
             axes[next] = (joint.kind, axis_world, world_from_link.translation.vector);
@@ -108,4 +155,12 @@ pub fn moving_axes(
         }
     }
     axes
+}
+
+/// World position of an attachment point (in any scalar) on a platform at the f64 transform
+/// `platform` ([`platform_transform`] of the pose): the same numbers as [`attachment_world`]
+/// when the pose carries no derivative, without redoing the pose's trigonometry in `T`.
+pub fn attachment_on<T: Scalar>(platform: &Transform<f64>, attachment: &[T; 3]) -> Vector3<T> {
+    let rotation = platform.rotation.matrix().map(lift::<T>);
+    rotation * Vector3::from(*attachment) + platform.translation.vector.map(lift::<T>)
 }

@@ -22,4 +22,5 @@ mod solvers_agree;
 mod statistics_independent;
 mod statistics_trust;
 mod support;
+mod warm_start;
 mod workspace;
