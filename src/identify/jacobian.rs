@@ -18,7 +18,9 @@ use num_dual::{DualSVec64, DualStruct};
 
 use crate::error::KinematicsError;
 use crate::kinematics::chain::{attachment_on, platform_transform, ChainFrames, Transform};
-use crate::kinematics::inverse::{reading_at, solve_warm, Joints, LegSolution, Solution};
+use crate::kinematics::inverse::{
+    reading_at, reading_value, solve_warm, Joints, LegSolution, Solution,
+};
 use crate::model::leg::{LegGeometry, LegModel};
 
 /// Most parameters carried by one dual pass.
@@ -142,7 +144,7 @@ impl<'a> PreparedLeg<'a> {
     /// The leg cannot reach the pose on its home branch.
     pub fn reading(&self, pose: &[f64; 6], home_pose: &[f64; 6]) -> Result<f64, KinematicsError> {
         let solution = self.solve_warm(pose, home_pose, None)?;
-        Ok(self.reading_of(pose, &solution))
+        Ok(self.reading_of(&solution))
     }
 
     /// The predicted reading at `pose`, writing its gradient with respect to the prepared
@@ -186,20 +188,21 @@ impl<'a> PreparedLeg<'a> {
         home_pose: &[f64; 6],
         seed: Option<&Joints>,
     ) -> Result<Solution, KinematicsError> {
+        let target = attachment_on(&platform_transform(pose), &self.geometry.attachment);
         solve_warm(
             self.leg,
             &self.geometry,
             &self.frames,
-            pose,
+            (pose, &target),
             home_pose,
             seed,
         )
     }
 
-    /// The predicted reading (f64) at an already solved pose.
-    pub fn reading_of(&self, pose: &[f64; 6], solution: &Solution) -> f64 {
-        let target = attachment_on(&platform_transform(pose), &self.geometry.attachment);
-        reading_at(self.leg, &self.frames, &self.geometry, &target, solution)
+    /// The predicted reading (f64) at an already solved pose (no chain pass: from the closure
+    /// error the solution carries).
+    pub fn reading_of(&self, solution: &Solution) -> f64 {
+        reading_value(self.leg, &self.geometry, solution)
     }
 
     /// The predicted reading at an already solved pose, writing its gradient with respect to
@@ -212,7 +215,7 @@ impl<'a> PreparedLeg<'a> {
         gradient: &mut [f64],
     ) -> f64 {
         if self.passes.is_empty() {
-            return self.reading_of(pose, solution);
+            return self.reading_of(solution);
         }
         let platform = platform_transform(pose);
         let mut reading = 0.0;
@@ -229,8 +232,16 @@ impl<'a> PreparedLeg<'a> {
         solution: &LegSolution,
         gradient: &mut [f64],
     ) -> f64 {
+        let q = crate::kinematics::inverse::joints(&solution.q);
+        let tip = self.frames.tip(self.leg, &solution.q);
+        let target = attachment_on(&platform_transform(pose), &self.geometry.attachment);
+        let mut closure = tip - target;
+        for k in self.leg.closure_dims..3 {
+            closure[k] = 0.0;
+        }
         let solution = Solution {
-            q: crate::kinematics::inverse::joints(&solution.q),
+            q,
+            closure,
             closure_inverse: solution.closure_inverse,
             normalised_determinant: solution.normalised_determinant,
         };

@@ -332,7 +332,7 @@ impl<'a> IdentificationProblem<'a> {
         let matches = self.turn_matches(x);
         let mut r = DVector::zeros(self.blocks.len());
         self.for_each_row(x, false, 1, r.as_mut_slice(), |row, out| {
-            let predicted = row.leg.reading_of(&row.block.pose, row.solution);
+            let predicted = row.leg.reading_of(row.solution);
             let m = matches[row.slot];
             let n = turns(predicted, row.block.reading, m.gain, m.revolute);
             out[0] = self.row_scale(row.index)
@@ -351,7 +351,7 @@ impl<'a> IdentificationProblem<'a> {
         let matches = self.turn_matches(x);
         let mut n = vec![0.0; self.blocks.len()];
         self.for_each_row(x, false, 1, &mut n, |row, out| {
-            let predicted = row.leg.reading_of(&row.block.pose, row.solution);
+            let predicted = row.leg.reading_of(row.solution);
             let m = matches[row.slot];
             out[0] = turns(predicted, row.block.reading, m.gain, m.revolute);
         })?;

@@ -61,6 +61,9 @@ pub struct LegSolution {
 pub struct Solution {
     /// The moving joints' values (see [`Joints`]).
     pub q: Joints,
+    /// The closure error `F` at `q` (tip minus attachment, round-off level): what the
+    /// derivative step corrects.
+    pub closure: Vector3<f64>,
     /// Inverse of the closure Jacobian ∂F/∂q (top-left `closure_dims` block; rest zero).
     pub closure_inverse: Matrix3<f64>,
     /// Determinant of the column-normalised closure Jacobian (its sign is the branch).
@@ -155,7 +158,8 @@ pub fn solve_from_home(
 /// as [`solve_leg`] does; if there is no seed, or Newton from it fails or lands on another
 /// working mode, solves from home as [`solve_from_home`] does. The result is the home-branch
 /// solution either way: a warm start only saves Newton iterations (revolute joints are
-/// unwrapped around the seed, which is the solution's own turn).
+/// unwrapped around the seed, which is the solution's own turn). `target` is the world position
+/// of the leg's attachment point at `pose` ([`attachment_world`]).
 ///
 /// # Errors
 /// As [`solve_leg`] (the from-home attempt's error).
@@ -163,14 +167,13 @@ pub fn solve_warm(
     leg: &LegModel,
     geometry: &LegGeometry<f64>,
     frames: &ChainFrames<f64>,
-    pose: &[f64; 6],
+    (pose, target): (&[f64; 6], &Vector3<f64>),
     home_pose: &[f64; 6],
     seed: Option<&Joints>,
 ) -> Result<Solution, KinematicsError> {
     if let Some(seed) = seed {
-        let target = attachment_world(pose, &geometry.attachment);
         let warm =
-            newton_on(leg, geometry, frames, pose, &target, seed).and_then(|s| on_branch(leg, s));
+            newton_on(leg, geometry, frames, pose, target, seed).and_then(|s| on_branch(leg, s));
         if warm.is_ok() {
             return warm;
         }
@@ -283,7 +286,7 @@ fn newton_on(
                     }
                 }
             }
-            return finish(leg, q, seed, &jacobian, determinant);
+            return finish(leg, q, seed, &closure, &jacobian, determinant);
         }
         if iteration == MAX_ITERATIONS {
             break;
@@ -404,6 +407,7 @@ fn finish(
     leg: &LegModel,
     mut q: Joints,
     seed: &Joints,
+    closure: &Vector3<f64>,
     jacobian: &Matrix3<f64>,
     normalised_determinant: f64,
 ) -> Result<Solution, KinematicsError> {
@@ -424,6 +428,7 @@ fn finish(
     };
     Ok(Solution {
         q,
+        closure: *closure,
         closure_inverse,
         normalised_determinant,
     })
@@ -456,6 +461,17 @@ pub fn reading_at<T: Scalar>(
     let q = lifted::<T>(&solution.q);
     let tip = frames.tip(leg, &q[..leg.moving.len()]);
     newton_reading(leg, &q, &tip, target, &solution.closure_inverse, actuator)
+}
+
+/// The predicted reading (f64) at a converged solution, from the closure error it carries (no
+/// chain pass): the value of [`reading_at`] in f64.
+pub fn reading_value(leg: &LegModel, actuator: &LegGeometry<f64>, solution: &Solution) -> f64 {
+    let q = &solution.q;
+    let mut actuated = q[leg.actuated];
+    for k in 0..leg.closure_dims {
+        actuated -= solution.closure[k] * solution.closure_inverse[(leg.actuated, k)];
+    }
+    (actuated - actuator.offset) / actuator.gain
 }
 
 /// The joints lifted into `T` (at most [`MAX_JOINTS`]; the rest zero).

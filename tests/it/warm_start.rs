@@ -33,8 +33,16 @@ fn warm_started_ik_along_a_path_equals_the_from_home_solve() {
             let mut seed = None;
             for _ in 0..40 {
                 let pose = mech.workspace.sample(&home, &mut rng).unwrap();
-                let warm = solve_warm(leg, &geometry, &frames, &pose, &home, seed.as_ref())
-                    .unwrap_or_else(|e| panic!("{}: {e}", leg.name));
+                let target = attachment_world(&pose, &geometry.attachment);
+                let warm = solve_warm(
+                    leg,
+                    &geometry,
+                    &frames,
+                    (&pose, &target),
+                    &home,
+                    seed.as_ref(),
+                )
+                .unwrap_or_else(|e| panic!("{}: {e}", leg.name));
                 let cold = solve_leg(leg, &geometry, &pose, &home).unwrap();
                 for (w, c) in warm.q.iter().zip(&cold.q) {
                     assert!(
@@ -46,7 +54,6 @@ fn warm_started_ik_along_a_path_equals_the_from_home_solve() {
                     );
                 }
                 let tip = tip_position(leg, &geometry, &warm.q[..leg.moving.len()]);
-                let target = attachment_world(&pose, &geometry.attachment);
                 assert!((tip - target).norm() < 1e-12);
                 assert!(warm.normalised_determinant * leg.branch_sign > 0.0);
                 seed = Some(warm.q);
@@ -76,11 +83,12 @@ fn a_warm_start_on_the_other_branch_falls_back_to_the_home_branch() {
         other.q,
         cold.q
     );
+    let target = attachment_world(&pose, &geometry.attachment);
     let warm = solve_warm(
         leg,
         &geometry,
         &frames,
-        &pose,
+        (&pose, &target),
         &home,
         Some(&joints(&other.q)),
     )
@@ -88,7 +96,15 @@ fn a_warm_start_on_the_other_branch_falls_back_to_the_home_branch() {
     assert!(warm.normalised_determinant * leg.branch_sign > 0.0);
     assert!((warm.q[0] - cold.q[0]).abs() < 1e-12 && (warm.q[1] - cold.q[1]).abs() < 1e-12);
     // A non-finite seed falls back too.
-    let nan = solve_warm(leg, &geometry, &frames, &pose, &home, Some(&[f64::NAN; 3])).unwrap();
+    let nan = solve_warm(
+        leg,
+        &geometry,
+        &frames,
+        (&pose, &target),
+        &home,
+        Some(&[f64::NAN; 3]),
+    )
+    .unwrap();
     assert!((nan.q[0] - cold.q[0]).abs() < 1e-12);
 }
 
