@@ -21,6 +21,11 @@
 //! `t_i = e_i / (σ_i √(1 − h_ii))` with the declared `σ_i = √v_i`, against the normal law. A row
 //! is an outlier beyond the Bonferroni-corrected two-sided quantile at family level
 //! [`OUTLIER_ALPHA`]: on clean data, one fit in a hundred flags a row.
+//!
+//! **Exact fits.** Studentized residuals are ratios, so they are as large on a fit whose
+//! residuals are round-off (a zero-noise simulation) as on a noisy one. A fit is exact, and no
+//! row is flagged, when its RMS residual is at most [`ROUND_OFF`] times the largest reading, or at
+//! most [`EXACT_FIT_FRACTION`] of the declared scatter (see [`exact_fit`]).
 
 use nalgebra::{DMatrix, DVector};
 use num_dual::Dual64;
@@ -37,6 +42,28 @@ pub const NOISE_TEST_P: f64 = 1e-3;
 
 /// Family-wise level of the outlier test (Bonferroni over a leg's rows).
 pub const OUTLIER_ALPHA: f64 = 0.01;
+
+/// Residuals whose RMS is at most this fraction of the largest `|reading|` are round-off.
+pub const ROUND_OFF: f64 = 1e-10;
+
+/// Residuals whose RMS is at most this fraction of the declared scatter are far below noise.
+pub const EXACT_FIT_FRACTION: f64 = 1e-3;
+
+/// Whether residuals `e` of a fit to `readings` are too small to name outliers: their RMS is at
+/// most [`ROUND_OFF`] × the largest `|reading|` (round-off), or at most [`EXACT_FIT_FRACTION`] ×
+/// the declared scatter `√(mean variances)` when positive variances are declared.
+pub fn exact_fit(e: &[f64], readings: &[f64], variances: Option<&[f64]>) -> bool {
+    if e.is_empty() {
+        return false;
+    }
+    let rms = (e.iter().map(|v| v * v).sum::<f64>() / e.len() as f64).sqrt();
+    let largest = readings.iter().fold(0.0_f64, |a, r| a.max(r.abs()));
+    let declared = variances
+        .filter(|v| !v.is_empty())
+        .map(|v| (v.iter().sum::<f64>() / v.len() as f64).sqrt())
+        .filter(|s| *s > 0.0 && s.is_finite());
+    rms <= ROUND_OFF * largest || declared.is_some_and(|s| rms <= EXACT_FIT_FRACTION * s)
+}
 
 /// The residuals of one leg tested against the declared noise.
 #[derive(Debug, Clone, PartialEq)]
@@ -354,11 +381,13 @@ pub fn leg_statistics(
         }
     };
     let mechanism = problem.mechanism();
+    let readings: Vec<f64> = rows.iter().map(|&i| problem.blocks()[i].reading).collect();
+    let exact = exact_fit(&e, &readings, leg_variances.as_deref());
     let mut flagged: Vec<(usize, f64)> = t
         .iter()
         .enumerate()
         .filter_map(|(k, tk)| tk.map(|v| (k, v)))
-        .filter(|(_, v)| threshold.is_some_and(|limit| v.abs() > limit))
+        .filter(|(_, v)| !exact && threshold.is_some_and(|limit| v.abs() > limit))
         .collect();
     flagged.sort_by(|a, b| b.1.abs().total_cmp(&a.1.abs()));
     let outliers = flagged

@@ -29,3 +29,4 @@ mod statistics_trust;
 mod support;
 mod warm_start;
 mod workspace;
+mod zero_noise;
