@@ -24,5 +24,6 @@ mod solver_refine;
 mod solvers_agree;
 mod statistics_independent;
 mod statistics_trust;
+mod statistics_values;
 mod support;
 mod workspace;
