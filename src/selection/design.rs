@@ -8,11 +8,11 @@
 use nalgebra::DMatrix;
 
 use super::{select, Criterion, Selection, SelectionError, SelectionOptions};
-use crate::workspace::candidates::CandidatePool;
 use crate::error::{Error, Result};
 use crate::identify::observability::{analyse, Observability};
 use crate::model::mechanism::SelectionCriterion;
 use crate::model::Mechanism;
+use crate::workspace::candidates::CandidatePool;
 
 /// The selected poses of one leg.
 #[derive(Debug, Clone)]

@@ -1,5 +1,10 @@
-//! Pose selection: choose N of K candidate poses so that the identification Jacobian of the
+//! Experiment design: choose N of K candidate poses so that the identification Jacobian of the
 //! chosen poses is as informative as possible (D-, A- or E-optimal experiment design).
+//!
+//! The selection engines work on plain matrices (one b × n block of identification rows per
+//! candidate) and know nothing of poses, their dimension or the mechanism; [`design`] builds
+//! those matrices from a mechanism's candidate pool ([`crate::workspace::candidates`]) and maps
+//! the chosen indices back to poses.
 //!
 //! This is a D-optimal exchange algorithm in the spirit of Sun & Hollerbach (2008) / DETMAX
 //! (Mitchell 1974), not Sun & Hollerbach's exact algorithm (whose text could not be
@@ -26,8 +31,8 @@
 use nalgebra::DMatrix;
 
 mod a_optimal;
-pub mod design;
 mod block_d;
+pub mod design;
 mod driver;
 mod e_optimal;
 mod gains;
@@ -35,6 +40,7 @@ mod linalg;
 mod naive;
 mod pool;
 mod rank_one_d;
+mod running_inverse;
 #[cfg(test)]
 mod tests;
 
@@ -235,22 +241,8 @@ pub fn select(
     match (options.criterion, pool.b) {
         (Criterion::D, 1) => run(&pool, options, &mut RankOneD::new(&pool)),
         (Criterion::D, _) => run(&pool, options, &mut BlockD::new(&pool)),
-        (Criterion::A, _) => run(
-            &pool,
-            options,
-            &mut AOptimal {
-                pool: &pool,
-                ridge: false,
-            },
-        ),
-        (Criterion::E, _) => run(
-            &pool,
-            options,
-            &mut EOptimal {
-                pool: &pool,
-                ridge: false,
-            },
-        ),
+        (Criterion::A, _) => run(&pool, options, &mut AOptimal { pool: &pool }),
+        (Criterion::E, _) => run(&pool, options, &mut EOptimal { pool: &pool }),
     }
 }
 
@@ -278,7 +270,6 @@ pub fn select_naive(
         &mut Naive {
             pool: &pool,
             criterion: options.criterion,
-            ridge: false,
         },
     )
 }

@@ -2,7 +2,7 @@
 
 use nalgebra::DMatrix;
 
-use super::driver::Engine;
+use super::driver::{Engine, Step};
 use super::gains::{accept_ln, argmax};
 use super::linalg::{log_det_spd, spd_inverse};
 use super::pool::Pool;
@@ -12,7 +12,6 @@ use crate::identify::observability::{indices, sorted_singular_values};
 pub(super) struct Naive<'a> {
     pub(super) pool: &'a Pool,
     pub(super) criterion: Criterion,
-    pub(super) ridge: bool,
 }
 
 impl Naive<'_> {
@@ -48,6 +47,14 @@ impl Naive<'_> {
 }
 
 impl Engine for Naive<'_> {
+    fn pool(&self) -> &Pool {
+        self.pool
+    }
+
+    fn criterion(&self) -> Criterion {
+        self.criterion
+    }
+
     fn greedy_pick(
         &mut self,
         design: &[usize],
@@ -69,24 +76,15 @@ impl Engine for Naive<'_> {
         argmax(scores.into_iter()).ok_or_else(|| pool.exhausted(design.len()))
     }
 
-    fn sweep_start(&mut self, design: &[usize]) -> Result<(), SelectionError> {
-        self.ridge = self.pool.exchange_inverse(design)?.1;
-        Ok(())
-    }
-
-    fn best_swap(
-        &mut self,
-        design: &[usize],
-        order: &[usize],
-        eligible: &[bool],
-    ) -> Result<Option<(usize, usize)>, SelectionError> {
-        let current = self.score(design, self.ridge, self.criterion);
+    fn best_swap(&mut self, step: &Step<'_>) -> Result<Option<(usize, usize)>, SelectionError> {
+        let design = step.design;
+        let current = self.score(design, step.ridge, self.criterion);
         let mut best = (current + accept_ln(), None);
         let mut trial = design.to_vec();
-        for &pos in order {
-            for j in (0..self.pool.k).filter(|&j| eligible[j]) {
+        for &pos in step.order {
+            for j in (0..self.pool.k).filter(|&j| step.eligible[j]) {
                 trial[pos] = j;
-                let score = self.score(&trial, self.ridge, self.criterion);
+                let score = self.score(&trial, step.ridge, self.criterion);
                 if score > best.0 {
                     best = (score, Some((pos, j)));
                 }
@@ -95,8 +93,6 @@ impl Engine for Naive<'_> {
         }
         Ok(best.1)
     }
-
-    fn swapped(&mut self, _design: &[usize], _pos: usize, _j: usize) {}
 
     fn best_addition(&mut self, design: &[usize], eligible: &[bool]) -> Option<usize> {
         let mut trial = design.to_vec();

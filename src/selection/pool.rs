@@ -1,12 +1,21 @@
 //! The candidate pool: validated candidates stored transposed, their information matrices
 //! and the block products the D engines share.
 
-use nalgebra::{DMatrix, DVector};
+use std::ops::Range;
+
+use nalgebra::{DMatrix, DMatrixView, DVector, RowDVector};
 
 use super::gains::argmax;
 use super::linalg::{det_in_place, spd_inverse};
 use super::{SelectionError, SelectionOptions, RIDGE};
 use crate::identify::observability::{sorted_singular_values, RANK_TOLERANCE};
+
+/// About this many candidates at a time enter a product with M⁻¹ (see [`Pool::chunks`]): the
+/// products' memory stays a few hundred kilobytes whatever the size of the pool.
+pub(super) const CHUNK: usize = 2048;
+
+/// nalgebra forms a product with a dimension of at most 5 without matrixmultiply.
+const SMALL_PRODUCT: usize = 6;
 
 /// Validated candidates, stored transposed: column j·b + r of `x` is row r of candidate j.
 pub(super) struct Pool {
@@ -82,6 +91,68 @@ impl Pool {
         Ok(Self { k, b, n, x, ridge })
     }
 
+    /// M⁻¹ of the ridge alone, diag(1/ridge): the start of the greedy construction.
+    pub(super) fn ridge_inverse(&self) -> DMatrix<f64> {
+        DMatrix::from_diagonal(&self.ridge.map(|v| 1.0 / v))
+    }
+
+    /// The candidate ranges in which products with X are formed: about [`CHUNK`] candidates
+    /// each, all of nearly the same size (none small enough for nalgebra to switch to its
+    /// small-matrix product, so each entry is the one the whole product would give).
+    pub(super) fn chunks(&self) -> impl Iterator<Item = Range<usize>> {
+        let parts = self.k.div_ceil(CHUNK).max(1);
+        let (width, extra) = (self.k / parts, self.k % parts);
+        (0..parts).map(move |p| {
+            let start = p * width + p.min(extra);
+            start..start + width + usize::from(p < extra)
+        })
+    }
+
+    /// The columns of X (rows of the candidates) of the candidates `range`.
+    pub(super) fn columns(&self, range: &Range<usize>) -> DMatrixView<'_, f64> {
+        self.x.columns(range.start * self.b, range.len() * self.b)
+    }
+
+    /// The candidates `indices` in groups for products with X: split as [`Self::chunks`]
+    /// splits the pool, so that each group's product gives the entries the whole product
+    /// would.
+    pub(super) fn column_groups<'i>(&self, indices: &'i [usize]) -> Vec<&'i [usize]> {
+        let parts = indices.len().div_ceil(CHUNK).max(1);
+        let (width, extra) = (indices.len() / parts, indices.len() % parts);
+        (0..parts)
+            .map(|p| {
+                let start = p * width + p.min(extra);
+                &indices[start..start + width + usize::from(p < extra)]
+            })
+            .filter(|group| !group.is_empty())
+            .collect()
+    }
+
+    /// The columns of X of the candidates `indices`, side by side; padded with copies of the
+    /// first to at least min(6, K) candidates, since nalgebra forms products of fewer than 6
+    /// columns another way (rounding differently) than the whole-pool product.
+    pub(super) fn gather(&self, indices: &[usize]) -> DMatrix<f64> {
+        let b = self.b;
+        let width = indices.len().max(SMALL_PRODUCT.min(self.k));
+        DMatrix::from_fn(self.n, width * b, |p, c| {
+            let j = indices.get(c / b).copied().unwrap_or(indices[0]);
+            self.x[(p, j * b + c % b)]
+        })
+    }
+
+    /// x_rᵀM⁻¹x_r of every row r of every candidate (column r of X), formed chunk by chunk.
+    pub(super) fn row_leverages(&self, minv: &DMatrix<f64>) -> RowDVector<f64> {
+        let mut leverages = RowDVector::zeros(self.k * self.b);
+        for range in self.chunks() {
+            let x = self.columns(&range);
+            let y = minv * x;
+            leverages
+                .columns_mut(range.start * self.b, range.len() * self.b)
+                .copy_from(&x.component_mul(&y).row_sum());
+        }
+        leverages
+    }
+
     /// The n × b block of candidate j (its rows as columns).
     pub(super) fn block(&self, j: usize) -> nalgebra::DMatrixView<'_, f64> {
         self.x.columns(j * self.b, self.b)
@@ -136,28 +207,33 @@ impl Pool {
             .ok_or_else(|| self.singular(design))
     }
 
-    /// C_j M⁻¹ C_jᵀ (row-major b × b, into `out`) from Y = M⁻¹ X.
-    pub(super) fn block_product(&self, y: &DMatrix<f64>, j: usize, out: &mut [f64]) {
+    /// C_j M⁻¹ C_jᵀ (row-major b × b, into `out`) from Y = M⁻¹ X_chunk, the product with
+    /// the columns of the candidates from `start` on.
+    pub(super) fn block_product(&self, y: &DMatrix<f64>, start: usize, j: usize, out: &mut [f64]) {
         let b = self.b;
         for r in 0..b {
             for s in 0..b {
-                out[r * b + s] = self.x.column(j * b + r).dot(&y.column(j * b + s));
+                out[r * b + s] = self.x.column(j * b + r).dot(&y.column((j - start) * b + s));
             }
         }
     }
 
-    /// The best eligible addition by the D gain det(I_b + C_j M⁻¹ C_jᵀ), from Y = M⁻¹ X
-    /// (ties: lowest index).
-    pub(super) fn best_block_gain(&self, y: &DMatrix<f64>, eligible: &[bool]) -> Option<usize> {
+    /// The best eligible addition by the D gain det(I_b + C_j M⁻¹ C_jᵀ) (ties: lowest index).
+    pub(super) fn best_block_gain(&self, minv: &DMatrix<f64>, eligible: &[bool]) -> Option<usize> {
         let b = self.b;
         let mut g = vec![0.0; b * b];
-        argmax((0..self.k).filter(|&j| eligible[j]).map(|j| {
-            self.block_product(y, j, &mut g);
-            for r in 0..b {
-                g[r * b + r] += 1.0;
+        let mut gains = Vec::with_capacity(self.k);
+        for range in self.chunks() {
+            let y = minv * self.columns(&range);
+            for j in range.clone().filter(|&j| eligible[j]) {
+                self.block_product(&y, range.start, j, &mut g);
+                for r in 0..b {
+                    g[r * b + r] += 1.0;
+                }
+                gains.push((j, det_in_place(&mut g, b)));
             }
-            (j, det_in_place(&mut g, b))
-        }))
+        }
+        argmax(gains.into_iter())
     }
 }
 

@@ -213,7 +213,9 @@ pub fn maximal_inscribed_workspace(mechanism: &Mechanism, options: MiwOptions) -
 }
 
 /// The first boundary crossing along each of `options.rays` rays from `centre`, continuing the
-/// legs' solutions step by step along the ray.
+/// legs' solutions step by step along the ray. The rays are independent: they are cast on all
+/// cores, in contiguous blocks joined in ray order (the result does not depend on the number of
+/// threads).
 fn cast_rays(
     margin: &SingularityMargin<'_>,
     centre: [f64; 2],
@@ -223,35 +225,68 @@ fn cast_rays(
         return Err(Error::Invalid("MIW: a leg cannot reach the centre".into()));
     };
     let progress = crate::progress::Progress::new(options.rays as u64, "workspace: casting rays");
-    Ok((0..options.rays)
-        .map(|k| {
-            progress.advance(1);
-            let angle = std::f64::consts::TAU * k as f64 / options.rays as f64;
-            let direction = [angle.cos(), angle.sin()];
-            let at = |t: f64| [centre[0] + t * direction[0], centre[1] + t * direction[1]];
-            let (mut inside, mut outside) = (0.0, options.step);
-            let mut seeds = start.clone();
-            for _ in 0..200_000 {
-                match margin.continued(at(outside), &seeds) {
-                    Some(solutions) => seeds = solutions,
-                    None => break,
-                }
-                inside = outside;
-                outside += options.step;
+    let threads = std::thread::available_parallelism().map_or(1, usize::from);
+    let block = options.rays.div_ceil(threads).max(1);
+    let ray = |k: usize| {
+        progress.advance(1);
+        boundary_along_ray(margin, centre, &start, options, k)
+    };
+    let boundary = std::thread::scope(|scope| {
+        let blocks: Vec<_> = (0..options.rays)
+            .step_by(block)
+            .map(|first| {
+                let ray = &ray;
+                scope.spawn(move || {
+                    (first..(first + block).min(options.rays))
+                        .map(ray)
+                        .collect::<Vec<_>>()
+                })
+            })
+            .collect();
+        blocks
+            .into_iter()
+            .map(|handle| handle.join())
+            .collect::<std::thread::Result<Vec<_>>>()
+    });
+    match boundary {
+        Ok(blocks) => Ok(blocks.concat()),
+        Err(panic) => std::panic::resume_unwind(panic),
+    }
+}
+
+/// The first boundary crossing along ray `k` of `options.rays` from `centre` (the legs solved
+/// there: `start`): march by `options.step`, then bisect to 1e-12 m.
+fn boundary_along_ray(
+    margin: &SingularityMargin<'_>,
+    centre: [f64; 2],
+    start: &[LegSolution],
+    options: MiwOptions,
+    k: usize,
+) -> [f64; 2] {
+    let angle = std::f64::consts::TAU * k as f64 / options.rays as f64;
+    let direction = [angle.cos(), angle.sin()];
+    let at = |t: f64| [centre[0] + t * direction[0], centre[1] + t * direction[1]];
+    let (mut inside, mut outside) = (0.0, options.step);
+    let mut seeds = start.to_vec();
+    for _ in 0..200_000 {
+        match margin.continued(at(outside), &seeds) {
+            Some(solutions) => seeds = solutions,
+            None => break,
+        }
+        inside = outside;
+        outside += options.step;
+    }
+    while outside - inside > 1e-12 {
+        let middle = 0.5 * (inside + outside);
+        match margin.continued(at(middle), &seeds) {
+            Some(solutions) => {
+                seeds = solutions;
+                inside = middle;
             }
-            while outside - inside > 1e-12 {
-                let middle = 0.5 * (inside + outside);
-                match margin.continued(at(middle), &seeds) {
-                    Some(solutions) => {
-                        seeds = solutions;
-                        inside = middle;
-                    }
-                    None => outside = middle,
-                }
-            }
-            at(inside)
-        })
-        .collect())
+            None => outside = middle,
+        }
+    }
+    at(inside)
 }
 
 struct NegativeRadius<'f> {
