@@ -6,28 +6,19 @@ use super::driver::{Engine, Step};
 use super::gains::{accept_ln, argmax};
 use super::linalg::{ln_det_small, spd_inverse};
 use super::pool::Pool;
-use super::{Criterion, SelectionError};
+use super::SelectionError;
 
 pub(super) struct AOptimal<'a> {
     pub(super) pool: &'a Pool,
 }
 
 impl Engine for AOptimal<'_> {
-    fn pool(&self) -> &Pool {
-        self.pool
-    }
-
-    fn criterion(&self) -> Criterion {
-        Criterion::A
-    }
-
     fn greedy_pick(
         &mut self,
         design: &[usize],
         eligible: &[bool],
     ) -> Result<usize, SelectionError> {
-        let pool = self.pool;
-        let b = pool.b;
+        let (pool, b) = (self.pool, self.pool.b);
         let minv = spd_inverse(&pool.gram(design, true)).ok_or_else(|| pool.singular(design))?;
         let trace = minv.trace();
         let y = &minv * &pool.x;

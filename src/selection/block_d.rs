@@ -7,7 +7,7 @@ use super::gains::BestSwap;
 use super::linalg::{det_in_place, invert_in_place};
 use super::pool::Pool;
 use super::running_inverse::RunningInverse;
-use super::{Criterion, SelectionError, ACCEPT};
+use super::{SelectionError, ACCEPT};
 
 pub(super) struct BlockD<'a> {
     pool: &'a Pool,
@@ -36,14 +36,6 @@ impl<'a> BlockD<'a> {
 }
 
 impl Engine for BlockD<'_> {
-    fn pool(&self) -> &Pool {
-        self.pool
-    }
-
-    fn criterion(&self) -> Criterion {
-        Criterion::D
-    }
-
     fn greedy_pick(
         &mut self,
         design: &[usize],

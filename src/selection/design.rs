@@ -62,6 +62,11 @@ fn names(mechanism: &Mechanism, leg: usize) -> Vec<String> {
     mechanism.legs[leg].identified_names()
 }
 
+/// The poses of the candidates `indices`.
+fn poses_of(pool: &CandidatePool, indices: &[usize]) -> Vec<[f64; 6]> {
+    indices.iter().map(|&i| pool.candidates[i].pose).collect()
+}
+
 /// Rows of leg `leg` at the candidates `indices`, stacked.
 fn leg_rows(pool: &CandidatePool, leg: usize, indices: &[usize]) -> DMatrix<f64> {
     let n = pool.candidates.first().map_or(0, |c| c.rows[leg].len());
@@ -122,11 +127,7 @@ pub fn divide_and_conquer(
             let observability = analyse(&leg_rows(pool, leg, &selection.indices), &names);
             Ok(LegDesign {
                 leg,
-                poses: selection
-                    .indices
-                    .iter()
-                    .map(|&i| pool.candidates[i].pose)
-                    .collect(),
+                poses: poses_of(pool, &selection.indices),
                 indices: selection.indices.clone(),
                 observability,
                 selection,
@@ -196,11 +197,7 @@ pub fn traditional(
         }
     })?;
     Ok(SharedDesign {
-        poses: selection
-            .indices
-            .iter()
-            .map(|&i| pool.candidates[i].pose)
-            .collect(),
+        poses: poses_of(pool, &selection.indices),
         indices: selection.indices.clone(),
         legs: included
             .iter()

@@ -24,10 +24,6 @@ pub(super) struct Step<'s> {
 /// How trial designs are evaluated; the greedy/exchange skeleton is in [`run`]. Engines that
 /// keep no state between steps (A, E, the naive reference) use the default methods.
 pub(super) trait Engine {
-    /// The candidate pool.
-    fn pool(&self) -> &Pool;
-    /// The criterion the engine optimises (that of the DETMAX excursions).
-    fn criterion(&self) -> Criterion;
     /// The eligible candidate whose addition to `design` is best (ties: lowest index).
     fn greedy_pick(&mut self, design: &[usize], eligible: &[bool])
         -> Result<usize, SelectionError>;
@@ -43,15 +39,25 @@ pub(super) trait Engine {
     /// The swap (`pos`, `j`) is about to be applied to `design` (engines without cached
     /// state: nothing).
     fn swapped(&mut self, _design: &[usize], _pos: usize, _j: usize) {}
-    /// DETMAX excursion step up: the eligible candidate whose addition to the (nonsingular)
-    /// `design` is best (ties: lowest index).
-    fn best_addition(&mut self, design: &[usize], eligible: &[bool]) -> Option<usize> {
-        addition(self.pool(), design, eligible, self.criterion())
+    /// DETMAX excursion step up: the eligible candidate of `pool` whose addition to the
+    /// (nonsingular) `design` is best by `criterion` (ties: lowest index).
+    fn best_addition(
+        &mut self,
+        (pool, criterion): (&Pool, Criterion),
+        design: &[usize],
+        eligible: &[bool],
+    ) -> Option<usize> {
+        addition(pool, design, eligible, criterion)
     }
-    /// DETMAX excursion step down: the position in `design` whose removal is least harmful,
-    /// scanning positions in `order` (by candidate index).
-    fn best_removal(&mut self, design: &[usize], order: &[usize]) -> Option<usize> {
-        removal(self.pool(), design, order, self.criterion())
+    /// DETMAX excursion step down: the position in `design` whose removal is least harmful by
+    /// `criterion`, scanning positions in `order` (by candidate index).
+    fn best_removal(
+        &mut self,
+        (pool, criterion): (&Pool, Criterion),
+        design: &[usize],
+        order: &[usize],
+    ) -> Option<usize> {
+        removal(pool, design, order, criterion)
     }
 }
 
@@ -135,7 +141,7 @@ struct Counts {
 
 /// DETMAX excursions of length 2..=[`EXCURSION_LENGTH`]: add the best L candidates one by one,
 /// then remove the L least useful points one by one. Returns the first excursion that improves
-/// the engine's criterion by more than [`ACCEPT`](super::ACCEPT) (an excursion of length 1 is
+/// the criterion by more than [`ACCEPT`](super::ACCEPT) (an excursion of length 1 is
 /// a swap, already tried).
 fn excursion(
     pool: &Pool,
@@ -144,7 +150,7 @@ fn excursion(
     design: &[usize],
     eligible: &[bool],
 ) -> Option<Vec<usize>> {
-    let criterion = engine.criterion();
+    let criterion = options.criterion;
     let current = gram_value(&pool.gram(design, false), criterion);
     if !current.is_finite() {
         return None;
@@ -153,12 +159,12 @@ fn excursion(
         let mut trial = design.to_vec();
         let mut trial_eligible = eligible.to_vec();
         for _ in 0..length {
-            let j = engine.best_addition(&trial, &trial_eligible)?;
+            let j = engine.best_addition((pool, criterion), &trial, &trial_eligible)?;
             trial.push(j);
             trial_eligible[j] = options.allow_replicates;
         }
         for _ in 0..length {
-            let pos = engine.best_removal(&trial, &order(&trial))?;
+            let pos = engine.best_removal((pool, criterion), &trial, &order(&trial))?;
             let i = trial.remove(pos);
             trial_eligible[i] = options.allow_replicates || !trial.contains(&i);
         }

@@ -4,42 +4,13 @@ use super::driver::{Engine, Step};
 use super::gains::{accept_ln, argmax};
 use super::linalg::{half_ln, min_eigenvalue, spd_inverse};
 use super::pool::Pool;
-use super::{Criterion, SelectionError};
+use super::SelectionError;
 
 pub(super) struct EOptimal<'a> {
     pub(super) pool: &'a Pool,
 }
 
 impl Engine for EOptimal<'_> {
-    fn pool(&self) -> &Pool {
-        self.pool
-    }
-
-    fn criterion(&self) -> Criterion {
-        Criterion::E
-    }
-
-    fn greedy_pick(
-        &mut self,
-        design: &[usize],
-        eligible: &[bool],
-    ) -> Result<usize, SelectionError> {
-        let pool = self.pool;
-        let m = pool.gram(design, true);
-        let picked = if (design.len() + 1) * pool.b < pool.n {
-            // s_min of the trial design is still zero: use the D gain.
-            let minv = spd_inverse(&m).ok_or_else(|| pool.singular(design))?;
-            pool.best_block_gain(&minv, eligible)
-        } else {
-            let score = |j: usize| {
-                let block = pool.block(j);
-                half_ln(min_eigenvalue(&m + block * block.transpose()))
-            };
-            argmax((0..pool.k).filter(|&j| eligible[j]).map(|j| (j, score(j))))
-        };
-        picked.ok_or_else(|| pool.exhausted(design.len()))
-    }
-
     fn best_swap(&mut self, step: &Step<'_>) -> Result<Option<(usize, usize)>, SelectionError> {
         let (pool, design) = (self.pool, step.design);
         let m = pool.gram(design, step.ridge);
@@ -68,5 +39,26 @@ impl Engine for EOptimal<'_> {
             }
         }
         Ok(best.1)
+    }
+
+    fn greedy_pick(
+        &mut self,
+        design: &[usize],
+        eligible: &[bool],
+    ) -> Result<usize, SelectionError> {
+        let pool = self.pool;
+        let m = pool.gram(design, true);
+        let picked = if (design.len() + 1) * pool.b < pool.n {
+            // s_min of the trial design is still zero: use the D gain.
+            let minv = spd_inverse(&m).ok_or_else(|| pool.singular(design))?;
+            pool.best_block_gain(&minv, eligible)
+        } else {
+            let score = |j: usize| {
+                let block = pool.block(j);
+                half_ln(min_eigenvalue(&m + block * block.transpose()))
+            };
+            argmax((0..pool.k).filter(|&j| eligible[j]).map(|j| (j, score(j))))
+        };
+        picked.ok_or_else(|| pool.exhausted(design.len()))
     }
 }

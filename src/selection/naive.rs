@@ -46,34 +46,40 @@ impl Naive<'_> {
     }
 }
 
+impl Naive<'_> {
+    /// The eligible candidate whose addition to `design` scores best from scratch (ties:
+    /// lowest index).
+    fn best_extension(
+        &self,
+        design: &[usize],
+        eligible: &[bool],
+        ridge: bool,
+        criterion: Criterion,
+    ) -> Option<usize> {
+        let mut trial = design.to_vec();
+        trial.push(0);
+        let last = design.len();
+        let mut scores = Vec::with_capacity(self.pool.k);
+        for j in (0..self.pool.k).filter(|&j| eligible[j]) {
+            trial[last] = j;
+            scores.push((j, self.score(&trial, ridge, criterion)));
+        }
+        argmax(scores.into_iter())
+    }
+}
+
 impl Engine for Naive<'_> {
-    fn pool(&self) -> &Pool {
-        self.pool
-    }
-
-    fn criterion(&self) -> Criterion {
-        self.criterion
-    }
-
     fn greedy_pick(
         &mut self,
         design: &[usize],
         eligible: &[bool],
     ) -> Result<usize, SelectionError> {
-        let pool = self.pool;
         let criterion = match self.criterion {
-            Criterion::E if (design.len() + 1) * pool.b < pool.n => Criterion::D,
+            Criterion::E if (design.len() + 1) * self.pool.b < self.pool.n => Criterion::D,
             other => other,
         };
-        let mut trial = design.to_vec();
-        trial.push(0);
-        let last = design.len();
-        let mut scores = Vec::with_capacity(pool.k);
-        for j in (0..pool.k).filter(|&j| eligible[j]) {
-            trial[last] = j;
-            scores.push((j, self.score(&trial, true, criterion)));
-        }
-        argmax(scores.into_iter()).ok_or_else(|| pool.exhausted(design.len()))
+        self.best_extension(design, eligible, true, criterion)
+            .ok_or_else(|| self.pool.exhausted(design.len()))
     }
 
     fn best_swap(&mut self, step: &Step<'_>) -> Result<Option<(usize, usize)>, SelectionError> {
@@ -94,19 +100,21 @@ impl Engine for Naive<'_> {
         Ok(best.1)
     }
 
-    fn best_addition(&mut self, design: &[usize], eligible: &[bool]) -> Option<usize> {
-        let mut trial = design.to_vec();
-        trial.push(0);
-        let last = design.len();
-        let mut scores = Vec::with_capacity(self.pool.k);
-        for j in (0..self.pool.k).filter(|&j| eligible[j]) {
-            trial[last] = j;
-            scores.push((j, self.score(&trial, false, self.criterion)));
-        }
-        argmax(scores.into_iter())
+    fn best_addition(
+        &mut self,
+        _: (&Pool, Criterion),
+        design: &[usize],
+        eligible: &[bool],
+    ) -> Option<usize> {
+        self.best_extension(design, eligible, false, self.criterion)
     }
 
-    fn best_removal(&mut self, design: &[usize], order: &[usize]) -> Option<usize> {
+    fn best_removal(
+        &mut self,
+        _: (&Pool, Criterion),
+        design: &[usize],
+        order: &[usize],
+    ) -> Option<usize> {
         let scores: Vec<(usize, f64)> = order
             .iter()
             .map(|&pos| {

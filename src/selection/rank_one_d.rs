@@ -6,7 +6,7 @@ use super::driver::{Engine, Step};
 use super::gains::{argmax, BestSwap};
 use super::pool::Pool;
 use super::running_inverse::RunningInverse;
-use super::{Criterion, SelectionError, ACCEPT};
+use super::{SelectionError, ACCEPT};
 
 pub(super) struct RankOneD<'a> {
     pool: &'a Pool,
@@ -81,14 +81,6 @@ fn below(dj: f64, di: f64, target: f64) -> bool {
 }
 
 impl Engine for RankOneD<'_> {
-    fn pool(&self) -> &Pool {
-        self.pool
-    }
-
-    fn criterion(&self) -> Criterion {
-        Criterion::D
-    }
-
     fn greedy_pick(
         &mut self,
         design: &[usize],
