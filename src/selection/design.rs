@@ -7,7 +7,7 @@
 
 use nalgebra::DMatrix;
 
-use super::{select, Criterion, Selection, SelectionError, SelectionOptions};
+use super::{select, select_columns, Criterion, Selection, SelectionError, SelectionOptions};
 use crate::error::{Error, Result};
 use crate::identify::observability::{analyse, Observability};
 use crate::model::mechanism::SelectionCriterion;
@@ -62,6 +62,24 @@ fn names(mechanism: &Mechanism, leg: usize) -> Vec<String> {
     mechanism.legs[leg].identified_names()
 }
 
+/// Rows of leg `leg` at all candidates, as the columns of one matrix; a candidate whose row
+/// has another length than the first one's is a shape mismatch.
+fn leg_columns(pool: &CandidatePool, leg: usize) -> Result<DMatrix<f64>, SelectionError> {
+    let n = pool.candidates.first().map_or(0, |c| c.rows[leg].len());
+    if let Some(index) = pool.candidates.iter().position(|c| c.rows[leg].len() != n) {
+        return Err(SelectionError::ShapeMismatch {
+            index,
+            rows: 1,
+            cols: pool.candidates[index].rows[leg].len(),
+            expected_rows: 1,
+            expected_cols: n,
+        });
+    }
+    Ok(DMatrix::from_fn(n, pool.candidates.len(), |p, j| {
+        pool.candidates[j].rows[leg][p]
+    }))
+}
+
 /// The poses of the candidates `indices`.
 fn poses_of(pool: &CandidatePool, indices: &[usize]) -> Vec<[f64; 6]> {
     indices.iter().map(|&i| pool.candidates[i].pose).collect()
@@ -109,21 +127,18 @@ pub fn divide_and_conquer(
         .into_iter()
         .map(|leg| {
             let names = names(mechanism, leg);
-            let candidates: Vec<DMatrix<f64>> = pool
-                .candidates
-                .iter()
-                .map(|c| DMatrix::from_row_slice(1, c.rows[leg].len(), c.rows[leg].as_slice()))
-                .collect();
-            let selection = select(&candidates, &options(count, criterion)).map_err(|err| {
-                selection_error(
-                    mechanism,
-                    pool,
-                    leg,
-                    err,
-                    || leg_rows(pool, leg, &all),
-                    &names,
-                )
-            })?;
+            let selection = leg_columns(pool, leg)
+                .and_then(|columns| select_columns(columns, 1, &options(count, criterion)))
+                .map_err(|err| {
+                    selection_error(
+                        mechanism,
+                        pool,
+                        leg,
+                        err,
+                        || leg_rows(pool, leg, &all),
+                        &names,
+                    )
+                })?;
             let observability = analyse(&leg_rows(pool, leg, &selection.indices), &names);
             Ok(LegDesign {
                 leg,

@@ -155,14 +155,16 @@ fn excursion(
     if !current.is_finite() {
         return None;
     }
+    // The additions of an excursion of length L are the first L of the longest one (each
+    // depends only on the ones before it): they are found once, as the excursions need them.
+    let (mut grown, mut grown_eligible) = (design.to_vec(), eligible.to_vec());
     for length in 2..=EXCURSION_LENGTH.min(design.len()) {
-        let mut trial = design.to_vec();
-        let mut trial_eligible = eligible.to_vec();
-        for _ in 0..length {
-            let j = engine.best_addition((pool, criterion), &trial, &trial_eligible)?;
-            trial.push(j);
-            trial_eligible[j] = options.allow_replicates;
+        while grown.len() < design.len() + length {
+            let j = engine.best_addition((pool, criterion), &grown, &grown_eligible)?;
+            grown.push(j);
+            grown_eligible[j] = options.allow_replicates;
         }
+        let (mut trial, mut trial_eligible) = (grown.clone(), grown_eligible.clone());
         for _ in 0..length {
             let pos = engine.best_removal((pool, criterion), &trial, &order(&trial))?;
             let i = trial.remove(pos);

@@ -237,12 +237,37 @@ pub fn select(
     candidates: &[DMatrix<f64>],
     options: &SelectionOptions,
 ) -> Result<Selection, SelectionError> {
-    let pool = Pool::new(candidates, options)?;
+    select_in(&Pool::new(candidates, options)?, options)
+}
+
+/// As [`select`], with the candidates given as the columns of one n × (K·b) matrix: column
+/// j·b + r is row r of candidate j (b = `rows_per_candidate`). A large pool then needs no
+/// matrix per candidate.
+///
+/// # Errors
+/// As [`select`]; a column count that is not a multiple of b is a
+/// [`SelectionError::ShapeMismatch`] of the last, partial candidate.
+///
+/// # Reference
+/// docs/method.md §6.
+pub fn select_columns(
+    columns: DMatrix<f64>,
+    rows_per_candidate: usize,
+    options: &SelectionOptions,
+) -> Result<Selection, SelectionError> {
+    select_in(
+        &Pool::from_columns(columns, rows_per_candidate, options)?,
+        options,
+    )
+}
+
+/// [`select`] on a validated pool: the engine by criterion and rows per candidate.
+fn select_in(pool: &Pool, options: &SelectionOptions) -> Result<Selection, SelectionError> {
     match (options.criterion, pool.b) {
-        (Criterion::D, 1) => run(&pool, options, &mut RankOneD::new(&pool)),
-        (Criterion::D, _) => run(&pool, options, &mut BlockD::new(&pool)),
-        (Criterion::A, _) => run(&pool, options, &mut AOptimal { pool: &pool }),
-        (Criterion::E, _) => run(&pool, options, &mut EOptimal { pool: &pool }),
+        (Criterion::D, 1) => run(pool, options, &mut RankOneD::new(pool)),
+        (Criterion::D, _) => run(pool, options, &mut BlockD::new(pool)),
+        (Criterion::A, _) => run(pool, options, &mut AOptimal { pool }),
+        (Criterion::E, _) => run(pool, options, &mut EOptimal { pool }),
     }
 }
 

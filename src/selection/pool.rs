@@ -39,7 +39,6 @@ impl Pool {
         candidates: &[DMatrix<f64>],
         options: &SelectionOptions,
     ) -> Result<Self, SelectionError> {
-        let k = candidates.len();
         let first = candidates.first().ok_or(SelectionError::TooFewCandidates {
             available: 0,
             requested: options.count,
@@ -62,6 +61,58 @@ impl Pool {
                 return Err(SelectionError::NonFinite { index });
             }
         }
+        let mut x = DMatrix::zeros(n, candidates.len() * b);
+        for (j, c) in candidates.iter().enumerate() {
+            for r in 0..b {
+                x.column_mut(j * b + r).copy_from(&c.row(r).transpose());
+            }
+        }
+        Self::checked(x, b, options)
+    }
+
+    /// The pool of the candidates whose rows are the columns of `x` (column j·b + r is row r
+    /// of candidate j), with the checks of [`Self::new`] in the same order.
+    pub(super) fn from_columns(
+        x: DMatrix<f64>,
+        b: usize,
+        options: &SelectionOptions,
+    ) -> Result<Self, SelectionError> {
+        let n = x.nrows();
+        if x.ncols() == 0 {
+            return Err(SelectionError::TooFewCandidates {
+                available: 0,
+                requested: options.count,
+            });
+        }
+        if b == 0 || n == 0 {
+            return Err(SelectionError::Empty { rows: b, cols: n });
+        }
+        if !x.ncols().is_multiple_of(b) {
+            return Err(SelectionError::ShapeMismatch {
+                index: x.ncols() / b,
+                rows: x.ncols() % b,
+                cols: n,
+                expected_rows: b,
+                expected_cols: n,
+            });
+        }
+        if let Some(column) = x
+            .column_iter()
+            .position(|c| c.iter().any(|v| !v.is_finite()))
+        {
+            return Err(SelectionError::NonFinite { index: column / b });
+        }
+        Self::checked(x, b, options)
+    }
+
+    /// The pool of validated, finite candidates `x` of `b` rows: the remaining checks (enough
+    /// rows and candidates, full rank) and the ridge.
+    fn checked(
+        x: DMatrix<f64>,
+        b: usize,
+        options: &SelectionOptions,
+    ) -> Result<Self, SelectionError> {
+        let (n, k) = (x.nrows(), x.ncols() / b);
         let rows = options.count.saturating_mul(b);
         if rows < n {
             return Err(SelectionError::TooFewRows {
@@ -75,12 +126,6 @@ impl Pool {
                 available: k,
                 requested: options.count,
             });
-        }
-        let mut x = DMatrix::zeros(n, k * b);
-        for (j, c) in candidates.iter().enumerate() {
-            for r in 0..b {
-                x.column_mut(j * b + r).copy_from(&c.row(r).transpose());
-            }
         }
         let sums = DVector::from_fn(n, |p, _| x.row(p).norm_squared());
         let rank = scaled_rank(&x, &sums);
@@ -237,15 +282,37 @@ impl Pool {
     }
 }
 
+/// Rows of the pool beyond which [`scaled_rank`] works on the triangular factor of the rows.
+const QR_ROWS: usize = 4096;
+
 /// Numerical rank of the rows stored as columns of `x`, each parameter scaled to unit norm.
+/// A pool of more than [`QR_ROWS`] rows is first reduced, chunk by chunk, to the n × n
+/// triangular factor R of its QR factorisation (the same singular values), so that no copy of
+/// the whole pool is made.
 fn scaled_rank(x: &DMatrix<f64>, sums: &DVector<f64>) -> usize {
-    let mut scaled = x.transpose();
-    for (p, mut column) in scaled.column_iter_mut().enumerate() {
-        if sums[p] > 0.0 {
-            column /= sums[p].sqrt();
+    let scaled = |columns: nalgebra::DMatrixView<'_, f64>| {
+        let mut rows = columns.transpose();
+        for (p, mut column) in rows.column_iter_mut().enumerate() {
+            if sums[p] > 0.0 {
+                column /= sums[p].sqrt();
+            }
         }
-    }
-    let values = sorted_singular_values(scaled);
+        rows
+    };
+    let reduced = if x.ncols() <= QR_ROWS {
+        scaled(x.columns(0, x.ncols()))
+    } else {
+        let mut r = DMatrix::zeros(0, x.nrows());
+        for start in (0..x.ncols()).step_by(QR_ROWS) {
+            let chunk = scaled(x.columns(start, QR_ROWS.min(x.ncols() - start)));
+            let mut stacked = DMatrix::zeros(r.nrows() + chunk.nrows(), x.nrows());
+            stacked.rows_mut(0, r.nrows()).copy_from(&r);
+            stacked.rows_mut(r.nrows(), chunk.nrows()).copy_from(&chunk);
+            r = stacked.qr().r();
+        }
+        r
+    };
+    let values = sorted_singular_values(reduced);
     let largest = values.first().copied().unwrap_or(0.0);
     values
         .iter()
