@@ -191,9 +191,11 @@ impl Pool {
         for range in self.chunks() {
             let x = self.columns(&range);
             let y = minv * x;
-            leverages
-                .columns_mut(range.start * self.b, range.len() * self.b)
-                .copy_from(&x.component_mul(&y).row_sum());
+            column_dots(
+                &x,
+                &y,
+                &mut leverages.as_mut_slice()[range.start * self.b..],
+            );
         }
         leverages
     }
@@ -279,6 +281,17 @@ impl Pool {
             }
         }
         argmax(gains.into_iter())
+    }
+}
+
+/// The dot products of the columns of `x` and `y` into `out`, each summed from the first row
+/// down (the sums of `x.component_mul(y).row_sum()`, without its temporaries).
+pub(super) fn column_dots(x: &DMatrixView<'_, f64>, y: &DMatrix<f64>, out: &mut [f64]) {
+    for ((xc, yc), out) in x.column_iter().zip(y.column_iter()).zip(out) {
+        *out = xc
+            .iter()
+            .zip(yc.iter())
+            .fold(0.0, |sum, (a, b)| sum + a * b);
     }
 }
 

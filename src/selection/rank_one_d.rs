@@ -4,7 +4,7 @@ use nalgebra::{DMatrix, DVector, RowDVector};
 
 use super::driver::{Engine, Step};
 use super::gains::{argmax, BestSwap};
-use super::pool::Pool;
+use super::pool::{column_dots, Pool};
 use super::running_inverse::RunningInverse;
 use super::{SelectionError, ACCEPT};
 
@@ -53,8 +53,7 @@ impl<'a> RankOneD<'a> {
         for range in pool.chunks() {
             let x = pool.columns(&range);
             let u = &self.inverse.minv * x;
-            d.columns_mut(range.start, range.len())
-                .copy_from(&x.component_mul(&u).row_sum());
+            column_dots(&x, &u, &mut d.as_mut_slice()[range.start..]);
             for (pos, &i) in design.iter().enumerate() {
                 if range.contains(&i) {
                     u_design.set_column(pos, &u.column(i - range.start));

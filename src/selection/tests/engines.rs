@@ -185,3 +185,19 @@ fn chunks_cover_the_pool_in_order_with_nearly_equal_sizes() {
         assert!(shortest >= k.min(6), "K = {k}: a chunk of {shortest}");
     }
 }
+
+#[test]
+fn column_dots_are_the_row_sums_of_the_componentwise_product_to_the_bit() {
+    // The leverages must be those of the whole-matrix formula, bit for bit, so that the
+    // chunked engines choose exactly the swaps the unchunked ones did.
+    for n in [3, 6, 12] {
+        let x = DMatrix::from_fn(n, 50, |p, j| ((p * 31 + j * 17) as f64).sin() * 1e3);
+        let y = DMatrix::from_fn(n, 50, |p, j| ((p * 7 + j * 13) as f64).cos() / 3.0);
+        let mut dots = vec![0.0; 50];
+        crate::selection::pool::column_dots(&x.columns(0, 50), &y, &mut dots);
+        let expected = x.component_mul(&y).row_sum();
+        for (a, b) in dots.iter().zip(expected.iter()) {
+            assert_eq!(a.to_bits(), b.to_bits(), "n = {n}");
+        }
+    }
+}
