@@ -69,4 +69,5 @@ pub mod report;
 pub mod scalar;
 pub mod selection;
 pub mod solver;
+pub mod study;
 pub mod workspace;
