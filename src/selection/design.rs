@@ -7,7 +7,7 @@
 
 use nalgebra::DMatrix;
 
-use super::{select, select_columns, Criterion, Selection, SelectionError, SelectionOptions};
+use super::{select_columns, Criterion, Selection, SelectionError, SelectionOptions};
 use crate::error::{Error, Result};
 use crate::identify::observability::{analyse, Observability};
 use crate::model::mechanism::SelectionCriterion;
@@ -172,30 +172,35 @@ pub fn traditional(
         .map(|&l| mechanism.legs[l].identified().len())
         .collect();
     let total: usize = widths.iter().sum();
-    let block = |index: usize| {
-        let mut matrix = DMatrix::zeros(legs, total);
-        let mut offset = 0;
-        for (k, (&leg, &width)) in included.iter().zip(&widths).enumerate() {
-            for j in 0..width {
-                matrix[(k, offset + j)] = pool.candidates[index].rows[leg][j];
-            }
-            offset += width;
-        }
-        matrix
+    // Entry (r, p) of candidate i's block-diagonal legs × total block: leg r's row, in the
+    // columns of that leg's parameters.
+    let entries = |i: usize, (r, leg): (usize, usize)| {
+        let offset: usize = widths[..r].iter().sum();
+        (0..widths[r]).map(move |j| (offset + j, pool.candidates[i].rows[leg][j]))
     };
-    let candidates: Vec<DMatrix<f64>> = (0..pool.candidates.len()).map(block).collect();
     let all_names: Vec<String> = included.iter().flat_map(|&l| names(mechanism, l)).collect();
     let stack = |indices: &[usize]| {
         let mut matrix = DMatrix::zeros(indices.len() * legs, total);
         for (k, &i) in indices.iter().enumerate() {
-            matrix
-                .view_mut((k * legs, 0), (legs, total))
-                .copy_from(&candidates[i]);
+            for (r, &leg) in included.iter().enumerate() {
+                for (p, value) in entries(i, (r, leg)) {
+                    matrix[(k * legs + r, p)] = value;
+                }
+            }
         }
         matrix
     };
+    // The candidates' rows as columns (column i·legs + r: row r of candidate i).
+    let mut columns = DMatrix::zeros(total, pool.candidates.len() * legs);
+    for i in 0..pool.candidates.len() {
+        for (r, &leg) in included.iter().enumerate() {
+            for (p, value) in entries(i, (r, leg)) {
+                columns[(p, i * legs + r)] = value;
+            }
+        }
+    }
     let all: Vec<usize> = (0..pool.candidates.len()).collect();
-    let selection = select(&candidates, &options(count, criterion)).map_err(|err| {
+    let selection = select_columns(columns, legs, &options(count, criterion)).map_err(|err| {
         let leg = included.iter().zip(&widths).find_map(|(&l, &width)| {
             (analyse(&leg_rows(pool, l, &all), &names(mechanism, l)).rank < width).then_some(l)
         });

@@ -12,6 +12,7 @@
 use argmin::core::{CostFunction, Error as ArgminError, Executor, State};
 use argmin::solver::neldermead::NelderMead;
 use nalgebra::Vector2;
+use rayon::prelude::*;
 
 use super::region::geometry;
 use crate::error::{Error, KinematicsError, Result};
@@ -213,9 +214,8 @@ pub fn maximal_inscribed_workspace(mechanism: &Mechanism, options: MiwOptions) -
 }
 
 /// The first boundary crossing along each of `options.rays` rays from `centre`, continuing the
-/// legs' solutions step by step along the ray. The rays are independent: they are cast on all
-/// cores, in contiguous blocks joined in ray order (the result does not depend on the number of
-/// threads).
+/// legs' solutions step by step along the ray. The rays are independent: they are cast in
+/// parallel (rayon), collected in ray order.
 fn cast_rays(
     margin: &SingularityMargin<'_>,
     centre: [f64; 2],
@@ -225,33 +225,13 @@ fn cast_rays(
         return Err(Error::Invalid("MIW: a leg cannot reach the centre".into()));
     };
     let progress = crate::progress::Progress::new(options.rays as u64, "workspace: casting rays");
-    let threads = std::thread::available_parallelism().map_or(1, usize::from);
-    let block = options.rays.div_ceil(threads).max(1);
-    let ray = |k: usize| {
-        progress.advance(1);
-        boundary_along_ray(margin, centre, &start, options, k)
-    };
-    let boundary = std::thread::scope(|scope| {
-        let blocks: Vec<_> = (0..options.rays)
-            .step_by(block)
-            .map(|first| {
-                let ray = &ray;
-                scope.spawn(move || {
-                    (first..(first + block).min(options.rays))
-                        .map(ray)
-                        .collect::<Vec<_>>()
-                })
-            })
-            .collect();
-        blocks
-            .into_iter()
-            .map(|handle| handle.join())
-            .collect::<std::thread::Result<Vec<_>>>()
-    });
-    match boundary {
-        Ok(blocks) => Ok(blocks.concat()),
-        Err(panic) => std::panic::resume_unwind(panic),
-    }
+    Ok((0..options.rays)
+        .into_par_iter()
+        .map(|k| {
+            progress.advance(1);
+            boundary_along_ray(margin, centre, &start, options, k)
+        })
+        .collect())
 }
 
 /// The first boundary crossing along ray `k` of `options.rays` from `centre` (the legs solved
