@@ -458,8 +458,8 @@ pub fn reading_at<T: Scalar>(
     target: &Vector3<T>,
     solution: &Solution,
 ) -> T {
+    let tip = frames.tip(leg, &solution.q[..leg.moving.len()]);
     let q = lifted::<T>(&solution.q);
-    let tip = frames.tip(leg, &q[..leg.moving.len()]);
     newton_reading(leg, &q, &tip, target, &solution.closure_inverse, actuator)
 }
 
