@@ -29,7 +29,8 @@ EXAMPLES:
   legwise identify --model models/5r.yaml
   legwise select --model models/5r.yaml --out poses.csv
   legwise identify --model models/5r.yaml --measurements poses.csv
-  legwise workspace --model models/5r.yaml"
+  legwise workspace --model models/5r.yaml
+  legwise montecarlo --model models/5r.yaml --trials 1000"
 );
 
 /// `legwise identify --help`.
@@ -108,4 +109,21 @@ EXAMPLES:
   legwise evaluate --model calibrated.yaml --measurements held-out.csv --against models/5r.yaml
   # the same as JSON on standard output (the terminal report goes to standard error)
   legwise evaluate --model calibrated.yaml --measurements held-out.csv --json -"
+);
+
+/// `legwise montecarlo --help`.
+pub(super) const MONTECARLO: &str = concat!(
+    exit_status!(),
+    "
+  With montecarlo, 3 also means that some trials failed (a fit did not converge or a pose
+  could not be reached): the statistics leave them out.
+
+EXAMPLES:
+  # 10000 trials of the bundled 5R: D&C, traditional, and traditional at an equal number of
+  # poses, on the same draws; the verdict with its 95 % confidence interval
+  legwise montecarlo --model models/5r.yaml --trials 10000
+  # another seed, Gauss-Newton, the JSON (every trial's values) and the error distributions
+  legwise montecarlo --model models/3rpr.yaml --trials 2000 --seed 1 --solver gn --json mc.json --plots mc
+  # the same results on one thread (identical for a seed whatever the thread count)
+  RAYON_NUM_THREADS=1 legwise montecarlo --model models/5r.yaml --trials 100 --json -"
 );

@@ -7,6 +7,7 @@ mod console;
 mod evaluate;
 mod help;
 mod identify;
+mod montecarlo;
 mod output;
 mod pictures;
 mod select;
@@ -49,6 +50,53 @@ pub enum Command {
     /// forward kinematics from the readings, and each leg's reading residuals.
     #[command(after_help = help::EVALUATE)]
     Evaluate(EvaluateArgs),
+    /// Monte Carlo comparison of the strategies: many simulated experiments, the same draws fed
+    /// to divide and conquer and to the traditional strategy, with 95 % confidence intervals.
+    #[command(after_help = help::MONTECARLO)]
+    Montecarlo(MontecarloArgs),
+}
+
+/// Options of `legwise montecarlo`.
+#[derive(Debug, clap::Args)]
+pub struct MontecarloArgs {
+    /// The model file (YAML) with a simulation block.
+    #[arg(long)]
+    pub model: PathBuf,
+    /// Number of trials (2 to 1000000).
+    #[arg(long, allow_negative_numbers = true)]
+    pub trials: i64,
+    /// Study seed, 0 to 2^64 − 1 (default: the model's `simulation.seed`); each trial's draws
+    /// derive from it and the trial's index.
+    #[arg(long, allow_negative_numbers = true)]
+    pub seed: Option<i128>,
+    /// Least-squares solver of every fit.
+    #[arg(long, value_enum, default_value_t = SolverArg::Lm)]
+    pub solver: SolverArg,
+    /// Multiplies every simulated noise standard deviation (0 = noise-free).
+    #[arg(long, default_value_t = 1.0, allow_negative_numbers = true)]
+    pub noise_scale: f64,
+    /// Poses per leg (default: the model's `selection.poses_per_leg`).
+    #[arg(long, allow_negative_numbers = true)]
+    pub poses_per_leg: Option<i64>,
+    /// Candidate grid spacing of the pose selection, metres (default: the model's `workspace.grid`).
+    #[arg(long, allow_negative_numbers = true)]
+    pub grid: Option<f64>,
+    /// Grid spacing of the accuracy map, metres.
+    #[arg(long, value_name = "GRID_M", default_value_t = crate::study::montecarlo::DEFAULT_MAP_GRID, allow_negative_numbers = true)]
+    pub map: f64,
+    /// Fraction of the workspace region the accuracy map covers (shrunk about its centre).
+    #[arg(long, default_value_t = 0.95, allow_negative_numbers = true)]
+    pub map_scale: f64,
+    /// Also write the study as JSON to this file, every trial's values included (`-`: standard
+    /// output; the terminal report then goes to standard error).
+    #[arg(long)]
+    pub json: Option<PathBuf>,
+    /// Directory for the pictures (created if missing): the error distributions per strategy.
+    #[arg(long, value_name = "DIR")]
+    pub plots: Option<PathBuf>,
+    /// Draw the pictures as PNG instead of SVG.
+    #[arg(long)]
+    pub png: bool,
 }
 
 /// Options of `legwise evaluate`.
@@ -354,7 +402,7 @@ impl SimulationArgs {
                     .poses_per_leg
                     .unwrap_or(mechanism.selection.poses_per_leg);
                 let criterion = mechanism.selection.criterion;
-                let design = crate::workspace::design::ExperimentDesign::select(
+                let design = crate::selection::design::ExperimentDesign::select(
                     mechanism, self.grid, count, criterion, true,
                 )?;
                 let experiment = simulate_at(mechanism, &design.pose_sets(), options)?;
@@ -432,5 +480,6 @@ pub fn run(cli: Cli) -> anyhow::Result<Verdict> {
         Command::Simulate(args) => simulate::run(&args),
         Command::Workspace(args) => workspace::run(&args),
         Command::Evaluate(args) => evaluate::run(&args),
+        Command::Montecarlo(args) => montecarlo::run(&args),
     }
 }

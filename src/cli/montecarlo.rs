@@ -1,0 +1,79 @@
+//! `legwise montecarlo`.
+
+use super::console::Console;
+use super::output::Output;
+use super::{checks, MontecarloArgs, Verdict};
+use crate::model::Mechanism;
+use crate::report::plots::render;
+use crate::study::montecarlo::{MonteCarloOptions, Study};
+use crate::study::plots::error_distributions;
+use crate::study::report::{montecarlo_json, montecarlo_text};
+
+/// Most trials of one study.
+const MAX_TRIALS: usize = 1_000_000;
+
+/// The picture's file name (without extension).
+const PICTURE: &str = "montecarlo-errors";
+
+pub(super) fn run(args: &MontecarloArgs) -> anyhow::Result<Verdict> {
+    let trials = checks::count("--trials", args.trials, 2, MAX_TRIALS)?;
+    let seed = checks::seed("--seed", args.seed)?;
+    let noise_scale = checks::non_negative("--noise-scale", args.noise_scale)?;
+    let grid = checks::positive_metres("--grid", args.grid)?;
+    let poses_per_leg = super::poses_per_leg(args.poses_per_leg)?;
+    let mechanism = Mechanism::load(&args.model)?;
+    let inputs = super::model_inputs(&args.model, &mechanism);
+    let json_output = args
+        .json
+        .as_deref()
+        .map(|path| Output::prepare("--json", path, &inputs))
+        .transpose()?;
+    let format = super::pictures::format(args.png);
+    let picture_output = match &args.plots {
+        Some(dir) => super::pictures::prepare(dir, &[PICTURE], format, &inputs)?.pop(),
+        None => None,
+    };
+    let simulation = crate::measure::simulate::setup(&mechanism)?;
+    let options = MonteCarloOptions {
+        solver: args.solver.kind(),
+        noise_scale,
+        poses_per_leg,
+        grid,
+        map_grid: args.map,
+        map_scale: args.map_scale,
+        ..MonteCarloOptions::new(trials, seed.unwrap_or(simulation.seed))
+    };
+    let mut console = Console::new(json_output.as_ref().is_some_and(Output::is_stdout));
+    let study = Study::prepare(&mechanism, options)?;
+    let result = study.run();
+    // The file first: a closed terminal pipe must not lose it.
+    if let Some(output) = &json_output {
+        let text = serde_json::to_string_pretty(&montecarlo_json(&result))? + "\n";
+        output.write("JSON study", text.as_bytes())?;
+    }
+    if let Some(output) = &picture_output {
+        output.write("picture", &render(&error_distributions(&result), format)?)?;
+    }
+    console.print(&montecarlo_text(&result))?;
+    if let Some(output) = json_output.filter(|o| !o.is_stdout()) {
+        console.line(format_args!("\nJSON written to {}", output.name()))?;
+    }
+    if let Some(output) = picture_output {
+        console.line(format_args!("picture written to {}", output.name()))?;
+    }
+    let failures: Vec<String> = result
+        .trials
+        .iter()
+        .filter_map(|t| t.outcome.as_ref().err().map(|e| (t.index, e)))
+        .take(5)
+        .map(|(index, reason)| format!("trial {index} failed and is left out: {reason}"))
+        .collect();
+    let failed = trials - result.succeeded;
+    let mut reasons = failures;
+    if failed > reasons.len() {
+        reasons.push(format!(
+            "{failed} of {trials} trials failed in all: the statistics leave them out"
+        ));
+    }
+    Ok(Verdict::from_reasons(reasons))
+}

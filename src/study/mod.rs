@@ -1,0 +1,13 @@
+//! Studies over many simulated experiments: the Monte Carlo comparison of the identification
+//! strategies, with confidence intervals.
+//!
+//! * [`stats`] — means, standard deviations and RMS values with their 95 % intervals, paired
+//!   differences;
+//! * [`montecarlo`] — the study itself (`legwise montecarlo`): the same draws fed to divide and
+//!   conquer and to the traditional strategy, trials in parallel, bit-identical for a seed;
+//! * [`report`] — its terminal and JSON renderings;
+//! * [`plots`] — the error distributions per strategy.
+pub mod montecarlo;
+pub mod plots;
+pub mod report;
+pub mod stats;

@@ -1,0 +1,570 @@
+//! Monte Carlo comparison of the identification strategies.
+//!
+//! The poses are selected once on the nominal model (observability-optimal, as `legwise
+//! select`): `count` per leg for divide and conquer, `count` shared for the traditional
+//! strategy, and `legs × count` shared for the traditional strategy at an equal number of poses
+//! (the fair comparison: divide and conquer measures `legs × count` poses in all). Each trial
+//! then draws a real mechanism (the model's simulation block: its `real` values or its seeded
+//! perturbation) and the measurement noise, simulates every pose set with those draws, and
+//! identifies with the three strategies ([`Arm`]). Per trial and strategy it keeps each
+//! identified parameter's error (estimate − real), its predicted standard deviation (from the
+//! fit's covariance) and the RMS position error over a coarse accuracy map (the model commands,
+//! the real mechanism moves: [`crate::evaluate::accuracy::reached_pose`]).
+//!
+//! Trials run in parallel (rayon). Trial `i` draws from its own generator, seeded from the
+//! study seed and `i` (a ChaCha stream per trial), and the summary reduces the trials in trial
+//! order: the results are bit-identical for a seed whatever the number of threads.
+
+use rand::{RngCore, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+use rayon::prelude::*;
+
+use super::stats::{self, Estimate};
+use crate::error::{Error, Result};
+use crate::evaluate::accuracy::{map_grid, position_error, reached_pose, result_parameters};
+use crate::identify::estimate::{identify_with, FitOptions, Strategy, StrategyResult};
+use crate::measure::simulate::{simulate_at, PoseSets, SimulationOptions};
+use crate::measure::{MeasuredPose, MeasurementSet};
+use crate::model::params::Unit;
+use crate::model::Mechanism;
+use crate::progress::Progress;
+use crate::selection::design::{divide_and_conquer, traditional};
+use crate::solver::SolverKind;
+use crate::workspace::candidates::candidate_pool;
+
+/// The strategies a study compares, in report order.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Arm {
+    /// Divide and conquer on each leg's own selected poses.
+    DivideAndConquer,
+    /// All legs at once on the shared selected poses (as many as one leg's set).
+    Traditional,
+    /// All legs at once on as many shared poses as divide and conquer measures in all.
+    TraditionalEqualPoses,
+}
+
+/// Every arm, in report order.
+pub const ARMS: [Arm; 3] = [
+    Arm::DivideAndConquer,
+    Arm::Traditional,
+    Arm::TraditionalEqualPoses,
+];
+
+impl Arm {
+    /// Name for reports.
+    pub fn name(self) -> &'static str {
+        match self {
+            Arm::DivideAndConquer => "D&C",
+            Arm::Traditional => "traditional",
+            Arm::TraditionalEqualPoses => "traditional, equal poses",
+        }
+    }
+
+    /// Key in the JSON report.
+    pub fn key(self) -> &'static str {
+        match self {
+            Arm::DivideAndConquer => "divide_and_conquer",
+            Arm::Traditional => "traditional",
+            Arm::TraditionalEqualPoses => "traditional_equal_poses",
+        }
+    }
+
+    fn strategy(self) -> Strategy {
+        match self {
+            Arm::DivideAndConquer => Strategy::DivideAndConquer,
+            Arm::Traditional | Arm::TraditionalEqualPoses => Strategy::Traditional,
+        }
+    }
+}
+
+/// What a study runs.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct MonteCarloOptions {
+    /// Number of trials.
+    pub trials: usize,
+    /// Study seed (each trial's generator derives from it and the trial index).
+    pub seed: u64,
+    /// The least-squares solver of every fit.
+    pub solver: SolverKind,
+    /// Multiplies every simulated noise standard deviation (and the declared noise the fits
+    /// test their residuals against).
+    pub noise_scale: f64,
+    /// Poses per leg (default: the model's `selection.poses_per_leg`).
+    pub poses_per_leg: Option<usize>,
+    /// Candidate grid spacing of the pose selection, metres (default: the model's).
+    pub grid: Option<f64>,
+    /// Grid spacing of the accuracy map, metres.
+    pub map_grid: f64,
+    /// Fraction of the workspace region the accuracy map covers.
+    pub map_scale: f64,
+}
+
+/// Default grid spacing of the study's accuracy map (metres): coarse, a few hundred points.
+pub const DEFAULT_MAP_GRID: f64 = 0.05;
+
+impl MonteCarloOptions {
+    /// The defaults for `trials` trials from `seed`: Levenberg–Marquardt, the declared noise,
+    /// the model's pose counts and grid, a 5 cm map over 0.95 of the region.
+    pub fn new(trials: usize, seed: u64) -> Self {
+        Self {
+            trials,
+            seed,
+            solver: SolverKind::LevenbergMarquardt,
+            noise_scale: 1.0,
+            poses_per_leg: None,
+            grid: None,
+            map_grid: DEFAULT_MAP_GRID,
+            map_scale: 0.95,
+        }
+    }
+}
+
+/// One identified parameter of the study.
+#[derive(Debug, Clone, PartialEq)]
+pub struct StudyParameter {
+    /// Name as in the model file.
+    pub name: String,
+    /// Its SI unit.
+    pub unit: Unit,
+    /// Index of its leg.
+    pub leg: usize,
+    /// Index among the leg's parameters.
+    pub column: usize,
+}
+
+/// A prepared study: the mechanism (its declared noise scaled), the selected poses and the map.
+#[derive(Debug, Clone)]
+pub struct Study {
+    mechanism: Mechanism,
+    options: MonteCarloOptions,
+    /// Divide and conquer's per-leg poses, then the shared poses of both traditional arms
+    /// (first the small set, then the equal-poses set).
+    pose_sets: PoseSets,
+    /// Number of shared poses of the traditional arm (the rest are the equal-poses arm's).
+    shared_count: usize,
+    map: Vec<[f64; 6]>,
+    parameters: Vec<StudyParameter>,
+}
+
+/// One arm's values in one trial.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ArmTrial {
+    /// Estimate − real, per study parameter.
+    pub errors: Vec<f64>,
+    /// The fit's predicted standard deviation, per study parameter (NaN without redundancy).
+    pub predicted_std: Vec<f64>,
+    /// RMS position error over the accuracy map, metres.
+    pub map_rms: f64,
+}
+
+/// The values of one successful trial.
+#[derive(Debug, Clone, PartialEq)]
+pub struct TrialValues {
+    /// RMS position error over the map with the nominal model commanding, metres.
+    pub nominal_map_rms: f64,
+    /// Per arm, in [`ARMS`] order.
+    pub arms: Vec<ArmTrial>,
+}
+
+/// One trial: its seed and its values, or why it failed.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Trial {
+    /// Index of the trial.
+    pub index: usize,
+    /// The seed of its simulation (derived from the study seed and the index).
+    pub seed: u64,
+    /// The values, or the reason the trial failed (a simulation or fit error, or a solver that
+    /// did not converge).
+    pub outcome: std::result::Result<TrialValues, String>,
+}
+
+/// One arm's summary.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ArmSummary {
+    /// The arm.
+    pub arm: Arm,
+    /// Poses measured in all.
+    pub poses: usize,
+    /// Per study parameter.
+    pub parameters: Vec<ParameterSummary>,
+    /// Mean over the trials of the RMS position error over the map, metres.
+    pub map_rms: Estimate,
+}
+
+/// One parameter's error statistics under one arm.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ParameterSummary {
+    /// Mean error (bias).
+    pub mean: Estimate,
+    /// Standard deviation of the error (the observed spread).
+    pub std: Estimate,
+    /// Root mean square error.
+    pub rms: Estimate,
+    /// Mean over the trials of the predicted standard deviation (NaN if a fit had none).
+    pub predicted_std: Estimate,
+}
+
+/// A paired comparison of two arms on the map's RMS position error.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Comparison {
+    /// The first arm.
+    pub first: Arm,
+    /// The second arm.
+    pub second: Arm,
+    /// Mean over the trials of (first − second) RMS position error, metres.
+    pub difference: Estimate,
+    /// What the interval says, one sentence.
+    pub sentence: String,
+}
+
+/// The study's result.
+#[derive(Debug, Clone, PartialEq)]
+pub struct MonteCarlo {
+    /// The options it ran with.
+    pub options: MonteCarloOptions,
+    /// Mechanism name.
+    pub mechanism: String,
+    /// The study parameters, in model order.
+    pub parameters: Vec<StudyParameter>,
+    /// Points of the accuracy map.
+    pub map_points: usize,
+    /// Every trial, in index order.
+    pub trials: Vec<Trial>,
+    /// Trials whose values enter the summary.
+    pub succeeded: usize,
+    /// Mean RMS position error over the map of the nominal model, metres.
+    pub nominal_map_rms: Estimate,
+    /// Per arm, in [`ARMS`] order.
+    pub arms: Vec<ArmSummary>,
+    /// D&C against each traditional arm.
+    pub comparisons: Vec<Comparison>,
+    /// The verdict: the comparison at an equal number of poses.
+    pub verdict: String,
+}
+
+/// The seed of trial `index`: the first word of the ChaCha stream `index` of the study seed.
+pub fn trial_seed(seed: u64, index: usize) -> u64 {
+    let mut rng = ChaCha8Rng::seed_from_u64(seed);
+    rng.set_stream(index as u64);
+    rng.next_u64()
+}
+
+impl Study {
+    /// Selects the poses and builds the map grid.
+    ///
+    /// # Errors
+    /// No simulation block; the pose selection's errors (too few candidates, an unidentifiable
+    /// design); an invalid map grid or scale.
+    pub fn prepare(mechanism: &Mechanism, options: MonteCarloOptions) -> Result<Self> {
+        crate::measure::simulate::setup(mechanism)?;
+        let map = map_grid(mechanism, options.map_grid, options.map_scale)?;
+        let mut mechanism = mechanism.clone();
+        if let Some(noise) = &mut mechanism.noise {
+            noise.pose = noise.pose.map(|s| s * options.noise_scale);
+            noise.reading *= options.noise_scale;
+        }
+        let count = options
+            .poses_per_leg
+            .unwrap_or(mechanism.selection.poses_per_leg);
+        let criterion = mechanism.selection.criterion;
+        let pool = candidate_pool(&mechanism, options.grid)?;
+        let legs = divide_and_conquer(&mechanism, &pool, count, criterion)?;
+        let total: usize = legs.iter().map(|l| l.poses.len()).sum();
+        let shared = traditional(&mechanism, &pool, count, criterion)?;
+        let equal = traditional(&mechanism, &pool, total, criterion)?;
+        let mut per_leg = vec![Vec::new(); mechanism.legs.len()];
+        for design in legs {
+            per_leg[design.leg] = design.poses;
+        }
+        let shared_count = shared.poses.len();
+        let mut shared_poses = shared.poses;
+        shared_poses.extend(equal.poses);
+        let parameters = mechanism
+            .identified_legs()
+            .into_iter()
+            .flat_map(|leg| {
+                let model = &mechanism.legs[leg];
+                model
+                    .identified()
+                    .into_iter()
+                    .map(move |column| StudyParameter {
+                        name: model.params[column].name.clone(),
+                        unit: model.params[column].unit,
+                        leg,
+                        column,
+                    })
+            })
+            .collect();
+        Ok(Self {
+            mechanism,
+            options,
+            pose_sets: PoseSets {
+                per_leg,
+                shared: shared_poses,
+            },
+            shared_count,
+            map,
+            parameters,
+        })
+    }
+
+    /// The mechanism the study identifies (its declared noise scaled).
+    pub fn mechanism(&self) -> &Mechanism {
+        &self.mechanism
+    }
+
+    /// Points of the accuracy map.
+    pub fn map_points(&self) -> usize {
+        self.map.len()
+    }
+
+    /// Poses each arm measures, in [`ARMS`] order.
+    pub fn poses(&self) -> [usize; 3] {
+        let dc = self.pose_sets.per_leg.iter().map(Vec::len).sum();
+        let equal = self.pose_sets.shared.len() - self.shared_count;
+        [dc, self.shared_count, equal]
+    }
+
+    /// Runs trial `index`.
+    pub fn trial(&self, index: usize) -> Trial {
+        let seed = trial_seed(self.options.seed, index);
+        Trial {
+            index,
+            seed,
+            outcome: self.trial_values(seed).map_err(|e| e.to_string()),
+        }
+    }
+
+    fn trial_values(&self, seed: u64) -> Result<TrialValues> {
+        let options = SimulationOptions {
+            seed: Some(seed),
+            noise_scale: self.options.noise_scale,
+            poses_per_leg: None,
+        };
+        let experiment = simulate_at(&self.mechanism, &self.pose_sets, options)?;
+        let real = &experiment.real;
+        let (labelled, shared): (Vec<MeasuredPose>, Vec<MeasuredPose>) = experiment
+            .measurements
+            .poses
+            .into_iter()
+            .partition(|p| p.leg.is_some());
+        let (small, equal) = shared.split_at(self.shared_count);
+        let sets = [labelled, small.to_vec(), equal.to_vec()];
+        let nominal = self.mechanism.nominal_parameters();
+        let nominal_map_rms = self.map_rms(&nominal, real)?;
+        let mut arms = Vec::with_capacity(ARMS.len());
+        for (arm, poses) in ARMS.into_iter().zip(sets) {
+            let data = MeasurementSet {
+                source: None,
+                poses,
+            };
+            let result = identify_with(
+                &self.mechanism,
+                &data,
+                arm.strategy(),
+                self.options.solver,
+                FitOptions::default(),
+            )?;
+            if let Some(run) = result.runs.iter().find(|r| !r.converged) {
+                return Err(Error::Solver {
+                    context: format!("{}, legs {}", arm.name(), run.legs.join(", ")),
+                    message: format!("did not converge: {}", run.stop_reason),
+                });
+            }
+            arms.push(self.arm_trial(&result, real)?);
+        }
+        Ok(TrialValues {
+            nominal_map_rms,
+            arms,
+        })
+    }
+
+    fn arm_trial(&self, result: &StrategyResult, real: &[Vec<f64>]) -> Result<ArmTrial> {
+        let mut errors = Vec::with_capacity(self.parameters.len());
+        let mut predicted_std = Vec::with_capacity(self.parameters.len());
+        for p in &self.parameters {
+            let leg_name = &self.mechanism.legs[p.leg].name;
+            let estimate = result
+                .legs
+                .iter()
+                .find(|e| &e.leg == leg_name)
+                .map(|e| &e.parameters[p.column])
+                .ok_or_else(|| {
+                    Error::Invalid(format!(
+                        "{}: leg `{leg_name}` missing",
+                        result.strategy.name()
+                    ))
+                })?;
+            errors.push(estimate.estimate - real[p.leg][p.column]);
+            predicted_std.push(estimate.std.unwrap_or(f64::NAN));
+        }
+        let identified = result_parameters(&self.mechanism, result);
+        Ok(ArmTrial {
+            errors,
+            predicted_std,
+            map_rms: self.map_rms(&identified, real)?,
+        })
+    }
+
+    /// RMS position error over the map with `commanding` commanding the `real` mechanism.
+    fn map_rms(&self, commanding: &[Vec<f64>], real: &[Vec<f64>]) -> Result<f64> {
+        let mut sum = 0.0;
+        let mut count = 0usize;
+        for target in &self.map {
+            if let Some(reached) = reached_pose(&self.mechanism, commanding, real, target) {
+                sum += position_error(&reached, target).powi(2);
+                count += 1;
+            }
+        }
+        if count == 0 {
+            return Err(Error::Invalid(format!(
+                "accuracy map: the real mechanism reaches none of the {} map points",
+                self.map.len()
+            )));
+        }
+        Ok((sum / count as f64).sqrt())
+    }
+
+    /// Runs every trial in parallel (a progress bar on a terminal) and summarises them.
+    pub fn run(&self) -> MonteCarlo {
+        let progress = Progress::new(self.options.trials as u64, "monte carlo");
+        let trials: Vec<Trial> = (0..self.options.trials)
+            .into_par_iter()
+            .map(|index| {
+                let trial = self.trial(index);
+                progress.advance(1);
+                trial
+            })
+            .collect();
+        drop(progress);
+        self.summarise(trials)
+    }
+
+    /// The summary of `trials` (reduced in the given order; failed trials left out).
+    pub fn summarise(&self, trials: Vec<Trial>) -> MonteCarlo {
+        let values: Vec<&TrialValues> = trials
+            .iter()
+            .filter_map(|t| t.outcome.as_ref().ok())
+            .collect();
+        let nominal: Vec<f64> = values.iter().map(|v| v.nominal_map_rms).collect();
+        let map_of = |a: usize| -> Vec<f64> { values.iter().map(|v| v.arms[a].map_rms).collect() };
+        let poses = self.poses();
+        let arms: Vec<ArmSummary> = ARMS
+            .iter()
+            .enumerate()
+            .map(|(a, &arm)| ArmSummary {
+                arm,
+                poses: poses[a],
+                parameters: (0..self.parameters.len())
+                    .map(|p| {
+                        let errors: Vec<f64> = values.iter().map(|v| v.arms[a].errors[p]).collect();
+                        let predicted: Vec<f64> =
+                            values.iter().map(|v| v.arms[a].predicted_std[p]).collect();
+                        ParameterSummary {
+                            mean: stats::mean_interval(&errors),
+                            std: stats::std_interval(&errors),
+                            rms: stats::rms_interval(&errors),
+                            predicted_std: stats::mean_interval(&predicted),
+                        }
+                    })
+                    .collect(),
+                map_rms: stats::mean_interval(&map_of(a)),
+            })
+            .collect();
+        let comparisons: Vec<Comparison> = [1, 2]
+            .into_iter()
+            .map(|b| {
+                let difference = stats::paired_difference(&map_of(0), &map_of(b));
+                Comparison {
+                    first: ARMS[0],
+                    second: ARMS[b],
+                    sentence: verdict_sentence(ARMS[0], ARMS[b], poses[b] == poses[0], &difference),
+                    difference,
+                }
+            })
+            .collect();
+        let verdict = comparisons
+            .last()
+            .map_or_else(String::new, |c| c.sentence.clone());
+        MonteCarlo {
+            options: self.options,
+            mechanism: self.mechanism.name.clone(),
+            parameters: self.parameters.clone(),
+            map_points: self.map.len(),
+            succeeded: values.len(),
+            nominal_map_rms: stats::mean_interval(&nominal),
+            arms,
+            comparisons,
+            verdict,
+            trials,
+        }
+    }
+}
+
+/// The sentence a paired difference `first − second` (metres, RMS position error over the
+/// map) supports: which arm is more accurate and by how much, or no significant difference.
+pub fn verdict_sentence(
+    first: Arm,
+    second: Arm,
+    equal_poses: bool,
+    difference: &Estimate,
+) -> String {
+    let mm = difference.scaled(1e3);
+    let second_name = if equal_poses {
+        "traditional at an equal number of poses".to_string()
+    } else {
+        second.name().to_string()
+    };
+    let tail = "of RMS position error over the map (mean paired difference, 95 % CI)";
+    if mm.below_zero() {
+        format!(
+            "{} is more accurate than {second_name} by {} mm [{}, {}] {tail}.",
+            first.name(),
+            millimetres(-mm.value),
+            millimetres(-mm.high),
+            millimetres(-mm.low)
+        )
+    } else if mm.above_zero() {
+        format!(
+            "{} is more accurate than {} by {} mm [{}, {}] {tail}.",
+            capitalised(&second_name),
+            first.name(),
+            millimetres(mm.value),
+            millimetres(mm.low),
+            millimetres(mm.high)
+        )
+    } else {
+        format!(
+            "No significant difference between {} and {second_name}: the mean paired difference \
+             ({} − {}) of RMS position error over the map is {} mm [{}, {}] (95 % CI).",
+            first.name(),
+            first.name(),
+            second.name(),
+            millimetres(mm.value),
+            millimetres(mm.low),
+            millimetres(mm.high),
+        )
+    }
+}
+
+/// `text` with its first letter in upper case.
+fn capitalised(text: &str) -> String {
+    let mut chars = text.chars();
+    chars
+        .next()
+        .map_or_else(String::new, |c| c.to_uppercase().chain(chars).collect())
+}
+
+/// Millimetres with four significant digits (`0.01234`, `1.234`; `1.234e-7` below a
+/// micrometre's thousandth).
+pub fn millimetres(value: f64) -> String {
+    if value == 0.0 || !value.is_finite() {
+        return format!("{value}");
+    }
+    let magnitude = value.abs().log10().floor() as i32;
+    if magnitude < -6 {
+        return format!("{value:.3e}");
+    }
+    let decimals = (3 - magnitude).max(0) as usize;
+    format!("{value:.decimals$}")
+}

@@ -1,0 +1,196 @@
+//! The Monte Carlo study as text (terminal) and JSON (every trial's values included, so that
+//! each statistic can be recomputed from them).
+
+use serde_json::{json, Value};
+
+use super::montecarlo::{MonteCarlo, Trial, ARMS};
+use super::stats::Estimate;
+use crate::report::json::{finite, header, merge};
+
+/// An estimate as JSON: `{"value", "ci95": [low, high]}` (non-finite numbers are `null`).
+pub fn estimate_json(estimate: &Estimate) -> Value {
+    json!({
+        "value": finite(estimate.value),
+        "ci95": [finite(estimate.low), finite(estimate.high)],
+    })
+}
+
+fn trial_json(trial: &Trial) -> Value {
+    match &trial.outcome {
+        Ok(values) => {
+            let mut arms = serde_json::Map::new();
+            for (arm, values) in ARMS.iter().zip(&values.arms) {
+                arms.insert(
+                    arm.key().into(),
+                    json!({
+                        "errors": values.errors.iter().map(|&e| finite(e)).collect::<Vec<_>>(),
+                        "predicted_std": values.predicted_std.iter().map(|&e| finite(e)).collect::<Vec<_>>(),
+                        "map_rms_m": finite(values.map_rms),
+                    }),
+                );
+            }
+            json!({
+                "index": trial.index,
+                "seed": trial.seed,
+                "failure": null,
+                "nominal_map_rms_m": finite(values.nominal_map_rms),
+                "arms": arms,
+            })
+        }
+        Err(reason) => json!({
+            "index": trial.index,
+            "seed": trial.seed,
+            "failure": reason,
+        }),
+    }
+}
+
+/// The study as JSON: options, the summary per arm and parameter, the comparisons, the
+/// verdict, and every trial.
+pub fn montecarlo_json(study: &MonteCarlo) -> Value {
+    let options = &study.options;
+    let arms: Vec<Value> = study
+        .arms
+        .iter()
+        .map(|arm| {
+            let parameters: Vec<Value> = study
+                .parameters
+                .iter()
+                .zip(&arm.parameters)
+                .map(|(p, s)| {
+                    json!({
+                        "name": p.name,
+                        "unit": p.unit.to_string(),
+                        "mean_error": estimate_json(&s.mean),
+                        "std_error": estimate_json(&s.std),
+                        "rms_error": estimate_json(&s.rms),
+                        "predicted_std": estimate_json(&s.predicted_std),
+                    })
+                })
+                .collect();
+            json!({
+                "arm": arm.arm.key(),
+                "name": arm.arm.name(),
+                "poses": arm.poses,
+                "map_rms_m": estimate_json(&arm.map_rms),
+                "parameters": parameters,
+            })
+        })
+        .collect();
+    let comparisons: Vec<Value> = study
+        .comparisons
+        .iter()
+        .map(|c| {
+            json!({
+                "first": c.first.key(),
+                "second": c.second.key(),
+                "map_rms_difference_m": estimate_json(&c.difference),
+                "sentence": c.sentence,
+            })
+        })
+        .collect();
+    let mut value = header();
+    merge(
+        &mut value,
+        json!({
+            "mechanism": study.mechanism,
+            "trials": options.trials,
+            "succeeded": study.succeeded,
+            "failed": options.trials - study.succeeded,
+            "seed": options.seed,
+            "solver": options.solver.short_name(),
+            "noise_scale": finite(options.noise_scale),
+            "map": {
+                "grid_m": finite(options.map_grid),
+                "scale": finite(options.map_scale),
+                "points": study.map_points,
+            },
+            "parameters": study.parameters.iter().map(|p| json!({"name": p.name, "unit": p.unit.to_string()})).collect::<Vec<_>>(),
+            "nominal_map_rms_m": estimate_json(&study.nominal_map_rms),
+            "arms": arms,
+            "comparisons": comparisons,
+            "verdict": study.verdict,
+            "per_trial": study.trials.iter().map(trial_json).collect::<Vec<_>>(),
+        }),
+    );
+    value
+}
+
+/// `value [low, high]` with three significant digits.
+fn interval(estimate: &Estimate, factor: f64) -> String {
+    let e = estimate.scaled(factor);
+    format!("{} [{}, {}]", short(e.value), short(e.low), short(e.high))
+}
+
+fn short(value: f64) -> String {
+    if !value.is_finite() {
+        return "-".into();
+    }
+    format!("{value:.3e}")
+}
+
+/// The study for the terminal: set-up, per-parameter statistics per arm, the map errors, the
+/// comparisons and the verdict.
+pub fn montecarlo_text(study: &MonteCarlo) -> String {
+    let options = &study.options;
+    let mut text = format!(
+        "Monte Carlo study of {}: {} trials ({} failed), seed {}, {}, noise scale {}\n",
+        study.mechanism,
+        options.trials,
+        options.trials - study.succeeded,
+        options.seed,
+        options.solver.name(),
+        options.noise_scale
+    );
+    let poses: Vec<String> = study
+        .arms
+        .iter()
+        .map(|a| format!("{} {}", a.arm.name(), a.poses))
+        .collect();
+    text.push_str(&format!("poses measured: {}\n", poses.join(", ")));
+    text.push_str(&format!(
+        "accuracy map: {} points, grid {} m over {} of the workspace region\n",
+        study.map_points, options.map_grid, options.map_scale
+    ));
+    text.push_str(
+        "\nparameter errors (estimate - real, SI units), 95 % confidence intervals in brackets:\n",
+    );
+    for (p, parameter) in study.parameters.iter().enumerate() {
+        text.push_str(&format!("  {} ({})\n", parameter.name, parameter.unit));
+        for arm in &study.arms {
+            let s = &arm.parameters[p];
+            text.push_str(&format!(
+                "    {:<26} mean {}  std {}  RMS {}  predicted σ {}\n",
+                arm.arm.name(),
+                interval(&s.mean, 1.0),
+                interval(&s.std, 1.0),
+                interval(&s.rms, 1.0),
+                interval(&s.predicted_std, 1.0)
+            ));
+        }
+    }
+    text.push_str("\nRMS position error over the map (mm), mean over the trials:\n");
+    text.push_str(&format!(
+        "    {:<26} {}\n",
+        "nominal model",
+        interval(&study.nominal_map_rms, 1e3)
+    ));
+    for arm in &study.arms {
+        text.push_str(&format!(
+            "    {:<26} {}\n",
+            arm.arm.name(),
+            interval(&arm.map_rms, 1e3)
+        ));
+    }
+    text.push_str("\npaired comparisons (same draws in every arm):\n");
+    for c in &study.comparisons {
+        text.push_str(&format!(
+            "    {} - {}: {} mm\n",
+            c.first.name(),
+            c.second.name(),
+            interval(&c.difference, 1e3)
+        ));
+    }
+    text.push_str(&format!("\nverdict: {}\n", study.verdict));
+    text
+}

@@ -1,0 +1,265 @@
+//! `legwise montecarlo`: bit-identical for a seed whatever the thread count; every reported
+//! statistic recomputed here from the per-trial values of the JSON report with textbook
+//! quantiles; the interval formulas on a known case; zero noise gives zero errors.
+use std::process::Command;
+
+use legwise::study::stats::{mean_interval, rms_interval, std_interval};
+use serde_json::Value;
+
+use crate::cli::{assert_fails_with, text};
+
+/// Trials of the quick studies (with the printed quantiles below for n − 1 = 5).
+const TRIALS: usize = 6;
+/// Student's t 0.975 quantile, 5 degrees of freedom (printed tables).
+const T_5: f64 = 2.570_582;
+/// χ² quantiles 0.025 and 0.975, 5 degrees of freedom.
+const CHI2_5: (f64, f64) = (0.831_211_6, 12.832_502);
+
+/// Runs `legwise montecarlo` with `threads` rayon threads and returns its JSON (standard
+/// output) as text.
+fn montecarlo_json(model: &str, threads: usize, extra: &[&str]) -> String {
+    let trials = TRIALS.to_string();
+    let mut args = vec![
+        "montecarlo",
+        "--model",
+        model,
+        "--trials",
+        &trials,
+        "--map",
+        "0.2",
+        "--json",
+        "-",
+    ];
+    args.extend(extra);
+    let out = Command::new(env!("CARGO_BIN_EXE_legwise"))
+        .args(&args)
+        .env("RAYON_NUM_THREADS", threads.to_string())
+        .current_dir(env!("CARGO_MANIFEST_DIR"))
+        .output()
+        .expect("the legwise binary runs");
+    assert_eq!(
+        out.status.code(),
+        Some(0),
+        "{args:?}: {}",
+        text(&out.stderr)
+    );
+    text(&out.stdout)
+}
+
+fn numbers(value: &Value) -> Vec<f64> {
+    value
+        .as_array()
+        .expect("an array")
+        .iter()
+        .map(|v| v.as_f64().expect("a number"))
+        .collect()
+}
+
+/// `(value, low, high)` of an estimate in the report.
+fn estimate(value: &Value) -> (f64, f64, f64) {
+    let ci = numbers(&value["ci95"]);
+    (value["value"].as_f64().expect("value"), ci[0], ci[1])
+}
+
+fn close(a: f64, b: f64, what: &str) {
+    assert!(
+        (a - b).abs() <= 1e-6 * b.abs() + 1e-18,
+        "{what}: reported {a}, recomputed {b}"
+    );
+}
+
+fn assert_estimate(reported: &Value, recomputed: (f64, f64, f64), what: &str) {
+    let (v, l, h) = estimate(reported);
+    close(v, recomputed.0, &format!("{what} value"));
+    close(l, recomputed.1, &format!("{what} low"));
+    close(h, recomputed.2, &format!("{what} high"));
+}
+
+/// Mean with its t interval, computed here with the printed quantile.
+fn t_interval(x: &[f64]) -> (f64, f64, f64) {
+    assert_eq!(x.len(), TRIALS);
+    let n = x.len() as f64;
+    let m = x.iter().sum::<f64>() / n;
+    let s = (x.iter().map(|v| (v - m) * (v - m)).sum::<f64>() / (n - 1.0)).sqrt();
+    let half = T_5 * s / n.sqrt();
+    (m, m - half, m + half)
+}
+
+#[test]
+fn one_and_two_threads_give_identical_reports_and_every_statistic_follows_from_the_trials() {
+    let one = montecarlo_json("models/5r.yaml", 1, &[]);
+    let two = montecarlo_json("models/5r.yaml", 2, &[]);
+    assert!(
+        one == two,
+        "the JSON reports differ between 1 and 2 threads"
+    );
+    let report: Value = serde_json::from_str(&one).expect("JSON");
+    assert_eq!(report["failed"], 0);
+    let trials = report["per_trial"].as_array().expect("per_trial");
+    assert_eq!(trials.len(), TRIALS);
+    let seeds: std::collections::BTreeSet<u64> =
+        trials.iter().map(|t| t["seed"].as_u64().unwrap()).collect();
+    assert_eq!(seeds.len(), TRIALS, "every trial draws from its own seed");
+    let per_trial = |arm: &str, key: &str, p: Option<usize>| -> Vec<f64> {
+        trials
+            .iter()
+            .map(|t| {
+                let v = &t["arms"][arm][key];
+                match p {
+                    Some(p) => v[p].as_f64().expect("number"),
+                    None => v.as_f64().expect("number"),
+                }
+            })
+            .collect()
+    };
+    let names = report["parameters"].as_array().unwrap();
+    assert_eq!(names.len(), 12);
+    for arm in report["arms"].as_array().unwrap() {
+        let key = arm["arm"].as_str().unwrap();
+        for (p, stats) in arm["parameters"].as_array().unwrap().iter().enumerate() {
+            let what = format!("{key} {}", names[p]["name"]);
+            let errors = per_trial(key, "errors", Some(p));
+            assert_estimate(
+                &stats["mean_error"],
+                t_interval(&errors),
+                &format!("{what} mean"),
+            );
+            let (m, _, _) = t_interval(&errors);
+            let ss = errors.iter().map(|e| (e - m) * (e - m)).sum::<f64>();
+            let s = (ss / 5.0).sqrt();
+            let std = (s, (ss / CHI2_5.1).sqrt(), (ss / CHI2_5.0).sqrt());
+            assert_estimate(&stats["std_error"], std, &format!("{what} std"));
+            let squares: Vec<f64> = errors.iter().map(|e| e * e).collect();
+            let (ms, lo, hi) = t_interval(&squares);
+            let rms = (ms.sqrt(), lo.max(0.0).sqrt(), hi.sqrt());
+            assert_estimate(&stats["rms_error"], rms, &format!("{what} RMS"));
+            let predicted = per_trial(key, "predicted_std", Some(p));
+            assert!(predicted.iter().all(|s| *s > 0.0), "{what}: a σ per fit");
+            assert_estimate(&stats["predicted_std"], t_interval(&predicted), &what);
+        }
+        let map = per_trial(key, "map_rms_m", None);
+        assert_estimate(&arm["map_rms_m"], t_interval(&map), &format!("{key} map"));
+    }
+    let dc = per_trial("divide_and_conquer", "map_rms_m", None);
+    for comparison in report["comparisons"].as_array().unwrap() {
+        let other = per_trial(comparison["second"].as_str().unwrap(), "map_rms_m", None);
+        let differences: Vec<f64> = dc.iter().zip(&other).map(|(a, b)| a - b).collect();
+        let (d, lo, hi) = t_interval(&differences);
+        assert_estimate(
+            &comparison["map_rms_difference_m"],
+            (d, lo, hi),
+            "difference",
+        );
+        // The sentence follows from the interval.
+        let sentence = comparison["sentence"].as_str().unwrap();
+        let expected = if hi < 0.0 {
+            "D&C is more accurate"
+        } else if lo > 0.0 {
+            "is more accurate than D&C"
+        } else {
+            "No significant difference"
+        };
+        assert!(sentence.contains(expected), "{sentence} for [{lo}, {hi}]");
+    }
+    assert_eq!(report["verdict"], report["comparisons"][1]["sentence"]);
+    assert!(report["verdict"]
+        .as_str()
+        .unwrap()
+        .contains("an equal number of poses"));
+}
+
+#[test]
+fn the_interval_formulas_match_a_worked_example() {
+    // 1..5: mean 3, s² = 2.5; t(0.975, 4) = 2.776445, χ²(4) quantiles 0.484419 and 11.143287.
+    let x = [1.0, 2.0, 3.0, 4.0, 5.0];
+    let m = mean_interval(&x);
+    let half = 2.776_445 * (2.5f64 / 5.0).sqrt();
+    assert!((m.value - 3.0).abs() < 1e-12);
+    assert!((m.low - (3.0 - half)).abs() < 1e-5 && (m.high - (3.0 + half)).abs() < 1e-5);
+    let s = std_interval(&x);
+    assert!((s.value - 2.5f64.sqrt()).abs() < 1e-12);
+    assert!((s.low - (10.0f64 / 11.143_287).sqrt()).abs() < 1e-5);
+    assert!((s.high - (10.0f64 / 0.484_419).sqrt()).abs() < 1e-5);
+    // RMS of 1..5 is √11; its interval is that of the mean of the squares 1, 4, 9, 16, 25.
+    let r = rms_interval(&x);
+    let squares = [1.0, 4.0, 9.0, 16.0, 25.0];
+    let var = squares
+        .iter()
+        .map(|v: &f64| (v - 11.0).powi(2))
+        .sum::<f64>()
+        / 4.0;
+    let half = 2.776_445 * (var / 5.0).sqrt();
+    assert!((r.value - 11.0f64.sqrt()).abs() < 1e-12);
+    assert!(
+        half > 11.0,
+        "this sample's interval of the mean square reaches below zero"
+    );
+    assert!(r.low.abs() < 1e-15, "clamped at zero: {}", r.low);
+    assert!((r.high - (11.0 + half).sqrt()).abs() < 1e-5);
+}
+
+#[test]
+fn without_noise_every_error_is_zero_though_the_real_mechanism_changes_between_trials() {
+    // The 3-RPR draws its real parameters from its perturbation: each trial's nominal map error
+    // differs, and every strategy still recovers them exactly.
+    let report: Value = serde_json::from_str(&montecarlo_json(
+        "models/3rpr.yaml",
+        2,
+        &["--noise-scale", "0"],
+    ))
+    .expect("JSON");
+    let trials = report["per_trial"].as_array().unwrap();
+    let nominal: Vec<f64> = trials
+        .iter()
+        .map(|t| t["nominal_map_rms_m"].as_f64().unwrap())
+        .collect();
+    assert!(nominal.iter().all(|&e| e > 1e-4), "{nominal:?}");
+    assert!(
+        nominal.windows(2).all(|w| (w[0] - w[1]).abs() > 1e-9),
+        "a new real mechanism per trial: {nominal:?}"
+    );
+    for trial in trials {
+        for (arm, values) in trial["arms"].as_object().unwrap() {
+            for e in numbers(&values["errors"]) {
+                assert!(e.abs() < 1e-10, "{arm}: error {e}");
+            }
+            let map = values["map_rms_m"].as_f64().unwrap();
+            assert!(map < 1e-10, "{arm}: map RMS {map}");
+        }
+    }
+    assert!(report["verdict"]
+        .as_str()
+        .unwrap()
+        .starts_with("No significant difference"));
+}
+
+#[test]
+fn bad_input_exits_2_and_names_the_option() {
+    assert_fails_with(
+        &["montecarlo", "--model", "models/5r.yaml", "--trials", "1"],
+        "legwise: --trials: expected between 2 and 1000000, found 1",
+    );
+    assert_fails_with(
+        &[
+            "montecarlo",
+            "--model",
+            "models/5r.yaml",
+            "--trials",
+            "3",
+            "--map",
+            "0",
+        ],
+        "legwise: --map: expected a positive grid spacing in metres, found 0",
+    );
+    let out = crate::cli::legwise(&[
+        "montecarlo",
+        "--model",
+        "models/5r.yaml",
+        "--trials",
+        "3",
+        "--json",
+        "models/5r.yaml",
+    ]);
+    assert_eq!(out.status.code(), Some(2));
+    assert!(text(&out.stderr).contains("would overwrite the model file"));
+}
