@@ -43,16 +43,14 @@ def simulate(path):
         cwd=ROOT, check=True)
 
 
-def leg_rows(path, leg="leg1"):
-    """The (x, y, reading) of `leg`'s rows of a measurement CSV."""
+def leg_rows(path, leg="leg1", joint="A1"):
+    """The (x, y, reading) of `leg`'s rows of a measurement CSV (the reading is in the column
+    of the leg's actuated joint)."""
     with open(path, newline="") as handle:
         rows = [r for r in csv.DictReader(handle) if r["leg"] == leg]
-    reading = "psi_" + leg if ("psi_" + leg) in rows[0] else None
-    if reading is None:
-        reading = [k for k in rows[0] if leg in k and k != "leg"][0]
     x = np.array([float(r["x"]) for r in rows])
     y = np.array([float(r["y"]) for r in rows])
-    psi = np.array([float(r[reading]) for r in rows])
+    psi = np.array([float(r[joint]) for r in rows])
     return x, y, psi
 
 
