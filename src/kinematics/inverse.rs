@@ -1,5 +1,6 @@
 //! Leg inverse kinematics: Newton's method on the closure equations from the home
-//! configuration, staying on the home branch, and the predicted actuator reading.
+//! configuration (or warm-started from a previous solution, [`solve_warm`]), staying on the
+//! home branch, and the predicted actuator reading.
 //!
 //! The closure of a leg says that its tip coincides with its platform attachment:
 //! `F(q; φ, X) = tip(q; φ) − X·attachment(φ) = 0` on the `closure_dims` first coordinates
