@@ -91,7 +91,7 @@ def criterion_median(target_dir):
 def main():
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--csv", help="measurement CSV (default: simulate it)")
-    parser.add_argument("--repeats", type=int, default=50)
+    parser.add_argument("--repeats", type=int, default=30)
     parser.add_argument("--no-cargo", action="store_true", help="do not run the criterion bench")
     args = parser.parse_args()
     with tempfile.TemporaryDirectory() as scratch:
