@@ -22,7 +22,7 @@ use legwise::model::params::{ParamTarget, Unit};
 use legwise::model::Mechanism;
 use legwise::solver::{solve, SolverKind};
 use legwise::study::stats::proportion_interval;
-use legwise::workspace::design::ExperimentDesign;
+use legwise::selection::design::ExperimentDesign;
 use nalgebra::DVector;
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;

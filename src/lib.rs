@@ -56,6 +56,7 @@ pub mod model;
 pub mod progress;
 pub mod report;
 pub mod scalar;
+pub mod selection;
 pub mod solver;
 pub mod study;
 pub mod workspace;

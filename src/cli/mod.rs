@@ -402,7 +402,7 @@ impl SimulationArgs {
                     .poses_per_leg
                     .unwrap_or(mechanism.selection.poses_per_leg);
                 let criterion = mechanism.selection.criterion;
-                let design = crate::workspace::design::ExperimentDesign::select(
+                let design = crate::selection::design::ExperimentDesign::select(
                     mechanism, self.grid, count, criterion, true,
                 )?;
                 let experiment = simulate_at(mechanism, &design.pose_sets(), options)?;

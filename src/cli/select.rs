@@ -7,7 +7,7 @@ use super::output::Output;
 use super::{SelectArgs, Verdict};
 use crate::measure::{file, MeasuredPose, MeasurementSet};
 use crate::model::Mechanism;
-use crate::workspace::design::ExperimentDesign;
+use crate::selection::design::ExperimentDesign;
 
 pub(super) fn run(args: &SelectArgs) -> anyhow::Result<Verdict> {
     let poses_per_leg = super::poses_per_leg(args.poses_per_leg)?;

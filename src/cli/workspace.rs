@@ -17,6 +17,21 @@ use crate::workspace::picture::workspace_figure;
 pub(super) fn run(args: &WorkspaceArgs) -> anyhow::Result<Verdict> {
     let rays = super::checks::count("--rays", args.rays, 16, 100_000)?;
     let mechanism = Mechanism::load(&args.model)?;
+    if !mechanism.is_planar() {
+        return Err(crate::error::Error::Invalid(format!(
+            "{}: `legwise workspace` is not yet available for spatial models (measured: {}{}): \
+             the MIW and its picture need a planar mechanism measured in x, y and at most yaw, \
+             with a disc, box or polygon region",
+            args.model.display(),
+            mechanism.measured_names().join(", "),
+            if mechanism.workspace.region.is_spatial() {
+                "; a spatial region"
+            } else {
+                ""
+            }
+        ))
+        .into());
+    }
     let (path, format) = picture_path(args)?;
     let mut inputs = super::model_inputs(&args.model, &mechanism);
     inputs.extend(args.poses.as_deref().map(|path| Input {

@@ -141,7 +141,7 @@ pub fn map_grid(mechanism: &Mechanism, grid_m: f64, scale: f64) -> Result<Vec<[f
                 centre[0] + (point[0] - centre[0]) / scale,
                 centre[1] + (point[1] - centre[1]) / scale,
             ];
-            if region.depth(preimage) >= -1e-12 {
+            if region.depth([preimage[0], preimage[1], mechanism.home_pose[2]]) >= -1e-12 {
                 let mut pose = mechanism.home_pose;
                 pose[0] = point[0];
                 pose[1] = point[1];

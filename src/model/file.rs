@@ -9,8 +9,8 @@ use std::path::Path;
 
 use serde::{Deserialize, Serialize};
 
+use super::region::Region;
 use crate::error::{Error, Result};
-use crate::workspace::region::Region;
 
 /// The whole model file.
 #[derive(Debug, Clone, Deserialize, Serialize)]
@@ -138,7 +138,7 @@ pub struct ParameterEntry {
 #[derive(Debug, Clone, Deserialize, Serialize)]
 #[serde(deny_unknown_fields)]
 pub struct WorkspaceEntry {
-    /// The region of the end-effector point in x, y.
+    /// The region of the end-effector point: in x, y (planar) or x, y, z (spatial).
     pub region: Region,
     /// Inward safety margin from the region's boundary, metres.
     #[serde(default)]

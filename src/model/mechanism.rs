@@ -8,8 +8,8 @@ use super::file::ModelFile;
 use super::joint::ORIGIN_COMPONENTS;
 use super::leg::LegModel;
 use super::source::read_text;
+use super::workspace::Workspace;
 use crate::error::{Error, Result};
-use crate::workspace::region::Workspace;
 
 mod validate;
 
@@ -152,6 +152,12 @@ impl Mechanism {
     /// Index of the leg called `name`.
     pub fn leg_index(&self, name: &str) -> Option<usize> {
         self.legs.iter().position(|leg| leg.name == name)
+    }
+
+    /// Is the mechanism planar: measured in x, y and at most yaw, with a planar workspace
+    /// region? The planar-only computations (the MIW, the workspace picture) need it.
+    pub fn is_planar(&self) -> bool {
+        self.measured.iter().all(|&c| matches!(c, 0 | 1 | 5)) && !self.workspace.region.is_spatial()
     }
 
     /// Names of the measured coordinates, in file order.

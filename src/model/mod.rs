@@ -4,7 +4,9 @@ pub mod joint;
 pub mod leg;
 pub mod mechanism;
 pub mod params;
+pub mod region;
 pub mod source;
 pub mod urdf;
+pub mod workspace;
 
 pub use mechanism::Mechanism;

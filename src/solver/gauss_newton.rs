@@ -129,3 +129,70 @@ where
         TerminationStatus::NotTerminated
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use argmin::core::Executor;
+
+    /// r(x) = x²: with J = 2x, Gauss–Newton's step is −x/2 exactly, so from x₀ = 1 the iterates
+    /// are 2⁻ᵏ and every step is as long as the new iterate.
+    struct Square;
+    impl Operator for Square {
+        type Param = DVector<f64>;
+        type Output = DVector<f64>;
+        fn apply(&self, x: &DVector<f64>) -> Result<DVector<f64>, Error> {
+            Ok(x.map(|v| v * v))
+        }
+    }
+    impl Jacobian for Square {
+        type Param = DVector<f64>;
+        type Jacobian = DMatrix<f64>;
+        fn jacobian(&self, x: &DVector<f64>) -> Result<DMatrix<f64>, Error> {
+            Ok(DMatrix::from_element(1, 1, 2.0 * x[0]))
+        }
+    }
+
+    /// The rule ‖Δx‖ ≤ t(‖x‖ + t) with ‖Δx‖ = ‖x‖ = 2⁻ᵏ holds from 2⁻ᵏ ≤ t²/(1 − t) on:
+    /// k = ⌈log₂((1 − t)/t²)⌉, i.e. 4 for t = 1/4 (12 → 3.58), 14 for t = 10⁻² (9900 → 13.27)
+    /// and 20 for t = 10⁻³ (999000 → 19.93).
+    #[test]
+    fn it_stops_at_the_first_step_within_the_tolerance() {
+        for (tolerance, iterations) in [(0.25, 4), (1e-2, 14), (1e-3, 20)] {
+            let solver = StepGaussNewton::new().with_xtol(tolerance).unwrap();
+            let result = Executor::new(Square, solver)
+                .configure(|s| s.param(DVector::from_element(1, 1.0)).max_iters(100))
+                .run()
+                .unwrap();
+            assert_eq!(result.state.get_iter(), iterations, "tolerance {tolerance}");
+            let x = result.state.get_param().unwrap()[0];
+            assert_eq!(x.to_bits(), 0.5f64.powi(iterations as i32).to_bits());
+            assert_eq!(result.solver.stop_reason(), Some(StopReason::StepSize));
+        }
+    }
+
+    #[test]
+    fn the_tolerance_must_be_positive_and_finite() {
+        for bad in [0.0, -1e-3, f64::NAN, f64::INFINITY] {
+            let err = StepGaussNewton::new().with_xtol(bad).unwrap_err();
+            assert!(
+                err.to_string().contains("xtol must be positive and finite"),
+                "{bad}: {err}"
+            );
+        }
+        let solver = StepGaussNewton::new().with_xtol(f64::MIN_POSITIVE).unwrap();
+        assert_eq!(
+            format!("{solver:?}"),
+            format!("StepGaussNewton {{ xtol: {:?} }}", f64::MIN_POSITIVE)
+        );
+        assert_eq!(
+            format!("{:?}", StepGaussNewton::default()),
+            "StepGaussNewton { xtol: 1e-12 }"
+        );
+        assert_eq!(
+            <StepGaussNewton as Solver<Square, GnState>>::name(&solver),
+            "Gauss-Newton (step-size stopping)"
+        );
+        assert_eq!(solver.stop_reason(), None, "not run yet");
+    }
+}

@@ -51,7 +51,7 @@ pub const EVALUATIONS_PER_PARAMETER: u64 = 1000;
 
 /// The default budget of residual evaluations for `n` unknowns.
 pub fn default_budget(n: usize) -> u64 {
-    EVALUATIONS_PER_PARAMETER.saturating_mul(n as u64 + 1)
+    EVALUATIONS_PER_PARAMETER.saturating_mul((n as u64).saturating_add(1))
 }
 
 /// Relative rise of the cost that [`refine`] still calls round-off: the computed residuals

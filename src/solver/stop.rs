@@ -108,3 +108,43 @@ pub fn gradient_cosine(jacobian: &DMatrix<f64>, residuals: &DVector<f64>) -> f64
         })
         .fold(0.0, f64::max)
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn every_reason_reads_as_its_own_sentence() {
+        let texts: Vec<String> = StopReason::ALL.iter().map(|r| r.to_string()).collect();
+        for (i, text) in texts.iter().enumerate() {
+            assert!(text.len() > 10, "{text:?}");
+            assert!(!texts[..i].contains(text), "{text}");
+        }
+        assert_eq!(StopReason::ZeroResidual.to_string(), "zero residual");
+        assert_eq!(
+            StopReason::Stalled.to_string(),
+            "stalled at a point that is not stationary"
+        );
+    }
+
+    /// Column 0 = (3, 4, 0) (norm 5), column 1 = 0, column 2 = (0, 6, 8) (norm 10); r = (0, 2, 0)
+    /// (norm 2): the cosines are |8|/(5·2) = 0.8 and |12|/(10·2) = 0.6, the zero column has
+    /// none, so the measure is 0.8; flipping r's sign changes nothing; a zero r gives 0.
+    #[test]
+    fn gradient_cosine_is_the_largest_column_cosine() {
+        let j = DMatrix::from_row_slice(3, 3, &[3.0, 0.0, 0.0, 4.0, 0.0, 6.0, 0.0, 0.0, 8.0]);
+        let r = DVector::from_column_slice(&[0.0, 2.0, 0.0]);
+        assert!((gradient_cosine(&j, &r) - 0.8).abs() < 1e-15);
+        assert!((gradient_cosine(&j, &(-&r)) - 0.8).abs() < 1e-15);
+        // Only the third column: 0.6.
+        let third = j.columns(2, 1).into_owned();
+        assert!((gradient_cosine(&third, &r) - 0.6).abs() < 1e-15);
+        // r orthogonal to every column: 0 (not NaN from the zero column).
+        let orthogonal = DVector::from_column_slice(&[4.0, -3.0, 2.25]);
+        assert!(gradient_cosine(&j, &orthogonal).abs() < 1e-15);
+        assert_eq!(
+            gradient_cosine(&j, &DVector::zeros(3)).to_bits(),
+            0.0f64.to_bits()
+        );
+    }
+}

@@ -30,7 +30,7 @@ use crate::model::Mechanism;
 use crate::progress::Progress;
 use crate::solver::SolverKind;
 use crate::workspace::candidates::candidate_pool;
-use crate::workspace::design::{divide_and_conquer, traditional};
+use crate::selection::design::{divide_and_conquer, traditional};
 
 /// The strategies a study compares, in report order.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]

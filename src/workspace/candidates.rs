@@ -1,6 +1,6 @@
-//! Candidate identification poses: a grid over the usable workspace (x, y spacing `grid` from the
-//! lower-left corner of the usable region's bounding box, each
-//! ranged coordinate at `range_levels` values), kept when the pose is inside the region with its
+//! Candidate identification poses: a grid over the usable workspace (spacing `grid` in x, y —
+//! and z for a spatial region — from the lower corner of the usable region's bounding box, each
+//! ranged coordinate, e.g. an orientation angle, at `range_levels` values), kept when the pose is inside the region with its
 //! margin, every leg reaches it on its home branch, and it clears the serial and parallel
 //! singularity thresholds. Each candidate carries every leg's identification row at the nominal
 //! parameters.
@@ -144,40 +144,49 @@ pub fn candidate_pool(mechanism: &Mechanism, spacing: Option<f64>) -> Result<Can
     Ok(pool)
 }
 
-/// Grid poses from the lower-left corner of the usable region's bounding box (the region's
-/// bounds moved in by the margin) × ranged coordinate levels.
+/// Grid poses from the lower corner of the usable region's bounding box (the region's bounds
+/// moved in by the margin; in x, y for a planar region, in x, y, z for a spatial one) × ranged
+/// coordinate levels.
 ///
 /// # Errors
 /// More than [`MAX_GRID_POSES`] poses (a spacing too fine for the region).
 fn grid(mechanism: &Mechanism, spacing: f64) -> Result<Vec<[f64; 6]>> {
     let workspace = &mechanism.workspace;
     let (lo, hi) = workspace.region.bounds();
-    let (lo, hi) = (
-        [lo[0] + workspace.margin, lo[1] + workspace.margin],
-        [hi[0] - workspace.margin, hi[1] - workspace.margin],
-    );
-    let steps = [
-        ((hi[0] - lo[0]) / spacing + 1e-9).floor(),
-        ((hi[1] - lo[1]) / spacing + 1e-9).floor(),
-    ];
+    let margin = workspace.margin;
+    // One axis per region dimension: (pose coordinate, lowest value, number of steps).
+    let mut axes = vec![(0, lo[0], hi[0]), (1, lo[1], hi[1])];
+    if let Some([z_lo, z_hi]) = workspace.region.z_bounds() {
+        axes.push((2, z_lo, z_hi));
+    }
+    let axes: Vec<(usize, f64, f64)> = axes
+        .into_iter()
+        .map(|(c, low, high)| {
+            let (low, high) = (low + margin, high - margin);
+            (c, low, ((high - low) / spacing + 1e-9).floor())
+        })
+        .collect();
     let ranged = workspace.ranges.iter().skip(2).flatten().count();
-    let total =
-        (steps[0] + 1.0) * (steps[1] + 1.0) * (workspace.range_levels as f64).powi(ranged as i32);
+    let total = axes.iter().map(|a| a.2 + 1.0).product::<f64>()
+        * (workspace.range_levels as f64).powi(ranged as i32);
     if total > MAX_GRID_POSES as f64 {
         return Err(Error::Invalid(format!(
             "grid spacing {spacing} m (workspace.grid or --grid) gives {total:.3e} grid poses; \
              at most {MAX_GRID_POSES} are allowed: use a larger spacing"
         )));
     }
-    let steps = [steps[0] as usize, steps[1] as usize];
-    let mut points = Vec::new();
-    for i in 0..=steps[0] {
-        for j in 0..=steps[1] {
-            let mut pose = mechanism.home_pose;
-            pose[0] = lo[0] + i as f64 * spacing;
-            pose[1] = lo[1] + j as f64 * spacing;
-            points.push(pose);
-        }
+    let mut points = vec![mechanism.home_pose];
+    for &(coordinate, low, steps) in &axes {
+        points = points
+            .iter()
+            .flat_map(|p| {
+                (0..=steps as usize).map(move |i| {
+                    let mut pose = *p;
+                    pose[coordinate] = low + i as f64 * spacing;
+                    pose
+                })
+            })
+            .collect();
     }
     for (coordinate, range) in workspace.ranges.iter().enumerate().skip(2) {
         let Some([min, max]) = *range else { continue };

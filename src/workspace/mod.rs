@@ -1,8 +1,7 @@
-//! The robot's usable workspace (region, margin, ranges) and candidate poses.
+//! The robot's usable workspace (region, margin, ranges) and candidate poses; the poses are
+//! selected from the candidates by [`crate::selection`].
 pub mod candidates;
 pub mod contour;
-pub mod design;
 pub mod miw;
 pub mod picture;
-pub mod pose_selection;
 pub mod region;

@@ -419,7 +419,7 @@ const ALL_FIXED: &str = "tests/data/5r_all_fixed.yaml: field `parameters`: every
 #[test]
 fn every_parameter_fixed_is_refused_by_pose_selection() {
     use legwise::model::mechanism::SelectionCriterion;
-    use legwise::workspace::design::ExperimentDesign;
+    use legwise::selection::design::ExperimentDesign;
     let mech = Mechanism::load(&data("5r_all_fixed.yaml")).expect("the model itself is valid");
     assert!(mech.identified_legs().is_empty());
     for shared in [false, true] {
@@ -557,7 +557,7 @@ fn a_urdf_in_millimetres_is_named_as_a_unit_problem() {
 #[test]
 fn a_gain_of_1e300_names_k1_not_l1() {
     use legwise::model::mechanism::SelectionCriterion;
-    use legwise::workspace::design::ExperimentDesign;
+    use legwise::selection::design::ExperimentDesign;
     let mech = Mechanism::load(&data("5r_gain_1e300.yaml")).expect("the model loads");
     let err = ExperimentDesign::select(&mech, None, 18, SelectionCriterion::D, false)
         .expect_err("k1 is unidentifiable");
@@ -686,7 +686,7 @@ fn a_diverging_gauss_newton_names_the_trial_parameters_not_the_data() {
 #[test]
 fn a_gain_of_1e308_is_named_as_an_overflow_of_the_nominal_parameters() {
     use legwise::model::mechanism::SelectionCriterion;
-    use legwise::workspace::design::ExperimentDesign;
+    use legwise::selection::design::ExperimentDesign;
     let path = data("5r_gain_1e308.yaml");
     let mech = Mechanism::load(&path).expect("the model loads");
     let err = ExperimentDesign::select(&mech, None, 18, SelectionCriterion::D, false)

@@ -73,7 +73,7 @@ fn assert_rows_match_the_library(stdout: &str, model: &str) {
     )
     .unwrap();
     // The command's default experiment: the model's selected poses, simulated with its seed.
-    let design = legwise::workspace::design::ExperimentDesign::select(
+    let design = legwise::selection::design::ExperimentDesign::select(
         &mech,
         None,
         mech.selection.poses_per_leg,

@@ -66,7 +66,7 @@ fn recovery_also_holds_through_the_measurement_csv() {
 /// own and is left out of both strategies; the others are still recovered exactly.
 #[test]
 fn a_leg_with_every_parameter_fixed_is_left_out() {
-    use legwise::workspace::design::ExperimentDesign;
+    use legwise::selection::design::ExperimentDesign;
     let mut mech = crate::support::bundled("5r.yaml");
     for p in &mut mech.legs[1].params {
         p.identified = false;

@@ -66,7 +66,10 @@ impl Builder<'_> {
             }
             let moving: Vec<usize> = (0..chain.len()).filter(|&j| chain[j].is_moving()).collect();
             if moving.len() != closure_dims {
-                return Err(self.error(format!("legs[{l}].chain"), format!("the chain has {} moving joints; a point closure with the measured coordinates needs exactly {closure_dims}", moving.len())));
+                return Err(self.error(
+                    format!("legs[{l}].chain"),
+                    unknowns_mismatch(&entry.name, &chain, &moving, closure_dims),
+                ));
             }
             let actuator = &entry.actuator;
             let Some(actuated) = moving.iter().position(|&j| chain[j].name == actuator.joint)
@@ -114,4 +117,35 @@ impl Builder<'_> {
         }
         Ok(legs)
     }
+}
+
+/// Why a chain is refused when its unknowns (moving joints) do not match its closure equations.
+fn unknowns_mismatch(
+    leg: &str,
+    chain: &[JointModel],
+    moving: &[usize],
+    closure_dims: usize,
+) -> String {
+    let names: Vec<&str> = moving.iter().map(|&j| chain[j].name.as_str()).collect();
+    let equations = if closure_dims == 3 {
+        "3 closure equations (its tip meets its attachment in x, y and z, since z is measured)"
+    } else {
+        "2 closure equations (its tip meets its attachment in x and y, since z is not measured)"
+    };
+    let advice = if moving.len() > closure_dims {
+        "too many unknowns: make a joint `fixed`, or end the chain at the attachment point and \
+         leave out the joints that only turn about it (a spherical joint at the platform)"
+    } else {
+        "too few unknowns: the leg could not reach the poses around one it reaches"
+    };
+    format!(
+        "leg `{leg}` has {} moving joints ({}) but {equations}; a leg needs as many moving \
+         joints as closure equations: {advice}",
+        moving.len(),
+        if names.is_empty() {
+            "none".to_string()
+        } else {
+            names.join(", ")
+        },
+    )
 }

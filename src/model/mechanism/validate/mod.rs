@@ -11,6 +11,7 @@ mod home;
 mod legs;
 mod noise;
 mod parameters;
+mod platform;
 mod scale;
 mod setup;
 mod workspace;
@@ -55,7 +56,7 @@ impl Builder<'_> {
         };
         let simulation = self.simulation(&file, &measured, &legs, noise)?;
         let selection = self.selection(&file, simulation.as_ref())?;
-        Ok(Mechanism {
+        let mechanism = Mechanism {
             name: file.name,
             model_path: self.path.to_path_buf(),
             urdf_path: self.urdf_path.to_path_buf(),
@@ -67,7 +68,9 @@ impl Builder<'_> {
             selection,
             noise,
             simulation,
-        })
+        };
+        self.platform(&mechanism)?;
+        Ok(mechanism)
     }
 
     fn measured(&self, names: &[String]) -> Result<Vec<usize>> {

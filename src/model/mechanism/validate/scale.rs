@@ -17,15 +17,22 @@ impl Builder<'_> {
     /// offset) with the workspace's (the farthest bounding-box corner from the base origin, or
     /// the box diagonal if larger). Skipped when the region is not finite (reported later).
     pub(super) fn scale(&self, file: &ModelFile, legs: &[LegModel]) -> Result<()> {
-        let (lo, hi) = file.workspace.region.bounds();
-        let corners = [
-            [lo[0], lo[1]],
-            [lo[0], hi[1]],
-            [hi[0], lo[1]],
-            [hi[0], hi[1]],
-        ];
-        let farthest = corners.iter().map(|c| c[0].hypot(c[1])).fold(0.0, f64::max);
-        let workspace = farthest.max((hi[0] - lo[0]).hypot(hi[1] - lo[1]));
+        let region = &file.workspace.region;
+        let (lo, hi) = region.bounds();
+        // A planar region has no extent in z; a spatial one's corners are in 3-D.
+        let [z_lo, z_hi] = region.z_bounds().unwrap_or([0.0; 2]);
+        let corners = (0..8).map(|k| {
+            let pick = |bit: usize, low: f64, high: f64| if k >> bit & 1 == 0 { low } else { high };
+            [
+                pick(0, lo[0], hi[0]),
+                pick(1, lo[1], hi[1]),
+                pick(2, z_lo, z_hi),
+            ]
+        });
+        let norm = |v: [f64; 3]| v[0].hypot(v[1]).hypot(v[2]);
+        let farthest = corners.map(norm).fold(0.0, f64::max);
+        let diagonal = norm([hi[0] - lo[0], hi[1] - lo[1], z_hi - z_lo]);
+        let workspace = farthest.max(diagonal);
         if !(workspace.is_finite() && workspace > 0.0) {
             return Ok(());
         }

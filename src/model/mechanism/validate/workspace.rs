@@ -4,9 +4,8 @@ use super::Builder;
 use crate::error::Result;
 use crate::model::file::ModelFile;
 use crate::model::mechanism::COORDINATES;
-use crate::workspace::region::{
-    Region, Workspace, DEFAULT_RANGE_LEVELS, DEFAULT_SINGULARITY_THRESHOLD,
-};
+use crate::model::region::Region;
+use crate::model::workspace::{Workspace, DEFAULT_RANGE_LEVELS, DEFAULT_SINGULARITY_THRESHOLD};
 
 impl Builder<'_> {
     pub(super) fn workspace(&self, file: &ModelFile, measured: &[usize]) -> Result<Workspace> {
@@ -38,6 +37,56 @@ impl Builder<'_> {
                     ));
                 }
             }
+            Region::Ball { centre, radius } => {
+                if !positive(*radius) || centre.iter().any(|v| !v.is_finite()) {
+                    return Err(self.error(
+                        "workspace.region.ball",
+                        "expected a finite centre [x, y, z] and a positive radius (metres)",
+                    ));
+                }
+            }
+            Region::Cuboid { min, max } => {
+                if !(0..3).all(|i| min[i].is_finite() && max[i].is_finite() && min[i] < max[i]) {
+                    return Err(self.error(
+                        "workspace.region.cuboid",
+                        "expected finite corners [x, y, z] with min < max (metres)",
+                    ));
+                }
+            }
+            Region::Cylinder {
+                centre,
+                radius,
+                height,
+            } => {
+                if !(positive(*radius) && positive(*height))
+                    || centre.iter().any(|v| !v.is_finite())
+                {
+                    return Err(self.error(
+                        "workspace.region.cylinder",
+                        "expected a finite centre [x, y, z], a positive radius and a positive height (metres)",
+                    ));
+                }
+            }
+            Region::Polyhedron { vertices } => {
+                if vertices.len() < 4 || vertices.iter().flatten().any(|v| !v.is_finite()) {
+                    return Err(self.error(
+                        "workspace.region.polyhedron",
+                        "expected at least four finite vertices [x, y, z] (metres)",
+                    ));
+                }
+                if !region.encloses_volume() {
+                    return Err(self.error(
+                        "workspace.region.polyhedron",
+                        "the vertices enclose no volume (they are coplanar): expected the corners of a solid",
+                    ));
+                }
+            }
+        }
+        if region.is_spatial() && !measured.contains(&2) {
+            return Err(self.error(
+                "workspace.region",
+                "a spatial region (ball, cuboid, cylinder, polyhedron) needs `z` among the measured coordinates; use a disc, box or polygon for a planar mechanism",
+            ));
         }
         if !(entry.margin.is_finite() && entry.margin >= 0.0) {
             return Err(self.error(
@@ -49,6 +98,12 @@ impl Builder<'_> {
         for (name, range) in &entry.ranges {
             let field = format!("workspace.ranges.{name}");
             match COORDINATES.iter().position(|c| c == name) {
+                Some(2) if region.is_spatial() => {
+                    return Err(self.error(
+                        field,
+                        "z is given by the spatial region; a range would contradict it",
+                    ))
+                }
                 Some(i) if i >= 2 && measured.contains(&i) => {
                     if !(range[0].is_finite() && range[1].is_finite() && range[0] <= range[1]) {
                         return Err(self.error(field, "expected [min, max] with min <= max"));
@@ -90,8 +145,17 @@ impl Builder<'_> {
             parallel_threshold: threshold(thresholds.and_then(|t| t.parallel), "parallel")?,
         };
         let (lo, hi) = workspace.region.bounds();
-        let smallest = (hi[0] - lo[0]).min(hi[1] - lo[1]);
-        let centre = [(lo[0] + hi[0]) / 2.0, (lo[1] + hi[1]) / 2.0];
+        let [z_lo, z_hi] = workspace.region.z_bounds().unwrap_or([0.0, f64::INFINITY]);
+        let smallest = (hi[0] - lo[0]).min(hi[1] - lo[1]).min(z_hi - z_lo);
+        let centre = [
+            (lo[0] + hi[0]) / 2.0,
+            (lo[1] + hi[1]) / 2.0,
+            if z_hi.is_finite() {
+                (z_lo + z_hi) / 2.0
+            } else {
+                0.0
+            },
+        ];
         let usable = entry.margin * 2.0 < smallest
             && (workspace.region.depth(centre) >= entry.margin || {
                 // A non-convex polygon may not contain its bounding box's centre: try a few points.

@@ -7,12 +7,12 @@
 
 use nalgebra::DMatrix;
 
-use super::candidates::CandidatePool;
-use super::pose_selection::{select, Criterion, Selection, SelectionError, SelectionOptions};
+use super::{select, Criterion, Selection, SelectionError, SelectionOptions};
 use crate::error::{Error, Result};
 use crate::identify::observability::{analyse, Observability};
 use crate::model::mechanism::SelectionCriterion;
 use crate::model::Mechanism;
+use crate::workspace::candidates::CandidatePool;
 
 /// The selected poses of one leg.
 #[derive(Debug, Clone)]
@@ -281,7 +281,7 @@ impl ExperimentDesign {
     ///
     /// # Errors
     /// [`nothing_identified`] first (before the pool is built), then as
-    /// [`super::candidates::candidate_pool`], [`divide_and_conquer`] and [`traditional`].
+    /// [`crate::workspace::candidates::candidate_pool`], [`divide_and_conquer`] and [`traditional`].
     pub fn select(
         mechanism: &Mechanism,
         spacing: Option<f64>,
@@ -292,7 +292,7 @@ impl ExperimentDesign {
         if mechanism.identified_legs().is_empty() {
             return Err(nothing_identified(mechanism));
         }
-        let pool = super::candidates::candidate_pool(mechanism, spacing)?;
+        let pool = crate::workspace::candidates::candidate_pool(mechanism, spacing)?;
         let legs = divide_and_conquer(mechanism, &pool, count, criterion)?;
         let shared = if shared {
             Some(traditional(mechanism, &pool, count, criterion)?)

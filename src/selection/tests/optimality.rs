@@ -2,7 +2,7 @@
 //! Kiefer–Wolfowitz certificate.
 
 use super::*;
-use crate::workspace::pose_selection::linalg::min_eigenvalue;
+use crate::selection::linalg::min_eigenvalue;
 
 /// Criterion values of a design: (log det, −tr M⁻¹, s_min).
 fn criteria(pool: &[DMatrix<f64>], design: &[usize]) -> (f64, f64, f64) {

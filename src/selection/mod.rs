@@ -27,6 +27,7 @@ use nalgebra::DMatrix;
 
 mod a_optimal;
 mod block_d;
+pub mod design;
 mod driver;
 mod e_optimal;
 mod gains;

@@ -1,9 +1,9 @@
 //! The fast engines (rank-one, block, A, E) against the from-scratch reference.
 
 use super::*;
-use crate::workspace::pose_selection::driver::{order, Engine};
-use crate::workspace::pose_selection::linalg::spd_inverse;
-use crate::workspace::pose_selection::{BlockD, Naive, Pool, RankOneD};
+use crate::selection::driver::{order, Engine};
+use crate::selection::linalg::spd_inverse;
+use crate::selection::{BlockD, Naive, Pool, RankOneD};
 
 #[test]
 fn rank_one_updates_give_the_naive_selection() {
