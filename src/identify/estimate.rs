@@ -8,6 +8,7 @@
 //! through [`crate::measure::checks`]: their findings are the results' `warnings`.
 
 use nalgebra::{DMatrix, DVector};
+use rayon::prelude::*;
 
 use super::fit::{self, FitError};
 use super::observability::{analyse, Observability};
@@ -219,9 +220,16 @@ pub fn identify_with(
         options,
         warnings: crate::measure::checks::check(mechanism, data)?,
     };
-    for (group, blocks) in groups {
-        let problem = IdentificationProblem::new(mechanism, &group, blocks);
-        let (estimates, run) = identify_problem(mechanism, data, &problem, solver, options)?;
+    // The groups in parallel (rayon); results in group order, the first error in group order.
+    let fits: Vec<Result<_>> = groups
+        .into_par_iter()
+        .map(|(group, blocks)| {
+            let problem = IdentificationProblem::new(mechanism, &group, blocks);
+            identify_problem(mechanism, data, &problem, solver, options)
+        })
+        .collect();
+    for fit in fits {
+        let (estimates, run) = fit?;
         result.legs.extend(estimates);
         result.runs.push(run);
     }

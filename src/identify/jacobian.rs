@@ -1,50 +1,141 @@
 //! The identification Jacobian of a leg, by dual numbers through the implicit function theorem.
 //!
-//! For each identified parameter, one forward pass in `Dual64` seeded on that parameter through
-//! [`reading_at_solution`] (one Newton step from the f64 solution) gives the exact derivative
-//! `∂ψ/∂φ_j`. The Newton iterations themselves are never differentiated.
+//! One forward pass in num-dual's static-size vector duals (`DualSVec64<N>`), every identified
+//! parameter seeded on its own lane, through one Newton step from the f64 solution
+//! ([`reading_at`]) gives the reading and its exact gradient `∂ψ/∂φ` at once. The Newton
+//! iterations themselves are never differentiated. Up to [`LANES`] parameters go in one pass;
+//! more are split into passes of at most [`LANES`] (the kinematics' scalars are `Copy`, which
+//! the heap-backed dynamic duals are not).
 //!
-//! Everything that depends only on the parameter vector (the f64 geometry, and one seeded dual
-//! geometry per identified parameter) is built once in [`PreparedLeg`] and reused at every pose.
+//! Everything that depends only on the parameter vector (the f64 geometry and its chain frames,
+//! the seeded dual geometry and its frames) is built once in [`PreparedLeg`] and reused at every
+//! pose, so evaluating a pose allocates nothing.
 
-use num_dual::Dual64;
+use std::sync::Arc;
+
+use nalgebra::{Const, U1};
+use num_dual::{DualSVec64, DualStruct};
 
 use crate::error::KinematicsError;
-use crate::kinematics::inverse::{reading_at_solution, solve_leg, LegSolution};
+use crate::kinematics::chain::{attachment_on, platform_transform, ChainFrames, Transform};
+use crate::kinematics::inverse::{
+    reading_at, reading_value, solve_warm, Joints, LegSolution, Solution,
+};
 use crate::model::leg::{LegGeometry, LegModel};
+
+/// Most parameters carried by one dual pass.
+pub const LANES: usize = 8;
 
 /// A leg ready to be evaluated at many poses for one parameter vector.
 #[derive(Debug, Clone)]
 pub struct PreparedLeg<'a> {
     leg: &'a LegModel,
     geometry: LegGeometry<f64>,
-    seeded: Vec<LegGeometry<Dual64>>,
+    frames: ChainFrames<f64>,
+    passes: Vec<Arc<dyn GradientPass>>,
+    columns: usize,
+}
+
+/// One dual pass over some of the prepared columns.
+trait GradientPass: std::fmt::Debug + Send + Sync {
+    /// Writes the derivatives of the reading with respect to its columns into their places in
+    /// `gradient`, and returns the reading.
+    fn evaluate(
+        &self,
+        leg: &LegModel,
+        platform: &Transform<f64>,
+        solution: &Solution,
+        gradient: &mut [f64],
+    ) -> f64;
+}
+
+/// A pass seeding `N` consecutive prepared columns, from `first` on.
+#[derive(Debug)]
+struct DualPass<const N: usize> {
+    first: usize,
+    frames: ChainFrames<DualSVec64<N>>,
+    geometry: LegGeometry<DualSVec64<N>>,
+}
+
+impl<const N: usize> DualPass<N> {
+    /// Lane `k` carries ∂/∂φ[columns[first + k]].
+    fn new(leg: &LegModel, phi: &[f64], columns: &[usize], first: usize) -> Self {
+        let mut phi_dual: Vec<DualSVec64<N>> =
+            phi.iter().map(|&v| DualSVec64::<N>::from_re(v)).collect();
+        for (lane, &column) in columns[first..first + N].iter().enumerate() {
+            phi_dual[column] = DualSVec64::<N>::from_re(phi[column]).derivative(lane);
+        }
+        let geometry = leg.geometry(&phi_dual);
+        Self {
+            first,
+            frames: ChainFrames::new(&geometry),
+            geometry,
+        }
+    }
+}
+
+impl<const N: usize> GradientPass for DualPass<N> {
+    fn evaluate(
+        &self,
+        leg: &LegModel,
+        platform: &Transform<f64>,
+        solution: &Solution,
+        gradient: &mut [f64],
+    ) -> f64 {
+        let target = attachment_on(platform, &self.geometry.attachment);
+        let reading = reading_at(leg, &self.frames, &self.geometry, &target, solution);
+        let lanes = reading.eps.unwrap_generic(Const::<N>, U1);
+        gradient[self.first..self.first + N].copy_from_slice(lanes.as_slice());
+        reading.re()
+    }
+}
+
+/// The pass for `count` columns from `first` on (`1 ≤ count ≤ LANES`).
+fn pass(
+    leg: &LegModel,
+    phi: &[f64],
+    columns: &[usize],
+    first: usize,
+    count: usize,
+) -> Arc<dyn GradientPass> {
+    match count {
+        1 => Arc::new(DualPass::<1>::new(leg, phi, columns, first)),
+        2 => Arc::new(DualPass::<2>::new(leg, phi, columns, first)),
+        3 => Arc::new(DualPass::<3>::new(leg, phi, columns, first)),
+        4 => Arc::new(DualPass::<4>::new(leg, phi, columns, first)),
+        5 => Arc::new(DualPass::<5>::new(leg, phi, columns, first)),
+        6 => Arc::new(DualPass::<6>::new(leg, phi, columns, first)),
+        7 => Arc::new(DualPass::<7>::new(leg, phi, columns, first)),
+        _ => Arc::new(DualPass::<LANES>::new(leg, phi, columns, first)),
+    }
 }
 
 impl<'a> PreparedLeg<'a> {
     /// Prepares `leg` at full parameter vector `phi`, for derivatives with respect to the
     /// parameters listed in `columns` (indices into the leg's parameters).
     pub fn new(leg: &'a LegModel, phi: &[f64], columns: &[usize]) -> Self {
-        let mut phi_dual: Vec<Dual64> = phi.iter().map(|&v| Dual64::from(v)).collect();
-        let seeded = columns
-            .iter()
-            .map(|&column| {
-                phi_dual[column].eps = 1.0;
-                let geometry = leg.geometry(&phi_dual);
-                phi_dual[column].eps = 0.0;
-                geometry
-            })
+        let passes = (0..columns.len())
+            .step_by(LANES)
+            .map(|first| pass(leg, phi, columns, first, LANES.min(columns.len() - first)))
             .collect();
+        let geometry = leg.geometry(phi);
         Self {
             leg,
-            geometry: leg.geometry(phi),
-            seeded,
+            frames: ChainFrames::new(&geometry),
+            geometry,
+            passes,
+            columns: columns.len(),
         }
     }
 
     /// Number of prepared derivative columns.
     pub fn columns(&self) -> usize {
-        self.seeded.len()
+        self.columns
+    }
+
+    /// The leg.
+    pub fn leg(&self) -> &'a LegModel {
+        self.leg
     }
 
     /// The predicted reading at `pose`.
@@ -52,13 +143,8 @@ impl<'a> PreparedLeg<'a> {
     /// # Errors
     /// The leg cannot reach the pose on its home branch.
     pub fn reading(&self, pose: &[f64; 6], home_pose: &[f64; 6]) -> Result<f64, KinematicsError> {
-        let solution = self.solve(pose, home_pose)?;
-        Ok(reading_at_solution(
-            self.leg,
-            &self.geometry,
-            pose,
-            &solution,
-        ))
+        let solution = self.solve_warm(pose, home_pose, None)?;
+        Ok(self.reading_of(&solution))
     }
 
     /// The predicted reading at `pose`, writing its gradient with respect to the prepared
@@ -72,8 +158,8 @@ impl<'a> PreparedLeg<'a> {
         home_pose: &[f64; 6],
         gradient: &mut [f64],
     ) -> Result<f64, KinematicsError> {
-        let solution = self.solve(pose, home_pose)?;
-        Ok(self.reading_and_gradient_at(pose, &solution, gradient))
+        let solution = self.solve_warm(pose, home_pose, None)?;
+        Ok(self.reading_and_gradient_of(pose, &solution, gradient))
     }
 
     /// The leg's inverse kinematics at `pose` with the prepared parameters.
@@ -85,7 +171,58 @@ impl<'a> PreparedLeg<'a> {
         pose: &[f64; 6],
         home_pose: &[f64; 6],
     ) -> Result<LegSolution, KinematicsError> {
-        solve_leg(self.leg, &self.geometry, pose, home_pose)
+        Ok(self
+            .solve_warm(pose, home_pose, None)?
+            .to_leg_solution(self.leg))
+    }
+
+    /// The leg's inverse kinematics at `pose`, warm-started from `seed` (the joints of a
+    /// previous solution of the same pose) when given; see
+    /// [`crate::kinematics::inverse::solve_warm`]. Allocates nothing.
+    ///
+    /// # Errors
+    /// The leg cannot reach the pose on its home branch.
+    pub fn solve_warm(
+        &self,
+        pose: &[f64; 6],
+        home_pose: &[f64; 6],
+        seed: Option<&Joints>,
+    ) -> Result<Solution, KinematicsError> {
+        let target = attachment_on(&platform_transform(pose), &self.geometry.attachment);
+        solve_warm(
+            self.leg,
+            &self.geometry,
+            &self.frames,
+            (pose, &target),
+            home_pose,
+            seed,
+        )
+    }
+
+    /// The predicted reading (f64) at an already solved pose (no chain pass: from the closure
+    /// error the solution carries).
+    pub fn reading_of(&self, solution: &Solution) -> f64 {
+        reading_value(self.leg, &self.geometry, solution)
+    }
+
+    /// The predicted reading at an already solved pose, writing its gradient with respect to
+    /// the prepared columns into `gradient` (one value per column): one dual pass per
+    /// [`LANES`] columns. Allocates nothing.
+    pub fn reading_and_gradient_of(
+        &self,
+        pose: &[f64; 6],
+        solution: &Solution,
+        gradient: &mut [f64],
+    ) -> f64 {
+        if self.passes.is_empty() {
+            return self.reading_of(solution);
+        }
+        let platform = platform_transform(pose);
+        let mut reading = 0.0;
+        for pass in &self.passes {
+            reading = pass.evaluate(self.leg, &platform, solution, gradient);
+        }
+        reading
     }
 
     /// As [`Self::reading_and_gradient`], at an already solved pose.
@@ -95,11 +232,20 @@ impl<'a> PreparedLeg<'a> {
         solution: &LegSolution,
         gradient: &mut [f64],
     ) -> f64 {
-        let pose_dual = pose.map(Dual64::from);
-        for (slot, geometry) in gradient.iter_mut().zip(&self.seeded) {
-            *slot = reading_at_solution(self.leg, geometry, &pose_dual, solution).eps;
+        let q = crate::kinematics::inverse::joints(&solution.q);
+        let tip = self.frames.tip(self.leg, &solution.q);
+        let target = attachment_on(&platform_transform(pose), &self.geometry.attachment);
+        let mut closure = tip - target;
+        for k in self.leg.closure_dims..3 {
+            closure[k] = 0.0;
         }
-        reading_at_solution(self.leg, &self.geometry, pose, solution)
+        let solution = Solution {
+            q,
+            closure,
+            closure_inverse: solution.closure_inverse,
+            normalised_determinant: solution.normalised_determinant,
+        };
+        self.reading_and_gradient_of(pose, &solution, gradient)
     }
 }
 

@@ -6,12 +6,16 @@
 //! multiplied by `√w_i`); a revolute actuator's residual is matched modulo one turn of the
 //! joint ([`super::residual::turns`]).
 
+use std::sync::{Mutex, MutexGuard};
+
 use argmin::core::{Error as ArgminError, Jacobian, Operator};
 use nalgebra::{DMatrix, DVector};
+use rayon::prelude::*;
 
 use super::jacobian::PreparedLeg;
 use super::residual::{turn_in_reading_units, turns, ResidualBlock};
 use crate::error::KinematicsError;
+use crate::kinematics::inverse::{Joints, Solution};
 use crate::model::params::ParamTarget;
 use crate::model::Mechanism;
 
@@ -57,6 +61,46 @@ pub struct IdentificationProblem<'a> {
     blocks: Vec<ResidualBlock>,
     /// `√w_i` per block, if weighted.
     row_scales: Option<Vec<f64>>,
+    /// Each block's last inverse-kinematics solution, the warm start of the next evaluation.
+    warm: WarmStarts,
+}
+
+/// Rows per task: a problem with more rows is evaluated in parallel (rayon), in chunks of this
+/// many rows. The chunks do not depend on the number of threads, and every row's warm start
+/// only on that row's own history, so neither do the results.
+const ROWS_PER_TASK: usize = 512;
+
+/// Each block's joints at its last solved evaluation (`None` before the first): the warm start
+/// of its next inverse-kinematics solve. A value of its problem: a clone copies it.
+#[derive(Debug, Default)]
+struct WarmStarts(Mutex<Vec<Option<Joints>>>);
+
+impl WarmStarts {
+    /// The seeds, one per block of a problem of `blocks` blocks.
+    fn lock(&self, blocks: usize) -> MutexGuard<'_, Vec<Option<Joints>>> {
+        let mut seeds = self.0.lock().unwrap_or_else(|e| e.into_inner());
+        if seeds.len() != blocks {
+            *seeds = vec![None; blocks];
+        }
+        seeds
+    }
+}
+
+impl Clone for WarmStarts {
+    fn clone(&self) -> Self {
+        let seeds = self.0.lock().unwrap_or_else(|e| e.into_inner());
+        Self(Mutex::new(seeds.clone()))
+    }
+}
+
+/// What one row's evaluation sees: its index, its slot, the slot's prepared leg, its block and
+/// its inverse-kinematics solution.
+struct Row<'r, 'a> {
+    index: usize,
+    slot: usize,
+    leg: &'r PreparedLeg<'a>,
+    block: &'r ResidualBlock,
+    solution: &'r Solution,
 }
 
 /// What turn matching needs of one slot's leg at one parameter vector.
@@ -95,6 +139,7 @@ impl<'a> IdentificationProblem<'a> {
             slot_of_leg,
             blocks,
             row_scales: None,
+            warm: WarmStarts::default(),
         }
     }
 
@@ -179,15 +224,80 @@ impl<'a> IdentificationProblem<'a> {
         phi
     }
 
-    /// Each slot's leg prepared at the unknowns `x` (built once, reused at every pose).
-    fn prepare(&self, x: &DVector<f64>) -> Vec<PreparedLeg<'a>> {
+    /// Each slot's leg prepared at the unknowns `x` (built once, reused at every pose), for
+    /// the derivatives with respect to its identified parameters if `derivatives`.
+    fn prepare(&self, x: &DVector<f64>, derivatives: bool) -> Vec<PreparedLeg<'a>> {
         self.slots
             .iter()
             .map(|slot| {
                 let leg = &self.mechanism.legs[slot.leg];
-                PreparedLeg::new(leg, &self.leg_parameters(slot, x), &slot.columns)
+                let columns: &[usize] = if derivatives { &slot.columns } else { &[] };
+                PreparedLeg::new(leg, &self.leg_parameters(slot, x), columns)
             })
             .collect()
+    }
+
+    /// Solves every block's inverse kinematics at the unknowns `x` (warm-started from its last
+    /// solution) and calls `evaluate` with the row and its `width` values of `out` (row-major,
+    /// `width ≥ 1`). Large problems are evaluated in parallel chunks of [`ROWS_PER_TASK`] rows.
+    ///
+    /// # Errors
+    /// The first block (in row order) whose leg cannot reach its pose.
+    fn for_each_row<F>(
+        &self,
+        x: &DVector<f64>,
+        derivatives: bool,
+        width: usize,
+        out: &mut [f64],
+        evaluate: F,
+    ) -> Result<(), BlockError>
+    where
+        F: Fn(&Row<'_, 'a>, &mut [f64]) + Sync,
+    {
+        let prepared = self.prepare(x, derivatives);
+        let home = &self.mechanism.home_pose;
+        let mut seeds = self.warm.lock(self.blocks.len());
+        let task = |(chunk, (seeds, out)): (usize, (&mut [Option<Joints>], &mut [f64]))| {
+            let rows = seeds.iter_mut().zip(out.chunks_mut(width));
+            for (k, (seed, values)) in rows.enumerate() {
+                let index = chunk * ROWS_PER_TASK + k;
+                let block = &self.blocks[index];
+                let slot = self.slot_of_leg[block.leg].unwrap_or_default();
+                let leg = &prepared[slot];
+                let solution = leg
+                    .solve_warm(&block.pose, home, seed.as_ref())
+                    .map_err(|source| (index, source))?;
+                *seed = Some(solution.q);
+                let row = Row {
+                    index,
+                    slot,
+                    leg,
+                    block,
+                    solution: &solution,
+                };
+                evaluate(&row, values);
+            }
+            Ok::<(), (usize, KinematicsError)>(())
+        };
+        let results: Vec<_> = if self.blocks.len() > ROWS_PER_TASK {
+            seeds
+                .par_chunks_mut(ROWS_PER_TASK)
+                .zip(out.par_chunks_mut(ROWS_PER_TASK * width))
+                .enumerate()
+                .map(task)
+                .collect()
+        } else {
+            seeds
+                .chunks_mut(ROWS_PER_TASK)
+                .zip(out.chunks_mut(ROWS_PER_TASK * width))
+                .enumerate()
+                .map(task)
+                .collect()
+        };
+        match results.into_iter().find_map(Result::err) {
+            Some((index, source)) => Err(self.block_error(index, source, x)),
+            None => Ok(()),
+        }
     }
 
     /// Each slot's gain and whether its actuator turns, at the unknowns `x`.
@@ -219,20 +329,15 @@ impl<'a> IdentificationProblem<'a> {
     /// # Errors
     /// The first block whose leg cannot reach its pose.
     pub fn residuals(&self, x: &DVector<f64>) -> Result<DVector<f64>, BlockError> {
-        let prepared = self.prepare(x);
         let matches = self.turn_matches(x);
-        let home = &self.mechanism.home_pose;
         let mut r = DVector::zeros(self.blocks.len());
-        for (i, block) in self.blocks.iter().enumerate() {
-            let s = self.slot_of_leg[block.leg].unwrap_or_default();
-            let predicted = prepared[s]
-                .reading(&block.pose, home)
-                .map_err(|source| self.block_error(i, source, x))?;
-            let m = matches[s];
-            let n = turns(predicted, block.reading, m.gain, m.revolute);
-            r[i] =
-                self.row_scale(i) * (predicted - block.reading - n * turn_in_reading_units(m.gain));
-        }
+        self.for_each_row(x, false, 1, r.as_mut_slice(), |row, out| {
+            let predicted = row.leg.reading_of(row.solution);
+            let m = matches[row.slot];
+            let n = turns(predicted, row.block.reading, m.gain, m.revolute);
+            out[0] = self.row_scale(row.index)
+                * (predicted - row.block.reading - n * turn_in_reading_units(m.gain));
+        })?;
         Ok(r)
     }
 
@@ -243,29 +348,18 @@ impl<'a> IdentificationProblem<'a> {
     /// # Errors
     /// The first block whose leg cannot reach its pose.
     pub fn turns(&self, x: &DVector<f64>) -> Result<Vec<f64>, BlockError> {
-        let prepared = self.prepare(x);
         let matches = self.turn_matches(x);
-        let home = &self.mechanism.home_pose;
-        self.blocks
-            .iter()
-            .enumerate()
-            .map(|(i, block)| {
-                let s = self.slot_of_leg[block.leg].unwrap_or_default();
-                let predicted = prepared[s]
-                    .reading(&block.pose, home)
-                    .map_err(|source| self.block_error(i, source, x))?;
-                Ok(turns(
-                    predicted,
-                    block.reading,
-                    matches[s].gain,
-                    matches[s].revolute,
-                ))
-            })
-            .collect()
+        let mut n = vec![0.0; self.blocks.len()];
+        self.for_each_row(x, false, 1, &mut n, |row, out| {
+            let predicted = row.leg.reading_of(row.solution);
+            let m = matches[row.slot];
+            out[0] = turns(predicted, row.block.reading, m.gain, m.revolute);
+        })?;
+        Ok(n)
     }
 
     /// Residuals and the identification Jacobian ∂r/∂x (block-structured: a block's row is
-    /// non-zero only in its own leg's columns).
+    /// non-zero only in its own leg's columns), from one dual pass per block.
     ///
     /// # Errors
     /// The first block whose leg cannot reach its pose.
@@ -273,39 +367,32 @@ impl<'a> IdentificationProblem<'a> {
         &self,
         x: &DVector<f64>,
     ) -> Result<(DVector<f64>, DMatrix<f64>), BlockError> {
-        let prepared = self.prepare(x);
         let matches = self.turn_matches(x);
-        let home = &self.mechanism.home_pose;
-        let mut r = DVector::zeros(self.blocks.len());
-        let mut jacobian = DMatrix::zeros(self.blocks.len(), self.parameter_count());
-        let mut gradient = vec![
-            0.0;
-            self.slots
-                .iter()
-                .map(|s| s.columns.len())
-                .max()
-                .unwrap_or(0)
-        ];
-        for (i, block) in self.blocks.iter().enumerate() {
-            let s = self.slot_of_leg[block.leg].unwrap_or_default();
-            let slot = &self.slots[s];
-            let row = &mut gradient[..slot.columns.len()];
-            let predicted = prepared[s]
-                .reading_and_gradient(&block.pose, home, row)
-                .map_err(|source| self.block_error(i, source, x))?;
-            let m = matches[s];
-            let n = turns(predicted, block.reading, m.gain, m.revolute);
+        let p = self.parameter_count();
+        // Column i: row i's residual, then its Jacobian row.
+        let mut rows = DMatrix::zeros(1 + p, self.blocks.len());
+        self.for_each_row(x, true, 1 + p, rows.as_mut_slice(), |row, out| {
+            let slot = &self.slots[row.slot];
+            let (residual, jacobian) = out.split_at_mut(1);
+            let gradient = &mut jacobian[slot.offset..slot.offset + slot.columns.len()];
+            let predicted =
+                row.leg
+                    .reading_and_gradient_of(&row.block.pose, row.solution, gradient);
+            let m = matches[row.slot];
+            let n = turns(predicted, row.block.reading, m.gain, m.revolute);
             let turn = turn_in_reading_units(m.gain);
             if let (Some(k), true) = (m.gain_column, n != 0.0) {
                 // d(−n·2π/gain)/d gain = n·2π/gain².
-                row[k] += n * turn / m.gain;
+                gradient[k] += n * turn / m.gain;
             }
-            let scale = self.row_scale(i);
-            r[i] = scale * (predicted - block.reading - n * turn);
-            for (k, g) in row.iter().enumerate() {
-                jacobian[(i, slot.offset + k)] = scale * *g;
+            let scale = self.row_scale(row.index);
+            residual[0] = scale * (predicted - row.block.reading - n * turn);
+            for g in gradient.iter_mut() {
+                *g *= scale;
             }
-        }
+        })?;
+        let r = rows.row(0).transpose();
+        let jacobian = rows.rows(1, p).transpose();
         Ok((r, jacobian))
     }
 

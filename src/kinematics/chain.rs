@@ -47,16 +47,7 @@ pub fn attachment_world<T: Scalar>(pose: &[T; 6], attachment: &[T; 3]) -> Vector
 
 /// Position of the leg tip (origin of the last chain link) for the moving joints' values `q`.
 pub fn tip_position<T: Scalar>(leg: &LegModel, geometry: &LegGeometry<T>, q: &[T]) -> Vector3<T> {
-    let mut world_from_link = Transform::<T>::identity();
-    let mut next = 0;
-    for (joint, origin) in leg.joints.iter().zip(&geometry.origins) {
-        world_from_link *= origin_transform(origin);
-        if joint.is_moving() {
-            world_from_link *= joint_motion(joint, q[next]);
-            next += 1;
-        }
-    }
-    world_from_link.translation.vector
+    chain_tip(leg, geometry.origins.iter().map(Rigid::from_origin), q)
 }
 
 /// Tip position and the geometric Jacobian ∂tip/∂q (column j for moving joint j; unused columns
@@ -66,21 +57,180 @@ pub fn tip_and_jacobian(
     geometry: &LegGeometry<f64>,
     q: &[f64],
 ) -> (Vector3<f64>, Matrix3<f64>) {
-    let mut world_from_link = Transform::<f64>::identity();
-    let mut axes = [(JointKind::Fixed, Vector3::zeros(), Vector3::zeros()); 3];
-    let mut next = 0;
-    for (joint, origin) in leg.joints.iter().zip(&geometry.origins) {
-        world_from_link *= origin_transform(origin);
-        if joint.is_moving() {
-            let axis_world = world_from_link.rotation * joint.axis;
-            axes[next] = (joint.kind, axis_world, world_from_link.translation.vector);
-            world_from_link *= joint_motion(joint, q[next]);
-            next += 1;
+    chain_tip_and_jacobian(leg, geometry.origins.iter().map(Rigid::from_origin), q)
+}
+
+/// A leg's joint origins as rigid transforms, computed once for one parameter vector (the
+/// trigonometry of the origins' angles is then not redone at every pose and Newton iteration).
+/// Gives the same numbers as [`tip_position`] and [`tip_and_jacobian`] on the geometry.
+#[derive(Debug, Clone)]
+pub struct ChainFrames<T: Scalar> {
+    origins: Vec<Rigid<T>>,
+}
+
+impl<T: Scalar> ChainFrames<T> {
+    /// The origin transforms of `geometry`'s joints.
+    pub fn new(geometry: &LegGeometry<T>) -> Self {
+        Self {
+            origins: geometry.origins.iter().map(Rigid::from_origin).collect(),
         }
     }
-    let tip = world_from_link.translation.vector;
+
+    /// As [`tip_position`].
+    pub fn tip(&self, leg: &LegModel, q: &[T]) -> Vector3<T> {
+        chain_tip(leg, self.origins.iter().copied(), q)
+    }
+}
+
+impl ChainFrames<f64> {
+    /// As [`tip_and_jacobian`].
+    pub fn tip_and_jacobian(&self, leg: &LegModel, q: &[f64]) -> (Vector3<f64>, Matrix3<f64>) {
+        chain_tip_and_jacobian(leg, self.origins.iter().copied(), q)
+    }
+}
+
+/// A rigid transform (rotation matrix by rows, translation) with hand-written 3×3 products:
+/// nalgebra's products of generic matrices go through a general kernel, several times slower
+/// at this size, and a joint's motion only changes the rotation (revolute) or the translation
+/// (prismatic).
+#[derive(Debug, Clone, Copy)]
+struct Rigid<T> {
+    rotation: [[T; 3]; 3],
+    translation: [T; 3],
+}
+
+impl<T: Scalar> Rigid<T> {
+    /// The transform of a joint origin (as [`origin_transform`]).
+    fn from_origin(origin: &[T; 6]) -> Self {
+        let transform = origin_transform(origin);
+        let matrix = transform.rotation.matrix();
+        Self {
+            rotation: std::array::from_fn(|i| std::array::from_fn(|j| matrix[(i, j)])),
+            translation: std::array::from_fn(|i| transform.translation.vector[i]),
+        }
+    }
+
+    /// `self ∘ other`.
+    fn compose(&self, other: &Self) -> Self {
+        let r = &self.rotation;
+        Self {
+            rotation: std::array::from_fn(|i| {
+                std::array::from_fn(|j| {
+                    r[i][0] * other.rotation[0][j]
+                        + r[i][1] * other.rotation[1][j]
+                        + r[i][2] * other.rotation[2][j]
+                })
+            }),
+            translation: std::array::from_fn(|i| {
+                r[i][0] * other.translation[0]
+                    + r[i][1] * other.translation[1]
+                    + r[i][2] * other.translation[2]
+                    + self.translation[i]
+            }),
+        }
+    }
+
+    /// The rotation applied to a vector.
+    fn rotate(&self, v: &[T; 3]) -> [T; 3] {
+        let r = &self.rotation;
+        std::array::from_fn(|i| r[i][0] * v[0] + r[i][1] * v[1] + r[i][2] * v[2])
+    }
+
+    /// `self` followed by joint `joint`'s motion for variable `q`.
+    fn moved(&self, joint: &JointModel, q: T) -> Self {
+        let axis: [T; 3] = std::array::from_fn(|i| lift::<T>(joint.axis[i]));
+        match joint.kind {
+            JointKind::Revolute => {
+                // Rodrigues: R = c I + s [a]× + (1 − c) a aᵀ.
+                let (s, c) = nalgebra::ComplexField::sin_cos(q);
+                let t = lift::<T>(1.0) - c;
+                let [x, y, z] = axis;
+                let motion = [
+                    [c + x * x * t, x * y * t - z * s, x * z * t + y * s],
+                    [y * x * t + z * s, c + y * y * t, y * z * t - x * s],
+                    [z * x * t - y * s, z * y * t + x * s, c + z * z * t],
+                ];
+                let r = &self.rotation;
+                Self {
+                    rotation: std::array::from_fn(|i| {
+                        std::array::from_fn(|j| {
+                            r[i][0] * motion[0][j] + r[i][1] * motion[1][j] + r[i][2] * motion[2][j]
+                        })
+                    }),
+                    translation: self.translation,
+                }
+            }
+            JointKind::Prismatic => {
+                let step = self.rotate(&axis.map(|a| a * q));
+                Self {
+                    rotation: self.rotation,
+                    translation: std::array::from_fn(|i| self.translation[i] + step[i]),
+                }
+            }
+            JointKind::Fixed => *self,
+        }
+    }
+}
+
+/// The world transform of the chain's last link for the joints' origin transforms `origins`
+/// (one per chain joint), and calls `at_moving(k, frame)` with the frame of moving joint `k`
+/// before its motion.
+fn chain_walk<T: Scalar>(
+    leg: &LegModel,
+    origins: impl Iterator<Item = Rigid<T>>,
+    q: &[T],
+    mut at_moving: impl FnMut(usize, &Rigid<T>),
+) -> Rigid<T> {
+    let mut world: Option<Rigid<T>> = None;
+    let mut next = 0;
+    for (joint, origin) in leg.joints.iter().zip(origins) {
+        let mut frame = match &world {
+            Some(world) => world.compose(&origin),
+            None => origin,
+        };
+        if joint.is_moving() {
+            at_moving(next, &frame);
+            frame = frame.moved(joint, q[next]);
+            next += 1;
+        }
+        world = Some(frame);
+    }
+    world.unwrap_or(Rigid {
+        rotation: std::array::from_fn(|i| {
+            std::array::from_fn(|j| lift(if i == j { 1.0 } else { 0.0 }))
+        }),
+        translation: [lift(0.0); 3],
+    })
+}
+
+/// The tip position for the joints' origin transforms `origins` (one per chain joint).
+fn chain_tip<T: Scalar>(
+    leg: &LegModel,
+    origins: impl Iterator<Item = Rigid<T>>,
+    q: &[T],
+) -> Vector3<T> {
+    Vector3::from(chain_walk(leg, origins, q, |_, _| {}).translation)
+}
+
+/// The tip position and ∂tip/∂q for the joints' origin transforms `origins`.
+fn chain_tip_and_jacobian(
+    leg: &LegModel,
+    origins: impl Iterator<Item = Rigid<f64>>,
+    q: &[f64],
+) -> (Vector3<f64>, Matrix3<f64>) {
+    let mut axes = [(JointKind::Fixed, Vector3::zeros(), Vector3::zeros()); 3];
+    let last = chain_walk(leg, origins, q, |k, frame| {
+        let joint = &leg.joints[leg.moving[k]];
+        let axis = frame.rotate(&[joint.axis[0], joint.axis[1], joint.axis[2]]);
+        axes[k] = (
+            joint.kind,
+            Vector3::from(axis),
+            Vector3::from(frame.translation),
+        );
+    });
+    let tip = Vector3::from(last.translation);
     let mut jacobian = Matrix3::zeros();
-    for (column, (kind, axis, point)) in axes.iter().enumerate().take(next) {
+    for (column, (kind, axis, point)) in axes.iter().enumerate().take(leg.moving.len()) {
         let derivative = match kind {
             JointKind::Revolute => axis.cross(&(tip - point)),
             _ => *axis,
@@ -108,4 +258,12 @@ pub fn moving_axes(
         }
     }
     axes
+}
+
+/// World position of an attachment point (in any scalar) on a platform at the f64 transform
+/// `platform` ([`platform_transform`] of the pose): the same numbers as [`attachment_world`]
+/// when the pose carries no derivative, without redoing the pose's trigonometry in `T`.
+pub fn attachment_on<T: Scalar>(platform: &Transform<f64>, attachment: &[T; 3]) -> Vector3<T> {
+    let rotation = platform.rotation.matrix().map(lift::<T>);
+    rotation * Vector3::from(*attachment) + platform.translation.vector.map(lift::<T>)
 }

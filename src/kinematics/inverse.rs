@@ -10,9 +10,11 @@
 //! step in the scalar type `T` from the f64 solution, which by the implicit function theorem
 //! carries the exact first derivatives `∂q/∂φ = −F_q⁻¹ F_φ` (and `∂q/∂X`).
 
+use std::f64::consts::TAU;
+
 use nalgebra::{Matrix3, Vector3};
 
-use super::chain::{attachment_world, tip_and_jacobian, tip_position};
+use super::chain::{attachment_world, tip_position, ChainFrames};
 use crate::error::KinematicsError;
 use crate::model::joint::JointKind;
 use crate::model::leg::{LegGeometry, LegModel};
@@ -32,6 +34,16 @@ pub const SINGULAR_DETERMINANT: f64 = 1e-4;
 /// halving) from a pose just beyond it (the residual stalls at the distance to the limit).
 const LIMIT_ITERATIONS: usize = 80;
 
+/// Most polishing Newton steps after convergence (looking for the floating-point fixed point).
+const MAX_POLISH_STEPS: usize = 3;
+
+/// Most moving joints a leg has (as many as closure equations: 3 in space; checked at load).
+pub const MAX_JOINTS: usize = 3;
+
+/// A leg's moving joints' values in fixed-size storage: the first `leg.moving.len()` are used,
+/// the rest are zero.
+pub type Joints = [f64; MAX_JOINTS];
+
 /// A converged inverse-kinematics solution (f64), with what the derivative step needs.
 #[derive(Debug, Clone)]
 pub struct LegSolution {
@@ -41,6 +53,41 @@ pub struct LegSolution {
     pub closure_inverse: Matrix3<f64>,
     /// Determinant of the column-normalised closure Jacobian (its sign is the branch).
     pub normalised_determinant: f64,
+}
+
+/// A [`LegSolution`] in fixed-size storage (a `Copy` value, no heap): what the identification's
+/// inner loop passes around.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Solution {
+    /// The moving joints' values (see [`Joints`]).
+    pub q: Joints,
+    /// The closure error `F` at `q` (tip minus attachment, round-off level): what the
+    /// derivative step corrects.
+    pub closure: Vector3<f64>,
+    /// Inverse of the closure Jacobian ∂F/∂q (top-left `closure_dims` block; rest zero).
+    pub closure_inverse: Matrix3<f64>,
+    /// Determinant of the column-normalised closure Jacobian (its sign is the branch).
+    pub normalised_determinant: f64,
+}
+
+impl Solution {
+    /// The same solution with the joints of `leg` in a `Vec`.
+    pub fn to_leg_solution(&self, leg: &LegModel) -> LegSolution {
+        LegSolution {
+            q: self.q[..leg.moving.len()].to_vec(),
+            closure_inverse: self.closure_inverse,
+            normalised_determinant: self.normalised_determinant,
+        }
+    }
+}
+
+/// The first [`MAX_JOINTS`] values of `values` as [`Joints`] (missing ones zero).
+pub fn joints(values: &[f64]) -> Joints {
+    let mut q = [0.0; MAX_JOINTS];
+    for (slot, &value) in q.iter_mut().zip(values) {
+        *slot = value;
+    }
+    q
 }
 
 /// Solves the leg's joints for platform pose `pose` from the leg's home configuration.
@@ -55,21 +102,42 @@ pub fn solve_leg(
     pose: &[f64; 6],
     home_pose: &[f64; 6],
 ) -> Result<LegSolution, KinematicsError> {
-    let direct = newton(leg, geometry, pose, &leg.home_joints).and_then(|s| on_branch(leg, s));
+    let frames = ChainFrames::new(geometry);
+    solve_from_home(leg, geometry, &frames, pose, home_pose).map(|s| s.to_leg_solution(leg))
+}
+
+/// As [`solve_leg`], on the geometry's precomputed chain `frames` (`ChainFrames::new(geometry)`),
+/// without heap allocation.
+///
+/// # Errors
+/// As [`solve_leg`].
+pub fn solve_from_home(
+    leg: &LegModel,
+    geometry: &LegGeometry<f64>,
+    frames: &ChainFrames<f64>,
+    pose: &[f64; 6],
+    home_pose: &[f64; 6],
+) -> Result<Solution, KinematicsError> {
+    let home = joints(&leg.home_joints);
+    let attempt = |pose: &[f64; 6], seed: &Joints| {
+        let target = attachment_world(pose, &geometry.attachment);
+        newton_on(leg, geometry, frames, pose, &target, seed).and_then(|s| on_branch(leg, s))
+    };
+    let direct = attempt(pose, &home);
     if direct.is_ok() {
         return direct;
     }
     // Continuation from the home pose: small pose steps, each seeded by the previous solution.
     for steps in [4usize, 16, 64] {
-        let mut q = leg.home_joints.clone();
+        let mut q = home;
         let mut solved = None;
         for step in 1..=steps {
             let t = step as f64 / steps as f64;
             let intermediate: [f64; 6] =
                 std::array::from_fn(|i| home_pose[i] + t * (pose[i] - home_pose[i]));
-            match newton(leg, geometry, &intermediate, &q).and_then(|s| on_branch(leg, s)) {
+            match attempt(&intermediate, &q) {
                 Ok(solution) => {
-                    q.clone_from(&solution.q);
+                    q = solution.q;
                     solved = Some(solution);
                 }
                 Err(_) => {
@@ -85,6 +153,34 @@ pub fn solve_leg(
     direct
 }
 
+/// Solves the leg's joints for `pose` warm-started from `seed` (the solution of the same pose at
+/// nearby parameters, e.g. the previous evaluation of an identification), checking the branch
+/// as [`solve_leg`] does; if there is no seed, or Newton from it fails or lands on another
+/// working mode, solves from home as [`solve_from_home`] does. The result is the home-branch
+/// solution either way: a warm start only saves Newton iterations (revolute joints are
+/// unwrapped around the seed, which is the solution's own turn). `target` is the world position
+/// of the leg's attachment point at `pose` ([`attachment_world`]).
+///
+/// # Errors
+/// As [`solve_leg`] (the from-home attempt's error).
+pub fn solve_warm(
+    leg: &LegModel,
+    geometry: &LegGeometry<f64>,
+    frames: &ChainFrames<f64>,
+    (pose, target): (&[f64; 6], &Vector3<f64>),
+    home_pose: &[f64; 6],
+    seed: Option<&Joints>,
+) -> Result<Solution, KinematicsError> {
+    if let Some(seed) = seed {
+        let warm =
+            newton_on(leg, geometry, frames, pose, target, seed).and_then(|s| on_branch(leg, s));
+        if warm.is_ok() {
+            return warm;
+        }
+    }
+    solve_from_home(leg, geometry, frames, pose, home_pose)
+}
+
 /// Solves the leg's joints for `pose` by Newton from `seed` (e.g. the solution at a nearby
 /// pose: a continuation step), and checks the result is on the home branch.
 ///
@@ -96,17 +192,27 @@ pub fn solve_leg_from(
     pose: &[f64; 6],
     seed: &[f64],
 ) -> Result<LegSolution, KinematicsError> {
-    newton(leg, geometry, pose, seed).and_then(|s| on_branch(leg, s))
+    newton(leg, geometry, pose, seed).and_then(|s| {
+        if s.normalised_determinant * leg.branch_sign > 0.0 {
+            Ok(s)
+        } else {
+            Err(branch_change(leg))
+        }
+    })
 }
 
 /// Checks the solution is on the home branch.
-fn on_branch(leg: &LegModel, solution: LegSolution) -> Result<LegSolution, KinematicsError> {
+fn on_branch(leg: &LegModel, solution: Solution) -> Result<Solution, KinematicsError> {
     if solution.normalised_determinant * leg.branch_sign > 0.0 {
         Ok(solution)
     } else {
-        Err(KinematicsError::BranchChange {
-            leg: leg.name.clone(),
-        })
+        Err(branch_change(leg))
+    }
+}
+
+fn branch_change(leg: &LegModel) -> KinematicsError {
+    KinematicsError::BranchChange {
+        leg: leg.name.clone(),
     }
 }
 
@@ -121,30 +227,66 @@ pub fn newton(
     pose: &[f64; 6],
     seed: &[f64],
 ) -> Result<LegSolution, KinematicsError> {
-    let dims = leg.closure_dims;
-    let target = attachment_world(pose, &geometry.attachment);
-    if !target.iter().all(|v| v.is_finite()) || !seed.iter().all(|v| v.is_finite()) {
+    let frames = ChainFrames::new(geometry);
+    if !seed.iter().all(|v| v.is_finite()) {
         return Err(not_finite(leg, geometry, pose, seed));
     }
+    let target = attachment_world(pose, &geometry.attachment);
+    newton_on(leg, geometry, &frames, pose, &target, &joints(seed)).map(|s| s.to_leg_solution(leg))
+}
+
+/// [`newton`] on the geometry's precomputed chain `frames`, in fixed-size storage; `target` is
+/// the world position of the attachment point at `pose`.
+fn newton_on(
+    leg: &LegModel,
+    geometry: &LegGeometry<f64>,
+    frames: &ChainFrames<f64>,
+    pose: &[f64; 6],
+    target: &Vector3<f64>,
+    seed: &Joints,
+) -> Result<Solution, KinematicsError> {
+    let dims = leg.closure_dims;
+    let moving = leg.moving.len();
+    if !target.iter().all(|v| v.is_finite()) || !seed[..moving].iter().all(|v| v.is_finite()) {
+        return Err(not_finite(leg, geometry, pose, &seed[..moving]));
+    }
     let tolerance = 1e-13 * (1.0 + target.norm());
-    let mut q = seed.to_vec();
+    let mut q = *seed;
     let mut residual = f64::INFINITY;
+    let mut polishes = 0;
     for iteration in 0..=MAX_ITERATIONS {
-        let (tip, jacobian) = tip_and_jacobian(leg, geometry, &q);
-        let closure = closure_error(&tip, &target, dims);
+        let (tip, jacobian) = frames.tip_and_jacobian(leg, &q[..moving]);
+        let closure = closure_error(&tip, target, dims);
         let previous = residual;
         residual = closure.norm();
         if !residual.is_finite() {
-            return Err(not_finite(leg, geometry, pose, &q));
+            return Err(not_finite(leg, geometry, pose, &q[..moving]));
         }
         // Converged: tiny residual, or round-off floor reached after a tiny improvement.
         let stalled = residual < 1e3 * tolerance && residual >= 0.5 * previous;
         if residual <= tolerance || stalled {
             let determinant = normalised_determinant(&jacobian, dims);
             if determinant.abs() <= SINGULAR_DETERMINANT {
-                return Err(at_reach_limit(leg, geometry, &target, tolerance, q));
+                return Err(at_reach_limit(leg, frames, target, tolerance, q));
             }
-            return finish(leg, &mut q, seed, &jacobian, determinant);
+            // Polish: Newton steps until the iterate stops changing (a fixed point of the
+            // floating-point iteration), so that the solution — and the derivatives taken at it
+            // — does not depend on where Newton started (home, a continuation step or a warm
+            // start). Converging quadratically, one or two steps get there.
+            if polishes < MAX_POLISH_STEPS && iteration < MAX_ITERATIONS {
+                if let Some(step) = newton_step(leg, &jacobian, &closure) {
+                    let mut next = q;
+                    for (value, delta) in next[..moving].iter_mut().zip(step.iter()) {
+                        *value += delta;
+                    }
+                    if next.iter().zip(&q).any(|(a, b)| a.to_bits() != b.to_bits()) {
+                        polishes += 1;
+                        q = next;
+                        continue;
+                    }
+                }
+            }
+            return finish(leg, q, seed, &closure, &jacobian, determinant);
         }
         if iteration == MAX_ITERATIONS {
             break;
@@ -154,7 +296,7 @@ pub fn newton(
                 leg: leg.name.clone(),
             });
         };
-        for (value, delta) in q.iter_mut().zip(step.iter()) {
+        for (value, delta) in q[..moving].iter_mut().zip(step.iter()) {
             *value += delta;
         }
     }
@@ -221,14 +363,15 @@ fn newton_step(
 /// shrinking below `tolerance`; beyond it, it stalls at the distance to the limit.
 fn at_reach_limit(
     leg: &LegModel,
-    geometry: &LegGeometry<f64>,
+    frames: &ChainFrames<f64>,
     target: &Vector3<f64>,
     tolerance: f64,
-    mut q: Vec<f64>,
+    mut q: Joints,
 ) -> KinematicsError {
+    let moving = leg.moving.len();
     let mut smallest = f64::INFINITY;
     for _ in 0..LIMIT_ITERATIONS {
-        let (tip, jacobian) = tip_and_jacobian(leg, geometry, &q);
+        let (tip, jacobian) = frames.tip_and_jacobian(leg, &q[..moving]);
         let closure = closure_error(&tip, target, leg.closure_dims);
         let residual = closure.norm();
         if !residual.is_finite() {
@@ -241,7 +384,7 @@ fn at_reach_limit(
         let Some(step) = newton_step(leg, &jacobian, &closure) else {
             break;
         };
-        for (value, delta) in q.iter_mut().zip(step.iter()) {
+        for (value, delta) in q[..moving].iter_mut().zip(step.iter()) {
             *value += delta;
         }
     }
@@ -262,14 +405,20 @@ fn at_reach_limit(
 /// determinant is above [`SINGULAR_DETERMINANT`]).
 fn finish(
     leg: &LegModel,
-    q: &mut [f64],
-    seed: &[f64],
+    mut q: Joints,
+    seed: &Joints,
+    closure: &Vector3<f64>,
     jacobian: &Matrix3<f64>,
     normalised_determinant: f64,
-) -> Result<LegSolution, KinematicsError> {
+) -> Result<Solution, KinematicsError> {
     for (i, &j) in leg.moving.iter().enumerate() {
         if leg.joints[j].kind == JointKind::Revolute {
-            q[i] = seed[i] + wrap_angle(q[i] - seed[i]);
+            // Whole turns only: a joint already in the window keeps its exact value.
+            let difference = q[i] - seed[i];
+            let turns = ((difference - wrap_angle(difference)) / TAU).round();
+            if turns != 0.0 {
+                q[i] -= turns * TAU;
+            }
         }
     }
     let Some(closure_inverse) = invert(jacobian, leg.closure_dims) else {
@@ -277,8 +426,9 @@ fn finish(
             leg: leg.name.clone(),
         });
     };
-    Ok(LegSolution {
-        q: q.to_vec(),
+    Ok(Solution {
+        q,
+        closure: *closure,
         closure_inverse,
         normalised_determinant,
     })
@@ -292,20 +442,63 @@ pub fn reading_at_solution<T: Scalar>(
     pose: &[T; 6],
     solution: &LegSolution,
 ) -> T {
-    // A leg has as many moving joints as closure equations: at most 3 (checked at load).
-    let mut joints = [lift::<T>(0.0); 3];
-    for (joint, &value) in joints.iter_mut().zip(&solution.q) {
-        *joint = lift(value);
-    }
-    let q = &joints[..solution.q.len()];
-    let tip = tip_position(leg, geometry, q);
+    let q = lifted::<T>(&solution.q);
+    let moving = solution.q.len().min(MAX_JOINTS);
+    let tip = tip_position(leg, geometry, &q[..moving]);
     let target = attachment_world(pose, &geometry.attachment);
+    newton_reading(leg, &q, &tip, &target, &solution.closure_inverse, geometry)
+}
+
+/// As [`reading_at_solution`], on precomputed chain `frames` (in `T`) and the world position
+/// `target` of the leg's attachment point (in `T`), for the actuator of `geometry`.
+pub fn reading_at<T: Scalar>(
+    leg: &LegModel,
+    frames: &ChainFrames<T>,
+    actuator: &LegGeometry<T>,
+    target: &Vector3<T>,
+    solution: &Solution,
+) -> T {
+    let q = lifted::<T>(&solution.q);
+    let tip = frames.tip(leg, &q[..leg.moving.len()]);
+    newton_reading(leg, &q, &tip, target, &solution.closure_inverse, actuator)
+}
+
+/// The predicted reading (f64) at a converged solution, from the closure error it carries (no
+/// chain pass): the value of [`reading_at`] in f64.
+pub fn reading_value(leg: &LegModel, actuator: &LegGeometry<f64>, solution: &Solution) -> f64 {
+    let q = &solution.q;
     let mut actuated = q[leg.actuated];
     for k in 0..leg.closure_dims {
-        let coefficient = solution.closure_inverse[(leg.actuated, k)];
+        actuated -= solution.closure[k] * solution.closure_inverse[(leg.actuated, k)];
+    }
+    (actuated - actuator.offset) / actuator.gain
+}
+
+/// The joints lifted into `T` (at most [`MAX_JOINTS`]; the rest zero).
+fn lifted<T: Scalar>(values: &[f64]) -> [T; MAX_JOINTS] {
+    let mut joints = [lift::<T>(0.0); MAX_JOINTS];
+    for (joint, &value) in joints.iter_mut().zip(values) {
+        *joint = lift(value);
+    }
+    joints
+}
+
+/// The reading after one Newton step in `T` from the f64 joints `q`: the actuated joint
+/// corrected by `−(F_q⁻¹ F)_actuated`, through the actuator model `(q − offset) / gain`.
+fn newton_reading<T: Scalar>(
+    leg: &LegModel,
+    q: &[T; MAX_JOINTS],
+    tip: &Vector3<T>,
+    target: &Vector3<T>,
+    closure_inverse: &Matrix3<f64>,
+    actuator: &LegGeometry<T>,
+) -> T {
+    let mut actuated = q[leg.actuated];
+    for k in 0..leg.closure_dims {
+        let coefficient = closure_inverse[(leg.actuated, k)];
         actuated -= (tip[k] - target[k]) * lift::<T>(coefficient);
     }
-    (actuated - geometry.offset) / geometry.gain
+    (actuated - actuator.offset) / actuator.gain
 }
 
 /// The predicted actuator reading for parameters `phi` (all the leg's parameters) and a pose.
@@ -350,13 +543,21 @@ fn invert(jacobian: &Matrix3<f64>, dims: usize) -> Option<Matrix3<f64>> {
     inverse.iter().all(|v| v.is_finite()).then_some(inverse)
 }
 
-/// Determinant of the `dims × dims` block with unit-norm columns (scale-free, in [−1, 1]).
+/// Determinant of the `dims × dims` block with unit-norm columns (scale-free, in [−1, 1]), as
+/// the determinant of that block completed by the identity (no heap).
 fn normalised_determinant(jacobian: &Matrix3<f64>, dims: usize) -> f64 {
-    let mut block = nalgebra::DMatrix::from_fn(dims, dims, |r, c| jacobian[(r, c)]);
-    for mut column in block.column_iter_mut() {
-        let norm = column.norm();
-        if norm > 0.0 {
-            column /= norm;
+    let mut block = Matrix3::identity();
+    for c in 0..dims {
+        let norm = (0..dims)
+            .map(|r| jacobian[(r, c)] * jacobian[(r, c)])
+            .sum::<f64>()
+            .sqrt();
+        for r in 0..dims {
+            block[(r, c)] = if norm > 0.0 {
+                jacobian[(r, c)] / norm
+            } else {
+                jacobian[(r, c)]
+            };
         }
     }
     block.determinant()

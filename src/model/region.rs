@@ -276,6 +276,23 @@ mod tests {
         assert_eq!(cube.bounds(), ([0.0, 0.0], [1.0, 1.0]));
         assert_eq!(cube.z_bounds(), Some([0.0, 1.0]));
         assert!(cube.encloses_volume());
+        // A small box far from the origin (parry's inside projection, EPA, failed on it).
+        let (lo, hi) = ([-0.05, -0.05, 0.55], [0.05, 0.05, 0.65]);
+        let corners = (0..8)
+            .map(|k| std::array::from_fn(|i| if k >> i & 1 == 0 { lo[i] } else { hi[i] }))
+            .collect();
+        let as_polyhedron = Region::Polyhedron { vertices: corners };
+        let as_cuboid = Region::Cuboid { min: lo, max: hi };
+        assert!(as_polyhedron.encloses_volume());
+        for point in [
+            [0.0, 0.0, 0.6],
+            [0.04, -0.01, 0.56],
+            [0.0, 0.2, 0.6],
+            [0.1, 0.1, 0.7],
+        ] {
+            let (a, b) = (as_polyhedron.depth(point), as_cuboid.depth(point));
+            assert!((a - b).abs() < 1e-12, "{point:?}: {a} vs {b}");
+        }
         let flat = Region::Polyhedron {
             vertices: vec![[0.0; 3], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [1.0, 1.0, 0.0]],
         };

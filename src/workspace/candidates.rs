@@ -1,8 +1,8 @@
 //! Candidate identification poses: a grid over the usable workspace (spacing `grid` in x, y —
 //! and z for a spatial region — from the lower corner of the usable region's bounding box, each
-//! ranged coordinate, e.g. an orientation angle, at `range_levels` values), kept when the pose is inside the region with its
-//! margin, every leg reaches it on its home branch, and it clears the serial and parallel
-//! singularity thresholds. Each candidate carries every leg's identification row at the nominal
+//! ranged coordinate, e.g. an orientation angle, at `range_levels` values), kept when the pose
+//! is inside the region with its margin, every leg reaches it on its home branch, and it clears
+//! the serial and parallel singularity thresholds. Each candidate carries every leg's identification row at the nominal
 //! parameters.
 
 use nalgebra::DVector;

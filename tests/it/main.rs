@@ -27,4 +27,5 @@ mod spatial;
 mod statistics_independent;
 mod statistics_trust;
 mod support;
+mod warm_start;
 mod workspace;

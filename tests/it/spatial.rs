@@ -673,3 +673,121 @@ fn find_numbers(value: &serde_json::Value, key: &str) -> Vec<f64> {
         _ => Vec::new(),
     }
 }
+
+#[test]
+fn a_polyhedron_region_gives_the_same_candidates_as_the_cuboid_it_spans() {
+    let corners: Vec<String> = (0..8)
+        .map(|k| {
+            let pick = |bit: usize, low: f64, high: f64| if k >> bit & 1 == 0 { low } else { high };
+            format!(
+                "[{}, {}, {}]",
+                pick(0, -0.05, 0.05),
+                pick(1, -0.05, 0.05),
+                pick(2, 0.55, 0.65)
+            )
+        })
+        .collect();
+    let polyhedron = format!(
+        "region: {{polyhedron: {{vertices: [{}]}}}}",
+        corners.join(", ")
+    );
+    let cuboid = "region: {cuboid: {min: [-0.05, -0.05, 0.55], max: [0.05, 0.05, 0.65]}}";
+    // A coarser grid and fewer angle levels keep the pools small: 3³ positions × 2³ angles.
+    let coarse = [
+        ("grid: 0.025", "grid: 0.05"),
+        ("range_levels: 5", "range_levels: 2"),
+    ];
+    let by_cuboid = edited("hexapod.yaml", &coarse, &[]).unwrap();
+    let mut edits = coarse.to_vec();
+    edits.push((cuboid, polyhedron.as_str()));
+    let by_polyhedron = edited("hexapod.yaml", &edits, &[]).unwrap();
+    let a = candidate_pool(&by_cuboid, None).unwrap();
+    let b = candidate_pool(&by_polyhedron, None).unwrap();
+    assert_eq!(a.inside, 27 * 8);
+    assert_eq!(a.inside, b.inside);
+    let poses = |pool: &legwise::workspace::candidates::CandidatePool| -> Vec<[f64; 6]> {
+        pool.candidates.iter().map(|c| c.pose).collect()
+    };
+    assert_eq!(poses(&a), poses(&b));
+}
+
+#[test]
+fn bad_spatial_models_exit_2_with_one_line_naming_the_file() {
+    let directory = tempfile::tempdir().unwrap();
+    let write = |name: &str, text: &str| std::fs::write(directory.path().join(name), text).unwrap();
+    let model = std::fs::read_to_string(crate_path("models/delta.yaml")).unwrap();
+    let urdf = std::fs::read_to_string(crate_path("models/delta.urdf")).unwrap();
+    write(
+        "delta.urdf",
+        &urdf.replace(
+            "<joint name=\"R2\" type=\"fixed\">",
+            "<joint name=\"R2\" type=\"continuous\"><axis xyz=\"0 0 1\"/>",
+        ),
+    );
+    write("delta.yaml", &model);
+    let path = directory.path().join("delta.yaml");
+    let out = legwise(&["identify", "--model", path.to_str().unwrap()]);
+    let stderr = text(&out.stderr);
+    assert_eq!(out.status.code(), Some(2), "{stderr}");
+    assert_eq!(stderr.lines().count(), 1, "{stderr}");
+    assert!(
+        stderr.starts_with(&format!(
+            "legwise: {}: field `legs[1].chain`: leg `leg2` has 4 moving joints (C2, U2a, U2b, R2) but 3 closure equations",
+            path.display()
+        )),
+        "{stderr}"
+    );
+    // The hexapod's measurements without a yaw column.
+    let csv = directory.path().join("no-yaw.csv");
+    std::fs::write(
+        &csv,
+        "leg,x,y,z,roll,pitch,P1,P2,P3,P4,P5,P6\n,0,0,0.6,0,0,0.2,0.2,0.2,0.2,0.2,0.2\n",
+    )
+    .unwrap();
+    let out = legwise(&[
+        "identify",
+        "--model",
+        "models/hexapod.yaml",
+        "--measurements",
+        csv.to_str().unwrap(),
+    ]);
+    let stderr = text(&out.stderr);
+    assert_eq!(out.status.code(), Some(2), "{stderr}");
+    assert_eq!(
+        stderr,
+        format!(
+            "legwise: {}: header: missing column `yaw`; expected the columns leg, x, y, z, roll, pitch, yaw, P1, P2, P3, P4, P5, P6\n",
+            csv.display()
+        )
+    );
+}
+
+#[test]
+fn the_calibrated_delta_reloads_with_the_real_geometry_and_its_cylinder() {
+    let directory = tempfile::tempdir().unwrap();
+    let calibrated = directory.path().join("calibrated.yaml");
+    let out = legwise(&[
+        "identify",
+        "--model",
+        "models/delta.yaml",
+        "--noise-scale",
+        "0",
+        "--calibrated",
+        calibrated.to_str().unwrap(),
+    ]);
+    assert_eq!(out.status.code(), Some(0), "{}", text(&out.stderr));
+    let original = bundled("delta.yaml");
+    let reloaded = Mechanism::load(&calibrated).unwrap();
+    assert_eq!(reloaded.workspace, original.workspace);
+    assert_eq!(reloaded.measured, original.measured);
+    for (leg, real) in reloaded.legs.iter().zip(real_parameters(&original)) {
+        for (p, value) in leg.params.iter().zip(real) {
+            assert!(
+                (p.nominal - value).abs() <= 1e-9,
+                "{}: {} vs {value}",
+                p.name,
+                p.nominal
+            );
+        }
+    }
+}

@@ -42,15 +42,34 @@ pub(super) fn convex_hull(vertices: &[[f64; 3]]) -> Option<ConvexPolyhedron> {
         .iter()
         .map(|p| (*p - centroid).length())
         .fold(0.0, f64::max);
-    (signed_depth(&hull, centroid) > 1e-9 * size).then_some(hull)
+    (hull_depth(&hull, centroid) > 1e-9 * size).then_some(hull)
 }
 
 /// Signed distance from `point` to the boundary of the convex hull of `vertices`, positive
 /// inside, metres; `-∞` when the vertices span no volume (refused when the model is loaded).
 pub(super) fn polyhedron_depth(vertices: &[[f64; 3]], point: [f64; 3]) -> f64 {
     match convex_hull(vertices) {
-        Some(hull) => signed_depth(&hull, vector(point)),
+        Some(hull) => hull_depth(&hull, vector(point)),
         None => f64::NEG_INFINITY,
+    }
+}
+
+/// Signed distance to a convex polyhedron's boundary, positive inside. Inside, it is the
+/// distance to the nearest face plane (exact for a convex solid); outside, the distance to
+/// parry's projection on the solid.
+fn hull_depth(hull: &ConvexPolyhedron, point: Vector) -> f64 {
+    let inside = hull
+        .faces()
+        .iter()
+        .map(|face| {
+            let corner = hull.vertices_adj_to_face()[face.first_vertex_or_edge as usize];
+            face.normal.dot(hull.points()[corner as usize] - point)
+        })
+        .fold(f64::INFINITY, f64::min);
+    if inside >= 0.0 {
+        inside
+    } else {
+        -(point - hull.project_local_point(point, true).point).length()
     }
 }
 

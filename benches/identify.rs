@@ -1,6 +1,11 @@
-//! Identification of one leg with Levenberg–Marquardt and Gauss–Newton on identical inputs, and
-//! the divide-and-conquer and all-legs problems on identical shared poses, per bundled model.
-//! Run: `cargo bench --bench solvers`.
+//! Identification speed, with stable benchmark ids (docs/benchmarks.md):
+//! `identify_leg/{5r,3rpr}/{lm,gn}` — one leg's solve (Levenberg–Marquardt and Gauss–Newton on
+//! identical inputs: the model's simulated measurements of its first leg, 18 poses for the 5R);
+//! `strategy/{5r,3rpr}/{dc,traditional}` — the whole identification (rank check, solve,
+//! statistics) by divide and conquer and by the traditional all-legs problem, on identical
+//! shared poses.
+//! Run: `cargo bench --bench identify`; `benches/scipy_leg.py` compares
+//! `identify_leg/5r/lm` with scipy on the same poses.
 use std::hint::black_box;
 use std::path::PathBuf;
 
@@ -55,7 +60,7 @@ fn strategies(c: &mut Criterion) {
         let mut group = c.benchmark_group(format!("strategy/{}", name.trim_end_matches(".yaml")));
         for (label, strategy) in [
             ("dc", Strategy::DivideAndConquer),
-            ("all_legs", Strategy::Traditional),
+            ("traditional", Strategy::Traditional),
         ] {
             group.bench_function(label, |b| {
                 b.iter(|| {
