@@ -3,7 +3,9 @@
 //! planar 5R (docs/method.md §9) at random poses of the f = 0.95 workspace disc (§8).
 //!
 //! Run with `cargo bench --bench pose_selection` (set `POSE_SELECTION_COMPARE=1` to print both
-//! selections first).
+//! selections first). Ids: `select/5r/rank_one` and `select/5r/naive` (one leg, 6 parameters,
+//! K = 3000 candidates, N = 18), `select/5r/block` (both legs stacked, 2 × 12 blocks, K = 3000),
+//! `select/5r/block_k1000` and `select/5r/block_naive_k1000` (K = 1000).
 //!
 //! # Reference
 //! docs/method.md §6 (the greedy and exchange phases and their rank-one updates).
@@ -11,7 +13,7 @@ use std::f64::consts::PI;
 use std::hint::black_box;
 use std::time::Duration;
 
-use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion};
+use criterion::{criterion_group, criterion_main, Criterion};
 use legwise::selection::{select, select_naive, SelectionOptions};
 use nalgebra::DMatrix;
 use rand::{Rng, SeedableRng};
@@ -157,27 +159,29 @@ fn bench(c: &mut Criterion) {
         );
     }
 
-    let mut group = c.benchmark_group("pose_selection");
+    // Stable ids: select/5r/rank_one (one leg, one row per candidate, rank-one updates) and
+    // select/5r/naive (the same algorithm, every trial design from scratch), side by side.
+    let mut group = c.benchmark_group("select");
     group
         .sample_size(20)
         .measurement_time(Duration::from_secs(3));
-    group.bench_function(BenchmarkId::new("select", "b1_K3000_n6_N18"), |b| {
+    group.bench_function("5r/rank_one", |b| {
         b.iter(|| select(black_box(&leg), &options).unwrap())
     });
-    group.bench_function(BenchmarkId::new("select", "b2_K3000_n12_N18"), |b| {
+    group.bench_function("5r/block", |b| {
         b.iter(|| select(black_box(&stacked), &options).unwrap())
     });
-    group.bench_function(BenchmarkId::new("select", "b2_K1000_n12_N18"), |b| {
+    group.bench_function("5r/block_k1000", |b| {
         b.iter(|| select(black_box(&stacked_small), &options).unwrap())
     });
     group
         .sample_size(10)
         .warm_up_time(Duration::from_millis(500))
         .measurement_time(Duration::from_secs(5));
-    group.bench_function(BenchmarkId::new("select_naive", "b1_K3000_n6_N18"), |b| {
+    group.bench_function("5r/naive", |b| {
         b.iter(|| select_naive(black_box(&leg), &options).unwrap())
     });
-    group.bench_function(BenchmarkId::new("select_naive", "b2_K1000_n12_N18"), |b| {
+    group.bench_function("5r/block_naive_k1000", |b| {
         b.iter(|| select_naive(black_box(&stacked_small), &options).unwrap())
     });
     group.finish();

@@ -43,16 +43,14 @@ def simulate(path):
         cwd=ROOT, check=True)
 
 
-def leg_rows(path, leg="leg1"):
-    """The (x, y, reading) of `leg`'s rows of a measurement CSV."""
+def leg_rows(path, leg="leg1", joint="A1"):
+    """The (x, y, reading) of `leg`'s rows of a measurement CSV (the reading is in the column
+    of the leg's actuated joint)."""
     with open(path, newline="") as handle:
         rows = [r for r in csv.DictReader(handle) if r["leg"] == leg]
-    reading = "psi_" + leg if ("psi_" + leg) in rows[0] else None
-    if reading is None:
-        reading = [k for k in rows[0] if leg in k and k != "leg"][0]
     x = np.array([float(r["x"]) for r in rows])
     y = np.array([float(r["y"]) for r in rows])
-    psi = np.array([float(r[reading]) for r in rows])
+    psi = np.array([float(r[joint]) for r in rows])
     return x, y, psi
 
 
@@ -93,7 +91,7 @@ def criterion_median(target_dir):
 def main():
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--csv", help="measurement CSV (default: simulate it)")
-    parser.add_argument("--repeats", type=int, default=50)
+    parser.add_argument("--repeats", type=int, default=30)
     parser.add_argument("--no-cargo", action="store_true", help="do not run the criterion bench")
     args = parser.parse_args()
     with tempfile.TemporaryDirectory() as scratch:

@@ -11,7 +11,7 @@
 //! Printed: the size of the normal matrix JᵀJ each strategy factorises (divide and conquer
 //! Σ nᵢ² entries in n small matrices, all legs (Σ nᵢ)² in one), the median wall time of a whole
 //! identification (rank check, solver, statistics) and of the solver runs alone, and the
-//! iterations. Run: `cargo run --release --example scaling [-- REPEATS]` (default 5).
+//! iterations. Run: `cargo run --release --example scaling [-- REPEATS]` (default 51).
 
 use std::fmt::Write as _;
 use std::path::Path;
@@ -106,7 +106,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         .nth(1)
         .map(|s| s.parse())
         .transpose()?
-        .unwrap_or(5);
+        .unwrap_or(51);
     let dir = tempfile::tempdir()?;
     println!("| legs | parameters Σnᵢ | rows | JᵀJ entries D&C Σnᵢ² | JᵀJ entries all legs (Σnᵢ)² | D&C time (solver) | all legs time (solver) | all legs / D&C | iterations D&C (sum) / all legs |");
     println!("|---|---|---|---|---|---|---|---|---|");

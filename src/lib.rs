@@ -19,6 +19,17 @@
 //! report            ─► report::terminal | report::json
 //! ```
 //!
+//! ## Data flow of `legwise select --model models/5r.yaml`
+//! ```text
+//! model file        ─► model::Mechanism::load
+//! candidate poses   ─► workspace::candidates::candidate_pool  grid over the usable region, feasible
+//!                                                             poses, identification rows
+//! experiment design ─► selection::design::ExperimentDesign    per leg (D&C), shared (traditional)
+//!                      selection::select                      greedy + exchange + DETMAX (D, A, E)
+//!                      identify::observability                indices of the chosen poses
+//! pose file         ─► measure::file::to_csv
+//! ```
+//!
 //! ## Principles
 //! * A mechanism is data: no code path knows which mechanism it runs.
 //! * The model is immutable; per-pose results are values (Pinocchio's Model/Data).

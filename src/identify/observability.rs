@@ -227,7 +227,13 @@ mod tests {
         let o = analyse(&c, &names(2));
         assert_eq!(o.rank, 2);
         assert!(o.unidentifiable.is_empty());
-        assert!(o.condition.is_finite() && o.condition >= 1.0);
+        assert!(o.null_directions.is_empty());
+        // CᵀC = [[11, −2], [−2, 6]]: eigenvalues (17 ± √41)/2, the squared singular values.
+        let root = 41f64.sqrt();
+        let (large, small) = (((17.0 + root) / 2.0).sqrt(), ((17.0 - root) / 2.0).sqrt());
+        assert!((o.singular_values[0] - large).abs() < 1e-12 * large);
+        assert!((o.singular_values[1] - small).abs() < 1e-12 * large);
+        assert!((o.condition - large / small).abs() < 1e-12 * large / small);
     }
 
     #[test]

@@ -6,7 +6,7 @@
 //! multiplied by `√w_i`); a revolute actuator's residual is matched modulo one turn of the
 //! joint ([`super::residual::turns`]).
 
-use std::sync::{Mutex, MutexGuard};
+use std::sync::{Arc, Mutex, MutexGuard};
 
 use argmin::core::{Error as ArgminError, Jacobian, Operator};
 use nalgebra::{DMatrix, DVector};
@@ -58,7 +58,8 @@ pub struct IdentificationProblem<'a> {
     mechanism: &'a Mechanism,
     slots: Vec<LegSlot>,
     slot_of_leg: Vec<Option<usize>>,
-    blocks: Vec<ResidualBlock>,
+    /// Shared by the problem's clones (a solver clones its problem).
+    blocks: Arc<[ResidualBlock]>,
     /// `√w_i` per block, if weighted.
     row_scales: Option<Vec<f64>>,
     /// Each block's last inverse-kinematics solution, the warm start of the next evaluation.
@@ -129,7 +130,7 @@ impl<'a> IdentificationProblem<'a> {
             });
             offset += count;
         }
-        let blocks = blocks
+        let blocks: Arc<[ResidualBlock]> = blocks
             .into_iter()
             .filter(|b| slot_of_leg[b.leg].is_some())
             .collect();

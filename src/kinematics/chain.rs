@@ -1,5 +1,7 @@
 //! Forward kinematics of a leg chain, generic over the scalar (f64 and dual numbers).
 
+use std::borrow::Borrow;
+
 use nalgebra::{Matrix3, Rotation3, Translation3, Unit, Vector3};
 
 use crate::model::joint::{JointKind, JointModel};
@@ -76,16 +78,23 @@ impl<T: Scalar> ChainFrames<T> {
         }
     }
 
-    /// As [`tip_position`].
-    pub fn tip(&self, leg: &LegModel, q: &[T]) -> Vector3<T> {
-        chain_tip(leg, self.origins.iter().copied(), q)
+    /// As [`tip_position`], for joint values without derivatives (f64): the joints' motions
+    /// are computed in f64 and enter the products as constants.
+    pub fn tip(&self, leg: &LegModel, q: &[f64]) -> Vector3<T> {
+        let last = chain_walk(
+            leg,
+            self.origins.iter(),
+            |frame, joint, k| frame.moved_constant(joint, q[k]),
+            |_, _| {},
+        );
+        Vector3::from(last.translation)
     }
 }
 
 impl ChainFrames<f64> {
     /// As [`tip_and_jacobian`].
     pub fn tip_and_jacobian(&self, leg: &LegModel, q: &[f64]) -> (Vector3<f64>, Matrix3<f64>) {
-        chain_tip_and_jacobian(leg, self.origins.iter().copied(), q)
+        chain_tip_and_jacobian(leg, self.origins.iter(), q)
     }
 }
 
@@ -136,6 +145,43 @@ impl<T: Scalar> Rigid<T> {
         std::array::from_fn(|i| r[i][0] * v[0] + r[i][1] * v[1] + r[i][2] * v[2])
     }
 
+    /// `self` followed by joint `joint`'s motion for a constant (f64) variable `q`: the motion
+    /// is computed in f64 and multiplies as constants (no derivative work for it).
+    fn moved_constant(&self, joint: &JointModel, q: f64) -> Self {
+        match joint.kind {
+            JointKind::Revolute => {
+                let (s, c) = q.sin_cos();
+                let t = 1.0 - c;
+                let [x, y, z] = [joint.axis[0], joint.axis[1], joint.axis[2]];
+                let motion = [
+                    [c + x * x * t, x * y * t - z * s, x * z * t + y * s],
+                    [y * x * t + z * s, c + y * y * t, y * z * t - x * s],
+                    [z * x * t - y * s, z * y * t + x * s, c + z * z * t],
+                ];
+                let r = &self.rotation;
+                Self {
+                    rotation: std::array::from_fn(|i| {
+                        std::array::from_fn(|j| {
+                            r[i][0] * motion[0][j] + r[i][1] * motion[1][j] + r[i][2] * motion[2][j]
+                        })
+                    }),
+                    translation: self.translation,
+                }
+            }
+            JointKind::Prismatic => {
+                let r = &self.rotation;
+                let a = joint.axis * q;
+                Self {
+                    rotation: self.rotation,
+                    translation: std::array::from_fn(|i| {
+                        self.translation[i] + (r[i][0] * a[0] + r[i][1] * a[1] + r[i][2] * a[2])
+                    }),
+                }
+            }
+            JointKind::Fixed => *self,
+        }
+    }
+
     /// `self` followed by joint `joint`'s motion for variable `q`.
     fn moved(&self, joint: &JointModel, q: T) -> Self {
         let axis: [T; 3] = std::array::from_fn(|i| lift::<T>(joint.axis[i]));
@@ -173,24 +219,24 @@ impl<T: Scalar> Rigid<T> {
 }
 
 /// The world transform of the chain's last link for the joints' origin transforms `origins`
-/// (one per chain joint), and calls `at_moving(k, frame)` with the frame of moving joint `k`
-/// before its motion.
-fn chain_walk<T: Scalar>(
+/// (one per chain joint), moving joint `k`'s frame by `motion(frame, joint, k)`; calls
+/// `at_moving(k, frame)` with the frame of moving joint `k` before its motion.
+fn chain_walk<T: Scalar, R: Borrow<Rigid<T>>>(
     leg: &LegModel,
-    origins: impl Iterator<Item = Rigid<T>>,
-    q: &[T],
+    origins: impl Iterator<Item = R>,
+    motion: impl Fn(&Rigid<T>, &JointModel, usize) -> Rigid<T>,
     mut at_moving: impl FnMut(usize, &Rigid<T>),
 ) -> Rigid<T> {
     let mut world: Option<Rigid<T>> = None;
     let mut next = 0;
     for (joint, origin) in leg.joints.iter().zip(origins) {
         let mut frame = match &world {
-            Some(world) => world.compose(&origin),
-            None => origin,
+            Some(world) => world.compose(origin.borrow()),
+            None => *origin.borrow(),
         };
         if joint.is_moving() {
             at_moving(next, &frame);
-            frame = frame.moved(joint, q[next]);
+            frame = motion(&frame, joint, next);
             next += 1;
         }
         world = Some(frame);
@@ -204,22 +250,24 @@ fn chain_walk<T: Scalar>(
 }
 
 /// The tip position for the joints' origin transforms `origins` (one per chain joint).
-fn chain_tip<T: Scalar>(
+fn chain_tip<T: Scalar, R: Borrow<Rigid<T>>>(
     leg: &LegModel,
-    origins: impl Iterator<Item = Rigid<T>>,
+    origins: impl Iterator<Item = R>,
     q: &[T],
 ) -> Vector3<T> {
-    Vector3::from(chain_walk(leg, origins, q, |_, _| {}).translation)
+    let last = chain_walk(leg, origins, |f, joint, k| f.moved(joint, q[k]), |_, _| {});
+    Vector3::from(last.translation)
 }
 
 /// The tip position and ∂tip/∂q for the joints' origin transforms `origins`.
-fn chain_tip_and_jacobian(
+fn chain_tip_and_jacobian<R: Borrow<Rigid<f64>>>(
     leg: &LegModel,
-    origins: impl Iterator<Item = Rigid<f64>>,
+    origins: impl Iterator<Item = R>,
     q: &[f64],
 ) -> (Vector3<f64>, Matrix3<f64>) {
     let mut axes = [(JointKind::Fixed, Vector3::zeros(), Vector3::zeros()); 3];
-    let last = chain_walk(leg, origins, q, |k, frame| {
+    let motion = |f: &Rigid<f64>, joint: &JointModel, k: usize| f.moved(joint, q[k]);
+    let last = chain_walk(leg, origins, motion, |k, frame| {
         let joint = &leg.joints[leg.moving[k]];
         let axis = frame.rotate(&[joint.axis[0], joint.axis[1], joint.axis[2]]);
         axes[k] = (

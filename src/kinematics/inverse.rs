@@ -1,5 +1,6 @@
 //! Leg inverse kinematics: Newton's method on the closure equations from the home
-//! configuration, staying on the home branch, and the predicted actuator reading.
+//! configuration (or warm-started from a previous solution, [`solve_warm`]), staying on the
+//! home branch, and the predicted actuator reading.
 //!
 //! The closure of a leg says that its tip coincides with its platform attachment:
 //! `F(q; φ, X) = tip(q; φ) − X·attachment(φ) = 0` on the `closure_dims` first coordinates
@@ -34,8 +35,10 @@ pub const SINGULAR_DETERMINANT: f64 = 1e-4;
 /// halving) from a pose just beyond it (the residual stalls at the distance to the limit).
 const LIMIT_ITERATIONS: usize = 80;
 
-/// Most polishing Newton steps after convergence (looking for the floating-point fixed point).
+/// Most polishing Newton steps after convergence.
 const MAX_POLISH_STEPS: usize = 3;
+/// A polishing step at most this relative length is round-off (four units in the last place).
+const ROUND_OFF_STEP: f64 = 4.0 * f64::EPSILON;
 
 /// Most moving joints a leg has (as many as closure equations: 3 in space; checked at load).
 pub const MAX_JOINTS: usize = 3;
@@ -269,19 +272,21 @@ fn newton_on(
             if determinant.abs() <= SINGULAR_DETERMINANT {
                 return Err(at_reach_limit(leg, frames, target, tolerance, q));
             }
-            // Polish: Newton steps until the iterate stops changing (a fixed point of the
-            // floating-point iteration), so that the solution — and the derivatives taken at it
-            // — does not depend on where Newton started (home, a continuation step or a warm
-            // start). Converging quadratically, one or two steps get there.
+            // Polish: Newton steps until the step is at round-off level (a few units in the
+            // last place of the joints), so that the solution — and the derivatives taken at
+            // it — does not depend on where Newton started (home, a continuation step or a
+            // warm start) beyond round-off. Converging quadratically, one step gets there.
             if polishes < MAX_POLISH_STEPS && iteration < MAX_ITERATIONS {
                 if let Some(step) = newton_step(leg, &jacobian, &closure) {
-                    let mut next = q;
-                    for (value, delta) in next[..moving].iter_mut().zip(step.iter()) {
-                        *value += delta;
-                    }
-                    if next.iter().zip(&q).any(|(a, b)| a.to_bits() != b.to_bits()) {
+                    let significant = q[..moving]
+                        .iter()
+                        .zip(step.iter())
+                        .any(|(value, delta)| delta.abs() > ROUND_OFF_STEP * value.abs().max(1.0));
+                    if significant {
+                        for (value, delta) in q[..moving].iter_mut().zip(step.iter()) {
+                            *value += delta;
+                        }
                         polishes += 1;
-                        q = next;
                         continue;
                     }
                 }
@@ -458,8 +463,8 @@ pub fn reading_at<T: Scalar>(
     target: &Vector3<T>,
     solution: &Solution,
 ) -> T {
+    let tip = frames.tip(leg, &solution.q[..leg.moving.len()]);
     let q = lifted::<T>(&solution.q);
-    let tip = frames.tip(leg, &q[..leg.moving.len()]);
     newton_reading(leg, &q, &tip, target, &solution.closure_inverse, actuator)
 }
 

@@ -144,12 +144,18 @@ fn parse_rows(
         .iter()
         .map(|name| index(name).unwrap_or_default())
         .collect();
-    let mut poses = Vec::new();
-    for record in reader.records() {
-        let record = record.map_err(|e| {
-            let line = e.position().map_or(0, |p| p.line());
-            fail(format!("line {line}"), csv_message(&e))
-        })?;
+    // One pose per line at most: no regrowth of a large vector; one record buffer for all rows.
+    let mut poses = Vec::with_capacity(text.bytes().filter(|&b| b == b'\n').count());
+    let mut record = csv::StringRecord::new();
+    loop {
+        match reader.read_record(&mut record) {
+            Ok(true) => {}
+            Ok(false) => break,
+            Err(e) => {
+                let line = e.position().map_or(0, |p| p.line());
+                return Err(fail(format!("line {line}"), csv_message(&e)));
+            }
+        }
         let line = record.position().map_or(0, |p| p.line() as usize);
         if record.iter().all(str::is_empty) {
             continue;

@@ -2,15 +2,14 @@
 
 use nalgebra::DMatrix;
 
-use super::driver::Engine;
-use super::gains::{accept_ln, argmax, gram_addition, gram_removal};
+use super::driver::{Engine, Step};
+use super::gains::{accept_ln, argmax};
 use super::linalg::{ln_det_small, spd_inverse};
 use super::pool::Pool;
-use super::{Criterion, SelectionError};
+use super::SelectionError;
 
 pub(super) struct AOptimal<'a> {
     pub(super) pool: &'a Pool,
-    pub(super) ridge: bool,
 }
 
 impl Engine for AOptimal<'_> {
@@ -19,8 +18,7 @@ impl Engine for AOptimal<'_> {
         design: &[usize],
         eligible: &[bool],
     ) -> Result<usize, SelectionError> {
-        let pool = self.pool;
-        let b = pool.b;
+        let (pool, b) = (self.pool, self.pool.b);
         let minv = spd_inverse(&pool.gram(design, true)).ok_or_else(|| pool.singular(design))?;
         let trace = minv.trace();
         let y = &minv * &pool.x;
@@ -45,21 +43,11 @@ impl Engine for AOptimal<'_> {
             .ok_or_else(|| pool.exhausted(design.len()))
     }
 
-    fn sweep_start(&mut self, design: &[usize]) -> Result<(), SelectionError> {
-        self.ridge = self.pool.exchange_inverse(design)?.1;
-        Ok(())
-    }
-
-    fn best_swap(
-        &mut self,
-        design: &[usize],
-        order: &[usize],
-        eligible: &[bool],
-    ) -> Result<Option<(usize, usize)>, SelectionError> {
-        let pool = self.pool;
+    fn best_swap(&mut self, step: &Step<'_>) -> Result<Option<(usize, usize)>, SelectionError> {
+        let (pool, design, eligible) = (self.pool, step.design, step.eligible);
         let b = pool.b;
         let minv =
-            spd_inverse(&pool.gram(design, self.ridge)).ok_or_else(|| pool.singular(design))?;
+            spd_inverse(&pool.gram(design, step.ridge)).ok_or_else(|| pool.singular(design))?;
         let current = -minv.trace().ln();
         let y = &minv * &pool.x;
         let x_design = pool.design_columns(design);
@@ -90,7 +78,7 @@ impl Engine for AOptimal<'_> {
             }
         }
         let mut best = (current + accept_ln(), None);
-        for &pos in order {
+        for &pos in step.order {
             for j in 0..pool.k {
                 if scores[(pos, j)] > best.0 {
                     best = (scores[(pos, j)], Some((pos, j)));
@@ -98,15 +86,5 @@ impl Engine for AOptimal<'_> {
             }
         }
         Ok(best.1)
-    }
-
-    fn swapped(&mut self, _design: &[usize], _pos: usize, _j: usize) {}
-
-    fn best_addition(&mut self, design: &[usize], eligible: &[bool]) -> Option<usize> {
-        gram_addition(self.pool, design, eligible, Criterion::A)
-    }
-
-    fn best_removal(&mut self, design: &[usize], order: &[usize]) -> Option<usize> {
-        gram_removal(self.pool, design, order, Criterion::A)
     }
 }

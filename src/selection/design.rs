@@ -7,7 +7,7 @@
 
 use nalgebra::DMatrix;
 
-use super::{select, Criterion, Selection, SelectionError, SelectionOptions};
+use super::{select_columns, Criterion, Selection, SelectionError, SelectionOptions};
 use crate::error::{Error, Result};
 use crate::identify::observability::{analyse, Observability};
 use crate::model::mechanism::SelectionCriterion;
@@ -62,6 +62,29 @@ fn names(mechanism: &Mechanism, leg: usize) -> Vec<String> {
     mechanism.legs[leg].identified_names()
 }
 
+/// Rows of leg `leg` at all candidates, as the columns of one matrix; a candidate whose row
+/// has another length than the first one's is a shape mismatch.
+fn leg_columns(pool: &CandidatePool, leg: usize) -> Result<DMatrix<f64>, SelectionError> {
+    let n = pool.candidates.first().map_or(0, |c| c.rows[leg].len());
+    if let Some(index) = pool.candidates.iter().position(|c| c.rows[leg].len() != n) {
+        return Err(SelectionError::ShapeMismatch {
+            index,
+            rows: 1,
+            cols: pool.candidates[index].rows[leg].len(),
+            expected_rows: 1,
+            expected_cols: n,
+        });
+    }
+    Ok(DMatrix::from_fn(n, pool.candidates.len(), |p, j| {
+        pool.candidates[j].rows[leg][p]
+    }))
+}
+
+/// The poses of the candidates `indices`.
+fn poses_of(pool: &CandidatePool, indices: &[usize]) -> Vec<[f64; 6]> {
+    indices.iter().map(|&i| pool.candidates[i].pose).collect()
+}
+
 /// Rows of leg `leg` at the candidates `indices`, stacked.
 fn leg_rows(pool: &CandidatePool, leg: usize, indices: &[usize]) -> DMatrix<f64> {
     let n = pool.candidates.first().map_or(0, |c| c.rows[leg].len());
@@ -104,29 +127,22 @@ pub fn divide_and_conquer(
         .into_iter()
         .map(|leg| {
             let names = names(mechanism, leg);
-            let candidates: Vec<DMatrix<f64>> = pool
-                .candidates
-                .iter()
-                .map(|c| DMatrix::from_row_slice(1, c.rows[leg].len(), c.rows[leg].as_slice()))
-                .collect();
-            let selection = select(&candidates, &options(count, criterion)).map_err(|err| {
-                selection_error(
-                    mechanism,
-                    pool,
-                    leg,
-                    err,
-                    || leg_rows(pool, leg, &all),
-                    &names,
-                )
-            })?;
+            let selection = leg_columns(pool, leg)
+                .and_then(|columns| select_columns(columns, 1, &options(count, criterion)))
+                .map_err(|err| {
+                    selection_error(
+                        mechanism,
+                        pool,
+                        leg,
+                        err,
+                        || leg_rows(pool, leg, &all),
+                        &names,
+                    )
+                })?;
             let observability = analyse(&leg_rows(pool, leg, &selection.indices), &names);
             Ok(LegDesign {
                 leg,
-                poses: selection
-                    .indices
-                    .iter()
-                    .map(|&i| pool.candidates[i].pose)
-                    .collect(),
+                poses: poses_of(pool, &selection.indices),
                 indices: selection.indices.clone(),
                 observability,
                 selection,
@@ -156,30 +172,35 @@ pub fn traditional(
         .map(|&l| mechanism.legs[l].identified().len())
         .collect();
     let total: usize = widths.iter().sum();
-    let block = |index: usize| {
-        let mut matrix = DMatrix::zeros(legs, total);
-        let mut offset = 0;
-        for (k, (&leg, &width)) in included.iter().zip(&widths).enumerate() {
-            for j in 0..width {
-                matrix[(k, offset + j)] = pool.candidates[index].rows[leg][j];
-            }
-            offset += width;
-        }
-        matrix
+    // Entry (r, p) of candidate i's block-diagonal legs × total block: leg r's row, in the
+    // columns of that leg's parameters.
+    let entries = |i: usize, (r, leg): (usize, usize)| {
+        let offset: usize = widths[..r].iter().sum();
+        (0..widths[r]).map(move |j| (offset + j, pool.candidates[i].rows[leg][j]))
     };
-    let candidates: Vec<DMatrix<f64>> = (0..pool.candidates.len()).map(block).collect();
     let all_names: Vec<String> = included.iter().flat_map(|&l| names(mechanism, l)).collect();
     let stack = |indices: &[usize]| {
         let mut matrix = DMatrix::zeros(indices.len() * legs, total);
         for (k, &i) in indices.iter().enumerate() {
-            matrix
-                .view_mut((k * legs, 0), (legs, total))
-                .copy_from(&candidates[i]);
+            for (r, &leg) in included.iter().enumerate() {
+                for (p, value) in entries(i, (r, leg)) {
+                    matrix[(k * legs + r, p)] = value;
+                }
+            }
         }
         matrix
     };
+    // The candidates' rows as columns (column i·legs + r: row r of candidate i).
+    let mut columns = DMatrix::zeros(total, pool.candidates.len() * legs);
+    for i in 0..pool.candidates.len() {
+        for (r, &leg) in included.iter().enumerate() {
+            for (p, value) in entries(i, (r, leg)) {
+                columns[(p, i * legs + r)] = value;
+            }
+        }
+    }
     let all: Vec<usize> = (0..pool.candidates.len()).collect();
-    let selection = select(&candidates, &options(count, criterion)).map_err(|err| {
+    let selection = select_columns(columns, legs, &options(count, criterion)).map_err(|err| {
         let leg = included.iter().zip(&widths).find_map(|(&l, &width)| {
             (analyse(&leg_rows(pool, l, &all), &names(mechanism, l)).rank < width).then_some(l)
         });
@@ -196,11 +217,7 @@ pub fn traditional(
         }
     })?;
     Ok(SharedDesign {
-        poses: selection
-            .indices
-            .iter()
-            .map(|&i| pool.candidates[i].pose)
-            .collect(),
+        poses: poses_of(pool, &selection.indices),
         indices: selection.indices.clone(),
         legs: included
             .iter()

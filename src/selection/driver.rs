@@ -1,37 +1,64 @@
 //! The driver, shared by all evaluation strategies: greedy construction, Fedorov exchange
 //! sweeps and DETMAX excursions over an [`Engine`].
 
-use super::gains::{accept_ln, gram_value};
+use nalgebra::DMatrix;
+
+use super::gains::{accept_ln, addition, gram_value, removal};
 use super::linalg::{log_det_spd, spd_inverse};
 use super::pool::Pool;
-use super::{Selection, SelectionError, SelectionOptions, EXCURSION_LENGTH};
+use super::{Criterion, Selection, SelectionError, SelectionOptions, EXCURSION_LENGTH};
 
-/// How trial designs are evaluated; the greedy/exchange skeleton is in [`run`].
+/// One step of an exchange sweep: the current design and what may enter it.
+pub(super) struct Step<'s> {
+    /// The current design (candidate indices; a swap names a position in it).
+    pub(super) design: &'s [usize],
+    /// Positions of `design` ordered by candidate index (the tie-breaking order).
+    pub(super) order: &'s [usize],
+    /// Which candidates may enter the design.
+    pub(super) eligible: &'s [bool],
+    /// Whether the design's information matrix was numerically singular at the start of the
+    /// sweep, so that trial designs are evaluated with the ridge added.
+    pub(super) ridge: bool,
+}
+
+/// How trial designs are evaluated; the greedy/exchange skeleton is in [`run`]. Engines that
+/// keep no state between steps (A, E, the naive reference) use the default methods.
 pub(super) trait Engine {
     /// The eligible candidate whose addition to `design` is best (ties: lowest index).
     fn greedy_pick(&mut self, design: &[usize], eligible: &[bool])
         -> Result<usize, SelectionError>;
     /// Candidate `j` has just been appended to `design` (engines without cached state: nothing).
     fn greedy_added(&mut self, _design: &[usize], _j: usize) {}
-    /// Start of an exchange sweep: refactorise the information matrix of `design`.
-    fn sweep_start(&mut self, design: &[usize]) -> Result<(), SelectionError>;
-    /// The best improving swap (position in `design`, incoming candidate), scanning positions
-    /// in `order` (by candidate index) and candidates by increasing index; `None` if no swap
+    /// Start of an exchange sweep, with M⁻¹ of the design (of M plus the ridge if M is
+    /// numerically singular); engines without cached state ignore it.
+    fn sweep_start(&mut self, _minv: DMatrix<f64>) {}
+    /// The best improving swap (position in the design, incoming candidate), scanning
+    /// positions in `step.order` and candidates by increasing index; `None` if no swap
     /// improves the criterion by more than [`ACCEPT`](super::ACCEPT).
-    fn best_swap(
+    fn best_swap(&mut self, step: &Step<'_>) -> Result<Option<(usize, usize)>, SelectionError>;
+    /// The swap (`pos`, `j`) is about to be applied to `design` (engines without cached
+    /// state: nothing).
+    fn swapped(&mut self, _design: &[usize], _pos: usize, _j: usize) {}
+    /// DETMAX excursion step up: the eligible candidate of `pool` whose addition to the
+    /// (nonsingular) `design` is best by `criterion` (ties: lowest index).
+    fn best_addition(
         &mut self,
+        (pool, criterion): (&Pool, Criterion),
+        design: &[usize],
+        eligible: &[bool],
+    ) -> Option<usize> {
+        addition(pool, design, eligible, criterion)
+    }
+    /// DETMAX excursion step down: the position in `design` whose removal is least harmful by
+    /// `criterion`, scanning positions in `order` (by candidate index).
+    fn best_removal(
+        &mut self,
+        (pool, criterion): (&Pool, Criterion),
         design: &[usize],
         order: &[usize],
-        eligible: &[bool],
-    ) -> Result<Option<(usize, usize)>, SelectionError>;
-    /// The swap (`pos`, `j`) is about to be applied to `design`.
-    fn swapped(&mut self, design: &[usize], pos: usize, j: usize);
-    /// DETMAX excursion step up: the eligible candidate whose addition to the (nonsingular)
-    /// `design` is best (ties: lowest index).
-    fn best_addition(&mut self, design: &[usize], eligible: &[bool]) -> Option<usize>;
-    /// DETMAX excursion step down: the position in `design` whose removal is least harmful,
-    /// scanning positions in `order` (by candidate index).
-    fn best_removal(&mut self, design: &[usize], order: &[usize]) -> Option<usize>;
+    ) -> Option<usize> {
+        removal(pool, design, order, criterion)
+    }
 }
 
 pub(super) fn run(
@@ -53,10 +80,17 @@ pub(super) fn run(
     let mut counts = Counts::default();
     while counts.sweeps < options.max_sweeps {
         counts.sweeps += 1;
-        engine.sweep_start(&design)?;
+        let (minv, ridge) = pool.exchange_inverse(&design)?;
+        engine.sweep_start(minv);
         let mut improved = false;
         for _ in 0..count {
-            let Some((pos, j)) = engine.best_swap(&design, &order(&design), &eligible)? else {
+            let step = Step {
+                design: &design,
+                order: &order(&design),
+                eligible: &eligible,
+                ridge,
+            };
+            let Some((pos, j)) = engine.best_swap(&step)? else {
                 break;
             };
             engine.swapped(&design, pos, j);
@@ -107,8 +141,8 @@ struct Counts {
 
 /// DETMAX excursions of length 2..=[`EXCURSION_LENGTH`]: add the best L candidates one by one,
 /// then remove the L least useful points one by one. Returns the first excursion that improves
-/// the criterion by more than [`ACCEPT`](super::ACCEPT) (an excursion of length 1 is a swap,
-/// already tried).
+/// the criterion by more than [`ACCEPT`](super::ACCEPT) (an excursion of length 1 is
+/// a swap, already tried).
 fn excursion(
     pool: &Pool,
     options: &SelectionOptions,
@@ -116,24 +150,27 @@ fn excursion(
     design: &[usize],
     eligible: &[bool],
 ) -> Option<Vec<usize>> {
-    let current = gram_value(&pool.gram(design, false), options.criterion);
+    let criterion = options.criterion;
+    let current = gram_value(&pool.gram(design, false), criterion);
     if !current.is_finite() {
         return None;
     }
+    // The additions of an excursion of length L are the first L of the longest one (each
+    // depends only on the ones before it): they are found once, as the excursions need them.
+    let (mut grown, mut grown_eligible) = (design.to_vec(), eligible.to_vec());
     for length in 2..=EXCURSION_LENGTH.min(design.len()) {
-        let mut trial = design.to_vec();
-        let mut trial_eligible = eligible.to_vec();
-        for _ in 0..length {
-            let j = engine.best_addition(&trial, &trial_eligible)?;
-            trial.push(j);
-            trial_eligible[j] = options.allow_replicates;
+        while grown.len() < design.len() + length {
+            let j = engine.best_addition((pool, criterion), &grown, &grown_eligible)?;
+            grown.push(j);
+            grown_eligible[j] = options.allow_replicates;
         }
+        let (mut trial, mut trial_eligible) = (grown.clone(), grown_eligible.clone());
         for _ in 0..length {
-            let pos = engine.best_removal(&trial, &order(&trial))?;
+            let pos = engine.best_removal((pool, criterion), &trial, &order(&trial))?;
             let i = trial.remove(pos);
             trial_eligible[i] = options.allow_replicates || !trial.contains(&i);
         }
-        if gram_value(&pool.gram(&trial, false), options.criterion) > current + accept_ln() {
+        if gram_value(&pool.gram(&trial, false), criterion) > current + accept_ln() {
             return Some(trial);
         }
     }
@@ -151,8 +188,7 @@ fn finish(
         Some(minv) if log_det.is_finite() => minv,
         _ => return Err(pool.singular(&design)),
     };
-    let y = &minv * &pool.x;
-    let leverage = pool.x.component_mul(&y).row_sum();
+    let leverage = pool.row_leverages(&minv);
     let largest = (0..pool.k)
         .map(|j| (0..pool.b).map(|r| leverage[j * pool.b + r]).sum::<f64>())
         .fold(f64::NEG_INFINITY, f64::max);

@@ -1,55 +1,22 @@
 //! E criterion (maximise s_min): eigenvalues of the trial M, pruned by a Rayleigh bound.
 
-use super::driver::Engine;
-use super::gains::{accept_ln, argmax, gram_addition, gram_removal};
+use super::driver::{Engine, Step};
+use super::gains::{accept_ln, argmax};
 use super::linalg::{half_ln, min_eigenvalue, spd_inverse};
 use super::pool::Pool;
-use super::{Criterion, SelectionError};
+use super::SelectionError;
 
 pub(super) struct EOptimal<'a> {
     pub(super) pool: &'a Pool,
-    pub(super) ridge: bool,
 }
 
 impl Engine for EOptimal<'_> {
-    fn greedy_pick(
-        &mut self,
-        design: &[usize],
-        eligible: &[bool],
-    ) -> Result<usize, SelectionError> {
-        let pool = self.pool;
-        let m = pool.gram(design, true);
-        let picked = if (design.len() + 1) * pool.b < pool.n {
-            // s_min of the trial design is still zero: use the D gain.
-            let minv = spd_inverse(&m).ok_or_else(|| pool.singular(design))?;
-            let y = &minv * &pool.x;
-            pool.best_block_gain(&y, eligible)
-        } else {
-            let score = |j: usize| {
-                let block = pool.block(j);
-                half_ln(min_eigenvalue(&m + block * block.transpose()))
-            };
-            argmax((0..pool.k).filter(|&j| eligible[j]).map(|j| (j, score(j))))
-        };
-        picked.ok_or_else(|| pool.exhausted(design.len()))
-    }
-
-    fn sweep_start(&mut self, design: &[usize]) -> Result<(), SelectionError> {
-        self.ridge = self.pool.exchange_inverse(design)?.1;
-        Ok(())
-    }
-
-    fn best_swap(
-        &mut self,
-        design: &[usize],
-        order: &[usize],
-        eligible: &[bool],
-    ) -> Result<Option<(usize, usize)>, SelectionError> {
-        let pool = self.pool;
-        let m = pool.gram(design, self.ridge);
+    fn best_swap(&mut self, step: &Step<'_>) -> Result<Option<(usize, usize)>, SelectionError> {
+        let (pool, design) = (self.pool, step.design);
+        let m = pool.gram(design, step.ridge);
         let current = half_ln(min_eigenvalue(m.clone()));
         let mut best = (current + accept_ln(), None);
-        for &pos in order {
+        for &pos in step.order {
             let removed = pool.block(design[pos]);
             let reduced = &m - removed * removed.transpose();
             let eigen = reduced.clone().symmetric_eigen();
@@ -58,7 +25,7 @@ impl Engine for EOptimal<'_> {
                 |acc, (k, v)| if v < acc.1 { (k, v) } else { acc },
             );
             let v = eigen.eigenvectors.column(first);
-            for j in (0..pool.k).filter(|&j| eligible[j]) {
+            for j in (0..pool.k).filter(|&j| step.eligible[j]) {
                 let block = pool.block(j);
                 // λ_min(A + CᵀC) ≤ v₁ᵀ(A + CᵀC)v₁ = λ₁(A) + |C v₁|²: skip hopeless swaps
                 let bound = lambda + block.tr_mul(&v).norm_squared();
@@ -74,13 +41,24 @@ impl Engine for EOptimal<'_> {
         Ok(best.1)
     }
 
-    fn swapped(&mut self, _design: &[usize], _pos: usize, _j: usize) {}
-
-    fn best_addition(&mut self, design: &[usize], eligible: &[bool]) -> Option<usize> {
-        gram_addition(self.pool, design, eligible, Criterion::E)
-    }
-
-    fn best_removal(&mut self, design: &[usize], order: &[usize]) -> Option<usize> {
-        gram_removal(self.pool, design, order, Criterion::E)
+    fn greedy_pick(
+        &mut self,
+        design: &[usize],
+        eligible: &[bool],
+    ) -> Result<usize, SelectionError> {
+        let pool = self.pool;
+        let m = pool.gram(design, true);
+        let picked = if (design.len() + 1) * pool.b < pool.n {
+            // s_min of the trial design is still zero: use the D gain.
+            let minv = spd_inverse(&m).ok_or_else(|| pool.singular(design))?;
+            pool.best_block_gain(&minv, eligible)
+        } else {
+            let score = |j: usize| {
+                let block = pool.block(j);
+                half_ln(min_eigenvalue(&m + block * block.transpose()))
+            };
+            argmax((0..pool.k).filter(|&j| eligible[j]).map(|j| (j, score(j))))
+        };
+        picked.ok_or_else(|| pool.exhausted(design.len()))
     }
 }

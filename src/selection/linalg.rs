@@ -76,6 +76,13 @@ fn pivot_row(a: &[f64], b: usize, col: usize) -> Option<usize> {
     (largest > 0.0).then_some(row)
 }
 
+/// Swaps rows `r` and `s` of the row-major b × b matrix `a`.
+fn swap_rows(a: &mut [f64], b: usize, r: usize, s: usize) {
+    for c in 0..b {
+        a.swap(r * b + c, s * b + c);
+    }
+}
+
 /// Determinant of the row-major b × b matrix in `a` (overwritten), by Gaussian elimination
 /// with partial pivoting.
 pub(super) fn det_in_place(a: &mut [f64], b: usize) -> f64 {
@@ -85,9 +92,7 @@ pub(super) fn det_in_place(a: &mut [f64], b: usize) -> f64 {
             return 0.0;
         };
         if pivot_row != col {
-            for c in 0..b {
-                a.swap(col * b + c, pivot_row * b + c);
-            }
+            swap_rows(a, b, col, pivot_row);
             det = -det;
         }
         let pivot = a[col * b + col];
@@ -116,10 +121,8 @@ pub(super) fn invert_in_place(a: &mut [f64], b: usize, out: &mut [f64]) -> f64 {
             return 0.0;
         };
         if pivot_row != col {
-            for c in 0..b {
-                a.swap(col * b + c, pivot_row * b + c);
-                out.swap(col * b + c, pivot_row * b + c);
-            }
+            swap_rows(a, b, col, pivot_row);
+            swap_rows(out, b, col, pivot_row);
             det = -det;
         }
         let pivot = a[col * b + col];

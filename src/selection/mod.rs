@@ -1,5 +1,10 @@
-//! Pose selection: choose N of K candidate poses so that the identification Jacobian of the
+//! Experiment design: choose N of K candidate poses so that the identification Jacobian of the
 //! chosen poses is as informative as possible (D-, A- or E-optimal experiment design).
+//!
+//! The selection engines work on plain matrices (one b × n block of identification rows per
+//! candidate) and know nothing of poses, their dimension or the mechanism; [`design`] builds
+//! those matrices from a mechanism's candidate pool ([`crate::workspace::candidates`]) and maps
+//! the chosen indices back to poses.
 //!
 //! This is a D-optimal exchange algorithm in the spirit of Sun & Hollerbach (2008) / DETMAX
 //! (Mitchell 1974), not Sun & Hollerbach's exact algorithm (whose text could not be
@@ -35,6 +40,7 @@ mod linalg;
 mod naive;
 mod pool;
 mod rank_one_d;
+mod running_inverse;
 #[cfg(test)]
 mod tests;
 
@@ -231,26 +237,37 @@ pub fn select(
     candidates: &[DMatrix<f64>],
     options: &SelectionOptions,
 ) -> Result<Selection, SelectionError> {
-    let pool = Pool::new(candidates, options)?;
+    select_in(&Pool::new(candidates, options)?, options)
+}
+
+/// As [`select`], with the candidates given as the columns of one n × (K·b) matrix: column
+/// j·b + r is row r of candidate j (b = `rows_per_candidate`). A large pool then needs no
+/// matrix per candidate.
+///
+/// # Errors
+/// As [`select`]; a column count that is not a multiple of b is a
+/// [`SelectionError::ShapeMismatch`] of the last, partial candidate.
+///
+/// # Reference
+/// docs/method.md §6.
+pub fn select_columns(
+    columns: DMatrix<f64>,
+    rows_per_candidate: usize,
+    options: &SelectionOptions,
+) -> Result<Selection, SelectionError> {
+    select_in(
+        &Pool::from_columns(columns, rows_per_candidate, options)?,
+        options,
+    )
+}
+
+/// [`select`] on a validated pool: the engine by criterion and rows per candidate.
+fn select_in(pool: &Pool, options: &SelectionOptions) -> Result<Selection, SelectionError> {
     match (options.criterion, pool.b) {
-        (Criterion::D, 1) => run(&pool, options, &mut RankOneD::new(&pool)),
-        (Criterion::D, _) => run(&pool, options, &mut BlockD::new(&pool)),
-        (Criterion::A, _) => run(
-            &pool,
-            options,
-            &mut AOptimal {
-                pool: &pool,
-                ridge: false,
-            },
-        ),
-        (Criterion::E, _) => run(
-            &pool,
-            options,
-            &mut EOptimal {
-                pool: &pool,
-                ridge: false,
-            },
-        ),
+        (Criterion::D, 1) => run(pool, options, &mut RankOneD::new(pool)),
+        (Criterion::D, _) => run(pool, options, &mut BlockD::new(pool)),
+        (Criterion::A, _) => run(pool, options, &mut AOptimal { pool }),
+        (Criterion::E, _) => run(pool, options, &mut EOptimal { pool }),
     }
 }
 
@@ -278,7 +295,6 @@ pub fn select_naive(
         &mut Naive {
             pool: &pool,
             criterion: options.criterion,
-            ridge: false,
         },
     )
 }

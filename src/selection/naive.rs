@@ -2,7 +2,7 @@
 
 use nalgebra::DMatrix;
 
-use super::driver::Engine;
+use super::driver::{Engine, Step};
 use super::gains::{accept_ln, argmax};
 use super::linalg::{log_det_spd, spd_inverse};
 use super::pool::Pool;
@@ -12,7 +12,6 @@ use crate::identify::observability::{indices, sorted_singular_values};
 pub(super) struct Naive<'a> {
     pub(super) pool: &'a Pool,
     pub(super) criterion: Criterion,
-    pub(super) ridge: bool,
 }
 
 impl Naive<'_> {
@@ -47,46 +46,51 @@ impl Naive<'_> {
     }
 }
 
+impl Naive<'_> {
+    /// The eligible candidate whose addition to `design` scores best from scratch (ties:
+    /// lowest index).
+    fn best_extension(
+        &self,
+        design: &[usize],
+        eligible: &[bool],
+        ridge: bool,
+        criterion: Criterion,
+    ) -> Option<usize> {
+        let mut trial = design.to_vec();
+        trial.push(0);
+        let last = design.len();
+        let mut scores = Vec::with_capacity(self.pool.k);
+        for j in (0..self.pool.k).filter(|&j| eligible[j]) {
+            trial[last] = j;
+            scores.push((j, self.score(&trial, ridge, criterion)));
+        }
+        argmax(scores.into_iter())
+    }
+}
+
 impl Engine for Naive<'_> {
     fn greedy_pick(
         &mut self,
         design: &[usize],
         eligible: &[bool],
     ) -> Result<usize, SelectionError> {
-        let pool = self.pool;
         let criterion = match self.criterion {
-            Criterion::E if (design.len() + 1) * pool.b < pool.n => Criterion::D,
+            Criterion::E if (design.len() + 1) * self.pool.b < self.pool.n => Criterion::D,
             other => other,
         };
-        let mut trial = design.to_vec();
-        trial.push(0);
-        let last = design.len();
-        let mut scores = Vec::with_capacity(pool.k);
-        for j in (0..pool.k).filter(|&j| eligible[j]) {
-            trial[last] = j;
-            scores.push((j, self.score(&trial, true, criterion)));
-        }
-        argmax(scores.into_iter()).ok_or_else(|| pool.exhausted(design.len()))
+        self.best_extension(design, eligible, true, criterion)
+            .ok_or_else(|| self.pool.exhausted(design.len()))
     }
 
-    fn sweep_start(&mut self, design: &[usize]) -> Result<(), SelectionError> {
-        self.ridge = self.pool.exchange_inverse(design)?.1;
-        Ok(())
-    }
-
-    fn best_swap(
-        &mut self,
-        design: &[usize],
-        order: &[usize],
-        eligible: &[bool],
-    ) -> Result<Option<(usize, usize)>, SelectionError> {
-        let current = self.score(design, self.ridge, self.criterion);
+    fn best_swap(&mut self, step: &Step<'_>) -> Result<Option<(usize, usize)>, SelectionError> {
+        let design = step.design;
+        let current = self.score(design, step.ridge, self.criterion);
         let mut best = (current + accept_ln(), None);
         let mut trial = design.to_vec();
-        for &pos in order {
-            for j in (0..self.pool.k).filter(|&j| eligible[j]) {
+        for &pos in step.order {
+            for j in (0..self.pool.k).filter(|&j| step.eligible[j]) {
                 trial[pos] = j;
-                let score = self.score(&trial, self.ridge, self.criterion);
+                let score = self.score(&trial, step.ridge, self.criterion);
                 if score > best.0 {
                     best = (score, Some((pos, j)));
                 }
@@ -96,21 +100,21 @@ impl Engine for Naive<'_> {
         Ok(best.1)
     }
 
-    fn swapped(&mut self, _design: &[usize], _pos: usize, _j: usize) {}
-
-    fn best_addition(&mut self, design: &[usize], eligible: &[bool]) -> Option<usize> {
-        let mut trial = design.to_vec();
-        trial.push(0);
-        let last = design.len();
-        let mut scores = Vec::with_capacity(self.pool.k);
-        for j in (0..self.pool.k).filter(|&j| eligible[j]) {
-            trial[last] = j;
-            scores.push((j, self.score(&trial, false, self.criterion)));
-        }
-        argmax(scores.into_iter())
+    fn best_addition(
+        &mut self,
+        _: (&Pool, Criterion),
+        design: &[usize],
+        eligible: &[bool],
+    ) -> Option<usize> {
+        self.best_extension(design, eligible, false, self.criterion)
     }
 
-    fn best_removal(&mut self, design: &[usize], order: &[usize]) -> Option<usize> {
+    fn best_removal(
+        &mut self,
+        _: (&Pool, Criterion),
+        design: &[usize],
+        order: &[usize],
+    ) -> Option<usize> {
         let scores: Vec<(usize, f64)> = order
             .iter()
             .map(|&pos| {

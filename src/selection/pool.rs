@@ -1,12 +1,21 @@
 //! The candidate pool: validated candidates stored transposed, their information matrices
 //! and the block products the D engines share.
 
-use nalgebra::{DMatrix, DVector};
+use std::ops::Range;
+
+use nalgebra::{DMatrix, DMatrixView, DVector, RowDVector};
 
 use super::gains::argmax;
 use super::linalg::{det_in_place, spd_inverse};
 use super::{SelectionError, SelectionOptions, RIDGE};
 use crate::identify::observability::{sorted_singular_values, RANK_TOLERANCE};
+
+/// About this many candidates at a time enter a product with M⁻¹ (see [`Pool::chunks`]): the
+/// products' memory stays a few hundred kilobytes whatever the size of the pool.
+pub(super) const CHUNK: usize = 2048;
+
+/// nalgebra forms a product with a dimension of at most 5 without matrixmultiply.
+const SMALL_PRODUCT: usize = 6;
 
 /// Validated candidates, stored transposed: column j·b + r of `x` is row r of candidate j.
 pub(super) struct Pool {
@@ -30,7 +39,6 @@ impl Pool {
         candidates: &[DMatrix<f64>],
         options: &SelectionOptions,
     ) -> Result<Self, SelectionError> {
-        let k = candidates.len();
         let first = candidates.first().ok_or(SelectionError::TooFewCandidates {
             available: 0,
             requested: options.count,
@@ -53,6 +61,58 @@ impl Pool {
                 return Err(SelectionError::NonFinite { index });
             }
         }
+        let mut x = DMatrix::zeros(n, candidates.len() * b);
+        for (j, c) in candidates.iter().enumerate() {
+            for r in 0..b {
+                x.column_mut(j * b + r).copy_from(&c.row(r).transpose());
+            }
+        }
+        Self::checked(x, b, options)
+    }
+
+    /// The pool of the candidates whose rows are the columns of `x` (column j·b + r is row r
+    /// of candidate j), with the checks of [`Self::new`] in the same order.
+    pub(super) fn from_columns(
+        x: DMatrix<f64>,
+        b: usize,
+        options: &SelectionOptions,
+    ) -> Result<Self, SelectionError> {
+        let n = x.nrows();
+        if x.ncols() == 0 {
+            return Err(SelectionError::TooFewCandidates {
+                available: 0,
+                requested: options.count,
+            });
+        }
+        if b == 0 || n == 0 {
+            return Err(SelectionError::Empty { rows: b, cols: n });
+        }
+        if !x.ncols().is_multiple_of(b) {
+            return Err(SelectionError::ShapeMismatch {
+                index: x.ncols() / b,
+                rows: x.ncols() % b,
+                cols: n,
+                expected_rows: b,
+                expected_cols: n,
+            });
+        }
+        if let Some(column) = x
+            .column_iter()
+            .position(|c| c.iter().any(|v| !v.is_finite()))
+        {
+            return Err(SelectionError::NonFinite { index: column / b });
+        }
+        Self::checked(x, b, options)
+    }
+
+    /// The pool of validated, finite candidates `x` of `b` rows: the remaining checks (enough
+    /// rows and candidates, full rank) and the ridge.
+    fn checked(
+        x: DMatrix<f64>,
+        b: usize,
+        options: &SelectionOptions,
+    ) -> Result<Self, SelectionError> {
+        let (n, k) = (x.nrows(), x.ncols() / b);
         let rows = options.count.saturating_mul(b);
         if rows < n {
             return Err(SelectionError::TooFewRows {
@@ -67,12 +127,6 @@ impl Pool {
                 requested: options.count,
             });
         }
-        let mut x = DMatrix::zeros(n, k * b);
-        for (j, c) in candidates.iter().enumerate() {
-            for r in 0..b {
-                x.column_mut(j * b + r).copy_from(&c.row(r).transpose());
-            }
-        }
         let sums = DVector::from_fn(n, |p, _| x.row(p).norm_squared());
         let rank = scaled_rank(&x, &sums);
         if rank < n {
@@ -80,6 +134,70 @@ impl Pool {
         }
         let ridge = sums * (RIDGE / k as f64);
         Ok(Self { k, b, n, x, ridge })
+    }
+
+    /// M⁻¹ of the ridge alone, diag(1/ridge): the start of the greedy construction.
+    pub(super) fn ridge_inverse(&self) -> DMatrix<f64> {
+        DMatrix::from_diagonal(&self.ridge.map(|v| 1.0 / v))
+    }
+
+    /// The candidate ranges in which products with X are formed: about [`CHUNK`] candidates
+    /// each, all of nearly the same size (none small enough for nalgebra to switch to its
+    /// small-matrix product, so each entry is the one the whole product would give).
+    pub(super) fn chunks(&self) -> impl Iterator<Item = Range<usize>> {
+        let parts = self.k.div_ceil(CHUNK).max(1);
+        let (width, extra) = (self.k / parts, self.k % parts);
+        (0..parts).map(move |p| {
+            let start = p * width + p.min(extra);
+            start..start + width + usize::from(p < extra)
+        })
+    }
+
+    /// The columns of X (rows of the candidates) of the candidates `range`.
+    pub(super) fn columns(&self, range: &Range<usize>) -> DMatrixView<'_, f64> {
+        self.x.columns(range.start * self.b, range.len() * self.b)
+    }
+
+    /// The candidates `indices` in groups for products with X: split as [`Self::chunks`]
+    /// splits the pool, so that each group's product gives the entries the whole product
+    /// would.
+    pub(super) fn column_groups<'i>(&self, indices: &'i [usize]) -> Vec<&'i [usize]> {
+        let parts = indices.len().div_ceil(CHUNK).max(1);
+        let (width, extra) = (indices.len() / parts, indices.len() % parts);
+        (0..parts)
+            .map(|p| {
+                let start = p * width + p.min(extra);
+                &indices[start..start + width + usize::from(p < extra)]
+            })
+            .filter(|group| !group.is_empty())
+            .collect()
+    }
+
+    /// The columns of X of the candidates `indices`, side by side; padded with copies of the
+    /// first to at least min(6, K) candidates, since nalgebra forms products of fewer than 6
+    /// columns another way (rounding differently) than the whole-pool product.
+    pub(super) fn gather(&self, indices: &[usize]) -> DMatrix<f64> {
+        let b = self.b;
+        let width = indices.len().max(SMALL_PRODUCT.min(self.k));
+        DMatrix::from_fn(self.n, width * b, |p, c| {
+            let j = indices.get(c / b).copied().unwrap_or(indices[0]);
+            self.x[(p, j * b + c % b)]
+        })
+    }
+
+    /// x_rᵀM⁻¹x_r of every row r of every candidate (column r of X), formed chunk by chunk.
+    pub(super) fn row_leverages(&self, minv: &DMatrix<f64>) -> RowDVector<f64> {
+        let mut leverages = RowDVector::zeros(self.k * self.b);
+        for range in self.chunks() {
+            let x = self.columns(&range);
+            let y = minv * x;
+            column_dots(
+                &x,
+                &y,
+                &mut leverages.as_mut_slice()[range.start * self.b..],
+            );
+        }
+        leverages
     }
 
     /// The n × b block of candidate j (its rows as columns).
@@ -136,40 +254,78 @@ impl Pool {
             .ok_or_else(|| self.singular(design))
     }
 
-    /// C_j M⁻¹ C_jᵀ (row-major b × b, into `out`) from Y = M⁻¹ X.
-    pub(super) fn block_product(&self, y: &DMatrix<f64>, j: usize, out: &mut [f64]) {
+    /// C_j M⁻¹ C_jᵀ (row-major b × b, into `out`) from Y = M⁻¹ X_chunk, the product with
+    /// the columns of the candidates from `start` on.
+    pub(super) fn block_product(&self, y: &DMatrix<f64>, start: usize, j: usize, out: &mut [f64]) {
         let b = self.b;
         for r in 0..b {
             for s in 0..b {
-                out[r * b + s] = self.x.column(j * b + r).dot(&y.column(j * b + s));
+                out[r * b + s] = self.x.column(j * b + r).dot(&y.column((j - start) * b + s));
             }
         }
     }
 
-    /// The best eligible addition by the D gain det(I_b + C_j M⁻¹ C_jᵀ), from Y = M⁻¹ X
-    /// (ties: lowest index).
-    pub(super) fn best_block_gain(&self, y: &DMatrix<f64>, eligible: &[bool]) -> Option<usize> {
+    /// The best eligible addition by the D gain det(I_b + C_j M⁻¹ C_jᵀ) (ties: lowest index).
+    pub(super) fn best_block_gain(&self, minv: &DMatrix<f64>, eligible: &[bool]) -> Option<usize> {
         let b = self.b;
         let mut g = vec![0.0; b * b];
-        argmax((0..self.k).filter(|&j| eligible[j]).map(|j| {
-            self.block_product(y, j, &mut g);
-            for r in 0..b {
-                g[r * b + r] += 1.0;
+        let mut gains = Vec::with_capacity(self.k);
+        for range in self.chunks() {
+            let y = minv * self.columns(&range);
+            for j in range.clone().filter(|&j| eligible[j]) {
+                self.block_product(&y, range.start, j, &mut g);
+                for r in 0..b {
+                    g[r * b + r] += 1.0;
+                }
+                gains.push((j, det_in_place(&mut g, b)));
             }
-            (j, det_in_place(&mut g, b))
-        }))
+        }
+        argmax(gains.into_iter())
     }
 }
 
-/// Numerical rank of the rows stored as columns of `x`, each parameter scaled to unit norm.
-fn scaled_rank(x: &DMatrix<f64>, sums: &DVector<f64>) -> usize {
-    let mut scaled = x.transpose();
-    for (p, mut column) in scaled.column_iter_mut().enumerate() {
-        if sums[p] > 0.0 {
-            column /= sums[p].sqrt();
-        }
+/// The dot products of the columns of `x` and `y` into `out`, each summed from the first row
+/// down (the sums of `x.component_mul(y).row_sum()`, without its temporaries).
+pub(super) fn column_dots(x: &DMatrixView<'_, f64>, y: &DMatrix<f64>, out: &mut [f64]) {
+    for ((xc, yc), out) in x.column_iter().zip(y.column_iter()).zip(out) {
+        *out = xc
+            .iter()
+            .zip(yc.iter())
+            .fold(0.0, |sum, (a, b)| sum + a * b);
     }
-    let values = sorted_singular_values(scaled);
+}
+
+/// Rows of the pool beyond which [`scaled_rank`] works on the triangular factor of the rows.
+const QR_ROWS: usize = 4096;
+
+/// Numerical rank of the rows stored as columns of `x`, each parameter scaled to unit norm.
+/// A pool of more than [`QR_ROWS`] rows is first reduced, chunk by chunk, to the n × n
+/// triangular factor R of its QR factorisation (the same singular values), so that no copy of
+/// the whole pool is made.
+fn scaled_rank(x: &DMatrix<f64>, sums: &DVector<f64>) -> usize {
+    let scaled = |columns: nalgebra::DMatrixView<'_, f64>| {
+        let mut rows = columns.transpose();
+        for (p, mut column) in rows.column_iter_mut().enumerate() {
+            if sums[p] > 0.0 {
+                column /= sums[p].sqrt();
+            }
+        }
+        rows
+    };
+    let reduced = if x.ncols() <= QR_ROWS {
+        scaled(x.columns(0, x.ncols()))
+    } else {
+        let mut r = DMatrix::zeros(0, x.nrows());
+        for start in (0..x.ncols()).step_by(QR_ROWS) {
+            let chunk = scaled(x.columns(start, QR_ROWS.min(x.ncols() - start)));
+            let mut stacked = DMatrix::zeros(r.nrows() + chunk.nrows(), x.nrows());
+            stacked.rows_mut(0, r.nrows()).copy_from(&r);
+            stacked.rows_mut(r.nrows(), chunk.nrows()).copy_from(&chunk);
+            r = stacked.qr().r();
+        }
+        r
+    };
+    let values = sorted_singular_values(reduced);
     let largest = values.first().copied().unwrap_or(0.0);
     values
         .iter()

@@ -1,59 +1,82 @@
 //! D criterion, one row per candidate: rank-one updates.
 
-use nalgebra::{DMatrix, DVector};
+use nalgebra::{DMatrix, DVector, RowDVector};
 
-use super::driver::Engine;
-use super::gains::{argmax, d_addition, d_removal};
-use super::linalg::spd_inverse;
-use super::pool::Pool;
+use super::driver::{Engine, Step};
+use super::gains::{argmax, BestSwap};
+use super::pool::{column_dots, Pool};
+use super::running_inverse::RunningInverse;
 use super::{SelectionError, ACCEPT};
 
 pub(super) struct RankOneD<'a> {
     pool: &'a Pool,
-    /// M⁻¹ of the current design (with the ridge during the greedy phase).
-    pub(super) minv: DMatrix<f64>,
+    /// M⁻¹ of the current design.
+    pub(super) inverse: RunningInverse,
     /// Greedy phase: cached d_j = c_jᵀM⁻¹c_j.
     d: DVector<f64>,
-    /// Whether M⁻¹ and d were recomputed once the design reached n rows.
-    refreshed: bool,
 }
 
 impl<'a> RankOneD<'a> {
     pub(super) fn new(pool: &'a Pool) -> Self {
-        let inverse_ridge = pool.ridge.map(|v| 1.0 / v);
-        let minv = DMatrix::from_diagonal(&inverse_ridge);
+        // d_j = Σ_p c_jp² / ridge_p, the leverages under the ridge start
         let d = DVector::from_fn(pool.k, |j, _| {
             pool.x
                 .column(j)
                 .iter()
-                .zip(inverse_ridge.iter())
-                .map(|(c, w)| c * c * w)
+                .zip(pool.ridge.iter())
+                .map(|(c, r)| c * c * (1.0 / r))
                 .sum()
         });
         Self {
             pool,
-            minv,
+            inverse: RunningInverse::ridge_start(pool),
             d,
-            refreshed: false,
         }
     }
 
     /// M⁻¹ ← (M + ccᵀ)⁻¹ (Sherman–Morrison); returns M⁻¹c (before the update) and d(c).
     fn add(&mut self, j: usize) -> (DVector<f64>, f64) {
+        let minv = &mut self.inverse.minv;
         let c = self.pool.x.column(j);
-        let u = &self.minv * c;
+        let u = &*minv * c;
         let d = c.dot(&u);
-        self.minv.ger(-1.0 / (1.0 + d), &u, &u, 1.0);
+        minv.ger(-1.0 / (1.0 + d), &u, &u, 1.0);
         (u, d)
+    }
+
+    /// The leverages d_j = c_jᵀM⁻¹c_j of all candidates and the design's u_i = M⁻¹c_i (as
+    /// columns), formed chunk by chunk.
+    fn leverages_and_design(&self, design: &[usize]) -> (RowDVector<f64>, DMatrix<f64>) {
+        let pool = self.pool;
+        let mut d = RowDVector::zeros(pool.k);
+        let mut u_design = DMatrix::zeros(pool.n, design.len());
+        for range in pool.chunks() {
+            let x = pool.columns(&range);
+            let u = &self.inverse.minv * x;
+            column_dots(&x, &u, &mut d.as_mut_slice()[range.start..]);
+            for (pos, &i) in design.iter().enumerate() {
+                if range.contains(&i) {
+                    u_design.set_column(pos, &u.column(i - range.start));
+                }
+            }
+        }
+        (d, u_design)
     }
 
     /// M⁻¹ ← (M − ccᵀ)⁻¹ (Sherman–Morrison).
     fn remove(&mut self, i: usize) {
+        let minv = &mut self.inverse.minv;
         let c = self.pool.x.column(i);
-        let v = &self.minv * c;
+        let v = &*minv * c;
         let d = c.dot(&v);
-        self.minv.ger(1.0 / (1.0 - d), &v, &v, 1.0);
+        minv.ger(1.0 / (1.0 - d), &v, &v, 1.0);
     }
+}
+
+/// Whether the swap bound 1 + d_j − d_i falls short of `target` by more than rounding could
+/// explain (a relative slack of 1e-6).
+fn below(dj: f64, di: f64, target: f64) -> bool {
+    1.0 + dj - di < target - 1e-6 * (1.0 + dj.abs() + di.abs())
 }
 
 impl Engine for RankOneD<'_> {
@@ -76,72 +99,50 @@ impl Engine for RankOneD<'_> {
         let w = self.pool.x.tr_mul(&u);
         let scale = 1.0 / (1.0 + d);
         self.d.zip_apply(&w, |dl, wl| *dl -= wl * wl * scale);
-        if !self.refreshed && design.len() >= self.pool.n {
-            // The ridge's large entries have cancelled: recompute M⁻¹ and d from scratch.
-            self.refreshed = true;
-            if let Some(minv) = spd_inverse(&self.pool.gram(design, true)) {
-                let y = &minv * &self.pool.x;
-                self.d = self.pool.x.component_mul(&y).row_sum().transpose();
-                self.minv = minv;
-            }
+        if self.inverse.refresh(self.pool, design) {
+            self.d = self.pool.row_leverages(&self.inverse.minv).transpose();
         }
     }
 
-    fn sweep_start(&mut self, design: &[usize]) -> Result<(), SelectionError> {
-        self.minv = self.pool.exchange_inverse(design)?.0;
-        Ok(())
+    fn sweep_start(&mut self, minv: DMatrix<f64>) {
+        self.inverse.minv = minv;
     }
 
-    fn best_swap(
-        &mut self,
-        design: &[usize],
-        order: &[usize],
-        eligible: &[bool],
-    ) -> Result<Option<(usize, usize)>, SelectionError> {
-        let x = &self.pool.x;
-        let u = &self.minv * x;
-        let d = x.component_mul(&u).row_sum();
-        let mut u_design = DMatrix::zeros(self.pool.n, design.len());
-        for (pos, &i) in design.iter().enumerate() {
-            u_design.set_column(pos, &u.column(i));
-        }
-        let cross = u_design.transpose() * x; // d_ij, N × K
-        let mut best = (1.0 + ACCEPT, None);
-        for &pos in order {
-            let di = d[design[pos]];
-            for (j, &ok) in eligible.iter().enumerate() {
-                if !ok {
-                    continue;
-                }
-                let dij = cross[(pos, j)];
-                let delta = (1.0 + d[j]) * (1.0 - di) + dij * dij;
-                if delta > best.0 {
-                    best = (delta, Some((pos, j)));
+    fn best_swap(&mut self, step: &Step<'_>) -> Result<Option<(usize, usize)>, SelectionError> {
+        let pool = self.pool;
+        let (d, u_design) = self.leverages_and_design(step.design);
+        // Δ_ij = (1 + d_j)(1 − d_i) + d_ij² ≤ 1 + d_j − d_i since d_ij² ≤ d_i d_j (Cauchy–Schwarz
+        // in M⁻¹): a candidate whose leverage is below every design point's cannot improve.
+        // (Not with the ridge: M⁻¹ is then too ill-conditioned to trust the bound.)
+        let prune = !step.ridge;
+        let floor = step
+            .design
+            .iter()
+            .map(|&i| d[i])
+            .fold(f64::INFINITY, f64::min);
+        let hopeful: Vec<usize> = (0..pool.k)
+            .filter(|&j| step.eligible[j] && !(prune && below(d[j], floor, 1.0 + ACCEPT)))
+            .collect();
+        let u_design_t = u_design.transpose();
+        let mut best = BestSwap::above(1.0 + ACCEPT);
+        for chunk in pool.column_groups(&hopeful) {
+            let cross = &u_design_t * pool.gather(chunk); // d_ij, N × chunk
+            for (rank, &pos) in step.order.iter().enumerate() {
+                let di = d[step.design[pos]];
+                for (c, &j) in chunk.iter().enumerate() {
+                    if prune && below(d[j], di, best.value()) {
+                        continue;
+                    }
+                    let dij = cross[(pos, c)];
+                    best.offer((1.0 + d[j]) * (1.0 - di) + dij * dij, rank, (pos, j));
                 }
             }
         }
-        Ok(best.1)
+        Ok(best.swap())
     }
 
     fn swapped(&mut self, design: &[usize], pos: usize, j: usize) {
         self.add(j);
         self.remove(design[pos]);
-    }
-
-    fn best_addition(&mut self, design: &[usize], eligible: &[bool]) -> Option<usize> {
-        d_addition(
-            self.pool,
-            &spd_inverse(&self.pool.gram(design, false))?,
-            eligible,
-        )
-    }
-
-    fn best_removal(&mut self, design: &[usize], order: &[usize]) -> Option<usize> {
-        d_removal(
-            self.pool,
-            &spd_inverse(&self.pool.gram(design, false))?,
-            design,
-            order,
-        )
     }
 }

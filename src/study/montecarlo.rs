@@ -568,3 +568,44 @@ pub fn millimetres(value: f64) -> String {
     let decimals = (3 - magnitude).max(0) as usize;
     format!("{value:.decimals$}")
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn interval(value: f64, low: f64, high: f64) -> Estimate {
+        Estimate { value, low, high }
+    }
+
+    #[test]
+    fn the_sentence_follows_the_sign_of_the_interval() {
+        let (dc, equal) = (Arm::DivideAndConquer, Arm::TraditionalEqualPoses);
+        let better = verdict_sentence(dc, equal, true, &interval(-2e-5, -3e-5, -1e-5));
+        assert!(
+            better.starts_with("D&C is more accurate than traditional at an equal number of poses by 0.02000 mm [0.01000, 0.03000]"),
+            "{better}"
+        );
+        let worse = verdict_sentence(dc, equal, true, &interval(2e-5, 1e-5, 3e-5));
+        assert!(
+            worse.starts_with("Traditional at an equal number of poses is more accurate than D&C by 0.02000 mm [0.01000, 0.03000]"),
+            "{worse}"
+        );
+        let neither = verdict_sentence(dc, Arm::Traditional, false, &interval(1e-6, -1e-5, 1.2e-5));
+        assert!(
+            neither.starts_with("No significant difference between D&C and traditional:"),
+            "{neither}"
+        );
+        assert!(
+            neither.contains("0.001000 mm [-0.01000, 0.01200]"),
+            "{neither}"
+        );
+    }
+
+    #[test]
+    fn every_trial_gets_its_own_seed_and_the_same_one_each_time() {
+        let seeds: std::collections::BTreeSet<u64> = (0..1000).map(|i| trial_seed(7, i)).collect();
+        assert_eq!(seeds.len(), 1000);
+        assert_eq!(trial_seed(7, 12), trial_seed(7, 12));
+        assert_ne!(trial_seed(7, 12), trial_seed(8, 12));
+    }
+}

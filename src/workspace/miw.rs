@@ -12,6 +12,7 @@
 use argmin::core::{CostFunction, Error as ArgminError, Executor, State};
 use argmin::solver::neldermead::NelderMead;
 use nalgebra::Vector2;
+use rayon::prelude::*;
 
 use super::region::geometry;
 use crate::error::{Error, KinematicsError, Result};
@@ -213,7 +214,8 @@ pub fn maximal_inscribed_workspace(mechanism: &Mechanism, options: MiwOptions) -
 }
 
 /// The first boundary crossing along each of `options.rays` rays from `centre`, continuing the
-/// legs' solutions step by step along the ray.
+/// legs' solutions step by step along the ray. The rays are independent: they are cast in
+/// parallel (rayon), collected in ray order.
 fn cast_rays(
     margin: &SingularityMargin<'_>,
     centre: [f64; 2],
@@ -224,34 +226,47 @@ fn cast_rays(
     };
     let progress = crate::progress::Progress::new(options.rays as u64, "workspace: casting rays");
     Ok((0..options.rays)
+        .into_par_iter()
         .map(|k| {
             progress.advance(1);
-            let angle = std::f64::consts::TAU * k as f64 / options.rays as f64;
-            let direction = [angle.cos(), angle.sin()];
-            let at = |t: f64| [centre[0] + t * direction[0], centre[1] + t * direction[1]];
-            let (mut inside, mut outside) = (0.0, options.step);
-            let mut seeds = start.clone();
-            for _ in 0..200_000 {
-                match margin.continued(at(outside), &seeds) {
-                    Some(solutions) => seeds = solutions,
-                    None => break,
-                }
-                inside = outside;
-                outside += options.step;
-            }
-            while outside - inside > 1e-12 {
-                let middle = 0.5 * (inside + outside);
-                match margin.continued(at(middle), &seeds) {
-                    Some(solutions) => {
-                        seeds = solutions;
-                        inside = middle;
-                    }
-                    None => outside = middle,
-                }
-            }
-            at(inside)
+            boundary_along_ray(margin, centre, &start, options, k)
         })
         .collect())
+}
+
+/// The first boundary crossing along ray `k` of `options.rays` from `centre` (the legs solved
+/// there: `start`): march by `options.step`, then bisect to 1e-12 m.
+fn boundary_along_ray(
+    margin: &SingularityMargin<'_>,
+    centre: [f64; 2],
+    start: &[LegSolution],
+    options: MiwOptions,
+    k: usize,
+) -> [f64; 2] {
+    let angle = std::f64::consts::TAU * k as f64 / options.rays as f64;
+    let direction = [angle.cos(), angle.sin()];
+    let at = |t: f64| [centre[0] + t * direction[0], centre[1] + t * direction[1]];
+    let (mut inside, mut outside) = (0.0, options.step);
+    let mut seeds = start.to_vec();
+    for _ in 0..200_000 {
+        match margin.continued(at(outside), &seeds) {
+            Some(solutions) => seeds = solutions,
+            None => break,
+        }
+        inside = outside;
+        outside += options.step;
+    }
+    while outside - inside > 1e-12 {
+        let middle = 0.5 * (inside + outside);
+        match margin.continued(at(middle), &seeds) {
+            Some(solutions) => {
+                seeds = solutions;
+                inside = middle;
+            }
+            None => outside = middle,
+        }
+    }
+    at(inside)
 }
 
 struct NegativeRadius<'f> {

@@ -2,6 +2,7 @@
 mod accuracy_map;
 mod bad_input;
 mod calibrated;
+mod checks_prismatic;
 mod cli;
 mod estimate_options;
 mod evaluate;
@@ -26,6 +27,7 @@ mod solvers_agree;
 mod spatial;
 mod statistics_independent;
 mod statistics_trust;
+mod statistics_values;
 mod support;
 mod warm_start;
 mod workspace;

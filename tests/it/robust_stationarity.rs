@@ -5,12 +5,18 @@
 //! parameter derivatives and pose gradients by central differences, σ_i² = σ_q² + Σ_c
 //! (∂ψ/∂P_c · σ_c)² at the least-squares estimate (where the fit takes its scale), and the
 //! weights from the losses' formulas (Huber min(1, c/|u|) with c = 1.345, Cauchy
-//! 1/(1 + (u/c)²) with c = 2.3849).
-use legwise::identify::estimate::{identify, identify_with, FitOptions, Strategy};
+//! 1/(1 + (u/c)²) with c = 2.3849). And the robust fit's outlier statistics: standardised
+//! residuals t_i = r_i/(σ_i √(1 − h_ii)), h from the explicit hat matrix of the σ-scaled
+//! Jacobian, against the normal law's Bonferroni quantile (printed tables: 3.452433 for
+//! 18 rows at family level 1 %).
+use legwise::identify::estimate::{identify, identify_with, FitOptions, Strategy, StrategyResult};
 use legwise::identify::robust::RobustLoss;
 use legwise::kinematics::inverse::predict_reading;
 use legwise::measure::file::read;
+use legwise::measure::MeasurementSet;
+use legwise::model::Mechanism;
 use legwise::solver::SolverKind;
+use nalgebra::DMatrix;
 
 use crate::support::{bundled, crate_path};
 
@@ -28,12 +34,94 @@ fn weight(loss: RobustLoss, u: f64) -> f64 {
     }
 }
 
-#[test]
-fn robust_estimates_solve_their_weighted_normal_equations() {
-    let mechanism = bundled("5r.yaml");
-    let data = read(&crate_path("tests/data/stats_5r_outlier.csv"), &mechanism).unwrap();
+/// One leg's measurement row rebuilt outside the fit.
+struct Row {
+    line: usize,
+    /// Predicted minus measured reading at the estimate.
+    r: f64,
+    /// σ_q² + Σ_c (∂ψ/∂P_c · σ_c)² at `phi_variance`.
+    variance: f64,
+    /// ∂r/∂θ over the identified parameters, by central differences.
+    derivatives: Vec<f64>,
+}
+
+fn rows(
+    mechanism: &Mechanism,
+    data: &MeasurementSet,
+    l: usize,
+    phi: &[f64],
+    phi_variance: &[f64],
+) -> Vec<Row> {
+    let model = &mechanism.legs[l];
     let noise = mechanism.noise.expect("declared noise");
     let home = mechanism.home_pose;
+    let reading =
+        |phi: &[f64], pose: &[f64; 6]| predict_reading(model, phi, pose, &home).expect("reachable");
+    data.leg_blocks(l)
+        .iter()
+        .map(|block| {
+            let mut variance = noise.reading.powi(2);
+            for &c in &mechanism.measured {
+                let h = 1e-6;
+                let (mut up, mut down) = (block.pose, block.pose);
+                up[c] += h;
+                down[c] -= h;
+                let derivative =
+                    (reading(phi_variance, &up) - reading(phi_variance, &down)) / (2.0 * h);
+                variance += (derivative * noise.pose[c]).powi(2);
+            }
+            let derivatives = model
+                .identified()
+                .iter()
+                .map(|&j| {
+                    let h = 1e-7 * (1.0 + phi[j].abs());
+                    let (mut up, mut down) = (phi.to_vec(), phi.to_vec());
+                    up[j] += h;
+                    down[j] -= h;
+                    (reading(&up, &block.pose) - reading(&down, &block.pose)) / (2.0 * h)
+                })
+                .collect();
+            Row {
+                line: block.line.expect("read from a file"),
+                r: reading(phi, &block.pose) - block.reading,
+                variance,
+                derivatives,
+            }
+        })
+        .collect()
+}
+
+fn estimates(result: &StrategyResult, l: usize) -> Vec<f64> {
+    result.legs[l]
+        .parameters
+        .iter()
+        .map(|p| p.estimate)
+        .collect()
+}
+
+fn outlier_data() -> (Mechanism, MeasurementSet) {
+    let mechanism = bundled("5r.yaml");
+    let data = read(&crate_path("tests/data/stats_5r_outlier.csv"), &mechanism).unwrap();
+    (mechanism, data)
+}
+
+fn robust_fit(mechanism: &Mechanism, data: &MeasurementSet, loss: RobustLoss) -> StrategyResult {
+    identify_with(
+        mechanism,
+        data,
+        Strategy::DivideAndConquer,
+        SolverKind::LevenbergMarquardt,
+        FitOptions {
+            robust: Some(loss),
+            ..Default::default()
+        },
+    )
+    .unwrap()
+}
+
+#[test]
+fn robust_estimates_solve_their_weighted_normal_equations() {
+    let (mechanism, data) = outlier_data();
     let plain = identify(
         &mechanism,
         &data,
@@ -42,56 +130,29 @@ fn robust_estimates_solve_their_weighted_normal_equations() {
     )
     .unwrap();
     for loss in [RobustLoss::Huber, RobustLoss::Cauchy] {
-        let robust = identify_with(
-            &mechanism,
-            &data,
-            Strategy::DivideAndConquer,
-            SolverKind::LevenbergMarquardt,
-            FitOptions {
-                robust: Some(loss),
-                ..Default::default()
-            },
-        )
-        .unwrap();
-        for (l, (fitted, least_squares)) in robust.legs.iter().zip(&plain.legs).enumerate() {
+        let robust = robust_fit(&mechanism, &data, loss);
+        for l in 0..mechanism.legs.len() {
             let model = &mechanism.legs[l];
-            let phi_ls: Vec<f64> = least_squares
-                .parameters
-                .iter()
-                .map(|p| p.estimate)
-                .collect();
-            let phi: Vec<f64> = fitted.parameters.iter().map(|p| p.estimate).collect();
+            // The fit takes each row's scale at the least-squares estimate.
+            let rows = rows(
+                &mechanism,
+                &data,
+                l,
+                &estimates(&robust, l),
+                &estimates(&plain, l),
+            );
             let columns = model.identified();
             let mut gradient = vec![0.0; columns.len()];
             let mut scale = vec![0.0; columns.len()];
             let mut downweighted = 0;
-            for block in data.leg_blocks(l) {
-                let reading = |phi: &[f64], pose: &[f64; 6]| {
-                    predict_reading(model, phi, pose, &home).expect("reachable")
-                };
-                let mut variance = noise.reading.powi(2);
-                for &c in &mechanism.measured {
-                    let h = 1e-6;
-                    let (mut up, mut down) = (block.pose, block.pose);
-                    up[c] += h;
-                    down[c] -= h;
-                    let derivative = (reading(&phi_ls, &up) - reading(&phi_ls, &down)) / (2.0 * h);
-                    variance += (derivative * noise.pose[c]).powi(2);
-                }
-                let r = reading(&phi, &block.pose) - block.reading;
-                let w = weight(loss, r / variance.sqrt()) / variance;
-                if w * variance < 0.5 {
+            for row in &rows {
+                let w = weight(loss, row.r / row.variance.sqrt()) / row.variance;
+                if w * row.variance < 0.5 {
                     downweighted += 1;
                 }
-                for (k, &j) in columns.iter().enumerate() {
-                    let h = 1e-7 * (1.0 + phi[j].abs());
-                    let (mut up, mut down) = (phi.clone(), phi.clone());
-                    up[j] += h;
-                    down[j] -= h;
-                    let derivative =
-                        (reading(&up, &block.pose) - reading(&down, &block.pose)) / (2.0 * h);
-                    gradient[k] += w * r * derivative;
-                    scale[k] += (w * r * derivative).abs();
+                for (k, derivative) in row.derivatives.iter().enumerate() {
+                    gradient[k] += w * row.r * derivative;
+                    scale[k] += (w * row.r * derivative).abs();
                 }
             }
             for (k, &j) in columns.iter().enumerate() {
@@ -108,5 +169,53 @@ fn robust_estimates_solve_their_weighted_normal_equations() {
             let expected = usize::from(l == 0);
             assert_eq!(downweighted, expected, "{loss:?} {}", model.name);
         }
+    }
+}
+
+#[test]
+fn a_robust_fit_flags_rows_by_their_standardised_residuals() {
+    let (mechanism, data) = outlier_data();
+    let robust = robust_fit(&mechanism, &data, RobustLoss::Cauchy);
+    for (l, leg) in robust.legs.iter().enumerate() {
+        let phi = estimates(&robust, l);
+        let rows = rows(&mechanism, &data, l, &phi, &phi);
+        let m = rows.len();
+        assert_eq!(m, 18);
+        let n = rows[0].derivatives.len();
+        let j = DMatrix::from_fn(m, n, |i, k| {
+            rows[i].derivatives[k] / rows[i].variance.sqrt()
+        });
+        let hat = &j * (j.transpose() * &j).try_inverse().unwrap() * j.transpose();
+        let t: Vec<f64> = (0..m)
+            .map(|i| rows[i].r / (rows[i].variance.sqrt() * (1.0 - hat[(i, i)]).sqrt()))
+            .collect();
+        let largest = t.iter().map(|v| v.abs()).fold(0.0, f64::max);
+        let reported = leg.statistics.largest_t.expect("a t");
+        assert!(
+            (reported - largest).abs() <= 1e-4 * largest,
+            "{}: largest |t| {reported} vs {largest}",
+            leg.leg
+        );
+        let threshold = leg.statistics.outlier_threshold.expect("a threshold");
+        assert!((threshold - 3.452_433).abs() < 1e-6, "{threshold}");
+        let mut flagged: Vec<usize> = (0..m)
+            .filter(|&i| t[i].abs() > threshold)
+            .map(|i| rows[i].line)
+            .collect();
+        flagged.sort_unstable();
+        let mut reported: Vec<usize> = leg
+            .statistics
+            .outliers
+            .iter()
+            .map(|o| o.line.unwrap())
+            .collect();
+        reported.sort_unstable();
+        assert_eq!(reported, flagged, "{}", leg.leg);
+        assert_eq!(
+            flagged.is_empty(),
+            l != 0,
+            "{}: only leg1 has an outlier",
+            leg.leg
+        );
     }
 }

@@ -133,6 +133,13 @@ fn refinement_stops_after_its_step_cap_or_budget() {
         (refined.residual_evaluations, refined.jacobian_evaluations),
         (51, 50)
     );
+    // From 2⁻⁶⁰ (a = 2⁸⁰) the absolute part of the round-off bound, 1e-15·1e-15, is reached
+    // within the cap: 2⁻¹⁰⁰ ≈ 7.9e-31 ≤ 1e-30 < 2⁻⁹⁹, after 40 steps.
+    let mut tiny = Power::new(2, 0.0, 0.0);
+    tiny.gain = 2f64.powi(80);
+    let refined = refine(&tiny, &start(0.5f64.powi(60), 0.0), 1000);
+    assert_eq!(refined.steps, 40);
+    assert!(close(refined.x[0], 0.5f64.powi(100)), "{}", refined.x[0]);
     // A budget of 10 residual evaluations: the start and 9 steps.
     let refined = refine(&problem, &start(0.5f64.powi(20), 0.0), 10);
     assert_eq!(refined.steps, 9);

@@ -1,8 +1,9 @@
 //! The fast engines (rank-one, block, A, E) against the from-scratch reference.
 
 use super::*;
-use crate::selection::driver::{order, Engine};
+use crate::selection::driver::{order, Engine, Step};
 use crate::selection::linalg::spd_inverse;
+use crate::selection::pool::CHUNK;
 use crate::selection::{BlockD, Naive, Pool, RankOneD};
 
 #[test]
@@ -41,21 +42,21 @@ fn follow_sweep<E: Engine>(
     let mut naive = Naive {
         pool,
         criterion: Criterion::D,
-        ridge: false,
     };
     let mut design: Vec<usize> = (0..count).collect();
     let mut eligible: Vec<bool> = (0..pool.k).map(|j| j >= count).collect();
-    fast.sweep_start(&design).unwrap();
-    naive.sweep_start(&design).unwrap();
+    let (start, ridge) = pool.exchange_inverse(&design).unwrap();
+    fast.sweep_start(start);
     let mut swaps = 0;
     for _ in 0..count {
-        let order = order(&design);
-        let chosen = fast.best_swap(&design, &order, &eligible).unwrap();
-        assert_eq!(
-            chosen,
-            naive.best_swap(&design, &order, &eligible).unwrap(),
-            "swap {swaps}"
-        );
+        let step = Step {
+            design: &design,
+            order: &order(&design),
+            eligible: &eligible,
+            ridge,
+        };
+        let chosen = fast.best_swap(&step).unwrap();
+        assert_eq!(chosen, naive.best_swap(&step).unwrap(), "swap {swaps}");
         let Some((pos, j)) = chosen else { break };
         fast.swapped(&design, pos, j);
         eligible[design[pos]] = true;
@@ -76,7 +77,9 @@ fn swaps_and_inverse_updates_follow_the_from_scratch_evaluation() {
     for (seed, count) in [(21, 10), (22, 7), (23, 14)] {
         let candidates = random_pool(seed, 80, 1, 6);
         let pool = Pool::new(&candidates, &options(count)).unwrap();
-        follow_sweep(&pool, count, &mut RankOneD::new(&pool), |e| e.minv.clone());
+        follow_sweep(&pool, count, &mut RankOneD::new(&pool), |e| {
+            e.inverse.minv.clone()
+        });
     }
     for (candidates, count) in [
         (block_diagonal_pool(24, 60, 2, 4), 8),
@@ -84,7 +87,9 @@ fn swaps_and_inverse_updates_follow_the_from_scratch_evaluation() {
         (random_pool(26, 60, 3, 7), 5),
     ] {
         let pool = Pool::new(&candidates, &options(count)).unwrap();
-        follow_sweep(&pool, count, &mut BlockD::new(&pool), |e| e.minv.clone());
+        follow_sweep(&pool, count, &mut BlockD::new(&pool), |e| {
+            e.inverse.minv.clone()
+        });
     }
 }
 
@@ -101,23 +106,23 @@ fn a_singular_design_is_exchanged_with_the_ridge() {
     }
     let pool = Pool::new(&candidates, &options(3)).unwrap();
     let design = vec![0, 1, 2];
-    assert!(pool.exchange_inverse(&design).unwrap().1);
+    let (minv, ridge) = pool.exchange_inverse(&design).unwrap();
+    assert!(ridge);
     let eligible: Vec<bool> = (0..pool.k).map(|j| j >= 3).collect();
     let mut fast = RankOneD::new(&pool);
     let mut naive = Naive {
         pool: &pool,
         criterion: Criterion::D,
-        ridge: false,
     };
-    fast.sweep_start(&design).unwrap();
-    naive.sweep_start(&design).unwrap();
-    let chosen = fast.best_swap(&design, &order(&design), &eligible).unwrap();
-    assert_eq!(
-        chosen,
-        naive
-            .best_swap(&design, &order(&design), &eligible)
-            .unwrap()
-    );
+    fast.sweep_start(minv);
+    let step = Step {
+        design: &design,
+        order: &order(&design),
+        eligible: &eligible,
+        ridge,
+    };
+    let chosen = fast.best_swap(&step).unwrap();
+    assert_eq!(chosen, naive.best_swap(&step).unwrap());
     let (pos, j) = chosen.unwrap();
     let mut repaired = design.clone();
     repaired[pos] = j;
@@ -141,6 +146,58 @@ fn a_and_e_criteria_give_the_naive_selection() {
                 fast.indices, naive.indices,
                 "{criterion:?} blocks, seed {seed}"
             );
+        }
+    }
+}
+
+#[test]
+fn pools_larger_than_one_chunk_give_the_naive_selection() {
+    // K > CHUNK: the products with X are formed in several chunks, the swaps pruned by the
+    // leverage bound; the selection must still be the from-scratch one.
+    let mut exchanges = 0;
+    for (seed, b, n, count) in [(41, 1, 3, 5), (42, 1, 6, 8), (44, 1, 6, 15), (43, 2, 4, 3)] {
+        let candidates = skewed_pool(seed, 2 * CHUNK + 7, b, n);
+        let pool = Pool::new(&candidates, &options(count)).unwrap();
+        assert!(pool.chunks().count() >= 2);
+        let (fast, naive) = (
+            select(&candidates, &options(count)).unwrap(),
+            select_naive(&candidates, &options(count)).unwrap(),
+        );
+        assert_eq!(fast.indices, naive.indices, "seed {seed}, b = {b}");
+        exchanges += fast.exchanges;
+    }
+    assert!(exchanges > 0, "the exchange phase was never exercised");
+}
+
+#[test]
+fn chunks_cover_the_pool_in_order_with_nearly_equal_sizes() {
+    for k in [1, 5, 6, CHUNK - 1, CHUNK, CHUNK + 1, 3 * CHUNK + 2, 10_000] {
+        let pool = Pool::new(&random_pool(7, k, 1, 1), &options(1)).unwrap();
+        let ranges: Vec<_> = pool.chunks().collect();
+        assert_eq!(ranges.first().unwrap().start, 0, "K = {k}");
+        assert_eq!(ranges.last().unwrap().end, k, "K = {k}");
+        assert!(ranges.windows(2).all(|w| w[0].end == w[1].start), "K = {k}");
+        let (shortest, longest) = (
+            ranges.iter().map(|r| r.len()).min().unwrap(),
+            ranges.iter().map(|r| r.len()).max().unwrap(),
+        );
+        assert!(longest <= CHUNK && longest - shortest <= 1, "K = {k}");
+        assert!(shortest >= k.min(6), "K = {k}: a chunk of {shortest}");
+    }
+}
+
+#[test]
+fn column_dots_are_the_row_sums_of_the_componentwise_product_to_the_bit() {
+    // The leverages must be those of the whole-matrix formula, bit for bit, so that the
+    // chunked engines choose exactly the swaps the unchunked ones did.
+    for n in [3, 6, 12] {
+        let x = DMatrix::from_fn(n, 50, |p, j| ((p * 31 + j * 17) as f64).sin() * 1e3);
+        let y = DMatrix::from_fn(n, 50, |p, j| ((p * 7 + j * 13) as f64).cos() / 3.0);
+        let mut dots = vec![0.0; 50];
+        crate::selection::pool::column_dots(&x.columns(0, 50), &y, &mut dots);
+        let expected = x.component_mul(&y).row_sum();
+        for (a, b) in dots.iter().zip(expected.iter()) {
+            assert_eq!(a.to_bits(), b.to_bits(), "n = {n}");
         }
     }
 }

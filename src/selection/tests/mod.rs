@@ -196,3 +196,78 @@ fn log_det_of_a_design() {
     assert!(log_det(&pool, &[0]).is_infinite() && log_det(&pool, &[0]) < 0.0);
     assert!(log_det(&pool, &[0, 0]).is_infinite());
 }
+
+#[test]
+fn candidates_as_columns_select_as_candidate_matrices() {
+    for (seed, b, n, count) in [(51, 1, 6, 10), (52, 2, 5, 6)] {
+        let candidates = skewed_pool(seed, 300, b, n);
+        let mut columns = DMatrix::zeros(n, 300 * b);
+        for (j, c) in candidates.iter().enumerate() {
+            for r in 0..b {
+                for p in 0..n {
+                    columns[(p, j * b + r)] = c[(r, p)];
+                }
+            }
+        }
+        assert_eq!(
+            select_columns(columns, b, &options(count)),
+            select(&candidates, &options(count)),
+            "seed {seed}"
+        );
+    }
+}
+
+#[test]
+fn bad_columns_are_refused_like_bad_candidates() {
+    let o = options(3);
+    let mut columns = DMatrix::from_fn(3, 40, |p, j| ((p + 1) * (j + 2)) as f64 % 7.0 + 0.5);
+    assert_eq!(
+        select_columns(columns.clone(), 3, &o),
+        Err(SelectionError::ShapeMismatch {
+            index: 13,
+            rows: 1,
+            cols: 3,
+            expected_rows: 3,
+            expected_cols: 3
+        })
+    );
+    columns[(1, 25)] = f64::NAN;
+    assert_eq!(
+        select_columns(columns.clone(), 2, &o),
+        Err(SelectionError::NonFinite { index: 12 })
+    );
+    assert_eq!(
+        select_columns(DMatrix::zeros(3, 0), 1, &o),
+        Err(SelectionError::TooFewCandidates {
+            available: 0,
+            requested: 3
+        })
+    );
+    assert_eq!(
+        select_columns(DMatrix::zeros(0, 5), 1, &o),
+        Err(SelectionError::Empty { rows: 1, cols: 0 })
+    );
+}
+
+#[test]
+fn the_rank_of_a_pool_of_many_rows_is_found_from_its_triangular_factor() {
+    // 5000 rows (more than are decomposed at once): parameter 3 = parameter 0 + parameter 1
+    // at every candidate is rank 3 of 4; perturbing one row restores full rank.
+    let mut rng = ChaCha8Rng::seed_from_u64(61);
+    let mut candidates: Vec<DMatrix<f64>> = (0..5000)
+        .map(|_| {
+            let (a, b, c): (f64, f64, f64) = (
+                rng.sample(StandardNormal),
+                rng.sample(StandardNormal),
+                rng.sample(StandardNormal),
+            );
+            DMatrix::from_row_slice(1, 4, &[a, 1e3 * b, c, a + 1e3 * b])
+        })
+        .collect();
+    assert_eq!(
+        select(&candidates, &options(6)),
+        Err(SelectionError::RankDeficient { rank: 3, n: 4 })
+    );
+    candidates[4321][(0, 3)] += 0.5;
+    assert!(select(&candidates, &options(6)).is_ok());
+}

@@ -1,0 +1,42 @@
+//! M⁻¹ of the current design, kept up to date by the D engines' rank-one or block updates.
+
+use nalgebra::DMatrix;
+
+use super::linalg::spd_inverse;
+use super::pool::Pool;
+
+/// M⁻¹ of the current design: the ridge alone at the start of the greedy construction, then
+/// updated by each engine's Sherman–Morrison or Woodbury formulas.
+pub(super) struct RunningInverse {
+    /// M⁻¹ of the current design (with the ridge during the greedy phase).
+    pub(super) minv: DMatrix<f64>,
+    /// Whether M⁻¹ was recomputed once the greedy design reached n rows.
+    refreshed: bool,
+}
+
+impl RunningInverse {
+    /// diag(1/ridge), the inverse of the ridge start M = ε·diag(Σ c∘c)/K.
+    pub(super) fn ridge_start(pool: &Pool) -> Self {
+        Self {
+            minv: pool.ridge_inverse(),
+            refreshed: false,
+        }
+    }
+
+    /// Once, when the greedy `design` first reaches n rows: recomputes M⁻¹ (with the ridge)
+    /// from scratch, since the ridge's large entries have cancelled in the updates. Returns
+    /// whether M⁻¹ was replaced.
+    pub(super) fn refresh(&mut self, pool: &Pool, design: &[usize]) -> bool {
+        if self.refreshed || design.len() * pool.b < pool.n {
+            return false;
+        }
+        self.refreshed = true;
+        match spd_inverse(&pool.gram(design, true)) {
+            Some(minv) => {
+                self.minv = minv;
+                true
+            }
+            None => false,
+        }
+    }
+}
