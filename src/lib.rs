@@ -10,7 +10,8 @@
 //! ## Data flow of `legwise identify --model models/5r.yaml`
 //! ```text
 //! model file (YAML) ─► model::file::ModelFile        syntax, types (file:line:column errors)
-//! + URDF            ─► model::Mechanism::load        cross-checks (errors name the field)
+//! + URDF            ─► model::Mechanism::load        cross-checks (errors name the field;
+//!                                                    defined in assembly)
 //! measurements      ─► measure::file::read | measure::simulate::simulate
 //! per leg           ─► identify::problem::IdentificationProblem (residual blocks)
 //!                      identify::observability       rank check, names unidentifiable params
@@ -28,6 +29,23 @@
 //!                      selection::select                      greedy + exchange + DETMAX (D, A, E)
 //!                      identify::observability                indices of the chosen poses
 //! pose file         ─► measure::file::to_csv
+//! ```
+//!
+//! ## Layers
+//! Each module uses only the ones on lines above it (no module cycles):
+//! ```text
+//! scalar, error, progress, solver      numbers, errors, progress bars, least-squares solvers
+//! model                                model file + URDF cross-checks (no kinematics)
+//! kinematics                           chains, leg IK, singularities (takes model types)
+//! assembly                             Mechanism::load: model + kinematic checks (home, platform)
+//! measure                              measurement files, simulation, residual blocks
+//! identify                             problems, Jacobians, fits, statistics, trust
+//! evaluate                             accuracy maps, held-out evaluation
+//! report                               terminal, JSON, plots
+//! workspace                            candidate poses, MIW, workspace pictures
+//! selection                            experiment design
+//! study                                Monte Carlo and other studies
+//! cli                                  the command line
 //! ```
 //!
 //! ## Principles
@@ -57,6 +75,7 @@
 //! assert!((l1.estimate - 0.7507).abs() < 1e-9); // the "real" value of Table 2
 //! # Ok::<(), legwise::error::Error>(())
 //! ```
+pub mod assembly;
 pub mod cli;
 pub mod error;
 pub mod evaluate;

@@ -4,9 +4,9 @@ use super::console::Console;
 use super::output::{Input, Output};
 use super::{EvaluateArgs, Verdict};
 use crate::evaluate::held_out::evaluate;
-use crate::evaluate::report::{evaluation_json, evaluation_text};
 use crate::measure::file;
 use crate::model::Mechanism;
+use crate::report::evaluation::{evaluation_json, evaluation_text};
 use crate::report::plots::files::{evaluate_picture, POSITION_ERRORS};
 
 pub(super) fn run(args: &EvaluateArgs) -> anyhow::Result<Verdict> {

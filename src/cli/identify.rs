@@ -6,12 +6,12 @@ use super::console::Console;
 use super::output::{Input, Output};
 use super::{IdentifyArgs, Verdict};
 use crate::evaluate::accuracy::{accuracy_map, map_grid, result_parameters, AccuracyMap};
-use crate::evaluate::report::{map_json, map_summary};
 use crate::identify::estimate::{identify_with, Strategy};
 use crate::identify::trust::trust_issues;
 use crate::measure::{file, MeasurementSet};
 use crate::model::Mechanism;
 use crate::report::calibrated::{calibrated_files, urdf_path, Calibration};
+use crate::report::evaluation::{map_json, map_summary};
 use crate::report::plots::files::{identify_picture_names, identify_pictures, Maps};
 use crate::report::{json, terminal, IdentifyReport};
 

@@ -4,7 +4,6 @@
 //!   move the real mechanism by forward kinematics, measure the pose error);
 //! * [`held_out`] — how well a model explains a measurement file (poses by forward kinematics
 //!   from the readings, per-leg reading residuals);
-//! * [`report`] — their terminal (mm, mrad) and JSON renderings.
+//! * their terminal (mm, mrad) and JSON renderings are [`crate::report::evaluation`]'s.
 pub mod accuracy;
 pub mod held_out;
-pub mod report;

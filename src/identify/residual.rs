@@ -13,18 +13,8 @@ use crate::kinematics::inverse::predict_reading;
 use crate::model::leg::LegModel;
 use crate::scalar::{lift, Scalar};
 
-/// One measured pose and one leg's measured actuator reading at it.
-#[derive(Debug, Clone, PartialEq)]
-pub struct ResidualBlock {
-    /// Index of the leg.
-    pub leg: usize,
-    /// Measured platform pose `[x, y, z, roll, pitch, yaw]` (metres, radians).
-    pub pose: [f64; 6],
-    /// Measured raw actuator reading.
-    pub reading: f64,
-    /// Line of the measurement file the pose came from (1-based, counting the header), if any.
-    pub line: Option<usize>,
-}
+/// Defined with the measurements (below identification in the module graph).
+pub use crate::measure::ResidualBlock;
 
 /// Largest number of whole turns matched away: a joint angle farther from its prediction is a
 /// wrong value (an outlier the statistics name), not a turn ambiguity.

@@ -5,8 +5,6 @@ pub mod simulate;
 
 use std::path::PathBuf;
 
-use crate::identify::residual::ResidualBlock;
-
 /// One measured platform pose and the readings taken there.
 #[derive(Debug, Clone, PartialEq)]
 pub struct MeasuredPose {
@@ -18,6 +16,20 @@ pub struct MeasuredPose {
     pub pose: [f64; 6],
     /// Raw reading of each leg's actuated joint, `None` when not read.
     pub readings: Vec<Option<f64>>,
+}
+
+/// One measured pose and one leg's measured actuator reading at it: a residual block of the
+/// identification (one leg × one pose, Ceres' residual block).
+#[derive(Debug, Clone, PartialEq)]
+pub struct ResidualBlock {
+    /// Index of the leg.
+    pub leg: usize,
+    /// Measured platform pose `[x, y, z, roll, pitch, yaw]` (metres, radians).
+    pub pose: [f64; 6],
+    /// Measured raw actuator reading.
+    pub reading: f64,
+    /// Line of the measurement file the pose came from (1-based, counting the header), if any.
+    pub line: Option<usize>,
 }
 
 /// A set of measured poses.

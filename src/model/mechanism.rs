@@ -7,9 +7,8 @@ use std::path::{Path, PathBuf};
 use super::file::ModelFile;
 use super::joint::ORIGIN_COMPONENTS;
 use super::leg::LegModel;
-use super::source::read_text;
 use super::workspace::Workspace;
-use crate::error::{Error, Result};
+use crate::error::Result;
 
 mod validate;
 
@@ -95,51 +94,19 @@ pub struct Simulation {
 }
 
 impl Mechanism {
-    /// Loads and validates a model file and the URDF it names.
+    /// The model file and its URDF cross-checked, before the kinematic checks of
+    /// [`crate::assembly`] (which solve each leg's home configuration and set its branch): use
+    /// [`Mechanism::load`] or [`Mechanism::parse`], which run both.
     ///
     /// # Errors
-    /// [`Error::Io`] if the model file cannot be read or is not a regular file,
-    /// [`Error::Model`] on field `urdf` if the URDF cannot be (not found, not a regular file,
-    /// unreadable), then as [`Mechanism::parse`].
-    pub fn load(path: &Path) -> Result<Self> {
-        let text = read_text(path).map_err(|error| Error::Io {
-            path: path.to_path_buf(),
-            error,
-        })?;
-        let file = ModelFile::parse(&text, path)?;
-        let urdf_path = path
-            .parent()
-            .unwrap_or_else(|| Path::new("."))
-            .join(&file.urdf);
-        let urdf_text = read_text(&urdf_path).map_err(|error| Error::Model {
-            path: path.to_path_buf(),
-            field: "urdf".into(),
-            message: if error.kind() == std::io::ErrorKind::NotFound {
-                format!("URDF file `{}` not found", urdf_path.display())
-            } else {
-                format!("URDF file `{}`: {error}", urdf_path.display())
-            },
-        })?;
-        Self::from_file(path, file, &urdf_path, &urdf_text)
-    }
-
-    /// Parses and validates model-file text and URDF text (no file is read: the paths are only
-    /// used in messages). [`Mechanism::load`] without the file system, e.g. for fuzzing.
-    ///
-    /// # Errors
-    /// [`Error::Yaml`], [`Error::Urdf`] (with the line where there is one) or [`Error::Model`]
-    /// naming the field.
-    pub fn parse(
-        model_text: &str,
-        model_path: &Path,
-        urdf_text: &str,
+    /// [`crate::error::Error::Urdf`] (with the line where there is one) or
+    /// [`crate::error::Error::Model`] naming the field.
+    pub(crate) fn unassembled(
+        path: &Path,
+        file: ModelFile,
         urdf_path: &Path,
+        urdf_text: &str,
     ) -> Result<Self> {
-        let file = ModelFile::parse(model_text, model_path)?;
-        Self::from_file(model_path, file, urdf_path, urdf_text)
-    }
-
-    fn from_file(path: &Path, file: ModelFile, urdf_path: &Path, urdf_text: &str) -> Result<Self> {
         let robot = super::urdf::parse(urdf_text, urdf_path)?;
         Builder {
             path,

@@ -1,5 +1,6 @@
 //! Reports of an identification: the values (this module), terminal tables and JSON.
 pub mod calibrated;
+pub mod evaluation;
 pub mod json;
 pub mod plots;
 pub mod terminal;

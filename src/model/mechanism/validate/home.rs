@@ -1,12 +1,10 @@
-//! The home pose and each leg's home configuration, which fixes its branch (working mode).
+//! The home pose and each leg's home configuration (its joints' seeds, checked for presence
+//! here; solved at the home pose, which fixes the branch, by [`crate::assembly`]).
 
 use std::collections::BTreeMap;
 
 use super::Builder;
 use crate::error::Result;
-use crate::kinematics::chain::moving_axes;
-use crate::kinematics::inverse::newton;
-use crate::model::joint::JointKind;
 use crate::model::leg::LegModel;
 use crate::model::mechanism::COORDINATES;
 
@@ -47,7 +45,6 @@ impl Builder<'_> {
         leg: &mut LegModel,
         index: usize,
         seeds: &BTreeMap<String, f64>,
-        home_pose: &[f64; 6],
     ) -> Result<()> {
         let field = format!("legs[{index}].home");
         let mut seed = Vec::new();
@@ -78,35 +75,9 @@ impl Builder<'_> {
                 "not a moving joint of the leg's chain",
             ));
         }
-        let geometry = leg.geometry(&leg.nominal());
-        if leg.closure_dims == 2 {
-            // A planar model: revolute joints must turn about z, prismatic ones slide in x, y.
-            let axes = moving_axes(leg, &geometry, &seed);
-            for ((kind, axis), &j) in axes.iter().zip(&leg.moving) {
-                let planar = match kind {
-                    JointKind::Revolute => axis.z.abs() > 1.0 - 1e-9,
-                    _ => axis.z.abs() < 1e-9,
-                };
-                if !planar {
-                    let name = &leg.joints[j].name;
-                    return Err(self.error(
-                        format!("legs[{index}].chain"),
-                        format!(
-                            "joint `{name}` has world axis ({:.3}, {:.3}, {:.3}) at home; a planar model (z not measured) needs revolute axes along z and prismatic axes in the x-y plane (check its <axis> in the URDF)",
-                            axis.x, axis.y, axis.z
-                        ),
-                    ));
-                }
-            }
-        }
-        let solution = newton(leg, &geometry, home_pose, &seed).map_err(|err| {
-            self.error(
-                &field,
-                format!("the home configuration does not close at the home pose: {err}"),
-            )
-        })?;
-        leg.branch_sign = solution.normalised_determinant.signum();
-        leg.home_joints = solution.q;
+        // The kinematic checks (planar axes, closure at the home pose, branch) are
+        // `crate::assembly`'s: this module stays below the kinematics.
+        leg.home_joints = seed;
         Ok(())
     }
 }

@@ -11,7 +11,6 @@ mod home;
 mod legs;
 mod noise;
 mod parameters;
-mod platform;
 mod scale;
 mod setup;
 mod workspace;
@@ -47,7 +46,7 @@ impl Builder<'_> {
         self.parameters(&file.parameters, &mut legs)?;
         self.scale(&file, &legs)?;
         for (index, leg) in legs.iter_mut().enumerate() {
-            self.home(leg, index, &file.legs[index].home, &home_pose)?;
+            self.home(leg, index, &file.legs[index].home)?;
         }
         let workspace = self.workspace(&file, &measured)?;
         let noise = match &file.noise {
@@ -69,7 +68,6 @@ impl Builder<'_> {
             noise,
             simulation,
         };
-        self.platform(&mechanism)?;
         Ok(mechanism)
     }
 

@@ -5,10 +5,10 @@ use std::fmt::Write;
 
 use serde_json::{json, Value};
 
-use super::accuracy::{AccuracyMap, ErrorStats};
-use super::held_out::Evaluation;
+use super::json::{finite, header, merge, optional};
+use crate::evaluate::accuracy::{AccuracyMap, ErrorStats};
+use crate::evaluate::held_out::Evaluation;
 use crate::model::Mechanism;
-use crate::report::json::{finite, header, merge, optional};
 
 /// `{"rms", "median", "p95", "max"}`, or `null`.
 pub fn stats_json(stats: Option<&ErrorStats>) -> Value {
