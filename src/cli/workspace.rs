@@ -9,29 +9,17 @@ use super::{Verdict, WorkspaceArgs};
 use crate::measure::{file, MeasurementSet};
 use crate::model::mechanism::COORDINATES;
 use crate::model::Mechanism;
-use crate::report::plots::workspace::PoseGroup;
+use crate::report::plots::workspace::{PoseGroup, WorkspaceFigure};
 use crate::report::plots::{render, Format};
 use crate::workspace::miw::{maximal_inscribed_workspace, MiwOptions, SingularityMargin};
+use crate::workspace::miw3d::{
+    self, horizontal_slice, spatial_inscribed_workspace, Miw3dOptions, REACH,
+};
 use crate::workspace::picture::workspace_figure;
 
 pub(super) fn run(args: &WorkspaceArgs) -> anyhow::Result<Verdict> {
     let rays = super::checks::count("--rays", args.rays, 16, 100_000)?;
     let mechanism = Mechanism::load(&args.model)?;
-    if !mechanism.is_planar() {
-        return Err(crate::error::Error::Invalid(format!(
-            "{}: `legwise workspace` is not yet available for spatial models (measured: {}{}): \
-             the MIW and its picture need a planar mechanism measured in x, y and at most yaw, \
-             with a disc, box or polygon region",
-            args.model.display(),
-            mechanism.measured_names().join(", "),
-            if mechanism.workspace.region.is_spatial() {
-                "; a spatial region"
-            } else {
-                ""
-            }
-        ))
-        .into());
-    }
     let (path, format) = picture_path(args)?;
     let mut inputs = super::model_inputs(&args.model, &mechanism);
     inputs.extend(args.poses.as_deref().map(|path| Input {
@@ -44,6 +32,12 @@ pub(super) fn run(args: &WorkspaceArgs) -> anyhow::Result<Verdict> {
         None => Vec::new(),
     };
     let mut console = Console::new(output.is_stdout());
+    if !mechanism.is_planar() {
+        let figure = spatial(&mechanism, rays, poses, &mut console)?;
+        output.write("picture", &render(&figure, format)?)?;
+        console.line(format_args!("picture written to {}", output.name()))?;
+        return Ok(Verdict::Trusted);
+    }
     let options = MiwOptions {
         rays,
         ..MiwOptions::for_mechanism(&mechanism)
@@ -87,6 +81,94 @@ pub(super) fn run(args: &WorkspaceArgs) -> anyhow::Result<Verdict> {
     console.print(&text)?;
     console.line(format_args!("picture written to {}", output.name()))?;
     Ok(Verdict::Trusted)
+}
+
+/// A spatial mechanism: the 3-D MIW at the home orientation, printed, and the picture of the
+/// horizontal slice through the home position (the region's boundary and the ball's
+/// cross-section).
+fn spatial(
+    mechanism: &Mechanism,
+    rays: usize,
+    poses: Vec<PoseGroup>,
+    console: &mut Console,
+) -> anyhow::Result<WorkspaceFigure> {
+    let options = Miw3dOptions {
+        rays,
+        ..Miw3dOptions::for_mechanism(mechanism)
+    };
+    let miw = spatial_inscribed_workspace(mechanism, options)?;
+    let slice = horizontal_slice(mechanism, options, 360)?;
+    let orientation: Vec<String> = (3..6)
+        .filter(|c| mechanism.measured.contains(c))
+        .map(|c| format!("{} = {}", COORDINATES[c], mechanism.home_pose[c]))
+        .collect();
+    let mut text = String::new();
+    writeln!(
+        text,
+        "legwise workspace: {} ({})",
+        mechanism.name,
+        mechanism.model_path.display()
+    )?;
+    if !orientation.is_empty() {
+        writeln!(
+            text,
+            "constant-orientation region at the home values: {}",
+            orientation.join(", ")
+        )?;
+    }
+    writeln!(
+        text,
+        "maximal inscribed workspace (3-D MIW, a ball about the home position, {rays} rays):"
+    )?;
+    let [x, y, z] = miw.centre.map(|v| crate::report::tidy(v, 7));
+    writeln!(text, "  centre  x = {x:.7} m, y = {y:.7} m, z = {z:.7} m")?;
+    writeln!(text, "  radius  {:.7} m", miw.radius)?;
+    let reach = REACH * miw3d::region_size(mechanism);
+    let far = |points: &mut dyn Iterator<Item = f64>| {
+        points.filter(|r| *r >= reach * (1.0 - 1e-9)).count()
+    };
+    let capped = far(&mut miw.boundary.iter().map(|p| {
+        (0..3)
+            .map(|k| (p[k] - miw.centre[k]).powi(2))
+            .sum::<f64>()
+            .sqrt()
+    }));
+    let capped_slice = far(&mut slice
+        .iter()
+        .map(|p| (p[0] - miw.centre[0]).hypot(p[1] - miw.centre[1])));
+    if capped + capped_slice > 0 {
+        writeln!(
+            text,
+            "  {capped} of {rays} rays (and {capped_slice} of the slice's 360) met no boundary \
+             within {reach:.3} m ({REACH} region sizes) and stop there"
+        )?;
+    }
+    writeln!(text, "picture: the horizontal slice z = {z:.7} m")?;
+    console.print(&text)?;
+    let (mut lo, mut hi) = ([f64::INFINITY; 2], [f64::NEG_INFINITY; 2]);
+    for p in slice
+        .iter()
+        .chain(poses.iter().flat_map(|g| g.points.iter()))
+    {
+        for k in 0..2 {
+            lo[k] = lo[k].min(p[k]);
+            hi[k] = hi[k].max(p[k]);
+        }
+    }
+    let pad = 0.25 * (hi[0] - lo[0]).max(hi[1] - lo[1]);
+    Ok(WorkspaceFigure {
+        title: format!(
+            "{}: singularity-free slice z = {z:.3} m and 3-D MIW",
+            mechanism.name
+        ),
+        region: slice,
+        serial: Vec::new(),
+        parallel: Vec::new(),
+        miw_centre: [miw.centre[0], miw.centre[1]],
+        miw_radius: miw.radius,
+        poses,
+        bounds: ([lo[0] - pad, lo[1] - pad], [hi[0] + pad, hi[1] + pad]),
+    })
 }
 
 /// `--out` (`-`: standard output), its format by the extension (or `--png` for standard

@@ -3,5 +3,6 @@
 pub mod candidates;
 pub mod contour;
 pub mod miw;
+pub mod miw3d;
 pub mod picture;
 pub mod region;

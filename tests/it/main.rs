@@ -25,6 +25,7 @@ mod selection;
 mod solver_refine;
 mod solvers_agree;
 mod spatial;
+mod spatial_workspace;
 mod statistics_independent;
 mod statistics_trust;
 mod statistics_values;

@@ -619,23 +619,6 @@ fn the_hexapod_candidates_are_a_3d_grid_times_orientation_levels() {
 // ---------------------------------------------------------------- the command line
 
 #[test]
-fn the_workspace_command_refuses_spatial_models_clearly() {
-    let out = legwise(&[
-        "workspace",
-        "--model",
-        "models/hexapod.yaml",
-        "--out",
-        "/dev/null",
-    ]);
-    let stderr = text(&out.stderr);
-    assert_eq!(out.status.code(), Some(2), "{stderr}");
-    assert!(
-        stderr.starts_with("legwise: models/hexapod.yaml: `legwise workspace` is not yet available for spatial models"),
-        "{stderr}"
-    );
-}
-
-#[test]
 fn identify_recovers_the_delta_from_the_command_line_at_zero_noise() {
     let out = legwise(&[
         "identify",
