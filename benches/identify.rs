@@ -1,6 +1,7 @@
 //! Identification speed, with stable benchmark ids (docs/benchmarks.md):
-//! `identify_leg/{5r,3rpr}/{lm,gn}` — one leg's solve (Levenberg–Marquardt and Gauss–Newton on
-//! identical inputs: the model's simulated measurements of its first leg, 18 poses for the 5R);
+//! `identify_leg/{5r,3rpr,hexapod}/{lm,gn}` — one leg's solve (Levenberg–Marquardt and
+//! Gauss–Newton on identical inputs: the model's simulated measurements of its first leg, 18
+//! poses for the 5R, 24 for the hexapod's 8 parameters);
 //! `strategy/{5r,3rpr}/{dc,traditional}` — the whole identification (rank check, solve,
 //! statistics) by divide and conquer and by the traditional all-legs problem, on identical
 //! shared poses.
@@ -25,7 +26,7 @@ fn model(name: &str) -> Mechanism {
 }
 
 fn solvers(c: &mut Criterion) {
-    for name in ["5r.yaml", "3rpr.yaml"] {
+    for name in ["5r.yaml", "3rpr.yaml", "hexapod.yaml"] {
         let mechanism = model(name);
         let data = simulate(&mechanism, SimulationOptions::default())
             .expect("simulation")

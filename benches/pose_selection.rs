@@ -14,7 +14,9 @@ use std::hint::black_box;
 use std::time::Duration;
 
 use criterion::{criterion_group, criterion_main, Criterion};
+use legwise::model::Mechanism;
 use legwise::selection::{select, select_naive, SelectionOptions};
+use legwise::workspace::candidates::candidate_pool;
 use nalgebra::DMatrix;
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
@@ -187,5 +189,46 @@ fn bench(c: &mut Criterion) {
     group.finish();
 }
 
-criterion_group!(benches, bench);
+/// The hexapod: its candidate pool (a 6-D grid with orientation levels, each candidate's legs
+/// solved and screened for singularities) and one leg's selection of 24 poses from it (8
+/// parameters, one row per candidate). Ids: `candidates/hexapod`, `select/hexapod/rank_one`.
+fn hexapod(c: &mut Criterion) {
+    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("models/hexapod.yaml");
+    let mechanism = Mechanism::load(&path).expect("bundled model");
+    let pool = candidate_pool(&mechanism, None).expect("candidate pool");
+    let rows: Vec<DMatrix<f64>> = pool
+        .candidates
+        .iter()
+        .map(|candidate| {
+            DMatrix::from_row_slice(1, candidate.rows[0].len(), candidate.rows[0].as_slice())
+        })
+        .collect();
+    println!(
+        "hexapod: {} candidates, {} parameters",
+        rows.len(),
+        rows[0].ncols()
+    );
+    let options = SelectionOptions {
+        count: 24,
+        ..Default::default()
+    };
+    let mut group = c.benchmark_group("select");
+    group
+        .sample_size(10)
+        .measurement_time(Duration::from_secs(5));
+    group.bench_function("hexapod/rank_one", |b| {
+        b.iter(|| select(black_box(&rows), &options).unwrap())
+    });
+    group.finish();
+    let mut group = c.benchmark_group("candidates");
+    group
+        .sample_size(10)
+        .measurement_time(Duration::from_secs(10));
+    group.bench_function("hexapod", |b| {
+        b.iter(|| candidate_pool(black_box(&mechanism), None).unwrap())
+    });
+    group.finish();
+}
+
+criterion_group!(benches, bench, hexapod);
 criterion_main!(benches);
