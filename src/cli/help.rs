@@ -96,7 +96,9 @@ EXAMPLES:
   # the MIW of the bundled 5R and its picture 5r-workspace.svg
   legwise workspace --model models/5r.yaml
   # a finer boundary, the picture elsewhere
-  legwise workspace --model models/3rpr.yaml --rays 4000 --svg 3rpr-miw.svg"
+  legwise workspace --model models/3rpr.yaml --rays 4000 --svg 3rpr-miw.svg
+  # a spatial model: the 3-D MIW (a ball at the home orientation), the picture a slice
+  legwise workspace --model models/hexapod.yaml"
 );
 
 /// `legwise evaluate --help`.
