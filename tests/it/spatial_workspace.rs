@@ -105,4 +105,6 @@ fn workspace_on_the_delta_prints_the_3d_miw_and_writes_its_picture() {
         "not an SVG"
     );
     assert!(svg.contains("MIW"), "no MIW legend in the picture");
+    // The slice draws no singular curves, so its legend names none.
+    assert!(!svg.contains("singularity: a leg") && !svg.contains("(type II) singularity"));
 }

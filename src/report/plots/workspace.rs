@@ -169,18 +169,23 @@ impl WorkspaceFigure {
             x0,
             row(0),
         ))?;
-        area.draw(&line(x0, row(1), SERIAL))?;
-        area.draw(&text(
-            "serial (type I) singularity: a leg stretched, folded or out of reach".into(),
-            x0,
-            row(1),
-        ))?;
-        area.draw(&line(x0, row(2), PARALLEL))?;
-        area.draw(&text(
-            "parallel (type II) singularity: the platform gains a freedom".into(),
-            x0,
-            row(2),
-        ))?;
+        // Only the curves drawn (a spatial slice draws none).
+        if !self.serial.is_empty() {
+            area.draw(&line(x0, row(1), SERIAL))?;
+            area.draw(&text(
+                "serial (type I) singularity: a leg stretched, folded or out of reach".into(),
+                x0,
+                row(1),
+            ))?;
+        }
+        if !self.parallel.is_empty() {
+            area.draw(&line(x0, row(2), PARALLEL))?;
+            area.draw(&text(
+                "parallel (type II) singularity: the platform gains a freedom".into(),
+                x0,
+                row(2),
+            ))?;
+        }
         area.draw(&PathElement::new(
             vec![(x0, row(3) + 7), (x0 + 8, row(3) + 7)],
             BLACK.stroke_width(2),
