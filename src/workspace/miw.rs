@@ -72,11 +72,11 @@ impl<'a> SingularityMargin<'a> {
         })
     }
 
-    /// The pose at point `p` (other coordinates at home).
-    pub fn pose(&self, p: [f64; 2]) -> [f64; 6] {
+    /// The pose at point `p`: its `D` first coordinates (x, y in the plane; x, y, z in space),
+    /// the others at home.
+    pub fn pose<const D: usize>(&self, p: [f64; D]) -> [f64; 6] {
         let mut pose = self.mechanism.home_pose;
-        pose[0] = p[0];
-        pose[1] = p[1];
+        pose[..D].copy_from_slice(&p);
         pose
     }
 
@@ -84,7 +84,7 @@ impl<'a> SingularityMargin<'a> {
     ///
     /// # Errors
     /// A leg cannot reach `p` on its home branch.
-    pub fn measures(&self, p: [f64; 2]) -> Result<(f64, f64), KinematicsError> {
+    pub fn measures<const D: usize>(&self, p: [f64; D]) -> Result<(f64, f64), KinematicsError> {
         self.measures_from(p, None).map(|(measures, _)| measures)
     }
 
@@ -94,9 +94,9 @@ impl<'a> SingularityMargin<'a> {
     ///
     /// # Errors
     /// A leg cannot reach `p` on its home branch.
-    pub fn measures_from(
+    pub fn measures_from<const D: usize>(
         &self,
-        p: [f64; 2],
+        p: [f64; D],
         seeds: Option<&[LegSolution]>,
     ) -> Result<((f64, f64), Vec<LegSolution>), KinematicsError> {
         let pose = self.pose(p);
@@ -117,7 +117,7 @@ impl<'a> SingularityMargin<'a> {
     }
 
     /// The margin at `p`: positive inside the singularity-free region.
-    pub fn at(&self, p: [f64; 2]) -> f64 {
+    pub fn at<const D: usize>(&self, p: [f64; D]) -> f64 {
         self.measures(p)
             .map_or(-1.0, |(serial, parallel)| serial.min(parallel))
     }

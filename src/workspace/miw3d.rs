@@ -13,9 +13,9 @@
 
 use rayon::prelude::*;
 
-use crate::error::{Error, KinematicsError, Result};
-use crate::kinematics::inverse::{solve_leg, solve_leg_from, LegSolution};
-use crate::kinematics::singularity::ParallelMeasure;
+use super::miw::SingularityMargin;
+use crate::error::{Error, Result};
+use crate::kinematics::inverse::LegSolution;
 use crate::model::Mechanism;
 
 /// How far a ray marches at most, in sizes of the usable region (its largest side).
@@ -59,76 +59,16 @@ pub struct Miw3d {
     pub boundary: Vec<[f64; 3]>,
 }
 
-/// The singularity margin of a spatial mechanism at points, orientation held at home.
-#[derive(Debug, Clone)]
-pub struct SpatialMargin<'a> {
-    mechanism: &'a Mechanism,
-    parallel: ParallelMeasure<'a>,
-}
-
-impl<'a> SpatialMargin<'a> {
-    /// The margin for the nominal parameters.
-    ///
-    /// # Errors
-    /// The parallel measure is undefined for the mechanism.
-    pub fn new(mechanism: &'a Mechanism) -> Result<Self> {
-        let parallel = ParallelMeasure::new(mechanism, mechanism.nominal_parameters())?;
-        Ok(Self {
-            mechanism,
-            parallel,
-        })
-    }
-
-    /// The pose at point `p` (orientation at home).
-    pub fn pose(&self, p: [f64; 3]) -> [f64; 6] {
-        let mut pose = self.mechanism.home_pose;
-        pose[..3].copy_from_slice(&p);
-        pose
-    }
-
-    /// The margin at `p` (smallest of the serial measures and the parallel measure, signed by
-    /// the home modes) with the legs' solutions, each leg solved from `seeds` when given, else
-    /// from home.
-    ///
-    /// # Errors
-    /// A leg cannot reach `p` on its home branch.
-    pub fn margin_from(
-        &self,
-        p: [f64; 3],
-        seeds: Option<&[LegSolution]>,
-    ) -> Result<(f64, Vec<LegSolution>), KinematicsError> {
-        let pose = self.pose(p);
-        let mechanism = self.mechanism;
-        let mut solutions = Vec::with_capacity(mechanism.legs.len());
-        let mut serial = f64::INFINITY;
-        for (l, (leg, geometry)) in mechanism
-            .legs
-            .iter()
-            .zip(self.parallel.geometries())
-            .enumerate()
-        {
-            let solution = match seeds {
-                Some(seeds) => solve_leg_from(leg, geometry, &pose, &seeds[l].q)?,
-                None => solve_leg(leg, geometry, &pose, &mechanism.home_pose)?,
-            };
-            serial = serial.min(solution.normalised_determinant * leg.branch_sign);
-            solutions.push(solution);
-        }
-        let parallel = self.parallel.at_solutions(&pose, &solutions)?;
-        Ok((serial.min(parallel), solutions))
-    }
-
-    /// The margin at `p` solved from home: positive inside the singularity-free region, −1
-    /// where a leg cannot reach.
-    pub fn at(&self, p: [f64; 3]) -> f64 {
-        self.margin_from(p, None).map_or(-1.0, |(m, _)| m)
-    }
-
-    fn continued(&self, p: [f64; 3], seeds: &[LegSolution]) -> Option<Vec<LegSolution>> {
-        match self.margin_from(p, Some(seeds)) {
-            Ok((margin, solutions)) if margin > 0.0 => Some(solutions),
-            _ => None,
-        }
+/// The legs' solutions at `p` solved from `seeds`, if `p` is strictly inside the
+/// singularity-free region.
+fn continued(
+    margin: &SingularityMargin<'_>,
+    p: [f64; 3],
+    seeds: &[LegSolution],
+) -> Option<Vec<LegSolution>> {
+    match margin.measures_from(p, Some(seeds)) {
+        Ok(((serial, parallel), solutions)) if serial.min(parallel) > 0.0 => Some(solutions),
+        _ => None,
     }
 }
 
@@ -163,7 +103,7 @@ pub fn spatial_inscribed_workspace(mechanism: &Mechanism, options: Miw3dOptions)
     let check = sphere_directions(4 * options.rays);
     for _ in 0..200 {
         let inside = check.par_iter().all(|d| {
-            let p = std::array::from_fn(|k| centre[k] + radius * d[k]);
+            let p: [f64; 3] = std::array::from_fn(|k| centre[k] + radius * d[k]);
             margin.at(p) > 0.0
         });
         if inside {
@@ -182,15 +122,17 @@ pub fn spatial_inscribed_workspace(mechanism: &Mechanism, options: Miw3dOptions)
 ///
 /// # Errors
 /// The home position is not inside a singularity-free region.
-fn home_start(mechanism: &Mechanism) -> Result<(SpatialMargin<'_>, [f64; 3], Vec<LegSolution>)> {
-    let margin = SpatialMargin::new(mechanism)?;
+fn home_start(
+    mechanism: &Mechanism,
+) -> Result<(SingularityMargin<'_>, [f64; 3], Vec<LegSolution>)> {
+    let margin = SingularityMargin::new(mechanism)?;
     let centre = [
         mechanism.home_pose[0],
         mechanism.home_pose[1],
         mechanism.home_pose[2],
     ];
-    let start = match margin.margin_from(centre, None) {
-        Ok((m, solutions)) if m > 0.0 => solutions,
+    let start = match margin.measures_from(centre, None) {
+        Ok(((serial, parallel), solutions)) if serial.min(parallel) > 0.0 => solutions,
         _ => {
             return Err(Error::Invalid(format!(
                 "{}: the home pose is not inside a singularity-free region",
@@ -231,7 +173,7 @@ fn distance(a: &[f64; 3], b: &[f64; 3]) -> f64 {
 /// The first boundary crossing along direction `d` from `centre` (legs solved there: `start`):
 /// march by `step` up to `limit`, then bisect to 1e-10 m.
 fn boundary_along_ray(
-    margin: &SpatialMargin<'_>,
+    margin: &SingularityMargin<'_>,
     centre: [f64; 3],
     start: &[LegSolution],
     d: [f64; 3],
@@ -245,7 +187,7 @@ fn boundary_along_ray(
         if inside >= limit {
             return at(inside);
         }
-        match margin.continued(at(outside), &seeds) {
+        match continued(margin, at(outside), &seeds) {
             Some(solutions) => seeds = solutions,
             None => break,
         }
@@ -254,7 +196,7 @@ fn boundary_along_ray(
     }
     while outside - inside > 1e-10 {
         let middle = 0.5 * (inside + outside);
-        match margin.continued(at(middle), &seeds) {
+        match continued(margin, at(middle), &seeds) {
             Some(solutions) => {
                 seeds = solutions;
                 inside = middle;
