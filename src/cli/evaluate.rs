@@ -20,16 +20,10 @@ pub(super) fn run(args: &EvaluateArgs) -> anyhow::Result<Verdict> {
         role: "measurement file",
         path: &args.measurements,
     });
-    let json_output = args
-        .json
-        .as_deref()
-        .map(|path| Output::prepare("--json", path, &inputs))
-        .transpose()?;
+    let json_output = Output::prepare_optional("--json", args.json.as_deref(), &inputs)?;
     let format = super::pictures::format(args.png);
-    let picture_output = match &args.plots {
-        Some(dir) => super::pictures::prepare(dir, &[POSITION_ERRORS], format, &inputs)?.pop(),
-        None => None,
-    };
+    let picture_output =
+        super::pictures::prepare_one(args.plots.as_deref(), POSITION_ERRORS, format, &inputs)?;
     let mut console = Console::new(json_output.as_ref().is_some_and(Output::is_stdout));
     let evaluation = evaluate(&mechanism, &file::read(&args.measurements, &mechanism)?)?;
     let against = match &other {

@@ -27,11 +27,7 @@ pub(super) fn run(args: &IdentifyArgs) -> anyhow::Result<Verdict> {
         role: "measurement file",
         path,
     }));
-    let json_output = args
-        .json
-        .as_deref()
-        .map(|path| Output::prepare("--json", path, &inputs))
-        .transpose()?;
+    let json_output = Output::prepare_optional("--json", args.json.as_deref(), &inputs)?;
     let calibrated_outputs = calibrated_outputs(args, &inputs)?;
     let picture_outputs = picture_outputs(args, &inputs)?;
     check_map(args, &mechanism)?;

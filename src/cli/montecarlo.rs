@@ -23,16 +23,10 @@ pub(super) fn run(args: &MontecarloArgs) -> anyhow::Result<Verdict> {
     let poses_per_leg = super::poses_per_leg(args.poses_per_leg)?;
     let mechanism = Mechanism::load(&args.model)?;
     let inputs = super::model_inputs(&args.model, &mechanism);
-    let json_output = args
-        .json
-        .as_deref()
-        .map(|path| Output::prepare("--json", path, &inputs))
-        .transpose()?;
+    let json_output = Output::prepare_optional("--json", args.json.as_deref(), &inputs)?;
     let format = super::pictures::format(args.png);
-    let picture_output = match &args.plots {
-        Some(dir) => super::pictures::prepare(dir, &[PICTURE], format, &inputs)?.pop(),
-        None => None,
-    };
+    let picture_output =
+        super::pictures::prepare_one(args.plots.as_deref(), PICTURE, format, &inputs)?;
     let simulation = crate::measure::simulate::setup(&mechanism)?;
     let options = MonteCarloOptions {
         solver: args.solver.kind(),

@@ -50,6 +50,19 @@ pub(super) struct Output {
 }
 
 impl Output {
+    /// As [`Self::prepare`] for an optional path (`None` when the flag was not given).
+    ///
+    /// # Errors
+    /// As [`Self::prepare`].
+    pub(super) fn prepare_optional(
+        flag: &'static str,
+        path: Option<&Path>,
+        inputs: &[Input<'_>],
+    ) -> anyhow::Result<Option<Output>> {
+        path.map(|path| Self::prepare(flag, path, inputs))
+            .transpose()
+    }
+
     /// Checks the output `path` given to `flag` against the run's `inputs`.
     ///
     /// # Errors

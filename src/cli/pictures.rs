@@ -14,6 +14,23 @@ pub(super) fn format(png: bool) -> Format {
     }
 }
 
+/// The single picture `name` of a command in `--plots` directory `plots` (if given), checked
+/// before any work.
+///
+/// # Errors
+/// As [`prepare`].
+pub(super) fn prepare_one(
+    plots: Option<&Path>,
+    name: &str,
+    format: Format,
+    inputs: &[Input<'_>],
+) -> anyhow::Result<Option<Output>> {
+    match plots {
+        Some(dir) => Ok(prepare(dir, &[name], format, inputs)?.pop()),
+        None => Ok(None),
+    }
+}
+
 /// Creates `dir` if missing and checks one output per picture `names` (without extension)
 /// in it, before any work.
 ///
