@@ -108,6 +108,20 @@ struct Rigid<T> {
     translation: [T; 3],
 }
 
+/// Rodrigues' rotation about the unit `axis` by the angle whose sine is `s` and cosine `c`
+/// (`t = 1 − c`): `R = c I + s [a]× + t a aᵀ`, for f64 constants and scalars alike.
+fn rodrigues<U>(axis: [U; 3], s: U, c: U, t: U) -> [[U; 3]; 3]
+where
+    U: Copy + std::ops::Add<Output = U> + std::ops::Sub<Output = U> + std::ops::Mul<Output = U>,
+{
+    let [x, y, z] = axis;
+    [
+        [c + x * x * t, x * y * t - z * s, x * z * t + y * s],
+        [y * x * t + z * s, c + y * y * t, y * z * t - x * s],
+        [z * x * t - y * s, z * y * t + x * s, c + z * z * t],
+    ]
+}
+
 impl<T: Scalar> Rigid<T> {
     /// The transform of a joint origin (as [`origin_transform`]).
     fn from_origin(origin: &[T; 6]) -> Self {
@@ -145,28 +159,30 @@ impl<T: Scalar> Rigid<T> {
         std::array::from_fn(|i| r[i][0] * v[0] + r[i][1] * v[1] + r[i][2] * v[2])
     }
 
+    /// `self` followed by the rotation `motion` (f64 constants or scalars `T`).
+    fn rotated<U: Copy>(&self, motion: &[[U; 3]; 3]) -> Self
+    where
+        T: std::ops::Mul<U, Output = T>,
+    {
+        let r = &self.rotation;
+        Self {
+            rotation: std::array::from_fn(|i| {
+                std::array::from_fn(|j| {
+                    r[i][0] * motion[0][j] + r[i][1] * motion[1][j] + r[i][2] * motion[2][j]
+                })
+            }),
+            translation: self.translation,
+        }
+    }
+
     /// `self` followed by joint `joint`'s motion for a constant (f64) variable `q`: the motion
     /// is computed in f64 and multiplies as constants (no derivative work for it).
     fn moved_constant(&self, joint: &JointModel, q: f64) -> Self {
         match joint.kind {
             JointKind::Revolute => {
                 let (s, c) = q.sin_cos();
-                let t = 1.0 - c;
-                let [x, y, z] = [joint.axis[0], joint.axis[1], joint.axis[2]];
-                let motion = [
-                    [c + x * x * t, x * y * t - z * s, x * z * t + y * s],
-                    [y * x * t + z * s, c + y * y * t, y * z * t - x * s],
-                    [z * x * t - y * s, z * y * t + x * s, c + z * z * t],
-                ];
-                let r = &self.rotation;
-                Self {
-                    rotation: std::array::from_fn(|i| {
-                        std::array::from_fn(|j| {
-                            r[i][0] * motion[0][j] + r[i][1] * motion[1][j] + r[i][2] * motion[2][j]
-                        })
-                    }),
-                    translation: self.translation,
-                }
+                let axis = [joint.axis[0], joint.axis[1], joint.axis[2]];
+                self.rotated(&rodrigues(axis, s, c, 1.0 - c))
             }
             JointKind::Prismatic => {
                 let r = &self.rotation;
@@ -187,24 +203,8 @@ impl<T: Scalar> Rigid<T> {
         let axis: [T; 3] = std::array::from_fn(|i| lift::<T>(joint.axis[i]));
         match joint.kind {
             JointKind::Revolute => {
-                // Rodrigues: R = c I + s [a]× + (1 − c) a aᵀ.
                 let (s, c) = nalgebra::ComplexField::sin_cos(q);
-                let t = lift::<T>(1.0) - c;
-                let [x, y, z] = axis;
-                let motion = [
-                    [c + x * x * t, x * y * t - z * s, x * z * t + y * s],
-                    [y * x * t + z * s, c + y * y * t, y * z * t - x * s],
-                    [z * x * t - y * s, z * y * t + x * s, c + z * z * t],
-                ];
-                let r = &self.rotation;
-                Self {
-                    rotation: std::array::from_fn(|i| {
-                        std::array::from_fn(|j| {
-                            r[i][0] * motion[0][j] + r[i][1] * motion[1][j] + r[i][2] * motion[2][j]
-                        })
-                    }),
-                    translation: self.translation,
-                }
+                self.rotated(&rodrigues(axis, s, c, lift::<T>(1.0) - c))
             }
             JointKind::Prismatic => {
                 let step = self.rotate(&axis.map(|a| a * q));
