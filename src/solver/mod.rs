@@ -288,6 +288,7 @@ fn count(counts: &std::collections::HashMap<&'static str, u64>, key: &str) -> u6
     counts.get(key).copied().unwrap_or(0)
 }
 
+pub mod bordered;
 pub mod gauss_newton;
 pub mod levenberg_marquardt;
 pub mod stop;

@@ -1,0 +1,140 @@
+//! Least-squares problems whose Jacobian is *bordered block-diagonal*: the unknowns are
+//! `x = [own₀ | own₁ | … | own_{g−1} | shared]`, and every row belongs to one group `k` whose
+//! Jacobian is non-zero only in `own_k`'s columns and in the shared columns.
+//!
+//! Such a problem arises when legs identified on their own (divide and conquer) also share a few
+//! parameters, such as the pose of the measuring instrument: the normal matrix `JᵀJ` is then an
+//! *arrowhead* (block diagonal plus a border of shared rows and columns), and a solver can
+//! eliminate each group's block on its own (a Schur complement on the shared block) so that the
+//! cost of a step grows linearly with the number of groups.
+//!
+//! This module only describes the structure; [`to_dense`] assembles the ordinary dense residual
+//! vector and Jacobian (the reference any structured solver is checked against).
+
+use nalgebra::{DMatrix, DVector};
+
+/// How the unknowns of a bordered problem are laid out.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct BorderedLayout {
+    /// Number of own unknowns of each group, in the order of `x` (`own₀` first).
+    pub own: Vec<usize>,
+    /// Number of shared unknowns (they come last in `x`).
+    pub shared: usize,
+}
+
+impl BorderedLayout {
+    /// Total number of unknowns.
+    pub fn unknowns(&self) -> usize {
+        self.own.iter().sum::<usize>() + self.shared
+    }
+
+    /// Offset in `x` of group `group`'s first own unknown.
+    pub fn offset(&self, group: usize) -> usize {
+        self.own[..group].iter().sum()
+    }
+
+    /// Offset in `x` of the first shared unknown.
+    pub fn shared_offset(&self) -> usize {
+        self.own.iter().sum()
+    }
+}
+
+/// The rows of one group at one point: residuals and their derivatives.
+#[derive(Debug, Clone, PartialEq)]
+pub struct BorderedBlock {
+    /// The group's residuals (`m_k` rows).
+    pub residuals: DVector<f64>,
+    /// `∂r/∂own_k`, `m_k × n_k`.
+    pub own: DMatrix<f64>,
+    /// `∂r/∂shared`, `m_k × s`.
+    pub shared: DMatrix<f64>,
+}
+
+/// A least-squares problem with a bordered block-diagonal Jacobian.
+///
+/// The residual vector of the problem is the groups' residuals concatenated in group order;
+/// its cost is `½‖r‖²`.
+pub trait BorderedLeastSquares {
+    /// The layout of the unknowns.
+    fn layout(&self) -> BorderedLayout;
+
+    /// Every group's residuals and Jacobian blocks at `x` (one block per group, in order).
+    ///
+    /// # Errors
+    /// Whatever prevents the evaluation at `x` (for example a pose out of a leg's reach).
+    fn bordered(&self, x: &DVector<f64>) -> Result<Vec<BorderedBlock>, argmin::core::Error>;
+}
+
+/// The dense residual vector and Jacobian of `blocks` laid out as `layout` says: rows in group
+/// order, columns in the order of `x`.
+///
+/// # Panics
+/// If the number of blocks or a block's dimensions do not match `layout` (a programming error
+/// of the problem, not bad input).
+pub fn to_dense(layout: &BorderedLayout, blocks: &[BorderedBlock]) -> (DVector<f64>, DMatrix<f64>) {
+    assert_eq!(blocks.len(), layout.own.len(), "one block per group");
+    let rows: usize = blocks.iter().map(|b| b.residuals.len()).sum();
+    let mut r = DVector::zeros(rows);
+    let mut jacobian = DMatrix::zeros(rows, layout.unknowns());
+    let shared = layout.shared_offset();
+    let mut row = 0;
+    for (group, block) in blocks.iter().enumerate() {
+        let m = block.residuals.len();
+        let n = layout.own[group];
+        assert_eq!(block.own.shape(), (m, n), "group {group}'s own block");
+        assert_eq!(
+            block.shared.shape(),
+            (m, layout.shared),
+            "group {group}'s shared block"
+        );
+        r.rows_mut(row, m).copy_from(&block.residuals);
+        jacobian
+            .view_mut((row, layout.offset(group)), (m, n))
+            .copy_from(&block.own);
+        jacobian
+            .view_mut((row, shared), (m, layout.shared))
+            .copy_from(&block.shared);
+        row += m;
+    }
+    (r, jacobian)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn dense_assembly_places_each_block_in_its_rows_and_columns() {
+        let layout = BorderedLayout {
+            own: vec![1, 2],
+            shared: 1,
+        };
+        assert_eq!(layout.unknowns(), 4);
+        assert_eq!(layout.offset(1), 1);
+        assert_eq!(layout.shared_offset(), 3);
+        let blocks = vec![
+            BorderedBlock {
+                residuals: DVector::from_vec(vec![1.0]),
+                own: DMatrix::from_row_slice(1, 1, &[2.0]),
+                shared: DMatrix::from_row_slice(1, 1, &[3.0]),
+            },
+            BorderedBlock {
+                residuals: DVector::from_vec(vec![4.0, 5.0]),
+                own: DMatrix::from_row_slice(2, 2, &[6.0, 7.0, 8.0, 9.0]),
+                shared: DMatrix::from_row_slice(2, 1, &[10.0, 11.0]),
+            },
+        ];
+        let (r, j) = to_dense(&layout, &blocks);
+        assert_eq!(r.as_slice(), &[1.0, 4.0, 5.0]);
+        let expected = DMatrix::from_row_slice(
+            3,
+            4,
+            &[
+                2.0, 0.0, 0.0, 3.0, //
+                0.0, 6.0, 7.0, 10.0, //
+                0.0, 8.0, 9.0, 11.0,
+            ],
+        );
+        assert_eq!(j, expected);
+    }
+}
