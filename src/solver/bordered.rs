@@ -11,6 +11,9 @@
 //! This module only describes the structure; [`to_dense`] assembles the ordinary dense residual
 //! vector and Jacobian (the reference any structured solver is checked against).
 
+use std::fmt;
+
+use argmin::core::{Jacobian, Operator};
 use nalgebra::{DMatrix, DVector};
 
 /// How the unknowns of a bordered problem are laid out.
@@ -97,6 +100,103 @@ pub fn to_dense(layout: &BorderedLayout, blocks: &[BorderedBlock]) -> (DVector<f
         row += m;
     }
     (r, jacobian)
+}
+
+/// Why blocks do not fit a layout (a programming error of the problem that produced them).
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct LayoutMismatch(pub String);
+
+impl fmt::Display for LayoutMismatch {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(&self.0)
+    }
+}
+
+impl std::error::Error for LayoutMismatch {}
+
+/// Checks that `blocks` has one block per group of `layout` with matching dimensions.
+///
+/// # Errors
+/// A message naming the first group whose block count or dimensions are wrong, expected vs
+/// found.
+pub fn check_blocks(layout: &BorderedLayout, blocks: &[BorderedBlock]) -> Result<(), LayoutMismatch> {
+    if blocks.len() != layout.own.len() {
+        return Err(LayoutMismatch(format!(
+            "bordered problem: {} blocks, expected one per group ({})",
+            blocks.len(),
+            layout.own.len()
+        )));
+    }
+    for (k, block) in blocks.iter().enumerate() {
+        let m = block.residuals.len();
+        let expected = [(m, layout.own[k]), (m, layout.shared)];
+        let found = [block.own.shape(), block.shared.shape()];
+        for ((what, e), f) in ["own", "shared"].iter().zip(expected).zip(found) {
+            if e != f {
+                return Err(LayoutMismatch(format!(
+                    "bordered problem: group {k}'s {what} block is {}×{}, expected {}×{}",
+                    f.0, f.1, e.0, e.1
+                )));
+            }
+        }
+    }
+    Ok(())
+}
+
+/// A bordered problem a solver can run: residuals ([`Operator`], the groups' rows concatenated
+/// in group order, equal to the blocks' residuals) and blocks ([`BorderedLeastSquares`]).
+/// Implemented for every such type.
+pub trait BorderedProblem:
+    Operator<Param = DVector<f64>, Output = DVector<f64>> + BorderedLeastSquares + Clone
+{
+}
+
+impl<P> BorderedProblem for P where
+    P: Operator<Param = DVector<f64>, Output = DVector<f64>> + BorderedLeastSquares + Clone
+{
+}
+
+/// A bordered problem seen as an ordinary dense least-squares problem: the residuals are the
+/// problem's own, the Jacobian is [`to_dense`] of its blocks. For the rare, small dense work
+/// (a Gauss–Newton refinement, a comparison with a dense solver).
+#[derive(Debug)]
+pub struct DenseView<'a, P>(pub &'a P);
+
+impl<P> Clone for DenseView<'_, P> {
+    fn clone(&self) -> Self {
+        *self
+    }
+}
+
+impl<P> Copy for DenseView<'_, P> {}
+
+impl<P> Operator for DenseView<'_, P>
+where
+    P: Operator<Param = DVector<f64>, Output = DVector<f64>>,
+{
+    type Param = DVector<f64>;
+    type Output = DVector<f64>;
+
+    fn apply(&self, x: &DVector<f64>) -> Result<DVector<f64>, argmin::core::Error> {
+        self.0.apply(x)
+    }
+}
+
+impl<P> Jacobian for DenseView<'_, P>
+where
+    P: BorderedLeastSquares,
+{
+    type Param = DVector<f64>;
+    type Jacobian = DMatrix<f64>;
+
+    /// # Errors
+    /// The problem's error, or blocks that do not fit its layout.
+    fn jacobian(&self, x: &DVector<f64>) -> Result<DMatrix<f64>, argmin::core::Error> {
+        let layout = self.0.layout();
+        let blocks = self.0.bordered(x)?;
+        check_blocks(&layout, &blocks)?;
+        Ok(to_dense(&layout, &blocks).1)
+    }
 }
 
 #[cfg(test)]

@@ -125,6 +125,69 @@ where
     Ok(outcome)
 }
 
+/// Runs [`SchurLevenbergMarquardt`] (Levenberg–Marquardt with every step solved by the Schur
+/// complement on the shared unknowns) on a bordered problem from `x0` within
+/// [`default_budget`] residual evaluations, then refines a converged result with [`refine`]
+/// on the problem's dense view ([`DenseView`]: rare and small, like [`solve`]'s).
+///
+/// # Errors
+/// The solver's error: a usage error (`x0` does not fit the layout, blocks of the wrong
+/// dimensions) or the problem's error at the starting point.
+pub fn solve_bordered<P>(problem: &P, x0: DVector<f64>) -> Result<SolverOutcome, argmin::core::Error>
+where
+    P: BorderedProblem,
+{
+    let budget = default_budget(x0.len());
+    solve_bordered_within(problem, x0, budget)
+}
+
+/// [`solve_bordered`] with an explicit budget of residual evaluations (at least 1; the
+/// refinement only spends what the solver left). Jacobian evaluations count the evaluations
+/// of the blocks ([`BorderedLeastSquares::bordered`]).
+///
+/// # Errors
+/// As [`solve_bordered`].
+pub fn solve_bordered_within<P>(
+    problem: &P,
+    x0: DVector<f64>,
+    budget: u64,
+) -> Result<SolverOutcome, argmin::core::Error>
+where
+    P: BorderedProblem,
+{
+    let solver = SchurLevenbergMarquardt::new()
+        .with_ftol(LM_TOLERANCE)?
+        .with_xtol(LM_TOLERANCE)?
+        .with_max_evaluations(budget)?;
+    // Every iteration spends at least one residual evaluation: the budget bounds them.
+    let result = Executor::new(problem.clone(), solver)
+        .configure(|state| state.param(x0).max_iters(budget))
+        .run()?;
+    let state = result.state();
+    let stop_reason = result
+        .solver
+        .stop_reason()
+        .unwrap_or(StopReason::EvaluationBudget);
+    let mut outcome = SolverOutcome {
+        x: state.get_param().cloned().unwrap_or_default(),
+        iterations: state.get_iter(),
+        converged: stop_reason.is_convergence(),
+        stop_reason,
+        refinement_steps: 0,
+        residual_evaluations: count(&result.problem.counts, "operator_count"),
+        jacobian_evaluations: count(&result.problem.counts, "bordered_count"),
+    };
+    if outcome.converged {
+        let left = budget.saturating_sub(outcome.residual_evaluations);
+        let refinement = refine(&DenseView(problem), &outcome.x, left);
+        outcome.x = refinement.x;
+        outcome.refinement_steps = refinement.steps;
+        outcome.residual_evaluations += refinement.residual_evaluations;
+        outcome.jacobian_evaluations += refinement.jacobian_evaluations;
+    }
+    Ok(outcome)
+}
+
 /// Any least-squares problem on argmin: residuals `r(x)` ([`Operator`]) and their Jacobian
 /// ([`Jacobian`]) over `DVector<f64>` parameters. Implemented for every such type.
 pub trait LeastSquares:
@@ -291,8 +354,11 @@ fn count(counts: &std::collections::HashMap<&'static str, u64>, key: &str) -> u6
 pub mod bordered;
 pub mod gauss_newton;
 pub mod levenberg_marquardt;
+pub mod schur;
 pub mod stop;
 
+pub use bordered::{BorderedLeastSquares, BorderedProblem, DenseView};
+pub use schur::SchurLevenbergMarquardt;
 pub use stop::{gradient_cosine, StopReason};
 
 #[cfg(test)]

@@ -21,6 +21,7 @@ mod observability_values;
 mod plots;
 mod recovery;
 mod robust_stationarity;
+mod schur;
 mod selection;
 mod solver_refine;
 mod solvers_agree;
