@@ -119,7 +119,10 @@ impl std::error::Error for LayoutMismatch {}
 /// # Errors
 /// A message naming the first group whose block count or dimensions are wrong, expected vs
 /// found.
-pub fn check_blocks(layout: &BorderedLayout, blocks: &[BorderedBlock]) -> Result<(), LayoutMismatch> {
+pub fn check_blocks(
+    layout: &BorderedLayout,
+    blocks: &[BorderedBlock],
+) -> Result<(), LayoutMismatch> {
     if blocks.len() != layout.own.len() {
         return Err(LayoutMismatch(format!(
             "bordered problem: {} blocks, expected one per group ({})",

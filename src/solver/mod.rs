@@ -133,7 +133,10 @@ where
 /// # Errors
 /// The solver's error: a usage error (`x0` does not fit the layout, blocks of the wrong
 /// dimensions) or the problem's error at the starting point.
-pub fn solve_bordered<P>(problem: &P, x0: DVector<f64>) -> Result<SolverOutcome, argmin::core::Error>
+pub fn solve_bordered<P>(
+    problem: &P,
+    x0: DVector<f64>,
+) -> Result<SolverOutcome, argmin::core::Error>
 where
     P: BorderedProblem,
 {

@@ -211,13 +211,18 @@ impl BorderedLeastSquares for Decays {
                     -x[o] * t * e
                 }
             });
-            let shared = DMatrix::from_fn(m, self.shared, |i, j| {
-                if j == 0 {
-                    1.0
-                } else {
-                    group.times[i]
-                }
-            });
+            let shared =
+                DMatrix::from_fn(
+                    m,
+                    self.shared,
+                    |i, j| {
+                        if j == 0 {
+                            1.0
+                        } else {
+                            group.times[i]
+                        }
+                    },
+                );
             BorderedBlock {
                 residuals,
                 own,

@@ -151,9 +151,10 @@ impl ArrowheadSystem {
         let vector = |v: &DVector<f64>| v.iter().all(|v| v.is_finite());
         finite(&self.shared)
             && vector(&self.shared_gradient)
-            && self.groups.iter().all(|g| {
-                finite(&g.own) && finite(&g.coupling) && vector(&g.gradient)
-            })
+            && self
+                .groups
+                .iter()
+                .all(|g| finite(&g.own) && finite(&g.coupling) && vector(&g.gradient))
     }
 
     /// The step `p` solving `(JᵀJ + λ D²) p = Jᵀr` (`D = diag(scale)`, in the order of `x`), by

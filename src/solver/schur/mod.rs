@@ -369,9 +369,9 @@ where
             *stationary.get_or_insert_with(|| {
                 let g = NEGLIGIBLE_GAUSS_NEWTON_STEP;
                 gnorm <= tolerance
-                    || system.damped_step(0.0, diag).is_ok_and(|p| {
-                        p.component_mul(diag).norm() <= g * (xnorm0 + g)
-                    })
+                    || system
+                        .damped_step(0.0, diag)
+                        .is_ok_and(|p| p.component_mul(diag).norm() <= g * (xnorm0 + g))
             })
         };
         let eps = f64::EPSILON;
@@ -448,8 +448,7 @@ where
                 Some(StopReason::CostReduction)
             } else if x_conv {
                 Some(StopReason::StepSize)
-            } else if (actred.abs() <= eps && prered <= eps && ratio <= 2.0)
-                || pnorm <= eps * xnorm
+            } else if (actred.abs() <= eps && prered <= eps && ratio <= 2.0) || pnorm <= eps * xnorm
             {
                 Some(StopReason::ToleranceTooSmall)
             } else {

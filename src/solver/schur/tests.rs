@@ -1,1 +1,332 @@
-//! Unit tests of the Schur-complement Levenberg–Marquardt solver.
+//! Unit tests of the Schur-complement Levenberg–Marquardt solver: parameter validation, usage
+//! errors, the stopping tests, groups without own or shared unknowns and singular blocks.
+//! The step against the dense solve and whole nonlinear solves are in tests/it/schur.rs.
+
+use super::*;
+use crate::solver::bordered::{to_dense, BorderedBlock};
+use argmin::core::Executor;
+use nalgebra::DMatrix;
+
+fn text(err: Error) -> String {
+    match err.downcast_ref::<ArgminError>() {
+        Some(ArgminError::InvalidParameter { text }) => text.clone(),
+        _ => panic!("unexpected error {err}"),
+    }
+}
+
+#[test]
+fn builder_validates() {
+    let lm = SchurLevenbergMarquardt::new;
+    for bad in [0.0, -1.0, f64::NAN, f64::INFINITY] {
+        let msg = "Schur Levenberg-Marquardt: ftol must be positive and finite.";
+        assert_eq!(text(lm().with_ftol(bad).unwrap_err()), msg);
+        let msg = "Schur Levenberg-Marquardt: xtol must be positive and finite.";
+        assert_eq!(text(lm().with_xtol(bad).unwrap_err()), msg);
+        let msg = "Schur Levenberg-Marquardt: initial damping must be positive and finite.";
+        assert_eq!(text(lm().with_initial_damping(bad).unwrap_err()), msg);
+    }
+    for bad in [-1e-300, f64::NAN, f64::INFINITY] {
+        let msg = "Schur Levenberg-Marquardt: gtol must be non-negative and finite.";
+        assert_eq!(text(lm().with_gtol(bad).unwrap_err()), msg);
+        let msg =
+            "Schur Levenberg-Marquardt: stationarity tolerance must be non-negative and finite.";
+        assert_eq!(
+            text(lm().with_stationarity_tolerance(bad).unwrap_err()),
+            msg
+        );
+    }
+    assert!(lm().with_max_evaluations(0).is_err());
+    let ok = lm()
+        .with_ftol(1e-3)
+        .and_then(|l| l.with_xtol(1e-4))
+        .unwrap();
+    assert_eq!((ok.ftol, ok.xtol, ok.gtol), (1e-3, 1e-4, 0.0));
+}
+
+#[test]
+fn send_sync_clone() {
+    fn assert_traits<T: Send + Sync + Clone + std::fmt::Debug>() {}
+    assert_traits::<SchurLevenbergMarquardt>();
+}
+
+/// A linear bordered problem `r = J x − y` with constant blocks (`blocks[k].residuals` holds
+/// `y_k`); `nan_jacobian` makes every block NaN.
+#[derive(Clone)]
+struct Linear {
+    layout: BorderedLayout,
+    blocks: Vec<BorderedBlock>,
+    nan_jacobian: bool,
+    /// Claims a layout the blocks do not fit (same number of unknowns).
+    wrong_layout: bool,
+}
+
+impl Linear {
+    fn dense(&self) -> (DVector<f64>, DMatrix<f64>) {
+        to_dense(&self.layout, &self.blocks)
+    }
+}
+
+impl Operator for Linear {
+    type Param = DVector<f64>;
+    type Output = DVector<f64>;
+    fn apply(&self, x: &DVector<f64>) -> Result<DVector<f64>, Error> {
+        let (y, j) = self.dense();
+        Ok(j * x - y)
+    }
+}
+
+impl BorderedLeastSquares for Linear {
+    fn layout(&self) -> BorderedLayout {
+        if self.wrong_layout {
+            return BorderedLayout {
+                own: vec![2, 0, 1],
+                shared: 3,
+            };
+        }
+        self.layout.clone()
+    }
+    fn bordered(&self, x: &DVector<f64>) -> Result<Vec<BorderedBlock>, Error> {
+        let r = self.apply(x)?;
+        let mut row = 0;
+        let nan = if self.nan_jacobian { f64::NAN } else { 1.0 };
+        Ok(self
+            .blocks
+            .iter()
+            .map(|b| {
+                let m = b.residuals.len();
+                row += m;
+                BorderedBlock {
+                    residuals: r.rows(row - m, m).into_owned(),
+                    own: &b.own * nan,
+                    shared: b.shared.clone(),
+                }
+            })
+            .collect())
+    }
+}
+
+fn block(rows: usize, y: &[f64], own: &[f64], shared: &[f64]) -> BorderedBlock {
+    BorderedBlock {
+        residuals: DVector::from_column_slice(y),
+        own: DMatrix::from_row_slice(rows, own.len() / rows.max(1), own),
+        shared: DMatrix::from_row_slice(rows, shared.len() / rows.max(1), shared),
+    }
+}
+
+/// Two groups with two own unknowns, a group with none, two shared unknowns; inconsistent data
+/// (a non-zero residual at the minimum).
+fn linear() -> Linear {
+    Linear {
+        layout: BorderedLayout {
+            own: vec![2, 0, 2],
+            shared: 2,
+        },
+        blocks: vec![
+            block(
+                3,
+                &[1.0, 2.0, 0.5],
+                &[1.0, 0.0, 0.5, 2.0, 1.0, 1.0],
+                &[1.0, 0.0, 0.0, 1.0, 1.0, 1.0],
+            ),
+            block(2, &[0.3, -0.2], &[], &[1.0, 2.0, -1.0, 1.0]),
+            block(
+                3,
+                &[-1.0, 0.0, 4.0],
+                &[2.0, 1.0, 0.0, 1.0, 1.0, -1.0],
+                &[0.0, 1.0, 1.0, 0.0, 2.0, 2.0],
+            ),
+        ],
+        nan_jacobian: false,
+        wrong_layout: false,
+    }
+}
+
+fn run(
+    problem: Linear,
+    x0: DVector<f64>,
+    solver: SchurLevenbergMarquardt,
+) -> Result<(SchurState, SchurLevenbergMarquardt), Error> {
+    let result = Executor::new(problem, solver)
+        .configure(|s| s.param(x0).max_iters(200))
+        .run()?;
+    Ok((result.state, result.solver))
+}
+
+fn exit_text(state: &SchurState) -> String {
+    match state.get_termination_reason() {
+        Some(TerminationReason::SolverExit(t)) => t.clone(),
+        other => panic!("expected SolverExit, got {other:?}"),
+    }
+}
+
+/// The minimiser of the linear problem (a group without own unknowns included) is the dense
+/// least-squares solution (SVD), and the stop is a convergence of the cost reduction.
+#[test]
+fn a_linear_problem_converges_to_the_least_squares_solution() {
+    let problem = linear();
+    let (y, j) = problem.dense();
+    let expected = j.clone().svd(true, true).solve(&y, 1e-14).unwrap();
+    let solver = SchurLevenbergMarquardt::new()
+        .with_ftol(1e-12)
+        .and_then(|l| l.with_xtol(1e-12))
+        .unwrap();
+    let (state, solver) = run(problem, DVector::zeros(6), solver).unwrap();
+    let x = state.get_param().unwrap();
+    // The cost-reduction test resolves the parameters to about √ftol (the damped steps
+    // contract the error by ~λ each); the refinement of `solve_bordered` does the rest.
+    assert!((x - &expected).amax() <= 1e-7, "{x} vs {expected}");
+    assert_eq!(solver.stop_reason(), Some(StopReason::CostReduction));
+    assert_eq!(
+        state.get_termination_reason(),
+        Some(&TerminationReason::SolverConverged)
+    );
+    let minimum = 0.5 * (&j * &expected - &y).norm_squared();
+    assert!((state.get_cost() - minimum).abs() <= 1e-12 * minimum);
+    let refined = crate::solver::solve_bordered(&linear(), DVector::zeros(6)).unwrap();
+    assert!(
+        refined.converged && refined.refinement_steps >= 1,
+        "{refined:?}"
+    );
+    assert!((&refined.x - &expected).amax() <= 1e-12, "{refined:?}");
+}
+
+#[test]
+fn usage_errors_and_non_finite_values() {
+    let problem = linear();
+    let err = run(
+        problem.clone(),
+        DVector::zeros(5),
+        SchurLevenbergMarquardt::new(),
+    );
+    let err = err.unwrap_err().to_string();
+    assert!(
+        err.contains("has length 5, the layout has 6 unknowns"),
+        "{err}"
+    );
+    let wrong = Linear {
+        wrong_layout: true,
+        ..problem.clone()
+    };
+    let err = run(wrong, DVector::zeros(6), SchurLevenbergMarquardt::new());
+    let err = err.unwrap_err().to_string();
+    assert!(
+        err.contains("group 0's shared block is 3×2, expected 3×3"),
+        "{err}"
+    );
+    let nan = Linear {
+        nan_jacobian: true,
+        ..problem
+    };
+    let (state, solver) = run(nan, DVector::zeros(6), SchurLevenbergMarquardt::new()).unwrap();
+    assert_eq!(solver.stop_reason(), Some(StopReason::NonFinite));
+    assert_eq!(
+        exit_text(&state),
+        "Schur Levenberg-Marquardt: Jacobian blocks contain NaN or infinity."
+    );
+}
+
+#[test]
+fn an_exact_start_and_a_spent_budget() {
+    let mut problem = linear();
+    let x = DVector::from_column_slice(&[1.0, -1.0, 2.0, 0.5, 0.25, 3.0]);
+    let exact = problem.dense().1 * &x;
+    let mut row = 0;
+    for b in &mut problem.blocks {
+        let m = b.residuals.len();
+        b.residuals.copy_from(&exact.rows(row, m));
+        row += m;
+    }
+    let (state, solver) = run(problem, x, SchurLevenbergMarquardt::new()).unwrap();
+    assert_eq!(solver.stop_reason(), Some(StopReason::ZeroResidual));
+    assert_eq!((state.get_iter(), solver.evaluations()), (0, 1));
+    let budget = SchurLevenbergMarquardt::new()
+        .with_max_evaluations(3)
+        .unwrap();
+    let (state, solver) = run(linear(), DVector::zeros(6), budget).unwrap();
+    assert_eq!(solver.stop_reason(), Some(StopReason::EvaluationBudget));
+    assert_eq!(solver.evaluations(), 3);
+    assert!(matches!(
+        state.get_termination_reason(),
+        Some(TerminationReason::SolverExit(_))
+    ));
+}
+
+/// `r = (x₀ − 1, 2 + e^{−s})` (one group with one own unknown, one shared unknown) has no
+/// minimum: progress stops with the residual along the shared column (cosine 1): stalled.
+#[derive(Clone, Copy)]
+struct NoMinimum;
+impl Operator for NoMinimum {
+    type Param = DVector<f64>;
+    type Output = DVector<f64>;
+    fn apply(&self, x: &DVector<f64>) -> Result<DVector<f64>, Error> {
+        Ok(DVector::from_column_slice(&[
+            x[0] - 1.0,
+            2.0 + (-x[1]).exp(),
+        ]))
+    }
+}
+impl BorderedLeastSquares for NoMinimum {
+    fn layout(&self) -> BorderedLayout {
+        BorderedLayout {
+            own: vec![1],
+            shared: 1,
+        }
+    }
+    fn bordered(&self, x: &DVector<f64>) -> Result<Vec<BorderedBlock>, Error> {
+        Ok(vec![BorderedBlock {
+            residuals: self.apply(x)?,
+            own: DMatrix::from_column_slice(2, 1, &[1.0, 0.0]),
+            shared: DMatrix::from_column_slice(2, 1, &[0.0, -(-x[1]).exp()]),
+        }])
+    }
+}
+
+#[test]
+fn progress_stopping_away_from_a_stationary_point_is_stalled() {
+    let solver = SchurLevenbergMarquardt::new()
+        .with_ftol(1e-12)
+        .and_then(|l| l.with_xtol(1e-12))
+        .unwrap();
+    let result = Executor::new(NoMinimum, solver)
+        .configure(|s| s.param(DVector::zeros(2)).max_iters(1000))
+        .run()
+        .unwrap();
+    let x = result.state.get_param().unwrap();
+    assert_eq!(
+        result.solver.stop_reason(),
+        Some(StopReason::Stalled),
+        "{x}"
+    );
+    assert!((x[0] - 1.0).abs() < 1e-6 && x[1] > 10.0, "{x}");
+}
+
+/// Without shared unknowns each group's step is its own damped solve; a rank-deficient group
+/// (two equal columns) has no undamped step (a clear error, not NaN) but a finite damped one.
+#[test]
+fn independent_groups_and_a_singular_block() {
+    let layout = BorderedLayout {
+        own: vec![2, 1],
+        shared: 0,
+    };
+    let blocks = vec![
+        block(3, &[1.0, 2.0, 3.0], &[1.0, 1.0, 2.0, 2.0, 0.5, 0.5], &[]),
+        block(2, &[1.0, -1.0], &[2.0, 1.0], &[]),
+    ];
+    let system = ArrowheadSystem::assemble(&layout, &blocks).unwrap();
+    let scale = DVector::from_column_slice(&[2.0, 3.0, 0.5]);
+    assert_eq!(
+        system.damped_step(0.0, &scale),
+        Err(arrowhead::SingularBlock::Group(0))
+    );
+    let lambda = 0.1;
+    let step = system.damped_step(lambda, &scale).unwrap();
+    // Group 0: [[5.25, 5.25], [5.25, 5.25]] + 0.1·diag(4, 9), gradient (6.5, 6.5).
+    let a = DMatrix::from_row_slice(2, 2, &[5.65, 5.25, 5.25, 6.15]);
+    let own = a
+        .lu()
+        .solve(&DVector::from_column_slice(&[6.5, 6.5]))
+        .unwrap();
+    assert!((step.rows(0, 2) - own).amax() <= 1e-14, "{step}");
+    // Group 1: (5 + 0.1·0.25) p = 2 − 1.
+    assert!((step[2] - 1.0 / 5.025).abs() <= 1e-15, "{step}");
+}
