@@ -82,6 +82,17 @@ fn the_schur_step_is_the_dense_solve_of_the_damped_normal_equations() {
         }
     }
     assert_eq!(shapes, 32);
+    // Groups without own unknowns only add to the shared system.
+    let layout = BorderedLayout {
+        own: vec![0, 3, 0, 2],
+        shared: 2,
+    };
+    let blocks = random_blocks(&mut rng, &[2, 6, 3, 4], &layout);
+    let scale = DVector::from_element(layout.unknowns(), 1.5);
+    let system = ArrowheadSystem::assemble(&layout, &blocks).unwrap();
+    let schur = system.damped_step(1e-4, &scale).unwrap();
+    let dense = dense_step(&layout, &blocks, 1e-4, &scale);
+    assert!(relative_difference(&schur, &dense) <= 1e-10);
 }
 
 /// Three groups of very different sizes, each strongly coupled to the two shared unknowns:

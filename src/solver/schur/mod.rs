@@ -282,7 +282,15 @@ where
         mut state: SchurState,
     ) -> Result<(SchurState, Option<KV>), Error> {
         let x = take(state.take_param(), "parameter vector")?;
-        let layout = take(problem.problem.as_ref(), "problem")?.layout();
+        let layout = problem
+            .problem
+            .as_ref()
+            .ok_or_else(|| {
+                Error::from(ArgminError::NotInitialized {
+                    text: "Schur Levenberg-Marquardt: no problem to solve.".to_string(),
+                })
+            })?
+            .layout();
         if x.len() != layout.unknowns() {
             return Err(violated(format!(
                 "Schur Levenberg-Marquardt: parameter vector has length {}, the layout has {} \
