@@ -284,3 +284,45 @@ fn the_evaluation_budget_stops_the_run_unconverged() {
     assert_eq!(res.solver.evaluations(), 5);
     assert!(LevenbergMarquardt::new().with_max_evaluations(0).is_err());
 }
+
+#[test]
+fn a_stationarity_tolerance_of_one_accepts_any_progress_stop_as_convergence() {
+    // On the plateau the residual lies along the second column (cosine 1): with the default
+    // tolerance the stop is a stall (test above); a tolerance of 1 calls every cosine
+    // stationary, so the same run ends converged.
+    let solver = LevenbergMarquardt::new()
+        .with_ftol(1e-12)
+        .and_then(|l| l.with_xtol(1e-12))
+        .and_then(|l| l.with_stationarity_tolerance(1.0))
+        .unwrap();
+    assert_eq!(solver.stationarity, 1.0);
+    let res = Executor::new(NoMinimum, solver)
+        .configure(|s| {
+            s.param(DVector::from_column_slice(&[0.0, 0.0]))
+                .max_iters(1000)
+        })
+        .run()
+        .unwrap();
+    let reason = res.solver.stop_reason().unwrap();
+    assert!(reason.is_convergence(), "{reason:?}");
+    assert!(matches!(
+        res.state.get_termination_reason(),
+        Some(TerminationReason::SolverConverged)
+    ));
+    for bad in [-1e-300, f64::NAN, f64::INFINITY] {
+        let msg = "Levenberg-Marquardt: stationarity tolerance must be non-negative and finite.";
+        let err = LevenbergMarquardt::new()
+            .with_stationarity_tolerance(bad)
+            .unwrap_err();
+        assert_eq!(text(err), msg);
+    }
+}
+
+#[test]
+fn the_solver_names_itself() {
+    let solver = LevenbergMarquardt::new();
+    assert_eq!(
+        Solver::<NoMinimum, LmState>::name(&solver),
+        "Levenberg-Marquardt"
+    );
+}
