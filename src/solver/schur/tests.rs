@@ -330,3 +330,113 @@ fn independent_groups_and_a_singular_block() {
     // Group 1: (5 + 0.1·0.25) p = 2 − 1.
     assert!((step[2] - 1.0 / 5.025).abs() <= 1e-15, "{step}");
 }
+
+/// [`Linear`] whose residuals fail at the listed evaluations (1 = the start).
+#[derive(Clone)]
+struct FailingAt {
+    inner: Linear,
+    calls: std::sync::Arc<std::sync::atomic::AtomicU64>,
+    failing: Vec<u64>,
+}
+
+impl Operator for FailingAt {
+    type Param = DVector<f64>;
+    type Output = DVector<f64>;
+    fn apply(&self, x: &DVector<f64>) -> Result<DVector<f64>, Error> {
+        let call = 1 + self.calls.fetch_add(1, std::sync::atomic::Ordering::SeqCst);
+        if self.failing.contains(&call) {
+            return Err(Error::msg("out of reach"));
+        }
+        self.inner.apply(x)
+    }
+}
+
+impl BorderedLeastSquares for FailingAt {
+    fn layout(&self) -> BorderedLayout {
+        self.inner.layout()
+    }
+    fn bordered(&self, x: &DVector<f64>) -> Result<Vec<BorderedBlock>, Error> {
+        self.inner.bordered(x)
+    }
+}
+
+/// The iterates of the damped Gauss–Newton recursion `x ← x − (JᵀJ + λ_k D²)⁻¹ Jᵀ(J x − y)`
+/// on the linear problem, `D` its column norms, by dense LU.
+fn recursion(lambdas: &[f64]) -> DVector<f64> {
+    let (y, j) = linear().dense();
+    let d2 = j.row_iter().fold(DVector::zeros(j.ncols()), |acc, row| {
+        acc + row.transpose().map(|v| v * v)
+    });
+    let mut x = DVector::zeros(j.ncols());
+    for &lambda in lambdas {
+        let normal = j.transpose() * &j + DMatrix::from_diagonal(&(&d2 * lambda));
+        let gradient = j.transpose() * (&j * &x - &y);
+        x -= normal.lu().solve(&gradient).unwrap();
+    }
+    x
+}
+
+/// On a linear problem every step's gain ratio is exactly 1, so an accepted step divides `λ`
+/// by 3 (`max(⅓, 1 − (2ρ − 1)³)`), and a rejected one (a trial point whose residuals fail)
+/// multiplies it by `ν` = 2, 4, 8, … : after three iterations the iterate is the damped
+/// Gauss–Newton recursion with those damping factors, `D` the column norms.
+#[test]
+fn the_damping_follows_nielsens_rule() {
+    let cases: [(&[u64], [f64; 3]); 4] = [
+        (&[], [1.0, 1.0 / 3.0, 1.0 / 9.0]),
+        (&[2], [2.0, 2.0 / 3.0, 2.0 / 9.0]),
+        (&[2, 3], [8.0, 8.0 / 3.0, 8.0 / 9.0]),
+        (&[2, 3, 4], [64.0, 64.0 / 3.0, 64.0 / 9.0]),
+    ];
+    for (failing, factors) in cases {
+        for initial in [0.05, 0.5] {
+            let problem = FailingAt {
+                inner: linear(),
+                calls: Default::default(),
+                failing: failing.to_vec(),
+            };
+            let solver = SchurLevenbergMarquardt::new()
+                .with_initial_damping(initial)
+                .unwrap();
+            let result = Executor::new(problem, solver)
+                .configure(|s| s.param(DVector::zeros(6)).max_iters(3))
+                .run()
+                .unwrap();
+            let x = result.state.get_param().unwrap();
+            let expected = recursion(&factors.map(|f| f * initial));
+            assert!(
+                (x - &expected).amax() <= 1e-12 * expected.amax(),
+                "{failing:?} λ₀ {initial}: {x} vs {expected}"
+            );
+            assert_eq!(result.solver.stop_reason(), None);
+            assert_eq!(result.solver.evaluations(), 4 + failing.len() as u64);
+        }
+    }
+}
+
+#[test]
+fn the_gradient_and_stationarity_tolerances() {
+    // gtol 1: every point passes the gradient test, before any step.
+    let solver = SchurLevenbergMarquardt::new().with_gtol(1.0).unwrap();
+    let (state, solver) = run(linear(), DVector::zeros(6), solver).unwrap();
+    assert_eq!(solver.stop_reason(), Some(StopReason::Gradient));
+    assert_eq!(state.get_param().unwrap(), &DVector::zeros(6));
+    assert_eq!(solver.evaluations(), 1);
+    // A stationarity tolerance of 1 calls any progress stop a convergence: the plateau of
+    // `NoMinimum` then stops with a cost-reduction or step convergence instead of a stall.
+    let solver = SchurLevenbergMarquardt::new()
+        .with_ftol(1e-12)
+        .and_then(|l| l.with_xtol(1e-12))
+        .and_then(|l| l.with_stationarity_tolerance(1.0))
+        .unwrap();
+    let result = Executor::new(NoMinimum, solver)
+        .configure(|s| s.param(DVector::zeros(2)).max_iters(1000))
+        .run()
+        .unwrap();
+    let reason = result.solver.stop_reason().unwrap();
+    assert!(reason.is_convergence(), "{reason:?}");
+    assert_eq!(
+        <SchurLevenbergMarquardt as Solver<NoMinimum, SchurState>>::name(&result.solver),
+        "Schur Levenberg-Marquardt"
+    );
+}
