@@ -71,7 +71,7 @@ impl std::error::Error for SingularBlock {}
 /// `J p` for the bordered Jacobian of `blocks` (rows in group order).
 ///
 /// # Panics
-/// If `blocks` or `p` do not fit `layout` (see [`check_blocks`](crate::solver::bordered::check_blocks)).
+/// If `blocks` or `p` do not fit `layout` (see [`check_blocks`]).
 pub fn jacobian_times(
     layout: &BorderedLayout,
     blocks: &[BorderedBlock],
