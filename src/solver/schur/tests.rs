@@ -213,6 +213,15 @@ fn usage_errors_and_non_finite_values() {
         err.contains("group 0's shared block is 3×2, expected 3×3"),
         "{err}"
     );
+    let mut nan_start = problem.clone();
+    nan_start.blocks[1].residuals[0] = f64::NAN;
+    let (state, solver) =
+        run(nan_start, DVector::zeros(6), SchurLevenbergMarquardt::new()).unwrap();
+    assert_eq!(solver.stop_reason(), Some(StopReason::NonFinite));
+    assert_eq!(
+        exit_text(&state),
+        "Schur Levenberg-Marquardt: residual vector contains NaN or infinity at the initial point."
+    );
     let nan = Linear {
         nan_jacobian: true,
         ..problem
