@@ -122,8 +122,9 @@ fn every_group_contributes_to_the_reduced_system() {
     assert!(relative_difference(&schur, &dense) <= 1e-10);
 }
 
-/// One group of decay data `y(t) = a·exp(−b t) + c + d·t`: own unknowns `(a, b)` (or none:
-/// then `y = c + d·t`), shared unknowns the first `shared` of `(c, d)`.
+/// One group of decay data `y(t) = a·exp(−b t) + e + c + d·t`: own unknowns `(a, b)`, `(a, b,
+/// e)` (an own offset `e`, otherwise 0) or none (then `y = c + d·t`), shared unknowns the first
+/// `shared` of `(c, d)`.
 #[derive(Clone, Debug)]
 struct Group {
     own: usize,
@@ -140,13 +141,17 @@ struct Decays {
 }
 
 impl Decays {
-    /// Groups with `own[k]` (0 or 2) own unknowns and `rows[k]` data points, `shared` (0–2)
-    /// shared unknowns; true values a_k = 1 + k/2, b_k = 0.3 + 0.2 k, c = 0.7, d = −0.1.
+    /// Groups with `own[k]` (0, 2 or 3) own unknowns and `rows[k]` data points, `shared` (0–2)
+    /// shared unknowns; true values a_k = 1 + k/2, b_k = 0.3 + 0.2 k, e_k = 0.2, c = 0.7,
+    /// d = −0.1.
     fn new(own: &[usize], rows: &[usize], shared: usize) -> Self {
         let mut truth = Vec::new();
         for (k, &n) in own.iter().enumerate() {
-            if n == 2 {
+            if n >= 2 {
                 truth.extend([1.0 + 0.5 * k as f64, 0.3 + 0.2 * k as f64]);
+            }
+            if n == 3 {
+                truth.push(0.2);
             }
         }
         truth.extend(&[0.7, -0.1][..shared]);
@@ -185,12 +190,13 @@ impl Decays {
                     .times
                     .iter()
                     .map(|&t| {
-                        let decay = if group.own == 2 {
+                        let decay = if group.own >= 2 {
                             x[o] * (-x[o + 1] * t).exp()
                         } else {
                             0.0
                         };
-                        decay + c + d * t
+                        let offset = if group.own == 3 { x[o + 2] } else { 0.0 };
+                        decay + offset + c + d * t
                     })
                     .collect()
             })
@@ -216,10 +222,10 @@ impl BorderedLeastSquares for Decays {
             let own = DMatrix::from_fn(m, group.own, |i, j| {
                 let t = group.times[i];
                 let e = (-x[o + 1] * t).exp();
-                if j == 0 {
-                    e
-                } else {
-                    -x[o] * t * e
+                match j {
+                    0 => e,
+                    1 => -x[o] * t * e,
+                    _ => 1.0,
                 }
             });
             let shared =
@@ -349,6 +355,28 @@ fn a_rank_deficient_group_gives_finite_steps_and_an_exact_fit() {
     for i in determined {
         assert!((out.x[i] - problem.truth[i]).abs() <= 1e-9, "{i}: {out:?}");
     }
+}
+
+/// Every group has its own offset besides the shared one: only their sums are determined (as
+/// an instrument frame and the legs' base joints are not separately observable), so the
+/// reduced shared system is singular without damping. The solver still reaches an exact fit
+/// with finite parameters, and recovers what is determined: each decay, the drift and every
+/// sum of offsets.
+#[test]
+fn shared_unknowns_not_separable_from_own_ones_give_finite_steps() {
+    let problem = Decays::new(&[3, 3, 3], &[8, 9, 10], 2);
+    let out = solve_bordered(&problem, perturbed(&problem.truth)).unwrap();
+    assert!(out.converged, "{out:?}");
+    assert!(out.x.iter().all(|v| v.is_finite()));
+    assert!(problem.apply(&out.x).unwrap().norm() <= 1e-12, "{out:?}");
+    let close = |a: f64, b: f64| (a - b).abs() <= 1e-9;
+    for k in 0..3 {
+        let o = 3 * k;
+        assert!(close(out.x[o], problem.truth[o]), "{out:?}");
+        assert!(close(out.x[o + 1], problem.truth[o + 1]), "{out:?}");
+        assert!(close(out.x[o + 2] + out.x[9], 0.2 + 0.7), "{out:?}");
+    }
+    assert!(close(out.x[10], -0.1), "{out:?}");
 }
 
 #[test]

@@ -449,3 +449,24 @@ fn the_gradient_and_stationarity_tolerances() {
         "Schur Levenberg-Marquardt"
     );
 }
+
+/// A shared column equal to the group's own column: the group's block is regular but the
+/// reduced shared system is singular without damping (a clear error); damped, the step is
+/// the closed form of `[[5 + 5λ, 5], [5, 5 + 5λ]] p = (3, 3)`: `p₀ = p₁ = 3 / (10 + 5λ)`.
+#[test]
+fn a_shared_unknown_duplicating_an_own_one_is_singular_only_undamped() {
+    let layout = BorderedLayout {
+        own: vec![1],
+        shared: 1,
+    };
+    let blocks = vec![block(2, &[1.0, 1.0], &[1.0, 2.0], &[1.0, 2.0])];
+    let system = ArrowheadSystem::assemble(&layout, &blocks).unwrap();
+    let scale = DVector::from_element(2, 5.0_f64.sqrt());
+    assert_eq!(
+        system.damped_step(0.0, &scale),
+        Err(arrowhead::SingularBlock::Shared)
+    );
+    let step = system.damped_step(0.2, &scale).unwrap();
+    assert!((step[0] - 3.0 / 11.0).abs() <= 1e-15, "{step}");
+    assert!((step[1] - 3.0 / 11.0).abs() <= 1e-15, "{step}");
+}
