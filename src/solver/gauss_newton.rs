@@ -51,13 +51,7 @@ impl StepGaussNewton {
     /// # Errors
     /// If `xtol` is not positive and finite.
     pub fn with_xtol(mut self, xtol: f64) -> Result<Self, Error> {
-        if !(xtol.is_finite() && xtol > 0.0) {
-            return Err(argmin::core::ArgminError::InvalidParameter {
-                text: "Gauss-Newton: xtol must be positive and finite.".into(),
-            }
-            .into());
-        }
-        self.xtol = xtol;
+        self.xtol = super::settings::validated("Gauss-Newton", xtol, "xtol", false)?;
         Ok(self)
     }
 

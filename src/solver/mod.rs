@@ -358,6 +358,7 @@ pub mod bordered;
 pub mod gauss_newton;
 pub mod levenberg_marquardt;
 pub mod schur;
+mod settings;
 pub mod stop;
 
 pub use bordered::{BorderedLeastSquares, BorderedProblem, DenseView};
@@ -422,6 +423,15 @@ mod tests {
             assert_eq!(out.residual_evaluations, 2, "{kind:?}");
             assert_eq!(out.refinement_steps, 0);
         }
+    }
+
+    #[test]
+    fn solver_kinds_have_the_names_the_reports_print() {
+        // The JSON reports' `solver` values are the command line's `--solver` words.
+        assert_eq!(SolverKind::LevenbergMarquardt.short_name(), "lm");
+        assert_eq!(SolverKind::GaussNewton.short_name(), "gn");
+        assert_eq!(SolverKind::LevenbergMarquardt.name(), "Levenberg-Marquardt");
+        assert_eq!(SolverKind::GaussNewton.name(), "Gauss-Newton");
     }
 
     #[test]

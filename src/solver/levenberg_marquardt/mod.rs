@@ -6,6 +6,7 @@ use argmin::core::{
 };
 use nalgebra::{DMatrix, DVector};
 
+use super::settings::{self, Tolerances, Trial};
 use super::stop::StopReason;
 
 mod lmpar;
@@ -90,12 +91,8 @@ const P0001: f64 = 1.0e-4;
 /// Problems, 2nd ed. Informatics and Mathematical Modelling, Technical University of Denmark.
 #[derive(Clone, Debug)]
 pub struct LevenbergMarquardt {
-    ftol: f64,
-    xtol: f64,
-    gtol: f64,
+    tolerances: Tolerances,
     step_bound: f64,
-    stationarity: f64,
-    max_evaluations: u64,
     evaluations: u64,
     initial_cost: f64,
     /// Scaling `D` (running max of the column norms of `J`); empty before the first iteration.
@@ -118,40 +115,15 @@ pub const STATIONARITY_TOLERANCE: f64 = 1e-3;
 /// Relative length of a Gauss–Newton step below which the point counts as stationary (√ε).
 const NEGLIGIBLE_GAUSS_NEWTON_STEP: f64 = 1.490_116_119_384_765_6e-8;
 
-fn invalid(text: &str) -> Error {
-    ArgminError::InvalidParameter {
-        text: text.to_string(),
-    }
-    .into()
-}
-
-/// `value` if it is finite and positive (or zero, with `allow_zero`); otherwise an
-/// `InvalidParameter` error "Levenberg-Marquardt: {what} must be positive and finite.".
-fn validated(value: f64, what: &str, allow_zero: bool) -> Result<f64, Error> {
-    if value.is_finite() && (value > 0.0 || (allow_zero && value >= 0.0)) {
-        return Ok(value);
-    }
-    let rule = if allow_zero {
-        "non-negative"
-    } else {
-        "positive"
-    };
-    Err(invalid(&format!(
-        "Levenberg-Marquardt: {what} must be {rule} and finite."
-    )))
-}
+/// The solver's name in its messages.
+const NAME: &str = "Levenberg-Marquardt";
 
 fn exit(text: &str) -> TerminationReason {
-    TerminationReason::SolverExit(format!("Levenberg-Marquardt: {text}"))
+    settings::exit(NAME, text)
 }
 
-/// argmin's termination for a typed stop: convergence, or an exit with a message.
 fn termination(reason: StopReason) -> TerminationReason {
-    if reason.is_convergence() {
-        TerminationReason::SolverConverged
-    } else {
-        exit(&reason.to_string())
-    }
+    settings::termination(NAME, reason)
 }
 
 impl LevenbergMarquardt {
@@ -160,12 +132,8 @@ impl LevenbergMarquardt {
     /// step bound factor of `100`.
     pub fn new() -> Self {
         LevenbergMarquardt {
-            ftol: 1.49012e-8,
-            xtol: 1.49012e-8,
-            gtol: 0.0,
+            tolerances: Tolerances::MINPACK,
             step_bound: 100.0,
-            stationarity: STATIONARITY_TOLERANCE,
-            max_evaluations: u64::MAX,
             evaluations: 0,
             initial_cost: 0.0,
             diag: DVector::zeros(0),
@@ -178,53 +146,12 @@ impl LevenbergMarquardt {
         }
     }
 
-    /// Relative cost-reduction tolerance: converged when both the actual and the predicted
-    /// relative reduction of the cost in a step are at most `ftol`. Must be positive and finite.
-    pub fn with_ftol(mut self, ftol: f64) -> Result<Self, Error> {
-        self.ftol = validated(ftol, "ftol", false)?;
-        Ok(self)
-    }
-
-    /// Step tolerance: converged when the trust-region radius satisfies
-    /// `Δ ≤ xtol·(‖D x‖ + xtol)`. Must be positive and finite.
-    pub fn with_xtol(mut self, xtol: f64) -> Result<Self, Error> {
-        self.xtol = validated(xtol, "xtol", false)?;
-        Ok(self)
-    }
-
-    /// Gradient tolerance on MINPACK's scale-invariant max-cosine
-    /// `max_j |(Jᵀr)_j| / (‖J e_j‖·‖r‖) ≤ gtol`. Must be non-negative and finite; `0` (the
-    /// default) only stops on an exactly zero cosine.
-    pub fn with_gtol(mut self, gtol: f64) -> Result<Self, Error> {
-        self.gtol = validated(gtol, "gtol", true)?;
-        Ok(self)
-    }
+    settings::tolerance_builders!(NAME);
 
     /// Initial trust-region radius factor: `Δ₀ = factor·‖D x₀‖` (or `factor` if that is zero).
     /// MINPACK recommends values in `[0.1, 100]`; default `100`. Must be positive and finite.
     pub fn with_initial_step_bound(mut self, factor: f64) -> Result<Self, Error> {
-        self.step_bound = validated(factor, "initial step bound", false)?;
-        Ok(self)
-    }
-
-    /// Stationarity tolerance on `max_j |cos(J e_j, r)|` for a cost-reduction or step stop to
-    /// count as convergence (default [`STATIONARITY_TOLERANCE`]). Must be non-negative and
-    /// finite.
-    pub fn with_stationarity_tolerance(mut self, tolerance: f64) -> Result<Self, Error> {
-        self.stationarity = validated(tolerance, "stationarity tolerance", true)?;
-        Ok(self)
-    }
-
-    /// Budget of residual evaluations (the starting point included); the run stops with
-    /// [`StopReason::EvaluationBudget`] when it is spent. Default: unlimited (argmin's
-    /// `max_iters` still applies). Must be at least 1.
-    pub fn with_max_evaluations(mut self, budget: u64) -> Result<Self, Error> {
-        if budget == 0 {
-            return Err(invalid(
-                "Levenberg-Marquardt: the evaluation budget must be at least 1.",
-            ));
-        }
-        self.max_evaluations = budget;
+        self.step_bound = settings::validated(NAME, factor, "initial step bound", false)?;
         Ok(self)
     }
 
@@ -248,12 +175,7 @@ impl Default for LevenbergMarquardt {
 }
 
 fn take<T>(v: Option<T>, what: &str) -> Result<T, Error> {
-    v.ok_or_else(|| {
-        ArgminError::NotInitialized {
-            text: format!("Levenberg-Marquardt: {what} not set; provide an initial parameter vector via `Executor::configure`."),
-        }
-        .into()
-    })
+    settings::take(NAME, v, what)
 }
 
 fn check_len(len: usize, expected: usize, what: &str) -> Result<(), Error> {
@@ -282,9 +204,9 @@ where
     ) -> Result<(LmState, Option<KV>), Error> {
         let x = take(state.take_param(), "parameter vector")?;
         if x.is_empty() {
-            return Err(invalid(
-                "Levenberg-Marquardt: parameter vector must not be empty.",
-            ));
+            return Err(settings::invalid(&format!(
+                "{NAME}: parameter vector must not be empty."
+            )));
         }
         (self.diag, self.delta, self.lambda, self.xnorm) = (DVector::zeros(0), 0.0, 0.0, 0.0);
         (self.accepted_any, self.stop) = (false, None);
@@ -305,7 +227,7 @@ where
                 None,
             ));
         }
-        if self.evaluations >= self.max_evaluations {
+        if self.evaluations >= self.tolerances.max_evaluations {
             self.stop = Some(StopReason::EvaluationBudget);
             return Ok((
                 state.terminate_with(termination(StopReason::EvaluationBudget)),
@@ -351,7 +273,7 @@ where
             let f = self.step_bound;
             self.delta = if self.xnorm > 0.0 { f * self.xnorm } else { f };
         }
-        if gnorm <= self.gtol {
+        if gnorm <= self.tolerances.gtol {
             self.stop = Some(StopReason::Gradient);
             let state = state.param(x).residuals(r);
             return Ok((
@@ -373,8 +295,8 @@ where
                 );
             };
             let g = NEGLIGIBLE_GAUSS_NEWTON_STEP;
-            let stationary =
-                gnorm <= self.stationarity || s.gauss_newton_dnorm <= g * (self.xnorm + g);
+            let stationary = gnorm <= self.tolerances.stationarity
+                || s.gauss_newton_dnorm <= g * (self.xnorm + g);
             if s.step.iter().all(|&v| v == 0.0) {
                 // A zero step cannot make progress: a convergence only at a stationary point,
                 // otherwise a numerical breakdown.
@@ -448,45 +370,23 @@ where
                 (x, r, fnorm, self.accepted_any) = (x_trial, r_trial, fnorm1, true);
                 self.xnorm = x.component_mul(&self.diag).norm();
             }
-            let cost = 0.5 * fnorm * fnorm;
-            // zero residual: cost = ½‖r‖² ≤ f64::MIN_POSITIVE
-            let zero = cost <= f64::MIN_POSITIVE;
-            // ftol: |actred| ≤ ftol and prered ≤ ftol (and ρ ≤ 2)
-            let f_conv = actred.abs() <= self.ftol && prered <= self.ftol && 0.5 * ratio <= 1.0;
-            // xtol: Δ ≤ xtol·(‖D x‖ + xtol)
-            let x_conv = self.delta <= self.xtol * (self.xnorm + self.xtol);
-            let eps = f64::EPSILON;
-            let progress_stop = if f_conv {
-                Some(StopReason::CostReduction)
-            } else if x_conv {
-                Some(StopReason::StepSize)
-            } else if (actred.abs() <= eps && prered <= eps && 0.5 * ratio <= 1.0)
-                || self.delta <= eps * self.xnorm
-            {
-                Some(StopReason::ToleranceTooSmall)
-            } else {
-                None
+            let tol = &self.tolerances;
+            let trial = Trial {
+                cost: 0.5 * fnorm * fnorm,
+                initial_cost: self.initial_cost,
+                actred,
+                prered,
+                ratio,
+                // xtol: Δ ≤ xtol·(‖D x‖ + xtol)
+                step_converged: self.delta <= tol.xtol * (self.xnorm + tol.xtol),
+                step_at_precision: self.delta <= f64::EPSILON * self.xnorm,
+                gradient_cosine: gnorm,
+                non_finite: !(self.delta.is_finite()
+                    && self.delta > 0.0
+                    && self.lambda.is_finite()),
+                budget_spent: self.evaluations >= tol.max_evaluations,
             };
-            let reason = if zero {
-                Some(StopReason::ZeroResidual)
-            } else if let Some(reason) = progress_stop {
-                // Stopped progressing: a convergence only at a stationary point.
-                Some(if cost <= eps * self.initial_cost {
-                    StopReason::ZeroResidual
-                } else if stationary {
-                    reason
-                } else {
-                    StopReason::Stalled
-                })
-            } else if gnorm <= eps {
-                Some(StopReason::Gradient)
-            } else if !(self.delta.is_finite() && self.delta > 0.0 && self.lambda.is_finite()) {
-                Some(StopReason::NonFinite)
-            } else if self.evaluations >= self.max_evaluations {
-                Some(StopReason::EvaluationBudget)
-            } else {
-                None
-            };
+            let reason = trial.verdict(tol.ftol, || stationary);
             if let Some(reason) = reason {
                 self.stop = Some(reason);
                 break (Some(termination(reason)), ratio);

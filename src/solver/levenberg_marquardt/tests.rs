@@ -33,12 +33,22 @@ fn builder_validates() {
         .and_then(|l| l.with_gtol(0.0));
     let ok = ok.and_then(|l| l.with_initial_step_bound(0.1)).unwrap();
     assert_eq!(
-        (ok.ftol, ok.xtol, ok.gtol, ok.step_bound),
+        (
+            ok.tolerances.ftol,
+            ok.tolerances.xtol,
+            ok.tolerances.gtol,
+            ok.step_bound
+        ),
         (1e-3, 1e-4, 0.0, 0.1)
     );
     let d = LevenbergMarquardt::default();
     assert_eq!(
-        (d.ftol, d.xtol, d.gtol, d.step_bound),
+        (
+            d.tolerances.ftol,
+            d.tolerances.xtol,
+            d.tolerances.gtol,
+            d.step_bound
+        ),
         (1.49012e-8, 1.49012e-8, 0.0, 100.0)
     );
 }
@@ -295,7 +305,7 @@ fn a_stationarity_tolerance_of_one_accepts_any_progress_stop_as_convergence() {
         .and_then(|l| l.with_xtol(1e-12))
         .and_then(|l| l.with_stationarity_tolerance(1.0))
         .unwrap();
-    assert!((solver.stationarity - 1.0).abs() < f64::EPSILON);
+    assert!((solver.tolerances.stationarity - 1.0).abs() < f64::EPSILON);
     let res = Executor::new(NoMinimum, solver)
         .configure(|s| {
             s.param(DVector::from_column_slice(&[0.0, 0.0]))

@@ -7,7 +7,7 @@ use argmin::core::{
 use nalgebra::DVector;
 
 use super::bordered::{BorderedLayout, BorderedLeastSquares};
-use super::levenberg_marquardt::STATIONARITY_TOLERANCE;
+use super::settings::{self, Tolerances, Trial};
 use super::stop::StopReason;
 
 pub mod arrowhead;
@@ -101,12 +101,8 @@ const MIN_DAMPING: f64 = f64::EPSILON * f64::EPSILON;
 /// (the damping update, section 3.2).
 #[derive(Clone, Debug)]
 pub struct SchurLevenbergMarquardt {
-    ftol: f64,
-    xtol: f64,
-    gtol: f64,
-    stationarity: f64,
+    tolerances: Tolerances,
     initial_damping: f64,
-    max_evaluations: u64,
     evaluations: u64,
     initial_cost: f64,
     layout: BorderedLayout,
@@ -117,57 +113,30 @@ pub struct SchurLevenbergMarquardt {
     stop: Option<StopReason>,
 }
 
-fn invalid(text: &str) -> Error {
-    ArgminError::InvalidParameter {
-        text: text.to_string(),
-    }
-    .into()
-}
+/// The solver's name in its messages.
+const NAME: &str = "Schur Levenberg-Marquardt";
 
 fn violated(text: String) -> Error {
     ArgminError::ConditionViolated { text }.into()
 }
 
-/// `value` if it is finite and positive (or zero, with `allow_zero`).
-fn validated(value: f64, what: &str, allow_zero: bool) -> Result<f64, Error> {
-    if value.is_finite() && (value > 0.0 || (allow_zero && value >= 0.0)) {
-        return Ok(value);
-    }
-    let rule = if allow_zero {
-        "non-negative"
-    } else {
-        "positive"
-    };
-    Err(invalid(&format!(
-        "Schur Levenberg-Marquardt: {what} must be {rule} and finite."
-    )))
-}
-
 fn exit(text: &str) -> TerminationReason {
-    TerminationReason::SolverExit(format!("Schur Levenberg-Marquardt: {text}"))
+    settings::exit(NAME, text)
 }
 
-/// argmin's termination for a typed stop: convergence, or an exit with a message.
 fn termination(reason: StopReason) -> TerminationReason {
-    if reason.is_convergence() {
-        TerminationReason::SolverConverged
-    } else {
-        exit(&reason.to_string())
-    }
+    settings::termination(NAME, reason)
 }
 
 impl SchurLevenbergMarquardt {
     /// A solver with MINPACK's tolerances `ftol = xtol = 1.49e-8` (≈ √ε), `gtol = 0`, the
-    /// stationarity tolerance [`STATIONARITY_TOLERANCE`], initial damping `1e-3` and no
+    /// stationarity tolerance
+    /// [`STATIONARITY_TOLERANCE`](super::levenberg_marquardt::STATIONARITY_TOLERANCE), initial damping `1e-3` and no
     /// evaluation budget.
     pub fn new() -> Self {
         Self {
-            ftol: 1.49012e-8,
-            xtol: 1.49012e-8,
-            gtol: 0.0,
-            stationarity: STATIONARITY_TOLERANCE,
+            tolerances: Tolerances::MINPACK,
             initial_damping: 1e-3,
-            max_evaluations: u64::MAX,
             evaluations: 0,
             initial_cost: 0.0,
             layout: BorderedLayout {
@@ -181,45 +150,11 @@ impl SchurLevenbergMarquardt {
         }
     }
 
-    /// Relative cost-reduction tolerance (positive, finite).
-    pub fn with_ftol(mut self, ftol: f64) -> Result<Self, Error> {
-        self.ftol = validated(ftol, "ftol", false)?;
-        Ok(self)
-    }
-
-    /// Relative step tolerance: `‖D p‖ ≤ xtol·(‖D x‖ + xtol)` (positive, finite).
-    pub fn with_xtol(mut self, xtol: f64) -> Result<Self, Error> {
-        self.xtol = validated(xtol, "xtol", false)?;
-        Ok(self)
-    }
-
-    /// Gradient tolerance on `max_j |cos(J e_j, r)|` (non-negative, finite; default 0).
-    pub fn with_gtol(mut self, gtol: f64) -> Result<Self, Error> {
-        self.gtol = validated(gtol, "gtol", true)?;
-        Ok(self)
-    }
-
-    /// Stationarity tolerance on `max_j |cos(J e_j, r)|` for a progress stop to count as
-    /// convergence (non-negative, finite; default [`STATIONARITY_TOLERANCE`]).
-    pub fn with_stationarity_tolerance(mut self, tolerance: f64) -> Result<Self, Error> {
-        self.stationarity = validated(tolerance, "stationarity tolerance", true)?;
-        Ok(self)
-    }
+    settings::tolerance_builders!(NAME);
 
     /// Initial damping factor `λ₀` relative to `D²` (positive, finite; default `1e-3`).
     pub fn with_initial_damping(mut self, lambda: f64) -> Result<Self, Error> {
-        self.initial_damping = validated(lambda, "initial damping", false)?;
-        Ok(self)
-    }
-
-    /// Budget of residual evaluations, the starting point included (at least 1).
-    pub fn with_max_evaluations(mut self, budget: u64) -> Result<Self, Error> {
-        if budget == 0 {
-            return Err(invalid(
-                "Schur Levenberg-Marquardt: the evaluation budget must be at least 1.",
-            ));
-        }
-        self.max_evaluations = budget;
+        self.initial_damping = settings::validated(NAME, lambda, "initial damping", false)?;
         Ok(self)
     }
 
@@ -247,15 +182,7 @@ impl Default for SchurLevenbergMarquardt {
 }
 
 fn take<T>(v: Option<T>, what: &str) -> Result<T, Error> {
-    v.ok_or_else(|| {
-        ArgminError::NotInitialized {
-            text: format!(
-                "Schur Levenberg-Marquardt: {what} not set; provide an initial parameter \
-                 vector via `Executor::configure`."
-            ),
-        }
-        .into()
-    })
+    settings::take(NAME, v, what)
 }
 
 /// MINPACK's `max_j |g_j| / (‖J e_j‖·‖r‖)` over the non-zero columns.
@@ -300,9 +227,9 @@ where
             )));
         }
         if x.is_empty() {
-            return Err(invalid(
-                "Schur Levenberg-Marquardt: parameter vector must not be empty.",
-            ));
+            return Err(settings::invalid(&format!(
+                "{NAME}: parameter vector must not be empty."
+            )));
         }
         self.layout = layout;
         (self.diag, self.lambda, self.nu) = (DVector::zeros(0), self.initial_damping, 2.0);
@@ -316,7 +243,7 @@ where
             StopReason::NonFinite
         } else if cost <= f64::MIN_POSITIVE {
             StopReason::ZeroResidual
-        } else if self.evaluations >= self.max_evaluations {
+        } else if self.evaluations >= self.tolerances.max_evaluations {
             StopReason::EvaluationBudget
         } else {
             return Ok((state, None));
@@ -361,7 +288,7 @@ where
             self.diag = norms.map(|c| if c > 0.0 { c } else { 1.0 });
         }
         let mut xnorm = x.component_mul(&self.diag).norm();
-        if gnorm <= self.gtol {
+        if gnorm <= self.tolerances.gtol {
             self.stop = Some(StopReason::Gradient);
             let state = state.param(x).residuals(r);
             return Ok((
@@ -372,7 +299,7 @@ where
         // Stationarity of the iteration's point, computed at most once and only when a
         // progress test fires.
         let mut stationary: Option<bool> = None;
-        let (xnorm0, tolerance) = (xnorm, self.stationarity);
+        let (xnorm0, tolerance) = (xnorm, self.tolerances.stationarity);
         let mut is_stationary = |diag: &DVector<f64>| {
             *stationary.get_or_insert_with(|| {
                 let g = NEGLIGIBLE_GAUSS_NEWTON_STEP;
@@ -449,38 +376,20 @@ where
             } else {
                 self.raise_damping();
             }
-            let cost = 0.5 * fnorm * fnorm;
-            let f_conv = actred.abs() <= self.ftol && prered <= self.ftol && ratio <= 2.0;
-            let x_conv = pnorm <= self.xtol * (xnorm + self.xtol);
-            let progress_stop = if f_conv {
-                Some(StopReason::CostReduction)
-            } else if x_conv {
-                Some(StopReason::StepSize)
-            } else if (actred.abs() <= eps && prered <= eps && ratio <= 2.0) || pnorm <= eps * xnorm
-            {
-                Some(StopReason::ToleranceTooSmall)
-            } else {
-                None
+            let tol = &self.tolerances;
+            let trial = Trial {
+                cost: 0.5 * fnorm * fnorm,
+                initial_cost: self.initial_cost,
+                actred,
+                prered,
+                ratio,
+                step_converged: pnorm <= tol.xtol * (xnorm + tol.xtol),
+                step_at_precision: pnorm <= eps * xnorm,
+                gradient_cosine: gnorm,
+                non_finite: !ratio.is_finite(),
+                budget_spent: self.evaluations >= tol.max_evaluations,
             };
-            let reason = if cost <= f64::MIN_POSITIVE {
-                Some(StopReason::ZeroResidual)
-            } else if let Some(reason) = progress_stop {
-                Some(if cost <= eps * self.initial_cost {
-                    StopReason::ZeroResidual
-                } else if is_stationary(&self.diag) {
-                    reason
-                } else {
-                    StopReason::Stalled
-                })
-            } else if gnorm <= eps {
-                Some(StopReason::Gradient)
-            } else if !ratio.is_finite() {
-                Some(StopReason::NonFinite)
-            } else if self.evaluations >= self.max_evaluations {
-                Some(StopReason::EvaluationBudget)
-            } else {
-                None
-            };
+            let reason = trial.verdict(tol.ftol, || is_stationary(&self.diag));
             if let Some(reason) = reason {
                 self.stop = Some(reason);
                 break (Some(termination(reason)), ratio);

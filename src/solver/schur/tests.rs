@@ -40,7 +40,10 @@ fn builder_validates() {
         .with_ftol(1e-3)
         .and_then(|l| l.with_xtol(1e-4))
         .unwrap();
-    assert_eq!((ok.ftol, ok.xtol, ok.gtol), (1e-3, 1e-4, 0.0));
+    assert_eq!(
+        (ok.tolerances.ftol, ok.tolerances.xtol, ok.tolerances.gtol),
+        (1e-3, 1e-4, 0.0)
+    );
 }
 
 #[test]
