@@ -2,7 +2,7 @@
 //! argmin's Gauss–Newton, behind one entry point for any least-squares problem
 //! ([`LeastSquares`]). Every solve reports whether it converged and a typed [`StopReason`].
 
-use argmin::core::{Executor, Jacobian, Operator, State};
+use argmin::core::{Executor, IterState, Jacobian, Operator, OptimizationResult, State};
 use nalgebra::{DMatrix, DVector};
 
 /// Which solver identifies the parameters.
@@ -113,16 +113,8 @@ pub fn solve_within<P>(
 where
     P: LeastSquares,
 {
-    let mut outcome = run(problem, x0, kind, budget)?;
-    if outcome.converged {
-        let left = budget.saturating_sub(outcome.residual_evaluations);
-        let refinement = refine(problem, &outcome.x, left);
-        outcome.x = refinement.x;
-        outcome.refinement_steps = refinement.steps;
-        outcome.residual_evaluations += refinement.residual_evaluations;
-        outcome.jacobian_evaluations += refinement.jacobian_evaluations;
-    }
-    Ok(outcome)
+    let outcome = run(problem, x0, kind, budget)?;
+    Ok(refined(problem, outcome, budget))
 }
 
 /// Runs [`SchurLevenbergMarquardt`] (Levenberg–Marquardt with every step solved by the Schur
@@ -166,29 +158,9 @@ where
     let result = Executor::new(problem.clone(), solver)
         .configure(|state| state.param(x0).max_iters(budget))
         .run()?;
-    let state = result.state();
-    let stop_reason = result
-        .solver
-        .stop_reason()
-        .unwrap_or(StopReason::EvaluationBudget);
-    let mut outcome = SolverOutcome {
-        x: state.get_param().cloned().unwrap_or_default(),
-        iterations: state.get_iter(),
-        converged: stop_reason.is_convergence(),
-        stop_reason,
-        refinement_steps: 0,
-        residual_evaluations: count(&result.problem.counts, "operator_count"),
-        jacobian_evaluations: count(&result.problem.counts, "bordered_count"),
-    };
-    if outcome.converged {
-        let left = budget.saturating_sub(outcome.residual_evaluations);
-        let refinement = refine(&DenseView(problem), &outcome.x, left);
-        outcome.x = refinement.x;
-        outcome.refinement_steps = refinement.steps;
-        outcome.residual_evaluations += refinement.residual_evaluations;
-        outcome.jacobian_evaluations += refinement.jacobian_evaluations;
-    }
-    Ok(outcome)
+    let stop = result.solver.stop_reason();
+    let outcome = outcome(&result, stop, "bordered_count");
+    Ok(refined(&DenseView(problem), outcome, budget))
 }
 
 /// Any least-squares problem on argmin: residuals `r(x)` ([`Operator`]) and their Jacobian
@@ -308,20 +280,8 @@ where
             let result = Executor::new(problem.clone(), solver)
                 .configure(|state| state.param(x0).max_iters(budget.saturating_sub(1)))
                 .run()?;
-            let state = result.state();
-            let stop_reason = result
-                .solver
-                .stop_reason()
-                .unwrap_or(StopReason::EvaluationBudget);
-            Ok(SolverOutcome {
-                x: state.get_param().cloned().unwrap_or_default(),
-                iterations: state.get_iter(),
-                converged: stop_reason.is_convergence(),
-                stop_reason,
-                refinement_steps: 0,
-                residual_evaluations: count(&result.problem.counts, "operator_count"),
-                jacobian_evaluations: count(&result.problem.counts, "jacobian_count"),
-            })
+            let stop = result.solver.stop_reason();
+            Ok(outcome(&result, stop, "jacobian_count"))
         }
         SolverKind::LevenbergMarquardt => {
             let solver = levenberg_marquardt::LevenbergMarquardt::new()
@@ -332,22 +292,49 @@ where
             let result = Executor::new(problem.clone(), solver)
                 .configure(|state| state.param(x0).max_iters(budget))
                 .run()?;
-            let state = result.state();
-            let stop_reason = result
-                .solver
-                .stop_reason()
-                .unwrap_or(StopReason::EvaluationBudget);
-            Ok(SolverOutcome {
-                x: state.get_param().cloned().unwrap_or_default(),
-                iterations: state.get_iter(),
-                converged: stop_reason.is_convergence(),
-                stop_reason,
-                refinement_steps: 0,
-                residual_evaluations: count(&result.problem.counts, "operator_count"),
-                jacobian_evaluations: count(&result.problem.counts, "jacobian_count"),
-            })
+            let stop = result.solver.stop_reason();
+            Ok(outcome(&result, stop, "jacobian_count"))
         }
     }
+}
+
+/// The argmin state of every solver here: parameters, residuals and cost, with the solver's
+/// own Jacobian type `J` (a matrix, or nothing where the solver keeps blocks).
+type LeastSquaresState<J> = IterState<DVector<f64>, (), J, (), DVector<f64>, f64>;
+
+/// The outcome of an argmin run, before any refinement: the last accepted point, and the
+/// solver's stop (a run argmin stopped at `max_iters` spent its evaluation budget).
+/// `jacobian_counter` is the problem's counter of Jacobian evaluations.
+fn outcome<O, S, J>(
+    result: &OptimizationResult<O, S, LeastSquaresState<J>>,
+    stop: Option<StopReason>,
+    jacobian_counter: &str,
+) -> SolverOutcome {
+    let state = result.state();
+    let stop_reason = stop.unwrap_or(StopReason::EvaluationBudget);
+    SolverOutcome {
+        x: state.get_param().cloned().unwrap_or_default(),
+        iterations: state.get_iter(),
+        converged: stop_reason.is_convergence(),
+        stop_reason,
+        refinement_steps: 0,
+        residual_evaluations: count(&result.problem.counts, "operator_count"),
+        jacobian_evaluations: count(&result.problem.counts, jacobian_counter),
+    }
+}
+
+/// `outcome` followed, if it converged, by [`refine`] on `problem` within what is left of
+/// `budget`.
+fn refined<P: LeastSquares>(problem: &P, mut outcome: SolverOutcome, budget: u64) -> SolverOutcome {
+    if outcome.converged {
+        let left = budget.saturating_sub(outcome.residual_evaluations);
+        let refinement = refine(problem, &outcome.x, left);
+        outcome.x = refinement.x;
+        outcome.refinement_steps = refinement.steps;
+        outcome.residual_evaluations += refinement.residual_evaluations;
+        outcome.jacobian_evaluations += refinement.jacobian_evaluations;
+    }
+    outcome
 }
 
 fn count(counts: &std::collections::HashMap<&'static str, u64>, key: &str) -> u64 {
