@@ -26,6 +26,7 @@ mod selection;
 mod solver_refine;
 mod solvers_agree;
 mod spatial;
+mod spatial_after;
 mod spatial_workspace;
 mod statistics_independent;
 mod statistics_trust;
