@@ -2,8 +2,8 @@
 //! of the home working and assembly modes (Liu, Wang & Pritschow 2006), for a mechanism whose
 //! end-effector point is measured in x, y (other coordinates held at their home values).
 //!
-//! Method: the region is `{P : every leg reaches P on its home branch, every serial measure > 0,
-//! the parallel measure > 0}` (signed by the home modes, see
+//! Method: the region is `{P : every leg reaches P on its home branch with its joints within
+//! their URDF limits, every serial measure > 0, the parallel measure > 0}` (signed by the home modes, see
 //! [`crate::kinematics::singularity`]). Its boundary is found along rays cast from a centre
 //! (march, then bisection to 1e-12 m), joined into a closed parry polyline; the radius of the
 //! disc about `c` is the distance from `c` to that polyline. Nelder–Mead (argmin) maximises it;
@@ -14,6 +14,7 @@ use argmin::solver::neldermead::NelderMead;
 use nalgebra::Vector2;
 use rayon::prelude::*;
 
+use super::limits::check_limits;
 use super::region::geometry;
 use crate::error::{Error, KinematicsError, Result};
 use crate::kinematics::inverse::{solve_leg, solve_leg_from, LegSolution};
@@ -93,7 +94,7 @@ impl<'a> SingularityMargin<'a> {
     /// solutions, to seed the next step.
     ///
     /// # Errors
-    /// A leg cannot reach `p` on its home branch.
+    /// A leg cannot reach `p` on its home branch, or only with a joint beyond its limits.
     pub fn measures_from<const D: usize>(
         &self,
         p: [f64; D],
@@ -109,6 +110,7 @@ impl<'a> SingularityMargin<'a> {
                 Some(seeds) => solve_leg_from(leg, geometry, &pose, &seeds[l].q)?,
                 None => solve_leg(leg, geometry, &pose, &mechanism.home_pose)?,
             };
+            check_limits(leg, &solution.q)?;
             serial = serial.min(solution.normalised_determinant * leg.branch_sign);
             solutions.push(solution);
         }

@@ -359,7 +359,7 @@ fn divide_and_conquer_equals_all_legs_on_the_same_noisy_poses() {
 }
 
 /// Loads a bundled model after replacing text in it (and optionally in its URDF).
-fn edited(
+pub(crate) fn edited(
     file: &str,
     edits: &[(&str, &str)],
     urdf_edits: &[(&str, &str)],

@@ -10,14 +10,51 @@ use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 
 use crate::cli::{legwise, text};
+use crate::spatial::MODELS;
 use crate::support::bundled;
 
+/// The actuated joints' strokes declared in the URDFs (the delta's carriage heights, the
+/// hexapod's leg lengths, metres).
+fn stroke(file: &str) -> [f64; 2] {
+    if file == "delta.yaml" {
+        [0.0, 1.0]
+    } else {
+        [0.5, 0.9]
+    }
+}
+
+/// The actuated joint of every leg at `pose` from the closed forms (nominal geometry): the
+/// delta's carriage height `h = k·s + h0`, the hexapod's leg length `ρ = k·s + rho0`.
+fn actuated_joints(file: &str, mechanism: &Mechanism, pose: &[f64; 6]) -> Vec<f64> {
+    let model = MODELS.iter().find(|m| m.file == file).unwrap();
+    mechanism
+        .legs
+        .iter()
+        .map(|leg| {
+            let phi = leg.nominal();
+            let (gain, offset) = if file == "delta.yaml" {
+                (phi[3], phi[4])
+            } else {
+                (phi[6], phi[7])
+            };
+            gain * (model.reading)(&phi, pose) + offset
+        })
+        .collect()
+}
+
 /// Inside the singularity-free region of the home modes at point `p` (home orientation): every
-/// leg reaches on its home branch with its serial determinant of the home sign, and the
-/// parallel measure is positive.
-fn inside(mechanism: &Mechanism, p: [f64; 3]) -> bool {
+/// leg reaches on its home branch with its serial determinant of the home sign and its actuated
+/// joint within its stroke (from the closed forms), and the parallel measure is positive.
+fn inside(file: &str, mechanism: &Mechanism, p: [f64; 3]) -> bool {
     let mut pose = mechanism.home_pose;
     pose[..3].copy_from_slice(&p);
+    let [lower, upper] = stroke(file);
+    if actuated_joints(file, mechanism, &pose)
+        .iter()
+        .any(|q| !(lower..=upper).contains(q))
+    {
+        return false;
+    }
     let params = mechanism.nominal_parameters();
     let serial_ok = mechanism.legs.iter().zip(&params).all(|(leg, phi)| {
         solve_leg(leg, &leg.geometry(phi), &pose, &mechanism.home_pose)
@@ -56,7 +93,10 @@ fn the_3d_miw_ball_lies_in_the_singularity_free_region_and_is_tight() {
                 }
             };
             let p = std::array::from_fn(|k| c[k] + miw.radius * d[k]);
-            assert!(inside(&mechanism, p), "{file}: surface point {p:?} outside");
+            assert!(
+                inside(file, &mechanism, p),
+                "{file}: surface point {p:?} outside"
+            );
         }
         // The nearest crossing, 2% farther out, is outside: the ball is not far too small.
         let nearest = miw
@@ -69,7 +109,10 @@ fn the_3d_miw_ball_lies_in_the_singularity_free_region_and_is_tight() {
             })
             .unwrap();
         let beyond = std::array::from_fn(|k| c[k] + 1.02 * (nearest[k] - c[k]));
-        assert!(!inside(&mechanism, beyond), "{file}: {beyond:?} inside");
+        assert!(
+            !inside(file, &mechanism, beyond),
+            "{file}: {beyond:?} inside"
+        );
         let nearest_distance = (0..3)
             .map(|k| (nearest[k] - c[k]).powi(2))
             .sum::<f64>()
