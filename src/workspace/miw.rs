@@ -58,6 +58,7 @@ pub struct Miw {
 pub struct SingularityMargin<'a> {
     mechanism: &'a Mechanism,
     parallel: ParallelMeasure<'a>,
+    plane: [usize; 2],
 }
 
 impl<'a> SingularityMargin<'a> {
@@ -70,14 +71,34 @@ impl<'a> SingularityMargin<'a> {
         Ok(Self {
             mechanism,
             parallel,
+            plane: [0, 1],
         })
     }
 
-    /// The pose at point `p`: its `D` first coordinates (x, y in the plane; x, y, z in space),
-    /// the others at home.
+    /// The mechanism.
+    pub fn mechanism(&self) -> &'a Mechanism {
+        self.mechanism
+    }
+
+    /// The same margin on the plane through the home pose spanned by the pose coordinates
+    /// `axes` (e.g. `[0, 2]`: x and z), which 2-D points then address; `[0, 1]` (x, y) is the
+    /// default.
+    #[must_use]
+    pub fn in_plane(mut self, axes: [usize; 2]) -> Self {
+        self.plane = axes;
+        self
+    }
+
+    /// The pose at point `p`: a 2-D point on the margin's plane ([`Self::in_plane`]; x, y by
+    /// default), or x, y, z for a 3-D point; the other coordinates at home.
     pub fn pose<const D: usize>(&self, p: [f64; D]) -> [f64; 6] {
         let mut pose = self.mechanism.home_pose;
-        pose[..D].copy_from_slice(&p);
+        if D == 2 {
+            pose[self.plane[0]] = p[0];
+            pose[self.plane[1]] = p[1];
+        } else {
+            pose[..D].copy_from_slice(&p);
+        }
         pose
     }
 
