@@ -422,10 +422,14 @@ fn identify_plots_on_the_spatial_models_label_the_slice_and_the_units() {
     ] {
         let dir = tempfile::tempdir().unwrap();
         let plots = dir.path().join("plots");
+        // A coarser candidate grid than the hexapod's keeps its 6-D pool small (3³ × 5³).
+        let grid = if model.contains("hexapod") { "0.05" } else { "0.02" };
         let run = legwise(&[
             "identify",
             "--model",
             model,
+            "--grid",
+            grid,
             "--map",
             "0.02",
             "--plots",
