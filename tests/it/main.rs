@@ -27,6 +27,7 @@ mod solver_refine;
 mod solvers_agree;
 mod spatial;
 mod spatial_after;
+mod spatial_bad_input;
 mod spatial_limits;
 mod spatial_workspace;
 mod statistics_independent;

@@ -423,7 +423,11 @@ fn identify_plots_on_the_spatial_models_label_the_slice_and_the_units() {
         let dir = tempfile::tempdir().unwrap();
         let plots = dir.path().join("plots");
         // A coarser candidate grid than the hexapod's keeps its 6-D pool small (3³ × 5³).
-        let grid = if model.contains("hexapod") { "0.05" } else { "0.02" };
+        let grid = if model.contains("hexapod") {
+            "0.05"
+        } else {
+            "0.02"
+        };
         let run = legwise(&[
             "identify",
             "--model",
@@ -546,4 +550,38 @@ fn evaluate_on_the_spatial_models_draws_both_models_position_errors() {
             .any(|t| t.starts_with("hexapod.yaml: RMS ") && t.ends_with("(24 poses)")),
         "{texts:?}"
     );
+}
+
+#[test]
+fn the_command_line_recovers_both_spatial_models_at_zero_noise() {
+    // The README's commands; the hexapod's on a coarser candidate grid (3³ × 5³ poses instead
+    // of 5³ × 5³), as its shared selection over the full pool takes seconds in a debug build.
+    for (model, grid) in [
+        ("models/hexapod.yaml", "0.05"),
+        ("models/delta.yaml", "0.02"),
+    ] {
+        let out = legwise(&[
+            "identify",
+            "--model",
+            model,
+            "--grid",
+            grid,
+            "--noise-scale",
+            "0",
+            "--json",
+            "-",
+        ]);
+        assert_eq!(out.status.code(), Some(0), "{model}: {}", text(&out.stderr));
+        let report: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+        let legs = report["results"][0]["legs"].as_array().unwrap();
+        assert_eq!(legs.len(), if model.contains("hexapod") { 6 } else { 3 });
+        for leg in legs {
+            let after = leg["parameter_error_rms_after"].as_f64().unwrap();
+            let before = leg["parameter_error_rms_before"].as_f64().unwrap();
+            assert!(
+                after <= 1e-9 && before > 1e-4,
+                "{model}: {before} -> {after}"
+            );
+        }
+    }
 }
