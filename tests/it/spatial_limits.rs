@@ -153,3 +153,46 @@ fn the_spatial_workspace_rays_all_end_at_a_boundary() {
         assert!(!stdout.contains("met no boundary"), "{model}: {stdout}");
     }
 }
+
+/// A planar model's rays stop at its strokes too: the 3-RPR's URDF limits its legs to 0–1 m,
+/// and the MIW's nearest boundary point is where a leg (|p + R·b − a| from the model's base
+/// and platform points, computed here) is 1 m long. (Without the limits the MIW radius was
+/// 0.5385 m; its candidate poses, legs 0.24–0.82 m, are unchanged.)
+#[test]
+fn the_3rpr_miw_stops_where_a_leg_reaches_its_1_m_stroke() {
+    use legwise::workspace::miw::{maximal_inscribed_workspace, MiwOptions};
+    let mechanism = bundled("3rpr.yaml");
+    let options = MiwOptions {
+        rays: 360,
+        ..MiwOptions::for_mechanism(&mechanism)
+    };
+    let miw = maximal_inscribed_workspace(&mechanism, options).unwrap();
+    let c = miw.centre;
+    let distance = |p: &[f64; 2]| (p[0] - c[0]).hypot(p[1] - c[1]);
+    let nearest = miw
+        .boundary
+        .iter()
+        .min_by(|a, b| distance(a).total_cmp(&distance(b)))
+        .unwrap();
+    let yaw = mechanism.home_pose[5];
+    let lengths: Vec<f64> = mechanism
+        .legs
+        .iter()
+        .map(|leg| {
+            let a = leg.joints[0].origin;
+            let b = leg.attachment;
+            let (s, co) = yaw.sin_cos();
+            let tip = [
+                nearest[0] + co * b[0] - s * b[1],
+                nearest[1] + s * b[0] + co * b[1],
+            ];
+            (tip[0] - a[0]).hypot(tip[1] - a[1])
+        })
+        .collect();
+    let longest = lengths.iter().copied().fold(0.0, f64::max);
+    assert!(
+        (longest - 1.0).abs() < 1e-9,
+        "{nearest:?}: legs {lengths:?}"
+    );
+    assert!((miw.radius - 0.4615).abs() < 1e-3, "radius {}", miw.radius);
+}
