@@ -1,7 +1,8 @@
 //! The 3-D maximal inscribed workspace of a spatial mechanism at its home orientation: the
 //! largest ball about the home position inside the singularity-free region of the home working
-//! and assembly modes (every leg reaches the point on its home branch, every serial measure and
-//! the parallel measure keep their home sign; see [`crate::kinematics::singularity`]).
+//! and assembly modes (every leg reaches the point on its home branch with its joints within
+//! their URDF limits, every serial measure and the parallel measure keep their home sign; see
+//! [`crate::kinematics::singularity`] and [`super::limits`]).
 //!
 //! Method, the ray idea of the planar MIW ([`super::miw`]): rays are cast from the home position
 //! in directions spread evenly over the sphere (a Fibonacci lattice); along each the legs are
