@@ -259,6 +259,14 @@ fn the_calibrated_spatial_models_reload_identify_again_without_iterating_and_eva
         let calibrated = Mechanism::load(&out).unwrap();
         assert_eq!(calibrated.measured, mech.measured);
         assert_eq!(calibrated.workspace, mech.workspace);
+        // The joints keep their URDF limits (the strokes bound the workspace).
+        for (leg, original) in calibrated.legs.iter().zip(&mech.legs) {
+            let limits = |l: &legwise::model::leg::LegModel| -> Vec<Option<[f64; 2]>> {
+                l.joints.iter().map(|j| j.limits).collect()
+            };
+            assert_eq!(limits(leg), limits(original), "{}", model.file);
+            assert!(limits(leg).iter().any(Option::is_some));
+        }
         for (leg, estimate) in calibrated.legs.iter().zip(&result.legs) {
             for (param, p) in leg.params.iter().zip(&estimate.parameters) {
                 assert_eq!(
