@@ -190,6 +190,27 @@ pub enum KinematicsError {
         /// The leg.
         leg: String,
     },
+    /// The leg reaches the pose only with a joint beyond its URDF `<limit>` (a prismatic
+    /// joint's stroke, a revolute joint's range).
+    #[error("{0}")]
+    BeyondLimits(Box<JointBeyondLimits>),
+}
+
+/// A joint outside its URDF `<limit>` range at a pose (boxed in [`KinematicsError`] to keep that
+/// error small).
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[error("leg `{leg}` reaches the pose only with joint `{joint}` at {value}, beyond its limits [{lower}, {upper}]")]
+pub struct JointBeyondLimits {
+    /// The leg.
+    pub leg: String,
+    /// The joint.
+    pub joint: String,
+    /// The joint's value there (m or rad).
+    pub value: f64,
+    /// Its lower limit.
+    pub lower: f64,
+    /// Its upper limit.
+    pub upper: f64,
 }
 
 /// The first non-empty line of a dependency's error message, without its `prefix` (serde-saphyr

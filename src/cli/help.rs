@@ -97,7 +97,7 @@ EXAMPLES:
   legwise workspace --model models/5r.yaml
   # a finer boundary, the picture elsewhere
   legwise workspace --model models/3rpr.yaml --rays 4000 --svg 3rpr-miw.svg
-  # a spatial model: the 3-D MIW (a ball at the home orientation), the picture a slice
+  # a spatial model: the 3-D MIW (a ball at the home orientation), pictured in three slices
   legwise workspace --model models/hexapod.yaml"
 );
 

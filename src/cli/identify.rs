@@ -206,8 +206,10 @@ fn maps_text(
     before: &AccuracyMap,
     after: &[AccuracyMap],
 ) -> String {
+    let slice = crate::report::plots::files::map_slice(report.mechanism)
+        .map_or(String::new(), |slice| format!(", {slice}"));
     let mut text = format!(
-        "\naccuracy map over {} of the workspace region, grid {} m:\n{}\n",
+        "\naccuracy map over {} of the workspace region, grid {} m{slice}:\n{}\n",
         args.after.map_scale,
         before.grid_m,
         map_summary("  before (nominal model)", before)

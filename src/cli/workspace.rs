@@ -9,13 +9,12 @@ use super::{Verdict, WorkspaceArgs};
 use crate::measure::{file, MeasurementSet};
 use crate::model::mechanism::COORDINATES;
 use crate::model::Mechanism;
-use crate::report::plots::workspace::{PoseGroup, WorkspaceFigure};
+use crate::report::plots::slices::SlicesFigure;
+use crate::report::plots::workspace::PoseGroup;
 use crate::report::plots::{render, Format};
 use crate::workspace::miw::{maximal_inscribed_workspace, MiwOptions, SingularityMargin};
-use crate::workspace::miw3d::{
-    self, horizontal_slice, spatial_inscribed_workspace, Miw3dOptions, REACH,
-};
-use crate::workspace::picture::workspace_figure;
+use crate::workspace::miw3d::{self, slice, spatial_inscribed_workspace, Miw3dOptions, REACH};
+use crate::workspace::picture::{slice_figure, workspace_figure};
 
 pub(super) fn run(args: &WorkspaceArgs) -> anyhow::Result<Verdict> {
     let rays = super::checks::count("--rays", args.rays, 16, 100_000)?;
@@ -27,13 +26,18 @@ pub(super) fn run(args: &WorkspaceArgs) -> anyhow::Result<Verdict> {
         path,
     }));
     let output = Output::prepare("--out", &path, &inputs)?;
-    let poses = match &args.poses {
-        Some(poses) => pose_groups(&mechanism, &file::read_poses(poses, &mechanism)?),
-        None => Vec::new(),
+    let pose_set = match &args.poses {
+        Some(poses) => Some(file::read_poses(poses, &mechanism)?),
+        None => None,
+    };
+    let groups = |axes: [usize; 2]| {
+        pose_set
+            .as_ref()
+            .map_or(Vec::new(), |set| pose_groups(&mechanism, set, axes))
     };
     let mut console = Console::new(output.is_stdout());
     if !mechanism.is_planar() {
-        let figure = spatial(&mechanism, rays, poses, &mut console)?;
+        let figure = spatial(&mechanism, rays, &groups, &mut console)?;
         output.write("picture", &render(&figure, format)?)?;
         console.line(format_args!("picture written to {}", output.name()))?;
         return Ok(Verdict::Trusted);
@@ -76,28 +80,37 @@ pub(super) fn run(args: &WorkspaceArgs) -> anyhow::Result<Verdict> {
     writeln!(text, "  radius  {:.7} m", miw.radius)?;
     let margin = SingularityMargin::new(&mechanism)?;
     let title = format!("{}: singularity-free region and MIW", mechanism.name);
-    let figure = workspace_figure(&margin, &miw, &title, poses);
+    let figure = workspace_figure(&margin, &miw, &title, groups([0, 1]));
     output.write("picture", &render(&figure, format)?)?;
     console.print(&text)?;
     console.line(format_args!("picture written to {}", output.name()))?;
     Ok(Verdict::Trusted)
 }
 
-/// A spatial mechanism: the 3-D MIW at the home orientation, printed, and the picture of the
-/// horizontal slice through the home position (the region's boundary and the ball's
-/// cross-section).
+/// The slices of a spatial workspace drawn, by their position coordinates: x–y, x–z, y–z.
+const SLICES: [[usize; 2]; 3] = [[0, 1], [0, 2], [1, 2]];
+
+/// Rays cast in each slice's plane.
+const SLICE_RAYS: usize = 360;
+
+/// A spatial mechanism: the 3-D MIW at the home orientation, printed, and the picture of three
+/// slices through the home position (x–y, x–z, y–z: the region's boundary, its singular
+/// curves, the ball's cross-section and the poses `groups` gives for each plane).
 fn spatial(
     mechanism: &Mechanism,
     rays: usize,
-    poses: Vec<PoseGroup>,
+    groups: &dyn Fn([usize; 2]) -> Vec<PoseGroup>,
     console: &mut Console,
-) -> anyhow::Result<WorkspaceFigure> {
+) -> anyhow::Result<SlicesFigure> {
     let options = Miw3dOptions {
         rays,
         ..Miw3dOptions::for_mechanism(mechanism)
     };
     let miw = spatial_inscribed_workspace(mechanism, options)?;
-    let slice = horizontal_slice(mechanism, options, 360)?;
+    let slices = SLICES
+        .iter()
+        .map(|&axes| slice(mechanism, options, axes, SLICE_RAYS))
+        .collect::<Result<Vec<_>, _>>()?;
     let orientation: Vec<String> = (3..6)
         .filter(|c| mechanism.measured.contains(c))
         .map(|c| format!("{} = {}", COORDINATES[c], mechanism.home_pose[c]))
@@ -133,41 +146,44 @@ fn spatial(
             .sum::<f64>()
             .sqrt()
     }));
-    let capped_slice = far(&mut slice
+    let capped_slices: usize = slices
         .iter()
-        .map(|p| (p[0] - miw.centre[0]).hypot(p[1] - miw.centre[1])));
-    if capped + capped_slice > 0 {
+        .zip(SLICES)
+        .map(|(boundary, axes)| {
+            far(&mut boundary
+                .iter()
+                .map(|p| (p[0] - miw.centre[axes[0]]).hypot(p[1] - miw.centre[axes[1]])))
+        })
+        .sum();
+    if capped + capped_slices > 0 {
         writeln!(
             text,
-            "  {capped} of {rays} rays (and {capped_slice} of the slice's 360) met no boundary \
-             within {reach:.3} m ({REACH} region sizes) and stop there"
+            "  {capped} of {rays} rays (and {capped_slices} of the slices' {}) met no boundary \
+             within {reach:.3} m ({REACH} region sizes) and stop there",
+            SLICES.len() * SLICE_RAYS
         )?;
     }
-    writeln!(text, "picture: the horizontal slice z = {z:.7} m")?;
+    writeln!(
+        text,
+        "picture: the slices z = {z:.7} m (x-y), y = {y:.7} m (x-z) and x = {x:.7} m (y-z) \
+         through the home position, at the home orientation"
+    )?;
     console.print(&text)?;
-    let (mut lo, mut hi) = ([f64::INFINITY; 2], [f64::NEG_INFINITY; 2]);
-    for p in slice
-        .iter()
-        .chain(poses.iter().flat_map(|g| g.points.iter()))
-    {
-        for k in 0..2 {
-            lo[k] = lo[k].min(p[k]);
-            hi[k] = hi[k].max(p[k]);
-        }
-    }
-    let pad = 0.25 * (hi[0] - lo[0]).max(hi[1] - lo[1]);
-    Ok(WorkspaceFigure {
+    let margin = SingularityMargin::new(mechanism)?;
+    let panels = slices
+        .into_iter()
+        .zip(SLICES)
+        .map(|(boundary, axes)| {
+            let plane = margin.clone().in_plane(axes);
+            slice_figure(&plane, boundary, axes, &miw, groups(axes))
+        })
+        .collect();
+    Ok(SlicesFigure {
         title: format!(
-            "{}: singularity-free slice z = {z:.3} m and 3-D MIW",
+            "{}: singularity-free slices through the home position and 3-D MIW",
             mechanism.name
         ),
-        region: slice,
-        serial: Vec::new(),
-        parallel: Vec::new(),
-        miw_centre: [miw.centre[0], miw.centre[1]],
-        miw_radius: miw.radius,
-        poses,
-        bounds: ([lo[0] - pad, lo[1] - pad], [hi[0] + pad, hi[1] + pad]),
+        panels,
     })
 }
 
@@ -200,8 +216,9 @@ fn picture_path(args: &WorkspaceArgs) -> anyhow::Result<(PathBuf, Format)> {
     }
 }
 
-/// The poses of a pose file, grouped by their leg label (shared poses last).
-fn pose_groups(mechanism: &Mechanism, set: &MeasurementSet) -> Vec<PoseGroup> {
+/// The poses of a pose file, grouped by their leg label (shared poses last), in the pose
+/// coordinates `axes` (x, y for a planar picture; projected on a spatial slice's plane).
+fn pose_groups(mechanism: &Mechanism, set: &MeasurementSet, axes: [usize; 2]) -> Vec<PoseGroup> {
     let source = set
         .source
         .as_ref()
@@ -219,7 +236,7 @@ fn pose_groups(mechanism: &Mechanism, set: &MeasurementSet) -> Vec<PoseGroup> {
                 .poses
                 .iter()
                 .filter(|p| p.leg == leg)
-                .map(|p| [p.pose[0], p.pose[1]])
+                .map(|p| [p.pose[axes[0]], p.pose[axes[1]]])
                 .collect();
             (!points.is_empty()).then(|| PoseGroup {
                 name: format!("{name} poses{source}"),

@@ -29,6 +29,11 @@ pub struct JointModel {
     pub axis: Vector3<f64>,
     /// Nominal origin `[x, y, z, roll, pitch, yaw]` (metres, radians).
     pub origin: [f64; 6],
+    /// The joint's range `[lower, upper]` (metres for a prismatic joint's stroke, radians for a
+    /// revolute), from the URDF `<limit>` of a `prismatic` or `revolute` joint; `None` for
+    /// `continuous` and `fixed` joints and for a `<limit>` without a range (lower = upper, as a
+    /// missing element reads). The workspace computations keep every joint within it.
+    pub limits: Option<[f64; 2]>,
 }
 
 impl JointModel {
@@ -62,8 +67,13 @@ impl JointModel {
         if origin.iter().any(|v| !v.is_finite()) {
             return Err(format!("joint `{}` has a non-finite origin", joint.name));
         }
+        let limits = match joint.joint_type {
+            urdf_rs::JointType::Revolute | urdf_rs::JointType::Prismatic => limits(joint)?,
+            _ => None,
+        };
         Ok(Self {
             name: joint.name.clone(),
+            limits,
             kind,
             axis: if kind == JointKind::Fixed {
                 Vector3::z()
@@ -78,4 +88,20 @@ impl JointModel {
     pub fn is_moving(&self) -> bool {
         self.kind != JointKind::Fixed
     }
+}
+
+/// The range of a `prismatic` or `revolute` URDF joint: `Some([lower, upper])` when lower <
+/// upper, `None` when they are equal (no `<limit>` element reads as 0, 0).
+///
+/// # Errors
+/// A NaN bound, or lower above upper.
+fn limits(joint: &urdf_rs::Joint) -> Result<Option<[f64; 2]>, String> {
+    let (lower, upper) = (joint.limit.lower, joint.limit.upper);
+    if lower.is_nan() || upper.is_nan() || lower > upper {
+        return Err(format!(
+            "joint `{}` has <limit lower=\"{lower}\" upper=\"{upper}\">; expected lower <= upper",
+            joint.name
+        ));
+    }
+    Ok((lower < upper).then_some([lower, upper]))
 }

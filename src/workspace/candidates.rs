@@ -1,12 +1,14 @@
 //! Candidate identification poses: a grid over the usable workspace (spacing `grid` in x, y —
 //! and z for a spatial region — from the lower corner of the usable region's bounding box, each
 //! ranged coordinate, e.g. an orientation angle, at `range_levels` values), kept when the pose
-//! is inside the region with its margin, every leg reaches it on its home branch, and it clears
+//! is inside the region with its margin, every leg reaches it on its home branch with its joints
+//! within their URDF limits, and it clears
 //! the serial and parallel singularity thresholds. Each candidate carries every leg's identification row at the nominal
 //! parameters.
 
 use nalgebra::DVector;
 
+use super::limits::check_limits;
 use crate::error::{Error, KinematicsError, Result};
 use crate::identify::jacobian::PreparedLeg;
 use crate::kinematics::singularity::ParallelMeasure;
@@ -37,6 +39,8 @@ pub struct CandidatePool {
     pub inside: usize,
     /// Rejected: a leg cannot reach the pose on its home branch.
     pub unreachable: usize,
+    /// Rejected: a leg reaches the pose only with a joint beyond its URDF limits.
+    pub beyond_limits: usize,
     /// Rejected: too close to a serial singularity.
     pub near_serial: usize,
     /// Rejected: too close to a parallel singularity.
@@ -78,6 +82,7 @@ pub fn candidate_pool(mechanism: &Mechanism, spacing: Option<f64>) -> Result<Can
         candidates: Vec::new(),
         inside: 0,
         unreachable: 0,
+        beyond_limits: 0,
         near_serial: 0,
         near_parallel: 0,
         spacing,
@@ -98,6 +103,14 @@ pub fn candidate_pool(mechanism: &Mechanism, spacing: Option<f64>) -> Result<Can
             pool.unreachable += 1;
             continue;
         };
+        let within = mechanism.legs.iter().zip(&solutions);
+        if within
+            .map(|(leg, solution)| check_limits(leg, &solution.q))
+            .any(|checked| checked.is_err())
+        {
+            pool.beyond_limits += 1;
+            continue;
+        }
         let serial = solutions
             .iter()
             .zip(&mechanism.legs)
@@ -133,10 +146,11 @@ pub fn candidate_pool(mechanism: &Mechanism, spacing: Option<f64>) -> Result<Can
     }
     if pool.candidates.is_empty() {
         return Err(Error::Invalid(format!(
-            "{}: no feasible candidate pose ({} grid points inside the usable workspace: {} unreachable, {} near a serial singularity, {} near a parallel singularity)",
+            "{}: no feasible candidate pose ({} grid points inside the usable workspace: {} unreachable, {} beyond a joint limit, {} near a serial singularity, {} near a parallel singularity)",
             mechanism.model_path.display(),
             pool.inside,
             pool.unreachable,
+            pool.beyond_limits,
             pool.near_serial,
             pool.near_parallel
         )));

@@ -2,8 +2,8 @@
 //! of the home working and assembly modes (Liu, Wang & Pritschow 2006), for a mechanism whose
 //! end-effector point is measured in x, y (other coordinates held at their home values).
 //!
-//! Method: the region is `{P : every leg reaches P on its home branch, every serial measure > 0,
-//! the parallel measure > 0}` (signed by the home modes, see
+//! Method: the region is `{P : every leg reaches P on its home branch with its joints within
+//! their URDF limits, every serial measure > 0, the parallel measure > 0}` (signed by the home modes, see
 //! [`crate::kinematics::singularity`]). Its boundary is found along rays cast from a centre
 //! (march, then bisection to 1e-12 m), joined into a closed parry polyline; the radius of the
 //! disc about `c` is the distance from `c` to that polyline. Nelder–Mead (argmin) maximises it;
@@ -14,6 +14,7 @@ use argmin::solver::neldermead::NelderMead;
 use nalgebra::Vector2;
 use rayon::prelude::*;
 
+use super::limits::check_limits;
 use super::region::geometry;
 use crate::error::{Error, KinematicsError, Result};
 use crate::kinematics::inverse::{solve_leg, solve_leg_from, LegSolution};
@@ -57,6 +58,7 @@ pub struct Miw {
 pub struct SingularityMargin<'a> {
     mechanism: &'a Mechanism,
     parallel: ParallelMeasure<'a>,
+    plane: [usize; 2],
 }
 
 impl<'a> SingularityMargin<'a> {
@@ -69,14 +71,34 @@ impl<'a> SingularityMargin<'a> {
         Ok(Self {
             mechanism,
             parallel,
+            plane: [0, 1],
         })
     }
 
-    /// The pose at point `p`: its `D` first coordinates (x, y in the plane; x, y, z in space),
-    /// the others at home.
+    /// The mechanism.
+    pub fn mechanism(&self) -> &'a Mechanism {
+        self.mechanism
+    }
+
+    /// The same margin on the plane through the home pose spanned by the pose coordinates
+    /// `axes` (e.g. `[0, 2]`: x and z), which 2-D points then address; `[0, 1]` (x, y) is the
+    /// default.
+    #[must_use]
+    pub fn in_plane(mut self, axes: [usize; 2]) -> Self {
+        self.plane = axes;
+        self
+    }
+
+    /// The pose at point `p`: a 2-D point on the margin's plane ([`Self::in_plane`]; x, y by
+    /// default), or x, y, z for a 3-D point; the other coordinates at home.
     pub fn pose<const D: usize>(&self, p: [f64; D]) -> [f64; 6] {
         let mut pose = self.mechanism.home_pose;
-        pose[..D].copy_from_slice(&p);
+        if D == 2 {
+            pose[self.plane[0]] = p[0];
+            pose[self.plane[1]] = p[1];
+        } else {
+            pose[..D].copy_from_slice(&p);
+        }
         pose
     }
 
@@ -93,7 +115,7 @@ impl<'a> SingularityMargin<'a> {
     /// solutions, to seed the next step.
     ///
     /// # Errors
-    /// A leg cannot reach `p` on its home branch.
+    /// A leg cannot reach `p` on its home branch, or only with a joint beyond its limits.
     pub fn measures_from<const D: usize>(
         &self,
         p: [f64; D],
@@ -109,6 +131,7 @@ impl<'a> SingularityMargin<'a> {
                 Some(seeds) => solve_leg_from(leg, geometry, &pose, &seeds[l].q)?,
                 None => solve_leg(leg, geometry, &pose, &mechanism.home_pose)?,
             };
+            check_limits(leg, &solution.q)?;
             serial = serial.min(solution.normalised_determinant * leg.branch_sign);
             solutions.push(solution);
         }

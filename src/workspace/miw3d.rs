@@ -1,7 +1,8 @@
 //! The 3-D maximal inscribed workspace of a spatial mechanism at its home orientation: the
 //! largest ball about the home position inside the singularity-free region of the home working
-//! and assembly modes (every leg reaches the point on its home branch, every serial measure and
-//! the parallel measure keep their home sign; see [`crate::kinematics::singularity`]).
+//! and assembly modes (every leg reaches the point on its home branch with its joints within
+//! their URDF limits, every serial measure and the parallel measure keep their home sign; see
+//! [`crate::kinematics::singularity`] and [`super::limits`]).
 //!
 //! Method, the ray idea of the planar MIW ([`super::miw`]): rays are cast from the home position
 //! in directions spread evenly over the sphere (a Fibonacci lattice); along each the legs are
@@ -153,15 +154,32 @@ pub fn horizontal_slice(
     options: Miw3dOptions,
     rays: usize,
 ) -> Result<Vec<[f64; 2]>> {
+    slice(mechanism, options, [0, 1], rays)
+}
+
+/// The boundary of the singularity-free region in the plane through the home position spanned
+/// by the position coordinates `axes` (`[0, 1]`: x–y, `[0, 2]`: x–z, `[1, 2]`: y–z; orientation
+/// at home), along `rays` rays in that plane: the crossings in those two coordinates.
+///
+/// # Errors
+/// As [`spatial_inscribed_workspace`].
+pub fn slice(
+    mechanism: &Mechanism,
+    options: Miw3dOptions,
+    axes: [usize; 2],
+    rays: usize,
+) -> Result<Vec<[f64; 2]>> {
     let (margin, centre, start) = home_start(mechanism)?;
     let limit = REACH * region_size(mechanism);
     Ok((0..rays)
         .into_par_iter()
         .map(|k| {
             let angle = std::f64::consts::TAU * k as f64 / rays as f64;
-            let d = [angle.cos(), angle.sin(), 0.0];
+            let mut d = [0.0; 3];
+            d[axes[0]] = angle.cos();
+            d[axes[1]] = angle.sin();
             let p = boundary_along_ray(&margin, centre, &start, d, options.step, limit);
-            [p[0], p[1]]
+            [p[axes[0]], p[axes[1]]]
         })
         .collect())
 }

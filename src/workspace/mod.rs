@@ -2,6 +2,7 @@
 //! selected from the candidates by [`crate::selection`].
 pub mod candidates;
 pub mod contour;
+pub mod limits;
 pub mod miw;
 pub mod miw3d;
 pub mod picture;

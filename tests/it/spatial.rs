@@ -22,7 +22,7 @@ use crate::support::{bundled, crate_path};
 // ---------------------------------------------------------------- closed forms
 
 /// `R = Rz(yaw)·Ry(pitch)·Rx(roll)` (fixed axes), written out.
-fn rotation(roll: f64, pitch: f64, yaw: f64) -> [[f64; 3]; 3] {
+pub(crate) fn rotation(roll: f64, pitch: f64, yaw: f64) -> [[f64; 3]; 3] {
     let (sr, cr) = roll.sin_cos();
     let (sp, cp) = pitch.sin_cos();
     let (sy, cy) = yaw.sin_cos();
@@ -37,13 +37,13 @@ fn product(a: &[[f64; 3]; 3], b: &[[f64; 3]; 3]) -> [[f64; 3]; 3] {
 }
 
 /// The platform point `p + R·b` of a pose `[x, y, z, roll, pitch, yaw]`.
-fn platform_point(pose: &[f64; 6], b: [f64; 3]) -> [f64; 3] {
+pub(crate) fn platform_point(pose: &[f64; 6], b: [f64; 3]) -> [f64; 3] {
     let r = rotation(pose[3], pose[4], pose[5]);
     std::array::from_fn(|i| pose[i] + (0..3).map(|k| r[i][k] * b[k]).sum::<f64>())
 }
 
 /// Hexapod leg reading for `phi = [ax, ay, az, bx, by, bz, k, rho0]`: `(|p + R·b − a| − rho0) / k`.
-fn hexapod_reading(phi: &[f64], pose: &[f64; 6]) -> f64 {
+pub(crate) fn hexapod_reading(phi: &[f64], pose: &[f64; 6]) -> f64 {
     let point = platform_point(pose, [phi[3], phi[4], phi[5]]);
     let length = (0..3)
         .map(|i| (point[i] - phi[i]).powi(2))
@@ -55,7 +55,7 @@ fn hexapod_reading(phi: &[f64], pose: &[f64; 6]) -> f64 {
 /// Delta carriage reading for `phi = [tx, ty, L, k, h0, ex, ey]` (effector joint at height 0 in
 /// the effector frame): the carriage height `h` on the line through (tx, ty) parallel to z with
 /// `|(tx, ty, h) − (p + e)| = L`, above the effector; reading `(h − h0) / k`.
-fn delta_reading(phi: &[f64], pose: &[f64; 6]) -> f64 {
+pub(crate) fn delta_reading(phi: &[f64], pose: &[f64; 6]) -> f64 {
     let (dx, dy) = (phi[0] - pose[0] - phi[5], phi[1] - pose[1] - phi[6]);
     let height = pose[2] + (phi[2].powi(2) - dx * dx - dy * dy).sqrt();
     (height - phi[4]) / phi[3]
@@ -67,7 +67,7 @@ const DELTA_ANGLES: [f64; 3] = [90.0, 210.0, 330.0];
 const HEXAPOD_BASE: [f64; 6] = [350.0, 10.0, 110.0, 130.0, 230.0, 250.0];
 const HEXAPOD_PLATFORM: [f64; 6] = [310.0, 50.0, 70.0, 170.0, 190.0, 290.0];
 
-fn on_circle(radius: f64, degrees: f64) -> (f64, f64) {
+pub(crate) fn on_circle(radius: f64, degrees: f64) -> (f64, f64) {
     let angle = degrees * PI / 180.0;
     (radius * angle.cos(), radius * angle.sin())
 }
@@ -87,14 +87,14 @@ fn hexapod_nominal(i: usize) -> Vec<f64> {
 }
 
 /// A spatial model with its closed-form reading and nominal geometry.
-struct Spatial {
-    file: &'static str,
-    reading: fn(&[f64], &[f64; 6]) -> f64,
+pub(crate) struct Spatial {
+    pub(crate) file: &'static str,
+    pub(crate) reading: fn(&[f64], &[f64; 6]) -> f64,
     nominal: fn(usize) -> Vec<f64>,
     names: &'static [&'static str],
 }
 
-const MODELS: [Spatial; 2] = [
+pub(crate) const MODELS: [Spatial; 2] = [
     Spatial {
         file: "delta.yaml",
         reading: delta_reading,
@@ -114,7 +114,7 @@ const MODELS: [Spatial; 2] = [
 /// Poses spread over each model's declared workspace, drawn here (not by legwise): the delta's
 /// cylinder (radius 0.08 m about z, z in [0, 0.1] m), the hexapod's box (|x|, |y| <= 0.05 m,
 /// z in [0.55, 0.65] m, each angle within ±0.15 rad).
-fn spread_poses(file: &str, count: usize, seed: u64) -> Vec<[f64; 6]> {
+pub(crate) fn spread_poses(file: &str, count: usize, seed: u64) -> Vec<[f64; 6]> {
     let mut rng = ChaCha8Rng::seed_from_u64(seed);
     let mut poses = Vec::new();
     while poses.len() < count {
@@ -141,7 +141,7 @@ fn spread_poses(file: &str, count: usize, seed: u64) -> Vec<[f64; 6]> {
 }
 
 /// Every leg's real parameter vector (the model's `simulation.real`, nominal where absent).
-fn real_parameters(mech: &Mechanism) -> Vec<Vec<f64>> {
+pub(crate) fn real_parameters(mech: &Mechanism) -> Vec<Vec<f64>> {
     let real = &mech.simulation.as_ref().expect("a simulation block").real;
     mech.legs
         .iter()
@@ -155,7 +155,7 @@ fn real_parameters(mech: &Mechanism) -> Vec<Vec<f64>> {
 }
 
 /// Shared rows (every reading) at `poses`, from the closed form with parameters `params`.
-fn closed_form_rows(
+pub(crate) fn closed_form_rows(
     model: &Spatial,
     params: &[Vec<f64>],
     poses: &[[f64; 6]],
@@ -359,7 +359,7 @@ fn divide_and_conquer_equals_all_legs_on_the_same_noisy_poses() {
 }
 
 /// Loads a bundled model after replacing text in it (and optionally in its URDF).
-fn edited(
+pub(crate) fn edited(
     file: &str,
     edits: &[(&str, &str)],
     urdf_edits: &[(&str, &str)],

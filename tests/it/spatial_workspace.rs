@@ -5,19 +5,58 @@
 use legwise::kinematics::inverse::solve_leg;
 use legwise::kinematics::singularity::ParallelMeasure;
 use legwise::model::Mechanism;
-use legwise::workspace::miw3d::{spatial_inscribed_workspace, Miw3dOptions};
+use legwise::workspace::miw::SingularityMargin;
+use legwise::workspace::miw3d::{slice, spatial_inscribed_workspace, Miw3dOptions};
+use legwise::workspace::picture::singular_curves;
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 
 use crate::cli::{legwise, text};
+use crate::spatial::MODELS;
 use crate::support::bundled;
 
+/// The actuated joints' strokes declared in the URDFs (the delta's carriage heights, the
+/// hexapod's leg lengths, metres).
+fn stroke(file: &str) -> [f64; 2] {
+    if file == "delta.yaml" {
+        [0.0, 1.0]
+    } else {
+        [0.5, 0.9]
+    }
+}
+
+/// The actuated joint of every leg at `pose` from the closed forms (nominal geometry): the
+/// delta's carriage height `h = k·s + h0`, the hexapod's leg length `ρ = k·s + rho0`.
+fn actuated_joints(file: &str, mechanism: &Mechanism, pose: &[f64; 6]) -> Vec<f64> {
+    let model = MODELS.iter().find(|m| m.file == file).unwrap();
+    mechanism
+        .legs
+        .iter()
+        .map(|leg| {
+            let phi = leg.nominal();
+            let (gain, offset) = if file == "delta.yaml" {
+                (phi[3], phi[4])
+            } else {
+                (phi[6], phi[7])
+            };
+            gain * (model.reading)(&phi, pose) + offset
+        })
+        .collect()
+}
+
 /// Inside the singularity-free region of the home modes at point `p` (home orientation): every
-/// leg reaches on its home branch with its serial determinant of the home sign, and the
-/// parallel measure is positive.
-fn inside(mechanism: &Mechanism, p: [f64; 3]) -> bool {
+/// leg reaches on its home branch with its serial determinant of the home sign and its actuated
+/// joint within its stroke (from the closed forms), and the parallel measure is positive.
+fn inside(file: &str, mechanism: &Mechanism, p: [f64; 3]) -> bool {
     let mut pose = mechanism.home_pose;
     pose[..3].copy_from_slice(&p);
+    let [lower, upper] = stroke(file);
+    if actuated_joints(file, mechanism, &pose)
+        .iter()
+        .any(|q| !(lower..=upper).contains(q))
+    {
+        return false;
+    }
     let params = mechanism.nominal_parameters();
     let serial_ok = mechanism.legs.iter().zip(&params).all(|(leg, phi)| {
         solve_leg(leg, &leg.geometry(phi), &pose, &mechanism.home_pose)
@@ -56,7 +95,10 @@ fn the_3d_miw_ball_lies_in_the_singularity_free_region_and_is_tight() {
                 }
             };
             let p = std::array::from_fn(|k| c[k] + miw.radius * d[k]);
-            assert!(inside(&mechanism, p), "{file}: surface point {p:?} outside");
+            assert!(
+                inside(file, &mechanism, p),
+                "{file}: surface point {p:?} outside"
+            );
         }
         // The nearest crossing, 2% farther out, is outside: the ball is not far too small.
         let nearest = miw
@@ -69,7 +111,10 @@ fn the_3d_miw_ball_lies_in_the_singularity_free_region_and_is_tight() {
             })
             .unwrap();
         let beyond = std::array::from_fn(|k| c[k] + 1.02 * (nearest[k] - c[k]));
-        assert!(!inside(&mechanism, beyond), "{file}: {beyond:?} inside");
+        assert!(
+            !inside(file, &mechanism, beyond),
+            "{file}: {beyond:?} inside"
+        );
         let nearest_distance = (0..3)
             .map(|k| (nearest[k] - c[k]).powi(2))
             .sum::<f64>()
@@ -82,29 +127,125 @@ fn the_3d_miw_ball_lies_in_the_singularity_free_region_and_is_tight() {
     }
 }
 
+/// The contents of every `<text>` element of an SVG, trimmed.
+fn svg_texts(svg: &str) -> Vec<String> {
+    svg.split("<text")
+        .skip(1)
+        .filter_map(|chunk| {
+            let start = chunk.find('>')? + 1;
+            let end = chunk.find("</text>")?;
+            Some(chunk[start..end].trim().to_string())
+        })
+        .collect()
+}
+
 #[test]
-fn workspace_on_the_delta_prints_the_3d_miw_and_writes_its_picture() {
-    let dir = tempfile::tempdir().unwrap();
-    let out = dir.path().join("delta.svg");
-    let run = legwise(&[
-        "workspace",
-        "--model",
-        "models/delta.yaml",
-        "--rays",
-        "200",
-        "--out",
-        out.to_str().unwrap(),
-    ]);
-    let stdout = text(&run.stdout);
-    assert_eq!(run.status.code(), Some(0), "{}", text(&run.stderr));
-    assert!(stdout.contains("3-D MIW"), "{stdout}");
-    assert!(stdout.contains("radius"), "{stdout}");
-    let svg = std::fs::read_to_string(&out).unwrap();
+fn workspace_on_the_spatial_models_draws_three_labelled_slices() {
+    for (model, z) in [("delta", "0.05"), ("hexapod", "0.6")] {
+        let dir = tempfile::tempdir().unwrap();
+        let out = dir.path().join("w.svg");
+        let path = format!("models/{model}.yaml");
+        let run = legwise(&[
+            "workspace",
+            "--model",
+            &path,
+            "--rays",
+            "200",
+            "--out",
+            out.to_str().unwrap(),
+        ]);
+        let stdout = text(&run.stdout);
+        assert_eq!(run.status.code(), Some(0), "{}", text(&run.stderr));
+        assert!(stdout.contains("3-D MIW"), "{stdout}");
+        assert!(
+            stdout.contains("picture: the slices z = ")
+                && stdout.contains("(x-y), y = 0.0000000 m (x-z) and x = 0.0000000 m (y-z)"),
+            "{stdout}"
+        );
+        let texts = svg_texts(&std::fs::read_to_string(&out).unwrap());
+        let count = |wanted: &str| texts.iter().filter(|t| *t == wanted).count();
+        // Three panels: x–y, x–z, y–z, each axis in metres, each captioned by its cut.
+        assert_eq!(count("x (m)"), 2, "{texts:?}");
+        assert_eq!(count("y (m)"), 2, "{texts:?}");
+        assert_eq!(count("z (m)"), 2, "{texts:?}");
+        for caption in [
+            format!("slice z = {z} m"),
+            "slice y = 0 m".into(),
+            "slice x = 0 m".into(),
+        ] {
+            assert_eq!(count(&caption), 1, "{caption}: {texts:?}");
+        }
+        // The serial curves are drawn (the delta's rods horizontal, both models' strokes), and
+        // named with the joint limits; the ball's cross-section is named with its radius.
+        let radius: f64 = stdout
+            .lines()
+            .find_map(|l| l.trim().strip_prefix("radius"))
+            .and_then(|r| r.trim().strip_suffix(" m"))
+            .and_then(|r| r.parse().ok())
+            .unwrap_or_else(|| panic!("{stdout}"));
+        let radius = format!("radius {radius:.4} m");
+        assert!(texts
+            .iter()
+            .any(|t| t.starts_with("serial (type I) singularity or joint limit")));
+        assert!(
+            texts
+                .iter()
+                .any(|t| t.starts_with("3-D MIW: a ball about") && t.contains(&radius)),
+            "{texts:?}"
+        );
+    }
+}
+
+#[test]
+fn the_vertical_slices_end_where_the_region_does() {
+    for file in ["delta.yaml", "hexapod.yaml"] {
+        let mechanism = bundled(file);
+        let options = Miw3dOptions::for_mechanism(&mechanism);
+        let home = mechanism.home_pose;
+        for axes in [[0, 1], [0, 2], [1, 2]] {
+            let boundary = slice(&mechanism, options, axes, 24).unwrap();
+            assert_eq!(boundary.len(), 24);
+            for b in &boundary {
+                let at = |t: f64| -> [f64; 3] {
+                    let mut p = [home[0], home[1], home[2]];
+                    p[axes[0]] += t * (b[0] - home[axes[0]]);
+                    p[axes[1]] += t * (b[1] - home[axes[1]]);
+                    p
+                };
+                assert!(
+                    inside(file, &mechanism, at(0.995)),
+                    "{file} {axes:?}: {b:?}"
+                );
+                assert!(
+                    !inside(file, &mechanism, at(1.005)),
+                    "{file} {axes:?}: {b:?}"
+                );
+            }
+        }
+    }
+}
+
+/// The hexapod's legs never meet a serial singularity in its slices: every point of the serial
+/// curves of its x–z slice is where a leg length (from the closed form) reaches an end of its
+/// 0.5–0.9 m stroke.
+#[test]
+fn the_hexapod_slice_curves_are_its_stroke_ends() {
+    let mechanism = bundled("hexapod.yaml");
+    let margin = SingularityMargin::new(&mechanism).unwrap().in_plane([0, 2]);
+    let curves = singular_curves(&margin, ([-0.6, 0.3], [0.6, 0.9]), [0.0, 0.6], 40);
+    let points: Vec<[f64; 2]> = curves.serial.iter().flatten().copied().collect();
+    assert!(points.len() > 40, "{}", points.len());
     assert!(
-        svg.starts_with("<svg") || svg.contains("<svg"),
-        "not an SVG"
+        curves.parallel.is_empty(),
+        "no parallel singularity in the slice"
     );
-    assert!(svg.contains("MIW"), "no MIW legend in the picture");
-    // The slice draws no singular curves, so its legend names none.
-    assert!(!svg.contains("singularity: a leg") && !svg.contains("(type II) singularity"));
+    for p in points {
+        let pose = [p[0], 0.0, p[1], 0.0, 0.0, 0.0];
+        let lengths = actuated_joints("hexapod.yaml", &mechanism, &pose);
+        let off = lengths
+            .iter()
+            .map(|l| (l - 0.5).abs().min((l - 0.9).abs()))
+            .fold(f64::INFINITY, f64::min);
+        assert!(off < 1e-6, "{p:?}: legs {lengths:?}");
+    }
 }

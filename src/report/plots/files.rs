@@ -8,6 +8,8 @@ use super::parameter_errors::ParameterErrors;
 use crate::error::{Error, Result};
 use crate::evaluate::accuracy::AccuracyMap;
 use crate::evaluate::held_out::Evaluation;
+use crate::model::mechanism::COORDINATES;
+use crate::model::Mechanism;
 use crate::report::IdentifyReport;
 
 /// File name (without extension) of the parameter-error picture.
@@ -63,8 +65,11 @@ pub fn identify_pictures(
         }
         let figure = ErrorMapFigure {
             title: format!(
-                "{}: position error over {} of the workspace region",
-                report.mechanism.name, maps.before.scale
+                "{}: position error over {} of the workspace region{}",
+                report.mechanism.name,
+                maps.before.scale,
+                map_slice(report.mechanism)
+                    .map_or(String::new(), |slice| format!(", {slice}; poses projected"))
             ),
             grid_m: maps.before.grid_m,
             panels,
@@ -73,6 +78,31 @@ pub fn identify_pictures(
         pictures.push(render(&figure, format)?);
     }
     Ok(pictures)
+}
+
+/// Which slice of a spatial model's workspace the accuracy map shows (the grid is in x, y;
+/// every other coordinate at its home value, see [`crate::evaluate::accuracy::map_grid`]);
+/// `None` for a planar model.
+pub fn map_slice(mechanism: &Mechanism) -> Option<String> {
+    if mechanism.is_planar() {
+        return None;
+    }
+    let home = |c: usize| crate::report::tidy(mechanism.home_pose[c], 4).to_string();
+    let mut slice = format!("slice z = {} m", home(2));
+    let angles: Vec<usize> = (3..6).filter(|c| mechanism.measured.contains(c)).collect();
+    if !angles.is_empty() {
+        let list = |f: &dyn Fn(usize) -> String| -> String {
+            angles.iter().map(|&c| f(c)).collect::<Vec<_>>().join(", ")
+        };
+        let names = list(&|c| COORDINATES[c].to_string());
+        let values = list(&home);
+        if angles.len() == 1 {
+            slice.push_str(&format!(", {names} = {values} rad"));
+        } else {
+            slice.push_str(&format!(", ({names}) = ({values}) rad"));
+        }
+    }
+    Some(slice)
 }
 
 /// The evaluation picture: the distribution of position errors of each `(name, evaluation)`,

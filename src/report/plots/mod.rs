@@ -9,12 +9,14 @@
 //! * [`error_map`] — the position-error map over the workspace, before and after (Fig. 4);
 //! * [`distribution`] — the distribution of position errors of one or more models (ECDF);
 //! * [`workspace`] — the singularity-free region, singular curves, MIW and poses;
+//! * [`slices`] — slices of a spatial workspace side by side;
 //! * [`files`] — which pictures `identify --plots` and `evaluate --plots` write, and where.
 pub mod canvas;
 pub mod distribution;
 pub mod error_map;
 pub mod files;
 pub mod parameter_errors;
+pub mod slices;
 pub mod style;
 pub mod workspace;
 

@@ -35,7 +35,22 @@ pub struct WorkspaceFigure {
     pub poses: Vec<PoseGroup>,
     /// The part of the plane shown, `(lo, hi)` (m).
     pub bounds: ([f64; 2], [f64; 2]),
+    /// The names of the horizontal and vertical coordinates (`x`, `y`; `x`, `z` …), in metres.
+    pub axes: [String; 2],
+    /// Legend entry of the region's fill.
+    pub region_label: String,
+    /// Legend entry of the serial curves.
+    pub serial_label: String,
+    /// Legend entry of the MIW's circle.
+    pub miw_label: String,
 }
+
+/// Legend entry of the serial curves of a mechanism without joint limits.
+pub const SERIAL_LABEL: &str =
+    "serial (type I) singularity: a leg stretched, folded or out of reach";
+/// Legend entry of the serial curves of a mechanism with joint limits.
+pub const SERIAL_OR_LIMIT_LABEL: &str =
+    "serial (type I) singularity or joint limit: a leg stretched, folded, out of reach or a joint at the end of its range";
 
 /// Fill of the singularity-free region.
 pub const REGION: RGBColor = RGBColor(216, 240, 208);
@@ -49,7 +64,8 @@ const Y_LABELS: u32 = 72;
 const X_LABELS: u32 = 48;
 const MARGIN: u32 = 16;
 const CAPTION: u32 = 34;
-const LEGEND: u32 = 110;
+/// Height of the legend under the plot (pixels).
+pub const LEGEND: u32 = 110;
 
 impl WorkspaceFigure {
     /// The bounds widened to the plot's aspect (a metre as long in x as in y).
@@ -67,10 +83,8 @@ impl WorkspaceFigure {
 
 impl Figure for WorkspaceFigure {
     fn size(&self) -> (u32, u32) {
-        (
-            PLOT + Y_LABELS + 2 * MARGIN,
-            PLOT + X_LABELS + CAPTION + 2 * MARGIN + LEGEND,
-        )
+        let (width, height) = self.plot_size();
+        (width, height + LEGEND)
     }
 
     fn draw<DB: DrawingBackend>(
@@ -80,8 +94,33 @@ impl Figure for WorkspaceFigure {
         root.fill(&WHITE)?;
         let (_, height) = self.size();
         let (plot_area, legend_area) = root.split_vertically(height - LEGEND);
+        self.draw_plot(&plot_area)?;
+        self.draw_legend(
+            &legend_area,
+            (!self.serial.is_empty(), !self.parallel.is_empty()),
+        )
+    }
+}
+
+impl WorkspaceFigure {
+    /// Size of the plot without its legend (pixels).
+    pub fn plot_size(&self) -> (u32, u32) {
+        (
+            PLOT + Y_LABELS + 2 * MARGIN,
+            PLOT + X_LABELS + CAPTION + 2 * MARGIN,
+        )
+    }
+
+    /// The plot (titled by `title`), without the legend.
+    ///
+    /// # Errors
+    /// The backend fails to draw.
+    pub fn draw_plot<DB: DrawingBackend>(
+        &self,
+        plot_area: &DrawingArea<DB, Shift>,
+    ) -> Result<(), DrawingAreaErrorKind<DB::ErrorType>> {
         let (lo, hi) = self.square_bounds();
-        let mut chart = ChartBuilder::on(&plot_area)
+        let mut chart = ChartBuilder::on(plot_area)
             .caption(&self.title, style::caption())
             .margin(MARGIN)
             .x_label_area_size(X_LABELS)
@@ -89,8 +128,8 @@ impl Figure for WorkspaceFigure {
             .build_cartesian_2d(lo[0]..hi[0], lo[1]..hi[1])?;
         chart
             .configure_mesh()
-            .x_desc("x (m)")
-            .y_desc("y (m)")
+            .x_desc(format!("{} (m)", self.axes[0]))
+            .y_desc(format!("{} (m)", self.axes[1]))
             .x_label_formatter(&|v| style::tick(*v, hi[0] - lo[0]))
             .y_label_formatter(&|v| style::tick(*v, hi[1] - lo[1]))
             .label_style(style::label())
@@ -145,14 +184,18 @@ impl Figure for WorkspaceFigure {
                     + Circle::new((0, 0), 4, BLACK.stroke_width(1))
             }))?;
         }
-        self.draw_legend(&legend_area)
+        Ok(())
     }
-}
 
-impl WorkspaceFigure {
-    fn draw_legend<DB: DrawingBackend>(
+    /// The legend: the region, the serial and parallel curves when `curves` says they are drawn,
+    /// the MIW and the pose groups.
+    ///
+    /// # Errors
+    /// The backend fails to draw.
+    pub fn draw_legend<DB: DrawingBackend>(
         &self,
         area: &DrawingArea<DB, Shift>,
+        (serial, parallel): (bool, bool),
     ) -> Result<(), DrawingAreaErrorKind<DB::ErrorType>> {
         let x0 = (MARGIN + Y_LABELS) as i32;
         let row = |k: i32| 4 + 20 * k;
@@ -164,21 +207,13 @@ impl WorkspaceFigure {
             [(x0, row(0)), (x0 + 20, row(0) + 14)],
             REGION.filled(),
         ))?;
-        area.draw(&text(
-            "singularity-free region of the home working and assembly modes, seen from the MIW centre".into(),
-            x0,
-            row(0),
-        ))?;
-        // Only the curves drawn (a spatial slice draws none).
-        if !self.serial.is_empty() {
+        area.draw(&text(self.region_label.clone(), x0, row(0)))?;
+        // Only the curves drawn.
+        if serial {
             area.draw(&line(x0, row(1), SERIAL))?;
-            area.draw(&text(
-                "serial (type I) singularity: a leg stretched, folded or out of reach".into(),
-                x0,
-                row(1),
-            ))?;
+            area.draw(&text(self.serial_label.clone(), x0, row(1)))?;
         }
-        if !self.parallel.is_empty() {
+        if parallel {
             area.draw(&line(x0, row(2), PARALLEL))?;
             area.draw(&text(
                 "parallel (type II) singularity: the platform gains a freedom".into(),
@@ -194,16 +229,7 @@ impl WorkspaceFigure {
             vec![(x0 + 13, row(3) + 7), (x0 + 20, row(3) + 7)],
             BLACK.stroke_width(2),
         ))?;
-        area.draw(&text(
-            format!(
-                "MIW: centre ({}, {}) m, radius {:.4} m",
-                crate::report::tidy(self.miw_centre[0], 4),
-                crate::report::tidy(self.miw_centre[1], 4),
-                self.miw_radius
-            ),
-            x0,
-            row(3),
-        ))?;
+        area.draw(&text(self.miw_label.clone(), x0, row(3)))?;
         let mut x = x0;
         for (g, group) in self.poses.iter().enumerate() {
             let colour = style::AFTER[g % style::AFTER.len()];

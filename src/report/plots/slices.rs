@@ -1,0 +1,55 @@
+//! Slices of a spatial mechanism's workspace side by side (x–y, x–z, y–z through the home
+//! position), each a [`WorkspaceFigure`] with its own axes in metres, under one title and one
+//! legend.
+
+use plotters::coord::Shift;
+use plotters::prelude::*;
+
+use super::canvas::Figure;
+use super::style;
+use super::workspace::{WorkspaceFigure, LEGEND};
+
+/// The picture's data.
+#[derive(Debug, Clone, PartialEq)]
+pub struct SlicesFigure {
+    /// Figure title.
+    pub title: String,
+    /// One panel per slice, captioned by its own title (`slice z = 0.6 m` …).
+    pub panels: Vec<WorkspaceFigure>,
+}
+
+const TITLE: u32 = 44;
+
+impl Figure for SlicesFigure {
+    fn size(&self) -> (u32, u32) {
+        let (width, height) = self
+            .panels
+            .first()
+            .map_or((600, 600), WorkspaceFigure::plot_size);
+        (
+            width * self.panels.len().max(1) as u32,
+            TITLE + height + LEGEND,
+        )
+    }
+
+    fn draw<DB: DrawingBackend>(
+        &self,
+        root: &DrawingArea<DB, Shift>,
+    ) -> Result<(), DrawingAreaErrorKind<DB::ErrorType>> {
+        root.fill(&WHITE)?;
+        let (_, height) = self.size();
+        let (top, rest) = root.split_vertically(TITLE);
+        top.titled(&self.title, style::title())?;
+        let (body, legend) = rest.split_vertically(height - TITLE - LEGEND);
+        let areas = body.split_evenly((1, self.panels.len().max(1)));
+        for (panel, area) in self.panels.iter().zip(areas.iter()) {
+            panel.draw_plot(area)?;
+        }
+        if let Some(first) = self.panels.first() {
+            let serial = self.panels.iter().any(|p| !p.serial.is_empty());
+            let parallel = self.panels.iter().any(|p| !p.parallel.is_empty());
+            first.draw_legend(&legend, (serial, parallel))?;
+        }
+        Ok(())
+    }
+}
