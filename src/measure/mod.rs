@@ -2,6 +2,7 @@
 pub mod checks;
 pub mod file;
 pub mod simulate;
+pub mod targets;
 
 use std::path::PathBuf;
 
