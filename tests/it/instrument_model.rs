@@ -22,8 +22,9 @@ fn error(text: &str) -> String {
         .to_string()
 }
 
-const TARGETS: &str = "    - {name: r1, offset: [0.08, 0.03], measures: position, identify: []}
-    - {name: r2, offset: [-0.07, 0.03], measures: position, identify: [x], perturbation: 0.002}";
+const TARGETS: &str =
+    "    - {name: r1, offset: [0.08, 0.03], measures: position, perturbation: 0.002}
+    - {name: r2, offset: [-0.07, 0.03], measures: position, identify: [y], perturbation: 0.002}";
 
 #[test]
 fn the_tracker_models_carry_their_frame_and_targets_as_named_shared_parameters() {
@@ -47,7 +48,7 @@ fn the_tracker_models_carry_their_frame_and_targets_as_named_shared_parameters()
         ]
     );
     let identified: Vec<bool> = instrument.parameters.iter().map(|p| p.identified).collect();
-    assert_eq!(identified, [true, true, true, false, false, true, false]);
+    assert_eq!(identified, [true, true, true, true, true, false, true]);
     assert_eq!(
         instrument.nominal(),
         [1.5, -0.5, 0.3, 0.08, 0.03, -0.07, 0.03]
@@ -120,7 +121,7 @@ fn each_defect_of_the_block_names_its_field() {
             "field `instrument.targets[1].name`: `r 2` cannot name measurement columns",
         ),
         (
-            edited("measures: position, identify: []", "measures: point, identify: []"),
+            edited("measures: position, perturbation", "measures: point, perturbation"),
             "field `instrument.targets[0].measures`: `point` is not one of position, pose",
         ),
         (
@@ -128,15 +129,15 @@ fn each_defect_of_the_block_names_its_field() {
             "field `instrument.targets[0].offset`: expected [x, y] (2 values, metres), found 3 values",
         ),
         (
-            edited("identify: [x], perturbation", "identify: [x, z], perturbation"),
+            edited("identify: [y], perturbation", "identify: [y, z], perturbation"),
             "field `instrument.targets[1].identify[1]`: `z` is not one of x, y",
         ),
         (
-            edited("identify: [x], perturbation", "identify: [x, x], perturbation"),
-            "field `instrument.targets[1].identify[1]`: `x` is listed twice",
+            edited("identify: [y], perturbation", "identify: [y, y], perturbation"),
+            "field `instrument.targets[1].identify[1]`: `y` is listed twice",
         ),
         (
-            edited("perturbation: 0.002", "perturbation: -0.002"),
+            edited("[y], perturbation: 0.002", "[y], perturbation: -0.002"),
             "field `instrument.targets[1].perturbation`: expected a non-negative standard deviation",
         ),
         (

@@ -1,0 +1,350 @@
+//! The identification with the instrument's shared parameters: every leg's own parameters
+//! plus the frame and target offsets, which all legs share (a bordered block-diagonal least
+//! squares problem, [`BorderedLeastSquares`]).
+//!
+//! At row `j` of leg `i`, the platform pose is fitted from the row's target coordinates at the
+//! current shared parameters `s` ([`platform_pose`]), and the residual is the leg's reading
+//! residual at that pose (matched modulo one turn as in [`super::problem`]). Its derivatives:
+//! with respect to the leg's own parameters, the dual pass of [`PreparedLeg`]; with respect to
+//! `s`, the chain rule `∂ψ/∂P · ∂P/∂s`, both factors from dual numbers (the pose gradient of the
+//! reading in one static-dual pass over the six pose coordinates, `∂P/∂s` by seeding one shared
+//! parameter at a time in the pose fit). Each leg's rows are one group: divide and conquer's
+//! per-leg structure is kept, and a Schur-complement Levenberg–Marquardt factors each leg's
+//! block on its own ([`crate::solver::solve_bordered`]).
+
+use argmin::core::{Error as ArgminError, Operator};
+use nalgebra::{Const, DMatrix, DVector, U1};
+use num_dual::{Dual64, DualSVec64};
+
+use super::jacobian::PreparedLeg;
+use super::residual::{turn_in_reading_units, turns};
+use crate::error::{Error, Result};
+use crate::kinematics::inverse::reading_at_solution;
+use crate::measure::observations::{instrument_of, Observations};
+use crate::measure::targets::platform_pose;
+use crate::model::instrument::Instrument;
+use crate::model::params::ParamTarget;
+use crate::model::Mechanism;
+use crate::solver::bordered::{BorderedBlock, BorderedLayout, BorderedLeastSquares};
+
+/// One row of one leg: the targets' coordinates and the leg's reading.
+#[derive(Debug, Clone)]
+struct Row {
+    observed: Vec<f64>,
+    reading: f64,
+    line: Option<usize>,
+}
+
+/// One group: a leg, its identified columns and its rows.
+#[derive(Debug, Clone)]
+struct Group {
+    leg: usize,
+    columns: Vec<usize>,
+    rows: Vec<Row>,
+}
+
+/// The least-squares problem of the legs and the instrument's shared parameters. Unknowns:
+/// `x = [own₀ | own₁ | … | shared]`, each leg's identified parameters in model order, then the
+/// identified shared parameters in the instrument's order.
+#[derive(Debug, Clone)]
+pub struct SharedProblem<'a> {
+    mechanism: &'a Mechanism,
+    instrument: &'a Instrument,
+    groups: Vec<Group>,
+    shared: Vec<usize>,
+    /// Every shared value, the ones not identified held there (nominal unless set).
+    fixed: Vec<f64>,
+}
+
+/// What one row's evaluation produces.
+struct RowValue {
+    residual: f64,
+    own: Vec<f64>,
+    shared: Vec<f64>,
+}
+
+impl<'a> SharedProblem<'a> {
+    /// The problem over the identified legs with rows in `observations` (as divide and conquer
+    /// picks them: a leg's labelled rows, or the shared rows) and the identified shared
+    /// parameters.
+    ///
+    /// # Errors
+    /// [`Error::Model`] if the model has no instrument; [`Error::Invalid`] if a leg has no row.
+    pub fn new(mechanism: &'a Mechanism, observations: &Observations) -> Result<Self> {
+        let instrument = instrument_of(mechanism)?;
+        let mut groups = Vec::new();
+        for leg in mechanism.identified_legs() {
+            let rows: Vec<Row> = observations
+                .leg_rows(leg)
+                .into_iter()
+                .map(|(row, reading)| Row {
+                    observed: row.observed.clone(),
+                    reading,
+                    line: row.line,
+                })
+                .collect();
+            if rows.is_empty() {
+                return Err(Error::Invalid(format!(
+                    "no measurement row carries a reading of leg `{}`",
+                    mechanism.legs[leg].name
+                )));
+            }
+            groups.push(Group {
+                leg,
+                columns: mechanism.legs[leg].identified(),
+                rows,
+            });
+        }
+        Ok(Self {
+            mechanism,
+            instrument,
+            groups,
+            shared: instrument.identified(),
+            fixed: instrument.nominal(),
+        })
+    }
+
+    /// The same problem with every shared parameter held at `values` (all of them, in the
+    /// instrument's order): the legs separate again (the two-stage alternative's second stage,
+    /// or a frame taken as known).
+    pub fn with_shared_fixed(&self, values: &[f64]) -> Self {
+        Self {
+            shared: Vec::new(),
+            fixed: values.to_vec(),
+            ..self.clone()
+        }
+    }
+
+    /// The same problem with every leg parameter held at its nominal value: only the shared
+    /// parameters are unknown (the two-stage alternative's registration of the frame).
+    pub fn with_legs_fixed(&self) -> Self {
+        let mut problem = self.clone();
+        for group in &mut problem.groups {
+            group.columns.clear();
+        }
+        problem
+    }
+
+    /// The same problem on the first `count` rows of every leg only.
+    pub fn with_rows(&self, count: usize) -> Self {
+        let mut problem = self.clone();
+        for group in &mut problem.groups {
+            group.rows.truncate(count);
+        }
+        problem
+    }
+
+    /// The mechanism.
+    pub fn mechanism(&self) -> &'a Mechanism {
+        self.mechanism
+    }
+
+    /// The instrument.
+    pub fn instrument(&self) -> &'a Instrument {
+        self.instrument
+    }
+
+    /// Indices of the legs, one per group.
+    pub fn legs(&self) -> Vec<usize> {
+        self.groups.iter().map(|g| g.leg).collect()
+    }
+
+    /// Indices (into the instrument's parameters) of the identified shared parameters.
+    pub fn shared_columns(&self) -> &[usize] {
+        &self.shared
+    }
+
+    /// Names of the unknowns, in the order of `x`.
+    pub fn names(&self) -> Vec<String> {
+        let mut names: Vec<String> = self
+            .groups
+            .iter()
+            .flat_map(|g| {
+                let leg = &self.mechanism.legs[g.leg];
+                g.columns.iter().map(|&c| leg.params[c].name.clone())
+            })
+            .collect();
+        names.extend(
+            self.shared
+                .iter()
+                .map(|&k| self.instrument.parameters[k].name.clone()),
+        );
+        names
+    }
+
+    /// The starting unknowns: the legs' nominal parameters, the shared ones at their held
+    /// values (nominal unless [`Self::with_shared_fixed`] set them).
+    pub fn start(&self) -> DVector<f64> {
+        let mut x = Vec::new();
+        for g in &self.groups {
+            let leg = &self.mechanism.legs[g.leg];
+            x.extend(g.columns.iter().map(|&c| leg.params[c].nominal));
+        }
+        x.extend(self.shared.iter().map(|&k| self.fixed[k]));
+        DVector::from_vec(x)
+    }
+
+    /// Every shared parameter's value at `x` (the ones not identified at their held values).
+    pub fn shared_values(&self, x: &DVector<f64>) -> Vec<f64> {
+        let mut values = self.fixed.clone();
+        let offset = x.len() - self.shared.len();
+        for (i, &k) in self.shared.iter().enumerate() {
+            values[k] = x[offset + i];
+        }
+        values
+    }
+
+    /// Every leg's full parameter vector at `x` (fixed parameters at nominal), one per group.
+    pub fn leg_parameters(&self, x: &DVector<f64>) -> Vec<Vec<f64>> {
+        let mut offset = 0;
+        self.groups
+            .iter()
+            .map(|g| {
+                let mut phi = self.mechanism.legs[g.leg].nominal();
+                for (k, &c) in g.columns.iter().enumerate() {
+                    phi[c] = x[offset + k];
+                }
+                offset += g.columns.len();
+                phi
+            })
+            .collect()
+    }
+
+    /// Residuals, and (if `derivatives`) the Jacobian rows, of group `g` at leg parameters
+    /// `phi` and all shared values `shared`.
+    fn group_rows(
+        &self,
+        g: usize,
+        phi: &[f64],
+        shared: &[f64],
+        derivatives: bool,
+    ) -> std::result::Result<Vec<RowValue>, ArgminError> {
+        let group = &self.groups[g];
+        let leg = &self.mechanism.legs[group.leg];
+        let home = &self.mechanism.home_pose;
+        let columns: &[usize] = if derivatives { &group.columns } else { &[] };
+        let prepared = PreparedLeg::new(leg, phi, columns);
+        let dual_phi: Vec<DualSVec64<6>> = phi.iter().map(|&v| DualSVec64::from_re(v)).collect();
+        let dual_geometry = leg.geometry(&dual_phi);
+        let gain = leg.geometry(phi).gain;
+        let revolute = leg.actuated_is_revolute();
+        let gain_column = group
+            .columns
+            .iter()
+            .position(|&c| leg.params[c].target == ParamTarget::Gain);
+        group
+            .rows
+            .iter()
+            .map(|row| {
+                let pose = platform_pose::<f64>(self.instrument, shared, &row.observed, home);
+                let solution = prepared.solve_warm(&pose, home, None).map_err(|source| {
+                    let location = row
+                        .line
+                        .map_or(String::new(), |l| format!(" (measurement line {l})"));
+                    ArgminError::msg(format!(
+                        "leg `{}` at the pose fitted from the targets{location}: {source}",
+                        leg.name
+                    ))
+                })?;
+                let mut own = vec![0.0; columns.len()];
+                let predicted = if derivatives {
+                    prepared.reading_and_gradient_of(&pose, &solution, &mut own)
+                } else {
+                    prepared.reading_of(&solution)
+                };
+                let n = turns(predicted, row.reading, gain, revolute);
+                let turn = turn_in_reading_units(gain);
+                if let (Some(k), true, true) = (gain_column, n != 0.0, derivatives) {
+                    own[k] += n * turn / gain;
+                }
+                let residual = predicted - row.reading - n * turn;
+                let mut shared_row = Vec::new();
+                if derivatives && !self.shared.is_empty() {
+                    // ∂ψ/∂P: one pass with the six pose coordinates on their own lanes.
+                    let seeded: [DualSVec64<6>; 6] =
+                        std::array::from_fn(|c| DualSVec64::from_re(pose[c]).derivative(c));
+                    let at = solution.to_leg_solution(leg);
+                    let reading = reading_at_solution(leg, &dual_geometry, &seeded, &at);
+                    let lanes = reading.eps.unwrap_generic(Const::<6>, U1);
+                    // ∂P/∂s_k: the pose fit with one shared parameter seeded.
+                    for &k in &self.shared {
+                        let mut s: Vec<Dual64> = shared.iter().map(|&v| Dual64::from(v)).collect();
+                        s[k] = s[k].derivative();
+                        let dp = platform_pose(self.instrument, &s, &row.observed, home);
+                        shared_row.push((0..6).map(|c| lanes[c] * dp[c].eps).sum());
+                    }
+                }
+                Ok(RowValue {
+                    residual,
+                    own,
+                    shared: shared_row,
+                })
+            })
+            .collect()
+    }
+
+    /// The blocks, or only the residuals (empty derivative blocks) without `derivatives`.
+    fn evaluate(
+        &self,
+        x: &DVector<f64>,
+        derivatives: bool,
+    ) -> std::result::Result<Vec<BorderedBlock>, ArgminError> {
+        let shared = self.shared_values(x);
+        let phis = self.leg_parameters(x);
+        let s = self.shared.len();
+        (0..self.groups.len())
+            .map(|g| {
+                let rows = self.group_rows(g, &phis[g], &shared, derivatives)?;
+                let m = rows.len();
+                let n = if derivatives {
+                    self.groups[g].columns.len()
+                } else {
+                    0
+                };
+                let width = if derivatives { s } else { 0 };
+                let mut block = BorderedBlock {
+                    residuals: DVector::zeros(m),
+                    own: DMatrix::zeros(m, n),
+                    shared: DMatrix::zeros(m, width),
+                };
+                for (i, row) in rows.iter().enumerate() {
+                    block.residuals[i] = row.residual;
+                    for (j, v) in row.own.iter().enumerate() {
+                        block.own[(i, j)] = *v;
+                    }
+                    for (j, v) in row.shared.iter().enumerate() {
+                        block.shared[(i, j)] = *v;
+                    }
+                }
+                Ok(block)
+            })
+            .collect()
+    }
+}
+
+impl Operator for SharedProblem<'_> {
+    type Param = DVector<f64>;
+    type Output = DVector<f64>;
+
+    fn apply(&self, x: &DVector<f64>) -> std::result::Result<DVector<f64>, ArgminError> {
+        let blocks = self.evaluate(x, false)?;
+        let values: Vec<f64> = blocks
+            .iter()
+            .flat_map(|b| b.residuals.iter().copied())
+            .collect();
+        Ok(DVector::from_vec(values))
+    }
+}
+
+impl BorderedLeastSquares for SharedProblem<'_> {
+    fn layout(&self) -> BorderedLayout {
+        BorderedLayout {
+            own: self.groups.iter().map(|g| g.columns.len()).collect(),
+            shared: self.shared.len(),
+        }
+    }
+
+    fn bordered(&self, x: &DVector<f64>) -> std::result::Result<Vec<BorderedBlock>, ArgminError> {
+        self.evaluate(x, true)
+    }
+}
