@@ -21,8 +21,9 @@ use super::residual::{turn_in_reading_units, turns};
 use crate::error::{Error, Result};
 use crate::kinematics::inverse::reading_at_solution;
 use crate::measure::observations::{instrument_of, Observations};
-use crate::measure::targets::platform_pose;
+use crate::measure::targets::{platform_pose, platform_pose_from};
 use crate::model::instrument::Instrument;
+use crate::model::mechanism::MeasurementNoise;
 use crate::model::params::ParamTarget;
 use crate::model::Mechanism;
 use crate::solver::bordered::{BorderedBlock, BorderedLayout, BorderedLeastSquares};
@@ -281,6 +282,63 @@ impl<'a> SharedProblem<'a> {
                 })
             })
             .collect()
+    }
+
+    /// Expected variance of every residual at `x` (rows in group order) under the declared
+    /// `noise`: `σ_q² + Σ_i (∂ψ/∂m_i)² σ_i²` over the row's target coordinates `m_i` (σ of the
+    /// coordinate of the same name: x, y, yaw), `∂ψ/∂m_i = ∂ψ/∂P · ∂P/∂m_i` by dual numbers.
+    ///
+    /// # Errors
+    /// A leg cannot reach a fitted pose.
+    pub fn row_variances(
+        &self,
+        x: &DVector<f64>,
+        noise: &MeasurementNoise,
+    ) -> std::result::Result<Vec<f64>, ArgminError> {
+        let shared = self.shared_values(x);
+        let lifted: Vec<Dual64> = shared.iter().map(|&v| Dual64::from(v)).collect();
+        let sigmas: Vec<f64> = self
+            .instrument
+            .targets
+            .iter()
+            .flat_map(|t| t.coordinates().iter())
+            .map(|c| match *c {
+                "x" => noise.pose[0],
+                "y" => noise.pose[1],
+                _ => noise.pose[5],
+            })
+            .collect();
+        let home = &self.mechanism.home_pose;
+        let mut variances = Vec::new();
+        for (group, phi) in self.groups.iter().zip(self.leg_parameters(x)) {
+            let leg = &self.mechanism.legs[group.leg];
+            let prepared = PreparedLeg::new(leg, &phi, &[]);
+            let dual_phi: Vec<DualSVec64<6>> =
+                phi.iter().map(|&v| DualSVec64::from_re(v)).collect();
+            let dual_geometry = leg.geometry(&dual_phi);
+            for row in &group.rows {
+                let pose = platform_pose::<f64>(self.instrument, &shared, &row.observed, home);
+                let solution = prepared
+                    .solve_warm(&pose, home, None)
+                    .map_err(|e| ArgminError::msg(format!("leg `{}`: {e}", leg.name)))?;
+                let seeded: [DualSVec64<6>; 6] =
+                    std::array::from_fn(|c| DualSVec64::from_re(pose[c]).derivative(c));
+                let at = solution.to_leg_solution(leg);
+                let reading = reading_at_solution(leg, &dual_geometry, &seeded, &at);
+                let lanes = reading.eps.unwrap_generic(Const::<6>, U1);
+                let mut variance = noise.reading.powi(2);
+                for (i, sigma) in sigmas.iter().enumerate() {
+                    let mut m: Vec<Dual64> =
+                        row.observed.iter().map(|&v| Dual64::from(v)).collect();
+                    m[i] = m[i].derivative();
+                    let dp = platform_pose_from(self.instrument, &lifted, &m, home);
+                    let d: f64 = (0..6).map(|c| lanes[c] * dp[c].eps).sum();
+                    variance += (d * sigma).powi(2);
+                }
+                variances.push(variance);
+            }
+        }
+        Ok(variances)
     }
 
     /// The blocks, or only the residuals (empty derivative blocks) without `derivatives`.

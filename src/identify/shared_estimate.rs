@@ -11,6 +11,7 @@ use nalgebra::{DMatrix, DVector};
 use super::estimate::ParameterEstimate;
 use super::observability::{analyse, Observability};
 use super::shared::SharedProblem;
+use super::statistics::{self, figure, NoiseTest};
 use crate::error::{Error, Result};
 use crate::measure::observations::Observations;
 use crate::model::Mechanism;
@@ -60,6 +61,45 @@ pub struct SharedEstimate {
     pub observability: Observability,
     /// Wall-clock seconds of the solve.
     pub seconds: f64,
+    /// The χ² test of the residuals against the declared noise (propagated from the target
+    /// coordinates through the pose fit), if the model declares one.
+    pub noise_test: Option<NoiseTest>,
+}
+
+/// The reasons the results must not be trusted (empty: nothing found), one line each: a solve
+/// that did not converge, a non-finite value, residuals that reject the declared noise.
+pub fn trust_issues(results: &[SharedEstimate]) -> Vec<String> {
+    let mut issues = Vec::new();
+    for result in results {
+        let strategy = result.strategy.name();
+        if !result.outcome.converged {
+            issues.push(format!(
+                "{strategy}: the solver did not converge ({}) after {} iterations; the estimate \
+                 must not be trusted",
+                result.outcome.stop_reason, result.outcome.iterations
+            ));
+        }
+        let values = result
+            .legs
+            .iter()
+            .flat_map(|(_, p)| p)
+            .chain(&result.shared);
+        for p in values {
+            if !(p.estimate.is_finite() && p.std.is_none_or(f64::is_finite)) {
+                issues.push(format!("{strategy}: {} is not a finite number", p.name));
+            }
+        }
+        if let Some(test) = result.noise_test.as_ref().filter(|t| t.rejected) {
+            issues.push(format!(
+                "{strategy}: the residuals reject the declared noise (σ̂ {} times the declared \
+                 scatter, χ² p = {:.2e}): check the instrument frame and targets (are the right \
+                 ones identified?), the units, the outliers and the model",
+                figure(test.sigma_ratio),
+                test.p_value
+            ));
+        }
+    }
+    issues
 }
 
 /// The dense Jacobian of `problem` at `x`.
@@ -140,6 +180,18 @@ pub fn identify_shared(
     }
     let (m, n) = jacobian.shape();
     let sigmas = standard_deviations(&r, &jacobian);
+    let noise = mechanism
+        .noise
+        .filter(|n| n.reading > 0.0 || n.pose.iter().any(|&s| s > 0.0));
+    let noise_test = match noise {
+        Some(noise) => {
+            let variances = problem
+                .row_variances(&outcome.x, &noise)
+                .map_err(solver_error)?;
+            statistics::noise_test(r.as_slice(), &variances, n, 0)
+        }
+        None => None,
+    };
     let mut column = 0;
     let mut next = |identified: bool| {
         identified.then(|| {
@@ -207,6 +259,7 @@ pub fn identify_shared(
         rms: (r.norm_squared() / m.max(1) as f64).sqrt(),
         observability,
         seconds,
+        noise_test,
     })
 }
 

@@ -12,7 +12,7 @@ use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, Normal};
 
 use super::observations::{instrument_of, Observations, ObservedRow};
-use super::simulate::{setup, simulate, SimulationOptions};
+use super::simulate::{setup, simulate, SimulatedExperiment, SimulationOptions};
 use super::targets::observe;
 use super::MeasurementSet;
 use crate::error::Result;
@@ -52,7 +52,18 @@ fn gaussian(rng: &mut ChaCha8Rng) -> f64 {
     Normal::new(0.0, 1.0).map_or(0.0, |n| n.sample(rng))
 }
 
-/// Simulates the model's experiment through its instrument.
+/// `mechanism` with its simulation's noise on the pose coordinates removed: simulating it gives
+/// the true poses (and the noisy readings) that [`observed_from`] turns into target
+/// measurements.
+pub fn without_pose_noise(mechanism: &Mechanism) -> Mechanism {
+    let mut quiet = mechanism.clone();
+    if let Some(s) = quiet.simulation.as_mut() {
+        s.pose_noise = [0.0; 6];
+    }
+    quiet
+}
+
+/// Simulates the model's experiment through its instrument at random poses.
 ///
 /// # Errors
 /// No simulation or instrument block, or no reachable pose (as [`simulate`]).
@@ -60,15 +71,24 @@ pub fn simulate_observed(
     mechanism: &Mechanism,
     options: SimulationOptions,
 ) -> Result<ObservedExperiment> {
+    instrument_of(mechanism)?;
+    let experiment = simulate(&without_pose_noise(mechanism), options)?;
+    observed_from(mechanism, experiment, options)
+}
+
+/// The instrument's report of a simulated experiment `experiment` whose poses are the true
+/// ones (simulated by [`without_pose_noise`] of `mechanism`, with the same `options`).
+///
+/// # Errors
+/// No simulation or instrument block.
+pub fn observed_from(
+    mechanism: &Mechanism,
+    experiment: SimulatedExperiment,
+    options: SimulationOptions,
+) -> Result<ObservedExperiment> {
     let instrument = instrument_of(mechanism)?;
     let simulation = setup(mechanism)?;
     let seed = options.seed.unwrap_or(simulation.seed);
-    // True poses: the same simulation without the noise on the pose coordinates.
-    let mut quiet = mechanism.clone();
-    if let Some(s) = quiet.simulation.as_mut() {
-        s.pose_noise = [0.0; 6];
-    }
-    let experiment = simulate(&quiet, options)?;
     let shared = real_shared(instrument, simulation, seed);
     let mut rng = ChaCha8Rng::seed_from_u64(seed ^ 0x7a26_e75e_ed00);
     let sigma: Vec<f64> = instrument

@@ -53,6 +53,18 @@ pub fn platform_pose<T: Scalar>(
     observed: &[f64],
     home: &[f64; 6],
 ) -> [T; 6] {
+    let observed: Vec<T> = observed.iter().map(|&v| lift::<T>(v)).collect();
+    platform_pose_from(instrument, shared, &observed, home)
+}
+
+/// As [`platform_pose`], with the target coordinates in the scalar type too (for the
+/// derivatives with respect to them: how the instrument's noise reaches the pose).
+pub fn platform_pose_from<T: Scalar>(
+    instrument: &Instrument,
+    shared: &[T],
+    observed: &[T],
+    home: &[f64; 6],
+) -> [T; 6] {
     let (fx, fy, theta) = (
         shared[Instrument::FRAME],
         shared[Instrument::FRAME + 1],
@@ -65,12 +77,12 @@ pub fn platform_pose<T: Scalar>(
     let (mut sin_sum, mut cos_sum, mut poses) = (zero, zero, 0usize);
     let mut at = 0;
     for (k, target) in instrument.targets.iter().enumerate() {
-        let (mx, my) = (lift::<T>(observed[at]), lift::<T>(observed[at + 1]));
+        let (mx, my) = (observed[at], observed[at + 1]);
         let q = [fx + c * mx - s * my, fy + s * mx + c * my];
         let o = instrument.offset_index(k);
         points.push((q, [shared[o], shared[o + 1]]));
         if target.measures == Measures::Pose {
-            let yaw = theta + lift::<T>(observed[at + 2]);
+            let yaw = theta + observed[at + 2];
             sin_sum += yaw.sin();
             cos_sum += yaw.cos();
             poses += 1;

@@ -184,3 +184,44 @@ fn the_two_stage_strategy_also_recovers_at_zero_noise() {
     let frame_error = (estimate.shared[0].estimate - experiment.real_shared[0]).abs();
     assert!(frame_error < 0.01, "frame_x off by {frame_error}");
 }
+
+#[test]
+fn with_noise_every_identified_error_is_at_the_noise_level_and_a_held_off_frame_is_rejected() {
+    use legwise::identify::shared_estimate::trust_issues;
+    let mechanism = bundled("3rpr-tracker.yaml");
+    let experiment = simulate_observed(&mechanism, options(1.0)).unwrap();
+    let estimate =
+        identify_shared(&mechanism, &experiment.observations, SharedStrategy::Joint).unwrap();
+    let test = estimate.noise_test.as_ref().expect("a declared noise");
+    assert!(!test.rejected, "{test:?}");
+    for (k, p) in estimate.shared.iter().enumerate() {
+        if let Some(std) = p.std {
+            let error = p.estimate - experiment.real_shared[k];
+            assert!(error.abs() < 4.0 * std, "{}: error {error} σ {std}", p.name);
+        }
+    }
+    assert!(trust_issues(&[estimate]).is_empty());
+    // The frame held at a nominal 5 mm and 5 mrad off the real one.
+    let text = std::fs::read_to_string(crate_path("models/3rpr-tracker.yaml"))
+        .unwrap()
+        .replace(
+            "    perturbation: {length: 0.005, angle: 0.005}",
+            "    identify: []",
+        )
+        .replace(
+            "  poses_per_leg: 18",
+            "  real: {frame_x: 1.505, frame_yaw: 0.305}\n  poses_per_leg: 18",
+        );
+    let urdf = std::fs::read_to_string(crate_path("models/3rpr.urdf")).unwrap();
+    let held =
+        Mechanism::parse(&text, Path::new("held.yaml"), &urdf, Path::new("3rpr.urdf")).unwrap();
+    let experiment = simulate_observed(&held, options(1.0)).unwrap();
+    let estimate = identify_shared(&held, &experiment.observations, SharedStrategy::Joint).unwrap();
+    let issues = trust_issues(&[estimate]);
+    assert!(
+        issues
+            .iter()
+            .any(|i| i.contains("reject the declared noise")),
+        "{issues:?}"
+    );
+}

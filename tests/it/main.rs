@@ -10,6 +10,7 @@ mod exit_codes;
 mod files;
 mod fuzz;
 mod golden;
+mod instrument_cli;
 mod instrument_identify;
 mod instrument_model;
 mod inverse_kinematics;
