@@ -12,6 +12,8 @@
 //! per-leg structure is kept, and a Schur-complement Levenberg–Marquardt factors each leg's
 //! block on its own ([`crate::solver::solve_bordered`]).
 
+use std::sync::Mutex;
+
 use argmin::core::{Error as ArgminError, Operator};
 use nalgebra::{Const, DMatrix, DVector, U1};
 use num_dual::{Dual64, DualSVec64};
@@ -19,7 +21,8 @@ use num_dual::{Dual64, DualSVec64};
 use super::jacobian::PreparedLeg;
 use super::residual::{turn_in_reading_units, turns};
 use crate::error::{Error, Result};
-use crate::kinematics::inverse::reading_at_solution;
+use crate::kinematics::chain::{attachment_world, ChainFrames};
+use crate::kinematics::inverse::{reading_at, reading_at_solution, Joints};
 use crate::measure::observations::{instrument_of, Observations};
 use crate::measure::targets::{platform_pose, platform_pose_from};
 use crate::model::instrument::Instrument;
@@ -55,7 +58,24 @@ pub struct SharedProblem<'a> {
     shared: Vec<usize>,
     /// Every shared value, the ones not identified held there (nominal unless set).
     fixed: Vec<f64>,
+    /// Each row's last inverse-kinematics solution, the warm start of its next evaluation.
+    warm: WarmStarts,
 }
+
+/// Per group, each row's joints at its last solved evaluation (`None` before the first). A
+/// value of its problem: a clone copies it.
+#[derive(Debug, Default)]
+struct WarmStarts(Mutex<Vec<Vec<Option<Joints>>>>);
+
+impl Clone for WarmStarts {
+    fn clone(&self) -> Self {
+        let seeds = self.0.lock().unwrap_or_else(|e| e.into_inner());
+        Self(Mutex::new(seeds.clone()))
+    }
+}
+
+/// Lanes of one dual pass over the shared parameters in the pose fit.
+const SHARED_LANES: usize = 8;
 
 /// What one row's evaluation produces.
 struct RowValue {
@@ -102,6 +122,7 @@ impl<'a> SharedProblem<'a> {
             groups,
             shared: instrument.identified(),
             fixed: instrument.nominal(),
+            warm: WarmStarts::default(),
         })
     }
 
@@ -225,28 +246,45 @@ impl<'a> SharedProblem<'a> {
         let home = &self.mechanism.home_pose;
         let columns: &[usize] = if derivatives { &group.columns } else { &[] };
         let prepared = PreparedLeg::new(leg, phi, columns);
-        let dual_phi: Vec<DualSVec64<6>> = phi.iter().map(|&v| DualSVec64::from_re(v)).collect();
-        let dual_geometry = leg.geometry(&dual_phi);
+        let lifted_phi: Vec<DualSVec64<SHARED_LANES>> =
+            phi.iter().map(|&v| DualSVec64::from_re(v)).collect();
+        let lifted = leg.geometry(&lifted_phi);
+        let frames = ChainFrames::new(&lifted);
         let gain = leg.geometry(phi).gain;
         let revolute = leg.actuated_is_revolute();
         let gain_column = group
             .columns
             .iter()
             .position(|&c| leg.params[c].target == ParamTarget::Gain);
+        let mut warm = self.warm.0.lock().unwrap_or_else(|e| e.into_inner());
+        if warm.len() != self.groups.len() {
+            *warm = self
+                .groups
+                .iter()
+                .map(|g| vec![None; g.rows.len()])
+                .collect();
+        }
+        let seeds = &mut warm[g];
+        seeds.resize(group.rows.len(), None);
         group
             .rows
             .iter()
-            .map(|row| {
+            .zip(seeds.iter_mut())
+            .map(|(row, seed)| {
                 let pose = platform_pose::<f64>(self.instrument, shared, &row.observed, home);
-                let solution = prepared.solve_warm(&pose, home, None).map_err(|source| {
-                    let location = row
-                        .line
-                        .map_or(String::new(), |l| format!(" (measurement line {l})"));
-                    ArgminError::msg(format!(
-                        "leg `{}` at the pose fitted from the targets{location}: {source}",
-                        leg.name
-                    ))
-                })?;
+                let solution =
+                    prepared
+                        .solve_warm(&pose, home, seed.as_ref())
+                        .map_err(|source| {
+                            let location = row
+                                .line
+                                .map_or(String::new(), |l| format!(" (measurement line {l})"));
+                            ArgminError::msg(format!(
+                                "leg `{}` at the pose fitted from the targets{location}: {source}",
+                                leg.name
+                            ))
+                        })?;
+                *seed = Some(solution.q);
                 let mut own = vec![0.0; columns.len()];
                 let predicted = if derivatives {
                     prepared.reading_and_gradient_of(&pose, &solution, &mut own)
@@ -260,19 +298,20 @@ impl<'a> SharedProblem<'a> {
                 }
                 let residual = predicted - row.reading - n * turn;
                 let mut shared_row = Vec::new();
-                if derivatives && !self.shared.is_empty() {
-                    // ∂ψ/∂P: one pass with the six pose coordinates on their own lanes.
-                    let seeded: [DualSVec64<6>; 6] =
-                        std::array::from_fn(|c| DualSVec64::from_re(pose[c]).derivative(c));
-                    let at = solution.to_leg_solution(leg);
-                    let reading = reading_at_solution(leg, &dual_geometry, &seeded, &at);
-                    let lanes = reading.eps.unwrap_generic(Const::<6>, U1);
-                    // ∂P/∂s_k: the pose fit with one shared parameter seeded.
-                    for &k in &self.shared {
-                        let mut s: Vec<Dual64> = shared.iter().map(|&v| Dual64::from(v)).collect();
-                        s[k] = s[k].derivative();
-                        let dp = platform_pose(self.instrument, &s, &row.observed, home);
-                        shared_row.push((0..6).map(|c| lanes[c] * dp[c].eps).sum());
+                if derivatives {
+                    // ∂ψ/∂s: the pose fit and the reading's Newton step in one dual pass, up to
+                    // eight shared parameters on their own lanes (the chain frames lifted once).
+                    for chunk in self.shared.chunks(SHARED_LANES) {
+                        let mut s: Vec<DualSVec64<SHARED_LANES>> =
+                            shared.iter().map(|&v| DualSVec64::from_re(v)).collect();
+                        for (lane, &k) in chunk.iter().enumerate() {
+                            s[k] = s[k].derivative(lane);
+                        }
+                        let pose = platform_pose(self.instrument, &s, &row.observed, home);
+                        let target = attachment_world(&pose, &lifted.attachment);
+                        let reading = reading_at(leg, &frames, &lifted, &target, &solution);
+                        let lanes = reading.eps.unwrap_generic(Const::<SHARED_LANES>, U1);
+                        shared_row.extend(lanes.iter().take(chunk.len()));
                     }
                 }
                 Ok(RowValue {
@@ -310,16 +349,23 @@ impl<'a> SharedProblem<'a> {
             .collect();
         let home = &self.mechanism.home_pose;
         let mut variances = Vec::new();
-        for (group, phi) in self.groups.iter().zip(self.leg_parameters(x)) {
+        let warm = self
+            .warm
+            .0
+            .lock()
+            .unwrap_or_else(|e| e.into_inner())
+            .clone();
+        for (g, (group, phi)) in self.groups.iter().zip(self.leg_parameters(x)).enumerate() {
             let leg = &self.mechanism.legs[group.leg];
             let prepared = PreparedLeg::new(leg, &phi, &[]);
             let dual_phi: Vec<DualSVec64<6>> =
                 phi.iter().map(|&v| DualSVec64::from_re(v)).collect();
             let dual_geometry = leg.geometry(&dual_phi);
-            for row in &group.rows {
+            for (j, row) in group.rows.iter().enumerate() {
                 let pose = platform_pose::<f64>(self.instrument, &shared, &row.observed, home);
+                let seed = warm.get(g).and_then(|w| w.get(j)).and_then(Option::as_ref);
                 let solution = prepared
-                    .solve_warm(&pose, home, None)
+                    .solve_warm(&pose, home, seed)
                     .map_err(|e| ArgminError::msg(format!("leg `{}`: {e}", leg.name)))?;
                 let seeded: [DualSVec64<6>; 6] =
                     std::array::from_fn(|c| DualSVec64::from_re(pose[c]).derivative(c));

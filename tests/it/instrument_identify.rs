@@ -225,3 +225,33 @@ fn with_noise_every_identified_error_is_at_the_noise_level_and_a_held_off_frame_
         "{issues:?}"
     );
 }
+
+#[test]
+fn the_jacobian_of_the_shared_problem_matches_central_differences_of_its_residuals() {
+    use argmin::core::Operator;
+    use legwise::solver::bordered::{to_dense, BorderedLeastSquares};
+    for model in ["5r-tracker.yaml", "3rpr-tracker.yaml"] {
+        let mechanism = bundled(model);
+        let experiment = simulate_observed(&mechanism, options(1.0)).unwrap();
+        let problem = SharedProblem::new(&mechanism, &experiment.observations).unwrap();
+        // Away from the nominal start, every column non-trivial.
+        let x = problem.start().map(|v| v * (1.0 + 1e-3));
+        let (r, jacobian) = to_dense(&problem.layout(), &problem.bordered(&x).unwrap());
+        assert!((&r - problem.apply(&x).unwrap()).amax() < 1e-14);
+        for j in 0..x.len() {
+            let h = 1e-6 * (1.0 + x[j].abs());
+            let mut plus = x.clone();
+            plus[j] += h;
+            let mut minus = x.clone();
+            minus[j] -= h;
+            let central =
+                (problem.apply(&plus).unwrap() - problem.apply(&minus).unwrap()) / (2.0 * h);
+            let gap = (jacobian.column(j) - &central).amax();
+            let scale = central.amax().max(1e-3);
+            assert!(
+                gap <= 1e-6 * scale,
+                "{model}, column {j}: gap {gap:e} (scale {scale:e})"
+            );
+        }
+    }
+}
