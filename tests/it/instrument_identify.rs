@@ -255,3 +255,36 @@ fn the_jacobian_of_the_shared_problem_matches_central_differences_of_its_residua
         }
     }
 }
+
+#[test]
+fn a_camera_marker_measuring_the_pose_gives_the_same_zero_noise_recovery() {
+    // One pose target (a camera's marker) instead of the two reflectors; its offset held with
+    // the attachments that define the platform frame, the frame identified.
+    let text = std::fs::read_to_string(crate_path("models/3rpr-tracker.yaml"))
+        .unwrap()
+        .replace(
+            "    - {name: r1, offset: [0.08, 0.03], measures: position, perturbation: 0.002}\n",
+            "    - {name: marker, offset: [0.05, -0.02], measures: pose, identify: []}\n",
+        )
+        .replace(
+            "    - {name: r2, offset: [-0.07, 0.03], measures: position, identify: [y], perturbation: 0.002}\n",
+            "",
+        );
+    let urdf = std::fs::read_to_string(crate_path("models/3rpr.urdf")).unwrap();
+    let mechanism = Mechanism::parse(
+        &text,
+        Path::new("camera.yaml"),
+        &urdf,
+        Path::new("3rpr.urdf"),
+    )
+    .unwrap();
+    assert_eq!(
+        mechanism.instrument.as_ref().unwrap().columns(),
+        ["x.marker", "y.marker", "yaw.marker"]
+    );
+    let experiment = simulate_observed(&mechanism, options(0.0)).unwrap();
+    let estimate =
+        identify_shared(&mechanism, &experiment.observations, SharedStrategy::Joint).unwrap();
+    assert!(estimate.outcome.converged);
+    assert_recovered(&estimate, &experiment, 1e-9);
+}
