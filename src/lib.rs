@@ -19,6 +19,11 @@
 //!                      identify::estimate            estimates, σ, cost, singular values
 //! report            ─► report::terminal | report::json
 //! ```
+//! With an `instrument` block (model::instrument) the rows are the targets' coordinates in the
+//! instrument frame (measure::observations, measure::observe_simulate); the platform pose is
+//! fitted from them inside every evaluation (measure::targets), and the legs and the instrument
+//! are identified together (identify::shared, identify::shared_estimate, solver::solve_bordered;
+//! report::instrument).
 //!
 //! ## Data flow of `legwise select --model models/5r.yaml`
 //! ```text

@@ -21,6 +21,9 @@ const STDIN: &str = "<stdin>";
 pub(super) fn run(args: &IdentifyArgs) -> anyhow::Result<Verdict> {
     let options = args.simulation.options()?;
     let mut mechanism = Mechanism::load(&args.model)?;
+    if mechanism.instrument.is_some() {
+        return super::identify_instrument::run(args, mechanism);
+    }
     let measurements = args.measurements.as_deref().filter(|p| !is_stdin(p));
     let mut inputs = super::model_inputs(&args.model, &mechanism);
     inputs.extend(measurements.map(|path| Input {

@@ -7,6 +7,7 @@ mod console;
 mod evaluate;
 mod help;
 mod identify;
+mod identify_instrument;
 mod montecarlo;
 mod output;
 mod pictures;

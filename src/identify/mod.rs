@@ -7,5 +7,7 @@ pub mod observability;
 pub mod problem;
 pub mod residual;
 pub mod robust;
+pub mod shared;
+pub mod shared_estimate;
 pub mod statistics;
 pub mod trust;

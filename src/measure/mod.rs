@@ -1,7 +1,10 @@
 //! Measurements: measured platform poses with actuator readings, from a CSV file or simulated.
 pub mod checks;
 pub mod file;
+pub mod observations;
+pub mod observe_simulate;
 pub mod simulate;
+pub mod targets;
 
 use std::path::PathBuf;
 

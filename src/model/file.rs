@@ -44,6 +44,10 @@ pub struct ModelFile {
     /// The simulation set-up (optional: real users bring measurements).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub simulation: Option<SimulationEntry>,
+    /// The measuring instrument's frame and targets (optional: without it, the measurements
+    /// are platform poses in the base frame).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub instrument: Option<super::instrument::InstrumentEntry>,
 }
 
 /// Pose selection set-up.

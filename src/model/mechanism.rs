@@ -5,6 +5,7 @@ use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
 use super::file::ModelFile;
+use super::instrument::Instrument;
 use super::joint::ORIGIN_COMPONENTS;
 use super::leg::LegModel;
 use super::workspace::Workspace;
@@ -45,6 +46,9 @@ pub struct Mechanism {
     pub noise: Option<MeasurementNoise>,
     /// The simulation set-up, if any.
     pub simulation: Option<Simulation>,
+    /// The measuring instrument (frame and targets), if the model has the block: the
+    /// measurements are then the targets' coordinates in the instrument frame.
+    pub instrument: Option<Instrument>,
 }
 
 /// Measurement noise standard deviations (SI units).

@@ -1,5 +1,6 @@
 //! What the mechanism is: the model file, the URDF legs and the validated [`Mechanism`].
 pub mod file;
+pub mod instrument;
 pub mod joint;
 pub mod leg;
 pub mod mechanism;

@@ -63,7 +63,7 @@ pub fn urdf_path(out: &Path) -> Result<PathBuf> {
 pub fn calibrated_files(calibration: &Calibration<'_>, urdf_name: &str) -> Result<CalibratedFiles> {
     let values = calibrated_values(calibration);
     Ok(CalibratedFiles {
-        urdf: calibrated_urdf(calibration, &values)?,
+        urdf: calibrated_urdf(calibration.mechanism, calibration.source, &values)?,
         yaml: calibrated_yaml(calibration, &values, urdf_name)?,
     })
 }
@@ -88,12 +88,16 @@ fn calibrated_values(calibration: &Calibration<'_>) -> Vec<Vec<(f64, Option<f64>
         .collect()
 }
 
-/// The URDF with the identified joint origins.
-fn calibrated_urdf(
-    calibration: &Calibration<'_>,
+/// The URDF of `mechanism` with the joint origins at `values` (per leg, every parameter's value
+/// and σ, model order), its header naming `source`.
+///
+/// # Errors
+/// The URDF cannot be read again or written.
+pub fn calibrated_urdf(
+    mechanism: &Mechanism,
+    source: &str,
     values: &[Vec<(f64, Option<f64>)>],
 ) -> Result<String> {
-    let mechanism = calibration.mechanism;
     let urdf_error = |message: String| Error::Urdf {
         path: mechanism.urdf_path.clone(),
         message,
@@ -120,7 +124,7 @@ fn calibrated_urdf(
     let comment = format!(
         "<!-- Calibrated URDF written by legwise {}: the joint origins hold the values identified\n     from {} (see the model file beside it). -->\n",
         env!("CARGO_PKG_VERSION"),
-        calibration.source.replace("--", "- -")
+        source.replace("--", "- -")
     );
     Ok(match text.strip_prefix("<?xml") {
         Some(_) => match text.find("?>") {
@@ -140,6 +144,30 @@ fn calibrated_yaml(
     let mechanism = calibration.mechanism;
     let mut file = ModelFile::read(&mechanism.model_path)?;
     file.urdf = urdf_name.to_string();
+    set_leg_values(&mut file, mechanism, values);
+    if let (Some(real), Some(simulation)) = (calibration.real, file.simulation.as_mut()) {
+        simulation.real = mechanism
+            .legs
+            .iter()
+            .zip(real)
+            .flat_map(|(leg, phi)| leg.params.iter().map(|p| p.name.clone()).zip(phi.clone()))
+            .collect::<BTreeMap<_, _>>();
+        simulation.perturbation = None;
+    }
+    let body = serde_saphyr::to_string(&file).map_err(|e| Error::Yaml {
+        path: mechanism.model_path.clone(),
+        message: format!("cannot write the calibrated model: {e}"),
+    })?;
+    Ok(format!("{}{body}", header(calibration, values, urdf_name)))
+}
+
+/// Writes the actuator gains and offsets and the attachments of `values` (per leg, model order)
+/// into the model file `file` of `mechanism` (joint origins go into the URDF).
+pub fn set_leg_values(
+    file: &mut ModelFile,
+    mechanism: &Mechanism,
+    values: &[Vec<(f64, Option<f64>)>],
+) {
     for (leg, leg_values) in mechanism.legs.iter().zip(values) {
         let Some(entry) = file.legs.iter_mut().find(|e| e.name == leg.name) else {
             continue;
@@ -155,20 +183,6 @@ fn calibrated_yaml(
             }
         }
     }
-    if let (Some(real), Some(simulation)) = (calibration.real, file.simulation.as_mut()) {
-        simulation.real = mechanism
-            .legs
-            .iter()
-            .zip(real)
-            .flat_map(|(leg, phi)| leg.params.iter().map(|p| p.name.clone()).zip(phi.clone()))
-            .collect::<BTreeMap<_, _>>();
-        simulation.perturbation = None;
-    }
-    let body = serde_saphyr::to_string(&file).map_err(|e| Error::Yaml {
-        path: mechanism.model_path.clone(),
-        message: format!("cannot write the calibrated model: {e}"),
-    })?;
-    Ok(format!("{}{body}", header(calibration, values, urdf_name)))
 }
 
 /// The comment block at the top of the calibrated model file.

@@ -1,6 +1,8 @@
 //! Reports of an identification: the values (this module), terminal tables and JSON.
 pub mod calibrated;
 pub mod evaluation;
+pub mod instrument;
+pub mod instrument_calibrated;
 pub mod json;
 pub mod plots;
 pub mod terminal;

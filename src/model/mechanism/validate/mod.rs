@@ -8,6 +8,7 @@ use crate::model::file::ModelFile;
 use crate::model::mechanism::{Mechanism, COORDINATES};
 
 mod home;
+mod instrument;
 mod legs;
 mod noise;
 mod parameters;
@@ -53,7 +54,8 @@ impl Builder<'_> {
             Some(entries) => Some(self.noise("noise", entries, &measured)?),
             None => None,
         };
-        let simulation = self.simulation(&file, &measured, &legs, noise)?;
+        let instrument = self.instrument(file.instrument.as_ref(), &measured, &legs)?;
+        let simulation = self.simulation(&file, &measured, &legs, noise, instrument.as_ref())?;
         let selection = self.selection(&file, simulation.as_ref())?;
         let mechanism = Mechanism {
             name: file.name,
@@ -67,6 +69,7 @@ impl Builder<'_> {
             selection,
             noise,
             simulation,
+            instrument,
         };
         Ok(mechanism)
     }

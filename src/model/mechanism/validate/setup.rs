@@ -3,6 +3,7 @@
 use super::Builder;
 use crate::error::Result;
 use crate::model::file::ModelFile;
+use crate::model::instrument::Instrument;
 use crate::model::leg::LegModel;
 use crate::model::mechanism::MAX_POSES_PER_LEG;
 use crate::model::mechanism::{MeasurementNoise, SelectionCriterion, SelectionSetup, Simulation};
@@ -15,6 +16,7 @@ impl Builder<'_> {
         measured: &[usize],
         legs: &[LegModel],
         declared: Option<MeasurementNoise>,
+        instrument: Option<&Instrument>,
     ) -> Result<Option<Simulation>> {
         let Some(entry) = &file.simulation else {
             return Ok(None);
@@ -23,6 +25,7 @@ impl Builder<'_> {
             if !legs
                 .iter()
                 .any(|l| l.params.iter().any(|p| &p.name == name))
+                && instrument.is_none_or(|i| i.parameter_index(name).is_none())
             {
                 return Err(self.error(
                     format!("simulation.real.{name}"),

@@ -1,0 +1,157 @@
+//! `legwise identify` for a model with an `instrument` block: the measurements are the targets'
+//! coordinates in the instrument frame; the legs and the instrument are identified together
+//! (joint, Schur complement) and in two stages, and the report compares both.
+
+use std::io::Read;
+use std::path::Path;
+
+use super::console::Console;
+use super::output::{Input, Output};
+use super::{IdentifyArgs, SolverArg, StrategyArg, Verdict, WeightsArg};
+use crate::identify::shared_estimate::{identify_shared, trust_issues, SharedStrategy};
+use crate::measure::observations::{self, Observations};
+use crate::measure::observe_simulate::{observed_from, without_pose_noise};
+use crate::model::Mechanism;
+use crate::report::calibrated::urdf_path;
+use crate::report::instrument::{render, to_json, InstrumentReport};
+use crate::report::instrument_calibrated::calibrated_files;
+
+/// The options an identification through the instrument does not offer (yet), refused before
+/// any work.
+fn refuse_unsupported(args: &IdentifyArgs) -> anyhow::Result<()> {
+    let refused = [
+        (args.solver != SolverArg::Lm, "--solver gn"),
+        (args.strategy != StrategyArg::Dc, "--strategy"),
+        (args.weights != WeightsArg::None, "--weights"),
+        (args.robust.is_some(), "--robust"),
+        (args.drop_outliers, "--drop-outliers"),
+        (args.after.map.is_some(), "--map"),
+        (args.pictures.plots.is_some(), "--plots"),
+    ];
+    if let Some((_, flag)) = refused.iter().find(|(on, _)| *on) {
+        anyhow::bail!(
+            "{flag}: not available for a model with an instrument block (the legs and the \
+             instrument are identified with Levenberg-Marquardt, jointly and in two stages)"
+        );
+    }
+    Ok(())
+}
+
+pub(super) fn run(args: &IdentifyArgs, mut mechanism: Mechanism) -> anyhow::Result<Verdict> {
+    refuse_unsupported(args)?;
+    let options = args.simulation.options()?;
+    let measurements = args.measurements.as_deref().filter(|p| !is_stdin(p));
+    let mut inputs = super::model_inputs(&args.model, &mechanism);
+    inputs.extend(measurements.map(|path| Input {
+        role: "measurement file",
+        path,
+    }));
+    let json_output = Output::prepare_optional("--json", args.json.as_deref(), &inputs)?;
+    let calibrated_outputs = match &args.after.calibrated {
+        Some(out) => Some((
+            Output::prepare("--calibrated", out, &inputs)?,
+            Output::prepare("--calibrated", &urdf_path(out)?, &inputs)?,
+        )),
+        None => None,
+    };
+    let mut console = Console::new(json_output.as_ref().is_some_and(Output::is_stdout));
+    let (data, real, real_shared, source) = match &args.measurements {
+        Some(path) => (
+            read(path, &mechanism)?,
+            None,
+            None,
+            path.display().to_string(),
+        ),
+        None => {
+            let (experiment, source) = args
+                .simulation
+                .experiment(&without_pose_noise(&mechanism))?;
+            let observed = observed_from(&mechanism, experiment, options)?;
+            // The simulated noise is the declared one scaled: so is what the fit expects.
+            if let Some(noise) = &mut mechanism.noise {
+                noise.pose = noise.pose.map(|s| s * options.noise_scale);
+                noise.reading *= options.noise_scale;
+            }
+            (
+                observed.observations,
+                Some(observed.real),
+                Some(observed.real_shared),
+                source,
+            )
+        }
+    };
+    let mut results = Vec::new();
+    for strategy in [SharedStrategy::Joint, SharedStrategy::TwoStage] {
+        results.push(identify_shared(&mechanism, &data, strategy)?);
+    }
+    // The verdict is the joint result's (the one --calibrated writes); the two-stage result is
+    // a comparison, its own misfit shown in the report.
+    let verdict = Verdict::from_reasons(trust_issues(&results[..1]));
+    let report = InstrumentReport {
+        mechanism: &mechanism,
+        source,
+        real,
+        real_shared,
+        results,
+    };
+    let trusted = verdict == Verdict::Trusted;
+    if let (Some((yaml, urdf)), true) = (&calibrated_outputs, trusted) {
+        let urdf_name = Path::new(&urdf.name())
+            .file_name()
+            .map_or_else(String::new, |n| n.to_string_lossy().into_owned());
+        let real = report.real.as_deref().zip(report.real_shared.as_deref());
+        let files = calibrated_files(
+            &mechanism,
+            &report.results[0],
+            &report.source,
+            real,
+            &urdf_name,
+        )?;
+        urdf.write("calibrated URDF", files.urdf.as_bytes())?;
+        yaml.write("calibrated model", files.yaml.as_bytes())?;
+    }
+    if let Some(output) = &json_output {
+        let text = serde_json::to_string_pretty(&to_json(&report))? + "\n";
+        output.write("JSON report", text.as_bytes())?;
+    }
+    console.print(&render(&report))?;
+    if let Some((yaml, urdf)) = &calibrated_outputs {
+        if trusted {
+            console.line(format_args!(
+                "\ncalibrated model (joint result) written to {} and {}",
+                yaml.name(),
+                urdf.name()
+            ))?;
+        } else {
+            console.line(format_args!(
+                "\ncalibrated model not written to {}: the result must not be trusted",
+                yaml.name()
+            ))?;
+        }
+    }
+    if let Some(output) = json_output.filter(|o| !o.is_stdout()) {
+        console.line(format_args!("\nJSON report written to {}", output.name()))?;
+    }
+    Ok(verdict)
+}
+
+fn is_stdin(path: &Path) -> bool {
+    path.as_os_str() == "-"
+}
+
+/// Reads the instrument measurements from `path`, or from standard input for `-`.
+fn read(path: &Path, mechanism: &Mechanism) -> anyhow::Result<Observations> {
+    Ok(if is_stdin(path) {
+        let mut text = String::new();
+        std::io::stdin()
+            .lock()
+            .read_to_string(&mut text)
+            .map_err(|error| crate::error::Error::Io {
+                path: "<stdin>".into(),
+                error,
+            })?;
+        observations::parse(&text, Path::new("<stdin>"), mechanism)?
+    } else {
+        observations::read(path, mechanism)?
+    })
+}

@@ -1,0 +1,247 @@
+//! Measurements of a model with an `instrument` block: per row, what the instrument reports of
+//! its targets (in its own frame) and the actuator readings.
+//!
+//! CSV columns: `leg` (optional, as in [`super::file`]), then every target's coordinates, named
+//! `<coordinate>.<target>` (`x.r1, y.r1, x.r2, y.r2`; a pose target adds `yaw.<target>`), then
+//! one column per actuated joint with its raw reading. The target columns are always suffixed,
+//! even for a single target: a file of platform poses (`x, y, …`) is never read as target
+//! coordinates by mistake. Errors name the file, the line and the column.
+
+use std::path::{Path, PathBuf};
+
+use crate::error::{Error, Result};
+use crate::model::instrument::Instrument;
+use crate::model::Mechanism;
+
+/// One row: the targets as the instrument reports them, and the readings taken there.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ObservedRow {
+    /// Line in the source file (1-based, the header is line 1), if read from a file.
+    pub line: Option<usize>,
+    /// The leg whose identification set the row belongs to; `None` for a row shared by all.
+    pub leg: Option<usize>,
+    /// Every target's coordinates in the instrument frame, in column order (metres, radians).
+    pub observed: Vec<f64>,
+    /// Raw reading of each leg's actuated joint, `None` when not read.
+    pub readings: Vec<Option<f64>>,
+}
+
+/// A set of instrument measurements.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct Observations {
+    /// The file the measurements came from, if any.
+    pub source: Option<PathBuf>,
+    /// The rows, in file order.
+    pub rows: Vec<ObservedRow>,
+}
+
+impl Observations {
+    /// The rows of leg `leg` with its reading: the rows labelled with the leg, or, if no row
+    /// is, the shared rows where its reading is present (as [`super::MeasurementSet::leg_blocks`]).
+    /// Each item is the row and the reading.
+    pub fn leg_rows(&self, leg: usize) -> Vec<(&ObservedRow, f64)> {
+        let labelled = self.rows.iter().any(|r| r.leg == Some(leg));
+        self.rows
+            .iter()
+            .filter(|r| {
+                if labelled {
+                    r.leg == Some(leg)
+                } else {
+                    r.leg.is_none()
+                }
+            })
+            .filter_map(|r| r.readings[leg].map(|reading| (r, reading)))
+            .collect()
+    }
+}
+
+/// The instrument of `mechanism`, or an error naming the model file.
+///
+/// # Errors
+/// [`Error::Model`] if the model has no `instrument` block.
+pub fn instrument_of(mechanism: &Mechanism) -> Result<&Instrument> {
+    mechanism.instrument.as_ref().ok_or_else(|| Error::Model {
+        path: mechanism.model_path.clone(),
+        field: "instrument".into(),
+        message: "missing: target measurements need an instrument block".into(),
+    })
+}
+
+fn expected_columns(mechanism: &Mechanism, instrument: &Instrument) -> Vec<String> {
+    let mut columns = vec!["leg".to_string()];
+    columns.extend(instrument.columns());
+    columns.extend(mechanism.actuated_names().iter().map(|s| s.to_string()));
+    columns
+}
+
+/// Reads an instrument measurement file for `mechanism`.
+///
+/// # Errors
+/// [`Error::Io`] if unreadable; [`Error::Model`] if the model has no instrument;
+/// [`Error::Measurement`] naming the line and column for a missing or unknown column, an
+/// unknown leg, a non-numeric or non-finite cell, a missing coordinate, or no rows.
+pub fn read(path: &Path, mechanism: &Mechanism) -> Result<Observations> {
+    let text = std::fs::read_to_string(path).map_err(|error| Error::Io {
+        path: path.to_path_buf(),
+        error,
+    })?;
+    parse(&text, path, mechanism)
+}
+
+/// Parses instrument measurement CSV text; `path` is only used in messages.
+///
+/// # Errors
+/// As [`read`].
+pub fn parse(text: &str, path: &Path, mechanism: &Mechanism) -> Result<Observations> {
+    let instrument = instrument_of(mechanism)?;
+    let fail = |location: String, message: String| Error::Measurement {
+        path: path.to_path_buf(),
+        location,
+        message,
+    };
+    let expected = expected_columns(mechanism, instrument);
+    let listing = expected.join(", ");
+    let mut reader = csv::ReaderBuilder::new()
+        .trim(csv::Trim::All)
+        .flexible(false)
+        .from_reader(text.as_bytes());
+    let header: Vec<String> = reader
+        .headers()
+        .map_err(|e| fail("header".into(), e.to_string()))?
+        .iter()
+        .map(str::to_string)
+        .collect();
+    for (i, column) in header.iter().enumerate() {
+        if header[..i].contains(column) {
+            return Err(fail(
+                "header".into(),
+                format!("column `{column}` appears twice"),
+            ));
+        }
+        if !expected.contains(column) {
+            return Err(fail(
+                "header".into(),
+                format!("unknown column `{column}`; expected the columns {listing}"),
+            ));
+        }
+    }
+    for column in expected.iter().skip(1) {
+        if !header.contains(column) {
+            return Err(fail(
+                "header".into(),
+                format!("missing column `{column}`; expected the columns {listing}"),
+            ));
+        }
+    }
+    let index = |name: &str| header.iter().position(|h| h == name).unwrap_or_default();
+    let leg_column = header.iter().position(|h| h == "leg");
+    let target_columns: Vec<usize> = instrument.columns().iter().map(|c| index(c)).collect();
+    let reading_columns: Vec<usize> = mechanism
+        .actuated_names()
+        .iter()
+        .map(|name| index(name))
+        .collect();
+    let mut rows = Vec::new();
+    for record in reader.records() {
+        let record = record.map_err(|e| {
+            let line = e.position().map_or(0, |p| p.line());
+            fail(format!("line {line}"), e.to_string())
+        })?;
+        let line = record.position().map_or(0, |p| p.line() as usize);
+        if record.iter().all(str::is_empty) {
+            continue;
+        }
+        let cell = |column: usize| record.get(column).unwrap_or("");
+        let number = |column: usize| -> Result<Option<f64>> {
+            let text = cell(column);
+            if text.is_empty() {
+                return Ok(None);
+            }
+            match text.parse::<f64>() {
+                Ok(v) if v.is_finite() => Ok(Some(v)),
+                _ => Err(fail(
+                    format!("line {line}, column `{}`", header[column]),
+                    format!("expected a finite number in SI units, found `{text}`"),
+                )),
+            }
+        };
+        let leg = match leg_column.map(cell).filter(|s| !s.is_empty()) {
+            None => None,
+            Some(name) => Some(mechanism.leg_index(name).ok_or_else(|| {
+                let names: Vec<&str> = mechanism.legs.iter().map(|l| l.name.as_str()).collect();
+                fail(
+                    format!("line {line}, column `leg`"),
+                    format!(
+                        "unknown leg `{name}`; expected one of {} or empty",
+                        names.join(", ")
+                    ),
+                )
+            })?),
+        };
+        let mut observed = Vec::with_capacity(target_columns.len());
+        for &column in &target_columns {
+            observed.push(number(column)?.ok_or_else(|| {
+                fail(
+                    format!("line {line}, column `{}`", header[column]),
+                    "missing value; expected the target's coordinate (metres or radians)".into(),
+                )
+            })?);
+        }
+        let mut readings = Vec::with_capacity(reading_columns.len());
+        for &column in &reading_columns {
+            readings.push(number(column)?);
+        }
+        if let Some(l) = leg {
+            if readings[l].is_none() {
+                return Err(fail(
+                    format!("line {line}, column `{}`", mechanism.actuated_names()[l]),
+                    format!(
+                        "the row belongs to leg `{}` but its reading is empty",
+                        mechanism.legs[l].name
+                    ),
+                ));
+            }
+        }
+        rows.push(ObservedRow {
+            line: Some(line),
+            leg,
+            observed,
+            readings,
+        });
+    }
+    if rows.is_empty() {
+        return Err(fail(
+            "line 2".into(),
+            "no measurement rows after the header".into(),
+        ));
+    }
+    Ok(Observations {
+        source: Some(path.to_path_buf()),
+        rows,
+    })
+}
+
+/// The CSV text of instrument measurements, in the layout [`read`] expects (exact round trip
+/// of every value).
+///
+/// # Errors
+/// [`Error::Model`] if the model has no instrument.
+pub fn to_csv(mechanism: &Mechanism, set: &Observations) -> Result<String> {
+    let instrument = instrument_of(mechanism)?;
+    let mut text = expected_columns(mechanism, instrument).join(",");
+    text.push('\n');
+    for row in &set.rows {
+        let mut cells = vec![row
+            .leg
+            .map_or(String::new(), |l| mechanism.legs[l].name.clone())];
+        cells.extend(row.observed.iter().map(|v| format!("{v}")));
+        cells.extend(
+            row.readings
+                .iter()
+                .map(|r| r.map_or(String::new(), |v| format!("{v}"))),
+        );
+        text.push_str(&cells.join(","));
+        text.push('\n');
+    }
+    Ok(text)
+}

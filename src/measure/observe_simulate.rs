@@ -1,0 +1,127 @@
+//! Seeded simulation of an experiment measured through the instrument: the legs' readings as
+//! [`super::simulate`] makes them (the same real leg parameters and true poses for the same
+//! seed), then the instrument's report of its targets at each true pose with the real frame and
+//! offsets, plus Gaussian noise on every target coordinate (the model's noise of the coordinate
+//! of the same name: `x`, `y`, `yaw`).
+//!
+//! The real shared parameters are `simulation.real` by name, else (identified ones) a seeded
+//! perturbation with the instrument's own sizes, else nominal.
+
+use rand::SeedableRng;
+use rand_chacha::ChaCha8Rng;
+use rand_distr::{Distribution, Normal};
+
+use super::observations::{instrument_of, Observations, ObservedRow};
+use super::simulate::{setup, simulate, SimulatedExperiment, SimulationOptions};
+use super::targets::observe;
+use super::MeasurementSet;
+use crate::error::Result;
+use crate::model::instrument::{Instrument, Measures};
+use crate::model::mechanism::Simulation;
+use crate::model::Mechanism;
+
+/// A simulated experiment measured through the instrument.
+#[derive(Debug, Clone)]
+pub struct ObservedExperiment {
+    /// Real parameter values per leg (all parameters, in model order).
+    pub real: Vec<Vec<f64>>,
+    /// Real shared parameters (all of them, in the instrument's order).
+    pub real_shared: Vec<f64>,
+    /// The true platform poses with the noisy readings (the same rows, in the same order).
+    pub poses: MeasurementSet,
+    /// What the instrument reports, with the noisy readings.
+    pub observations: Observations,
+}
+
+/// The real shared parameters: `simulation.real`, else a seeded perturbation of identified
+/// ones, else nominal.
+pub fn real_shared(instrument: &Instrument, simulation: &Simulation, seed: u64) -> Vec<f64> {
+    let mut rng = ChaCha8Rng::seed_from_u64(seed ^ 0x0051_a7ed_f7a3);
+    instrument
+        .parameters
+        .iter()
+        .map(|p| match simulation.real.get(&p.name) {
+            Some(&value) => value,
+            None if p.identified => p.nominal + p.perturbation * gaussian(&mut rng),
+            None => p.nominal,
+        })
+        .collect()
+}
+
+fn gaussian(rng: &mut ChaCha8Rng) -> f64 {
+    Normal::new(0.0, 1.0).map_or(0.0, |n| n.sample(rng))
+}
+
+/// `mechanism` with its simulation's noise on the pose coordinates removed: simulating it gives
+/// the true poses (and the noisy readings) that [`observed_from`] turns into target
+/// measurements.
+pub fn without_pose_noise(mechanism: &Mechanism) -> Mechanism {
+    let mut quiet = mechanism.clone();
+    if let Some(s) = quiet.simulation.as_mut() {
+        s.pose_noise = [0.0; 6];
+    }
+    quiet
+}
+
+/// Simulates the model's experiment through its instrument at random poses.
+///
+/// # Errors
+/// No simulation or instrument block, or no reachable pose (as [`simulate`]).
+pub fn simulate_observed(
+    mechanism: &Mechanism,
+    options: SimulationOptions,
+) -> Result<ObservedExperiment> {
+    instrument_of(mechanism)?;
+    let experiment = simulate(&without_pose_noise(mechanism), options)?;
+    observed_from(mechanism, experiment, options)
+}
+
+/// The instrument's report of a simulated experiment `experiment` whose poses are the true
+/// ones (simulated by [`without_pose_noise`] of `mechanism`, with the same `options`).
+///
+/// # Errors
+/// No simulation or instrument block.
+pub fn observed_from(
+    mechanism: &Mechanism,
+    experiment: SimulatedExperiment,
+    options: SimulationOptions,
+) -> Result<ObservedExperiment> {
+    let instrument = instrument_of(mechanism)?;
+    let simulation = setup(mechanism)?;
+    let seed = options.seed.unwrap_or(simulation.seed);
+    let shared = real_shared(instrument, simulation, seed);
+    let mut rng = ChaCha8Rng::seed_from_u64(seed ^ 0x7a26_e75e_ed00);
+    let sigma: Vec<f64> = instrument
+        .targets
+        .iter()
+        .flat_map(|t| match t.measures {
+            Measures::Position => vec![0, 1],
+            Measures::Pose => vec![0, 1, 5],
+        })
+        .map(|c| options.noise_scale * simulation.pose_noise[c])
+        .collect();
+    let rows = experiment
+        .measurements
+        .poses
+        .iter()
+        .map(|pose| {
+            let observed = observe(instrument, &shared, &pose.pose)
+                .iter()
+                .zip(&sigma)
+                .map(|(v, s)| v + s * gaussian(&mut rng))
+                .collect();
+            ObservedRow {
+                line: pose.line,
+                leg: pose.leg,
+                observed,
+                readings: pose.readings.clone(),
+            }
+        })
+        .collect();
+    Ok(ObservedExperiment {
+        real: experiment.real,
+        real_shared: shared,
+        poses: experiment.measurements,
+        observations: Observations { source: None, rows },
+    })
+}

@@ -1,0 +1,135 @@
+//! What the instrument sees of a platform pose, and the platform pose from what it sees.
+//!
+//! The instrument frame `F = (f, θ_f)` sits in the base frame; target `k` sits at offset `t_k`
+//! in the platform frame. At platform pose `P = (p, ψ)` the instrument reports target `k` at
+//! `m_k = R(θ_f)ᵀ (p + R(ψ) t_k − f)` (and, for a pose target, its orientation `ψ − θ_f`):
+//! [`observe`]. Back, [`platform_pose`] fits `P` from one row's `m_k` at the current shared
+//! parameters `s = (f, θ_f, t_1, …)`: every target's position in the base frame is
+//! `q_k = f + R(θ_f) m_k`; the platform's orientation is the circular mean of the pose targets'
+//! orientations if there are any, else the planar Procrustes angle
+//! `ψ = atan2(Σ a_k × b_k, Σ a_k · b_k)` between the offsets and the positions, each taken from
+//! its centroid (for two targets: the angle between the offset segment and the measured one);
+//! a platform that does not rotate keeps its home orientation. The position is then the
+//! least-squares `p = mean_k (q_k − R(ψ) t_k)`.
+//!
+//! [`platform_pose`] is written once, generic over [`Scalar`]: run on dual numbers seeded in
+//! `s`, it gives `∂P/∂s`, the chain-rule factor of the identification's shared columns.
+
+use crate::model::instrument::{Instrument, Measures};
+use crate::scalar::{lift, Scalar};
+
+/// The instrument's report of every target at platform pose `pose` with shared parameters
+/// `shared` (layout of [`Instrument`]), in measurement-row order.
+pub fn observe(instrument: &Instrument, shared: &[f64], pose: &[f64; 6]) -> Vec<f64> {
+    let (fx, fy, theta) = (
+        shared[Instrument::FRAME],
+        shared[Instrument::FRAME + 1],
+        shared[Instrument::FRAME + 2],
+    );
+    let (s, c) = theta.sin_cos();
+    let (ps, pc) = pose[5].sin_cos();
+    let mut observed = Vec::with_capacity(instrument.observed_len());
+    for (k, target) in instrument.targets.iter().enumerate() {
+        let o = instrument.offset_index(k);
+        let (tx, ty) = (shared[o], shared[o + 1]);
+        let qx = pose[0] + pc * tx - ps * ty - fx;
+        let qy = pose[1] + ps * tx + pc * ty - fy;
+        observed.push(c * qx + s * qy);
+        observed.push(-s * qx + c * qy);
+        if target.measures == Measures::Pose {
+            observed.push(pose[5] - theta);
+        }
+    }
+    observed
+}
+
+/// The platform pose `[x, y, z, roll, pitch, yaw]` from one row's target coordinates
+/// `observed` (measurement-row order) at shared parameters `shared`; the coordinates the
+/// instrument does not give (z, roll, pitch, and yaw of a platform that does not rotate) stay at
+/// their `home` value. The fitted yaw is taken on the turn nearest the home yaw.
+pub fn platform_pose<T: Scalar>(
+    instrument: &Instrument,
+    shared: &[T],
+    observed: &[f64],
+    home: &[f64; 6],
+) -> [T; 6] {
+    let observed: Vec<T> = observed.iter().map(|&v| lift::<T>(v)).collect();
+    platform_pose_from(instrument, shared, &observed, home)
+}
+
+/// As [`platform_pose`], with the target coordinates in the scalar type too (for the
+/// derivatives with respect to them: how the instrument's noise reaches the pose).
+pub fn platform_pose_from<T: Scalar>(
+    instrument: &Instrument,
+    shared: &[T],
+    observed: &[T],
+    home: &[f64; 6],
+) -> [T; 6] {
+    let (fx, fy, theta) = (
+        shared[Instrument::FRAME],
+        shared[Instrument::FRAME + 1],
+        shared[Instrument::FRAME + 2],
+    );
+    let (s, c) = (theta.sin(), theta.cos());
+    let zero = lift::<T>(0.0);
+    // Each target's position in the base frame, its offset, and its orientation if measured.
+    let mut points = Vec::with_capacity(instrument.targets.len());
+    let (mut sin_sum, mut cos_sum, mut poses) = (zero, zero, 0usize);
+    let mut at = 0;
+    for (k, target) in instrument.targets.iter().enumerate() {
+        let (mx, my) = (observed[at], observed[at + 1]);
+        let q = [fx + c * mx - s * my, fy + s * mx + c * my];
+        let o = instrument.offset_index(k);
+        points.push((q, [shared[o], shared[o + 1]]));
+        if target.measures == Measures::Pose {
+            let yaw = theta + observed[at + 2];
+            sin_sum += yaw.sin();
+            cos_sum += yaw.cos();
+            poses += 1;
+        }
+        at += target.coordinates().len();
+    }
+    let count = lift::<T>(points.len() as f64);
+    let yaw = if !instrument.rotates {
+        lift::<T>(home[5])
+    } else {
+        let raw = if poses > 0 {
+            sin_sum.atan2(cos_sum)
+        } else {
+            let mean = |i: usize, j: usize| {
+                points
+                    .iter()
+                    .fold(zero, |acc, p| acc + if j == 0 { p.0[i] } else { p.1[i] })
+                    / count
+            };
+            let (qx, qy, tx, ty) = (mean(0, 0), mean(1, 0), mean(0, 1), mean(1, 1));
+            let (mut cross, mut dot) = (zero, zero);
+            for (q, t) in &points {
+                let (ax, ay) = (t[0] - tx, t[1] - ty);
+                let (bx, by) = (q[0] - qx, q[1] - qy);
+                cross += ax * by - ay * bx;
+                dot += ax * bx + ay * by;
+            }
+            cross.atan2(dot)
+        };
+        let turns = ((raw.re() - home[5]) / std::f64::consts::TAU).round();
+        raw - lift::<T>(turns * std::f64::consts::TAU)
+    };
+    let (ps, pc) = (yaw.sin(), yaw.cos());
+    let (mut px, mut py) = (zero, zero);
+    for (q, t) in &points {
+        px += q[0] - (pc * t[0] - ps * t[1]);
+        py += q[1] - (ps * t[0] + pc * t[1]);
+    }
+    [
+        px / count,
+        py / count,
+        lift::<T>(home[2]),
+        lift::<T>(home[3]),
+        lift::<T>(home[4]),
+        yaw,
+    ]
+}
+
+#[cfg(test)]
+mod tests;

@@ -1,0 +1,276 @@
+//! The `instrument` block: the instrument frame and the targets, checked against the measured
+//! coordinates (does the platform rotate?) and the legs' parameter names.
+
+use std::collections::HashSet;
+
+use super::Builder;
+use crate::error::Result;
+use crate::model::instrument::{
+    Instrument, InstrumentEntry, Measures, SharedParameter, Target, PLANAR_FRAME, PLANAR_OFFSET,
+};
+use crate::model::leg::LegModel;
+use crate::model::params::Unit;
+
+impl Builder<'_> {
+    /// The validated instrument, if the model has the block.
+    pub(super) fn instrument(
+        &self,
+        entry: Option<&InstrumentEntry>,
+        measured: &[usize],
+        legs: &[LegModel],
+    ) -> Result<Option<Instrument>> {
+        let Some(entry) = entry else {
+            return Ok(None);
+        };
+        if measured.iter().any(|c| !matches!(c, 0 | 1 | 5)) {
+            return Err(self.error(
+                "instrument",
+                "the instrument block supports planar models only (measured among x, y, yaw); \
+                 spatial instruments are not implemented yet",
+            ));
+        }
+        let rotates = measured.contains(&5);
+        let mut parameters = self.frame(entry)?;
+        let mut targets = Vec::new();
+        let several = entry.targets.len() > 1;
+        let mut offsets = Vec::new();
+        for (k, target) in entry.targets.iter().enumerate() {
+            let field = format!("instrument.targets[{k}]");
+            let name = target.name.as_str();
+            if name.is_empty() || name.contains(|c: char| c.is_whitespace() || c == ',' || c == '"')
+            {
+                return Err(self.error(
+                    format!("{field}.name"),
+                    format!(
+                        "`{name}` cannot name measurement columns: expected a non-empty name \
+                         without spaces, commas or quotes"
+                    ),
+                ));
+            }
+            if targets.iter().any(|t: &Target| t.name == name) {
+                return Err(self.error(
+                    format!("{field}.name"),
+                    format!("target `{name}` is defined twice"),
+                ));
+            }
+            let measures = match target.measures.as_str() {
+                "position" => Measures::Position,
+                "pose" => Measures::Pose,
+                other => {
+                    return Err(self.error(
+                        format!("{field}.measures"),
+                        format!("`{other}` is not one of position, pose"),
+                    ))
+                }
+            };
+            if measures == Measures::Pose && !rotates {
+                return Err(self.error(
+                    format!("{field}.measures"),
+                    "the platform does not rotate (yaw is not measured): its targets are \
+                     measured by `position`",
+                ));
+            }
+            if target.offset.len() != PLANAR_OFFSET.len() {
+                return Err(self.error(
+                    format!("{field}.offset"),
+                    format!(
+                        "expected [x, y] (2 values, metres), found {} values",
+                        target.offset.len()
+                    ),
+                ));
+            }
+            if let Some(value) = target.offset.iter().find(|v| !v.is_finite()) {
+                return Err(self.error(
+                    format!("{field}.offset"),
+                    format!("expected finite numbers (metres), found {value}"),
+                ));
+            }
+            let identified = self.components(
+                &format!("{field}.identify"),
+                target.identify.as_deref(),
+                &PLANAR_OFFSET,
+            )?;
+            let sigma = target.perturbation.unwrap_or(0.0);
+            if !(sigma.is_finite() && sigma >= 0.0) {
+                return Err(self.error(
+                    format!("{field}.perturbation"),
+                    format!("expected a non-negative standard deviation (metres), found {sigma}"),
+                ));
+            }
+            for (c, component) in PLANAR_OFFSET.iter().enumerate() {
+                let suffix = if several {
+                    format!("_{name}")
+                } else {
+                    String::new()
+                };
+                parameters.push(SharedParameter {
+                    name: format!("target_{component}{suffix}"),
+                    nominal: target.offset[c],
+                    identified: identified[c],
+                    unit: Unit::Metre,
+                    perturbation: sigma,
+                });
+            }
+            offsets.push((measures, [target.offset[0], target.offset[1]]));
+            targets.push(Target {
+                name: name.to_string(),
+                measures,
+            });
+        }
+        if targets.is_empty() {
+            return Err(self.error(
+                "instrument.targets",
+                "expected at least one target the instrument measures",
+            ));
+        }
+        self.orientation_observable(rotates, &offsets, &targets)?;
+        let mut names = HashSet::new();
+        for parameter in &parameters {
+            if !names.insert(parameter.name.as_str()) {
+                return Err(self.error(
+                    "instrument.targets",
+                    format!(
+                        "two targets give the parameter name `{}`: rename one",
+                        parameter.name
+                    ),
+                ));
+            }
+            if legs
+                .iter()
+                .any(|l| l.params.iter().any(|p| p.name == parameter.name))
+            {
+                return Err(self.error(
+                    "parameters",
+                    format!(
+                        "`{}` names an instrument parameter: rename the leg parameter",
+                        parameter.name
+                    ),
+                ));
+            }
+        }
+        Ok(Some(Instrument {
+            parameters,
+            targets,
+            rotates,
+        }))
+    }
+
+    /// The frame's three shared parameters.
+    fn frame(&self, entry: &InstrumentEntry) -> Result<Vec<SharedParameter>> {
+        let frame = &entry.frame;
+        let mut nominal = [0.0; 3];
+        for (key, &value) in &frame.pose {
+            let Some(c) = PLANAR_FRAME.iter().position(|c| c == key) else {
+                return Err(self.error(
+                    format!("instrument.frame.pose.{key}"),
+                    format!(
+                        "`{key}` is not a component of a planar frame; expected one of {}",
+                        PLANAR_FRAME.join(", ")
+                    ),
+                ));
+            };
+            if !value.is_finite() {
+                return Err(self.error(
+                    format!("instrument.frame.pose.{key}"),
+                    format!("expected a finite number, found {value}"),
+                ));
+            }
+            nominal[c] = value;
+        }
+        let identified = self.components(
+            "instrument.frame.identify",
+            frame.identify.as_deref(),
+            &PLANAR_FRAME,
+        )?;
+        let (length, angle) = frame
+            .perturbation
+            .map_or((0.0, 0.0), |p| (p.length, p.angle));
+        for (what, value) in [("length", length), ("angle", angle)] {
+            if !(value.is_finite() && value >= 0.0) {
+                return Err(self.error(
+                    format!("instrument.frame.perturbation.{what}"),
+                    format!("expected a non-negative standard deviation, found {value}"),
+                ));
+            }
+        }
+        Ok(PLANAR_FRAME
+            .iter()
+            .enumerate()
+            .map(|(c, component)| {
+                let angular = c == 2;
+                SharedParameter {
+                    name: format!("frame_{component}"),
+                    nominal: nominal[c],
+                    identified: identified[c],
+                    unit: if angular { Unit::Radian } else { Unit::Metre },
+                    perturbation: if angular { angle } else { length },
+                }
+            })
+            .collect())
+    }
+
+    /// Which of `allowed` an `identify` list names (all of them if it is absent).
+    fn components(
+        &self,
+        field: &str,
+        list: Option<&[String]>,
+        allowed: &[&str],
+    ) -> Result<Vec<bool>> {
+        let Some(list) = list else {
+            return Ok(vec![true; allowed.len()]);
+        };
+        let mut identified = vec![false; allowed.len()];
+        for (i, name) in list.iter().enumerate() {
+            let Some(c) = allowed.iter().position(|a| a == name) else {
+                return Err(self.error(
+                    format!("{field}[{i}]"),
+                    format!("`{name}` is not one of {}", allowed.join(", ")),
+                ));
+            };
+            if identified[c] {
+                return Err(
+                    self.error(format!("{field}[{i}]"), format!("`{name}` is listed twice"))
+                );
+            }
+            identified[c] = true;
+        }
+        Ok(identified)
+    }
+
+    /// A rotating platform's orientation must follow from every row: a pose target, or two
+    /// position-only targets at distinct offsets.
+    fn orientation_observable(
+        &self,
+        rotates: bool,
+        offsets: &[(Measures, [f64; 2])],
+        targets: &[Target],
+    ) -> Result<()> {
+        if !rotates || offsets.iter().any(|(m, _)| *m == Measures::Pose) {
+            return Ok(());
+        }
+        if offsets.len() < 2 {
+            return Err(self.error(
+                "instrument.targets",
+                format!(
+                    "the platform rotates (yaw is measured), but the single position-only \
+                     target `{}` does not give its orientation: add a second position-only \
+                     target at another offset, or measure the target's pose (`measures: pose`)",
+                    targets[0].name
+                ),
+            ));
+        }
+        let first = offsets[0].1;
+        let apart = |o: &[f64; 2]| (o[0] - first[0]).hypot(o[1] - first[1]) > 1e-9;
+        if !offsets.iter().any(|(_, offset)| apart(offset)) {
+            return Err(self.error(
+                "instrument.targets",
+                format!(
+                    "targets `{}` and `{}` have the same offset: their positions do not give \
+                     the platform's orientation; place them apart",
+                    targets[0].name, targets[1].name
+                ),
+            ));
+        }
+        Ok(())
+    }
+}

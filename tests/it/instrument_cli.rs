@@ -1,0 +1,137 @@
+//! `legwise identify` on a model with an instrument block: end to end in simulation and from a
+//! file, the instrument's parameters in the terminal and JSON reports, the calibrated model, and
+//! exit 3 when the frame is off and not identified.
+use std::path::Path;
+
+use legwise::measure::observations::to_csv;
+use legwise::measure::observe_simulate::simulate_observed;
+use legwise::measure::simulate::SimulationOptions;
+use legwise::model::Mechanism;
+use serde_json::Value;
+
+use crate::cli::legwise;
+use crate::support::{bundled, crate_path};
+
+fn text(bytes: &[u8]) -> String {
+    String::from_utf8_lossy(bytes).into_owned()
+}
+
+/// The 3-RPR tracker model with `from` replaced by `to`, written into `directory` (its URDF
+/// named by absolute path).
+fn variant(directory: &Path, from: &str, to: &str) -> String {
+    let text = std::fs::read_to_string(crate_path("models/3rpr-tracker.yaml")).unwrap();
+    assert!(text.contains(from));
+    let urdf = crate_path("models/3rpr.urdf");
+    let text = text
+        .replace(from, to)
+        .replace("urdf: 3rpr.urdf", &format!("urdf: {}", urdf.display()));
+    let path = directory.join("model.yaml");
+    std::fs::write(&path, text).unwrap();
+    path.display().to_string()
+}
+
+#[test]
+fn identify_reports_the_instrument_in_the_terminal_and_json_and_writes_the_calibrated_model() {
+    let directory = tempfile::tempdir().unwrap();
+    let json = directory.path().join("report.json");
+    let calibrated = directory.path().join("calibrated.yaml");
+    let out = legwise(&[
+        "identify",
+        "--model",
+        "models/3rpr-tracker.yaml",
+        "--json",
+        json.to_str().unwrap(),
+        "--calibrated",
+        calibrated.to_str().unwrap(),
+    ]);
+    let (stdout, stderr) = (text(&out.stdout), text(&out.stderr));
+    assert_eq!(out.status.code(), Some(0), "{stdout}\n{stderr}");
+    for name in ["frame_x", "frame_yaw", "target_y_r2", "joint", "two-stage"] {
+        assert!(stdout.contains(name), "{name} missing:\n{stdout}");
+    }
+    let report: Value = serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
+    let joint = &report["results"][0];
+    assert_eq!(joint["converged"], Value::Bool(true));
+    let frame_x = &joint["instrument"][0];
+    assert_eq!(frame_x["name"], "frame_x");
+    // Identified: the error is within a few of its σ.
+    let (error, std) = (
+        frame_x["error"].as_f64().unwrap(),
+        frame_x["std"].as_f64().unwrap(),
+    );
+    assert!(error.abs() < 4.0 * std, "frame_x error {error} σ {std}");
+    assert_eq!(report["results"].as_array().unwrap().len(), 2);
+    // The calibrated model loads, with the frame at its estimate.
+    let mechanism = Mechanism::load(&calibrated).unwrap();
+    let instrument = mechanism.instrument.unwrap();
+    let estimate = frame_x["estimate"].as_f64().unwrap();
+    assert!((instrument.parameters[0].nominal - estimate).abs() < 1e-12);
+}
+
+#[test]
+fn a_frame_off_by_5_mm_and_5_mrad_and_not_identified_is_flagged_with_exit_3() {
+    let directory = tempfile::tempdir().unwrap();
+    let model = variant(
+        directory.path(),
+        "    perturbation: {length: 0.005, angle: 0.005}",
+        "    identify: []",
+    );
+    let model_text = std::fs::read_to_string(&model).unwrap().replace(
+        "  poses_per_leg: 18",
+        "  real: {frame_x: 1.505, frame_yaw: 0.305}\n  poses_per_leg: 18",
+    );
+    std::fs::write(&model, model_text).unwrap();
+    // Random poses: the selected (D-optimal) ones keep the legs nearly parallel to themselves,
+    // and their offsets absorb most of the frame's error (χ² p = 0.27 there).
+    let out = legwise(&["identify", "--model", &model, "--poses", "random"]);
+    let (stdout, stderr) = (text(&out.stdout), text(&out.stderr));
+    assert_eq!(out.status.code(), Some(3), "{stdout}\n{stderr}");
+    assert!(
+        stderr.contains("joint (legs and instrument, Schur complement): the residuals reject the declared noise"),
+        "{stderr}"
+    );
+    // Identified (the bundled model, same real frame): trusted.
+    let identified = variant(
+        directory.path(),
+        "  poses_per_leg: 18",
+        "  real: {frame_x: 1.505, frame_yaw: 0.305}\n  poses_per_leg: 18",
+    );
+    let out = legwise(&["identify", "--model", &identified, "--poses", "random"]);
+    assert_eq!(out.status.code(), Some(0), "{}", text(&out.stderr));
+}
+
+#[test]
+fn identify_reads_the_instrument_measurement_file_and_refuses_options_it_lacks() {
+    let directory = tempfile::tempdir().unwrap();
+    let mechanism = bundled("5r-tracker.yaml");
+    let experiment = simulate_observed(&mechanism, SimulationOptions::default()).unwrap();
+    let csv = directory.path().join("tracker.csv");
+    std::fs::write(&csv, to_csv(&mechanism, &experiment.observations).unwrap()).unwrap();
+    let out = legwise(&[
+        "identify",
+        "--model",
+        "models/5r-tracker.yaml",
+        "--measurements",
+        csv.to_str().unwrap(),
+    ]);
+    let (stdout, stderr) = (text(&out.stdout), text(&out.stderr));
+    assert_eq!(out.status.code(), Some(0), "{stdout}\n{stderr}");
+    assert!(
+        stdout.contains("frame_yaw") && stdout.contains("tracker.csv"),
+        "{stdout}"
+    );
+    let out = legwise(&[
+        "identify",
+        "--model",
+        "models/5r-tracker.yaml",
+        "--solver",
+        "gn",
+    ]);
+    assert_eq!(out.status.code(), Some(2));
+    assert!(
+        text(&out.stderr)
+            .contains("--solver gn: not available for a model with an instrument block"),
+        "{}",
+        text(&out.stderr)
+    );
+}

@@ -1,0 +1,290 @@
+//! Identification through the instrument: the measurement file's round trip, zero-noise
+//! recovery of every identified leg and instrument parameter, the Schur-complement solve
+//! against a dense Levenberg–Marquardt solve of the same problem, and the rank check naming the
+//! frame/base gauge when everything is freed.
+use std::path::Path;
+
+use legwise::identify::shared::SharedProblem;
+use legwise::identify::shared_estimate::{identify_shared, SharedEstimate, SharedStrategy};
+use legwise::measure::observations::{parse, to_csv};
+use legwise::measure::observe_simulate::{simulate_observed, ObservedExperiment};
+use legwise::measure::simulate::SimulationOptions;
+use legwise::measure::targets::platform_pose;
+use legwise::model::Mechanism;
+use legwise::solver::bordered::DenseView;
+use legwise::solver::{solve, solve_bordered, SolverKind};
+
+use crate::support::{bundled, crate_path};
+
+fn options(noise_scale: f64) -> SimulationOptions {
+    SimulationOptions {
+        noise_scale,
+        ..Default::default()
+    }
+}
+
+/// Every identified parameter of `estimate` against the simulation's real value.
+fn assert_recovered(estimate: &SharedEstimate, experiment: &ObservedExperiment, tolerance: f64) {
+    for (leg, parameters) in &estimate.legs {
+        for (p, parameter) in parameters.iter().enumerate() {
+            let real = experiment.real[*leg][p];
+            assert!(
+                (parameter.estimate - real).abs() <= tolerance,
+                "{}: {} but real {real}",
+                parameter.name,
+                parameter.estimate
+            );
+        }
+    }
+    for (k, parameter) in estimate.shared.iter().enumerate() {
+        let real = experiment.real_shared[k];
+        assert!(
+            (parameter.estimate - real).abs() <= tolerance,
+            "{}: {} but real {real}",
+            parameter.name,
+            parameter.estimate
+        );
+    }
+}
+
+#[test]
+fn the_instrument_measurement_file_round_trips_and_its_targets_give_back_the_true_poses() {
+    let mechanism = bundled("3rpr-tracker.yaml");
+    let experiment = simulate_observed(&mechanism, options(0.0)).unwrap();
+    let text = to_csv(&mechanism, &experiment.observations).unwrap();
+    assert!(
+        text.starts_with("leg,x.r1,y.r1,x.r2,y.r2,P1,P2,P3\n"),
+        "{text}"
+    );
+    let back = parse(&text, Path::new("m.csv"), &mechanism).unwrap();
+    assert_eq!(back.rows.len(), experiment.observations.rows.len());
+    for (a, b) in back.rows.iter().zip(&experiment.observations.rows) {
+        assert_eq!(
+            (&a.observed, &a.readings, a.leg),
+            (&b.observed, &b.readings, b.leg)
+        );
+    }
+    let instrument = mechanism.instrument.as_ref().unwrap();
+    for (row, truth) in experiment
+        .observations
+        .rows
+        .iter()
+        .zip(&experiment.poses.poses)
+    {
+        let pose = platform_pose::<f64>(
+            instrument,
+            &experiment.real_shared,
+            &row.observed,
+            &mechanism.home_pose,
+        );
+        for c in 0..6 {
+            assert!(
+                (pose[c] - truth.pose[c]).abs() < 1e-12,
+                "{pose:?} vs {:?}",
+                truth.pose
+            );
+        }
+    }
+    // The perturbed frame really differs from the nominal one.
+    assert!((experiment.real_shared[0] - 1.5).abs() > 1e-4);
+}
+
+#[test]
+fn an_instrument_file_without_a_target_column_names_it() {
+    let mechanism = bundled("3rpr-tracker.yaml");
+    let err = parse(
+        "leg,x.r1,y.r1,x.r2,P1,P2,P3\n",
+        Path::new("m.csv"),
+        &mechanism,
+    )
+    .expect_err("rejected")
+    .to_string();
+    assert_eq!(
+        err,
+        "m.csv: header: missing column `y.r2`; expected the columns leg, x.r1, y.r1, x.r2, y.r2, \
+         P1, P2, P3"
+    );
+    let err = parse("leg,x,y,yaw,P1,P2,P3\n", Path::new("m.csv"), &mechanism)
+        .expect_err("rejected")
+        .to_string();
+    assert!(err.contains("unknown column `x`"), "{err}");
+}
+
+#[test]
+fn zero_noise_recovers_every_identified_leg_and_instrument_parameter_of_the_5r_and_the_3rpr() {
+    for model in ["5r-tracker.yaml", "3rpr-tracker.yaml"] {
+        let mechanism = bundled(model);
+        let experiment = simulate_observed(&mechanism, options(0.0)).unwrap();
+        let estimate =
+            identify_shared(&mechanism, &experiment.observations, SharedStrategy::Joint).unwrap();
+        assert!(
+            estimate.outcome.converged,
+            "{model}: {:?}",
+            estimate.outcome
+        );
+        assert_recovered(&estimate, &experiment, 1e-9);
+        assert!(estimate.rms < 1e-10, "{model}: rms {}", estimate.rms);
+    }
+}
+
+#[test]
+fn the_schur_solution_equals_a_dense_levenberg_marquardt_solve_of_the_same_problem() {
+    for model in ["5r-tracker.yaml", "3rpr-tracker.yaml"] {
+        let mechanism = bundled(model);
+        let experiment = simulate_observed(&mechanism, options(1.0)).unwrap();
+        let problem = SharedProblem::new(&mechanism, &experiment.observations).unwrap();
+        let schur = solve_bordered(&problem, problem.start()).unwrap();
+        let dense = solve(
+            &DenseView(&problem),
+            problem.start(),
+            SolverKind::LevenbergMarquardt,
+        )
+        .unwrap();
+        assert!(schur.converged && dense.converged);
+        let gap = (&schur.x - &dense.x).amax();
+        assert!(gap <= 1e-10, "{model}: Schur and dense differ by {gap:e}");
+        // Noise moved the estimate: the comparison is not of two copies of the start.
+        assert!((&schur.x - problem.start()).amax() > 1e-4);
+    }
+}
+
+#[test]
+fn freeing_every_base_joint_and_target_names_the_frame_gauge() {
+    let text = std::fs::read_to_string(crate_path("models/3rpr-tracker.yaml"))
+        .unwrap()
+        .replace(", identify: false}", "}")
+        .replace("identify: [y], ", "");
+    let urdf = std::fs::read_to_string(crate_path("models/3rpr.urdf")).unwrap();
+    let mechanism =
+        Mechanism::parse(&text, Path::new("free.yaml"), &urdf, Path::new("3rpr.urdf")).unwrap();
+    let experiment = simulate_observed(&mechanism, options(0.0)).unwrap();
+    let err = identify_shared(&mechanism, &experiment.observations, SharedStrategy::Joint)
+        .expect_err("rank-deficient")
+        .to_string();
+    // 18 leg parameters and 7 instrument ones; 3 base-frame and 3 platform-frame directions,
+    // and the reflectors' distance.
+    assert!(err.contains("rank 18 of 25 parameters"), "{err}");
+    assert!(err.contains("frame_x") || err.contains("frame_y"), "{err}");
+    assert!(err.contains("null-space directions"), "{err}");
+    assert!(err.contains("docs/models.md"), "{err}");
+}
+
+#[test]
+fn the_two_stage_strategy_also_recovers_at_zero_noise() {
+    let mechanism = bundled("3rpr-tracker.yaml");
+    let experiment = simulate_observed(&mechanism, options(0.0)).unwrap();
+    let estimate = identify_shared(
+        &mechanism,
+        &experiment.observations,
+        SharedStrategy::TwoStage,
+    )
+    .unwrap();
+    // The registration uses the nominal legs: its frame is off by the legs' errors, and the
+    // legs then absorb what they can of it. Only the order of magnitude is asserted.
+    let frame_error = (estimate.shared[0].estimate - experiment.real_shared[0]).abs();
+    assert!(frame_error < 0.01, "frame_x off by {frame_error}");
+}
+
+#[test]
+fn with_noise_every_identified_error_is_at_the_noise_level_and_a_held_off_frame_is_rejected() {
+    use legwise::identify::shared_estimate::trust_issues;
+    let mechanism = bundled("3rpr-tracker.yaml");
+    let experiment = simulate_observed(&mechanism, options(1.0)).unwrap();
+    let estimate =
+        identify_shared(&mechanism, &experiment.observations, SharedStrategy::Joint).unwrap();
+    let test = estimate.noise_test.as_ref().expect("a declared noise");
+    assert!(!test.rejected, "{test:?}");
+    for (k, p) in estimate.shared.iter().enumerate() {
+        if let Some(std) = p.std {
+            let error = p.estimate - experiment.real_shared[k];
+            assert!(error.abs() < 4.0 * std, "{}: error {error} σ {std}", p.name);
+        }
+    }
+    assert!(trust_issues(&[estimate]).is_empty());
+    // The frame held at a nominal 5 mm and 5 mrad off the real one.
+    let text = std::fs::read_to_string(crate_path("models/3rpr-tracker.yaml"))
+        .unwrap()
+        .replace(
+            "    perturbation: {length: 0.005, angle: 0.005}",
+            "    identify: []",
+        )
+        .replace(
+            "  poses_per_leg: 18",
+            "  real: {frame_x: 1.505, frame_yaw: 0.305}\n  poses_per_leg: 18",
+        );
+    let urdf = std::fs::read_to_string(crate_path("models/3rpr.urdf")).unwrap();
+    let held =
+        Mechanism::parse(&text, Path::new("held.yaml"), &urdf, Path::new("3rpr.urdf")).unwrap();
+    let experiment = simulate_observed(&held, options(1.0)).unwrap();
+    let estimate = identify_shared(&held, &experiment.observations, SharedStrategy::Joint).unwrap();
+    let issues = trust_issues(&[estimate]);
+    assert!(
+        issues
+            .iter()
+            .any(|i| i.contains("reject the declared noise")),
+        "{issues:?}"
+    );
+}
+
+#[test]
+fn the_jacobian_of_the_shared_problem_matches_central_differences_of_its_residuals() {
+    use argmin::core::Operator;
+    use legwise::solver::bordered::{to_dense, BorderedLeastSquares};
+    for model in ["5r-tracker.yaml", "3rpr-tracker.yaml"] {
+        let mechanism = bundled(model);
+        let experiment = simulate_observed(&mechanism, options(1.0)).unwrap();
+        let problem = SharedProblem::new(&mechanism, &experiment.observations).unwrap();
+        // Away from the nominal start, every column non-trivial.
+        let x = problem.start().map(|v| v * (1.0 + 1e-3));
+        let (r, jacobian) = to_dense(&problem.layout(), &problem.bordered(&x).unwrap());
+        assert!((&r - problem.apply(&x).unwrap()).amax() < 1e-14);
+        for j in 0..x.len() {
+            let h = 1e-6 * (1.0 + x[j].abs());
+            let mut plus = x.clone();
+            plus[j] += h;
+            let mut minus = x.clone();
+            minus[j] -= h;
+            let central =
+                (problem.apply(&plus).unwrap() - problem.apply(&minus).unwrap()) / (2.0 * h);
+            let gap = (jacobian.column(j) - &central).amax();
+            let scale = central.amax().max(1e-3);
+            assert!(
+                gap <= 1e-6 * scale,
+                "{model}, column {j}: gap {gap:e} (scale {scale:e})"
+            );
+        }
+    }
+}
+
+#[test]
+fn a_camera_marker_measuring_the_pose_gives_the_same_zero_noise_recovery() {
+    // One pose target (a camera's marker) instead of the two reflectors; its offset held with
+    // the attachments that define the platform frame, the frame identified.
+    let text = std::fs::read_to_string(crate_path("models/3rpr-tracker.yaml"))
+        .unwrap()
+        .replace(
+            "    - {name: r1, offset: [0.08, 0.03], measures: position, perturbation: 0.002}\n",
+            "    - {name: marker, offset: [0.05, -0.02], measures: pose, identify: []}\n",
+        )
+        .replace(
+            "    - {name: r2, offset: [-0.07, 0.03], measures: position, identify: [y], perturbation: 0.002}\n",
+            "",
+        );
+    let urdf = std::fs::read_to_string(crate_path("models/3rpr.urdf")).unwrap();
+    let mechanism = Mechanism::parse(
+        &text,
+        Path::new("camera.yaml"),
+        &urdf,
+        Path::new("3rpr.urdf"),
+    )
+    .unwrap();
+    assert_eq!(
+        mechanism.instrument.as_ref().unwrap().columns(),
+        ["x.marker", "y.marker", "yaw.marker"]
+    );
+    let experiment = simulate_observed(&mechanism, options(0.0)).unwrap();
+    let estimate =
+        identify_shared(&mechanism, &experiment.observations, SharedStrategy::Joint).unwrap();
+    assert!(estimate.outcome.converged);
+    assert_recovered(&estimate, &experiment, 1e-9);
+}
