@@ -308,9 +308,10 @@ mod tests {
             ..quiet()
         };
         assert_eq!(zero.verdict(1e-8, || false), Some(StopReason::ZeroResidual));
+        // ε·start = 8.9e-16 for a start of 4 (a start of 1 could not tell ε·start from ε/start).
         let exact = Trial {
-            cost: 1e-17,
-            initial_cost: 1.0,
+            cost: 5e-16,
+            initial_cost: 4.0,
             step_converged: true,
             ..quiet()
         };
@@ -320,7 +321,7 @@ mod tests {
         );
         // A cost just above ε·start is not an exact fit.
         let above = Trial {
-            cost: 2.3e-16,
+            cost: 9e-16,
             ..exact
         };
         assert_eq!(above.verdict(1e-8, || false), Some(StopReason::Stalled));
