@@ -21,9 +21,10 @@ use rayon::prelude::*;
 
 use super::stats::{self, Estimate};
 use crate::error::{Error, Result};
-use crate::evaluate::accuracy::{map_grid, position_error, reached_pose, result_parameters};
+use crate::evaluate::accuracy::{map_grid, position_error, reached_poses, result_parameters};
 use crate::identify::estimate::{identify_with, FitOptions, Strategy, StrategyResult};
-use crate::measure::simulate::{simulate_at, PoseSets, SimulationOptions};
+use crate::kinematics::platform::ForwardKinematics;
+use crate::measure::simulate::{real_parameters, simulate_at, PoseSets, SimulationOptions};
 use crate::measure::{MeasuredPose, MeasurementSet};
 use crate::model::params::Unit;
 use crate::model::Mechanism;
@@ -144,6 +145,10 @@ pub struct Study {
     shared_count: usize,
     map: Vec<[f64; 6]>,
     parameters: Vec<StudyParameter>,
+    /// The real parameters when every trial draws the same ones (a simulation block that
+    /// declares them all), with the nominal model's RMS position error over the map against
+    /// them: computed once for all trials.
+    fixed_real: Option<(Vec<Vec<f64>>, f64)>,
 }
 
 /// One arm's values in one trial.
@@ -295,7 +300,7 @@ impl Study {
                     })
             })
             .collect();
-        Ok(Self {
+        let mut study = Self {
             mechanism,
             options,
             pose_sets: PoseSets {
@@ -305,7 +310,31 @@ impl Study {
             shared_count,
             map,
             parameters,
-        })
+            fixed_real: None,
+        };
+        study.fixed_real = study.fixed_real_parameters();
+        Ok(study)
+    }
+
+    /// The real parameters and the nominal map's RMS error, if the real parameters do not
+    /// depend on the trial (the same for two different trial seeds: declared, not drawn).
+    fn fixed_real_parameters(&self) -> Option<(Vec<Vec<f64>>, f64)> {
+        let simulation = self.mechanism.simulation.as_ref()?;
+        let [first, second] = [0, 1].map(|i| {
+            real_parameters(
+                &self.mechanism,
+                simulation,
+                trial_seed(self.options.seed, i),
+            )
+        });
+        if first != second {
+            return None;
+        }
+        let kinematics = ForwardKinematics::new(&self.mechanism, &first);
+        let rms = self
+            .map_rms(&self.mechanism.nominal_parameters(), &kinematics)
+            .ok()?;
+        Some((first, rms))
     }
 
     /// The mechanism the study identifies (its declared noise scaled).
@@ -350,8 +379,11 @@ impl Study {
             .partition(|p| p.leg.is_some());
         let (small, equal) = shared.split_at(self.shared_count);
         let sets = [labelled, small.to_vec(), equal.to_vec()];
-        let nominal = self.mechanism.nominal_parameters();
-        let nominal_map_rms = self.map_rms(&nominal, real)?;
+        let real_kinematics = ForwardKinematics::new(&self.mechanism, real);
+        let nominal_map_rms = match &self.fixed_real {
+            Some((fixed, rms)) if fixed == real => *rms,
+            _ => self.map_rms(&self.mechanism.nominal_parameters(), &real_kinematics)?,
+        };
         let mut arms = Vec::with_capacity(ARMS.len());
         for (arm, poses) in ARMS.into_iter().zip(sets) {
             let data = MeasurementSet {
@@ -371,7 +403,7 @@ impl Study {
                     message: format!("did not converge: {}", run.stop_reason),
                 });
             }
-            arms.push(self.arm_trial(&result, real)?);
+            arms.push(self.arm_trial(&result, real, &real_kinematics)?);
         }
         Ok(TrialValues {
             nominal_map_rms,
@@ -379,7 +411,12 @@ impl Study {
         })
     }
 
-    fn arm_trial(&self, result: &StrategyResult, real: &[Vec<f64>]) -> Result<ArmTrial> {
+    fn arm_trial(
+        &self,
+        result: &StrategyResult,
+        real: &[Vec<f64>],
+        real_kinematics: &ForwardKinematics<'_>,
+    ) -> Result<ArmTrial> {
         let mut errors = Vec::with_capacity(self.parameters.len());
         let mut predicted_std = Vec::with_capacity(self.parameters.len());
         for p in &self.parameters {
@@ -402,16 +439,18 @@ impl Study {
         Ok(ArmTrial {
             errors,
             predicted_std,
-            map_rms: self.map_rms(&identified, real)?,
+            map_rms: self.map_rms(&identified, real_kinematics)?,
         })
     }
 
-    /// RMS position error over the map with `commanding` commanding the `real` mechanism.
-    fn map_rms(&self, commanding: &[Vec<f64>], real: &[Vec<f64>]) -> Result<f64> {
+    /// RMS position error over the map with `commanding` commanding the real mechanism (its
+    /// forward kinematics `real`, prepared once per trial for the four maps).
+    fn map_rms(&self, commanding: &[Vec<f64>], real: &ForwardKinematics<'_>) -> Result<f64> {
         let mut sum = 0.0;
         let mut count = 0usize;
-        for target in &self.map {
-            if let Some(reached) = reached_pose(&self.mechanism, commanding, real, target) {
+        let reached = reached_poses(&self.mechanism, commanding, real, &self.map);
+        for (target, reached) in self.map.iter().zip(reached) {
+            if let Some(reached) = reached {
                 sum += position_error(&reached, target).powi(2);
                 count += 1;
             }
