@@ -201,6 +201,22 @@ pub fn reached_poses(
     real: &ForwardKinematics<'_>,
     targets: &[[f64; 6]],
 ) -> Vec<Option<[f64; 6]>> {
+    reached_poses_from(mechanism, commanding, real, targets, &mut Vec::new())
+}
+
+/// [`reached_poses`], warm-starting each leg's inverse kinematics at each target from
+/// `joints`: the commanding joints of an earlier map over the same targets (target after
+/// target, leg after leg; `None` where unknown), which then holds this map's. A commanding
+/// model close to the earlier one (an identified model after another) makes each warm start
+/// a step or two. An empty or mis-sized `joints` starts from the grid neighbours as
+/// [`reached_poses`].
+pub fn reached_poses_from(
+    mechanism: &Mechanism,
+    commanding: &[Vec<f64>],
+    real: &ForwardKinematics<'_>,
+    targets: &[[f64; 6]],
+    joints: &mut Vec<Option<Joints>>,
+) -> Vec<Option<[f64; 6]>> {
     let home = &mechanism.home_pose;
     let geometries: Vec<LegGeometry<f64>> = mechanism
         .legs
@@ -210,8 +226,11 @@ pub fn reached_poses(
         .collect();
     let frames: Vec<ChainFrames<f64>> = geometries.iter().map(ChainFrames::new).collect();
     let legs = mechanism.legs.len();
+    if joints.len() != targets.len() * legs {
+        *joints = vec![None; targets.len() * legs];
+    }
     // Every target's joints, leg after leg (`None` where a leg could not reach it).
-    let mut solutions: Vec<Option<Joints>> = vec![None; targets.len() * legs];
+    let solutions = joints;
     let mut readings = vec![0.0; legs];
     let mut start = Configuration {
         pose: mechanism.home_pose,
@@ -233,7 +252,9 @@ pub fn reached_poses(
                     &frames[l],
                     (target, &attachment),
                     home,
-                    seed.and_then(|s| solutions[s * legs + l].as_ref()),
+                    solutions[i * legs + l]
+                        .as_ref()
+                        .or_else(|| seed.and_then(|s| solutions[s * legs + l].as_ref())),
                 );
                 match solution {
                     Ok(solution) => {
@@ -242,6 +263,7 @@ pub fn reached_poses(
                         solutions[i * legs + l] = Some(solution.q);
                     }
                     Err(_) => {
+                        solutions[i * legs + l] = None;
                         solved = false;
                         break;
                     }

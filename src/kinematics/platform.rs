@@ -232,7 +232,7 @@ impl<'m> ForwardKinematics<'m> {
                     self.frames[l].tip_and_jacobian(leg, &joints[l][..moving]);
                 let target = attachment_on(&platform, &geometry.attachment);
                 let attachment = Vector3::from(geometry.attachment);
-                for (k, derivative) in pose_derivatives.iter().enumerate() {
+                for (k, derivative) in pose_derivatives.iter().take(layout.pose.len()).enumerate() {
                     let moved = derivative.rotation * attachment + derivative.translation;
                     for d in 0..leg.closure_dims {
                         jacobian[(row + d) * n + k] = -moved[d];
@@ -296,21 +296,28 @@ struct PoseDerivative {
     translation: Vector3<f64>,
 }
 
-/// The platform transform's derivatives with respect to the pose coordinates `columns`
-/// (forward-mode dual numbers, one coordinate at a time).
-fn pose_derivatives(pose: &[f64; 6], columns: &[usize]) -> Vec<PoseDerivative> {
-    columns
-        .iter()
-        .map(|&c| {
-            let mut seeded = pose.map(Dual64::from);
-            seeded[c].eps = 1.0;
-            let transform = platform_transform(&seeded);
-            PoseDerivative {
-                rotation: transform.rotation.matrix().map(|v| v.eps),
-                translation: transform.translation.vector.map(|v| v.eps),
+/// The platform transform's derivatives with respect to the pose coordinates `columns` (the
+/// first `columns.len()` entries): a unit translation for a position, forward-mode dual numbers
+/// for an angle.
+fn pose_derivatives(pose: &[f64; 6], columns: &[usize]) -> [PoseDerivative; 6] {
+    std::array::from_fn(|k| {
+        let mut derivative = PoseDerivative {
+            rotation: Matrix3::zeros(),
+            translation: Vector3::zeros(),
+        };
+        match columns.get(k) {
+            Some(&c) if c < 3 => derivative.translation[c] = 1.0,
+            Some(&c) => {
+                let mut seeded = pose.map(Dual64::from);
+                seeded[c].eps = 1.0;
+                let transform = platform_transform(&seeded);
+                derivative.rotation = transform.rotation.matrix().map(|v| v.eps);
+                derivative.translation = transform.translation.vector.map(|v| v.eps);
             }
-        })
-        .collect()
+            None => {}
+        }
+        derivative
+    })
 }
 
 /// Solves `a x = b` in place (`a`: `n × n`, row-major, overwritten by its LU factors; `b`

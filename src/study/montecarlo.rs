@@ -21,8 +21,9 @@ use rayon::prelude::*;
 
 use super::stats::{self, Estimate};
 use crate::error::{Error, Result};
-use crate::evaluate::accuracy::{map_grid, position_error, reached_poses, result_parameters};
+use crate::evaluate::accuracy::{map_grid, position_error, reached_poses_from, result_parameters};
 use crate::identify::estimate::{identify_with, FitOptions, Strategy, StrategyResult};
+use crate::kinematics::inverse::Joints;
 use crate::kinematics::platform::ForwardKinematics;
 use crate::measure::simulate::{real_parameters, simulate_at, PoseSets, SimulationOptions};
 use crate::measure::{MeasuredPose, MeasurementSet};
@@ -149,6 +150,9 @@ pub struct Study {
     /// declares them all), with the nominal model's RMS position error over the map against
     /// them: computed once for all trials.
     fixed_real: Option<(Vec<Vec<f64>>, f64)>,
+    /// The nominal model's joints at every map point (point after point, leg after leg): the
+    /// warm starts of every trial's maps.
+    nominal_joints: Vec<Option<Joints>>,
 }
 
 /// One arm's values in one trial.
@@ -311,7 +315,19 @@ impl Study {
             map,
             parameters,
             fixed_real: None,
+            nominal_joints: Vec::new(),
         };
+        let nominal = study.mechanism.nominal_parameters();
+        let nominal_kinematics = ForwardKinematics::new(&study.mechanism, &nominal);
+        let mut joints = Vec::new();
+        reached_poses_from(
+            &study.mechanism,
+            &nominal,
+            &nominal_kinematics,
+            &study.map,
+            &mut joints,
+        );
+        study.nominal_joints = joints;
         study.fixed_real = study.fixed_real_parameters();
         Ok(study)
     }
@@ -332,7 +348,11 @@ impl Study {
         }
         let kinematics = ForwardKinematics::new(&self.mechanism, &first);
         let rms = self
-            .map_rms(&self.mechanism.nominal_parameters(), &kinematics)
+            .map_rms(
+                &self.mechanism.nominal_parameters(),
+                &kinematics,
+                &mut self.nominal_joints.clone(),
+            )
             .ok()?;
         Some((first, rms))
     }
@@ -382,8 +402,14 @@ impl Study {
         let real_kinematics = ForwardKinematics::new(&self.mechanism, real);
         let nominal_map_rms = match &self.fixed_real {
             Some((fixed, rms)) if fixed == real => *rms,
-            _ => self.map_rms(&self.mechanism.nominal_parameters(), &real_kinematics)?,
+            _ => self.map_rms(
+                &self.mechanism.nominal_parameters(),
+                &real_kinematics,
+                &mut self.nominal_joints.clone(),
+            )?,
         };
+        // The commanding joints of the last map, the warm starts of the next one.
+        let mut joints = self.nominal_joints.clone();
         let mut arms = Vec::with_capacity(ARMS.len());
         for (arm, poses) in ARMS.into_iter().zip(sets) {
             let data = MeasurementSet {
@@ -403,7 +429,7 @@ impl Study {
                     message: format!("did not converge: {}", run.stop_reason),
                 });
             }
-            arms.push(self.arm_trial(&result, real, &real_kinematics)?);
+            arms.push(self.arm_trial(&result, real, &real_kinematics, &mut joints)?);
         }
         Ok(TrialValues {
             nominal_map_rms,
@@ -416,6 +442,7 @@ impl Study {
         result: &StrategyResult,
         real: &[Vec<f64>],
         real_kinematics: &ForwardKinematics<'_>,
+        joints: &mut Vec<Option<Joints>>,
     ) -> Result<ArmTrial> {
         let mut errors = Vec::with_capacity(self.parameters.len());
         let mut predicted_std = Vec::with_capacity(self.parameters.len());
@@ -439,16 +466,23 @@ impl Study {
         Ok(ArmTrial {
             errors,
             predicted_std,
-            map_rms: self.map_rms(&identified, real_kinematics)?,
+            map_rms: self.map_rms(&identified, real_kinematics, joints)?,
         })
     }
 
     /// RMS position error over the map with `commanding` commanding the real mechanism (its
-    /// forward kinematics `real`, prepared once per trial for the four maps).
-    fn map_rms(&self, commanding: &[Vec<f64>], real: &ForwardKinematics<'_>) -> Result<f64> {
+    /// forward kinematics `real`, prepared once per trial for the four maps); `joints` are the
+    /// commanding joints of an earlier map, the warm starts of this one's inverse kinematics
+    /// (then this map's).
+    fn map_rms(
+        &self,
+        commanding: &[Vec<f64>],
+        real: &ForwardKinematics<'_>,
+        joints: &mut Vec<Option<Joints>>,
+    ) -> Result<f64> {
         let mut sum = 0.0;
         let mut count = 0usize;
-        let reached = reached_poses(&self.mechanism, commanding, real, &self.map);
+        let reached = reached_poses_from(&self.mechanism, commanding, real, &self.map, joints);
         for (target, reached) in self.map.iter().zip(reached) {
             if let Some(reached) = reached {
                 sum += position_error(&reached, target).powi(2);
