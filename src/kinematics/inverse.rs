@@ -464,8 +464,19 @@ pub fn reading_at<T: Scalar>(
     solution: &Solution,
 ) -> T {
     let tip = frames.tip(leg, &solution.q[..leg.moving.len()]);
+    reading_at_tip(leg, &tip, actuator, target, solution)
+}
+
+/// As [`reading_at`], from the tip position `tip` (in `T`) of the chain at the solution's joints.
+pub fn reading_at_tip<T: Scalar>(
+    leg: &LegModel,
+    tip: &Vector3<T>,
+    actuator: &LegGeometry<T>,
+    target: &Vector3<T>,
+    solution: &Solution,
+) -> T {
     let q = lifted::<T>(&solution.q);
-    newton_reading(leg, &q, &tip, target, &solution.closure_inverse, actuator)
+    newton_reading(leg, &q, tip, target, &solution.closure_inverse, actuator)
 }
 
 /// The predicted reading (f64) at a converged solution, from the closure error it carries (no
