@@ -199,7 +199,22 @@ impl<'a> PreparedLeg<'a> {
         home_pose: &[f64; 6],
         seed: Option<&Joints>,
     ) -> Result<Solution, KinematicsError> {
-        let target = attachment_on(&platform_transform(pose), &self.geometry.attachment);
+        self.solve_warm_on(&platform_transform(pose), pose, home_pose, seed)
+    }
+
+    /// As [`Self::solve_warm`], with the pose's platform transform `platform`
+    /// ([`platform_transform`] of `pose`) already computed.
+    ///
+    /// # Errors
+    /// The leg cannot reach the pose on its home branch.
+    pub fn solve_warm_on(
+        &self,
+        platform: &Transform<f64>,
+        pose: &[f64; 6],
+        home_pose: &[f64; 6],
+        seed: Option<&Joints>,
+    ) -> Result<Solution, KinematicsError> {
+        let target = attachment_on(platform, &self.geometry.attachment);
         solve_warm(
             self.leg,
             &self.geometry,
@@ -228,10 +243,23 @@ impl<'a> PreparedLeg<'a> {
         if self.passes.is_empty() {
             return self.reading_of(solution);
         }
-        let platform = platform_transform(pose);
+        self.reading_and_gradient_on(&platform_transform(pose), solution, gradient)
+    }
+
+    /// As [`Self::reading_and_gradient_of`], with the pose's platform transform `platform`
+    /// ([`platform_transform`] of the pose) already computed.
+    pub fn reading_and_gradient_on(
+        &self,
+        platform: &Transform<f64>,
+        solution: &Solution,
+        gradient: &mut [f64],
+    ) -> f64 {
+        if self.passes.is_empty() {
+            return self.reading_of(solution);
+        }
         let mut reading = 0.0;
         for pass in &self.passes {
-            reading = pass.evaluate(self.leg, &platform, solution, gradient);
+            reading = pass.evaluate(self.leg, platform, solution, gradient);
         }
         reading
     }

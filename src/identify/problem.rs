@@ -15,6 +15,7 @@ use rayon::prelude::*;
 use super::jacobian::PreparedLeg;
 use super::residual::{turn_in_reading_units, turns, ResidualBlock};
 use crate::error::KinematicsError;
+use crate::kinematics::chain::{platform_transform, Transform};
 use crate::kinematics::inverse::{Joints, Solution};
 use crate::model::params::ParamTarget;
 use crate::model::Mechanism;
@@ -62,6 +63,10 @@ pub struct IdentificationProblem<'a> {
     blocks: Arc<[ResidualBlock]>,
     /// `√w_i` per block, if weighted.
     row_scales: Option<Vec<f64>>,
+    /// Each block's platform transform (its pose's trigonometry done once), for problems of at
+    /// most [`KEPT_SOLUTION_ROWS`] blocks (96 bytes a row); empty for larger ones, whose rows
+    /// compute theirs at each evaluation.
+    platforms: Arc<[Transform<f64>]>,
     /// Each block's last inverse-kinematics solution (the warm start of the next evaluation)
     /// and the values of the latest evaluations. Shared by the problem's clones (a solver
     /// clones its problem, and refines the estimate on the original): a problem and its clones
@@ -164,11 +169,16 @@ impl<'a> IdentificationProblem<'a> {
             .filter(|b| slot_of_leg[b.leg].is_some())
             .collect();
         Self {
+            blocks: blocks.clone(),
             mechanism,
             slots,
             slot_of_leg,
-            blocks,
             row_scales: None,
+            platforms: if blocks.len() <= KEPT_SOLUTION_ROWS {
+                blocks.iter().map(|b| platform_transform(&b.pose)).collect()
+            } else {
+                Arc::from(Vec::new())
+            },
             state: Arc::default(),
         }
     }
@@ -267,6 +277,14 @@ impl<'a> IdentificationProblem<'a> {
             .collect()
     }
 
+    /// Block `index`'s platform transform: kept, or computed from its pose.
+    fn platform(&self, index: usize) -> Transform<f64> {
+        self.platforms
+            .get(index)
+            .copied()
+            .unwrap_or_else(|| platform_transform(&self.blocks[index].pose))
+    }
+
     /// The widest slot's number of identified parameters: the stride of the kept gradients.
     fn width(&self) -> usize {
         self.slots
@@ -338,13 +356,14 @@ impl<'a> IdentificationProblem<'a> {
                 let index = chunk * ROWS_PER_TASK + k;
                 let block = &self.blocks[index];
                 let leg = &prepared[self.slot_of_leg[block.leg].unwrap_or_default()];
+                let platform = self.platform(index);
                 let solution = leg
-                    .solve_warm(&block.pose, home, seed.as_ref())
+                    .solve_warm_on(&platform, &block.pose, home, seed.as_ref())
                     .map_err(|source| (index, source))?;
                 *seed = Some(solution.q);
                 *value = if derivatives {
                     let gradient = &mut gradients[k * width..k * width + leg.columns()];
-                    leg.reading_and_gradient_of(&block.pose, &solution, gradient)
+                    leg.reading_and_gradient_on(&platform, &solution, gradient)
                 } else {
                     leg.reading_of(&solution)
                 };
@@ -399,9 +418,10 @@ impl<'a> IdentificationProblem<'a> {
             .chunks_mut(width)
             .zip(&evaluation.solutions)
             .zip(self.blocks.iter());
-        for ((gradient, solution), block) in rows {
+        for (index, ((gradient, solution), block)) in rows.enumerate() {
             let leg = &prepared[self.slot_of_leg[block.leg].unwrap_or_default()];
-            leg.reading_and_gradient_of(&block.pose, solution, &mut gradient[..leg.columns()]);
+            let gradient = &mut gradient[..leg.columns()];
+            leg.reading_and_gradient_on(&self.platform(index), solution, gradient);
         }
         evaluation.gradients = gradients;
     }
