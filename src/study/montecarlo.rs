@@ -9,7 +9,9 @@
 //! identifies with the three strategies ([`Arm`]). Per trial and strategy it keeps each
 //! identified parameter's error (estimate − real), its predicted standard deviation (from the
 //! fit's covariance) and the RMS position error over a coarse accuracy map (the model commands,
-//! the real mechanism moves: [`crate::evaluate::accuracy::reached_pose`]).
+//! the real mechanism moves: [`crate::evaluate::accuracy::reached_poses_from`], the real
+//! mechanism's forward kinematics prepared once per trial and each map warm-started from the
+//! previous one's joints).
 //!
 //! Trials run in parallel (rayon). Trial `i` draws from its own generator, seeded from the
 //! study seed and `i` (a ChaCha stream per trial), and the summary reduces the trials in trial
