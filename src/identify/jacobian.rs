@@ -2,7 +2,7 @@
 //!
 //! One forward pass in num-dual's static-size vector duals (`DualSVec64<N>`), every identified
 //! parameter seeded on its own lane, through one Newton step from the f64 solution
-//! ([`reading_at`]) gives the reading and its exact gradient `∂ψ/∂φ` at once. The Newton
+//! ([`reading_at_tip`]) gives the reading and its exact gradient `∂ψ/∂φ` at once. The Newton
 //! iterations themselves are never differentiated. Up to [`LANES`] parameters go in one pass;
 //! more are split into passes of at most [`LANES`] (the kinematics' scalars are `Copy`, which
 //! the heap-backed dynamic duals are not).
