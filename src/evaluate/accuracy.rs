@@ -9,8 +9,10 @@ use serde::Serialize;
 
 use crate::error::{Error, Result};
 use crate::identify::estimate::StrategyResult;
-use crate::kinematics::inverse::predict_reading;
-use crate::kinematics::platform::forward;
+use crate::kinematics::chain::{attachment_on, platform_transform, ChainFrames};
+use crate::kinematics::inverse::{predict_reading, reading_value, solve_warm, Joints, MAX_JOINTS};
+use crate::kinematics::platform::{forward, Configuration, ForwardKinematics};
+use crate::model::leg::LegGeometry;
 use crate::model::Mechanism;
 use crate::progress::Progress;
 
@@ -54,6 +56,10 @@ pub struct AccuracyMap {
     /// Orientation errors, when the model measures an orientation.
     pub orientation_error: Option<ErrorStats>,
 }
+
+/// Map points solved between two advances of the progress bar (each chunk warm-starts its
+/// inverse kinematics anew).
+const PROGRESS_CHUNK: usize = 4096;
 
 /// Largest accuracy map (grid points inside the region).
 pub const MAX_MAP_POINTS: usize = 2_000_000;
@@ -163,7 +169,8 @@ fn too_many(grid_m: f64) -> Error {
 
 /// The pose the real mechanism reaches when `commanding` (a model's parameters, one vector per
 /// leg) commands `target`: each leg's reading from the model's IK, then forward kinematics with
-/// the `real` parameters, in the home assembly mode. `None` if either step fails.
+/// the `real` parameters, in the home assembly mode. `None` if either step fails. For many
+/// targets, [`reached_poses`] does the same work once.
 pub fn reached_pose(
     mechanism: &Mechanism,
     commanding: &[Vec<f64>],
@@ -177,6 +184,131 @@ pub fn reached_pose(
         .map(|(leg, phi)| predict_reading(leg, phi, target, &mechanism.home_pose).ok())
         .collect::<Option<_>>()?;
     forward(mechanism, real, &readings).ok()
+}
+
+/// [`reached_pose`] at every target of `targets`, with the real mechanism's forward kinematics
+/// prepared once (`real`, [`ForwardKinematics::new`] with the real parameters).
+///
+/// The same poses as [`reached_pose`] to round-off, cheaper: each leg's inverse kinematics is
+/// warm-started from its solution at the nearest earlier target along the list (a grid's
+/// previous point, or the previous row's first point), with the branch check and the
+/// from-home fallback of [`solve_warm`]; the forward kinematics starts from the target pose
+/// with the commanding model's joints there, and is accepted in the home assembly mode (else
+/// it is solved from home with the continuation of [`forward`]).
+pub fn reached_poses(
+    mechanism: &Mechanism,
+    commanding: &[Vec<f64>],
+    real: &ForwardKinematics<'_>,
+    targets: &[[f64; 6]],
+) -> Vec<Option<[f64; 6]>> {
+    reached_poses_from(mechanism, commanding, real, targets, &mut Vec::new())
+}
+
+/// [`reached_poses`], warm-starting each leg's inverse kinematics at each target from
+/// `joints`: the commanding joints of an earlier map over the same targets (target after
+/// target, leg after leg; `None` where unknown), which then holds this map's. A commanding
+/// model close to the earlier one (an identified model after another) makes each warm start
+/// a step or two. An empty or mis-sized `joints` starts from the grid neighbours as
+/// [`reached_poses`].
+pub fn reached_poses_from(
+    mechanism: &Mechanism,
+    commanding: &[Vec<f64>],
+    real: &ForwardKinematics<'_>,
+    targets: &[[f64; 6]],
+    joints: &mut Vec<Option<Joints>>,
+) -> Vec<Option<[f64; 6]>> {
+    let home = &mechanism.home_pose;
+    let geometries: Vec<LegGeometry<f64>> = mechanism
+        .legs
+        .iter()
+        .zip(commanding)
+        .map(|(leg, phi)| leg.geometry(phi))
+        .collect();
+    let frames: Vec<ChainFrames<f64>> = geometries.iter().map(ChainFrames::new).collect();
+    let legs = mechanism.legs.len();
+    if joints.len() != targets.len() * legs {
+        *joints = vec![None; targets.len() * legs];
+    }
+    // Every target's joints, leg after leg (`None` where a leg could not reach it).
+    let solutions = joints;
+    let mut readings = vec![0.0; legs];
+    let mut start = Configuration {
+        pose: mechanism.home_pose,
+        joints: vec![[0.0; MAX_JOINTS]; legs],
+    };
+    let seeds = warm_start_order(targets);
+    targets
+        .iter()
+        .zip(seeds)
+        .enumerate()
+        .map(|(i, (target, seed))| {
+            let platform = platform_transform(target);
+            let mut solved = true;
+            for (l, leg) in mechanism.legs.iter().enumerate() {
+                let attachment = attachment_on(&platform, &geometries[l].attachment);
+                let solution = solve_warm(
+                    leg,
+                    &geometries[l],
+                    &frames[l],
+                    (target, &attachment),
+                    home,
+                    solutions[i * legs + l]
+                        .as_ref()
+                        .or_else(|| seed.and_then(|s| solutions[s * legs + l].as_ref())),
+                );
+                match solution {
+                    Ok(solution) => {
+                        readings[l] = reading_value(leg, &geometries[l], &solution);
+                        start.joints[l] = solution.q;
+                        solutions[i * legs + l] = Some(solution.q);
+                    }
+                    Err(_) => {
+                        solutions[i * legs + l] = None;
+                        solved = false;
+                        break;
+                    }
+                }
+            }
+            if !solved {
+                return None;
+            }
+            start.pose = *target;
+            real.solve_near(&readings, &mut start).ok()
+        })
+        .collect()
+}
+
+/// For each target, the earlier target whose joints seed its inverse kinematics: the previous
+/// one when it is about as close as the first two are to each other (a grid's spacing), else
+/// the first target of the previous run of close targets (a grid's previous row), if any.
+fn warm_start_order(targets: &[[f64; 6]]) -> Vec<Option<usize>> {
+    let distance = |a: &[f64; 6], b: &[f64; 6]| {
+        a.iter()
+            .zip(b)
+            .map(|(x, y)| (x - y) * (x - y))
+            .sum::<f64>()
+            .sqrt()
+    };
+    let spacing = match targets {
+        [a, b, ..] => distance(a, b),
+        _ => 0.0,
+    };
+    let mut run_start = 0;
+    let mut previous_run_start = None;
+    (0..targets.len())
+        .map(|i| {
+            if i == 0 {
+                return None;
+            }
+            if distance(&targets[i], &targets[i - 1]) <= 1.5 * spacing {
+                Some(i - 1)
+            } else {
+                previous_run_start = Some(run_start);
+                run_start = i;
+                previous_run_start
+            }
+        })
+        .collect()
 }
 
 /// The accuracy map of `commanding` against the `real` mechanism over [`map_grid`]`(grid_m,
@@ -195,18 +327,24 @@ pub fn accuracy_map(
     let grid = map_grid(mechanism, grid_m, scale)?;
     let orientation = measures_orientation(mechanism);
     let progress = Progress::new(grid.len() as u64, label);
+    let real = ForwardKinematics::new(mechanism, real);
+    let reached: Vec<Option<[f64; 6]>> = grid
+        .chunks(PROGRESS_CHUNK)
+        .flat_map(|chunk| {
+            let reached = reached_poses(mechanism, commanding, &real, chunk);
+            progress.advance(chunk.len() as u64);
+            reached
+        })
+        .collect();
     let points: Vec<MapPoint> = grid
         .iter()
-        .map(|target| {
-            let reached = reached_pose(mechanism, commanding, real, target);
-            progress.advance(1);
-            MapPoint {
-                pose: *target,
-                position_error: reached.map(|p| position_error(&p, target)),
-                orientation_error: reached
-                    .filter(|_| orientation)
-                    .map(|p| orientation_error(&p, target)),
-            }
+        .zip(reached)
+        .map(|(target, reached)| MapPoint {
+            pose: *target,
+            position_error: reached.map(|p| position_error(&p, target)),
+            orientation_error: reached
+                .filter(|_| orientation)
+                .map(|p| orientation_error(&p, target)),
         })
         .collect();
     let errors = |pick: fn(&MapPoint) -> Option<f64>| -> Vec<f64> {

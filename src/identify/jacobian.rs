@@ -2,14 +2,17 @@
 //!
 //! One forward pass in num-dual's static-size vector duals (`DualSVec64<N>`), every identified
 //! parameter seeded on its own lane, through one Newton step from the f64 solution
-//! ([`reading_at`]) gives the reading and its exact gradient `∂ψ/∂φ` at once. The Newton
+//! ([`reading_at_tip`]) gives the reading and its exact gradient `∂ψ/∂φ` at once. The Newton
 //! iterations themselves are never differentiated. Up to [`LANES`] parameters go in one pass;
 //! more are split into passes of at most [`LANES`] (the kinematics' scalars are `Copy`, which
 //! the heap-backed dynamic duals are not).
 //!
 //! Everything that depends only on the parameter vector (the f64 geometry and its chain frames,
-//! the seeded dual geometry and its frames) is built once in [`PreparedLeg`] and reused at every
-//! pose, so evaluating a pose allocates nothing.
+//! the seeded dual geometry and its [`TipChain`]) is built once in [`PreparedLeg`] and reused at
+//! every pose, so evaluating a pose allocates nothing. The dual pass accumulates the tip
+//! position backwards along the chain (matrix–vector products), with the joints' motions, the
+//! platform's transform and every origin rotation that no seeded parameter moves as f64
+//! constants: most of its products are f64 × dual, not dual × dual.
 
 use std::sync::Arc;
 
@@ -17,11 +20,14 @@ use nalgebra::{Const, U1};
 use num_dual::{DualSVec64, DualStruct};
 
 use crate::error::KinematicsError;
-use crate::kinematics::chain::{attachment_on, platform_transform, ChainFrames, Transform};
+use crate::kinematics::chain::{
+    attachment_on, attachment_on_constant, platform_transform, ChainFrames, TipChain, Transform,
+};
 use crate::kinematics::inverse::{
-    reading_at, reading_value, solve_warm, Joints, LegSolution, Solution,
+    reading_at_tip, reading_value, solve_warm, Joints, LegSolution, Solution,
 };
 use crate::model::leg::{LegGeometry, LegModel};
+use crate::model::params::ParamTarget;
 
 /// Most parameters carried by one dual pass.
 pub const LANES: usize = 8;
@@ -53,7 +59,7 @@ trait GradientPass: std::fmt::Debug + Send + Sync {
 #[derive(Debug)]
 struct DualPass<const N: usize> {
     first: usize,
-    frames: ChainFrames<DualSVec64<N>>,
+    chain: TipChain<DualSVec64<N>>,
     geometry: LegGeometry<DualSVec64<N>>,
 }
 
@@ -62,13 +68,17 @@ impl<const N: usize> DualPass<N> {
     fn new(leg: &LegModel, phi: &[f64], columns: &[usize], first: usize) -> Self {
         let mut phi_dual: Vec<DualSVec64<N>> =
             phi.iter().map(|&v| DualSVec64::<N>::from_re(v)).collect();
+        let mut variable_angles = vec![false; leg.joints.len()];
         for (lane, &column) in columns[first..first + N].iter().enumerate() {
             phi_dual[column] = DualSVec64::<N>::from_re(phi[column]).derivative(lane);
+            if let ParamTarget::JointOrigin { joint, component } = leg.params[column].target {
+                variable_angles[joint] |= component >= 3;
+            }
         }
         let geometry = leg.geometry(&phi_dual);
         Self {
             first,
-            frames: ChainFrames::new(&geometry),
+            chain: TipChain::new(&geometry, &variable_angles),
             geometry,
         }
     }
@@ -82,8 +92,9 @@ impl<const N: usize> GradientPass for DualPass<N> {
         solution: &Solution,
         gradient: &mut [f64],
     ) -> f64 {
-        let target = attachment_on(platform, &self.geometry.attachment);
-        let reading = reading_at(leg, &self.frames, &self.geometry, &target, solution);
+        let target = attachment_on_constant(platform, &self.geometry.attachment);
+        let tip = self.chain.tip(leg, &solution.q[..leg.moving.len()]);
+        let reading = reading_at_tip(leg, &tip, &self.geometry, &target, solution);
         let lanes = reading.eps.unwrap_generic(Const::<N>, U1);
         gradient[self.first..self.first + N].copy_from_slice(lanes.as_slice());
         reading.re()
@@ -188,7 +199,22 @@ impl<'a> PreparedLeg<'a> {
         home_pose: &[f64; 6],
         seed: Option<&Joints>,
     ) -> Result<Solution, KinematicsError> {
-        let target = attachment_on(&platform_transform(pose), &self.geometry.attachment);
+        self.solve_warm_on(&platform_transform(pose), pose, home_pose, seed)
+    }
+
+    /// As [`Self::solve_warm`], with the pose's platform transform `platform`
+    /// ([`platform_transform`] of `pose`) already computed.
+    ///
+    /// # Errors
+    /// The leg cannot reach the pose on its home branch.
+    pub fn solve_warm_on(
+        &self,
+        platform: &Transform<f64>,
+        pose: &[f64; 6],
+        home_pose: &[f64; 6],
+        seed: Option<&Joints>,
+    ) -> Result<Solution, KinematicsError> {
+        let target = attachment_on(platform, &self.geometry.attachment);
         solve_warm(
             self.leg,
             &self.geometry,
@@ -217,10 +243,23 @@ impl<'a> PreparedLeg<'a> {
         if self.passes.is_empty() {
             return self.reading_of(solution);
         }
-        let platform = platform_transform(pose);
+        self.reading_and_gradient_on(&platform_transform(pose), solution, gradient)
+    }
+
+    /// As [`Self::reading_and_gradient_of`], with the pose's platform transform `platform`
+    /// ([`platform_transform`] of the pose) already computed.
+    pub fn reading_and_gradient_on(
+        &self,
+        platform: &Transform<f64>,
+        solution: &Solution,
+        gradient: &mut [f64],
+    ) -> f64 {
+        if self.passes.is_empty() {
+            return self.reading_of(solution);
+        }
         let mut reading = 0.0;
         for pass in &self.passes {
-            reading = pass.evaluate(self.leg, &platform, solution, gradient);
+            reading = pass.evaluate(self.leg, platform, solution, gradient);
         }
         reading
     }

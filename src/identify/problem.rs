@@ -15,6 +15,7 @@ use rayon::prelude::*;
 use super::jacobian::PreparedLeg;
 use super::residual::{turn_in_reading_units, turns, ResidualBlock};
 use crate::error::KinematicsError;
+use crate::kinematics::chain::{platform_transform, Transform};
 use crate::kinematics::inverse::{Joints, Solution};
 use crate::model::params::ParamTarget;
 use crate::model::Mechanism;
@@ -62,8 +63,15 @@ pub struct IdentificationProblem<'a> {
     blocks: Arc<[ResidualBlock]>,
     /// `√w_i` per block, if weighted.
     row_scales: Option<Vec<f64>>,
-    /// Each block's last inverse-kinematics solution, the warm start of the next evaluation.
-    warm: WarmStarts,
+    /// Each block's platform transform (its pose's trigonometry done once), for problems of at
+    /// most [`KEPT_SOLUTION_ROWS`] blocks (96 bytes a row); empty for larger ones, whose rows
+    /// compute theirs at each evaluation.
+    platforms: Arc<[Transform<f64>]>,
+    /// Each block's last inverse-kinematics solution (the warm start of the next evaluation)
+    /// and the values of the latest evaluations. Shared by the problem's clones (a solver
+    /// clones its problem, and refines the estimate on the original): a problem and its clones
+    /// are evaluated one after the other, never at once.
+    state: Arc<Mutex<Evaluations>>,
 }
 
 /// Rows per task: a problem with more rows is evaluated in parallel (rayon), in chunks of this
@@ -71,37 +79,63 @@ pub struct IdentificationProblem<'a> {
 /// only on that row's own history, so neither do the results.
 const ROWS_PER_TASK: usize = 512;
 
-/// Each block's joints at its last solved evaluation (`None` before the first): the warm start
-/// of its next inverse-kinematics solve. A value of its problem: a clone copies it.
+/// Latest evaluations kept (the solvers evaluate the Jacobian where they last evaluated the
+/// residuals; the refinement may end on a rejected point after the estimate).
+const KEPT_EVALUATIONS: usize = 2;
+
+/// Largest problem (in blocks) whose inverse-kinematics solutions are kept with its latest
+/// evaluations (128 bytes a row), so that a Jacobian evaluated where the residuals were only
+/// needs the dual passes; larger problems solve again (warm-started, one or two Newton steps).
+const KEPT_SOLUTION_ROWS: usize = 65_536;
+
+/// A problem's evaluation state.
 #[derive(Debug, Default)]
-struct WarmStarts(Mutex<Vec<Option<Joints>>>);
+struct Evaluations {
+    /// Each block's joints at its last solved evaluation (`None` before the first): the warm
+    /// start of its next inverse-kinematics solve.
+    seeds: Vec<Option<Joints>>,
+    /// The latest evaluations, newest first.
+    recent: Vec<Evaluation>,
+}
 
-impl WarmStarts {
-    /// The seeds, one per block of a problem of `blocks` blocks.
-    fn lock(&self, blocks: usize) -> MutexGuard<'_, Vec<Option<Joints>>> {
-        let mut seeds = self.0.lock().unwrap_or_else(|e| e.into_inner());
-        if seeds.len() != blocks {
-            *seeds = vec![None; blocks];
+/// The values of one evaluation, before turn matching and row weights: what any evaluation
+/// at the same unknowns (bit for bit) returns without solving again.
+#[derive(Debug)]
+struct Evaluation {
+    /// The unknowns' bits.
+    x: Vec<u64>,
+    /// Each block's inverse-kinematics solution (empty above [`KEPT_SOLUTION_ROWS`]).
+    solutions: Vec<Solution>,
+    /// Each block's predicted reading.
+    predicted: Vec<f64>,
+    /// Each block's gradient with respect to its slot's identified parameters, `width` values
+    /// a block (the widest slot's count); empty until a Jacobian is asked for.
+    gradients: Vec<f64>,
+}
+
+impl Evaluations {
+    /// The state, with one seed per block of a problem of `blocks` blocks.
+    fn lock(state: &Mutex<Self>, blocks: usize) -> MutexGuard<'_, Self> {
+        let mut state = state.lock().unwrap_or_else(|e| e.into_inner());
+        if state.seeds.len() != blocks {
+            *state = Self {
+                seeds: vec![None; blocks],
+                recent: Vec::new(),
+            };
         }
-        seeds
+        state
     }
 }
 
-impl Clone for WarmStarts {
-    fn clone(&self) -> Self {
-        let seeds = self.0.lock().unwrap_or_else(|e| e.into_inner());
-        Self(Mutex::new(seeds.clone()))
-    }
-}
+/// One task's rows: the chunk's index, its seeds, predicted readings and gradients.
+type ChunkOfRows<'c> = (
+    usize,
+    ((&'c mut [Option<Joints>], &'c mut [f64]), &'c mut [f64]),
+);
 
-/// What one row's evaluation sees: its index, its slot, the slot's prepared leg, its block and
-/// its inverse-kinematics solution.
-struct Row<'r, 'a> {
-    index: usize,
-    slot: usize,
-    leg: &'r PreparedLeg<'a>,
-    block: &'r ResidualBlock,
-    solution: &'r Solution,
+/// The bits of `x`: evaluations are reused only at exactly the same unknowns.
+fn key(x: &DVector<f64>) -> Vec<u64> {
+    x.iter().map(|v| v.to_bits()).collect()
 }
 
 /// What turn matching needs of one slot's leg at one parameter vector.
@@ -135,12 +169,17 @@ impl<'a> IdentificationProblem<'a> {
             .filter(|b| slot_of_leg[b.leg].is_some())
             .collect();
         Self {
+            blocks: blocks.clone(),
             mechanism,
             slots,
             slot_of_leg,
-            blocks,
             row_scales: None,
-            warm: WarmStarts::default(),
+            platforms: if blocks.len() <= KEPT_SOLUTION_ROWS {
+                blocks.iter().map(|b| platform_transform(&b.pose)).collect()
+            } else {
+                Arc::from(Vec::new())
+            },
+            state: Arc::default(),
         }
     }
 
@@ -238,67 +277,153 @@ impl<'a> IdentificationProblem<'a> {
             .collect()
     }
 
-    /// Solves every block's inverse kinematics at the unknowns `x` (warm-started from its last
-    /// solution) and calls `evaluate` with the row and its `width` values of `out` (row-major,
-    /// `width ≥ 1`). Large problems are evaluated in parallel chunks of [`ROWS_PER_TASK`] rows.
+    /// Block `index`'s platform transform: kept, or computed from its pose.
+    fn platform(&self, index: usize) -> Transform<f64> {
+        self.platforms
+            .get(index)
+            .copied()
+            .unwrap_or_else(|| platform_transform(&self.blocks[index].pose))
+    }
+
+    /// The widest slot's number of identified parameters: the stride of the kept gradients.
+    fn width(&self) -> usize {
+        self.slots
+            .iter()
+            .map(|s| s.columns.len())
+            .max()
+            .unwrap_or(0)
+    }
+
+    /// Calls `read` with the evaluation at the unknowns `x` (with the gradients if
+    /// `derivatives`): a kept one if there is one at exactly `x`, else a new one, which is
+    /// then kept. Solving a block's inverse kinematics is warm-started from its last solution.
     ///
     /// # Errors
     /// The first block (in row order) whose leg cannot reach its pose.
-    fn for_each_row<F>(
+    fn evaluated<R>(
         &self,
         x: &DVector<f64>,
         derivatives: bool,
-        width: usize,
-        out: &mut [f64],
-        evaluate: F,
-    ) -> Result<(), BlockError>
-    where
-        F: Fn(&Row<'_, 'a>, &mut [f64]) + Sync,
-    {
+        read: impl FnOnce(&Evaluation) -> R,
+    ) -> Result<R, BlockError> {
+        let key = key(x);
+        let mut state = Evaluations::lock(&self.state, self.blocks.len());
+        let kept = state.recent.iter().position(|e| e.x == key);
+        let mut evaluation = match kept {
+            Some(i) => state.recent.remove(i),
+            None => self.solve_rows(x, key, derivatives, &mut state.seeds)?,
+        };
+        if derivatives && evaluation.gradients.is_empty() && !self.blocks.is_empty() {
+            if evaluation.solutions.is_empty() {
+                let key = std::mem::take(&mut evaluation.x);
+                evaluation = self.solve_rows(x, key, true, &mut state.seeds)?;
+            } else {
+                self.add_gradients(x, &mut evaluation);
+            }
+        }
+        let value = read(&evaluation);
+        state.recent.insert(0, evaluation);
+        state.recent.truncate(KEPT_EVALUATIONS);
+        Ok(value)
+    }
+
+    /// Solves every block's inverse kinematics at the unknowns `x` (warm-started from `seeds`,
+    /// which then hold the new solutions) and evaluates the predicted readings (and their
+    /// gradients if `derivatives`). Large problems are evaluated in parallel chunks of
+    /// [`ROWS_PER_TASK`] rows.
+    ///
+    /// # Errors
+    /// The first block (in row order) whose leg cannot reach its pose.
+    fn solve_rows(
+        &self,
+        x: &DVector<f64>,
+        key: Vec<u64>,
+        derivatives: bool,
+        seeds: &mut [Option<Joints>],
+    ) -> Result<Evaluation, BlockError> {
+        let m = self.blocks.len();
+        let width = if derivatives { self.width() } else { 0 };
         let prepared = self.prepare(x, derivatives);
         let home = &self.mechanism.home_pose;
-        let mut seeds = self.warm.lock(self.blocks.len());
-        let task = |(chunk, (seeds, out)): (usize, (&mut [Option<Joints>], &mut [f64]))| {
-            let rows = seeds.iter_mut().zip(out.chunks_mut(width));
-            for (k, (seed, values)) in rows.enumerate() {
+        let keep = m <= KEPT_SOLUTION_ROWS;
+        let mut predicted = vec![0.0; m];
+        // Without derivatives, a placeholder column (the chunks of all three slices must pair).
+        let stride = width.max(1);
+        let mut gradients = vec![0.0; m * stride];
+        let task = |(chunk, ((seeds, predicted), gradients)): ChunkOfRows<'_>| {
+            let mut solutions = Vec::with_capacity(if keep { seeds.len() } else { 0 });
+            for (k, (seed, value)) in seeds.iter_mut().zip(predicted.iter_mut()).enumerate() {
                 let index = chunk * ROWS_PER_TASK + k;
                 let block = &self.blocks[index];
-                let slot = self.slot_of_leg[block.leg].unwrap_or_default();
-                let leg = &prepared[slot];
+                let leg = &prepared[self.slot_of_leg[block.leg].unwrap_or_default()];
+                let platform = self.platform(index);
                 let solution = leg
-                    .solve_warm(&block.pose, home, seed.as_ref())
+                    .solve_warm_on(&platform, &block.pose, home, seed.as_ref())
                     .map_err(|source| (index, source))?;
                 *seed = Some(solution.q);
-                let row = Row {
-                    index,
-                    slot,
-                    leg,
-                    block,
-                    solution: &solution,
+                *value = if derivatives {
+                    let gradient = &mut gradients[k * width..k * width + leg.columns()];
+                    leg.reading_and_gradient_on(&platform, &solution, gradient)
+                } else {
+                    leg.reading_of(&solution)
                 };
-                evaluate(&row, values);
+                if keep {
+                    solutions.push(solution);
+                }
             }
-            Ok::<(), (usize, KinematicsError)>(())
+            Ok::<_, (usize, KinematicsError)>(solutions)
         };
-        let results: Vec<_> = if self.blocks.len() > ROWS_PER_TASK {
+        let results: Vec<_> = if m > ROWS_PER_TASK {
             seeds
                 .par_chunks_mut(ROWS_PER_TASK)
-                .zip(out.par_chunks_mut(ROWS_PER_TASK * width))
+                .zip(predicted.par_chunks_mut(ROWS_PER_TASK))
+                .zip(gradients.par_chunks_mut(ROWS_PER_TASK * stride))
                 .enumerate()
                 .map(task)
                 .collect()
         } else {
             seeds
                 .chunks_mut(ROWS_PER_TASK)
-                .zip(out.chunks_mut(ROWS_PER_TASK * width))
+                .zip(predicted.chunks_mut(ROWS_PER_TASK))
+                .zip(gradients.chunks_mut(ROWS_PER_TASK * stride))
                 .enumerate()
                 .map(task)
                 .collect()
         };
-        match results.into_iter().find_map(Result::err) {
-            Some((index, source)) => Err(self.block_error(index, source, x)),
-            None => Ok(()),
+        let mut solutions = Vec::with_capacity(if keep { m } else { 0 });
+        for result in results {
+            match result {
+                Ok(mut chunk) => solutions.append(&mut chunk),
+                Err((index, source)) => return Err(self.block_error(index, source, x)),
+            }
         }
+        if width == 0 {
+            gradients = Vec::new();
+        }
+        Ok(Evaluation {
+            x: key,
+            solutions,
+            predicted,
+            gradients,
+        })
+    }
+
+    /// Adds the gradients to an evaluation at the unknowns `x` that kept its solutions: the
+    /// dual passes only, no inverse kinematics.
+    fn add_gradients(&self, x: &DVector<f64>, evaluation: &mut Evaluation) {
+        let width = self.width();
+        let prepared = self.prepare(x, true);
+        let mut gradients = vec![0.0; self.blocks.len() * width];
+        let rows = gradients
+            .chunks_mut(width)
+            .zip(&evaluation.solutions)
+            .zip(self.blocks.iter());
+        for (index, ((gradient, solution), block)) in rows.enumerate() {
+            let leg = &prepared[self.slot_of_leg[block.leg].unwrap_or_default()];
+            let gradient = &mut gradient[..leg.columns()];
+            leg.reading_and_gradient_on(&self.platform(index), solution, gradient);
+        }
+        evaluation.gradients = gradients;
     }
 
     /// Each slot's gain and whether its actuator turns, at the unknowns `x`.
@@ -331,15 +456,18 @@ impl<'a> IdentificationProblem<'a> {
     /// The first block whose leg cannot reach its pose.
     pub fn residuals(&self, x: &DVector<f64>) -> Result<DVector<f64>, BlockError> {
         let matches = self.turn_matches(x);
-        let mut r = DVector::zeros(self.blocks.len());
-        self.for_each_row(x, false, 1, r.as_mut_slice(), |row, out| {
-            let predicted = row.leg.reading_of(row.solution);
-            let m = matches[row.slot];
-            let n = turns(predicted, row.block.reading, m.gain, m.revolute);
-            out[0] = self.row_scale(row.index)
-                * (predicted - row.block.reading - n * turn_in_reading_units(m.gain));
-        })?;
-        Ok(r)
+        self.evaluated(x, false, |evaluation| {
+            DVector::from_iterator(
+                self.blocks.len(),
+                self.blocks.iter().enumerate().map(|(i, block)| {
+                    let predicted = evaluation.predicted[i];
+                    let m = matches[self.slot_of_leg[block.leg].unwrap_or_default()];
+                    let n = turns(predicted, block.reading, m.gain, m.revolute);
+                    self.row_scale(i)
+                        * (predicted - block.reading - n * turn_in_reading_units(m.gain))
+                }),
+            )
+        })
     }
 
     /// Whole turns of the actuated joint removed from each block's residual at `x` (zero for
@@ -350,13 +478,16 @@ impl<'a> IdentificationProblem<'a> {
     /// The first block whose leg cannot reach its pose.
     pub fn turns(&self, x: &DVector<f64>) -> Result<Vec<f64>, BlockError> {
         let matches = self.turn_matches(x);
-        let mut n = vec![0.0; self.blocks.len()];
-        self.for_each_row(x, false, 1, &mut n, |row, out| {
-            let predicted = row.leg.reading_of(row.solution);
-            let m = matches[row.slot];
-            out[0] = turns(predicted, row.block.reading, m.gain, m.revolute);
-        })?;
-        Ok(n)
+        self.evaluated(x, false, |evaluation| {
+            self.blocks
+                .iter()
+                .zip(&evaluation.predicted)
+                .map(|(block, &predicted)| {
+                    let m = matches[self.slot_of_leg[block.leg].unwrap_or_default()];
+                    turns(predicted, block.reading, m.gain, m.revolute)
+                })
+                .collect()
+        })
     }
 
     /// Residuals and the identification Jacobian ∂r/∂x (block-structured: a block's row is
@@ -369,32 +500,31 @@ impl<'a> IdentificationProblem<'a> {
         x: &DVector<f64>,
     ) -> Result<(DVector<f64>, DMatrix<f64>), BlockError> {
         let matches = self.turn_matches(x);
-        let p = self.parameter_count();
-        // Column i: row i's residual, then its Jacobian row.
-        let mut rows = DMatrix::zeros(1 + p, self.blocks.len());
-        self.for_each_row(x, true, 1 + p, rows.as_mut_slice(), |row, out| {
-            let slot = &self.slots[row.slot];
-            let (residual, jacobian) = out.split_at_mut(1);
-            let gradient = &mut jacobian[slot.offset..slot.offset + slot.columns.len()];
-            let predicted =
-                row.leg
-                    .reading_and_gradient_of(&row.block.pose, row.solution, gradient);
-            let m = matches[row.slot];
-            let n = turns(predicted, row.block.reading, m.gain, m.revolute);
-            let turn = turn_in_reading_units(m.gain);
-            if let (Some(k), true) = (m.gain_column, n != 0.0) {
-                // d(−n·2π/gain)/d gain = n·2π/gain².
-                gradient[k] += n * turn / m.gain;
+        let (m, p, width) = (self.blocks.len(), self.parameter_count(), self.width());
+        self.evaluated(x, true, |evaluation| {
+            let mut r = DVector::zeros(m);
+            let mut jacobian = DMatrix::zeros(m, p);
+            for (i, block) in self.blocks.iter().enumerate() {
+                let s = self.slot_of_leg[block.leg].unwrap_or_default();
+                let slot = &self.slots[s];
+                let predicted = evaluation.predicted[i];
+                let gradient = &evaluation.gradients[i * width..i * width + slot.columns.len()];
+                let tm = matches[s];
+                let n = turns(predicted, block.reading, tm.gain, tm.revolute);
+                let turn = turn_in_reading_units(tm.gain);
+                let scale = self.row_scale(i);
+                r[i] = scale * (predicted - block.reading - n * turn);
+                for (k, &g) in gradient.iter().enumerate() {
+                    let mut g = g;
+                    if tm.gain_column == Some(k) && n != 0.0 {
+                        // d(−n·2π/gain)/d gain = n·2π/gain².
+                        g += n * turn / tm.gain;
+                    }
+                    jacobian[(i, slot.offset + k)] = g * scale;
+                }
             }
-            let scale = self.row_scale(row.index);
-            residual[0] = scale * (predicted - row.block.reading - n * turn);
-            for g in gradient.iter_mut() {
-                *g *= scale;
-            }
-        })?;
-        let r = rows.row(0).transpose();
-        let jacobian = rows.rows(1, p).transpose();
-        Ok((r, jacobian))
+            (r, jacobian)
+        })
     }
 
     /// The error for block `block` failing at the unknowns `x`.

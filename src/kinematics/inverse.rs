@@ -276,8 +276,10 @@ fn newton_on(
             // last place of the joints), so that the solution — and the derivatives taken at
             // it — does not depend on where Newton started (home, a continuation step or a
             // warm start) beyond round-off. Converging quadratically, one step gets there.
+            // The closure Jacobian's inverse, for the polishing step and for the solution.
+            let inverse = invert(&jacobian, dims);
             if polishes < MAX_POLISH_STEPS && iteration < MAX_ITERATIONS {
-                if let Some(step) = newton_step(leg, &jacobian, &closure) {
+                if let Some(step) = inverse.map(|inverse| limited_step(leg, &inverse, &closure)) {
                     let significant = q[..moving]
                         .iter()
                         .zip(step.iter())
@@ -291,7 +293,7 @@ fn newton_on(
                     }
                 }
             }
-            return finish(leg, q, seed, &closure, &jacobian, determinant);
+            return finish(leg, q, seed, &closure, inverse, determinant);
         }
         if iteration == MAX_ITERATIONS {
             break;
@@ -349,6 +351,11 @@ fn newton_step(
     closure: &Vector3<f64>,
 ) -> Option<Vector3<f64>> {
     let inverse = invert(jacobian, leg.closure_dims)?;
+    Some(limited_step(leg, &inverse, closure))
+}
+
+/// The Newton step `−inverse · F`, shortened as [`newton_step`] says.
+fn limited_step(leg: &LegModel, inverse: &Matrix3<f64>, closure: &Vector3<f64>) -> Vector3<f64> {
     let mut step = -(inverse * closure);
     let largest_angle = leg
         .moving
@@ -360,7 +367,7 @@ fn newton_step(
     if largest_angle > MAX_ANGLE_STEP {
         step *= MAX_ANGLE_STEP / largest_angle;
     }
-    Some(step)
+    step
 }
 
 /// Newton stopped at a (near-)singular configuration `q`: the pose is on the leg's reach limit
@@ -406,14 +413,15 @@ fn at_reach_limit(
     }
 }
 
-/// Unwraps revolute joints around the seed and packages the solution (its normalised
-/// determinant is above [`SINGULAR_DETERMINANT`]).
+/// Unwraps revolute joints around the seed and packages the solution with the inverse of its
+/// closure Jacobian (`None`: singular; its normalised determinant is above
+/// [`SINGULAR_DETERMINANT`]).
 fn finish(
     leg: &LegModel,
     mut q: Joints,
     seed: &Joints,
     closure: &Vector3<f64>,
-    jacobian: &Matrix3<f64>,
+    closure_inverse: Option<Matrix3<f64>>,
     normalised_determinant: f64,
 ) -> Result<Solution, KinematicsError> {
     for (i, &j) in leg.moving.iter().enumerate() {
@@ -426,7 +434,7 @@ fn finish(
             }
         }
     }
-    let Some(closure_inverse) = invert(jacobian, leg.closure_dims) else {
+    let Some(closure_inverse) = closure_inverse else {
         return Err(KinematicsError::Singular {
             leg: leg.name.clone(),
         });
@@ -464,8 +472,19 @@ pub fn reading_at<T: Scalar>(
     solution: &Solution,
 ) -> T {
     let tip = frames.tip(leg, &solution.q[..leg.moving.len()]);
+    reading_at_tip(leg, &tip, actuator, target, solution)
+}
+
+/// As [`reading_at`], from the tip position `tip` (in `T`) of the chain at the solution's joints.
+pub fn reading_at_tip<T: Scalar>(
+    leg: &LegModel,
+    tip: &Vector3<T>,
+    actuator: &LegGeometry<T>,
+    target: &Vector3<T>,
+    solution: &Solution,
+) -> T {
     let q = lifted::<T>(&solution.q);
-    newton_reading(leg, &q, &tip, target, &solution.closure_inverse, actuator)
+    newton_reading(leg, &q, tip, target, &solution.closure_inverse, actuator)
 }
 
 /// The predicted reading (f64) at a converged solution, from the closure error it carries (no

@@ -9,7 +9,9 @@
 //! identifies with the three strategies ([`Arm`]). Per trial and strategy it keeps each
 //! identified parameter's error (estimate − real), its predicted standard deviation (from the
 //! fit's covariance) and the RMS position error over a coarse accuracy map (the model commands,
-//! the real mechanism moves: [`crate::evaluate::accuracy::reached_pose`]).
+//! the real mechanism moves: [`crate::evaluate::accuracy::reached_poses_from`], the real
+//! mechanism's forward kinematics prepared once per trial and each map warm-started from the
+//! previous one's joints).
 //!
 //! Trials run in parallel (rayon). Trial `i` draws from its own generator, seeded from the
 //! study seed and `i` (a ChaCha stream per trial), and the summary reduces the trials in trial
@@ -21,9 +23,11 @@ use rayon::prelude::*;
 
 use super::stats::{self, Estimate};
 use crate::error::{Error, Result};
-use crate::evaluate::accuracy::{map_grid, position_error, reached_pose, result_parameters};
+use crate::evaluate::accuracy::{map_grid, position_error, reached_poses_from, result_parameters};
 use crate::identify::estimate::{identify_with, FitOptions, Strategy, StrategyResult};
-use crate::measure::simulate::{simulate_at, PoseSets, SimulationOptions};
+use crate::kinematics::inverse::Joints;
+use crate::kinematics::platform::ForwardKinematics;
+use crate::measure::simulate::{real_parameters, simulate_at, PoseSets, SimulationOptions};
 use crate::measure::{MeasuredPose, MeasurementSet};
 use crate::model::params::Unit;
 use crate::model::Mechanism;
@@ -144,6 +148,13 @@ pub struct Study {
     shared_count: usize,
     map: Vec<[f64; 6]>,
     parameters: Vec<StudyParameter>,
+    /// The real parameters when every trial draws the same ones (a simulation block that
+    /// declares them all), with the nominal model's RMS position error over the map against
+    /// them: computed once for all trials.
+    fixed_real: Option<(Vec<Vec<f64>>, f64)>,
+    /// The nominal model's joints at every map point (point after point, leg after leg): the
+    /// warm starts of every trial's maps.
+    nominal_joints: Vec<Option<Joints>>,
 }
 
 /// One arm's values in one trial.
@@ -295,7 +306,7 @@ impl Study {
                     })
             })
             .collect();
-        Ok(Self {
+        let mut study = Self {
             mechanism,
             options,
             pose_sets: PoseSets {
@@ -305,7 +316,47 @@ impl Study {
             shared_count,
             map,
             parameters,
-        })
+            fixed_real: None,
+            nominal_joints: Vec::new(),
+        };
+        let nominal = study.mechanism.nominal_parameters();
+        let nominal_kinematics = ForwardKinematics::new(&study.mechanism, &nominal);
+        let mut joints = Vec::new();
+        reached_poses_from(
+            &study.mechanism,
+            &nominal,
+            &nominal_kinematics,
+            &study.map,
+            &mut joints,
+        );
+        study.nominal_joints = joints;
+        study.fixed_real = study.fixed_real_parameters();
+        Ok(study)
+    }
+
+    /// The real parameters and the nominal map's RMS error, if the real parameters do not
+    /// depend on the trial (the same for two different trial seeds: declared, not drawn).
+    fn fixed_real_parameters(&self) -> Option<(Vec<Vec<f64>>, f64)> {
+        let simulation = self.mechanism.simulation.as_ref()?;
+        let [first, second] = [0, 1].map(|i| {
+            real_parameters(
+                &self.mechanism,
+                simulation,
+                trial_seed(self.options.seed, i),
+            )
+        });
+        if first != second {
+            return None;
+        }
+        let kinematics = ForwardKinematics::new(&self.mechanism, &first);
+        let rms = self
+            .map_rms(
+                &self.mechanism.nominal_parameters(),
+                &kinematics,
+                &mut self.nominal_joints.clone(),
+            )
+            .ok()?;
+        Some((first, rms))
     }
 
     /// The mechanism the study identifies (its declared noise scaled).
@@ -350,8 +401,17 @@ impl Study {
             .partition(|p| p.leg.is_some());
         let (small, equal) = shared.split_at(self.shared_count);
         let sets = [labelled, small.to_vec(), equal.to_vec()];
-        let nominal = self.mechanism.nominal_parameters();
-        let nominal_map_rms = self.map_rms(&nominal, real)?;
+        let real_kinematics = ForwardKinematics::new(&self.mechanism, real);
+        let nominal_map_rms = match &self.fixed_real {
+            Some((fixed, rms)) if fixed == real => *rms,
+            _ => self.map_rms(
+                &self.mechanism.nominal_parameters(),
+                &real_kinematics,
+                &mut self.nominal_joints.clone(),
+            )?,
+        };
+        // The commanding joints of the last map, the warm starts of the next one.
+        let mut joints = self.nominal_joints.clone();
         let mut arms = Vec::with_capacity(ARMS.len());
         for (arm, poses) in ARMS.into_iter().zip(sets) {
             let data = MeasurementSet {
@@ -371,7 +431,7 @@ impl Study {
                     message: format!("did not converge: {}", run.stop_reason),
                 });
             }
-            arms.push(self.arm_trial(&result, real)?);
+            arms.push(self.arm_trial(&result, real, &real_kinematics, &mut joints)?);
         }
         Ok(TrialValues {
             nominal_map_rms,
@@ -379,7 +439,13 @@ impl Study {
         })
     }
 
-    fn arm_trial(&self, result: &StrategyResult, real: &[Vec<f64>]) -> Result<ArmTrial> {
+    fn arm_trial(
+        &self,
+        result: &StrategyResult,
+        real: &[Vec<f64>],
+        real_kinematics: &ForwardKinematics<'_>,
+        joints: &mut Vec<Option<Joints>>,
+    ) -> Result<ArmTrial> {
         let mut errors = Vec::with_capacity(self.parameters.len());
         let mut predicted_std = Vec::with_capacity(self.parameters.len());
         for p in &self.parameters {
@@ -402,16 +468,25 @@ impl Study {
         Ok(ArmTrial {
             errors,
             predicted_std,
-            map_rms: self.map_rms(&identified, real)?,
+            map_rms: self.map_rms(&identified, real_kinematics, joints)?,
         })
     }
 
-    /// RMS position error over the map with `commanding` commanding the `real` mechanism.
-    fn map_rms(&self, commanding: &[Vec<f64>], real: &[Vec<f64>]) -> Result<f64> {
+    /// RMS position error over the map with `commanding` commanding the real mechanism (its
+    /// forward kinematics `real`, prepared once per trial for the four maps); `joints` are the
+    /// commanding joints of an earlier map, the warm starts of this one's inverse kinematics
+    /// (then this map's).
+    fn map_rms(
+        &self,
+        commanding: &[Vec<f64>],
+        real: &ForwardKinematics<'_>,
+        joints: &mut Vec<Option<Joints>>,
+    ) -> Result<f64> {
         let mut sum = 0.0;
         let mut count = 0usize;
-        for target in &self.map {
-            if let Some(reached) = reached_pose(&self.mechanism, commanding, real, target) {
+        let reached = reached_poses_from(&self.mechanism, commanding, real, &self.map, joints);
+        for (target, reached) in self.map.iter().zip(reached) {
+            if let Some(reached) = reached {
                 sum += position_error(&reached, target).powi(2);
                 count += 1;
             }

@@ -238,3 +238,48 @@ fn a_map_from_a_measurement_file_is_refused_before_any_work() {
         "{stderr}"
     );
 }
+
+/// The prepared, warm-started map ([`reached_poses`]) gives the poses of the point-by-point
+/// [`reached_pose`] (forward kinematics from home with continuation) to round-off, on every
+/// bundled model whose grid the real mechanism reaches, for the nominal model commanding.
+#[test]
+fn warm_started_map_poses_equal_the_point_by_point_ones() {
+    use legwise::evaluate::accuracy::{reached_pose, reached_poses};
+    use legwise::kinematics::platform::ForwardKinematics;
+    for name in ["5r.yaml", "3rpr.yaml", "delta.yaml", "hexapod.yaml"] {
+        let mechanism = bundled(name);
+        let simulation = mechanism.simulation.as_ref().unwrap();
+        let real = real_parameters(&mechanism, simulation, simulation.seed);
+        let nominal = mechanism.nominal_parameters();
+        let grid = map_grid(
+            &mechanism,
+            0.1 * mechanism.workspace.region.bounds().1[0].abs().max(0.05),
+            0.95,
+        )
+        .unwrap();
+        let kinematics = ForwardKinematics::new(&mechanism, &real);
+        let warm = reached_poses(&mechanism, &nominal, &kinematics, &grid);
+        let mut reached = 0;
+        for (target, warm) in grid.iter().zip(&warm) {
+            let cold = reached_pose(&mechanism, &nominal, &real, target);
+            match (cold, warm) {
+                (Some(cold), Some(warm)) => {
+                    reached += 1;
+                    for (a, b) in cold.iter().zip(warm) {
+                        assert!(
+                            (a - b).abs() < 1e-12,
+                            "{name} at {target:?}: {cold:?} against {warm:?}"
+                        );
+                    }
+                }
+                (None, None) => {}
+                _ => panic!("{name} at {target:?}: {cold:?} against {warm:?}"),
+            }
+        }
+        assert!(
+            reached * 10 >= grid.len() * 9 && grid.len() >= 20,
+            "{name}: {reached} of {}",
+            grid.len()
+        );
+    }
+}
