@@ -6,10 +6,9 @@
 //! current shared parameters `s` ([`platform_pose`]), and the residual is the leg's reading
 //! residual at that pose (matched modulo one turn as in [`super::problem`]). Its derivatives:
 //! with respect to the leg's own parameters, the dual pass of [`PreparedLeg`]; with respect to
-//! `s`, the chain rule `∂ψ/∂P · ∂P/∂s`, both factors from dual numbers: the pose gradient of the
-//! reading in one three-lane pass through the leg over the pose coordinates the instrument fits
-//! (x, y, yaw; the others stay at home), and `∂P/∂s` in one pass of the cheap pose fit with the
-//! shared parameters on their own lanes. Each leg's rows are one group: divide and conquer's
+//! `s`, the chain rule `∂ψ/∂P · ∂P/∂s`, both factors from dual numbers (the pose gradient of the
+//! reading in one static-dual pass over the six pose coordinates, `∂P/∂s` by seeding one shared
+//! parameter at a time in the pose fit). Each leg's rows are one group: divide and conquer's
 //! per-leg structure is kept, and a Schur-complement Levenberg–Marquardt factors each leg's
 //! block on its own ([`crate::solver::solve_bordered`]).
 
@@ -77,10 +76,6 @@ impl Clone for WarmStarts {
 
 /// Lanes of one dual pass over the shared parameters in the pose fit.
 const SHARED_LANES: usize = 8;
-
-/// The pose coordinates a planar instrument fits (x, y, yaw), one lane each in the pass
-/// through the leg; the others stay at their home value and have no derivative.
-const POSE_LANES: [usize; 3] = [0, 1, 5];
 
 /// What one row's evaluation produces.
 struct RowValue {
@@ -251,7 +246,8 @@ impl<'a> SharedProblem<'a> {
         let home = &self.mechanism.home_pose;
         let columns: &[usize] = if derivatives { &group.columns } else { &[] };
         let prepared = PreparedLeg::new(leg, phi, columns);
-        let lifted_phi: Vec<DualSVec64<3>> = phi.iter().map(|&v| DualSVec64::from_re(v)).collect();
+        let lifted_phi: Vec<DualSVec64<SHARED_LANES>> =
+            phi.iter().map(|&v| DualSVec64::from_re(v)).collect();
         let lifted = leg.geometry(&lifted_phi);
         let frames = ChainFrames::new(&lifted);
         let gain = leg.geometry(phi).gain;
@@ -260,23 +256,6 @@ impl<'a> SharedProblem<'a> {
             .columns
             .iter()
             .position(|&c| leg.params[c].target == ParamTarget::Gain);
-        // The shared values seeded for the pose fit, one vector per chunk of eight lanes (the
-        // same for every row).
-        let seeded_shared: Vec<Vec<DualSVec64<SHARED_LANES>>> = if derivatives {
-            self.shared
-                .chunks(SHARED_LANES)
-                .map(|chunk| {
-                    let mut s: Vec<DualSVec64<SHARED_LANES>> =
-                        shared.iter().map(|&v| DualSVec64::from_re(v)).collect();
-                    for (lane, &k) in chunk.iter().enumerate() {
-                        s[k] = s[k].derivative(lane);
-                    }
-                    s
-                })
-                .collect()
-        } else {
-            Vec::new()
-        };
         let mut warm = self.warm.0.lock().unwrap_or_else(|e| e.into_inner());
         if warm.len() != self.groups.len() {
             *warm = self
@@ -318,32 +297,21 @@ impl<'a> SharedProblem<'a> {
                     own[k] += n * turn / gain;
                 }
                 let residual = predicted - row.reading - n * turn;
-                let mut shared_row = Vec::with_capacity(self.shared.len());
-                if derivatives && !self.shared.is_empty() {
-                    // ∂ψ/∂P over x, y, yaw: the reading's Newton step in one three-lane pass
-                    // (the chain frames lifted once per group).
-                    let seeded: [DualSVec64<3>; 6] = std::array::from_fn(|c| {
-                        let value = DualSVec64::from_re(pose[c]);
-                        match POSE_LANES.iter().position(|&p| p == c) {
-                            Some(lane) => value.derivative(lane),
-                            None => value,
+                let mut shared_row = Vec::new();
+                if derivatives {
+                    // ∂ψ/∂s: the pose fit and the reading's Newton step in one dual pass, up to
+                    // eight shared parameters on their own lanes (the chain frames lifted once).
+                    for chunk in self.shared.chunks(SHARED_LANES) {
+                        let mut s: Vec<DualSVec64<SHARED_LANES>> =
+                            shared.iter().map(|&v| DualSVec64::from_re(v)).collect();
+                        for (lane, &k) in chunk.iter().enumerate() {
+                            s[k] = s[k].derivative(lane);
                         }
-                    });
-                    let target = attachment_world(&seeded, &lifted.attachment);
-                    let reading = reading_at(leg, &frames, &lifted, &target, &solution);
-                    let dpsi = reading.eps.unwrap_generic(Const::<3>, U1);
-                    // ∂P/∂s: the pose fit alone, up to eight shared parameters on their lanes.
-                    for (chunk, s) in self.shared.chunks(SHARED_LANES).zip(&seeded_shared) {
-                        let fitted = platform_pose(self.instrument, s, &row.observed, home);
-                        let dp: [_; 3] = std::array::from_fn(|i| {
-                            fitted[POSE_LANES[i]]
-                                .eps
-                                .unwrap_generic(Const::<SHARED_LANES>, U1)
-                        });
-                        shared_row.extend(
-                            (0..chunk.len())
-                                .map(|lane| (0..3).map(|i| dpsi[i] * dp[i][lane]).sum::<f64>()),
-                        );
+                        let pose = platform_pose(self.instrument, &s, &row.observed, home);
+                        let target = attachment_world(&pose, &lifted.attachment);
+                        let reading = reading_at(leg, &frames, &lifted, &target, &solution);
+                        let lanes = reading.eps.unwrap_generic(Const::<SHARED_LANES>, U1);
+                        shared_row.extend(lanes.iter().take(chunk.len()));
                     }
                 }
                 Ok(RowValue {
