@@ -12,6 +12,17 @@ use crate::report::plots::files::{evaluate_picture, POSITION_ERRORS};
 pub(super) fn run(args: &EvaluateArgs) -> anyhow::Result<Verdict> {
     let mechanism = Mechanism::load(&args.model)?;
     let other = args.against.as_deref().map(Mechanism::load).transpose()?;
+    for (path, model) in std::iter::once((args.model.as_path(), &mechanism))
+        .chain(args.against.as_deref().zip(other.as_ref()))
+    {
+        super::checks::no_instrument(
+            "legwise evaluate",
+            path,
+            model,
+            "it compares measured platform poses with the model's; through an instrument, \
+             `legwise identify --measurements` reports the fit of the target coordinates",
+        )?;
+    }
     let mut inputs = super::model_inputs(&args.model, &mechanism);
     if let (Some(path), Some(other)) = (&args.against, &other) {
         inputs.extend(super::model_inputs(path, other));

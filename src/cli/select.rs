@@ -5,7 +5,7 @@ use std::fmt::Write as _;
 use super::console::Console;
 use super::output::Output;
 use super::{SelectArgs, Verdict};
-use crate::measure::{file, MeasuredPose, MeasurementSet};
+use crate::measure::{file, observations, MeasuredPose, MeasurementSet};
 use crate::model::Mechanism;
 use crate::selection::design::ExperimentDesign;
 
@@ -75,10 +75,20 @@ pub(super) fn run(args: &SelectArgs) -> anyhow::Result<Verdict> {
         source: None,
         poses,
     };
-    output.write("pose CSV", file::to_csv(&mechanism, &set).as_bytes())?;
+    // With an instrument, the file is what `identify --measurements` reads for that model:
+    // the poses to command, and the target coordinates and readings to fill in.
+    let (csv, fill) = if mechanism.instrument.is_some() {
+        (
+            observations::template_csv(&mechanism, &set)?,
+            "command the pose.* columns, fill in the target coordinates and the readings",
+        )
+    } else {
+        (file::to_csv(&mechanism, &set), "fill in the readings")
+    };
+    output.write("pose CSV", csv.as_bytes())?;
     console.print(&text)?;
     console.line(format_args!(
-        "poses written to {} (fill in the readings, then `legwise identify --measurements`)",
+        "poses written to {} ({fill}, then `legwise identify --measurements`)",
         output.name()
     ))?;
     Ok(Verdict::Trusted)

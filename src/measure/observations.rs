@@ -5,7 +5,10 @@
 //! `<coordinate>.<target>` (`x.r1, y.r1, x.r2, y.r2`; a pose target adds `yaw.<target>`), then
 //! one column per actuated joint with its raw reading. The target columns are always suffixed,
 //! even for a single target: a file of platform poses (`x, y, …`) is never read as target
-//! coordinates by mistake. Errors name the file, the line and the column.
+//! coordinates by mistake. Optional columns `pose.<coordinate>` (`pose.x, pose.y, …`, the
+//! model's measured coordinates) hold the platform pose commanded at the row, as
+//! [`template_csv`] writes them for `legwise select`; they are read past and never used.
+//! Errors name the file, the line and the column.
 
 use std::path::{Path, PathBuf};
 
@@ -67,6 +70,16 @@ pub fn instrument_of(mechanism: &Mechanism) -> Result<&Instrument> {
     })
 }
 
+/// The optional columns of the commanded platform pose (`pose.x, pose.y, …`), ignored on
+/// reading.
+fn commanded_columns(mechanism: &Mechanism) -> Vec<String> {
+    mechanism
+        .measured_names()
+        .iter()
+        .map(|c| format!("pose.{c}"))
+        .collect()
+}
+
 fn expected_columns(mechanism: &Mechanism, instrument: &Instrument) -> Vec<String> {
     let mut columns = vec!["leg".to_string()];
     columns.extend(instrument.columns());
@@ -100,7 +113,12 @@ pub fn parse(text: &str, path: &Path, mechanism: &Mechanism) -> Result<Observati
         message,
     };
     let expected = expected_columns(mechanism, instrument);
-    let listing = expected.join(", ");
+    let commanded = commanded_columns(mechanism);
+    let listing = format!(
+        "{} (and optionally {}, ignored)",
+        expected.join(", "),
+        commanded.join(", ")
+    );
     let mut reader = csv::ReaderBuilder::new()
         .trim(csv::Trim::All)
         .flexible(false)
@@ -118,7 +136,7 @@ pub fn parse(text: &str, path: &Path, mechanism: &Mechanism) -> Result<Observati
                 format!("column `{column}` appears twice"),
             ));
         }
-        if !expected.contains(column) {
+        if !expected.contains(column) && !commanded.contains(column) {
             return Err(fail(
                 "header".into(),
                 format!("unknown column `{column}`; expected the columns {listing}"),
@@ -240,6 +258,39 @@ pub fn to_csv(mechanism: &Mechanism, set: &Observations) -> Result<String> {
                 .iter()
                 .map(|r| r.map_or(String::new(), |v| format!("{v}"))),
         );
+        text.push_str(&cells.join(","));
+        text.push('\n');
+    }
+    Ok(text)
+}
+
+/// The CSV template of an experiment through the instrument at the platform poses of `set`
+/// (`legwise select`): per row the leg, the pose to command in `pose.<coordinate>` columns,
+/// and empty target and reading columns to fill in. Once filled, [`read`] reads it (the pose
+/// columns are ignored); unfilled, it refuses the first empty target cell.
+///
+/// # Errors
+/// [`Error::Model`] if the model has no instrument.
+pub fn template_csv(mechanism: &Mechanism, set: &super::MeasurementSet) -> Result<String> {
+    let instrument = instrument_of(mechanism)?;
+    let mut columns = vec!["leg".to_string()];
+    columns.extend(commanded_columns(mechanism));
+    columns.extend(instrument.columns());
+    columns.extend(mechanism.actuated_names().iter().map(|s| s.to_string()));
+    let mut text = columns.join(",");
+    text.push('\n');
+    let empty = instrument.columns().len() + mechanism.actuated_names().len();
+    for pose in &set.poses {
+        let mut cells = vec![pose
+            .leg
+            .map_or(String::new(), |l| mechanism.legs[l].name.clone())];
+        cells.extend(
+            mechanism
+                .measured
+                .iter()
+                .map(|&c| format!("{}", pose.pose[c])),
+        );
+        cells.extend(std::iter::repeat_n(String::new(), empty));
         text.push_str(&cells.join(","));
         text.push('\n');
     }

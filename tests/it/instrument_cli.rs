@@ -81,8 +81,9 @@ fn a_frame_off_by_5_mm_and_5_mrad_and_not_identified_is_flagged_with_exit_3() {
         "  real: {frame_x: 1.505, frame_yaw: 0.305}\n  poses_per_leg: 18",
     );
     std::fs::write(&model, model_text).unwrap();
-    // Random poses: the selected (D-optimal) ones keep the legs nearly parallel to themselves,
-    // and their offsets absorb most of the frame's error (χ² p = 0.27 there).
+    // Random poses: over the 18 selected (D-optimal) poses per leg the legs absorb all but a
+    // non-centrality of 18 of the frame's error, flagged about one seed in nine (p = 0.27 at
+    // this one); docs/models.md §9.2.
     let out = legwise(&["identify", "--model", &model, "--poses", "random"]);
     let (stdout, stderr) = (text(&out.stdout), text(&out.stderr));
     assert_eq!(out.status.code(), Some(3), "{stdout}\n{stderr}");

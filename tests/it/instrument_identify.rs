@@ -102,7 +102,7 @@ fn an_instrument_file_without_a_target_column_names_it() {
     assert_eq!(
         err,
         "m.csv: header: missing column `y.r2`; expected the columns leg, x.r1, y.r1, x.r2, y.r2, \
-         P1, P2, P3"
+         P1, P2, P3 (and optionally pose.x, pose.y, pose.yaw, ignored)"
     );
     let err = parse("leg,x,y,yaw,P1,P2,P3\n", Path::new("m.csv"), &mechanism)
         .expect_err("rejected")

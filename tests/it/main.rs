@@ -11,6 +11,7 @@ mod files;
 mod fuzz;
 mod golden;
 mod instrument_cli;
+mod instrument_commands;
 mod instrument_identify;
 mod instrument_model;
 mod inverse_kinematics;
