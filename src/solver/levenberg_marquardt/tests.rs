@@ -336,3 +336,42 @@ fn the_solver_names_itself() {
         "Levenberg-Marquardt"
     );
 }
+
+/// `r = (x₀ − 1, x₀ + 1)`: the residuals do not depend on `x₁` (a zero Jacobian column).
+#[derive(Clone, Copy)]
+struct Idle;
+impl Operator for Idle {
+    type Param = DVector<f64>;
+    type Output = DVector<f64>;
+    fn apply(&self, x: &DVector<f64>) -> Result<DVector<f64>, Error> {
+        Ok(DVector::from_column_slice(&[x[0] - 1.0, x[0] + 1.0]))
+    }
+}
+impl Jacobian for Idle {
+    type Param = DVector<f64>;
+    type Jacobian = DMatrix<f64>;
+    fn jacobian(&self, _: &DVector<f64>) -> Result<DMatrix<f64>, Error> {
+        Ok(DMatrix::from_row_slice(2, 2, &[1.0, 0.0, 1.0, 0.0]))
+    }
+}
+
+#[test]
+fn a_parameter_the_residuals_ignore_is_scaled_by_one_and_left_alone() {
+    let res = Executor::new(Idle, LevenbergMarquardt::new())
+        .configure(|s| {
+            s.param(DVector::from_column_slice(&[-3.0, 5.0]))
+                .max_iters(50)
+        })
+        .run()
+        .unwrap();
+    assert_eq!(
+        res.state.get_termination_reason(),
+        Some(&TerminationReason::SolverConverged)
+    );
+    let x = res.state.get_param().unwrap();
+    assert!(x[0].abs() < 1e-12, "{x}");
+    assert_eq!(x[1].to_bits(), 5.0f64.to_bits(), "{x}");
+    // MINPACK's scaling: the column norms (√2 for x₀), a zero column counting as 1, so that
+    // the first trust region is 100·‖D x₀‖ = 100·√(2·9 + 25).
+    assert_eq!(res.solver.diag.as_slice(), &[2f64.sqrt(), 1.0]);
+}
