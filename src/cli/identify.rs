@@ -95,24 +95,10 @@ pub(super) fn run(args: &IdentifyArgs) -> anyhow::Result<Verdict> {
     if let Some((before, after)) = &maps {
         console.print(&maps_text(args, &report, before, after))?;
     }
-    if let (Some((yaml, urdf)), Some(result)) = (&calibrated_outputs, calibrated_result(&report)) {
-        if trusted {
-            console.line(format_args!(
-                "\ncalibrated model ({} result) written to {} and {}",
-                result.strategy.name(),
-                yaml.name(),
-                urdf.name()
-            ))?;
-        } else {
-            console.line(format_args!(
-                "\ncalibrated model not written to {}: the result must not be trusted",
-                yaml.name()
-            ))?;
-        }
+    if let (Some(outputs), Some(result)) = (&calibrated_outputs, calibrated_result(&report)) {
+        say_calibrated(&mut console, outputs, result.strategy.name(), trusted)?;
     }
-    if let Some(output) = json_output.filter(|o| !o.is_stdout()) {
-        console.line(format_args!("\nJSON report written to {}", output.name()))?;
-    }
+    say_json_written(&mut console, json_output.as_ref())?;
     for output in picture_outputs.iter().flatten() {
         console.line(format_args!("picture written to {}", output.name()))?;
     }
@@ -135,6 +121,39 @@ fn read(path: &Path, mechanism: &Mechanism) -> anyhow::Result<MeasurementSet> {
 
 /// `--calibrated OUT.yaml`: the model file and its URDF, checked against the inputs and against
 /// the JSON report's path.
+/// Says where the calibrated model (from the `strategy` result) was written, or that it was not
+/// because the result must not be trusted.
+pub(super) fn say_calibrated(
+    console: &mut Console,
+    (yaml, urdf): &(Output, Output),
+    strategy: &str,
+    trusted: bool,
+) -> anyhow::Result<()> {
+    if trusted {
+        console.line(format_args!(
+            "\ncalibrated model ({strategy} result) written to {} and {}",
+            yaml.name(),
+            urdf.name()
+        ))
+    } else {
+        console.line(format_args!(
+            "\ncalibrated model not written to {}: the result must not be trusted",
+            yaml.name()
+        ))
+    }
+}
+
+/// Says where the JSON report was written (nothing when it went to standard output).
+pub(super) fn say_json_written(
+    console: &mut Console,
+    output: Option<&Output>,
+) -> anyhow::Result<()> {
+    match output.filter(|o| !o.is_stdout()) {
+        Some(output) => console.line(format_args!("\nJSON report written to {}", output.name())),
+        None => Ok(()),
+    }
+}
+
 fn calibrated_outputs(
     args: &IdentifyArgs,
     inputs: &[Input<'_>],

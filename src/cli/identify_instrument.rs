@@ -115,23 +115,10 @@ pub(super) fn run(args: &IdentifyArgs, mut mechanism: Mechanism) -> anyhow::Resu
         output.write("JSON report", text.as_bytes())?;
     }
     console.print(&render(&report))?;
-    if let Some((yaml, urdf)) = &calibrated_outputs {
-        if trusted {
-            console.line(format_args!(
-                "\ncalibrated model (joint result) written to {} and {}",
-                yaml.name(),
-                urdf.name()
-            ))?;
-        } else {
-            console.line(format_args!(
-                "\ncalibrated model not written to {}: the result must not be trusted",
-                yaml.name()
-            ))?;
-        }
+    if let Some(outputs) = &calibrated_outputs {
+        super::identify::say_calibrated(&mut console, outputs, "joint", trusted)?;
     }
-    if let Some(output) = json_output.filter(|o| !o.is_stdout()) {
-        console.line(format_args!("\nJSON report written to {}", output.name()))?;
-    }
+    super::identify::say_json_written(&mut console, json_output.as_ref())?;
     Ok(verdict)
 }
 
