@@ -8,7 +8,7 @@
 use std::io::{Read, Write};
 use std::path::Path;
 
-use super::{MeasuredPose, MeasurementSet};
+use super::{rows, MeasuredPose, MeasurementSet};
 use crate::error::{Error, Result};
 use crate::model::mechanism::COORDINATES;
 use crate::model::Mechanism;
@@ -104,34 +104,7 @@ fn parse_rows(
             format!("empty file; expected the columns {}", expected.join(", ")),
         ));
     }
-    for (i, column) in header.iter().enumerate() {
-        if header[..i].contains(column) {
-            return Err(fail(
-                "header".into(),
-                format!("column `{column}` appears twice"),
-            ));
-        }
-        if !expected.contains(column) {
-            return Err(fail(
-                "header".into(),
-                format!(
-                    "unknown column `{column}`; expected the columns {}",
-                    expected.join(", ")
-                ),
-            ));
-        }
-    }
-    for column in expected.iter().skip(1) {
-        if !header.contains(column) {
-            return Err(fail(
-                "header".into(),
-                format!(
-                    "missing column `{column}`; expected the columns {}",
-                    expected.join(", ")
-                ),
-            ));
-        }
-    }
+    rows::check_header(path, &header, &expected, &[], &expected.join(", "))?;
     let index = |name: &str| header.iter().position(|h| h == name);
     let leg_column = index("leg");
     let coordinate_columns: Vec<(usize, usize)> = mechanism
@@ -161,36 +134,10 @@ fn parse_rows(
             continue;
         }
         let cell = |column: usize| record.get(column).unwrap_or("");
-        let number = |column: usize, unit: &str| -> Result<Option<f64>> {
-            let text = cell(column);
-            if text.is_empty() {
-                return Ok(None);
-            }
-            match text.parse::<f64>() {
-                Ok(v) if v.is_finite() => Ok(Some(v)),
-                _ => Err(fail(
-                    format!("line {line}, column `{}`", header[column]),
-                    format!("expected a finite number in {unit}, found `{text}`"),
-                )),
-            }
+        let number = |column: usize, unit: &str| {
+            rows::number(path, line, &header[column], cell(column), unit)
         };
-        let leg = match leg_column.map(cell).filter(|s| !s.is_empty()) {
-            None => None,
-            Some(name) => Some(mechanism.leg_index(name).ok_or_else(|| {
-                fail(
-                    format!("line {line}, column `leg`"),
-                    format!(
-                        "unknown leg `{name}`; expected one of {} or empty",
-                        mechanism
-                            .legs
-                            .iter()
-                            .map(|l| l.name.as_str())
-                            .collect::<Vec<_>>()
-                            .join(", ")
-                    ),
-                )
-            })?),
-        };
+        let leg = rows::leg_of(path, line, mechanism, leg_column.map_or("", cell))?;
         let mut pose = mechanism.home_pose;
         for &(coordinate, column) in &coordinate_columns {
             let unit = if coordinate < 3 { "metres" } else { "radians" };
@@ -205,16 +152,8 @@ fn parse_rows(
         for &column in &reading_columns {
             readings.push(number(column, "SI units (radians or metres)")?);
         }
-        if let Some(l) = leg.filter(|_| require_readings) {
-            if readings[l].is_none() {
-                return Err(fail(
-                    format!("line {line}, column `{}`", mechanism.actuated_names()[l]),
-                    format!(
-                        "the row belongs to leg `{}` but its reading is empty",
-                        mechanism.legs[l].name
-                    ),
-                ));
-            }
+        if require_readings {
+            rows::require_leg_reading(path, line, mechanism, leg, &readings)?;
         }
         poses.push(MeasuredPose {
             line: Some(line),

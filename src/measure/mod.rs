@@ -3,6 +3,7 @@ pub mod checks;
 pub mod file;
 pub mod observations;
 pub mod observe_simulate;
+mod rows;
 pub mod simulate;
 pub mod targets;
 

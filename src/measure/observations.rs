@@ -12,6 +12,7 @@
 
 use std::path::{Path, PathBuf};
 
+use super::rows;
 use crate::error::{Error, Result};
 use crate::model::instrument::Instrument;
 use crate::model::Mechanism;
@@ -129,28 +130,7 @@ pub fn parse(text: &str, path: &Path, mechanism: &Mechanism) -> Result<Observati
         .iter()
         .map(str::to_string)
         .collect();
-    for (i, column) in header.iter().enumerate() {
-        if header[..i].contains(column) {
-            return Err(fail(
-                "header".into(),
-                format!("column `{column}` appears twice"),
-            ));
-        }
-        if !expected.contains(column) && !commanded.contains(column) {
-            return Err(fail(
-                "header".into(),
-                format!("unknown column `{column}`; expected the columns {listing}"),
-            ));
-        }
-    }
-    for column in expected.iter().skip(1) {
-        if !header.contains(column) {
-            return Err(fail(
-                "header".into(),
-                format!("missing column `{column}`; expected the columns {listing}"),
-            ));
-        }
-    }
+    rows::check_header(path, &header, &expected, &commanded, &listing)?;
     let index = |name: &str| header.iter().position(|h| h == name).unwrap_or_default();
     let leg_column = header.iter().position(|h| h == "leg");
     let target_columns: Vec<usize> = instrument.columns().iter().map(|c| index(c)).collect();
@@ -170,32 +150,9 @@ pub fn parse(text: &str, path: &Path, mechanism: &Mechanism) -> Result<Observati
             continue;
         }
         let cell = |column: usize| record.get(column).unwrap_or("");
-        let number = |column: usize| -> Result<Option<f64>> {
-            let text = cell(column);
-            if text.is_empty() {
-                return Ok(None);
-            }
-            match text.parse::<f64>() {
-                Ok(v) if v.is_finite() => Ok(Some(v)),
-                _ => Err(fail(
-                    format!("line {line}, column `{}`", header[column]),
-                    format!("expected a finite number in SI units, found `{text}`"),
-                )),
-            }
-        };
-        let leg = match leg_column.map(cell).filter(|s| !s.is_empty()) {
-            None => None,
-            Some(name) => Some(mechanism.leg_index(name).ok_or_else(|| {
-                let names: Vec<&str> = mechanism.legs.iter().map(|l| l.name.as_str()).collect();
-                fail(
-                    format!("line {line}, column `leg`"),
-                    format!(
-                        "unknown leg `{name}`; expected one of {} or empty",
-                        names.join(", ")
-                    ),
-                )
-            })?),
-        };
+        let number =
+            |column: usize| rows::number(path, line, &header[column], cell(column), "SI units");
+        let leg = rows::leg_of(path, line, mechanism, leg_column.map_or("", cell))?;
         let mut observed = Vec::with_capacity(target_columns.len());
         for &column in &target_columns {
             observed.push(number(column)?.ok_or_else(|| {
@@ -209,17 +166,7 @@ pub fn parse(text: &str, path: &Path, mechanism: &Mechanism) -> Result<Observati
         for &column in &reading_columns {
             readings.push(number(column)?);
         }
-        if let Some(l) = leg {
-            if readings[l].is_none() {
-                return Err(fail(
-                    format!("line {line}, column `{}`", mechanism.actuated_names()[l]),
-                    format!(
-                        "the row belongs to leg `{}` but its reading is empty",
-                        mechanism.legs[l].name
-                    ),
-                ));
-            }
-        }
+        rows::require_leg_reading(path, line, mechanism, leg, &readings)?;
         rows.push(ObservedRow {
             line: Some(line),
             leg,
