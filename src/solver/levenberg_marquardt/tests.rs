@@ -375,3 +375,63 @@ fn a_parameter_the_residuals_ignore_is_scaled_by_one_and_left_alone() {
     // the first trust region is 100·‖D x₀‖ = 100·√(2·9 + 25).
     assert_eq!(res.solver.diag.as_slice(), &[2f64.sqrt(), 1.0]);
 }
+
+/// `r = (x − c − 1, x − c + 1)` with `c = 10⁶`: minimum at `x = c`, where `r = (−1, 1)`.
+#[derive(Clone, Copy)]
+struct FarPair;
+impl Operator for FarPair {
+    type Param = DVector<f64>;
+    type Output = DVector<f64>;
+    fn apply(&self, x: &DVector<f64>) -> Result<DVector<f64>, Error> {
+        let t = x[0] - 1e6;
+        Ok(DVector::from_column_slice(&[t - 1.0, t + 1.0]))
+    }
+}
+impl Jacobian for FarPair {
+    type Param = DVector<f64>;
+    type Jacobian = DMatrix<f64>;
+    fn jacobian(&self, _: &DVector<f64>) -> Result<DMatrix<f64>, Error> {
+        Ok(DMatrix::from_row_slice(2, 1, &[1.0, 1.0]))
+    }
+}
+
+#[test]
+fn a_negligible_gauss_newton_step_relative_to_the_parameters_is_stationary() {
+    // From x₀ = c + 0.01 the gradient cosine is 0.01 (above the stationarity tolerance 1e-3),
+    // and the first step's reductions (1e-4) are within ftol = 1e-3: a progress stop. Its
+    // Gauss–Newton step, ‖D p‖ = 0.01·√2, is below √ε (‖D x‖ + √ε) = 2.1e-2 for ‖D x‖ = √2·10⁶:
+    // a stationary point at the parameters' scale, so the stop is a convergence.
+    let solver = LevenbergMarquardt::new().with_ftol(1e-3).unwrap();
+    let res = Executor::new(FarPair, solver)
+        .configure(|s| s.param(DVector::from_element(1, 1e6 + 0.01)).max_iters(50))
+        .run()
+        .unwrap();
+    assert_eq!(res.solver.stop_reason(), Some(StopReason::CostReduction));
+    let x = res.state.get_param().unwrap()[0];
+    assert!((x - 1e6).abs() < 1e-6, "{x}");
+    // The same stop with the parameter near 1 instead of 10⁶ (√ε (‖D x‖ + √ε) ≈ 2e-8 then) is
+    // not stationary: stalled.
+    #[derive(Clone, Copy)]
+    struct NearPair;
+    impl Operator for NearPair {
+        type Param = DVector<f64>;
+        type Output = DVector<f64>;
+        fn apply(&self, x: &DVector<f64>) -> Result<DVector<f64>, Error> {
+            let t = x[0] - 1.0;
+            Ok(DVector::from_column_slice(&[t - 1.0, t + 1.0]))
+        }
+    }
+    impl Jacobian for NearPair {
+        type Param = DVector<f64>;
+        type Jacobian = DMatrix<f64>;
+        fn jacobian(&self, _: &DVector<f64>) -> Result<DMatrix<f64>, Error> {
+            Ok(DMatrix::from_row_slice(2, 1, &[1.0, 1.0]))
+        }
+    }
+    let solver = LevenbergMarquardt::new().with_ftol(1e-3).unwrap();
+    let res = Executor::new(NearPair, solver)
+        .configure(|s| s.param(DVector::from_element(1, 1.01)).max_iters(50))
+        .run()
+        .unwrap();
+    assert_eq!(res.solver.stop_reason(), Some(StopReason::Stalled));
+}
