@@ -24,12 +24,7 @@ pub(super) fn run(args: &IdentifyArgs) -> anyhow::Result<Verdict> {
     if mechanism.instrument.is_some() {
         return super::identify_instrument::run(args, mechanism);
     }
-    let measurements = args.measurements.as_deref().filter(|p| !is_stdin(p));
-    let mut inputs = super::model_inputs(&args.model, &mechanism);
-    inputs.extend(measurements.map(|path| Input {
-        role: "measurement file",
-        path,
-    }));
+    let inputs = identify_inputs(args, &mechanism);
     let json_output = Output::prepare_optional("--json", args.json.as_deref(), &inputs)?;
     let calibrated_outputs = calibrated_outputs(args, &inputs)?;
     let picture_outputs = picture_outputs(args, &inputs)?;
@@ -106,7 +101,22 @@ pub(super) fn run(args: &IdentifyArgs) -> anyhow::Result<Verdict> {
 }
 
 /// True for the path `-`.
-fn is_stdin(path: &Path) -> bool {
+/// The files `identify` reads (model, URDF, measurements), which no output may overwrite.
+pub(super) fn identify_inputs<'a>(
+    args: &'a IdentifyArgs,
+    mechanism: &'a Mechanism,
+) -> Vec<Input<'a>> {
+    let measurements = args.measurements.as_deref().filter(|p| !is_stdin(p));
+    let mut inputs = super::model_inputs(&args.model, mechanism);
+    inputs.extend(measurements.map(|path| Input {
+        role: "measurement file",
+        path,
+    }));
+    inputs
+}
+
+/// Whether a path names standard input (`-`).
+pub(super) fn is_stdin(path: &Path) -> bool {
     path.as_os_str() == "-"
 }
 
@@ -154,7 +164,8 @@ pub(super) fn say_json_written(
     }
 }
 
-fn calibrated_outputs(
+/// The calibrated model's YAML and URDF outputs, checked against the inputs and `--json`.
+pub(super) fn calibrated_outputs(
     args: &IdentifyArgs,
     inputs: &[Input<'_>],
 ) -> anyhow::Result<Option<(Output, Output)>> {

@@ -6,13 +6,13 @@ use std::io::Read;
 use std::path::Path;
 
 use super::console::Console;
-use super::output::{Input, Output};
+use super::identify::{calibrated_outputs, identify_inputs, is_stdin};
+use super::output::Output;
 use super::{IdentifyArgs, SolverArg, StrategyArg, Verdict, WeightsArg};
 use crate::identify::shared_estimate::{identify_shared, trust_issues, SharedStrategy};
 use crate::measure::observations::{self, Observations};
 use crate::measure::observe_simulate::{observed_from, without_pose_noise};
 use crate::model::Mechanism;
-use crate::report::calibrated::urdf_path;
 use crate::report::instrument::{render, to_json, InstrumentReport};
 use crate::report::instrument_calibrated::calibrated_files;
 
@@ -40,20 +40,9 @@ fn refuse_unsupported(args: &IdentifyArgs) -> anyhow::Result<()> {
 pub(super) fn run(args: &IdentifyArgs, mut mechanism: Mechanism) -> anyhow::Result<Verdict> {
     refuse_unsupported(args)?;
     let options = args.simulation.options()?;
-    let measurements = args.measurements.as_deref().filter(|p| !is_stdin(p));
-    let mut inputs = super::model_inputs(&args.model, &mechanism);
-    inputs.extend(measurements.map(|path| Input {
-        role: "measurement file",
-        path,
-    }));
+    let inputs = identify_inputs(args, &mechanism);
     let json_output = Output::prepare_optional("--json", args.json.as_deref(), &inputs)?;
-    let calibrated_outputs = match &args.after.calibrated {
-        Some(out) => Some((
-            Output::prepare("--calibrated", out, &inputs)?,
-            Output::prepare("--calibrated", &urdf_path(out)?, &inputs)?,
-        )),
-        None => None,
-    };
+    let calibrated_outputs = calibrated_outputs(args, &inputs)?;
     let mut console = Console::new(json_output.as_ref().is_some_and(Output::is_stdout));
     let (data, real, real_shared, source) = match &args.measurements {
         Some(path) => (
@@ -120,10 +109,6 @@ pub(super) fn run(args: &IdentifyArgs, mut mechanism: Mechanism) -> anyhow::Resu
     }
     super::identify::say_json_written(&mut console, json_output.as_ref())?;
     Ok(verdict)
-}
-
-fn is_stdin(path: &Path) -> bool {
-    path.as_os_str() == "-"
 }
 
 /// Reads the instrument measurements from `path`, or from standard input for `-`.

@@ -136,3 +136,36 @@ fn identify_reads_the_instrument_measurement_file_and_refuses_options_it_lacks()
         text(&out.stderr)
     );
 }
+
+#[test]
+fn the_calibrated_outputs_of_an_instrument_model_are_checked_like_any_model() {
+    let model = "models/3rpr-tracker.yaml";
+    let out = legwise(&["identify", "--model", model, "--calibrated", "-"]);
+    assert_eq!(out.status.code(), Some(2));
+    assert!(
+        text(&out.stderr).contains(
+            "--calibrated: expected a file path (the URDF is written beside it), found `-`"
+        ),
+        "{}",
+        text(&out.stderr)
+    );
+    let directory = tempfile::tempdir().unwrap();
+    let same = directory.path().join("calibrated.yaml");
+    let same = same.to_str().unwrap();
+    let out = legwise(&[
+        "identify",
+        "--model",
+        model,
+        "--calibrated",
+        same,
+        "--json",
+        same,
+    ]);
+    assert_eq!(out.status.code(), Some(2));
+    assert!(
+        text(&out.stderr).contains("--calibrated and --json would write the same file"),
+        "{}",
+        text(&out.stderr)
+    );
+    assert!(!directory.path().join("calibrated.yaml").exists());
+}
