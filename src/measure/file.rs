@@ -163,10 +163,7 @@ fn parse_rows(
         });
     }
     if poses.is_empty() {
-        return Err(fail(
-            "line 2".into(),
-            "no measurement rows after the header".into(),
-        ));
+        return Err(rows::no_rows(path));
     }
     Ok(MeasurementSet {
         source: Some(path.to_path_buf()),

@@ -175,10 +175,7 @@ pub fn parse(text: &str, path: &Path, mechanism: &Mechanism) -> Result<Observati
         });
     }
     if rows.is_empty() {
-        return Err(fail(
-            "line 2".into(),
-            "no measurement rows after the header".into(),
-        ));
+        return Err(rows::no_rows(path));
     }
     Ok(Observations {
         source: Some(path.to_path_buf()),

@@ -100,6 +100,15 @@ pub(super) fn leg_of(
     })
 }
 
+/// The error of a file with a header and no measurement row.
+pub(super) fn no_rows(path: &Path) -> Error {
+    fail(
+        path,
+        "line 2".into(),
+        "no measurement rows after the header".into(),
+    )
+}
+
 /// A row labelled with a leg must carry that leg's reading.
 pub(super) fn require_leg_reading(
     path: &Path,
