@@ -13,7 +13,7 @@ use legwise::report::plots::{render, Figure, Format};
 use legwise::report::IdentifyReport;
 use legwise::solver::SolverKind;
 
-use crate::support::bundled;
+use crate::support::{bundled, svg_texts};
 
 /// The SVG of `figure` as text.
 fn svg(figure: &impl Figure) -> String {
@@ -21,18 +21,6 @@ fn svg(figure: &impl Figure) -> String {
     let text = String::from_utf8(bytes).expect("SVG is UTF-8");
     assert!(text.starts_with("<svg") && text.trim_end().ends_with("</svg>"));
     text
-}
-
-/// The contents of every `<text>` element, trimmed.
-fn texts(svg: &str) -> Vec<String> {
-    svg.split("<text")
-        .skip(1)
-        .filter_map(|chunk| {
-            let start = chunk.find('>')? + 1;
-            let end = chunk.find("</text>")?;
-            Some(chunk[start..end].trim().to_string())
-        })
-        .collect()
 }
 
 /// `<rect>` elements filled with `colour` (`#RRGGBB`).
@@ -75,7 +63,7 @@ fn the_parameter_error_bars_show_every_identified_parameter_per_unit_and_strateg
     assert_eq!(figure.parameters.len(), 12);
     assert!((figure.series[0].errors[0] - (0.75 - 0.7507)).abs() < 1e-12);
     let svg = svg(&figure);
-    let texts = texts(&svg);
+    let texts = svg_texts(&svg);
     for wanted in [
         "length error (mm)",
         "angle error (mrad)",
@@ -143,7 +131,7 @@ fn small_map() -> ErrorMapFigure {
 fn the_error_map_has_metre_axes_a_millimetre_colour_bar_and_the_poses() {
     let figure = small_map();
     let svg = svg(&figure);
-    let texts = texts(&svg);
+    let texts = svg_texts(&svg);
     for wanted in [
         "test map",
         "x (m)",
@@ -187,7 +175,7 @@ fn the_error_distribution_names_each_model_with_its_statistics() {
             },
         ],
     };
-    let texts = texts(&svg(&figure));
+    let texts = svg_texts(&svg(&figure));
     // RMS √((9 + 16 + 144)/3) = 7.51 mm; p95 by interpolation 4 + 0.9·8 = 11.2 mm.
     for wanted in [
         "position errors on held.csv",
@@ -313,7 +301,7 @@ fn identify_plots_writes_the_parameter_errors_and_the_map() {
         assert!(svg.starts_with("<svg"), "{name}");
     }
     let map = std::fs::read_to_string(plots.join("accuracy-map.svg")).unwrap();
-    let texts = texts(&map);
+    let texts = svg_texts(&map);
     assert!(texts
         .iter()
         .any(|t| t.starts_with("before (nominal model): RMS ")));
@@ -402,7 +390,7 @@ fn evaluate_plots_draws_the_distribution_of_every_full_row() {
         String::from_utf8_lossy(&out.stderr)
     );
     let svg = std::fs::read_to_string(plots.join("position-errors.svg")).unwrap();
-    let texts = texts(&svg);
+    let texts = svg_texts(&svg);
     assert!(
         texts
             .iter()

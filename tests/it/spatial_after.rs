@@ -22,7 +22,7 @@ use rand_chacha::ChaCha8Rng;
 
 use crate::cli::{legwise, text};
 use crate::spatial::{closed_form_rows, real_parameters, rotation, spread_poses, Spatial, MODELS};
-use crate::support::bundled;
+use crate::support::{bundled, svg_texts};
 
 // ---------------------------------------------------------------- closed-form helpers
 
@@ -406,18 +406,6 @@ fn select_on_the_spatial_models_writes_their_csv_layout() {
 }
 
 // ---------------------------------------------------------------- the pictures
-
-/// The contents of every `<text>` element of an SVG, trimmed.
-fn svg_texts(svg: &str) -> Vec<String> {
-    svg.split("<text")
-        .skip(1)
-        .filter_map(|chunk| {
-            let start = chunk.find('>')? + 1;
-            let end = chunk.find("</text>")?;
-            Some(chunk[start..end].trim().to_string())
-        })
-        .collect()
-}
 
 #[test]
 fn identify_plots_on_the_spatial_models_label_the_slice_and_the_units() {

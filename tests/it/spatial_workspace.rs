@@ -13,7 +13,7 @@ use rand_chacha::ChaCha8Rng;
 
 use crate::cli::{legwise, text};
 use crate::spatial::MODELS;
-use crate::support::bundled;
+use crate::support::{bundled, svg_texts};
 
 /// The actuated joints' strokes declared in the URDFs (the delta's carriage heights, the
 /// hexapod's leg lengths, metres).
@@ -125,18 +125,6 @@ fn the_3d_miw_ball_lies_in_the_singularity_free_region_and_is_tight() {
             miw.radius
         );
     }
-}
-
-/// The contents of every `<text>` element of an SVG, trimmed.
-fn svg_texts(svg: &str) -> Vec<String> {
-    svg.split("<text")
-        .skip(1)
-        .filter_map(|chunk| {
-            let start = chunk.find('>')? + 1;
-            let end = chunk.find("</text>")?;
-            Some(chunk[start..end].trim().to_string())
-        })
-        .collect()
 }
 
 #[test]

@@ -55,3 +55,15 @@ where
         self.0.jacobian(&self.1).ok()
     }
 }
+
+/// The contents of every `<text>` element of an SVG, trimmed.
+pub(crate) fn svg_texts(svg: &str) -> Vec<String> {
+    svg.split("<text")
+        .skip(1)
+        .filter_map(|chunk| {
+            let start = chunk.find('>')? + 1;
+            let end = chunk.find("</text>")?;
+            Some(chunk[start..end].trim().to_string())
+        })
+        .collect()
+}
