@@ -325,7 +325,8 @@ impl<'a> SharedProblem<'a> {
 
     /// Expected variance of every residual at `x` (rows in group order) under the declared
     /// `noise`: `σ_q² + Σ_i (∂ψ/∂m_i)² σ_i²` over the row's target coordinates `m_i` (σ of the
-    /// coordinate of the same name: x, y, yaw), `∂ψ/∂m_i = ∂ψ/∂P · ∂P/∂m_i` by dual numbers.
+    /// coordinate of the same name: x, y, z, roll, pitch, yaw), `∂ψ/∂m_i = ∂ψ/∂P · ∂P/∂m_i` by
+    /// dual numbers.
     ///
     /// # Errors
     /// A leg cannot reach a fitted pose.
@@ -340,12 +341,8 @@ impl<'a> SharedProblem<'a> {
             .instrument
             .targets
             .iter()
-            .flat_map(|t| t.coordinates().iter())
-            .map(|c| match *c {
-                "x" => noise.pose[0],
-                "y" => noise.pose[1],
-                _ => noise.pose[5],
-            })
+            .flat_map(|t| t.pose_indices())
+            .map(|&c| noise.pose[c])
             .collect();
         let home = &self.mechanism.home_pose;
         let mut variances = Vec::new();

@@ -16,7 +16,7 @@ use super::simulate::{setup, simulate, SimulatedExperiment, SimulationOptions};
 use super::targets::observe;
 use super::MeasurementSet;
 use crate::error::Result;
-use crate::model::instrument::{Instrument, Measures};
+use crate::model::instrument::Instrument;
 use crate::model::mechanism::Simulation;
 use crate::model::Mechanism;
 
@@ -94,11 +94,8 @@ pub fn observed_from(
     let sigma: Vec<f64> = instrument
         .targets
         .iter()
-        .flat_map(|t| match t.measures {
-            Measures::Position => vec![0, 1],
-            Measures::Pose => vec![0, 1, 5],
-        })
-        .map(|c| options.noise_scale * simulation.pose_noise[c])
+        .flat_map(|t| t.pose_indices())
+        .map(|&c| options.noise_scale * simulation.pose_noise[c])
         .collect();
     let rows = experiment
         .measurements

@@ -12,8 +12,14 @@
 //! a platform that does not rotate keeps its home orientation. The position is then the
 //! least-squares `p = mean_k (q_k − R(ψ) t_k)`.
 //!
+//! A spatial instrument (6-DoF frame, 3-D offsets) is the same in three dimensions: the
+//! orientation is then fitted by Horn's quaternion method (`spatial`, `horn`).
+//!
 //! [`platform_pose`] is written once, generic over [`Scalar`]: run on dual numbers seeded in
 //! `s`, it gives `∂P/∂s`, the chain-rule factor of the identification's shared columns.
+
+mod horn;
+mod spatial;
 
 use crate::model::instrument::{Instrument, Measures};
 use crate::scalar::{lift, Scalar};
@@ -21,6 +27,9 @@ use crate::scalar::{lift, Scalar};
 /// The instrument's report of every target at platform pose `pose` with shared parameters
 /// `shared` (layout of [`Instrument`]), in measurement-row order.
 pub fn observe(instrument: &Instrument, shared: &[f64], pose: &[f64; 6]) -> Vec<f64> {
+    if instrument.spatial {
+        return spatial::observe(instrument, shared, pose);
+    }
     let (fx, fy, theta) = (
         shared[Instrument::FRAME],
         shared[Instrument::FRAME + 1],
@@ -45,8 +54,9 @@ pub fn observe(instrument: &Instrument, shared: &[f64], pose: &[f64; 6]) -> Vec<
 
 /// The platform pose `[x, y, z, roll, pitch, yaw]` from one row's target coordinates
 /// `observed` (measurement-row order) at shared parameters `shared`; the coordinates the
-/// instrument does not give (z, roll, pitch, and yaw of a platform that does not rotate) stay at
-/// their `home` value. The fitted yaw is taken on the turn nearest the home yaw.
+/// instrument does not give (z, roll, pitch of a planar model, and the orientation of a platform
+/// that does not rotate) stay at their `home` value. The fitted yaw (and roll) is taken on the
+/// turn nearest the home one.
 pub fn platform_pose<T: Scalar>(
     instrument: &Instrument,
     shared: &[T],
@@ -65,6 +75,9 @@ pub fn platform_pose_from<T: Scalar>(
     observed: &[T],
     home: &[f64; 6],
 ) -> [T; 6] {
+    if instrument.spatial {
+        return spatial::platform_pose(instrument, shared, observed, home);
+    }
     let (fx, fy, theta) = (
         shared[Instrument::FRAME],
         shared[Instrument::FRAME + 1],

@@ -7,7 +7,8 @@
 //! `docs/method.md` the identification with them.
 //!
 //! The shared parameter vector is laid out as: the frame's components (`frame_x frame_y
-//! frame_yaw` for a planar model), then each target's offset components (`target_x target_y`,
+//! frame_yaw` for a planar model, `frame_x frame_y frame_z frame_roll frame_pitch frame_yaw` for
+//! a spatial one), then each target's offset components (`target_x target_y [target_z]`,
 //! suffixed `_<name>` when there are several targets), in file order.
 
 use std::collections::BTreeMap;
@@ -31,7 +32,8 @@ pub struct InstrumentEntry {
 #[serde(deny_unknown_fields)]
 pub struct FrameEntry {
     /// Nominal pose of the instrument frame in the base frame, by component (`x y yaw` for a
-    /// planar model; metres, radians); a missing component is zero.
+    /// planar model, `x y z roll pitch yaw` for a spatial one; metres, radians); a missing
+    /// component is zero.
     #[serde(default, skip_serializing_if = "BTreeMap::is_empty")]
     pub pose: BTreeMap<String, f64>,
     /// The identified components (default: all of them); the others stay at their nominal value.
@@ -61,7 +63,7 @@ pub struct TargetEntry {
     /// Name, used in the measurement columns (`x.<name>`) and the parameter names.
     pub name: String,
     /// Nominal offset of the target from the platform's reference point, in the platform frame
-    /// (`[x, y]` for a planar model), metres.
+    /// (`[x, y]` for a planar model, `[x, y, z]` for a spatial one), metres.
     pub offset: Vec<f64>,
     /// What the instrument reports of the target: `position`, or `pose` (position and
     /// orientation; the target's axes are the platform's).
@@ -89,6 +91,13 @@ pub const PLANAR_FRAME: [&str; 3] = ["x", "y", "yaw"];
 /// Components of a planar target offset, in the shared vector's order.
 pub const PLANAR_OFFSET: [&str; 2] = ["x", "y"];
 
+/// Components of the spatial instrument frame, in the shared vector's order (the rotation is
+/// `Rz(yaw) Ry(pitch) Rx(roll)`, as the platform pose's).
+pub const SPATIAL_FRAME: [&str; 6] = ["x", "y", "z", "roll", "pitch", "yaw"];
+
+/// Components of a spatial target offset, in the shared vector's order.
+pub const SPATIAL_OFFSET: [&str; 3] = ["x", "y", "z"];
+
 /// A validated target.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Target {
@@ -96,15 +105,31 @@ pub struct Target {
     pub name: String,
     /// What the instrument reports of it.
     pub measures: Measures,
+    /// Of a spatial model (3-D coordinates) rather than a planar one.
+    pub spatial: bool,
 }
 
 impl Target {
     /// The coordinates the instrument reports of this target, in measurement-row order:
-    /// `x y` for a position, `x y yaw` for a pose (planar).
+    /// `x y` for a position, `x y yaw` for a pose (planar); `x y z`, `x y z roll pitch yaw`
+    /// (spatial).
     pub fn coordinates(&self) -> &'static [&'static str] {
-        match self.measures {
-            Measures::Position => &["x", "y"],
-            Measures::Pose => &["x", "y", "yaw"],
+        match (self.spatial, self.measures) {
+            (false, Measures::Position) => &["x", "y"],
+            (false, Measures::Pose) => &["x", "y", "yaw"],
+            (true, Measures::Position) => &["x", "y", "z"],
+            (true, Measures::Pose) => &SPATIAL_FRAME,
+        }
+    }
+
+    /// For each of [`Self::coordinates`], the index of the pose coordinate of the same name in
+    /// `[x, y, z, roll, pitch, yaw]` (whose noise the coordinate has).
+    pub fn pose_indices(&self) -> &'static [usize] {
+        match (self.spatial, self.measures) {
+            (false, Measures::Position) => &[0, 1],
+            (false, Measures::Pose) => &[0, 1, 5],
+            (true, Measures::Position) => &[0, 1, 2],
+            (true, Measures::Pose) => &[0, 1, 2, 3, 4, 5],
         }
     }
 }
@@ -124,24 +149,49 @@ pub struct SharedParameter {
     pub perturbation: f64,
 }
 
-/// The validated instrument (planar): frame and targets.
+/// The validated instrument: frame and targets.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Instrument {
-    /// The shared parameters: frame `x y yaw`, then each target's offset `x y`.
+    /// The shared parameters: the frame's components ([`Self::frame_components`]), then each
+    /// target's offset components ([`Self::offset_components`]).
     pub parameters: Vec<SharedParameter>,
     /// The targets, in file order.
     pub targets: Vec<Target>,
-    /// Does the platform rotate (is its yaw measured)? If not, the pose's yaw stays at home.
+    /// Does the platform rotate (is its yaw, or any of its roll, pitch, yaw for a spatial
+    /// model, measured)? If not, the pose's orientation stays at home.
     pub rotates: bool,
+    /// A spatial model (6-DoF frame, 3-D offsets) rather than a planar one.
+    pub spatial: bool,
 }
 
 impl Instrument {
-    /// Index in the shared vector of the frame's first component (x; then y, yaw).
+    /// Index in the shared vector of the frame's first component (x; then the others of
+    /// [`Self::frame_components`]).
     pub const FRAME: usize = 0;
 
-    /// Index in the shared vector of target `target`'s offset x (y follows).
+    /// The frame's components, in the shared vector's order: [`PLANAR_FRAME`] or
+    /// [`SPATIAL_FRAME`].
+    pub fn frame_components(&self) -> &'static [&'static str] {
+        if self.spatial {
+            &SPATIAL_FRAME
+        } else {
+            &PLANAR_FRAME
+        }
+    }
+
+    /// A target offset's components, in the shared vector's order: [`PLANAR_OFFSET`] or
+    /// [`SPATIAL_OFFSET`].
+    pub fn offset_components(&self) -> &'static [&'static str] {
+        if self.spatial {
+            &SPATIAL_OFFSET
+        } else {
+            &PLANAR_OFFSET
+        }
+    }
+
+    /// Index in the shared vector of target `target`'s offset x (y, and z if spatial, follow).
     pub fn offset_index(&self, target: usize) -> usize {
-        PLANAR_FRAME.len() + PLANAR_OFFSET.len() * target
+        self.frame_components().len() + self.offset_components().len() * target
     }
 
     /// The nominal shared vector.

@@ -8,7 +8,7 @@ use super::calibrated::{calibrated_urdf, set_leg_values, CalibratedFiles};
 use crate::error::{Error, Result};
 use crate::identify::shared_estimate::SharedEstimate;
 use crate::model::file::ModelFile;
-use crate::model::instrument::PLANAR_FRAME;
+use crate::model::instrument::Instrument;
 use crate::model::Mechanism;
 
 /// The calibrated model file and URDF from `result`; the model file names the URDF
@@ -37,16 +37,16 @@ pub fn calibrated_files(
     let mut file = ModelFile::read(&mechanism.model_path)?;
     file.urdf = urdf_name.to_string();
     set_leg_values(&mut file, mechanism, &values);
-    if let Some(block) = file.instrument.as_mut() {
-        for (c, component) in PLANAR_FRAME.iter().enumerate() {
-            block
-                .frame
-                .pose
-                .insert(component.to_string(), result.shared[c].estimate);
+    if let (Some(block), Some(instrument)) = (file.instrument.as_mut(), &mechanism.instrument) {
+        for (c, component) in instrument.frame_components().iter().enumerate() {
+            block.frame.pose.insert(
+                component.to_string(),
+                result.shared[Instrument::FRAME + c].estimate,
+            );
         }
         for (k, target) in block.targets.iter_mut().enumerate() {
             for (c, value) in target.offset.iter_mut().enumerate() {
-                *value = result.shared[PLANAR_FRAME.len() + 2 * k + c].estimate;
+                *value = result.shared[instrument.offset_index(k) + c].estimate;
             }
         }
     }

@@ -37,9 +37,11 @@ fn instrument(targets: &[(&str, Measures, [f64; 2])], rotates: bool) -> Instrume
             .map(|(name, measures, _)| Target {
                 name: name.to_string(),
                 measures: *measures,
+                spatial: false,
             })
             .collect(),
         rotates,
+        spatial: false,
     }
 }
 

@@ -7,12 +7,15 @@ use super::Builder;
 use crate::error::Result;
 use crate::model::instrument::{
     Instrument, InstrumentEntry, Measures, SharedParameter, Target, PLANAR_FRAME, PLANAR_OFFSET,
+    SPATIAL_FRAME, SPATIAL_OFFSET,
 };
 use crate::model::leg::LegModel;
 use crate::model::params::Unit;
 
 impl Builder<'_> {
-    /// The validated instrument, if the model has the block.
+    /// The validated instrument, if the model has the block. A model whose measured
+    /// coordinates are among `x y yaw` is planar (3-DoF frame, 2-D offsets), any other is
+    /// spatial (6-DoF frame, 3-D offsets).
     pub(super) fn instrument(
         &self,
         entry: Option<&InstrumentEntry>,
@@ -22,15 +25,14 @@ impl Builder<'_> {
         let Some(entry) = entry else {
             return Ok(None);
         };
-        if measured.iter().any(|c| !matches!(c, 0 | 1 | 5)) {
-            return Err(self.error(
-                "instrument",
-                "the instrument block supports planar models only (measured among x, y, yaw); \
-                 spatial instruments are not implemented yet",
-            ));
-        }
-        let rotates = measured.contains(&5);
-        let mut parameters = self.frame(entry)?;
+        let spatial = measured.iter().any(|c| !matches!(c, 0 | 1 | 5));
+        let rotates = measured.iter().any(|&c| c >= 3);
+        let (frame_components, offset_components): (&[&str], &[&str]) = if spatial {
+            (&SPATIAL_FRAME, &SPATIAL_OFFSET)
+        } else {
+            (&PLANAR_FRAME, &PLANAR_OFFSET)
+        };
+        let mut parameters = self.frame(entry, frame_components)?;
         let mut targets = Vec::new();
         let several = entry.targets.len() > 1;
         let mut offsets = Vec::new();
@@ -64,17 +66,26 @@ impl Builder<'_> {
                 }
             };
             if measures == Measures::Pose && !rotates {
+                let which = if spatial {
+                    "none of roll, pitch, yaw is measured"
+                } else {
+                    "yaw is not measured"
+                };
                 return Err(self.error(
                     format!("{field}.measures"),
-                    "the platform does not rotate (yaw is not measured): its targets are \
-                     measured by `position`",
+                    format!(
+                        "the platform does not rotate ({which}): its targets are measured by \
+                         `position`"
+                    ),
                 ));
             }
-            if target.offset.len() != PLANAR_OFFSET.len() {
+            if target.offset.len() != offset_components.len() {
                 return Err(self.error(
                     format!("{field}.offset"),
                     format!(
-                        "expected [x, y] (2 values, metres), found {} values",
+                        "expected [{}] ({} values, metres), found {} values",
+                        offset_components.join(", "),
+                        offset_components.len(),
                         target.offset.len()
                     ),
                 ));
@@ -88,7 +99,7 @@ impl Builder<'_> {
             let identified = self.components(
                 &format!("{field}.identify"),
                 target.identify.as_deref(),
-                &PLANAR_OFFSET,
+                offset_components,
             )?;
             let sigma = target.perturbation.unwrap_or(0.0);
             if !(sigma.is_finite() && sigma >= 0.0) {
@@ -97,7 +108,7 @@ impl Builder<'_> {
                     format!("expected a non-negative standard deviation (metres), found {sigma}"),
                 ));
             }
-            for (c, component) in PLANAR_OFFSET.iter().enumerate() {
+            for (c, component) in offset_components.iter().enumerate() {
                 let suffix = if several {
                     format!("_{name}")
                 } else {
@@ -111,10 +122,18 @@ impl Builder<'_> {
                     perturbation: sigma,
                 });
             }
-            offsets.push((measures, [target.offset[0], target.offset[1]]));
+            offsets.push((
+                measures,
+                [
+                    target.offset[0],
+                    target.offset[1],
+                    target.offset.get(2).copied().unwrap_or(0.0),
+                ],
+            ));
             targets.push(Target {
                 name: name.to_string(),
                 measures,
+                spatial,
             });
         }
         if targets.is_empty() {
@@ -123,7 +142,11 @@ impl Builder<'_> {
                 "expected at least one target the instrument measures",
             ));
         }
-        self.orientation_observable(rotates, &offsets, &targets)?;
+        if spatial {
+            self.spatial_orientation_observable(rotates, &offsets, &targets)?;
+        } else {
+            self.orientation_observable(rotates, &offsets, &targets)?;
+        }
         let mut names = HashSet::new();
         for parameter in &parameters {
             if !names.insert(parameter.name.as_str()) {
@@ -152,20 +175,26 @@ impl Builder<'_> {
             parameters,
             targets,
             rotates,
+            spatial,
         }))
     }
 
-    /// The frame's three shared parameters.
-    fn frame(&self, entry: &InstrumentEntry) -> Result<Vec<SharedParameter>> {
+    /// The frame's shared parameters, one per component of `components` (planar or spatial).
+    fn frame(&self, entry: &InstrumentEntry, components: &[&str]) -> Result<Vec<SharedParameter>> {
         let frame = &entry.frame;
-        let mut nominal = [0.0; 3];
+        let kind = if components.len() == SPATIAL_FRAME.len() {
+            "spatial"
+        } else {
+            "planar"
+        };
+        let mut nominal = vec![0.0; components.len()];
         for (key, &value) in &frame.pose {
-            let Some(c) = PLANAR_FRAME.iter().position(|c| c == key) else {
+            let Some(c) = components.iter().position(|c| c == key) else {
                 return Err(self.error(
                     format!("instrument.frame.pose.{key}"),
                     format!(
-                        "`{key}` is not a component of a planar frame; expected one of {}",
-                        PLANAR_FRAME.join(", ")
+                        "`{key}` is not a component of a {kind} frame; expected one of {}",
+                        components.join(", ")
                     ),
                 ));
             };
@@ -180,7 +209,7 @@ impl Builder<'_> {
         let identified = self.components(
             "instrument.frame.identify",
             frame.identify.as_deref(),
-            &PLANAR_FRAME,
+            components,
         )?;
         let (length, angle) = frame
             .perturbation
@@ -193,11 +222,11 @@ impl Builder<'_> {
                 ));
             }
         }
-        Ok(PLANAR_FRAME
+        Ok(components
             .iter()
             .enumerate()
             .map(|(c, component)| {
-                let angular = c == 2;
+                let angular = matches!(*component, "roll" | "pitch" | "yaw");
                 SharedParameter {
                     name: format!("frame_{component}"),
                     nominal: nominal[c],
@@ -242,7 +271,7 @@ impl Builder<'_> {
     fn orientation_observable(
         &self,
         rotates: bool,
-        offsets: &[(Measures, [f64; 2])],
+        offsets: &[(Measures, [f64; 3])],
         targets: &[Target],
     ) -> Result<()> {
         if !rotates || offsets.iter().any(|(m, _)| *m == Measures::Pose) {
@@ -260,7 +289,7 @@ impl Builder<'_> {
             ));
         }
         let first = offsets[0].1;
-        let apart = |o: &[f64; 2]| (o[0] - first[0]).hypot(o[1] - first[1]) > 1e-9;
+        let apart = |o: &[f64; 3]| (o[0] - first[0]).hypot(o[1] - first[1]) > 1e-9;
         if !offsets.iter().any(|(_, offset)| apart(offset)) {
             return Err(self.error(
                 "instrument.targets",
@@ -268,6 +297,59 @@ impl Builder<'_> {
                     "targets `{}` and `{}` have the same offset: their positions do not give \
                      the platform's orientation; place them apart",
                     targets[0].name, targets[1].name
+                ),
+            ));
+        }
+        Ok(())
+    }
+
+    /// A rotating spatial platform's orientation must follow from every row: a pose target,
+    /// or three position-only targets whose offsets are not on one line.
+    fn spatial_orientation_observable(
+        &self,
+        rotates: bool,
+        offsets: &[(Measures, [f64; 3])],
+        targets: &[Target],
+    ) -> Result<()> {
+        if !rotates || offsets.iter().any(|(m, _)| *m == Measures::Pose) {
+            return Ok(());
+        }
+        let names = targets
+            .iter()
+            .map(|t| format!("`{}`", t.name))
+            .collect::<Vec<_>>()
+            .join(", ");
+        if offsets.len() < 3 {
+            return Err(self.error(
+                "instrument.targets",
+                format!(
+                    "the platform rotates (roll, pitch or yaw is measured), but the position-only \
+                     targets {names} do not give its orientation: add position-only targets up \
+                     to three, not on one line, or measure a target's pose (`measures: pose`)"
+                ),
+            ));
+        }
+        let first = nalgebra::Vector3::from(offsets[0].1);
+        let relative: Vec<_> = offsets
+            .iter()
+            .map(|(_, o)| nalgebra::Vector3::from(*o) - first)
+            .collect();
+        let far = relative
+            .iter()
+            .max_by(|a, b| a.norm().total_cmp(&b.norm()))
+            .copied()
+            .unwrap_or_default();
+        let off_line = far.norm() > 1e-9
+            && relative
+                .iter()
+                .any(|r| far.normalize().cross(r).norm() > 1e-9);
+        if !off_line {
+            return Err(self.error(
+                "instrument.targets",
+                format!(
+                    "the offsets of the position-only targets {names} lie on one line: their \
+                     positions do not give the platform's rotation about it; place one off \
+                     that line, or measure a target's pose (`measures: pose`)"
                 ),
             ));
         }
