@@ -14,6 +14,7 @@ mod instrument_cli;
 mod instrument_commands;
 mod instrument_identify;
 mod instrument_model;
+mod instrument_spatial;
 mod inverse_kinematics;
 mod jacobian;
 mod kinematics;
