@@ -521,3 +521,92 @@ fn a_bad_spatial_instrument_block_is_named_with_exit_2() {
         text(&out.stderr)
     );
 }
+
+#[test]
+fn the_jacobian_of_the_spatial_problems_matches_central_differences_of_their_residuals() {
+    use argmin::core::Operator;
+    for model in MODELS {
+        let mechanism = bundled(model);
+        let experiment = simulate_observed(&mechanism, options(1.0)).unwrap();
+        let problem = SharedProblem::new(&mechanism, &experiment.observations).unwrap();
+        // Away from the nominal start, every column non-trivial.
+        let x = problem.start().map(|v| v * (1.0 + 1e-3));
+        let (r, jacobian) = to_dense(&problem.layout(), &problem.bordered(&x).unwrap());
+        assert!((&r - problem.apply(&x).unwrap()).amax() < 1e-14);
+        for j in 0..x.len() {
+            let h = 1e-6 * (1.0 + x[j].abs());
+            let mut plus = x.clone();
+            plus[j] += h;
+            let mut minus = x.clone();
+            minus[j] -= h;
+            let central =
+                (problem.apply(&plus).unwrap() - problem.apply(&minus).unwrap()) / (2.0 * h);
+            let gap = (jacobian.column(j) - &central).amax();
+            let scale = central.amax().max(1e-3);
+            assert!(
+                gap <= 1e-6 * scale,
+                "{model}, column {j}: gap {gap:e} (scale {scale:e})"
+            );
+        }
+    }
+}
+
+#[test]
+fn with_noise_the_spatial_estimates_are_within_their_sigma_and_the_noise_test_passes() {
+    for model in MODELS {
+        let mechanism = bundled(model);
+        let experiment = simulate_observed(&mechanism, options(1.0)).unwrap();
+        let estimate =
+            identify_shared(&mechanism, &experiment.observations, SharedStrategy::Joint).unwrap();
+        // The expected residual variances use the noise of x, y, z at every reflector.
+        let test = estimate.noise_test.as_ref().expect("a declared noise");
+        assert!(!test.rejected, "{model}: {test:?}");
+        assert!((0.5..2.0).contains(&test.sigma_ratio), "{model}: {test:?}");
+        for (k, p) in estimate.shared.iter().enumerate() {
+            if let Some(std) = p.std {
+                let error = p.estimate - experiment.real_shared[k];
+                assert!(
+                    error.abs() < 4.0 * std,
+                    "{model} {}: error {error} σ {std}",
+                    p.name
+                );
+            }
+        }
+    }
+}
+
+#[test]
+fn the_calibrated_spatial_model_carries_the_estimated_frame_and_offsets() {
+    let directory = tempfile::tempdir().unwrap();
+    let calibrated = directory.path().join("calibrated.yaml");
+    let out = legwise(&[
+        "identify",
+        "--model",
+        "models/hexapod-tracker.yaml",
+        "--poses",
+        "random",
+        "--json",
+        "-",
+        "--calibrated",
+        calibrated.to_str().unwrap(),
+    ]);
+    assert_eq!(out.status.code(), Some(0), "{}", text(&out.stderr));
+    let report: Value = serde_json::from_slice(&out.stdout).unwrap();
+    let parameters = json_parameters(&report);
+    let mechanism = Mechanism::load(&calibrated).unwrap();
+    let instrument = mechanism.instrument.unwrap();
+    for p in &instrument.parameters {
+        let estimate = parameters.iter().find(|q| q.0 == p.name).unwrap().2;
+        assert!(
+            (p.nominal - estimate).abs() < 1e-12,
+            "{}: {} vs {estimate}",
+            p.name,
+            p.nominal
+        );
+    }
+    // The estimate moved the frame's rotation and an offset away from the original nominal.
+    let original = bundled("hexapod-tracker.yaml");
+    let nominal = original.instrument.as_ref().unwrap().nominal();
+    assert!((instrument.parameters[4].nominal - nominal[4]).abs() > 1e-4);
+    assert!((instrument.parameters[14].nominal - nominal[14]).abs() > 1e-4);
+}
