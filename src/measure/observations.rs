@@ -2,8 +2,9 @@
 //! its targets (in its own frame) and the actuator readings.
 //!
 //! CSV columns: `leg` (optional, as in [`super::file`]), then every target's coordinates, named
-//! `<coordinate>.<target>` (`x.r1, y.r1, x.r2, y.r2`; a pose target adds `yaw.<target>`), then
-//! one column per actuated joint with its raw reading. The target columns are always suffixed,
+//! `<coordinate>.<target>` (`x.r1, y.r1, x.r2, y.r2`; a pose target adds `yaw.<target>`; a
+//! spatial model's targets add `z.<target>`, its pose targets `roll.`, `pitch.`, `yaw.<target>`),
+//! then one column per actuated joint with its raw reading. The target columns are always suffixed,
 //! even for a single target: a file of platform poses (`x, y, …`) is never read as target
 //! coordinates by mistake. Optional columns `pose.<coordinate>` (`pose.x, pose.y, …`, the
 //! model's measured coordinates) hold the platform pose commanded at the row, as
