@@ -110,7 +110,10 @@ EXAMPLES:
   # the calibrated model on poses held out of the fit, side by side with the nominal model
   legwise evaluate --model calibrated.yaml --measurements held-out.csv --against models/5r.yaml
   # the same as JSON on standard output (the terminal report goes to standard error)
-  legwise evaluate --model calibrated.yaml --measurements held-out.csv --json -"
+  legwise evaluate --model calibrated.yaml --measurements held-out.csv --json -
+  # a model with an instrument block: the file holds target coordinates, the errors are
+  # where the model puts each target against where the instrument saw it
+  legwise evaluate --model tracker-cal.yaml --measurements held-out.csv --against models/5r-tracker.yaml"
 );
 
 /// `legwise montecarlo --help`.
