@@ -14,6 +14,7 @@ mod instrument_cli;
 mod instrument_commands;
 mod instrument_evaluate;
 mod instrument_identify;
+mod instrument_map;
 mod instrument_model;
 mod inverse_kinematics;
 mod jacobian;
