@@ -16,6 +16,7 @@ mod instrument_evaluate;
 mod instrument_identify;
 mod instrument_map;
 mod instrument_model;
+mod instrument_montecarlo;
 mod inverse_kinematics;
 mod jacobian;
 mod kinematics;
