@@ -14,10 +14,10 @@
 //! previous one's joints).
 //!
 //! With an `instrument` block the study compares the two identifications through the
-//! instrument instead ([`INSTRUMENT_ARMS`], module [`instrument`]): each trial also draws the
-//! real instrument frame and target offsets, simulates what the instrument reports, and
-//! identifies jointly and in two stages; the study parameters include the identified shared
-//! ones.
+//! instrument instead ([`INSTRUMENT_ARMS`], in the private module `instrument`): each trial
+//! also draws the real instrument frame and target offsets, simulates what the instrument
+//! reports, and identifies jointly and in two stages; the study parameters include the
+//! identified shared ones.
 //!
 //! Trials run in parallel (rayon). Trial `i` draws from its own generator, seeded from the
 //! study seed and `i` (a ChaCha stream per trial), and the summary reduces the trials in trial
