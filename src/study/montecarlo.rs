@@ -769,6 +769,22 @@ mod tests {
     }
 
     #[test]
+    fn the_instrument_arms_are_named_in_the_sentence() {
+        let (joint, two_stage) = (Arm::Joint, Arm::TwoStage);
+        let better = verdict_sentence(joint, two_stage, false, &interval(-2e-3, -3e-3, -1e-3));
+        assert!(
+            better.starts_with("joint is more accurate than two-stage by 2.000 mm [1.000, 3.000]"),
+            "{better}"
+        );
+        let worse = verdict_sentence(joint, two_stage, false, &interval(2e-3, 1e-3, 3e-3));
+        assert!(
+            worse.starts_with("Two-stage is more accurate than joint by 2.000 mm"),
+            "{worse}"
+        );
+        assert_eq!(INSTRUMENT_ARMS.map(Arm::key), ["joint", "two_stage"]);
+    }
+
+    #[test]
     fn every_trial_gets_its_own_seed_and_the_same_one_each_time() {
         let seeds: std::collections::BTreeSet<u64> = (0..1000).map(|i| trial_seed(7, i)).collect();
         assert_eq!(seeds.len(), 1000);
