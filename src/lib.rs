@@ -23,7 +23,9 @@
 //! instrument frame (measure::observations, measure::observe_simulate); the platform pose is
 //! fitted from them inside every evaluation (measure::targets), and the legs and the instrument
 //! are identified together (identify::shared, identify::shared_estimate, solver::solve_bordered;
-//! report::instrument).
+//! report::instrument). After the fit, evaluate::through_instrument compares where a model puts
+//! each target with where the instrument saw it; accuracy maps and study::montecarlo compare the
+//! identified legs with the real ones.
 //!
 //! ## Data flow of `legwise select --model models/5r.yaml`
 //! ```text

@@ -1,5 +1,4 @@
-//! Range checks of numeric options, with legwise's own "expected … found …" messages, and the
-//! refusal of a model a command does not support.
+//! Range checks of numeric options, with legwise's own "expected … found …" messages.
 //!
 //! Numeric options are parsed by clap as signed numbers with negative values allowed, so that
 //! `--grid -0.02` or `--poses-per-leg -1` reach these checks instead of clap's "unexpected
@@ -70,23 +69,6 @@ pub(super) fn seed(flag: &str, value: Option<i128>) -> anyhow::Result<Option<u64
             })
         })
         .transpose()
-}
-
-/// Refuses `model` (loaded from `path`) for `command` if it has an instrument block, saying
-/// `why` the command does not support one.
-pub(super) fn no_instrument(
-    command: &str,
-    path: &std::path::Path,
-    model: &crate::model::Mechanism,
-    why: &str,
-) -> anyhow::Result<()> {
-    if model.instrument.is_some() {
-        anyhow::bail!(
-            "{command}: {}: not available for a model with an instrument block ({why})",
-            path.display()
-        );
-    }
-    Ok(())
 }
 
 #[cfg(test)]

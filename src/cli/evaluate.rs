@@ -1,10 +1,13 @@
 //! `legwise evaluate`.
 
+use std::path::Path;
+
 use super::console::Console;
 use super::output::{Input, Output};
 use super::{EvaluateArgs, Verdict};
-use crate::evaluate::held_out::evaluate;
-use crate::measure::file;
+use crate::evaluate::held_out::{evaluate, Evaluation};
+use crate::evaluate::through_instrument::evaluate_observed;
+use crate::measure::{file, observations};
 use crate::model::Mechanism;
 use crate::report::evaluation::{evaluation_json, evaluation_text};
 use crate::report::plots::files::{evaluate_picture, POSITION_ERRORS};
@@ -12,16 +15,8 @@ use crate::report::plots::files::{evaluate_picture, POSITION_ERRORS};
 pub(super) fn run(args: &EvaluateArgs) -> anyhow::Result<Verdict> {
     let mechanism = Mechanism::load(&args.model)?;
     let other = args.against.as_deref().map(Mechanism::load).transpose()?;
-    for (path, model) in std::iter::once((args.model.as_path(), &mechanism))
-        .chain(args.against.as_deref().zip(other.as_ref()))
-    {
-        super::checks::no_instrument(
-            "legwise evaluate",
-            path,
-            model,
-            "it compares measured platform poses with the model's; through an instrument, \
-             `legwise identify --measurements` reports the fit of the target coordinates",
-        )?;
+    if let (Some(path), Some(other)) = (&args.against, &other) {
+        same_measurements(&args.model, &mechanism, path, other)?;
     }
     let mut inputs = super::model_inputs(&args.model, &mechanism);
     if let (Some(path), Some(other)) = (&args.against, &other) {
@@ -36,11 +31,11 @@ pub(super) fn run(args: &EvaluateArgs) -> anyhow::Result<Verdict> {
     let picture_output =
         super::pictures::prepare_one(args.plots.as_deref(), POSITION_ERRORS, format, &inputs)?;
     let mut console = Console::new(json_output.as_ref().is_some_and(Output::is_stdout));
-    let evaluation = evaluate(&mechanism, &file::read(&args.measurements, &mechanism)?)?;
-    let against = match &other {
-        Some(other) => Some(evaluate(other, &file::read(&args.measurements, other)?)?),
-        None => None,
-    };
+    let evaluation = evaluate_file(&mechanism, &args.measurements)?;
+    let against = other
+        .as_ref()
+        .map(|other| evaluate_file(other, &args.measurements))
+        .transpose()?;
     // The file first: a closed terminal pipe must not lose it.
     if let Some(output) = &json_output {
         let value = evaluation_json(&evaluation, against.as_ref());
@@ -70,8 +65,51 @@ pub(super) fn run(args: &EvaluateArgs) -> anyhow::Result<Verdict> {
     Ok(Verdict::Trusted)
 }
 
+/// Evaluates `model` on the measurement file at `path`: platform poses, or what its instrument
+/// reports for a model with an instrument block.
+fn evaluate_file(model: &Mechanism, path: &Path) -> anyhow::Result<Evaluation> {
+    Ok(if model.instrument.is_some() {
+        evaluate_observed(model, &observations::read(path, model)?)?
+    } else {
+        evaluate(model, &file::read(path, model)?)?
+    })
+}
+
+/// Refuses `--against` a model that reads another kind of measurement file: one with an
+/// instrument block and one without, or instruments reporting different target columns.
+fn same_measurements(
+    path: &Path,
+    model: &Mechanism,
+    other_path: &Path,
+    other: &Mechanism,
+) -> anyhow::Result<()> {
+    let columns = |m: &Mechanism| m.instrument.as_ref().map(|i| i.columns());
+    let describe = |m: &Mechanism| {
+        columns(m).map_or_else(
+            || "platform poses".to_string(),
+            |c| {
+                format!(
+                    "target coordinates through its instrument ({})",
+                    c.join(", ")
+                )
+            },
+        )
+    };
+    if columns(model) != columns(other) {
+        anyhow::bail!(
+            "--against {}: its measurements are {}, those of {} are {}; both models must read \
+             the same measurement file",
+            other_path.display(),
+            describe(other),
+            path.display(),
+            describe(model)
+        );
+    }
+    Ok(())
+}
+
 /// A model's file name, for the picture's legend.
-fn file_name(path: &std::path::Path) -> String {
+fn file_name(path: &Path) -> String {
     path.file_name().map_or_else(
         || path.display().to_string(),
         |n| n.to_string_lossy().into_owned(),

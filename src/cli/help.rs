@@ -110,7 +110,10 @@ EXAMPLES:
   # the calibrated model on poses held out of the fit, side by side with the nominal model
   legwise evaluate --model calibrated.yaml --measurements held-out.csv --against models/5r.yaml
   # the same as JSON on standard output (the terminal report goes to standard error)
-  legwise evaluate --model calibrated.yaml --measurements held-out.csv --json -"
+  legwise evaluate --model calibrated.yaml --measurements held-out.csv --json -
+  # a model with an instrument block: the file holds target coordinates, the errors are
+  # where the model puts each target against where the instrument saw it
+  legwise evaluate --model tracker-cal.yaml --measurements held-out.csv --against models/5r-tracker.yaml"
 );
 
 /// `legwise montecarlo --help`.
@@ -126,6 +129,9 @@ EXAMPLES:
   legwise montecarlo --model models/5r.yaml --trials 10000
   # another seed, Gauss-Newton, the JSON (every trial's values) and the error distributions
   legwise montecarlo --model models/3rpr.yaml --trials 2000 --seed 1 --solver gn --json mc.json --plots mc
+  # a model with an instrument block: joint against two-stage identification, each trial
+  # drawing the real legs and the real instrument frame and target offsets
+  legwise montecarlo --model models/5r-tracker.yaml --trials 1000
   # the same results on one thread (identical for a seed whatever the thread count)
   RAYON_NUM_THREADS=1 legwise montecarlo --model models/5r.yaml --trials 100 --json -"
 );

@@ -88,7 +88,8 @@ pub(super) fn run(args: &IdentifyArgs) -> anyhow::Result<Verdict> {
     }
     console.print(&terminal::render(&report))?;
     if let Some((before, after)) = &maps {
-        console.print(&maps_text(args, &report, before, after))?;
+        let labels: Vec<&str> = report.results.iter().map(|r| r.strategy.name()).collect();
+        console.print(&maps_text(args, &mechanism, &labels, before, after))?;
     }
     if let (Some(outputs), Some(result)) = (&calibrated_outputs, calibrated_result(&report)) {
         say_calibrated(&mut console, outputs, result.strategy.name(), trusted)?;
@@ -194,7 +195,7 @@ pub(super) fn calibrated_outputs(
 }
 
 /// `--map`: simulation only, with a valid grid, refused before any work otherwise.
-fn check_map(args: &IdentifyArgs, mechanism: &Mechanism) -> anyhow::Result<()> {
+pub(super) fn check_map(args: &IdentifyArgs, mechanism: &Mechanism) -> anyhow::Result<()> {
     if let Some(grid) = args.after.map {
         if args.measurements.is_some() {
             anyhow::bail!("--map: the accuracy map needs the real parameters, known only in simulation (drop --measurements)");
@@ -209,37 +210,48 @@ fn accuracy_maps(
     args: &IdentifyArgs,
     report: &IdentifyReport<'_>,
 ) -> anyhow::Result<Option<(AccuracyMap, Vec<AccuracyMap>)>> {
-    let (Some(grid), Some(real)) = (args.after.map, report.real.as_ref()) else {
+    let identified: Vec<(&str, Vec<Vec<f64>>)> = report
+        .results
+        .iter()
+        .map(|r| (r.strategy.name(), result_parameters(report.mechanism, r)))
+        .collect();
+    maps_before_after(args, report.mechanism, report.real.as_deref(), &identified)
+}
+
+/// `--map`: the accuracy map of the nominal model, then of each `(name, identified legs)`, against
+/// the `real` legs (known in simulation only; `None` without `--map` or without them).
+pub(super) fn maps_before_after(
+    args: &IdentifyArgs,
+    mechanism: &Mechanism,
+    real: Option<&[Vec<f64>]>,
+    identified: &[(&str, Vec<Vec<f64>>)],
+) -> anyhow::Result<Option<(AccuracyMap, Vec<AccuracyMap>)>> {
+    let (Some(grid), Some(real)) = (args.after.map, real) else {
         return Ok(None);
     };
-    let mechanism = report.mechanism;
     let scale = args.after.map_scale;
     let nominal = mechanism.nominal_parameters();
     let before = accuracy_map(mechanism, &nominal, real, grid, scale, "map before")?;
     let mut after = Vec::new();
-    for result in &report.results {
-        let identified = result_parameters(mechanism, result);
-        let label = format!("map after, {}", result.strategy.name());
+    for (name, parameters) in identified {
+        let label = format!("map after, {name}");
         after.push(accuracy_map(
-            mechanism,
-            &identified,
-            real,
-            grid,
-            scale,
-            &label,
+            mechanism, parameters, real, grid, scale, &label,
         )?);
     }
     Ok(Some((before, after)))
 }
 
-/// The accuracy maps in millimetres, for the terminal.
-fn maps_text(
+/// The accuracy maps in millimetres, for the terminal: `before`, then each of `after` labelled
+/// with its strategy's name in `labels`.
+pub(super) fn maps_text(
     args: &IdentifyArgs,
-    report: &IdentifyReport<'_>,
+    mechanism: &Mechanism,
+    labels: &[&str],
     before: &AccuracyMap,
     after: &[AccuracyMap],
 ) -> String {
-    let slice = crate::report::plots::files::map_slice(report.mechanism)
+    let slice = crate::report::plots::files::map_slice(mechanism)
         .map_or(String::new(), |slice| format!(", {slice}"));
     let mut text = format!(
         "\naccuracy map over {} of the workspace region, grid {} m{slice}:\n{}\n",
@@ -247,8 +259,8 @@ fn maps_text(
         before.grid_m,
         map_summary("  before (nominal model)", before)
     );
-    for (result, map) in report.results.iter().zip(after) {
-        let label = format!("  after, {}", result.strategy.name());
+    for (name, map) in labels.iter().zip(after) {
+        let label = format!("  after, {name}");
         text.push_str(&map_summary(&label, map));
         text.push('\n');
     }

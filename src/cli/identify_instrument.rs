@@ -6,13 +6,17 @@ use std::io::Read;
 use std::path::Path;
 
 use super::console::Console;
-use super::identify::{calibrated_outputs, identify_inputs, is_stdin};
+use super::identify::{
+    calibrated_outputs, check_map, identify_inputs, is_stdin, maps_before_after, maps_text,
+};
 use super::output::Output;
 use super::{IdentifyArgs, SolverArg, StrategyArg, Verdict, WeightsArg};
+use crate::evaluate::accuracy::shared_result_parameters;
 use crate::identify::shared_estimate::{identify_shared, trust_issues, SharedStrategy};
 use crate::measure::observations::{self, Observations};
 use crate::measure::observe_simulate::{observed_from, without_pose_noise};
 use crate::model::Mechanism;
+use crate::report::evaluation::map_json;
 use crate::report::instrument::{render, to_json, InstrumentReport};
 use crate::report::instrument_calibrated::calibrated_files;
 
@@ -25,7 +29,6 @@ fn refuse_unsupported(args: &IdentifyArgs) -> anyhow::Result<()> {
         (args.weights != WeightsArg::None, "--weights"),
         (args.robust.is_some(), "--robust"),
         (args.drop_outliers, "--drop-outliers"),
-        (args.after.map.is_some(), "--map"),
         (args.pictures.plots.is_some(), "--plots"),
     ];
     if let Some((_, flag)) = refused.iter().find(|(on, _)| *on) {
@@ -43,6 +46,7 @@ pub(super) fn run(args: &IdentifyArgs, mut mechanism: Mechanism) -> anyhow::Resu
     let inputs = identify_inputs(args, &mechanism);
     let json_output = Output::prepare_optional("--json", args.json.as_deref(), &inputs)?;
     let calibrated_outputs = calibrated_outputs(args, &inputs)?;
+    check_map(args, &mechanism)?;
     let mut console = Console::new(json_output.as_ref().is_some_and(Output::is_stdout));
     let (data, real, real_shared, source) = match &args.measurements {
         Some(path) => (
@@ -83,6 +87,14 @@ pub(super) fn run(args: &IdentifyArgs, mut mechanism: Mechanism) -> anyhow::Resu
         real_shared,
         results,
     };
+    // The accuracy maps compare the identified legs with the real ones: the mechanism, not
+    // the instrument (which only measures).
+    let identified: Vec<(&str, Vec<Vec<f64>>)> = report
+        .results
+        .iter()
+        .map(|r| (r.strategy.name(), shared_result_parameters(&mechanism, r)))
+        .collect();
+    let maps = maps_before_after(args, &mechanism, report.real.as_deref(), &identified)?;
     let trusted = verdict == Verdict::Trusted;
     if let (Some((yaml, urdf)), true) = (&calibrated_outputs, trusted) {
         let urdf_name = Path::new(&urdf.name())
@@ -100,10 +112,21 @@ pub(super) fn run(args: &IdentifyArgs, mut mechanism: Mechanism) -> anyhow::Resu
         yaml.write("calibrated model", files.yaml.as_bytes())?;
     }
     if let Some(output) = &json_output {
-        let text = serde_json::to_string_pretty(&to_json(&report))? + "\n";
+        let mut value = to_json(&report);
+        if let Some((before, after)) = &maps {
+            value["accuracy_map_before"] = map_json(before);
+            for (i, map) in after.iter().enumerate() {
+                value["results"][i]["accuracy_map"] = map_json(map);
+            }
+        }
+        let text = serde_json::to_string_pretty(&value)? + "\n";
         output.write("JSON report", text.as_bytes())?;
     }
     console.print(&render(&report))?;
+    if let Some((before, after)) = &maps {
+        let labels: Vec<&str> = identified.iter().map(|(name, _)| *name).collect();
+        console.print(&maps_text(args, &mechanism, &labels, before, after))?;
+    }
     if let Some(outputs) = &calibrated_outputs {
         super::identify::say_calibrated(&mut console, outputs, "joint", trusted)?;
     }

@@ -52,7 +52,8 @@ pub enum Command {
     #[command(after_help = help::EVALUATE)]
     Evaluate(EvaluateArgs),
     /// Monte Carlo comparison of the strategies: many simulated experiments, the same draws fed
-    /// to divide and conquer and to the traditional strategy, with 95 % confidence intervals.
+    /// to divide and conquer and to the traditional strategy (through an instrument: to the
+    /// joint and the two-stage identification), with 95 % confidence intervals.
     #[command(after_help = help::MONTECARLO)]
     Montecarlo(MontecarloArgs),
 }

@@ -22,13 +22,6 @@ pub(super) fn run(args: &MontecarloArgs) -> anyhow::Result<Verdict> {
     let grid = checks::positive_metres("--grid", args.grid)?;
     let poses_per_leg = super::poses_per_leg(args.poses_per_leg)?;
     let mechanism = Mechanism::load(&args.model)?;
-    checks::no_instrument(
-        "legwise montecarlo",
-        &args.model,
-        &mechanism,
-        "its trials identify the legs from platform poses; repeat `legwise identify --seed N` \
-         for the spread of an identification through the instrument",
-    )?;
     let inputs = super::model_inputs(&args.model, &mechanism);
     let json_output = Output::prepare_optional("--json", args.json.as_deref(), &inputs)?;
     let format = super::pictures::format(args.png);

@@ -3,7 +3,10 @@
 //! For every row holding all actuator readings, forward kinematics from the readings (home
 //! assembly mode kept) gives the platform pose, compared with the measured one. For every row,
 //! each leg's reading residual is the measured reading minus the one its inverse kinematics
-//! predicts at the measured pose.
+//! predicts at the measured pose. Measurements through an instrument are evaluated by
+//! [`super::through_instrument`] into the same [`Evaluation`].
+use std::path::Path;
+
 use serde::Serialize;
 
 use super::accuracy::{measures_orientation, orientation_error, position_error, ErrorStats};
@@ -24,6 +27,20 @@ pub struct RowPoseError {
     pub position_error: Option<f64>,
     /// Orientation error (rad), where the model measures an orientation.
     pub orientation_error: Option<f64>,
+    /// Through an instrument: the index of the target these errors are of (one entry per row
+    /// and target, [`Evaluation::targets`]); `None` for a measured platform pose.
+    pub target: Option<usize>,
+}
+
+/// Through an instrument: one target's errors over the assembled rows.
+#[derive(Debug, Clone, PartialEq)]
+pub struct TargetErrors {
+    /// The target's name.
+    pub name: String,
+    /// Distances between where the model puts the target and where the instrument saw it (m).
+    pub position_error: Option<ErrorStats>,
+    /// Orientation errors (rad), for a target whose pose the instrument measures.
+    pub orientation_error: Option<ErrorStats>,
 }
 
 /// Reading residuals of one leg over the rows (measured minus predicted by the leg's IK).
@@ -61,6 +78,10 @@ pub struct Evaluation {
     pub orientation_error: Option<ErrorStats>,
     /// Reading residuals per leg.
     pub reading_residual: Vec<LegResidualStats>,
+    /// Through an instrument, each target's errors (the instrument's order); empty for
+    /// measured platform poses. `position_error` and `orientation_error` then cover every
+    /// target at every assembled row.
+    pub targets: Vec<TargetErrors>,
 }
 
 /// Evaluates the model `mechanism` (its nominal parameters) on the measurements `data`.
@@ -74,14 +95,7 @@ pub fn evaluate(mechanism: &Mechanism, data: &MeasurementSet) -> Result<Evaluati
         .filter(|&i| data.poses[i].readings.iter().all(Option::is_some))
         .collect();
     if full.is_empty() {
-        return Err(Error::Measurement {
-            path: data.source.clone().unwrap_or_else(|| "measurements".into()),
-            location: "every row".into(),
-            message: format!(
-                "no row holds every actuator reading ({}); forward kinematics needs them all",
-                mechanism.actuated_names().join(", ")
-            ),
-        });
+        return Err(no_full_row(mechanism, data.source.as_deref()));
     }
     let orientation = measures_orientation(mechanism);
     let row_errors: Vec<RowPoseError> = full
@@ -96,23 +110,79 @@ pub fn evaluate(mechanism: &Mechanism, data: &MeasurementSet) -> Result<Evaluati
                 orientation_error: reached
                     .filter(|_| orientation)
                     .map(|p| orientation_error(&p, &row.pose)),
+                target: None,
             }
         })
         .collect();
-    let reading_residual = mechanism
+    let rows: Vec<ResidualRow<'_>> = data
+        .poses
+        .iter()
+        .enumerate()
+        .map(|(i, row)| ResidualRow {
+            line: line(i),
+            readings: &row.readings,
+            pose: row.pose,
+        })
+        .collect();
+    let reading_residual = reading_residuals(mechanism, &params, &rows);
+    let non_assemblable = row_errors
+        .iter()
+        .filter(|r| r.position_error.is_none())
+        .map(|r| r.line)
+        .collect();
+    Ok(summarised(
+        mechanism,
+        data.source.as_deref(),
+        data.poses.len(),
+        (row_errors, non_assemblable),
+        reading_residual,
+        Vec::new(),
+    ))
+}
+
+/// The error of a file in which no row holds every actuator reading.
+pub(super) fn no_full_row(mechanism: &Mechanism, source: Option<&Path>) -> Error {
+    Error::Measurement {
+        path: source.map_or_else(|| "measurements".into(), Path::to_path_buf),
+        location: "every row".into(),
+        message: format!(
+            "no row holds every actuator reading ({}); forward kinematics needs them all",
+            mechanism.actuated_names().join(", ")
+        ),
+    }
+}
+
+/// One row whose readings are compared with the inverse kinematics at a pose.
+pub(super) struct ResidualRow<'a> {
+    /// CSV line.
+    pub(super) line: usize,
+    /// Every leg's reading, `None` where not read.
+    pub(super) readings: &'a [Option<f64>],
+    /// The pose to predict the readings at.
+    pub(super) pose: [f64; 6],
+}
+
+/// Each leg's reading residuals (measured minus predicted by its inverse kinematics with
+/// `params`) over `rows`.
+pub(super) fn reading_residuals(
+    mechanism: &Mechanism,
+    params: &[Vec<f64>],
+    rows: &[ResidualRow<'_>],
+) -> Vec<LegResidualStats> {
+    mechanism
         .legs
         .iter()
         .enumerate()
         .map(|(l, leg)| {
             let mut residuals = Vec::new();
             let mut unreachable = Vec::new();
-            for (i, row) in data.poses.iter().enumerate() {
+            for row in rows {
                 let Some(reading) = row.readings[l] else {
                     continue;
                 };
                 match predict_reading(leg, &params[l], &row.pose, &mechanism.home_pose) {
                     Ok(predicted) => residuals.push(reading - predicted),
-                    Err(_) => unreachable.push(line(i)),
+                    Err(_) => unreachable.push(row.line),
                 }
             }
             let magnitudes: Vec<f64> = residuals.iter().map(|r: &f64| r.abs()).collect();
@@ -125,25 +195,31 @@ pub fn evaluate(mechanism: &Mechanism, data: &MeasurementSet) -> Result<Evaluati
                 unreachable,
             }
         })
-        .collect();
+        .collect()
+}
+
+/// The evaluation of `rows` rows from `source` with these row errors (and the lines of the
+/// full rows that do not assemble), reading residuals and per-target errors.
+pub(super) fn summarised(
+    mechanism: &Mechanism,
+    source: Option<&Path>,
+    rows: usize,
+    (row_errors, non_assemblable): (Vec<RowPoseError>, Vec<usize>),
+    reading_residual: Vec<LegResidualStats>,
+    targets: Vec<TargetErrors>,
+) -> Evaluation {
     let errors = |pick: fn(&RowPoseError) -> Option<f64>| -> Vec<f64> {
         row_errors.iter().filter_map(pick).collect()
     };
-    Ok(Evaluation {
+    Evaluation {
         model: mechanism.model_path.display().to_string(),
-        measurements: data
-            .source
-            .as_ref()
-            .map_or_else(|| "simulated".to_string(), |p| p.display().to_string()),
-        rows: data.poses.len(),
-        non_assemblable: row_errors
-            .iter()
-            .filter(|r| r.position_error.is_none())
-            .map(|r| r.line)
-            .collect(),
+        measurements: source.map_or_else(|| "simulated".to_string(), |p| p.display().to_string()),
+        rows,
+        non_assemblable,
         position_error: ErrorStats::of(&errors(|r| r.position_error)),
         orientation_error: ErrorStats::of(&errors(|r| r.orientation_error)),
         row_errors,
         reading_residual,
-    })
+        targets,
+    }
 }

@@ -4,6 +4,10 @@
 //!   move the real mechanism by forward kinematics, measure the pose error);
 //! * [`held_out`] — how well a model explains a measurement file (poses by forward kinematics
 //!   from the readings, per-leg reading residuals);
+//! * [`through_instrument`] — the same through an instrument: where the model puts each target
+//!   (forward kinematics from the readings, then the model's frame and offsets) against where
+//!   the instrument saw it;
 //! * their terminal (mm, mrad) and JSON renderings are [`crate::report::evaluation`]'s.
 pub mod accuracy;
 pub mod held_out;
+pub mod through_instrument;

@@ -7,7 +7,7 @@ use serde_json::{json, Value};
 
 use super::json::{finite, header, merge, optional};
 use crate::evaluate::accuracy::{AccuracyMap, ErrorStats};
-use crate::evaluate::held_out::Evaluation;
+use crate::evaluate::held_out::{Evaluation, TargetErrors};
 use crate::model::Mechanism;
 
 /// `{"rms", "median", "p95", "max"}`, or `null`.
@@ -53,7 +53,7 @@ pub fn evaluation_body(evaluation: &Evaluation) -> Value {
             (leg.leg.clone(), value)
         })
         .collect();
-    json!({
+    let mut value = json!({
         "model": evaluation.model,
         "measurements": evaluation.measurements,
         "rows": evaluation.rows,
@@ -62,12 +62,32 @@ pub fn evaluation_body(evaluation: &Evaluation) -> Value {
         "position_error_m": stats_json(evaluation.position_error.as_ref()),
         "orientation_error_rad": stats_json(evaluation.orientation_error.as_ref()),
         "reading_residual": residuals,
-        "row_errors": evaluation.row_errors.iter().map(|r| json!({
-            "line": r.line,
-            "position_error_m": optional(r.position_error),
-            "orientation_error_rad": optional(r.orientation_error),
-        })).collect::<Vec<_>>(),
-    })
+        "row_errors": evaluation.row_errors.iter().map(|r| {
+            let mut row = json!({
+                "line": r.line,
+                "position_error_m": optional(r.position_error),
+                "orientation_error_rad": optional(r.orientation_error),
+            });
+            if let Some(target) = r.target.and_then(|k| evaluation.targets.get(k)) {
+                row["target"] = json!(target.name);
+            }
+            row
+        }).collect::<Vec<_>>(),
+    });
+    if !evaluation.targets.is_empty() {
+        value["targets"] = evaluation
+            .targets
+            .iter()
+            .map(|t| {
+                json!({
+                    "name": t.name,
+                    "position_error_m": stats_json(t.position_error.as_ref()),
+                    "orientation_error_rad": stats_json(t.orientation_error.as_ref()),
+                })
+            })
+            .collect();
+    }
+    value
 }
 
 /// The `legwise evaluate` JSON document: header, the evaluation, and `"against"`.
@@ -169,30 +189,55 @@ pub fn evaluation_text(
         .iter()
         .map(|e| e.position_error.as_ref())
         .collect();
-    stats_rows(
-        &mut text,
-        "position error, forward kinematics from the readings",
-        "mm",
-        &position,
-        improvement,
-    );
+    let through = !evaluation.targets.is_empty();
+    let title = if through {
+        "target position error, the model's (forward kinematics from the readings, then its \
+         instrument frame and offsets) vs the instrument's"
+    } else {
+        "position error, forward kinematics from the readings"
+    };
+    stats_rows(&mut text, title, "mm", &position, improvement);
     if evaluations.iter().any(|e| e.orientation_error.is_some()) {
         let orientation: Vec<_> = evaluations
             .iter()
             .map(|e| e.orientation_error.as_ref())
             .collect();
-        stats_rows(
-            &mut text,
-            "orientation error",
-            "mrad",
-            &orientation,
-            improvement,
-        );
+        let title = if through {
+            "target orientation error"
+        } else {
+            "orientation error"
+        };
+        stats_rows(&mut text, title, "mrad", &orientation, improvement);
     }
-    let _ = writeln!(
-        text,
+    if evaluation.targets.len() > 1 {
+        for (k, target) in evaluation.targets.iter().enumerate() {
+            let of = |pick: fn(&TargetErrors) -> Option<&ErrorStats>| -> Vec<Option<&ErrorStats>> {
+                evaluations
+                    .iter()
+                    .map(|e| e.targets.get(k).and_then(pick))
+                    .collect()
+            };
+            let title = format!("target `{}`: position error", target.name);
+            stats_rows(
+                &mut text,
+                &title,
+                "mm",
+                &of(|t| t.position_error.as_ref()),
+                improvement,
+            );
+            if target.orientation_error.is_some() {
+                let title = format!("target `{}`: orientation error", target.name);
+                let values = of(|t| t.orientation_error.as_ref());
+                stats_rows(&mut text, &title, "mrad", &values, improvement);
+            }
+        }
+    }
+    let residual_title = if through {
+        "reading residual, measured - predicted by the leg's IK at the pose fitted from the targets"
+    } else {
         "reading residual, measured - predicted by the leg's IK"
-    );
+    };
+    let _ = writeln!(text, "{residual_title}");
     for (l, leg) in mechanism.legs.iter().enumerate() {
         let unit = if leg.actuated_is_revolute() {
             "mrad"

@@ -13,6 +13,12 @@
 //! mechanism's forward kinematics prepared once per trial and each map warm-started from the
 //! previous one's joints).
 //!
+//! With an `instrument` block the study compares the two identifications through the
+//! instrument instead ([`INSTRUMENT_ARMS`], in the private module `instrument`): each trial
+//! also draws the real instrument frame and target offsets, simulates what the instrument
+//! reports, and identifies jointly and in two stages; the study parameters include the
+//! identified shared ones.
+//!
 //! Trials run in parallel (rayon). Trial `i` draws from its own generator, seeded from the
 //! study seed and `i` (a ChaCha stream per trial), and the summary reduces the trials in trial
 //! order: the results are bit-identical for a seed whatever the number of threads.
@@ -45,14 +51,21 @@ pub enum Arm {
     Traditional,
     /// All legs at once on as many shared poses as divide and conquer measures in all.
     TraditionalEqualPoses,
+    /// Through the instrument: every leg and the instrument together (Schur complement).
+    Joint,
+    /// Through the instrument: the instrument registered first, then divide and conquer.
+    TwoStage,
 }
 
-/// Every arm, in report order.
+/// The arms of a study without an instrument, in report order.
 pub const ARMS: [Arm; 3] = [
     Arm::DivideAndConquer,
     Arm::Traditional,
     Arm::TraditionalEqualPoses,
 ];
+
+/// The arms of a study through an instrument, in report order.
+pub const INSTRUMENT_ARMS: [Arm; 2] = [Arm::Joint, Arm::TwoStage];
 
 impl Arm {
     /// Name for reports.
@@ -61,6 +74,8 @@ impl Arm {
             Arm::DivideAndConquer => "D&C",
             Arm::Traditional => "traditional",
             Arm::TraditionalEqualPoses => "traditional, equal poses",
+            Arm::Joint => "joint",
+            Arm::TwoStage => "two-stage",
         }
     }
 
@@ -70,13 +85,17 @@ impl Arm {
             Arm::DivideAndConquer => "divide_and_conquer",
             Arm::Traditional => "traditional",
             Arm::TraditionalEqualPoses => "traditional_equal_poses",
+            Arm::Joint => "joint",
+            Arm::TwoStage => "two_stage",
         }
     }
 
+    /// The plain strategy of an arm without an instrument (the instrument's arms identify each
+    /// leg from its own rows, as divide and conquer).
     fn strategy(self) -> Strategy {
         match self {
-            Arm::DivideAndConquer => Strategy::DivideAndConquer,
             Arm::Traditional | Arm::TraditionalEqualPoses => Strategy::Traditional,
+            Arm::DivideAndConquer | Arm::Joint | Arm::TwoStage => Strategy::DivideAndConquer,
         }
     }
 }
@@ -130,10 +149,22 @@ pub struct StudyParameter {
     pub name: String,
     /// Its SI unit.
     pub unit: Unit,
-    /// Index of its leg.
-    pub leg: usize,
-    /// Index among the leg's parameters.
-    pub column: usize,
+    /// Where it is.
+    pub of: ParameterOf,
+}
+
+/// Where a study parameter is.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum ParameterOf {
+    /// A leg's: the leg's index and the index among its parameters.
+    Leg {
+        /// Index of the leg.
+        leg: usize,
+        /// Index among the leg's parameters.
+        column: usize,
+    },
+    /// The instrument's: the index among its shared parameters.
+    Instrument(usize),
 }
 
 /// A prepared study: the mechanism (its declared noise scaled), the selected poses and the map.
@@ -141,8 +172,11 @@ pub struct StudyParameter {
 pub struct Study {
     mechanism: Mechanism,
     options: MonteCarloOptions,
+    /// The arms compared: [`ARMS`], or [`INSTRUMENT_ARMS`] for a model with an instrument.
+    arms: Vec<Arm>,
     /// Divide and conquer's per-leg poses, then the shared poses of both traditional arms
-    /// (first the small set, then the equal-poses set).
+    /// (first the small set, then the equal-poses set; none through an instrument, whose arms
+    /// both identify from the per-leg poses).
     pose_sets: PoseSets,
     /// Number of shared poses of the traditional arm (the rest are the equal-poses arm's).
     shared_count: usize,
@@ -173,7 +207,9 @@ pub struct ArmTrial {
 pub struct TrialValues {
     /// RMS position error over the map with the nominal model commanding, metres.
     pub nominal_map_rms: f64,
-    /// Per arm, in [`ARMS`] order.
+    /// The trial's real value of every study parameter (its draw; SI units).
+    pub real: Vec<f64>,
+    /// Per arm, in the study's order ([`Study::arms`]).
     pub arms: Vec<ArmTrial>,
 }
 
@@ -245,11 +281,13 @@ pub struct MonteCarlo {
     pub succeeded: usize,
     /// Mean RMS position error over the map of the nominal model, metres.
     pub nominal_map_rms: Estimate,
-    /// Per arm, in [`ARMS`] order.
+    /// Per arm, in the study's order.
     pub arms: Vec<ArmSummary>,
-    /// D&C against each traditional arm.
+    /// The first arm against each other one (D&C against each traditional arm, or joint
+    /// against two-stage).
     pub comparisons: Vec<Comparison>,
-    /// The verdict: the comparison at an equal number of poses.
+    /// The verdict: the last comparison (at an equal number of poses, or joint against
+    /// two-stage).
     pub verdict: String,
 }
 
@@ -281,34 +319,47 @@ impl Study {
         let pool = candidate_pool(&mechanism, options.grid)?;
         let legs = divide_and_conquer(&mechanism, &pool, count, criterion)?;
         let total: usize = legs.iter().map(|l| l.poses.len()).sum();
-        let shared = traditional(&mechanism, &pool, count, criterion)?;
-        let equal = traditional(&mechanism, &pool, total, criterion)?;
         let mut per_leg = vec![Vec::new(); mechanism.legs.len()];
         for design in legs {
             per_leg[design.leg] = design.poses;
         }
-        let shared_count = shared.poses.len();
-        let mut shared_poses = shared.poses;
-        shared_poses.extend(equal.poses);
-        let parameters = mechanism
-            .identified_legs()
-            .into_iter()
-            .flat_map(|leg| {
-                let model = &mechanism.legs[leg];
-                model
-                    .identified()
-                    .into_iter()
-                    .map(move |column| StudyParameter {
-                        name: model.params[column].name.clone(),
-                        unit: model.params[column].unit,
-                        leg,
-                        column,
-                    })
+        let through = mechanism.instrument.is_some();
+        let (arms, shared_count, shared_poses) = if through {
+            (INSTRUMENT_ARMS.to_vec(), 0, Vec::new())
+        } else {
+            let shared = traditional(&mechanism, &pool, count, criterion)?;
+            let equal = traditional(&mechanism, &pool, total, criterion)?;
+            let shared_count = shared.poses.len();
+            let mut shared_poses = shared.poses;
+            shared_poses.extend(equal.poses);
+            (ARMS.to_vec(), shared_count, shared_poses)
+        };
+        let mut parameters: Vec<StudyParameter> = mechanism
+            .instrument
+            .iter()
+            .flat_map(|instrument| {
+                instrument.identified().into_iter().map(|k| StudyParameter {
+                    name: instrument.parameters[k].name.clone(),
+                    unit: instrument.parameters[k].unit,
+                    of: ParameterOf::Instrument(k),
+                })
             })
             .collect();
+        parameters.extend(mechanism.identified_legs().into_iter().flat_map(|leg| {
+            let model = &mechanism.legs[leg];
+            model
+                .identified()
+                .into_iter()
+                .map(move |column| StudyParameter {
+                    name: model.params[column].name.clone(),
+                    unit: model.params[column].unit,
+                    of: ParameterOf::Leg { leg, column },
+                })
+        }));
         let mut study = Self {
             mechanism,
             options,
+            arms,
             pose_sets: PoseSets {
                 per_leg,
                 shared: shared_poses,
@@ -369,11 +420,19 @@ impl Study {
         self.map.len()
     }
 
-    /// Poses each arm measures, in [`ARMS`] order.
-    pub fn poses(&self) -> [usize; 3] {
+    /// The arms the study compares, in report order.
+    pub fn arms(&self) -> &[Arm] {
+        &self.arms
+    }
+
+    /// Poses each arm measures, in the order of [`Self::arms`].
+    pub fn poses(&self) -> Vec<usize> {
         let dc = self.pose_sets.per_leg.iter().map(Vec::len).sum();
+        if self.mechanism.instrument.is_some() {
+            return vec![dc; self.arms.len()];
+        }
         let equal = self.pose_sets.shared.len() - self.shared_count;
-        [dc, self.shared_count, equal]
+        vec![dc, self.shared_count, equal]
     }
 
     /// Runs trial `index`.
@@ -387,6 +446,9 @@ impl Study {
     }
 
     fn trial_values(&self, seed: u64) -> Result<TrialValues> {
+        if self.mechanism.instrument.is_some() {
+            return self.instrument_trial_values(seed);
+        }
         let options = SimulationOptions {
             seed: Some(seed),
             noise_scale: self.options.noise_scale,
@@ -402,14 +464,7 @@ impl Study {
         let (small, equal) = shared.split_at(self.shared_count);
         let sets = [labelled, small.to_vec(), equal.to_vec()];
         let real_kinematics = ForwardKinematics::new(&self.mechanism, real);
-        let nominal_map_rms = match &self.fixed_real {
-            Some((fixed, rms)) if fixed == real => *rms,
-            _ => self.map_rms(
-                &self.mechanism.nominal_parameters(),
-                &real_kinematics,
-                &mut self.nominal_joints.clone(),
-            )?,
-        };
+        let nominal_map_rms = self.nominal_map_rms(real, &real_kinematics)?;
         // The commanding joints of the last map, the warm starts of the next one.
         let mut joints = self.nominal_joints.clone();
         let mut arms = Vec::with_capacity(ARMS.len());
@@ -435,8 +490,37 @@ impl Study {
         }
         Ok(TrialValues {
             nominal_map_rms,
+            real: self.real_values(real, &[]),
             arms,
         })
+    }
+
+    /// The real value of every study parameter, from the real legs and instrument parameters.
+    fn real_values(&self, legs: &[Vec<f64>], shared: &[f64]) -> Vec<f64> {
+        self.parameters
+            .iter()
+            .map(|p| match p.of {
+                ParameterOf::Leg { leg, column } => legs[leg][column],
+                ParameterOf::Instrument(k) => shared.get(k).copied().unwrap_or(f64::NAN),
+            })
+            .collect()
+    }
+
+    /// The nominal model's RMS position error over the map against the `real` legs (their
+    /// forward kinematics `real_kinematics`), computed once for the study when they are fixed.
+    fn nominal_map_rms(
+        &self,
+        real: &[Vec<f64>],
+        real_kinematics: &ForwardKinematics<'_>,
+    ) -> Result<f64> {
+        match &self.fixed_real {
+            Some((fixed, rms)) if fixed == real => Ok(*rms),
+            _ => self.map_rms(
+                &self.mechanism.nominal_parameters(),
+                real_kinematics,
+                &mut self.nominal_joints.clone(),
+            ),
+        }
     }
 
     fn arm_trial(
@@ -449,19 +533,22 @@ impl Study {
         let mut errors = Vec::with_capacity(self.parameters.len());
         let mut predicted_std = Vec::with_capacity(self.parameters.len());
         for p in &self.parameters {
-            let leg_name = &self.mechanism.legs[p.leg].name;
+            let ParameterOf::Leg { leg, column } = p.of else {
+                continue;
+            };
+            let leg_name = &self.mechanism.legs[leg].name;
             let estimate = result
                 .legs
                 .iter()
                 .find(|e| &e.leg == leg_name)
-                .map(|e| &e.parameters[p.column])
+                .map(|e| &e.parameters[column])
                 .ok_or_else(|| {
                     Error::Invalid(format!(
                         "{}: leg `{leg_name}` missing",
                         result.strategy.name()
                     ))
                 })?;
-            errors.push(estimate.estimate - real[p.leg][p.column]);
+            errors.push(estimate.estimate - real[leg][column]);
             predicted_std.push(estimate.std.unwrap_or(f64::NAN));
         }
         let identified = result_parameters(&self.mechanism, result);
@@ -473,7 +560,7 @@ impl Study {
     }
 
     /// RMS position error over the map with `commanding` commanding the real mechanism (its
-    /// forward kinematics `real`, prepared once per trial for the four maps); `joints` are the
+    /// forward kinematics `real`, prepared once per trial for every map); `joints` are the
     /// commanding joints of an earlier map, the warm starts of this one's inverse kinematics
     /// (then this map's).
     fn map_rms(
@@ -524,7 +611,8 @@ impl Study {
         let nominal: Vec<f64> = values.iter().map(|v| v.nominal_map_rms).collect();
         let map_of = |a: usize| -> Vec<f64> { values.iter().map(|v| v.arms[a].map_rms).collect() };
         let poses = self.poses();
-        let arms: Vec<ArmSummary> = ARMS
+        let arms: Vec<ArmSummary> = self
+            .arms
             .iter()
             .enumerate()
             .map(|(a, &arm)| ArmSummary {
@@ -546,14 +634,16 @@ impl Study {
                 map_rms: stats::mean_interval(&map_of(a)),
             })
             .collect();
-        let comparisons: Vec<Comparison> = [1, 2]
-            .into_iter()
+        let through = self.mechanism.instrument.is_some();
+        let comparisons: Vec<Comparison> = (1..self.arms.len())
             .map(|b| {
+                let (first, second) = (self.arms[0], self.arms[b]);
                 let difference = stats::paired_difference(&map_of(0), &map_of(b));
+                let equal_poses = poses[b] == poses[0] && !through;
                 Comparison {
-                    first: ARMS[0],
-                    second: ARMS[b],
-                    sentence: verdict_sentence(ARMS[0], ARMS[b], poses[b] == poses[0], &difference),
+                    first,
+                    second,
+                    sentence: verdict_sentence(first, second, equal_poses, &difference),
                     difference,
                 }
             })
@@ -644,6 +734,8 @@ pub fn millimetres(value: f64) -> String {
     format!("{value:.decimals$}")
 }
 
+mod instrument;
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -674,6 +766,22 @@ mod tests {
             neither.contains("0.001000 mm [-0.01000, 0.01200]"),
             "{neither}"
         );
+    }
+
+    #[test]
+    fn the_instrument_arms_are_named_in_the_sentence() {
+        let (joint, two_stage) = (Arm::Joint, Arm::TwoStage);
+        let better = verdict_sentence(joint, two_stage, false, &interval(-2e-3, -3e-3, -1e-3));
+        assert!(
+            better.starts_with("joint is more accurate than two-stage by 2.000 mm [1.000, 3.000]"),
+            "{better}"
+        );
+        let worse = verdict_sentence(joint, two_stage, false, &interval(2e-3, 1e-3, 3e-3));
+        assert!(
+            worse.starts_with("Two-stage is more accurate than joint by 2.000 mm"),
+            "{worse}"
+        );
+        assert_eq!(INSTRUMENT_ARMS.map(Arm::key), ["joint", "two_stage"]);
     }
 
     #[test]

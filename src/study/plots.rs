@@ -5,7 +5,7 @@
 use plotters::coord::Shift;
 use plotters::prelude::*;
 
-use super::montecarlo::{MonteCarlo, ARMS};
+use super::montecarlo::MonteCarlo;
 use crate::model::params::Unit;
 use crate::report::plots::canvas::Figure;
 use crate::report::plots::style;
@@ -150,9 +150,11 @@ pub fn error_distributions(study: &MonteCarlo) -> Histograms {
         .filter_map(|t| t.outcome.as_ref().ok())
         .collect();
     let series = |pick: &dyn Fn(usize) -> Vec<f64>| -> Vec<(String, Vec<f64>)> {
-        ARMS.iter()
+        study
+            .arms
+            .iter()
             .enumerate()
-            .map(|(a, arm)| (arm.name().to_string(), pick(a)))
+            .map(|(a, arm)| (arm.arm.name().to_string(), pick(a)))
             .collect()
     };
     let mut panels = vec![HistogramPanel {

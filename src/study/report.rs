@@ -3,7 +3,7 @@
 
 use serde_json::{json, Value};
 
-use super::montecarlo::{MonteCarlo, Trial, ARMS};
+use super::montecarlo::{Arm, MonteCarlo, Trial};
 use super::stats::Estimate;
 use crate::report::json::{finite, header, merge};
 
@@ -15,11 +15,12 @@ pub fn estimate_json(estimate: &Estimate) -> Value {
     })
 }
 
-fn trial_json(trial: &Trial) -> Value {
+/// One trial as JSON, its arms' values keyed by `arms` (the study's order).
+fn trial_json(trial: &Trial, order: &[Arm]) -> Value {
     match &trial.outcome {
         Ok(values) => {
             let mut arms = serde_json::Map::new();
-            for (arm, values) in ARMS.iter().zip(&values.arms) {
+            for (arm, values) in order.iter().zip(&values.arms) {
                 arms.insert(
                     arm.key().into(),
                     json!({
@@ -34,6 +35,7 @@ fn trial_json(trial: &Trial) -> Value {
                 "seed": trial.seed,
                 "failure": null,
                 "nominal_map_rms_m": finite(values.nominal_map_rms),
+                "real": values.real.iter().map(|&v| finite(v)).collect::<Vec<_>>(),
                 "arms": arms,
             })
         }
@@ -49,6 +51,7 @@ fn trial_json(trial: &Trial) -> Value {
 /// verdict, and every trial.
 pub fn montecarlo_json(study: &MonteCarlo) -> Value {
     let options = &study.options;
+    let arm_order: Vec<Arm> = study.arms.iter().map(|a| a.arm).collect();
     let arms: Vec<Value> = study
         .arms
         .iter()
@@ -110,7 +113,7 @@ pub fn montecarlo_json(study: &MonteCarlo) -> Value {
             "arms": arms,
             "comparisons": comparisons,
             "verdict": study.verdict,
-            "per_trial": study.trials.iter().map(trial_json).collect::<Vec<_>>(),
+            "per_trial": study.trials.iter().map(|t| trial_json(t, &arm_order)).collect::<Vec<_>>(),
         }),
     );
     value

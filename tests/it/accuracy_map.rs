@@ -15,7 +15,7 @@ fn five_bar_real() -> Vec<Vec<f64>> {
 }
 
 /// Closed-form 5R inverse kinematics, elbows out: the readings for the target (x, y).
-fn five_bar_ik(phi: &[Vec<f64>], x: f64, y: f64) -> Option<[f64; 2]> {
+pub(crate) fn five_bar_ik(phi: &[Vec<f64>], x: f64, y: f64) -> Option<[f64; 2]> {
     let mut readings = [0.0; 2];
     for (leg, sign) in [(0, 1.0), (1, -1.0)] {
         let [l, big_l, ax, ay, k, gamma] = phi[leg][..] else {
@@ -36,7 +36,7 @@ fn five_bar_ik(phi: &[Vec<f64>], x: f64, y: f64) -> Option<[f64; 2]> {
 
 /// Closed-form 5R forward kinematics, assembly mode up (P to the left of B1->B2); `None` when
 /// the distal links cannot meet.
-fn five_bar_fk(phi: &[Vec<f64>], readings: [f64; 2]) -> Option<[f64; 2]> {
+pub(crate) fn five_bar_fk(phi: &[Vec<f64>], readings: [f64; 2]) -> Option<[f64; 2]> {
     let elbow = |leg: usize| {
         let [l, _, ax, ay, k, gamma] = phi[leg][..] else {
             unreachable!()

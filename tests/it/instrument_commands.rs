@@ -1,7 +1,6 @@
 //! The commands around `identify` on a model with an instrument block: `simulate` writes what
 //! the instrument reports (read back by `identify --measurements`), `select` writes the poses
-//! to command with the target and reading columns to fill in, `evaluate` and `montecarlo`
-//! refuse the model with exit 2.
+//! to command with the target and reading columns to fill in.
 use std::path::Path;
 
 use legwise::measure::observations::to_csv;
@@ -206,49 +205,4 @@ fn select_writes_the_poses_to_command_and_the_columns_to_fill_in_which_identify_
     let csv = directory.path().join("filled.csv");
     std::fs::write(&csv, filled).unwrap();
     assert_recovered_through(model, &csv, &observed.real, &observed.real_shared);
-}
-
-#[test]
-fn evaluate_and_montecarlo_refuse_a_model_with_an_instrument_block() {
-    let directory = tempfile::tempdir().unwrap();
-    let csv = directory.path().join("f.csv");
-    std::fs::write(&csv, "leg,x,y,A1,A2\n,0,1,0,0\n").unwrap();
-    let runs: [&[&str]; 3] = [
-        &[
-            "evaluate",
-            "--model",
-            "models/5r-tracker.yaml",
-            "--measurements",
-            csv.to_str().unwrap(),
-        ],
-        &[
-            "evaluate",
-            "--model",
-            "models/5r.yaml",
-            "--against",
-            "models/5r-tracker.yaml",
-            "--measurements",
-            csv.to_str().unwrap(),
-        ],
-        &[
-            "montecarlo",
-            "--model",
-            "models/5r-tracker.yaml",
-            "--trials",
-            "2",
-        ],
-    ];
-    for args in runs {
-        let out = legwise(args);
-        let stderr = text(&out.stderr);
-        assert_eq!(out.status.code(), Some(2), "{args:?}: {stderr}");
-        assert!(
-            stderr.contains(&format!(
-                "legwise {}: models/5r-tracker.yaml: not available for a model with an instrument block",
-                args[0]
-            )),
-            "{stderr}"
-        );
-        assert!(out.stdout.is_empty());
-    }
 }

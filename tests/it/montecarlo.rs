@@ -9,15 +9,15 @@ use serde_json::Value;
 use crate::cli::{assert_fails_with, text};
 
 /// Trials of the quick studies (with the printed quantiles below for n − 1 = 5).
-const TRIALS: usize = 6;
+pub(crate) const TRIALS: usize = 6;
 /// Student's t 0.975 quantile, 5 degrees of freedom (printed tables).
-const T_5: f64 = 2.570_582;
+pub(crate) const T_5: f64 = 2.570_582;
 /// χ² quantiles 0.025 and 0.975, 5 degrees of freedom.
-const CHI2_5: (f64, f64) = (0.831_211_6, 12.832_502);
+pub(crate) const CHI2_5: (f64, f64) = (0.831_211_6, 12.832_502);
 
 /// Runs `legwise montecarlo` with `threads` rayon threads and returns its JSON (standard
 /// output) as text.
-fn montecarlo_json(model: &str, threads: usize, extra: &[&str]) -> String {
+pub(crate) fn montecarlo_json(model: &str, threads: usize, extra: &[&str]) -> String {
     let trials = TRIALS.to_string();
     let mut args = vec![
         "montecarlo",
@@ -46,7 +46,7 @@ fn montecarlo_json(model: &str, threads: usize, extra: &[&str]) -> String {
     text(&out.stdout)
 }
 
-fn numbers(value: &Value) -> Vec<f64> {
+pub(crate) fn numbers(value: &Value) -> Vec<f64> {
     value
         .as_array()
         .expect("an array")
@@ -56,19 +56,19 @@ fn numbers(value: &Value) -> Vec<f64> {
 }
 
 /// `(value, low, high)` of an estimate in the report.
-fn estimate(value: &Value) -> (f64, f64, f64) {
+pub(crate) fn estimate(value: &Value) -> (f64, f64, f64) {
     let ci = numbers(&value["ci95"]);
     (value["value"].as_f64().expect("value"), ci[0], ci[1])
 }
 
-fn close(a: f64, b: f64, what: &str) {
+pub(crate) fn close(a: f64, b: f64, what: &str) {
     assert!(
         (a - b).abs() <= 1e-6 * b.abs() + 1e-18,
         "{what}: reported {a}, recomputed {b}"
     );
 }
 
-fn assert_estimate(reported: &Value, recomputed: (f64, f64, f64), what: &str) {
+pub(crate) fn assert_estimate(reported: &Value, recomputed: (f64, f64, f64), what: &str) {
     let (v, l, h) = estimate(reported);
     close(v, recomputed.0, &format!("{what} value"));
     close(l, recomputed.1, &format!("{what} low"));
@@ -76,7 +76,7 @@ fn assert_estimate(reported: &Value, recomputed: (f64, f64, f64), what: &str) {
 }
 
 /// Mean with its t interval, computed here with the printed quantile.
-fn t_interval(x: &[f64]) -> (f64, f64, f64) {
+pub(crate) fn t_interval(x: &[f64]) -> (f64, f64, f64) {
     assert_eq!(x.len(), TRIALS);
     let n = x.len() as f64;
     let m = x.iter().sum::<f64>() / n;
