@@ -259,7 +259,8 @@ impl<'a> SharedProblem<'a> {
             for ((group, phi), values) in self.groups.iter().zip(&phis).zip(&evaluation.groups) {
                 let leg = &self.mechanism.legs[group.leg];
                 let geometry = leg.geometry(phi);
-                for (row, solution) in group.rows.iter().zip(&values.solutions) {
+                let rows = group.rows.iter().zip(&values.poses).zip(&values.solutions);
+                for ((row, pose), solution) in rows {
                     let c = attachment_gradient(
                         leg.actuated,
                         leg.closure_dims,
@@ -269,7 +270,7 @@ impl<'a> SharedProblem<'a> {
                     self.observed_gradient(
                         &shared,
                         &row.observed,
-                        &geometry.attachment,
+                        (pose, &geometry.attachment),
                         &c,
                         &mut gradient,
                     );

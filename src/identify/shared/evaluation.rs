@@ -14,19 +14,24 @@
 
 use nalgebra::{Const, DMatrix, U1};
 use num_dual::{Dual64, DualSVec64};
+use rayon::prelude::*;
 
 use super::SharedProblem;
 use crate::identify::jacobian::PreparedLeg;
-use crate::kinematics::chain::attachment_world;
 use crate::kinematics::inverse::{Joints, Solution};
 use crate::measure::targets::{platform_pose, platform_pose_from};
-use crate::scalar::lift;
 
 /// Latest evaluations kept (the solvers evaluate the blocks where they last evaluated the
 /// residuals; the refinement may end on a rejected point after the estimate).
 const KEPT_EVALUATIONS: usize = 2;
 
-/// Lanes of one dual pass over the shared parameters in the pose fit.
+/// Fewest rows (of the groups to evaluate) for which the groups are evaluated in parallel:
+/// below, one group's evaluation takes tens of microseconds, and handing it to another thread
+/// costs more than it saves on a busy machine.
+const PARALLEL_ROWS: usize = 512;
+
+/// Most lanes of one dual pass over the shared parameters in the pose fit (fewer shared
+/// parameters take as many lanes as there are).
 const SHARED_LANES: usize = 8;
 
 /// A problem's evaluation state: shared by its clones (a solver clones its problem and refines
@@ -53,6 +58,8 @@ pub(super) struct Evaluation {
 /// One group's rows at one evaluation.
 #[derive(Debug)]
 pub(super) struct GroupValues {
+    /// Each row's platform pose fitted from its target coordinates.
+    pub(super) poses: Vec<[f64; 6]>,
     /// Each row's inverse-kinematics solution at its fitted pose.
     pub(super) solutions: Vec<Solution>,
     /// Each row's predicted reading.
@@ -116,25 +123,60 @@ impl SharedProblem<'_> {
         let kept = state.recent.iter().position(|e| e.x == key);
         let shared = self.shared_values_of(x);
         let phis = self.leg_parameters_of(x);
-        let mut evaluation = match kept {
-            Some(i) => state.recent.remove(i),
-            None => {
-                let groups = state
-                    .seeds
-                    .iter_mut()
-                    .enumerate()
-                    .map(|(g, seeds)| self.solve_group(g, &phis[g], &shared, seeds))
-                    .collect::<Result<_, _>>()?;
-                Evaluation { x: key, groups }
-            }
+        let mut kept: Vec<Option<GroupValues>> = match kept {
+            Some(i) => state
+                .recent
+                .remove(i)
+                .groups
+                .into_iter()
+                .map(Some)
+                .collect(),
+            None => self.groups.iter().map(|_| None).collect(),
         };
-        if derivatives {
-            for (g, values) in evaluation.groups.iter_mut().enumerate() {
-                if values.derivatives.is_none() {
-                    values.derivatives = Some(self.group_derivatives(g, &phis[g], &shared, values));
-                }
+        let work = |g: usize, seeds: &mut [Option<Joints>], values: Option<GroupValues>| {
+            let mut values = match values {
+                Some(values) => values,
+                None => self.solve_group(g, &phis[g], &shared, seeds)?,
+            };
+            if derivatives && values.derivatives.is_none() {
+                values.derivatives = Some(self.group_derivatives(g, &phis[g], &shared, &values));
             }
-        }
+            Ok::<_, String>(values)
+        };
+        let pending: Vec<usize> = kept
+            .iter()
+            .zip(&self.groups)
+            .filter(|(v, _)| {
+                v.as_ref()
+                    .is_none_or(|v| derivatives && v.derivatives.is_none())
+            })
+            .map(|(_, group)| group.rows.len())
+            .collect();
+        // The groups in parallel (rayon) when more than one has work to do and there are
+        // enough rows to pay for it; each group's values depend only on its own rows and
+        // seeds, so not on the number of threads. The first error in group order.
+        let parallel = pending.len() > 1 && pending.iter().sum::<usize>() >= PARALLEL_ROWS;
+        let results: Vec<Result<GroupValues, String>> = if parallel {
+            state
+                .seeds
+                .par_iter_mut()
+                .zip(kept.par_iter_mut())
+                .enumerate()
+                .map(|(g, (seeds, values))| work(g, seeds, values.take()))
+                .collect()
+        } else {
+            state
+                .seeds
+                .iter_mut()
+                .zip(kept.iter_mut())
+                .enumerate()
+                .map(|(g, (seeds, values))| work(g, seeds, values.take()))
+                .collect()
+        };
+        let evaluation = Evaluation {
+            x: key,
+            groups: results.into_iter().collect::<Result<_, _>>()?,
+        };
         let value = read(&evaluation);
         state.recent.insert(0, evaluation);
         state.recent.truncate(KEPT_EVALUATIONS);
@@ -156,6 +198,7 @@ impl SharedProblem<'_> {
         let prepared = PreparedLeg::new(leg, phi, &[]);
         let m = group.rows.len();
         let mut values = GroupValues {
+            poses: Vec::with_capacity(m),
             solutions: Vec::with_capacity(m),
             predicted: Vec::with_capacity(m),
             derivatives: None,
@@ -176,6 +219,7 @@ impl SharedProblem<'_> {
             *seed = Some(solution.q);
             values.predicted.push(prepared.reading_of(&solution));
             values.solutions.push(solution);
+            values.poses.push(pose);
         }
         Ok(values)
     }
@@ -192,93 +236,157 @@ impl SharedProblem<'_> {
     ) -> (DMatrix<f64>, DMatrix<f64>) {
         let group = &self.groups[g];
         let leg = &self.mechanism.legs[group.leg];
-        let home = &self.mechanism.home_pose;
         let prepared = PreparedLeg::new(leg, phi, &group.columns);
-        let geometry = leg.geometry(phi);
-        let (m, n, s) = (group.rows.len(), group.columns.len(), self.shared.len());
+        let (m, n) = (group.rows.len(), group.columns.len());
         let mut own = DMatrix::zeros(m, n);
-        let mut border = DMatrix::zeros(m, s);
         let mut gradient = vec![0.0; n];
-        let mut shared_row = vec![0.0; s];
-        for (i, (row, solution)) in group.rows.iter().zip(&values.solutions).enumerate() {
-            let pose = platform_pose::<f64>(self.instrument, shared, &row.observed, home);
-            if n > 0 {
-                prepared.reading_and_gradient_of(&pose, solution, &mut gradient);
+        if n > 0 {
+            for (i, (pose, solution)) in values.poses.iter().zip(&values.solutions).enumerate() {
+                prepared.reading_and_gradient_of(pose, solution, &mut gradient);
                 for (k, &v) in gradient.iter().enumerate() {
                     own[(i, k)] = v;
                 }
             }
-            if s > 0 {
-                let c =
-                    attachment_gradient(leg.actuated, leg.closure_dims, geometry.gain, solution);
-                self.shared_gradient(
-                    shared,
-                    &row.observed,
-                    &geometry.attachment,
-                    &c,
-                    &mut shared_row,
-                );
-                for (k, &v) in shared_row.iter().enumerate() {
-                    border[(i, k)] = v;
-                }
-            }
         }
+        let border = match self.shared.len() {
+            0 => DMatrix::zeros(m, 0),
+            1 => self.border_columns::<1>(g, phi, shared, values),
+            2 => self.border_columns::<2>(g, phi, shared, values),
+            3 => self.border_columns::<3>(g, phi, shared, values),
+            4 => self.border_columns::<4>(g, phi, shared, values),
+            5 => self.border_columns::<5>(g, phi, shared, values),
+            6 => self.border_columns::<6>(g, phi, shared, values),
+            7 => self.border_columns::<7>(g, phi, shared, values),
+            _ => self.border_columns::<SHARED_LANES>(g, phi, shared, values),
+        };
         (own, border)
     }
 
-    /// `Σ_k c_k ∂X_k/∂s` for every identified shared parameter, into `out`: `X` the world
-    /// position of `attachment` at the pose fitted from `observed` (dual passes of up to
-    /// [`SHARED_LANES`] shared parameters).
-    fn shared_gradient(
+    /// Group `g`'s `∂ψ/∂shared` (rows × identified shared parameters): per row,
+    /// `Σ_k c_k ∂X_k/∂s` with `X` the world position of the leg's attachment at the pose fitted
+    /// from the row's targets, by dual passes of up to `N` shared parameters through the pose
+    /// fit and the attachment.
+    fn border_columns<const N: usize>(
         &self,
+        g: usize,
+        phi: &[f64],
         shared: &[f64],
-        observed: &[f64],
-        attachment: &[f64; 3],
-        c: &[f64; 3],
-        out: &mut [f64],
-    ) {
+        values: &GroupValues,
+    ) -> DMatrix<f64> {
+        let group = &self.groups[g];
+        let leg = &self.mechanism.legs[group.leg];
         let home = &self.mechanism.home_pose;
-        let attachment = attachment.map(lift::<DualSVec64<SHARED_LANES>>);
-        for (chunk, out) in self
+        let geometry = leg.geometry(phi);
+        let mut border = DMatrix::zeros(group.rows.len(), self.shared.len());
+        // The shared values seeded, `N` identified ones at a time (the same for every row).
+        let passes: Vec<(usize, Vec<DualSVec64<N>>)> = self
             .shared
-            .chunks(SHARED_LANES)
-            .zip(out.chunks_mut(SHARED_LANES))
-        {
-            let mut s: Vec<DualSVec64<SHARED_LANES>> =
-                shared.iter().map(|&v| DualSVec64::from_re(v)).collect();
-            for (lane, &k) in chunk.iter().enumerate() {
-                s[k] = s[k].derivative(lane);
-            }
-            let pose = platform_pose(self.instrument, &s, observed, home);
-            let target = attachment_world(&pose, &attachment);
-            let lanes: [_; 3] =
-                std::array::from_fn(|k| target[k].eps.unwrap_generic(Const::<SHARED_LANES>, U1));
-            for (lane, value) in out.iter_mut().enumerate() {
-                *value = (0..3).map(|k| c[k] * lanes[k][lane]).sum();
+            .chunks(N)
+            .enumerate()
+            .map(|(pass, chunk)| {
+                let mut s: Vec<DualSVec64<N>> =
+                    shared.iter().map(|&v| DualSVec64::from_re(v)).collect();
+                for (lane, &k) in chunk.iter().enumerate() {
+                    s[k] = s[k].derivative(lane);
+                }
+                (pass * N, s)
+            })
+            .collect();
+        let rows = group.rows.iter().zip(&values.poses).zip(&values.solutions);
+        for (i, ((row, pose), solution)) in rows.enumerate() {
+            let c = attachment_gradient(leg.actuated, leg.closure_dims, geometry.gain, solution);
+            let d = pose_gradient(&c, pose, &geometry.attachment);
+            for (first, s) in &passes {
+                let fitted = platform_pose(self.instrument, s, &row.observed, home);
+                let lanes: [_; 6] =
+                    std::array::from_fn(|k| fitted[k].eps.unwrap_generic(Const::<N>, U1));
+                let count = N.min(self.shared.len() - first);
+                for lane in 0..count {
+                    border[(i, first + lane)] = (0..6).map(|k| d[k] * lanes[k][lane]).sum();
+                }
             }
         }
+        border
     }
 
     /// The reading's derivative with respect to each of `observed`'s coordinates at a solved
-    /// row (`c` from [`attachment_gradient`]), into `out`.
+    /// row (`c` from [`attachment_gradient`], `pose` the row's fitted pose), into `out`.
     pub(super) fn observed_gradient(
         &self,
         shared: &[f64],
         observed: &[f64],
-        attachment: &[f64; 3],
+        (pose, attachment): (&[f64; 6], &[f64; 3]),
         c: &[f64; 3],
         out: &mut [f64],
     ) {
         let home = &self.mechanism.home_pose;
+        let d = pose_gradient(c, pose, attachment);
         let lifted: Vec<Dual64> = shared.iter().map(|&v| Dual64::from(v)).collect();
-        let attachment = attachment.map(lift::<Dual64>);
         let mut m: Vec<Dual64> = observed.iter().map(|&v| Dual64::from(v)).collect();
         for (i, value) in out.iter_mut().enumerate() {
             m[i] = m[i].derivative();
-            let pose = platform_pose_from(self.instrument, &lifted, &m, home);
+            let fitted = platform_pose_from(self.instrument, &lifted, &m, home);
             m[i] = Dual64::from(observed[i]);
-            let target = attachment_world(&pose, &attachment);
-            *value = (0..3).map(|k| c[k] * target[k].eps).sum();
+            *value = (0..6).map(|k| d[k] * fitted[k].eps).sum();
+        }
+    }
+}
+
+/// `∂ψ/∂P`, the reading's derivative with respect to the platform pose
+/// `P = [x, y, z, roll, pitch, yaw]` at `pose`, from `c = ∂ψ/∂X` (the attachment's world
+/// position `X = p + R(P) a`, [`attachment_gradient`]) and the attachment `a` in the platform
+/// frame: `∂X/∂p = I`, and with `R = R_z(yaw) R_y(pitch) R_x(roll)` (the platform transform's
+/// convention), `∂X/∂roll = R_z R_y (e_x × R_x a)`, `∂X/∂pitch = R_z (e_y × R_y R_x a)`,
+/// `∂X/∂yaw = e_z × R a`.
+pub(super) fn pose_gradient(c: &[f64; 3], pose: &[f64; 6], attachment: &[f64; 3]) -> [f64; 6] {
+    let (sr, cr) = pose[3].sin_cos();
+    let (sp, cp) = pose[4].sin_cos();
+    let (sy, cy) = pose[5].sin_cos();
+    let rx = |v: [f64; 3]| [v[0], cr * v[1] - sr * v[2], sr * v[1] + cr * v[2]];
+    let ry = |v: [f64; 3]| [cp * v[0] + sp * v[2], v[1], -sp * v[0] + cp * v[2]];
+    let rz = |v: [f64; 3]| [cy * v[0] - sy * v[1], sy * v[0] + cy * v[1], v[2]];
+    let dot = |v: [f64; 3]| c[0] * v[0] + c[1] * v[1] + c[2] * v[2];
+    let a1 = rx(*attachment);
+    let a2 = ry(a1);
+    let a3 = rz(a2);
+    // e_x × v = (0, −v_z, v_y); e_y × v = (v_z, 0, −v_x); e_z × v = (−v_y, v_x, 0).
+    let roll = rz(ry([0.0, -a1[2], a1[1]]));
+    let pitch = rz([a2[2], 0.0, -a2[0]]);
+    let yaw = [-a3[1], a3[0], 0.0];
+    [c[0], c[1], c[2], dot(roll), dot(pitch), dot(yaw)]
+}
+
+#[cfg(test)]
+mod tests {
+    use nalgebra::{Const, U1};
+    use num_dual::DualSVec64;
+
+    use super::pose_gradient;
+    use crate::kinematics::chain::attachment_world;
+
+    #[test]
+    fn the_pose_gradient_is_the_dual_derivative_of_the_attachments_world_position() {
+        let c = [0.3, -1.7, 0.9];
+        let attachment = [0.12, -0.05, 0.31];
+        for pose in [
+            [0.1, 1.2, 0.0, 0.0, 0.0, 0.4],
+            [0.3, -0.2, 0.7, 0.25, -0.6, 2.9],
+            [-1.0, 0.5, 0.2, -1.2, 1.1, -0.3],
+        ] {
+            let seeded: [DualSVec64<6>; 6] =
+                std::array::from_fn(|k| DualSVec64::from_re(pose[k]).derivative(k));
+            let a = attachment.map(DualSVec64::<6>::from_re);
+            let x = attachment_world(&seeded, &a);
+            let d = pose_gradient(&c, &pose, &attachment);
+            for (k, value) in d.iter().enumerate() {
+                let expected: f64 = (0..3)
+                    .map(|i| c[i] * x[i].eps.unwrap_generic(Const::<6>, U1)[k])
+                    .sum();
+                assert!(
+                    (value - expected).abs() <= 1e-14,
+                    "pose {pose:?}, coordinate {k}: {value} against {expected}"
+                );
+            }
         }
     }
 }
