@@ -7,7 +7,7 @@
 //! residual at that pose (matched modulo one turn as in [`super::problem`]). Its derivatives:
 //! with respect to the leg's own parameters, the dual pass of
 //! [`PreparedLeg`](super::jacobian::PreparedLeg); with respect to `s`, the chain rule through
-//! the reading's Newton step and the pose fit ([`evaluation`]). The latest evaluations are
+//! the reading's Newton step and the pose fit (docs/method.md §13). The latest evaluations are
 //! kept, so that the blocks evaluated where the residuals were cost the derivative passes
 //! only. Each leg's rows are one group: divide and conquer's per-leg structure is kept, and a
 //! Schur-complement Levenberg–Marquardt factors each leg's block on its own

@@ -1,7 +1,8 @@
 //! The evaluations of a [`SharedProblem`]: each row's fitted platform pose, inverse-kinematics
 //! solution and predicted reading at one unknowns vector, and (once asked for) the reading's
-//! derivatives; the latest two kept, keyed by the exact bits of the unknowns, as
-//! [`crate::identify::problem::IdentificationProblem`] does for divide and conquer.
+//! derivatives; the latest two kept (problems of up to [`KEPT_ROWS`] rows), keyed by the exact
+//! bits of the unknowns, as [`crate::identify::problem::IdentificationProblem`] does for
+//! divide and conquer.
 //!
 //! A solver evaluates the blocks where it last evaluated the residuals: the blocks then cost
 //! the derivative passes only. With respect to a leg's own parameters, the dual pass of
@@ -9,8 +10,8 @@
 //! reading's Newton step: at a converged solution the reading is
 //! `ψ = (q_a − Σ_k c_k (tip_k − X_k) − offset) / gain` (`c` the actuated row of the closure
 //! Jacobian's inverse), and only the attachment's world position `X` depends on `s` (through
-//! the fitted pose), so `∂ψ/∂s = Σ_k c_k ∂X_k/∂s / gain`, with `∂X/∂s` from one dual pass
-//! through the pose fit and the attachment (no pass through the chain).
+//! the fitted pose `P`), so `∂ψ/∂s = Σ_k c_k/gain · ∂X_k/∂P · ∂P/∂s`: `∂X/∂P` in closed form
+//! ([`pose_gradient`]), `∂P/∂s` from the pose fit in dual numbers. No pass through the chain.
 
 use nalgebra::{Const, DMatrix, U1};
 use num_dual::{Dual64, DualSVec64};
@@ -24,6 +25,10 @@ use crate::measure::targets::{platform_pose, platform_pose_from};
 /// Latest evaluations kept (the solvers evaluate the blocks where they last evaluated the
 /// residuals; the refinement may end on a rejected point after the estimate).
 const KEPT_EVALUATIONS: usize = 2;
+
+/// Largest problem (in rows, over all groups) whose evaluations are kept (about 200 bytes a
+/// row each, with the derivatives); a larger one evaluates again at every call, warm-started.
+const KEPT_ROWS: usize = 65_536;
 
 /// Fewest rows (of the groups to evaluate) for which the groups are evaluated in parallel:
 /// below, one group's evaluation takes tens of microseconds, and handing it to another thread
@@ -178,8 +183,10 @@ impl SharedProblem<'_> {
             groups: results.into_iter().collect::<Result<_, _>>()?,
         };
         let value = read(&evaluation);
-        state.recent.insert(0, evaluation);
-        state.recent.truncate(KEPT_EVALUATIONS);
+        if self.groups.iter().map(|g| g.rows.len()).sum::<usize>() <= KEPT_ROWS {
+            state.recent.insert(0, evaluation);
+            state.recent.truncate(KEPT_EVALUATIONS);
+        }
         Ok(value)
     }
 
