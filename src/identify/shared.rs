@@ -5,31 +5,33 @@
 //! At row `j` of leg `i`, the platform pose is fitted from the row's target coordinates at the
 //! current shared parameters `s` ([`platform_pose`]), and the residual is the leg's reading
 //! residual at that pose (matched modulo one turn as in [`super::problem`]). Its derivatives:
-//! with respect to the leg's own parameters, the dual pass of [`PreparedLeg`]; with respect to
-//! `s`, the chain rule `∂ψ/∂P · ∂P/∂s`, both factors from dual numbers (the pose gradient of the
-//! reading in one static-dual pass over the six pose coordinates, `∂P/∂s` by seeding one shared
-//! parameter at a time in the pose fit). Each leg's rows are one group: divide and conquer's
-//! per-leg structure is kept, and a Schur-complement Levenberg–Marquardt factors each leg's
-//! block on its own ([`crate::solver::solve_bordered`]).
+//! with respect to the leg's own parameters, the dual pass of
+//! [`PreparedLeg`](super::jacobian::PreparedLeg); with respect to `s`, the chain rule through
+//! the reading's Newton step and the pose fit (docs/method.md §13). The latest evaluations are
+//! kept, so that the blocks evaluated where the residuals were cost the derivative passes
+//! only. Each leg's rows are one group: divide and conquer's per-leg structure is kept, and a
+//! Schur-complement Levenberg–Marquardt factors each leg's block on its own
+//! ([`crate::solver::solve_bordered`]).
+//!
+//! [`platform_pose`]: crate::measure::targets::platform_pose
 
-use std::sync::Mutex;
+use std::sync::{Arc, Mutex};
 
 use argmin::core::{Error as ArgminError, Operator};
-use nalgebra::{Const, DMatrix, DVector, U1};
-use num_dual::{Dual64, DualSVec64};
+use nalgebra::{DMatrix, DVector};
 
-use super::jacobian::PreparedLeg;
 use super::residual::{turn_in_reading_units, turns};
 use crate::error::{Error, Result};
-use crate::kinematics::chain::{attachment_world, ChainFrames};
-use crate::kinematics::inverse::{reading_at, reading_at_solution, Joints};
 use crate::measure::observations::{instrument_of, Observations};
-use crate::measure::targets::{platform_pose, platform_pose_from};
 use crate::model::instrument::Instrument;
 use crate::model::mechanism::MeasurementNoise;
 use crate::model::params::ParamTarget;
 use crate::model::Mechanism;
 use crate::solver::bordered::{BorderedBlock, BorderedLayout, BorderedLeastSquares};
+
+mod evaluation;
+
+use evaluation::{attachment_gradient, Evaluations};
 
 /// One row of one leg: the targets' coordinates and the leg's reading.
 #[derive(Debug, Clone)]
@@ -58,30 +60,11 @@ pub struct SharedProblem<'a> {
     shared: Vec<usize>,
     /// Every shared value, the ones not identified held there (nominal unless set).
     fixed: Vec<f64>,
-    /// Each row's last inverse-kinematics solution, the warm start of its next evaluation.
-    warm: WarmStarts,
-}
-
-/// Per group, each row's joints at its last solved evaluation (`None` before the first). A
-/// value of its problem: a clone copies it.
-#[derive(Debug, Default)]
-struct WarmStarts(Mutex<Vec<Vec<Option<Joints>>>>);
-
-impl Clone for WarmStarts {
-    fn clone(&self) -> Self {
-        let seeds = self.0.lock().unwrap_or_else(|e| e.into_inner());
-        Self(Mutex::new(seeds.clone()))
-    }
-}
-
-/// Lanes of one dual pass over the shared parameters in the pose fit.
-const SHARED_LANES: usize = 8;
-
-/// What one row's evaluation produces.
-struct RowValue {
-    residual: f64,
-    own: Vec<f64>,
-    shared: Vec<f64>,
+    /// Each row's last inverse-kinematics solution (the warm start of its next evaluation)
+    /// and the latest evaluations, shared by the problem's clones (a solver clones its
+    /// problem and refines on the original); a problem derived with other rows, columns or
+    /// held values starts its own.
+    state: Arc<Mutex<Evaluations>>,
 }
 
 impl<'a> SharedProblem<'a> {
@@ -122,7 +105,7 @@ impl<'a> SharedProblem<'a> {
             groups,
             shared: instrument.identified(),
             fixed: instrument.nominal(),
-            warm: WarmStarts::default(),
+            state: Arc::default(),
         })
     }
 
@@ -133,6 +116,7 @@ impl<'a> SharedProblem<'a> {
         Self {
             shared: Vec::new(),
             fixed: values.to_vec(),
+            state: Arc::default(),
             ..self.clone()
         }
     }
@@ -141,6 +125,7 @@ impl<'a> SharedProblem<'a> {
     /// parameters are unknown (the two-stage alternative's registration of the frame).
     pub fn with_legs_fixed(&self) -> Self {
         let mut problem = self.clone();
+        problem.state = Arc::default();
         for group in &mut problem.groups {
             group.columns.clear();
         }
@@ -150,6 +135,7 @@ impl<'a> SharedProblem<'a> {
     /// The same problem on the first `count` rows of every leg only.
     pub fn with_rows(&self, count: usize) -> Self {
         let mut problem = self.clone();
+        problem.state = Arc::default();
         for group in &mut problem.groups {
             group.rows.truncate(count);
         }
@@ -208,6 +194,11 @@ impl<'a> SharedProblem<'a> {
 
     /// Every shared parameter's value at `x` (the ones not identified at their held values).
     pub fn shared_values(&self, x: &DVector<f64>) -> Vec<f64> {
+        self.shared_values_of(x.as_slice())
+    }
+
+    /// [`Self::shared_values`] of the unknowns `x` as a slice.
+    fn shared_values_of(&self, x: &[f64]) -> Vec<f64> {
         let mut values = self.fixed.clone();
         let offset = x.len() - self.shared.len();
         for (i, &k) in self.shared.iter().enumerate() {
@@ -218,6 +209,11 @@ impl<'a> SharedProblem<'a> {
 
     /// Every leg's full parameter vector at `x` (fixed parameters at nominal), one per group.
     pub fn leg_parameters(&self, x: &DVector<f64>) -> Vec<Vec<f64>> {
+        self.leg_parameters_of(x.as_slice())
+    }
+
+    /// [`Self::leg_parameters`] of the unknowns `x` as a slice.
+    fn leg_parameters_of(&self, x: &[f64]) -> Vec<Vec<f64>> {
         let mut offset = 0;
         self.groups
             .iter()
@@ -232,101 +228,10 @@ impl<'a> SharedProblem<'a> {
             .collect()
     }
 
-    /// Residuals, and (if `derivatives`) the Jacobian rows, of group `g` at leg parameters
-    /// `phi` and all shared values `shared`.
-    fn group_rows(
-        &self,
-        g: usize,
-        phi: &[f64],
-        shared: &[f64],
-        derivatives: bool,
-    ) -> std::result::Result<Vec<RowValue>, ArgminError> {
-        let group = &self.groups[g];
-        let leg = &self.mechanism.legs[group.leg];
-        let home = &self.mechanism.home_pose;
-        let columns: &[usize] = if derivatives { &group.columns } else { &[] };
-        let prepared = PreparedLeg::new(leg, phi, columns);
-        let lifted_phi: Vec<DualSVec64<SHARED_LANES>> =
-            phi.iter().map(|&v| DualSVec64::from_re(v)).collect();
-        let lifted = leg.geometry(&lifted_phi);
-        let frames = ChainFrames::new(&lifted);
-        let gain = leg.geometry(phi).gain;
-        let revolute = leg.actuated_is_revolute();
-        let gain_column = group
-            .columns
-            .iter()
-            .position(|&c| leg.params[c].target == ParamTarget::Gain);
-        let mut warm = self.warm.0.lock().unwrap_or_else(|e| e.into_inner());
-        if warm.len() != self.groups.len() {
-            *warm = self
-                .groups
-                .iter()
-                .map(|g| vec![None; g.rows.len()])
-                .collect();
-        }
-        let seeds = &mut warm[g];
-        seeds.resize(group.rows.len(), None);
-        group
-            .rows
-            .iter()
-            .zip(seeds.iter_mut())
-            .map(|(row, seed)| {
-                let pose = platform_pose::<f64>(self.instrument, shared, &row.observed, home);
-                let solution =
-                    prepared
-                        .solve_warm(&pose, home, seed.as_ref())
-                        .map_err(|source| {
-                            let location = row
-                                .line
-                                .map_or(String::new(), |l| format!(" (measurement line {l})"));
-                            ArgminError::msg(format!(
-                                "leg `{}` at the pose fitted from the targets{location}: {source}",
-                                leg.name
-                            ))
-                        })?;
-                *seed = Some(solution.q);
-                let mut own = vec![0.0; columns.len()];
-                let predicted = if derivatives {
-                    prepared.reading_and_gradient_of(&pose, &solution, &mut own)
-                } else {
-                    prepared.reading_of(&solution)
-                };
-                let n = turns(predicted, row.reading, gain, revolute);
-                let turn = turn_in_reading_units(gain);
-                if let (Some(k), true, true) = (gain_column, n != 0.0, derivatives) {
-                    own[k] += n * turn / gain;
-                }
-                let residual = predicted - row.reading - n * turn;
-                let mut shared_row = Vec::new();
-                if derivatives {
-                    // ∂ψ/∂s: the pose fit and the reading's Newton step in one dual pass, up to
-                    // eight shared parameters on their own lanes (the chain frames lifted once).
-                    for chunk in self.shared.chunks(SHARED_LANES) {
-                        let mut s: Vec<DualSVec64<SHARED_LANES>> =
-                            shared.iter().map(|&v| DualSVec64::from_re(v)).collect();
-                        for (lane, &k) in chunk.iter().enumerate() {
-                            s[k] = s[k].derivative(lane);
-                        }
-                        let pose = platform_pose(self.instrument, &s, &row.observed, home);
-                        let target = attachment_world(&pose, &lifted.attachment);
-                        let reading = reading_at(leg, &frames, &lifted, &target, &solution);
-                        let lanes = reading.eps.unwrap_generic(Const::<SHARED_LANES>, U1);
-                        shared_row.extend(lanes.iter().take(chunk.len()));
-                    }
-                }
-                Ok(RowValue {
-                    residual,
-                    own,
-                    shared: shared_row,
-                })
-            })
-            .collect()
-    }
-
     /// Expected variance of every residual at `x` (rows in group order) under the declared
     /// `noise`: `σ_q² + Σ_i (∂ψ/∂m_i)² σ_i²` over the row's target coordinates `m_i` (σ of the
-    /// coordinate of the same name: x, y, z, roll, pitch, yaw), `∂ψ/∂m_i = ∂ψ/∂P · ∂P/∂m_i` by
-    /// dual numbers.
+    /// coordinate of the same name: x, y, z, roll, pitch, yaw), `∂ψ/∂m_i` by the chain rule
+    /// through the reading's Newton step and the pose fit (dual numbers in `m_i`).
     ///
     /// # Errors
     /// A leg cannot reach a fitted pose.
@@ -336,7 +241,6 @@ impl<'a> SharedProblem<'a> {
         noise: &MeasurementNoise,
     ) -> std::result::Result<Vec<f64>, ArgminError> {
         let shared = self.shared_values(x);
-        let lifted: Vec<Dual64> = shared.iter().map(|&v| Dual64::from(v)).collect();
         let sigmas: Vec<f64> = self
             .instrument
             .targets
@@ -344,43 +248,39 @@ impl<'a> SharedProblem<'a> {
             .flat_map(|t| t.pose_indices())
             .map(|&c| noise.pose[c])
             .collect();
-        let home = &self.mechanism.home_pose;
+        let phis = self.leg_parameters(x);
         let mut variances = Vec::new();
-        let warm = self
-            .warm
-            .0
-            .lock()
-            .unwrap_or_else(|e| e.into_inner())
-            .clone();
-        for (g, (group, phi)) in self.groups.iter().zip(self.leg_parameters(x)).enumerate() {
-            let leg = &self.mechanism.legs[group.leg];
-            let prepared = PreparedLeg::new(leg, &phi, &[]);
-            let dual_phi: Vec<DualSVec64<6>> =
-                phi.iter().map(|&v| DualSVec64::from_re(v)).collect();
-            let dual_geometry = leg.geometry(&dual_phi);
-            for (j, row) in group.rows.iter().enumerate() {
-                let pose = platform_pose::<f64>(self.instrument, &shared, &row.observed, home);
-                let seed = warm.get(g).and_then(|w| w.get(j)).and_then(Option::as_ref);
-                let solution = prepared
-                    .solve_warm(&pose, home, seed)
-                    .map_err(|e| ArgminError::msg(format!("leg `{}`: {e}", leg.name)))?;
-                let seeded: [DualSVec64<6>; 6] =
-                    std::array::from_fn(|c| DualSVec64::from_re(pose[c]).derivative(c));
-                let at = solution.to_leg_solution(leg);
-                let reading = reading_at_solution(leg, &dual_geometry, &seeded, &at);
-                let lanes = reading.eps.unwrap_generic(Const::<6>, U1);
-                let mut variance = noise.reading.powi(2);
-                for (i, sigma) in sigmas.iter().enumerate() {
-                    let mut m: Vec<Dual64> =
-                        row.observed.iter().map(|&v| Dual64::from(v)).collect();
-                    m[i] = m[i].derivative();
-                    let dp = platform_pose_from(self.instrument, &lifted, &m, home);
-                    let d: f64 = (0..6).map(|c| lanes[c] * dp[c].eps).sum();
-                    variance += (d * sigma).powi(2);
+        let mut gradient = vec![0.0; sigmas.len()];
+        self.evaluated(x.as_slice(), false, |evaluation| {
+            for ((group, phi), values) in self.groups.iter().zip(&phis).zip(&evaluation.groups) {
+                let leg = &self.mechanism.legs[group.leg];
+                let geometry = leg.geometry(phi);
+                let rows = group.rows.iter().zip(&values.poses).zip(&values.solutions);
+                for ((row, pose), solution) in rows {
+                    let c = attachment_gradient(
+                        leg.actuated,
+                        leg.closure_dims,
+                        geometry.gain,
+                        solution,
+                    );
+                    self.observed_gradient(
+                        &shared,
+                        &row.observed,
+                        (pose, &geometry.attachment),
+                        &c,
+                        &mut gradient,
+                    );
+                    let variance = gradient
+                        .iter()
+                        .zip(&sigmas)
+                        .fold(noise.reading.powi(2), |v, (d, sigma)| {
+                            v + (d * sigma).powi(2)
+                        });
+                    variances.push(variance);
                 }
-                variances.push(variance);
             }
-        }
+        })
+        .map_err(ArgminError::msg)?;
         Ok(variances)
     }
 
@@ -390,36 +290,51 @@ impl<'a> SharedProblem<'a> {
         x: &DVector<f64>,
         derivatives: bool,
     ) -> std::result::Result<Vec<BorderedBlock>, ArgminError> {
-        let shared = self.shared_values(x);
         let phis = self.leg_parameters(x);
         let s = self.shared.len();
-        (0..self.groups.len())
-            .map(|g| {
-                let rows = self.group_rows(g, &phis[g], &shared, derivatives)?;
-                let m = rows.len();
-                let n = if derivatives {
-                    self.groups[g].columns.len()
-                } else {
-                    0
-                };
-                let width = if derivatives { s } else { 0 };
-                let mut block = BorderedBlock {
-                    residuals: DVector::zeros(m),
-                    own: DMatrix::zeros(m, n),
-                    shared: DMatrix::zeros(m, width),
-                };
-                for (i, row) in rows.iter().enumerate() {
-                    block.residuals[i] = row.residual;
-                    for (j, v) in row.own.iter().enumerate() {
-                        block.own[(i, j)] = *v;
+        self.evaluated(x.as_slice(), derivatives, |evaluation| {
+            self.groups
+                .iter()
+                .zip(&phis)
+                .zip(&evaluation.groups)
+                .map(|((group, phi), values)| {
+                    let leg = &self.mechanism.legs[group.leg];
+                    let gain = leg.geometry(phi).gain;
+                    let revolute = leg.actuated_is_revolute();
+                    let gain_column = group
+                        .columns
+                        .iter()
+                        .position(|&c| leg.params[c].target == ParamTarget::Gain);
+                    let turn = turn_in_reading_units(gain);
+                    let m = group.rows.len();
+                    let mut block = match (&values.derivatives, derivatives) {
+                        (Some((own, shared)), true) => BorderedBlock {
+                            residuals: DVector::zeros(m),
+                            own: own.clone(),
+                            shared: shared.clone(),
+                        },
+                        _ => BorderedBlock {
+                            residuals: DVector::zeros(m),
+                            own: DMatrix::zeros(m, 0),
+                            shared: DMatrix::zeros(m, 0),
+                        },
+                    };
+                    for (i, (row, &predicted)) in
+                        group.rows.iter().zip(&values.predicted).enumerate()
+                    {
+                        let n = turns(predicted, row.reading, gain, revolute);
+                        block.residuals[i] = predicted - row.reading - n * turn;
+                        if let (Some(k), true, true) = (gain_column, n != 0.0, derivatives) {
+                            // d(−n·2π/gain)/d gain = n·2π/gain².
+                            block.own[(i, k)] += n * turn / gain;
+                        }
                     }
-                    for (j, v) in row.shared.iter().enumerate() {
-                        block.shared[(i, j)] = *v;
-                    }
-                }
-                Ok(block)
-            })
-            .collect()
+                    debug_assert!(!derivatives || block.shared.ncols() == s);
+                    block
+                })
+                .collect()
+        })
+        .map_err(ArgminError::msg)
     }
 }
 

@@ -13,6 +13,7 @@ mod golden;
 mod instrument_cli;
 mod instrument_commands;
 mod instrument_evaluate;
+mod instrument_evaluation;
 mod instrument_identify;
 mod instrument_map;
 mod instrument_model;

@@ -1,0 +1,105 @@
+//! The shared problem's kept evaluations and its row variances, recomputed another way: the
+//! blocks after other evaluations equal a fresh problem's at the same unknowns, and each row's
+//! expected variance equals the declared reading variance plus the target coordinates'
+//! variances carried by central differences of the residuals in those coordinates.
+use argmin::core::Operator;
+use legwise::identify::shared::SharedProblem;
+use legwise::measure::observe_simulate::simulate_observed;
+use legwise::measure::simulate::SimulationOptions;
+use legwise::solver::bordered::{to_dense, BorderedLeastSquares};
+
+use crate::support::bundled;
+
+const MODELS: [&str; 2] = ["5r-tracker.yaml", "3rpr-tracker.yaml"];
+
+#[test]
+fn blocks_after_other_evaluations_equal_a_fresh_problems_at_the_same_unknowns() {
+    for model in MODELS {
+        let mechanism = bundled(model);
+        let experiment = simulate_observed(&mechanism, SimulationOptions::default()).unwrap();
+        let problem = SharedProblem::new(&mechanism, &experiment.observations).unwrap();
+        let x1 = problem.start().map(|v| v * (1.0 + 1e-3));
+        let x2 = problem.start().map(|v| v * (1.0 - 2e-3));
+        // Residuals at x1 (kept), then at x2 in a clone (a solver's copy), then blocks at x1
+        // and at x2 (the clone's evaluation, shared) on the original.
+        let r1 = problem.apply(&x1).unwrap();
+        let r2 = problem.clone().apply(&x2).unwrap();
+        let layout = problem.layout();
+        let (b1, j1) = to_dense(&layout, &problem.bordered(&x1).unwrap());
+        let (b2, j2) = to_dense(&layout, &problem.bordered(&x2).unwrap());
+        assert_eq!(r1, b1, "{model}: residuals at x1");
+        assert_eq!(r2, b2, "{model}: residuals at x2");
+        assert!((&r1 - &r2).amax() > 1e-6, "{model}: x1 and x2 must differ");
+        for (x, r, j) in [(&x1, &b1, &j1), (&x2, &b2, &j2)] {
+            let fresh = SharedProblem::new(&mechanism, &experiment.observations).unwrap();
+            let (fr, fj) = to_dense(&layout, &fresh.bordered(x).unwrap());
+            assert!(
+                (r - &fr).amax() <= 1e-12,
+                "{model}: residuals {:e}",
+                (r - &fr).amax()
+            );
+            let gap = (j - &fj).amax();
+            assert!(
+                gap <= 1e-10 * fj.amax(),
+                "{model}: Jacobian differs by {gap:e}"
+            );
+        }
+    }
+}
+
+#[test]
+fn row_variances_carry_the_target_noise_through_the_pose_fit_as_central_differences_do() {
+    for model in MODELS {
+        let mechanism = bundled(model);
+        let noise = mechanism.noise.expect("a declared noise");
+        let experiment = simulate_observed(&mechanism, SimulationOptions::default()).unwrap();
+        let observations = &experiment.observations;
+        let problem = SharedProblem::new(&mechanism, observations).unwrap();
+        let x = problem.start().map(|v| v * (1.0 + 1e-3));
+        let variances = problem.row_variances(&x, &noise).unwrap();
+        let sigmas: Vec<f64> = mechanism
+            .instrument
+            .as_ref()
+            .unwrap()
+            .targets
+            .iter()
+            .flat_map(|t| t.coordinates().iter())
+            .map(|c| match *c {
+                "x" => noise.pose[0],
+                "y" => noise.pose[1],
+                _ => noise.pose[5],
+            })
+            .collect();
+        // Σ_i (∂r/∂m_i σ_i)² per residual: a row's coordinates move only its own residuals.
+        let mut carried = vec![0.0; variances.len()];
+        let h = 1e-6;
+        for row in 0..observations.rows.len() {
+            for (i, sigma) in sigmas.iter().enumerate() {
+                let residuals = |delta: f64| {
+                    let mut moved = observations.clone();
+                    moved.rows[row].observed[i] += delta;
+                    SharedProblem::new(&mechanism, &moved)
+                        .unwrap()
+                        .apply(&x)
+                        .unwrap()
+                };
+                let d = (residuals(h) - residuals(-h)) / (2.0 * h);
+                for (c, v) in carried.iter_mut().zip(d.iter()) {
+                    *c += (v * sigma).powi(2);
+                }
+            }
+        }
+        let reading = noise.reading.powi(2);
+        let mut moved = 0;
+        for (k, (&v, &c)) in variances.iter().zip(&carried).enumerate() {
+            assert!(
+                (v - (reading + c)).abs() <= 1e-6 * c + 1e-20,
+                "{model}, row {k}: variance {v:e}, expected {:e}",
+                reading + c
+            );
+            moved += usize::from(c > 0.1 * reading);
+        }
+        // The pose fit carries a comparable share of the noise on every row.
+        assert_eq!(moved, variances.len(), "{model}");
+    }
+}
