@@ -136,3 +136,21 @@ fn already_minimal(
         jacobian_evaluations: 1,
     })
 }
+
+#[cfg(test)]
+mod tests {
+    use super::inverse;
+
+    /// Weights are `1/v` only when every variance is a usable one: a zero variance (a row no
+    /// declared noise reaches) or an infinite one must refuse the weighting, not give an
+    /// infinite or a zero weight.
+    #[test]
+    fn only_positive_finite_variances_are_inverted() {
+        assert_eq!(inverse(&[4.0, 0.5]), Some(vec![0.25, 2.0]));
+        assert_eq!(inverse(&[4.0, 0.0]), None);
+        assert_eq!(inverse(&[f64::INFINITY, 4.0]), None);
+        assert_eq!(inverse(&[-1.0]), None);
+        assert_eq!(inverse(&[f64::NAN]), None);
+        assert_eq!(inverse(&[]), Some(vec![]));
+    }
+}
