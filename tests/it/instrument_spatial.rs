@@ -186,10 +186,10 @@ fn a_camera_marker_measuring_the_hexapod_pose_gives_the_same_zero_noise_recovery
                 "    - {name: r3, offset: [-0.06, -0.1, 0.03], measures: position, perturbation: 0.002}\n",
                 "",
             ),
-            ("{name: b2x, leg: leg2, attachment: x, identify: false}", "{name: b2x, leg: leg2, attachment: x}"),
-            ("{name: b2z, leg: leg2, attachment: z, identify: false}", "{name: b2z, leg: leg2, attachment: z}"),
+            ("{name: b3x, leg: leg3, attachment: x, identify: false}", "{name: b3x, leg: leg3, attachment: x}"),
             ("{name: b3z, leg: leg3, attachment: z, identify: false}", "{name: b3z, leg: leg3, attachment: z}"),
-            ("    k1: 1.00048\n", "    k1: 1.00048\n    b2x: 0.16117\n    b2z: 0.00098\n    b3z: 0.00015\n"),
+            ("{name: b5z, leg: leg5, attachment: z, identify: false}", "{name: b5z, leg: leg5, attachment: z}"),
+            ("    k1: 1.00048\n", "    k1: 1.00048\n    b3x: 0.08437\n    b3z: 0.00015\n    b5z: -0.00005\n"),
         ],
     );
     let instrument = mechanism.instrument.as_ref().unwrap();
@@ -309,6 +309,7 @@ fn freeing_every_base_joint_attachment_and_target_names_the_gauge_of_the_spatial
         "hexapod-tracker.yaml",
         &[
             (", identify: false}", "}"),
+            ("    identify: [x, y, z, yaw]\n", ""),
             ("identify: [z], ", ""),
             ("identify: [x, z], ", ""),
         ],
@@ -388,7 +389,7 @@ fn the_command_line_recovers_the_spatial_models_at_zero_noise() {
             identified += usize::from(*is_identified);
         }
         assert!(identified >= 17, "{model}: {identified}");
-        assert!(parameters.iter().any(|p| p.0 == "frame_roll" && p.1));
+        assert!(parameters.iter().any(|p| p.0 == "frame_yaw" && p.1));
     }
 }
 
@@ -604,9 +605,9 @@ fn the_calibrated_spatial_model_carries_the_estimated_frame_and_offsets() {
             p.nominal
         );
     }
-    // The estimate moved the frame's rotation and an offset away from the original nominal.
+    // The estimate moved the frame's yaw (its roll and pitch are held: a levelled tracker) and an offset away from the original nominal.
     let original = bundled("hexapod-tracker.yaml");
     let nominal = original.instrument.as_ref().unwrap().nominal();
-    assert!((instrument.parameters[4].nominal - nominal[4]).abs() > 1e-4);
+    assert!((instrument.parameters[5].nominal - nominal[5]).abs() > 1e-4);
     assert!((instrument.parameters[14].nominal - nominal[14]).abs() > 1e-4);
 }

@@ -16,6 +16,7 @@ mod instrument_evaluate;
 mod instrument_evaluation;
 mod instrument_identify;
 mod instrument_map;
+mod instrument_map_gain;
 mod instrument_model;
 mod instrument_montecarlo;
 mod instrument_spatial;
