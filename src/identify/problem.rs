@@ -6,10 +6,11 @@
 //! multiplied by `√w_i`); a revolute actuator's residual is matched modulo one turn of the
 //! joint ([`super::residual::turns`]).
 
+use std::borrow::Cow;
 use std::sync::{Arc, Mutex, MutexGuard};
 
 use argmin::core::{Error as ArgminError, Jacobian, Operator};
-use nalgebra::{DMatrix, DVector};
+use nalgebra::{DMatrix, DVector, Matrix3, Vector3};
 use rayon::prelude::*;
 
 use super::jacobian::PreparedLeg;
@@ -17,6 +18,7 @@ use super::residual::{turn_in_reading_units, turns, ResidualBlock};
 use crate::error::KinematicsError;
 use crate::kinematics::chain::{platform_transform, Transform};
 use crate::kinematics::inverse::{Joints, Solution};
+use crate::model::leg::LegModel;
 use crate::model::params::ParamTarget;
 use crate::model::Mechanism;
 
@@ -91,11 +93,57 @@ const KEPT_SOLUTION_ROWS: usize = 65_536;
 /// A problem's evaluation state.
 #[derive(Debug, Default)]
 struct Evaluations {
-    /// Each block's joints at its last solved evaluation (`None` before the first): the warm
-    /// start of its next inverse-kinematics solve.
-    seeds: Vec<Option<Joints>>,
+    /// Each block's solution at its last solved evaluation (`None` before the first): the warm
+    /// start of its next inverse-kinematics solve, and what a dual pass needs at that
+    /// evaluation's unknowns ([`Evaluations::solved`]).
+    seeds: Vec<Option<Seed>>,
+    /// The unknowns' bits of the evaluation the seeds are the solutions of (empty when none,
+    /// or when a solve failed part-way): a Jacobian asked for there needs the dual passes
+    /// only, even for a problem too large to keep its full solutions.
+    solved: Vec<u64>,
     /// The latest evaluations, newest first.
     recent: Vec<Evaluation>,
+}
+
+/// What is kept of a block's last inverse-kinematics solution (48 bytes): its joints (the
+/// next warm start) and the actuated joint's row of the closure Jacobian's inverse, which is
+/// all the dual pass takes from a solution besides the joints.
+#[derive(Debug, Clone, Copy)]
+struct Seed {
+    q: Joints,
+    actuated_inverse: [f64; 3],
+}
+
+impl Seed {
+    /// A placeholder (NaN joints), never read where the state says the seeds are solutions.
+    const NONE: Self = Self {
+        q: [f64::NAN; 3],
+        actuated_inverse: [f64::NAN; 3],
+    };
+
+    fn new(leg: &LegModel, solution: &Solution) -> Self {
+        let row = solution.closure_inverse.row(leg.actuated);
+        Self {
+            q: solution.q,
+            actuated_inverse: [row[0], row[1], row[2]],
+        }
+    }
+
+    /// A solution for the dual pass ([`PreparedLeg::reading_and_gradient_on`]): the joints
+    /// and the actuated row of the closure inverse; its closure error and the other rows are
+    /// zero (not read by the dual pass).
+    fn for_dual_pass(&self, leg: &LegModel) -> Solution {
+        let mut closure_inverse = Matrix3::zeros();
+        for (k, &value) in self.actuated_inverse.iter().enumerate() {
+            closure_inverse[(leg.actuated, k)] = value;
+        }
+        Solution {
+            q: self.q,
+            closure: Vector3::zeros(),
+            closure_inverse,
+            normalised_determinant: 0.0,
+        }
+    }
 }
 
 /// The values of one evaluation, before turn matching and row weights: what any evaluation
@@ -120,6 +168,7 @@ impl Evaluations {
         if state.seeds.len() != blocks {
             *state = Self {
                 seeds: vec![None; blocks],
+                solved: Vec::new(),
                 recent: Vec::new(),
             };
         }
@@ -130,7 +179,7 @@ impl Evaluations {
 /// One task's rows: the chunk's index, its seeds, predicted readings and gradients.
 type ChunkOfRows<'c> = (
     usize,
-    ((&'c mut [Option<Joints>], &'c mut [f64]), &'c mut [f64]),
+    ((&'c mut [Option<Seed>], &'c mut [f64]), &'c mut [f64]),
 );
 
 /// The bits of `x`: evaluations are reused only at exactly the same unknowns.
@@ -311,14 +360,22 @@ impl<'a> IdentificationProblem<'a> {
         let kept = state.recent.iter().position(|e| e.x == key);
         let mut evaluation = match kept {
             Some(i) => state.recent.remove(i),
-            None => self.solve_rows(x, key, derivatives, &mut state.seeds)?,
+            None => self.solve_rows(x, key, derivatives, &mut state)?,
         };
         if derivatives && evaluation.gradients.is_empty() && !self.blocks.is_empty() {
-            if evaluation.solutions.is_empty() {
-                let key = std::mem::take(&mut evaluation.x);
-                evaluation = self.solve_rows(x, key, true, &mut state.seeds)?;
+            if !evaluation.solutions.is_empty() {
+                let solutions = std::mem::take(&mut evaluation.solutions);
+                evaluation.gradients = self.gradients(x, |i| solutions[i]);
+                evaluation.solutions = solutions;
+            } else if state.solved == evaluation.x {
+                // The seeds are this evaluation's solutions: every row has one.
+                let seeds = &state.seeds;
+                let leg = |i: usize| &self.mechanism.legs[self.blocks[i].leg];
+                evaluation.gradients =
+                    self.gradients(x, |i| seeds[i].unwrap_or(Seed::NONE).for_dual_pass(leg(i)));
             } else {
-                self.add_gradients(x, &mut evaluation);
+                let key = std::mem::take(&mut evaluation.x);
+                evaluation = self.solve_rows(x, key, true, &mut state)?;
             }
         }
         let value = read(&evaluation);
@@ -327,10 +384,10 @@ impl<'a> IdentificationProblem<'a> {
         Ok(value)
     }
 
-    /// Solves every block's inverse kinematics at the unknowns `x` (warm-started from `seeds`,
-    /// which then hold the new solutions) and evaluates the predicted readings (and their
-    /// gradients if `derivatives`). Large problems are evaluated in parallel chunks of
-    /// [`ROWS_PER_TASK`] rows.
+    /// Solves every block's inverse kinematics at the unknowns `x` (warm-started from the
+    /// state's seeds, which then hold the new solutions) and evaluates the predicted readings
+    /// (and their gradients if `derivatives`). Large problems are evaluated in parallel chunks
+    /// of [`ROWS_PER_TASK`] rows.
     ///
     /// # Errors
     /// The first block (in row order) whose leg cannot reach its pose.
@@ -339,8 +396,10 @@ impl<'a> IdentificationProblem<'a> {
         x: &DVector<f64>,
         key: Vec<u64>,
         derivatives: bool,
-        seeds: &mut [Option<Joints>],
+        state: &mut Evaluations,
     ) -> Result<Evaluation, BlockError> {
+        state.solved = Vec::new();
+        let seeds = &mut state.seeds[..];
         let m = self.blocks.len();
         let width = if derivatives { self.width() } else { 0 };
         let prepared = self.prepare(x, derivatives);
@@ -358,9 +417,9 @@ impl<'a> IdentificationProblem<'a> {
                 let leg = &prepared[self.slot_of_leg[block.leg].unwrap_or_default()];
                 let platform = self.platform(index);
                 let solution = leg
-                    .solve_warm_on(&platform, &block.pose, home, seed.as_ref())
+                    .solve_warm_on(&platform, &block.pose, home, seed.as_ref().map(|s| &s.q))
                     .map_err(|source| (index, source))?;
-                *seed = Some(solution.q);
+                *seed = Some(Seed::new(leg.leg(), &solution));
                 *value = if derivatives {
                     let gradient = &mut gradients[k * width..k * width + leg.columns()];
                     leg.reading_and_gradient_on(&platform, &solution, gradient)
@@ -400,6 +459,7 @@ impl<'a> IdentificationProblem<'a> {
         if width == 0 {
             gradients = Vec::new();
         }
+        state.solved.clone_from(&key);
         Ok(Evaluation {
             x: key,
             solutions,
@@ -408,22 +468,95 @@ impl<'a> IdentificationProblem<'a> {
         })
     }
 
-    /// Adds the gradients to an evaluation at the unknowns `x` that kept its solutions: the
-    /// dual passes only, no inverse kinematics.
-    fn add_gradients(&self, x: &DVector<f64>, evaluation: &mut Evaluation) {
+    /// The gradients of an evaluation at the unknowns `x` whose solutions are known
+    /// (`solution(i)` of block `i`): the dual passes only, no inverse kinematics; in parallel
+    /// chunks of [`ROWS_PER_TASK`] rows for a large problem.
+    fn gradients(&self, x: &DVector<f64>, solution: impl Fn(usize) -> Solution + Sync) -> Vec<f64> {
         let width = self.width();
         let prepared = self.prepare(x, true);
         let mut gradients = vec![0.0; self.blocks.len() * width];
-        let rows = gradients
-            .chunks_mut(width)
-            .zip(&evaluation.solutions)
-            .zip(self.blocks.iter());
-        for (index, ((gradient, solution), block)) in rows.enumerate() {
-            let leg = &prepared[self.slot_of_leg[block.leg].unwrap_or_default()];
-            let gradient = &mut gradient[..leg.columns()];
-            leg.reading_and_gradient_on(&self.platform(index), solution, gradient);
+        let task = |(chunk, rows): (usize, &mut [f64])| {
+            for (k, gradient) in rows.chunks_mut(width).enumerate() {
+                let index = chunk * ROWS_PER_TASK + k;
+                let block = &self.blocks[index];
+                let leg = &prepared[self.slot_of_leg[block.leg].unwrap_or_default()];
+                let gradient = &mut gradient[..leg.columns()];
+                leg.reading_and_gradient_on(&self.platform(index), &solution(index), gradient);
+            }
+        };
+        if self.blocks.len() > ROWS_PER_TASK {
+            gradients
+                .par_chunks_mut(ROWS_PER_TASK * width)
+                .enumerate()
+                .for_each(task);
+        } else {
+            gradients
+                .chunks_mut(ROWS_PER_TASK * width)
+                .enumerate()
+                .for_each(task);
         }
-        evaluation.gradients = gradients;
+        gradients
+    }
+
+    /// Calls `row` with every block's index, its slot's leg prepared at the unknowns `x`
+    /// (without derivative columns), its platform transform and its inverse-kinematics
+    /// solution at `x`, in row order: the kept solutions of an evaluation at `x`, or solved
+    /// again warm-started from the last ones (at `x` itself after a solve there: one Newton
+    /// check per row). In parallel chunks of [`ROWS_PER_TASK`] rows for a large problem.
+    ///
+    /// # Errors
+    /// The first block (in row order) whose leg cannot reach its pose.
+    pub fn map_solved<R: Send>(
+        &self,
+        x: &DVector<f64>,
+        row: impl Fn(usize, &PreparedLeg<'a>, &Transform<f64>, &Solution) -> R + Sync,
+    ) -> Result<Vec<R>, BlockError> {
+        let key = key(x);
+        let state = Evaluations::lock(&self.state, self.blocks.len());
+        let kept = state
+            .recent
+            .iter()
+            .find(|e| e.x == key && !e.solutions.is_empty());
+        let prepared = self.prepare(x, false);
+        let home = &self.mechanism.home_pose;
+        let seeds = &state.seeds;
+        let task = |chunk: usize| {
+            let start = chunk * ROWS_PER_TASK;
+            let end = (start + ROWS_PER_TASK).min(self.blocks.len());
+            (start..end)
+                .map(|index| {
+                    let block = &self.blocks[index];
+                    let leg = &prepared[self.slot_of_leg[block.leg].unwrap_or_default()];
+                    let platform = self.platform(index);
+                    let solution = match kept {
+                        Some(evaluation) => evaluation.solutions[index],
+                        None => leg
+                            .solve_warm_on(
+                                &platform,
+                                &block.pose,
+                                home,
+                                seeds[index].as_ref().map(|s| &s.q),
+                            )
+                            .map_err(|source| (index, source))?,
+                    };
+                    Ok(row(index, leg, &platform, &solution))
+                })
+                .collect::<Result<Vec<R>, (usize, KinematicsError)>>()
+        };
+        let chunks = self.blocks.len().div_ceil(ROWS_PER_TASK);
+        let results: Vec<_> = if chunks > 1 {
+            (0..chunks).into_par_iter().map(task).collect()
+        } else {
+            (0..chunks).map(task).collect()
+        };
+        let mut values = Vec::with_capacity(self.blocks.len());
+        for result in results {
+            match result {
+                Ok(mut chunk) => values.append(&mut chunk),
+                Err((index, source)) => return Err(self.block_error(index, source, x)),
+            }
+        }
+        Ok(values)
     }
 
     /// Each slot's gain and whether its actuator turns, at the unknowns `x`.
@@ -557,6 +690,19 @@ impl<'a> IdentificationProblem<'a> {
             location,
             parameters,
         }
+    }
+
+    /// The rows and columns of the leg in `slot` of the problem's Jacobian `c`: borrowed
+    /// when they are all of it (a problem of one leg), else copied.
+    pub fn slot_jacobian<'c>(&self, slot: &LegSlot, c: &'c DMatrix<f64>) -> Cow<'c, DMatrix<f64>> {
+        let n = slot.columns.len();
+        if self.slots.len() == 1 && slot.offset == 0 && c.ncols() == n {
+            return Cow::Borrowed(c);
+        }
+        let rows = self.rows_of(slot);
+        Cow::Owned(DMatrix::from_fn(rows.len(), n, |i, j| {
+            c[(rows[i], slot.offset + j)]
+        }))
     }
 
     /// Row indices of the blocks of the leg in `slot`.

@@ -15,8 +15,9 @@
 //! * Two rows with the same leg label, pose and readings: a **warning** naming both lines (the
 //!   same measurement counted twice makes the standard deviations √2 too small).
 
-use std::collections::HashMap;
 use std::f64::consts::TAU;
+
+use rayon::prelude::*;
 
 use super::MeasurementSet;
 use crate::error::{Error, Result};
@@ -191,34 +192,47 @@ fn range_warnings(mechanism: &Mechanism, data: &MeasurementSet) -> Result<Vec<St
 }
 
 fn duplicate_warnings(mechanism: &Mechanism, data: &MeasurementSet) -> Vec<String> {
-    let mut seen: HashMap<Vec<u64>, usize> = HashMap::new();
-    let mut warnings = Vec::new();
-    for (index, pose) in data.poses.iter().enumerate() {
-        let mut key = vec![pose.leg.map_or(u64::MAX, |l| l as u64)];
-        key.extend(mechanism.measured.iter().map(|&c| pose.pose[c].to_bits()));
-        key.extend(
-            pose.readings
-                .iter()
-                .map(|r| r.map_or(u64::MAX - 1, f64::to_bits)),
-        );
-        match seen.get(&key) {
-            Some(&first) => {
-                let place = |i: usize| {
-                    data.poses[i]
-                        .line
-                        .map_or(format!("simulated row {}", i + 1), |l| format!("line {l}"))
-                };
-                warnings.push(format!(
-                    "{} repeats {} exactly (same leg, pose and readings): a measurement counted \
-                     twice makes the standard deviations too small; remove one of them",
-                    place(index),
-                    place(first)
-                ));
-            }
-            None => {
-                seen.insert(key, index);
-            }
+    // The key of a row: its leg label, measured coordinates and readings, bit for bit.
+    let poses = &data.poses;
+    let key = |index: usize| {
+        let pose = &poses[index];
+        let leg = pose.leg.map_or(u64::MAX, |l| l as u64);
+        let coordinates = mechanism.measured.iter().map(|&c| pose.pose[c].to_bits());
+        let readings = pose
+            .readings
+            .iter()
+            .map(|r| r.map_or(u64::MAX - 1, f64::to_bits));
+        std::iter::once(leg).chain(coordinates).chain(readings)
+    };
+    // Rows sorted by key, then by index (no per-row allocation; parallel): equal keys are
+    // neighbours, the first row of a run is the first occurrence in the file.
+    let mut order: Vec<usize> = (0..poses.len()).collect();
+    order.par_sort_unstable_by(|&a, &b| key(a).cmp(key(b)).then(a.cmp(&b)));
+    let mut repeats: Vec<(usize, usize)> = Vec::new();
+    let mut first = None;
+    for (k, &index) in order.iter().enumerate() {
+        let same = k > 0 && key(order[k - 1]).eq(key(index));
+        if same {
+            repeats.push((index, first.unwrap_or(index)));
+        } else {
+            first = Some(index);
         }
     }
-    warnings
+    repeats.sort_unstable();
+    let place = |i: usize| {
+        poses[i]
+            .line
+            .map_or(format!("simulated row {}", i + 1), |l| format!("line {l}"))
+    };
+    repeats
+        .into_iter()
+        .map(|(index, first)| {
+            format!(
+                "{} repeats {} exactly (same leg, pose and readings): a measurement counted \
+                 twice makes the standard deviations too small; remove one of them",
+                place(index),
+                place(first)
+            )
+        })
+        .collect()
 }
