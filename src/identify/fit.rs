@@ -107,7 +107,10 @@ pub(super) fn solve_from(
     let (r0, c0) = problem
         .residuals_and_jacobian(x0)
         .map_err(FitError::Block)?;
-    match already_minimal(x0, &r0, &c0) {
+    let minimal = already_minimal(x0, &r0, &c0);
+    // Not kept through the solve (a large problem's Jacobian is tens of megabytes).
+    drop((r0, c0));
+    match minimal {
         Some(outcome) => Ok(outcome),
         None => solve(problem, x0.clone(), solver).map_err(|e| FitError::Solver(e.to_string())),
     }

@@ -16,6 +16,7 @@
 //!   same measurement counted twice makes the standard deviations √2 too small).
 
 use std::f64::consts::TAU;
+use std::hash::{DefaultHasher, Hasher};
 
 use rayon::prelude::*;
 
@@ -204,18 +205,32 @@ fn duplicate_warnings(mechanism: &Mechanism, data: &MeasurementSet) -> Vec<Strin
             .map(|r| r.map_or(u64::MAX - 1, f64::to_bits));
         std::iter::once(leg).chain(coordinates).chain(readings)
     };
-    // Rows sorted by key, then by index (no per-row allocation; parallel): equal keys are
-    // neighbours, the first row of a run is the first occurrence in the file.
-    let mut order: Vec<usize> = (0..poses.len()).collect();
-    order.par_sort_unstable_by(|&a, &b| key(a).cmp(key(b)).then(a.cmp(&b)));
+    // Rows sorted by a hash of their key, then by index (parallel, no per-row allocation):
+    // equal keys are in one run of equal hashes, in file order; a run's rows are compared by
+    // their keys (two different keys may share a hash).
+    let hashes: Vec<(u64, usize)> = (0..poses.len())
+        .into_par_iter()
+        .map(|index| {
+            let mut hasher = DefaultHasher::new();
+            key(index).for_each(|word| hasher.write_u64(word));
+            (hasher.finish(), index)
+        })
+        .collect();
+    let mut order = hashes;
+    order.par_sort_unstable();
     let mut repeats: Vec<(usize, usize)> = Vec::new();
-    let mut first = None;
-    for (k, &index) in order.iter().enumerate() {
-        let same = k > 0 && key(order[k - 1]).eq(key(index));
-        if same {
-            repeats.push((index, first.unwrap_or(index)));
-        } else {
-            first = Some(index);
+    for run in order
+        .chunk_by(|a, b| a.0 == b.0)
+        .filter(|run| run.len() > 1)
+    {
+        for (k, &(_, index)) in run.iter().enumerate().skip(1) {
+            let first = run[..k]
+                .iter()
+                .map(|&(_, earlier)| earlier)
+                .find(|&earlier| key(earlier).eq(key(index)));
+            if let Some(first) = first {
+                repeats.push((index, first));
+            }
         }
     }
     repeats.sort_unstable();

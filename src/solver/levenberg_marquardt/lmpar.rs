@@ -65,7 +65,15 @@ impl Scratch {
     /// Factorise `J P = Q R` and form `Qᵀ r` (zero rows are appended when `m < n`).
     pub(super) fn factorize(&mut self, jac: &DMatrix<f64>, res: &DVector<f64>) {
         let (m, n) = jac.shape();
-        self.jq = DMatrix::zeros(m.max(n), n);
+        let rows = m.max(n);
+        if self.jq.shape() == (rows, n) {
+            // The previous iteration's buffer (a large problem's is as large as its Jacobian):
+            // the copy below overwrites its first m rows.
+            self.jq.rows_mut(m, rows - m).fill(0.0);
+        } else {
+            self.jq = DMatrix::zeros(0, 0);
+            self.jq = DMatrix::zeros(rows, n);
+        }
         self.jq.view_mut((0, 0), (m, n)).copy_from(jac);
         self.rhs = DVector::zeros(m.max(n));
         self.rhs.rows_mut(0, m).copy_from(res);

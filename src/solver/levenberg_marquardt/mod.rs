@@ -256,6 +256,9 @@ where
         }
         let s = &mut self.scratch;
         s.factorize(&jac, &r);
+        // The factorisation holds what the iteration needs: a large problem's Jacobian is not
+        // kept through the trial steps' residual evaluations.
+        drop(jac);
         // Gradient test: max_j |(Jᵀr)_j| / (‖J e_j‖‖r‖) ≤ gtol (MINPACK's max-cosine; Jᵀr = P Rᵀ Qᵀr).
         let mut gnorm: f64 = 0.0;
         for j in 0..n {
