@@ -17,7 +17,7 @@ use super::jacobian::PreparedLeg;
 use super::residual::{turn_in_reading_units, turns, ResidualBlock};
 use crate::error::KinematicsError;
 use crate::kinematics::chain::{platform_transform, Transform};
-use crate::kinematics::inverse::{Joints, Solution};
+use crate::kinematics::inverse::{joints, Joints, Solution};
 use crate::model::leg::LegModel;
 use crate::model::params::ParamTarget;
 use crate::model::Mechanism;
@@ -93,10 +93,10 @@ const KEPT_SOLUTION_ROWS: usize = 65_536;
 /// A problem's evaluation state.
 #[derive(Debug, Default)]
 struct Evaluations {
-    /// Each block's solution at its last solved evaluation (`None` before the first): the warm
-    /// start of its next inverse-kinematics solve, and what a dual pass needs at that
-    /// evaluation's unknowns ([`Evaluations::solved`]).
-    seeds: Vec<Option<Seed>>,
+    /// Each block's solution at its last solved evaluation, [`Seeds::stride`] values a block
+    /// (NaN before the first): the warm start of its next inverse-kinematics solve, and what
+    /// a dual pass needs at that evaluation's unknowns ([`Evaluations::solved`]).
+    seeds: Seeds,
     /// The unknowns' bits of the evaluation the seeds are the solutions of (empty when none,
     /// or when a solve failed part-way): a Jacobian asked for there needs the dual passes
     /// only, even for a problem too large to keep its full solutions.
@@ -105,44 +105,45 @@ struct Evaluations {
     recent: Vec<Evaluation>,
 }
 
-/// What is kept of a block's last inverse-kinematics solution (48 bytes): its joints (the
-/// next warm start) and the actuated joint's row of the closure Jacobian's inverse, which is
-/// all the dual pass takes from a solution besides the joints.
-#[derive(Debug, Clone, Copy)]
-struct Seed {
-    q: Joints,
-    actuated_inverse: [f64; 3],
+/// What is kept of every block's last inverse-kinematics solution, flat: its moving joints
+/// (the next warm start), then the actuated joint's row of the closure Jacobian's inverse
+/// (its `closure_dims` first values), which is all the dual pass takes from a solution
+/// besides the joints. 32 bytes a row for a planar leg of two moving joints.
+#[derive(Debug, Default)]
+struct Seeds {
+    values: Vec<f64>,
+    /// Values a block: the largest `moving + closure_dims` of the problem's legs.
+    stride: usize,
 }
 
-impl Seed {
-    /// A placeholder (NaN joints), never read where the state says the seeds are solutions.
-    const NONE: Self = Self {
-        q: [f64::NAN; 3],
-        actuated_inverse: [f64::NAN; 3],
-    };
+/// One block's seed within [`Seeds::values`].
+fn seed_joints(seed: &[f64], leg: &LegModel) -> Option<Joints> {
+    (!seed[0].is_nan()).then(|| joints(&seed[..leg.moving.len()]))
+}
 
-    fn new(leg: &LegModel, solution: &Solution) -> Self {
-        let row = solution.closure_inverse.row(leg.actuated);
-        Self {
-            q: solution.q,
-            actuated_inverse: [row[0], row[1], row[2]],
-        }
+/// Stores `solution` as block's seed.
+fn store_seed(seed: &mut [f64], leg: &LegModel, solution: &Solution) {
+    let moving = leg.moving.len();
+    seed[..moving].copy_from_slice(&solution.q[..moving]);
+    for k in 0..leg.closure_dims {
+        seed[moving + k] = solution.closure_inverse[(leg.actuated, k)];
     }
+}
 
-    /// A solution for the dual pass ([`PreparedLeg::reading_and_gradient_on`]): the joints
-    /// and the actuated row of the closure inverse; its closure error and the other rows are
-    /// zero (not read by the dual pass).
-    fn for_dual_pass(&self, leg: &LegModel) -> Solution {
-        let mut closure_inverse = Matrix3::zeros();
-        for (k, &value) in self.actuated_inverse.iter().enumerate() {
-            closure_inverse[(leg.actuated, k)] = value;
-        }
-        Solution {
-            q: self.q,
-            closure: Vector3::zeros(),
-            closure_inverse,
-            normalised_determinant: 0.0,
-        }
+/// A solution for the dual pass ([`PreparedLeg::reading_and_gradient_on`]) from a block's
+/// seed: the joints and the actuated row of the closure inverse; its closure error and the
+/// other rows are zero (not read by the dual pass).
+fn seed_solution(seed: &[f64], leg: &LegModel) -> Solution {
+    let moving = leg.moving.len();
+    let mut closure_inverse = Matrix3::zeros();
+    for k in 0..leg.closure_dims {
+        closure_inverse[(leg.actuated, k)] = seed[moving + k];
+    }
+    Solution {
+        q: joints(&seed[..moving]),
+        closure: Vector3::zeros(),
+        closure_inverse,
+        normalised_determinant: 0.0,
     }
 }
 
@@ -162,12 +163,16 @@ struct Evaluation {
 }
 
 impl Evaluations {
-    /// The state, with one seed per block of a problem of `blocks` blocks.
-    fn lock(state: &Mutex<Self>, blocks: usize) -> MutexGuard<'_, Self> {
+    /// The state, with one seed of `stride` values per block of a problem of `blocks`
+    /// blocks.
+    fn lock(state: &Mutex<Self>, blocks: usize, stride: usize) -> MutexGuard<'_, Self> {
         let mut state = state.lock().unwrap_or_else(|e| e.into_inner());
-        if state.seeds.len() != blocks {
+        if state.seeds.values.len() != blocks * stride || state.seeds.stride != stride {
             *state = Self {
-                seeds: vec![None; blocks],
+                seeds: Seeds {
+                    values: vec![f64::NAN; blocks * stride],
+                    stride,
+                },
                 solved: Vec::new(),
                 recent: Vec::new(),
             };
@@ -177,10 +182,7 @@ impl Evaluations {
 }
 
 /// One task's rows: the chunk's index, its seeds, predicted readings and gradients.
-type ChunkOfRows<'c> = (
-    usize,
-    ((&'c mut [Option<Seed>], &'c mut [f64]), &'c mut [f64]),
-);
+type ChunkOfRows<'c> = (usize, ((&'c mut [f64], &'c mut [f64]), &'c mut [f64]));
 
 /// The bits of `x`: evaluations are reused only at exactly the same unknowns.
 fn key(x: &DVector<f64>) -> Vec<u64> {
@@ -334,6 +336,20 @@ impl<'a> IdentificationProblem<'a> {
             .unwrap_or_else(|| platform_transform(&self.blocks[index].pose))
     }
 
+    /// The evaluation state, for this problem's blocks and legs.
+    fn lock(&self) -> MutexGuard<'_, Evaluations> {
+        let stride = self
+            .slots
+            .iter()
+            .map(|slot| {
+                let leg = &self.mechanism.legs[slot.leg];
+                leg.moving.len() + leg.closure_dims
+            })
+            .max()
+            .unwrap_or(1);
+        Evaluations::lock(&self.state, self.blocks.len(), stride)
+    }
+
     /// The widest slot's number of identified parameters: the stride of the kept gradients.
     fn width(&self) -> usize {
         self.slots
@@ -356,7 +372,7 @@ impl<'a> IdentificationProblem<'a> {
         read: impl FnOnce(&Evaluation) -> R,
     ) -> Result<R, BlockError> {
         let key = key(x);
-        let mut state = Evaluations::lock(&self.state, self.blocks.len());
+        let mut state = self.lock();
         let kept = state.recent.iter().position(|e| e.x == key);
         let mut evaluation = match kept {
             Some(i) => state.recent.remove(i),
@@ -368,11 +384,12 @@ impl<'a> IdentificationProblem<'a> {
                 evaluation.gradients = self.gradients(x, |i| solutions[i]);
                 evaluation.solutions = solutions;
             } else if state.solved == evaluation.x {
-                // The seeds are this evaluation's solutions: every row has one.
+                // The seeds are this evaluation's solutions.
                 let seeds = &state.seeds;
                 let leg = |i: usize| &self.mechanism.legs[self.blocks[i].leg];
-                evaluation.gradients =
-                    self.gradients(x, |i| seeds[i].unwrap_or(Seed::NONE).for_dual_pass(leg(i)));
+                evaluation.gradients = self.gradients(x, |i| {
+                    seed_solution(&seeds.values[i * seeds.stride..], leg(i))
+                });
             } else {
                 let key = std::mem::take(&mut evaluation.x);
                 evaluation = self.solve_rows(x, key, true, &mut state)?;
@@ -399,7 +416,8 @@ impl<'a> IdentificationProblem<'a> {
         state: &mut Evaluations,
     ) -> Result<Evaluation, BlockError> {
         state.solved = Vec::new();
-        let seeds = &mut state.seeds[..];
+        let seed_stride = state.seeds.stride;
+        let seeds = &mut state.seeds.values[..];
         let m = self.blocks.len();
         let width = if derivatives { self.width() } else { 0 };
         let prepared = self.prepare(x, derivatives);
@@ -410,16 +428,18 @@ impl<'a> IdentificationProblem<'a> {
         let stride = width.max(1);
         let mut gradients = vec![0.0; m * stride];
         let task = |(chunk, ((seeds, predicted), gradients)): ChunkOfRows<'_>| {
-            let mut solutions = Vec::with_capacity(if keep { seeds.len() } else { 0 });
-            for (k, (seed, value)) in seeds.iter_mut().zip(predicted.iter_mut()).enumerate() {
+            let mut solutions = Vec::with_capacity(if keep { predicted.len() } else { 0 });
+            let rows = seeds.chunks_mut(seed_stride).zip(predicted.iter_mut());
+            for (k, (seed, value)) in rows.enumerate() {
                 let index = chunk * ROWS_PER_TASK + k;
                 let block = &self.blocks[index];
                 let leg = &prepared[self.slot_of_leg[block.leg].unwrap_or_default()];
                 let platform = self.platform(index);
+                let warm = seed_joints(seed, leg.leg());
                 let solution = leg
-                    .solve_warm_on(&platform, &block.pose, home, seed.as_ref().map(|s| &s.q))
+                    .solve_warm_on(&platform, &block.pose, home, warm.as_ref())
                     .map_err(|source| (index, source))?;
-                *seed = Some(Seed::new(leg.leg(), &solution));
+                store_seed(seed, leg.leg(), &solution);
                 *value = if derivatives {
                     let gradient = &mut gradients[k * width..k * width + leg.columns()];
                     leg.reading_and_gradient_on(&platform, &solution, gradient)
@@ -434,7 +454,7 @@ impl<'a> IdentificationProblem<'a> {
         };
         let results: Vec<_> = if m > ROWS_PER_TASK {
             seeds
-                .par_chunks_mut(ROWS_PER_TASK)
+                .par_chunks_mut(ROWS_PER_TASK * seed_stride)
                 .zip(predicted.par_chunks_mut(ROWS_PER_TASK))
                 .zip(gradients.par_chunks_mut(ROWS_PER_TASK * stride))
                 .enumerate()
@@ -442,7 +462,7 @@ impl<'a> IdentificationProblem<'a> {
                 .collect()
         } else {
             seeds
-                .chunks_mut(ROWS_PER_TASK)
+                .chunks_mut(ROWS_PER_TASK * seed_stride)
                 .zip(predicted.chunks_mut(ROWS_PER_TASK))
                 .zip(gradients.chunks_mut(ROWS_PER_TASK * stride))
                 .enumerate()
@@ -512,7 +532,7 @@ impl<'a> IdentificationProblem<'a> {
         row: impl Fn(usize, &PreparedLeg<'a>, &Transform<f64>, &Solution) -> R + Sync,
     ) -> Result<Vec<R>, BlockError> {
         let key = key(x);
-        let state = Evaluations::lock(&self.state, self.blocks.len());
+        let state = self.lock();
         let kept = state
             .recent
             .iter()
@@ -535,7 +555,8 @@ impl<'a> IdentificationProblem<'a> {
                                 &platform,
                                 &block.pose,
                                 home,
-                                seeds[index].as_ref().map(|s| &s.q),
+                                seed_joints(&seeds.values[index * seeds.stride..], leg.leg())
+                                    .as_ref(),
                             )
                             .map_err(|source| (index, source))?,
                     };

@@ -255,10 +255,7 @@ where
             return Ok((state.param(x).residuals(r).terminate_with(reason), None));
         }
         let s = &mut self.scratch;
-        s.factorize(&jac, &r);
-        // The factorisation holds what the iteration needs: a large problem's Jacobian is not
-        // kept through the trial steps' residual evaluations.
-        drop(jac);
+        s.factorize(jac, &r);
         // Gradient test: max_j |(Jᵀr)_j| / (‖J e_j‖‖r‖) ≤ gtol (MINPACK's max-cosine; Jᵀr = P Rᵀ Qᵀr).
         let mut gnorm: f64 = 0.0;
         for j in 0..n {
