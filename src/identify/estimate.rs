@@ -342,6 +342,7 @@ pub fn identify_problem(
         None => None,
     };
     let (unweighted_r, unweighted_c) = unweighted.as_ref().map_or((&r, &c), |(r, c)| (r, c));
+    problem.release_gradients();
     let mut estimates = Vec::new();
     for slot in problem.slots() {
         let evaluated = ((&r, &c), (unweighted_r, unweighted_c));

@@ -376,7 +376,12 @@ impl<'a> IdentificationProblem<'a> {
         let kept = state.recent.iter().position(|e| e.x == key);
         let mut evaluation = match kept {
             Some(i) => state.recent.remove(i),
-            None => self.solve_rows(x, key, derivatives, &mut state)?,
+            None => {
+                // The oldest kept evaluation would go once this one is kept: it goes first
+                // (a large problem's evaluations are tens of megabytes).
+                state.recent.truncate(KEPT_EVALUATIONS - 1);
+                self.solve_rows(x, key, derivatives, &mut state)?
+            }
         };
         if derivatives && evaluation.gradients.is_empty() && !self.blocks.is_empty() {
             if !evaluation.solutions.is_empty() {
@@ -516,6 +521,18 @@ impl<'a> IdentificationProblem<'a> {
                 .for_each(task);
         }
         gradients
+    }
+
+    /// Forgets the kept evaluations but the newest, and that one's gradients (kept: its
+    /// solutions and predicted readings): after a fit, once the residuals and the Jacobian at
+    /// the estimate are taken, the statistics need no more (a large problem's gradients are
+    /// as large as its Jacobian).
+    pub fn release_gradients(&self) {
+        let mut state = self.lock();
+        state.recent.truncate(1);
+        if let Some(newest) = state.recent.first_mut() {
+            newest.gradients = Vec::new();
+        }
     }
 
     /// Calls `row` with every block's index, its slot's leg prepared at the unknowns `x`

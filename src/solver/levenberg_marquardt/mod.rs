@@ -246,6 +246,9 @@ where
         let mut r = take(state.take_residuals(), "residual vector")?;
         let (m, n) = (r.len(), x.len());
         let mut fnorm = r.norm();
+        // The last iteration's factorisation is not needed again: freed before the new
+        // Jacobian is built (a large problem's is tens of megabytes).
+        self.scratch.jq = DMatrix::zeros(0, 0);
         let jac = problem.jacobian(&x)?;
         check_len(jac.nrows(), m, "Jacobian row count")?;
         check_len(jac.ncols(), n, "Jacobian column count")?;
