@@ -86,8 +86,9 @@ const ROWS_PER_TASK: usize = 512;
 const KEPT_EVALUATIONS: usize = 2;
 
 /// Largest problem (in blocks) whose inverse-kinematics solutions are kept with its latest
-/// evaluations (128 bytes a row), so that a Jacobian evaluated where the residuals were only
-/// needs the dual passes; larger problems solve again (warm-started, one or two Newton steps).
+/// evaluations (128 bytes a row), so that a Jacobian at any kept evaluation needs the dual
+/// passes only; a larger problem has that only at its last solved evaluation (from its
+/// seeds, [`Evaluations::solved`]) and solves an older one again (warm-started).
 const KEPT_SOLUTION_ROWS: usize = 65_536;
 
 /// A problem's evaluation state.
@@ -539,7 +540,7 @@ impl<'a> IdentificationProblem<'a> {
     /// (without derivative columns), its platform transform and its inverse-kinematics
     /// solution at `x`, in row order: the kept solutions of an evaluation at `x`, or solved
     /// again warm-started from the last ones (at `x` itself after a solve there: one Newton
-    /// check per row). In parallel chunks of [`ROWS_PER_TASK`] rows for a large problem.
+    /// check per row). In parallel chunks of 512 rows for a large problem.
     ///
     /// # Errors
     /// The first block (in row order) whose leg cannot reach its pose.
