@@ -263,9 +263,12 @@ pub fn identify_problem(
         }
     }
     let x0 = problem.nominal();
-    let (_, c0) = problem
+    let (r0_start, c0) = problem
         .residuals_and_jacobian(&x0)
         .map_err(|e| located(mechanism, data, problem, e))?;
+    // The residuals at the start, unweighted (all a problem given here has), for the
+    // fitted problem's initial cost without solving every row at the start again.
+    let r0_unweighted = problem.weights().is_none().then_some(r0_start);
     for slot in problem.slots() {
         let observability = leg_observability(mechanism, problem, slot, &c0);
         let n = slot.columns.len();
@@ -289,6 +292,7 @@ pub fn identify_problem(
             });
         }
     }
+    drop(c0);
     let noise = mechanism
         .noise
         .filter(|n| n.reading > 0.0 || n.pose.iter().any(|&s| s > 0.0));
@@ -310,9 +314,13 @@ pub fn identify_problem(
     })?;
     let (outcome, kind) = (fitted.outcome, fitted.kind);
     let problem = &fitted.problem;
-    let r0 = problem
-        .residuals(&x0)
-        .map_err(|e| located(mechanism, data, problem, e))?;
+    let r0 = match r0_unweighted {
+        // The same numbers as `problem.residuals(&x0)`: each row scaled by its `√w`.
+        Some(raw) => DVector::from_fn(raw.len(), |i, _| problem.row_scale(i) * raw[i]),
+        None => problem
+            .residuals(&x0)
+            .map_err(|e| located(mechanism, data, problem, e))?,
+    };
     let seconds = started.elapsed().as_secs_f64();
     let (r, c) = problem
         .residuals_and_jacobian(&outcome.x)
@@ -324,17 +332,23 @@ pub fn identify_problem(
         });
     }
     // Observability is a property of the design: always of the unweighted Jacobian.
-    let (unweighted_r, unweighted_c) = match problem.weights() {
-        Some(_) => problem
-            .unweighted()
-            .residuals_and_jacobian(&outcome.x)
-            .map_err(|e| located(mechanism, data, problem, e))?,
-        None => (r.clone(), c.clone()),
+    let unweighted = match problem.weights() {
+        Some(_) => Some(
+            problem
+                .unweighted()
+                .residuals_and_jacobian(&outcome.x)
+                .map_err(|e| located(mechanism, data, problem, e))?,
+        ),
+        None => None,
     };
+    let (unweighted_r, unweighted_c) = unweighted.as_ref().map_or((&r, &c), |(r, c)| (r, c));
+    problem.release_gradients();
     let mut estimates = Vec::new();
     for slot in problem.slots() {
-        let stats = statistics::leg_statistics(problem, slot, &outcome.x, noise.as_ref(), kind)
-            .map_err(|e| located(mechanism, data, problem, e))?;
+        let evaluated = ((&r, &c), (unweighted_r, unweighted_c));
+        let stats =
+            statistics::leg_statistics(problem, slot, &outcome.x, evaluated, noise.as_ref(), kind)
+                .map_err(|e| located(mechanism, data, problem, e))?;
         // A robust fit's σ̂ (and so its standard deviations) leaves its outliers out.
         let excluded: &[usize] = match kind {
             FitKind::Robust => &stats.outlier_rows,
@@ -345,8 +359,8 @@ pub fn identify_problem(
             r0: &r0,
             r: &r,
             c: &c,
-            unweighted_r: &unweighted_r,
-            unweighted_c: &unweighted_c,
+            unweighted_r,
+            unweighted_c,
             excluded,
         };
         let mut estimate = leg_estimate(mechanism, problem, slot, &fit);
@@ -378,17 +392,6 @@ pub fn identify_problem(
     Ok((estimates, run))
 }
 
-/// The leg's rows and columns of the stacked Jacobian.
-fn leg_jacobian(
-    problem: &IdentificationProblem<'_>,
-    slot: &LegSlot,
-    c: &DMatrix<f64>,
-) -> DMatrix<f64> {
-    let rows = problem.rows_of(slot);
-    let n = slot.columns.len();
-    DMatrix::from_fn(rows.len(), n, |i, j| c[(rows[i], slot.offset + j)])
-}
-
 fn leg_observability(
     mechanism: &Mechanism,
     problem: &IdentificationProblem<'_>,
@@ -396,7 +399,7 @@ fn leg_observability(
     c: &DMatrix<f64>,
 ) -> Observability {
     let names = mechanism.legs[slot.leg].identified_names();
-    analyse(&leg_jacobian(problem, slot, c), &names)
+    analyse(&problem.slot_jacobian(slot, c), &names)
 }
 
 /// A fitted problem's estimate, residuals before and after, Jacobian (weighted as fitted, and
@@ -429,7 +432,7 @@ fn leg_estimate(
         .collect();
     let kept_squares: f64 = kept.iter().map(|&i| r[i] * r[i]).sum();
     let residual_sigma = (kept.len() > n).then(|| (kept_squares / (kept.len() - n) as f64).sqrt());
-    let c_leg = leg_jacobian(problem, slot, c);
+    let c_leg = problem.slot_jacobian(slot, c);
     let covariance = residual_sigma
         .and_then(|sigma| unscaled_covariance(&c_leg).map(|inverse| inverse * (sigma * sigma)));
     let phi = problem.leg_parameters(slot, x);

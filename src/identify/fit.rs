@@ -107,7 +107,10 @@ pub(super) fn solve_from(
     let (r0, c0) = problem
         .residuals_and_jacobian(x0)
         .map_err(FitError::Block)?;
-    match already_minimal(x0, &r0, &c0) {
+    // The Jacobian goes into the SVD and is not kept through the solve (a large problem's is
+    // tens of megabytes).
+    let minimal = already_minimal(x0, &r0, c0);
+    match minimal {
         Some(outcome) => Ok(outcome),
         None => solve(problem, x0.clone(), solver).map_err(|e| FitError::Solver(e.to_string())),
     }
@@ -122,9 +125,9 @@ const STATIONARY_STEP: f64 = 1e-12;
 fn already_minimal(
     x0: &DVector<f64>,
     r0: &DVector<f64>,
-    c0: &DMatrix<f64>,
+    c0: DMatrix<f64>,
 ) -> Option<SolverOutcome> {
-    let step = c0.clone().svd(true, true).solve(r0, f64::EPSILON).ok()?;
+    let step = c0.svd(true, true).solve(r0, f64::EPSILON).ok()?;
     let length = step.norm();
     (length.is_finite() && length <= STATIONARY_STEP * (x0.norm() + 1.0)).then(|| SolverOutcome {
         x: x0.clone(),

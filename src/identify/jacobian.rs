@@ -21,7 +21,8 @@ use num_dual::{DualSVec64, DualStruct};
 
 use crate::error::KinematicsError;
 use crate::kinematics::chain::{
-    attachment_on, attachment_on_constant, platform_transform, ChainFrames, TipChain, Transform,
+    attachment_on, attachment_on_constant, attachment_world, platform_transform, ChainFrames,
+    TipChain, Transform,
 };
 use crate::kinematics::inverse::{
     reading_at_tip, reading_value, solve_warm, Joints, LegSolution, Solution,
@@ -262,6 +263,36 @@ impl<'a> PreparedLeg<'a> {
             reading = pass.evaluate(self.leg, platform, solution, gradient);
         }
         reading
+    }
+
+    /// `∂ψ/∂P`: the gradient of the predicted reading with respect to the pose coordinates
+    /// `measured` (zero for the others) at an already solved `pose`, through the implicit
+    /// function theorem: only the attachment point's world position moves with the pose (the
+    /// chain's tip does not), so `∂ψ/∂P_c = Σ_k (F_q⁻¹)_{a,k} ∂target_k/∂P_c / gain`, with the
+    /// target's derivatives from one pass in vector duals seeded on the six coordinates.
+    pub fn pose_gradient_of(
+        &self,
+        pose: &[f64; 6],
+        solution: &Solution,
+        measured: &[usize],
+    ) -> [f64; 6] {
+        let seeded: [DualSVec64<6>; 6] =
+            std::array::from_fn(|c| DualSVec64::<6>::from_re(pose[c]).derivative(c));
+        let attachment = self.geometry.attachment.map(DualSVec64::<6>::from_re);
+        let target = attachment_world(&seeded, &attachment);
+        let lanes: [[f64; 6]; 3] = std::array::from_fn(|k| {
+            let eps = target[k].eps.unwrap_generic(Const::<6>, U1);
+            std::array::from_fn(|c| eps[c])
+        });
+        let mut gradient = [0.0; 6];
+        for &c in measured {
+            let mut actuated = 0.0;
+            for (k, lane) in lanes.iter().enumerate().take(self.leg.closure_dims) {
+                actuated += solution.closure_inverse[(self.leg.actuated, k)] * lane[c];
+            }
+            gradient[c] = actuated / self.geometry.gain;
+        }
+        gradient
     }
 
     /// As [`Self::reading_and_gradient`], at an already solved pose.

@@ -55,8 +55,9 @@ impl Observability {
 pub fn analyse(c: &DMatrix<f64>, names: &[String]) -> Observability {
     let (m, n) = c.shape();
     let singular_values = sorted_singular_values(c.clone());
-    let scaled = unit_columns(c);
-    let svd = scaled.clone().svd(false, true);
+    // One m × n working copy at a time (a large problem's Jacobian is tens of megabytes): the
+    // SVD takes the scaled copy, which the rare rank-deficient case builds again.
+    let svd = unit_columns(c).svd(false, true);
     let mut order: Vec<usize> = (0..svd.singular_values.len()).collect();
     order.sort_by(|&a, &b| svd.singular_values[b].total_cmp(&svd.singular_values[a]));
     let scaled_singular_values: Vec<f64> = order.iter().map(|&i| svd.singular_values[i]).collect();
@@ -76,7 +77,7 @@ pub fn analyse(c: &DMatrix<f64>, names: &[String]) -> Observability {
             null_directions.push(direction(v_t.row(i).iter().copied(), names));
         }
     }
-    let unidentifiable = pivoted_deficient_columns(&scaled, rank)
+    let unidentifiable = pivoted_deficient_columns(c, rank)
         .into_iter()
         .map(|j| names[j].clone())
         .collect();
@@ -162,11 +163,15 @@ pub fn indices(singular_values: &[f64], m: usize, n: usize) -> [f64; 5] {
     ]
 }
 
-/// Greedy column-norm-pivoted Gram–Schmidt: after `rank` pivots, the remaining columns are
-/// (numerically) combinations of the pivoted ones.
-fn pivoted_deficient_columns(scaled: &DMatrix<f64>, rank: usize) -> Vec<usize> {
-    let n = scaled.ncols();
-    let mut residual = scaled.clone();
+/// Greedy column-norm-pivoted Gram–Schmidt on the unit columns of `c`: after `rank` pivots,
+/// the remaining columns are (numerically) combinations of the pivoted ones (none at full
+/// rank).
+fn pivoted_deficient_columns(c: &DMatrix<f64>, rank: usize) -> Vec<usize> {
+    let n = c.ncols();
+    if rank >= n {
+        return Vec::new();
+    }
+    let mut residual = unit_columns(c);
     let mut remaining: Vec<usize> = (0..n).collect();
     for _ in 0..rank.min(n) {
         let (position, &pivot) = remaining

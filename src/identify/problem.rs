@@ -6,17 +6,19 @@
 //! multiplied by `√w_i`); a revolute actuator's residual is matched modulo one turn of the
 //! joint ([`super::residual::turns`]).
 
+use std::borrow::Cow;
 use std::sync::{Arc, Mutex, MutexGuard};
 
 use argmin::core::{Error as ArgminError, Jacobian, Operator};
-use nalgebra::{DMatrix, DVector};
+use nalgebra::{DMatrix, DVector, Matrix3, Vector3};
 use rayon::prelude::*;
 
 use super::jacobian::PreparedLeg;
 use super::residual::{turn_in_reading_units, turns, ResidualBlock};
 use crate::error::KinematicsError;
 use crate::kinematics::chain::{platform_transform, Transform};
-use crate::kinematics::inverse::{Joints, Solution};
+use crate::kinematics::inverse::{joints, Joints, Solution};
+use crate::model::leg::LegModel;
 use crate::model::params::ParamTarget;
 use crate::model::Mechanism;
 
@@ -84,18 +86,66 @@ const ROWS_PER_TASK: usize = 512;
 const KEPT_EVALUATIONS: usize = 2;
 
 /// Largest problem (in blocks) whose inverse-kinematics solutions are kept with its latest
-/// evaluations (128 bytes a row), so that a Jacobian evaluated where the residuals were only
-/// needs the dual passes; larger problems solve again (warm-started, one or two Newton steps).
+/// evaluations (128 bytes a row), so that a Jacobian at any kept evaluation needs the dual
+/// passes only; a larger problem has that only at its last solved evaluation (from its
+/// seeds, [`Evaluations::solved`]) and solves an older one again (warm-started).
 const KEPT_SOLUTION_ROWS: usize = 65_536;
 
 /// A problem's evaluation state.
 #[derive(Debug, Default)]
 struct Evaluations {
-    /// Each block's joints at its last solved evaluation (`None` before the first): the warm
-    /// start of its next inverse-kinematics solve.
-    seeds: Vec<Option<Joints>>,
+    /// Each block's solution at its last solved evaluation, [`Seeds::stride`] values a block
+    /// (NaN before the first): the warm start of its next inverse-kinematics solve, and what
+    /// a dual pass needs at that evaluation's unknowns ([`Evaluations::solved`]).
+    seeds: Seeds,
+    /// The unknowns' bits of the evaluation the seeds are the solutions of (empty when none,
+    /// or when a solve failed part-way): a Jacobian asked for there needs the dual passes
+    /// only, even for a problem too large to keep its full solutions.
+    solved: Vec<u64>,
     /// The latest evaluations, newest first.
     recent: Vec<Evaluation>,
+}
+
+/// What is kept of every block's last inverse-kinematics solution, flat: its moving joints
+/// (the next warm start), then the actuated joint's row of the closure Jacobian's inverse
+/// (its `closure_dims` first values), which is all the dual pass takes from a solution
+/// besides the joints. 32 bytes a row for a planar leg of two moving joints.
+#[derive(Debug, Default)]
+struct Seeds {
+    values: Vec<f64>,
+    /// Values a block: the largest `moving + closure_dims` of the problem's legs.
+    stride: usize,
+}
+
+/// One block's seed within [`Seeds::values`].
+fn seed_joints(seed: &[f64], leg: &LegModel) -> Option<Joints> {
+    (!seed[0].is_nan()).then(|| joints(&seed[..leg.moving.len()]))
+}
+
+/// Stores `solution` as block's seed.
+fn store_seed(seed: &mut [f64], leg: &LegModel, solution: &Solution) {
+    let moving = leg.moving.len();
+    seed[..moving].copy_from_slice(&solution.q[..moving]);
+    for k in 0..leg.closure_dims {
+        seed[moving + k] = solution.closure_inverse[(leg.actuated, k)];
+    }
+}
+
+/// A solution for the dual pass ([`PreparedLeg::reading_and_gradient_on`]) from a block's
+/// seed: the joints and the actuated row of the closure inverse; its closure error and the
+/// other rows are zero (not read by the dual pass).
+fn seed_solution(seed: &[f64], leg: &LegModel) -> Solution {
+    let moving = leg.moving.len();
+    let mut closure_inverse = Matrix3::zeros();
+    for k in 0..leg.closure_dims {
+        closure_inverse[(leg.actuated, k)] = seed[moving + k];
+    }
+    Solution {
+        q: joints(&seed[..moving]),
+        closure: Vector3::zeros(),
+        closure_inverse,
+        normalised_determinant: 0.0,
+    }
 }
 
 /// The values of one evaluation, before turn matching and row weights: what any evaluation
@@ -114,12 +164,17 @@ struct Evaluation {
 }
 
 impl Evaluations {
-    /// The state, with one seed per block of a problem of `blocks` blocks.
-    fn lock(state: &Mutex<Self>, blocks: usize) -> MutexGuard<'_, Self> {
+    /// The state, with one seed of `stride` values per block of a problem of `blocks`
+    /// blocks.
+    fn lock(state: &Mutex<Self>, blocks: usize, stride: usize) -> MutexGuard<'_, Self> {
         let mut state = state.lock().unwrap_or_else(|e| e.into_inner());
-        if state.seeds.len() != blocks {
+        if state.seeds.values.len() != blocks * stride || state.seeds.stride != stride {
             *state = Self {
-                seeds: vec![None; blocks],
+                seeds: Seeds {
+                    values: vec![f64::NAN; blocks * stride],
+                    stride,
+                },
+                solved: Vec::new(),
                 recent: Vec::new(),
             };
         }
@@ -128,10 +183,7 @@ impl Evaluations {
 }
 
 /// One task's rows: the chunk's index, its seeds, predicted readings and gradients.
-type ChunkOfRows<'c> = (
-    usize,
-    ((&'c mut [Option<Joints>], &'c mut [f64]), &'c mut [f64]),
-);
+type ChunkOfRows<'c> = (usize, ((&'c mut [f64], &'c mut [f64]), &'c mut [f64]));
 
 /// The bits of `x`: evaluations are reused only at exactly the same unknowns.
 fn key(x: &DVector<f64>) -> Vec<u64> {
@@ -285,6 +337,20 @@ impl<'a> IdentificationProblem<'a> {
             .unwrap_or_else(|| platform_transform(&self.blocks[index].pose))
     }
 
+    /// The evaluation state, for this problem's blocks and legs.
+    fn lock(&self) -> MutexGuard<'_, Evaluations> {
+        let stride = self
+            .slots
+            .iter()
+            .map(|slot| {
+                let leg = &self.mechanism.legs[slot.leg];
+                leg.moving.len() + leg.closure_dims
+            })
+            .max()
+            .unwrap_or(1);
+        Evaluations::lock(&self.state, self.blocks.len(), stride)
+    }
+
     /// The widest slot's number of identified parameters: the stride of the kept gradients.
     fn width(&self) -> usize {
         self.slots
@@ -307,18 +373,32 @@ impl<'a> IdentificationProblem<'a> {
         read: impl FnOnce(&Evaluation) -> R,
     ) -> Result<R, BlockError> {
         let key = key(x);
-        let mut state = Evaluations::lock(&self.state, self.blocks.len());
+        let mut state = self.lock();
         let kept = state.recent.iter().position(|e| e.x == key);
         let mut evaluation = match kept {
             Some(i) => state.recent.remove(i),
-            None => self.solve_rows(x, key, derivatives, &mut state.seeds)?,
+            None => {
+                // The oldest kept evaluation would go once this one is kept: it goes first
+                // (a large problem's evaluations are tens of megabytes).
+                state.recent.truncate(KEPT_EVALUATIONS - 1);
+                self.solve_rows(x, key, derivatives, &mut state)?
+            }
         };
         if derivatives && evaluation.gradients.is_empty() && !self.blocks.is_empty() {
-            if evaluation.solutions.is_empty() {
-                let key = std::mem::take(&mut evaluation.x);
-                evaluation = self.solve_rows(x, key, true, &mut state.seeds)?;
+            if !evaluation.solutions.is_empty() {
+                let solutions = std::mem::take(&mut evaluation.solutions);
+                evaluation.gradients = self.gradients(x, |i| solutions[i]);
+                evaluation.solutions = solutions;
+            } else if state.solved == evaluation.x {
+                // The seeds are this evaluation's solutions.
+                let seeds = &state.seeds;
+                let leg = |i: usize| &self.mechanism.legs[self.blocks[i].leg];
+                evaluation.gradients = self.gradients(x, |i| {
+                    seed_solution(&seeds.values[i * seeds.stride..], leg(i))
+                });
             } else {
-                self.add_gradients(x, &mut evaluation);
+                let key = std::mem::take(&mut evaluation.x);
+                evaluation = self.solve_rows(x, key, true, &mut state)?;
             }
         }
         let value = read(&evaluation);
@@ -327,10 +407,10 @@ impl<'a> IdentificationProblem<'a> {
         Ok(value)
     }
 
-    /// Solves every block's inverse kinematics at the unknowns `x` (warm-started from `seeds`,
-    /// which then hold the new solutions) and evaluates the predicted readings (and their
-    /// gradients if `derivatives`). Large problems are evaluated in parallel chunks of
-    /// [`ROWS_PER_TASK`] rows.
+    /// Solves every block's inverse kinematics at the unknowns `x` (warm-started from the
+    /// state's seeds, which then hold the new solutions) and evaluates the predicted readings
+    /// (and their gradients if `derivatives`). Large problems are evaluated in parallel chunks
+    /// of [`ROWS_PER_TASK`] rows.
     ///
     /// # Errors
     /// The first block (in row order) whose leg cannot reach its pose.
@@ -339,8 +419,11 @@ impl<'a> IdentificationProblem<'a> {
         x: &DVector<f64>,
         key: Vec<u64>,
         derivatives: bool,
-        seeds: &mut [Option<Joints>],
+        state: &mut Evaluations,
     ) -> Result<Evaluation, BlockError> {
+        state.solved = Vec::new();
+        let seed_stride = state.seeds.stride;
+        let seeds = &mut state.seeds.values[..];
         let m = self.blocks.len();
         let width = if derivatives { self.width() } else { 0 };
         let prepared = self.prepare(x, derivatives);
@@ -351,16 +434,18 @@ impl<'a> IdentificationProblem<'a> {
         let stride = width.max(1);
         let mut gradients = vec![0.0; m * stride];
         let task = |(chunk, ((seeds, predicted), gradients)): ChunkOfRows<'_>| {
-            let mut solutions = Vec::with_capacity(if keep { seeds.len() } else { 0 });
-            for (k, (seed, value)) in seeds.iter_mut().zip(predicted.iter_mut()).enumerate() {
+            let mut solutions = Vec::with_capacity(if keep { predicted.len() } else { 0 });
+            let rows = seeds.chunks_mut(seed_stride).zip(predicted.iter_mut());
+            for (k, (seed, value)) in rows.enumerate() {
                 let index = chunk * ROWS_PER_TASK + k;
                 let block = &self.blocks[index];
                 let leg = &prepared[self.slot_of_leg[block.leg].unwrap_or_default()];
                 let platform = self.platform(index);
+                let warm = seed_joints(seed, leg.leg());
                 let solution = leg
-                    .solve_warm_on(&platform, &block.pose, home, seed.as_ref())
+                    .solve_warm_on(&platform, &block.pose, home, warm.as_ref())
                     .map_err(|source| (index, source))?;
-                *seed = Some(solution.q);
+                store_seed(seed, leg.leg(), &solution);
                 *value = if derivatives {
                     let gradient = &mut gradients[k * width..k * width + leg.columns()];
                     leg.reading_and_gradient_on(&platform, &solution, gradient)
@@ -375,7 +460,7 @@ impl<'a> IdentificationProblem<'a> {
         };
         let results: Vec<_> = if m > ROWS_PER_TASK {
             seeds
-                .par_chunks_mut(ROWS_PER_TASK)
+                .par_chunks_mut(ROWS_PER_TASK * seed_stride)
                 .zip(predicted.par_chunks_mut(ROWS_PER_TASK))
                 .zip(gradients.par_chunks_mut(ROWS_PER_TASK * stride))
                 .enumerate()
@@ -383,7 +468,7 @@ impl<'a> IdentificationProblem<'a> {
                 .collect()
         } else {
             seeds
-                .chunks_mut(ROWS_PER_TASK)
+                .chunks_mut(ROWS_PER_TASK * seed_stride)
                 .zip(predicted.chunks_mut(ROWS_PER_TASK))
                 .zip(gradients.chunks_mut(ROWS_PER_TASK * stride))
                 .enumerate()
@@ -400,6 +485,7 @@ impl<'a> IdentificationProblem<'a> {
         if width == 0 {
             gradients = Vec::new();
         }
+        state.solved.clone_from(&key);
         Ok(Evaluation {
             x: key,
             solutions,
@@ -408,22 +494,108 @@ impl<'a> IdentificationProblem<'a> {
         })
     }
 
-    /// Adds the gradients to an evaluation at the unknowns `x` that kept its solutions: the
-    /// dual passes only, no inverse kinematics.
-    fn add_gradients(&self, x: &DVector<f64>, evaluation: &mut Evaluation) {
+    /// The gradients of an evaluation at the unknowns `x` whose solutions are known
+    /// (`solution(i)` of block `i`): the dual passes only, no inverse kinematics; in parallel
+    /// chunks of [`ROWS_PER_TASK`] rows for a large problem.
+    fn gradients(&self, x: &DVector<f64>, solution: impl Fn(usize) -> Solution + Sync) -> Vec<f64> {
         let width = self.width();
         let prepared = self.prepare(x, true);
         let mut gradients = vec![0.0; self.blocks.len() * width];
-        let rows = gradients
-            .chunks_mut(width)
-            .zip(&evaluation.solutions)
-            .zip(self.blocks.iter());
-        for (index, ((gradient, solution), block)) in rows.enumerate() {
-            let leg = &prepared[self.slot_of_leg[block.leg].unwrap_or_default()];
-            let gradient = &mut gradient[..leg.columns()];
-            leg.reading_and_gradient_on(&self.platform(index), solution, gradient);
+        let task = |(chunk, rows): (usize, &mut [f64])| {
+            for (k, gradient) in rows.chunks_mut(width).enumerate() {
+                let index = chunk * ROWS_PER_TASK + k;
+                let block = &self.blocks[index];
+                let leg = &prepared[self.slot_of_leg[block.leg].unwrap_or_default()];
+                let gradient = &mut gradient[..leg.columns()];
+                leg.reading_and_gradient_on(&self.platform(index), &solution(index), gradient);
+            }
+        };
+        if self.blocks.len() > ROWS_PER_TASK {
+            gradients
+                .par_chunks_mut(ROWS_PER_TASK * width)
+                .enumerate()
+                .for_each(task);
+        } else {
+            gradients
+                .chunks_mut(ROWS_PER_TASK * width)
+                .enumerate()
+                .for_each(task);
         }
-        evaluation.gradients = gradients;
+        gradients
+    }
+
+    /// Forgets the kept evaluations but the newest, and that one's gradients (kept: its
+    /// solutions and predicted readings): after a fit, once the residuals and the Jacobian at
+    /// the estimate are taken, the statistics need no more (a large problem's gradients are
+    /// as large as its Jacobian).
+    pub fn release_gradients(&self) {
+        let mut state = self.lock();
+        state.recent.truncate(1);
+        if let Some(newest) = state.recent.first_mut() {
+            newest.gradients = Vec::new();
+        }
+    }
+
+    /// Calls `row` with every block's index, its slot's leg prepared at the unknowns `x`
+    /// (without derivative columns), its platform transform and its inverse-kinematics
+    /// solution at `x`, in row order: the kept solutions of an evaluation at `x`, or solved
+    /// again warm-started from the last ones (at `x` itself after a solve there: one Newton
+    /// check per row). In parallel chunks of 512 rows for a large problem.
+    ///
+    /// # Errors
+    /// The first block (in row order) whose leg cannot reach its pose.
+    pub fn map_solved<R: Send>(
+        &self,
+        x: &DVector<f64>,
+        row: impl Fn(usize, &PreparedLeg<'a>, &Transform<f64>, &Solution) -> R + Sync,
+    ) -> Result<Vec<R>, BlockError> {
+        let key = key(x);
+        let state = self.lock();
+        let kept = state
+            .recent
+            .iter()
+            .find(|e| e.x == key && !e.solutions.is_empty());
+        let prepared = self.prepare(x, false);
+        let home = &self.mechanism.home_pose;
+        let seeds = &state.seeds;
+        let task = |chunk: usize| {
+            let start = chunk * ROWS_PER_TASK;
+            let end = (start + ROWS_PER_TASK).min(self.blocks.len());
+            (start..end)
+                .map(|index| {
+                    let block = &self.blocks[index];
+                    let leg = &prepared[self.slot_of_leg[block.leg].unwrap_or_default()];
+                    let platform = self.platform(index);
+                    let solution = match kept {
+                        Some(evaluation) => evaluation.solutions[index],
+                        None => leg
+                            .solve_warm_on(
+                                &platform,
+                                &block.pose,
+                                home,
+                                seed_joints(&seeds.values[index * seeds.stride..], leg.leg())
+                                    .as_ref(),
+                            )
+                            .map_err(|source| (index, source))?,
+                    };
+                    Ok(row(index, leg, &platform, &solution))
+                })
+                .collect::<Result<Vec<R>, (usize, KinematicsError)>>()
+        };
+        let chunks = self.blocks.len().div_ceil(ROWS_PER_TASK);
+        let results: Vec<_> = if chunks > 1 {
+            (0..chunks).into_par_iter().map(task).collect()
+        } else {
+            (0..chunks).map(task).collect()
+        };
+        let mut values = Vec::with_capacity(self.blocks.len());
+        for result in results {
+            match result {
+                Ok(mut chunk) => values.append(&mut chunk),
+                Err((index, source)) => return Err(self.block_error(index, source, x)),
+            }
+        }
+        Ok(values)
     }
 
     /// Each slot's gain and whether its actuator turns, at the unknowns `x`.
@@ -557,6 +729,19 @@ impl<'a> IdentificationProblem<'a> {
             location,
             parameters,
         }
+    }
+
+    /// The rows and columns of the leg in `slot` of the problem's Jacobian `c`: borrowed
+    /// when they are all of it (a problem of one leg), else copied.
+    pub fn slot_jacobian<'c>(&self, slot: &LegSlot, c: &'c DMatrix<f64>) -> Cow<'c, DMatrix<f64>> {
+        let n = slot.columns.len();
+        if self.slots.len() == 1 && slot.offset == 0 && c.ncols() == n {
+            return Cow::Borrowed(c);
+        }
+        let rows = self.rows_of(slot);
+        Cow::Owned(DMatrix::from_fn(rows.len(), n, |i, j| {
+            c[(rows[i], slot.offset + j)]
+        }))
     }
 
     /// Row indices of the blocks of the leg in `slot`.

@@ -28,12 +28,11 @@
 //! most [`EXACT_FIT_FRACTION`] of the declared scatter (see [`exact_fit`]).
 
 use nalgebra::{DMatrix, DVector};
-use num_dual::Dual64;
 use statrs::distribution::{ChiSquared, ContinuousCDF, Normal, StudentsT};
 
+use super::jacobian::PreparedLeg;
 use super::problem::{BlockError, IdentificationProblem, LegSlot};
 use crate::error::KinematicsError;
-use crate::kinematics::inverse::{reading_at_solution, solve_leg};
 use crate::model::leg::LegModel;
 use crate::model::mechanism::MeasurementNoise;
 
@@ -141,7 +140,8 @@ pub struct OtherTurn {
 }
 
 /// `∂ψ/∂P`: the gradient of the leg's predicted reading with respect to the measured pose
-/// coordinates (zero for the others), at full parameter vector `phi`.
+/// coordinates (zero for the others), at full parameter vector `phi`
+/// ([`PreparedLeg::pose_gradient_of`] at the pose's inverse-kinematics solution from home).
 ///
 /// # Errors
 /// The leg cannot reach the pose on its home branch.
@@ -152,20 +152,15 @@ pub fn pose_gradient(
     home_pose: &[f64; 6],
     measured: &[usize],
 ) -> Result<[f64; 6], KinematicsError> {
-    let solution = solve_leg(leg, &leg.geometry(phi), pose, home_pose)?;
-    let phi_dual: Vec<Dual64> = phi.iter().map(|&v| Dual64::from(v)).collect();
-    let geometry = leg.geometry(&phi_dual);
-    let mut gradient = [0.0; 6];
-    for &c in measured {
-        let mut seeded = pose.map(Dual64::from);
-        seeded[c].eps = 1.0;
-        gradient[c] = reading_at_solution(leg, &geometry, &seeded, &solution).eps;
-    }
-    Ok(gradient)
+    let prepared = PreparedLeg::new(leg, phi, &[]);
+    let solution = prepared.solve_warm(pose, home_pose, None)?;
+    Ok(prepared.pose_gradient_of(pose, &solution, measured))
 }
 
 /// Expected variance of every residual of `problem` at the unknowns `x`:
-/// `σ_q² + Σ_c (∂ψ/∂P_c)² σ_c²`.
+/// `σ_q² + Σ_c (∂ψ/∂P_c)² σ_c²`, with each row's pose gradient at its inverse-kinematics
+/// solution warm-started from the problem's last one ([`IdentificationProblem::map_solved`];
+/// in parallel for a large problem).
 ///
 /// # Errors
 /// The first block whose leg cannot reach its pose.
@@ -174,56 +169,51 @@ pub fn row_variances(
     x: &DVector<f64>,
     noise: &MeasurementNoise,
 ) -> Result<Vec<f64>, BlockError> {
-    let mechanism = problem.mechanism();
-    let phis: Vec<Vec<f64>> = problem
-        .slots()
-        .iter()
-        .map(|slot| problem.leg_parameters(slot, x))
-        .collect();
-    problem
-        .blocks()
-        .iter()
-        .enumerate()
-        .map(|(i, block)| {
-            let s = problem
-                .slots()
-                .iter()
-                .position(|slot| slot.leg == block.leg)
-                .unwrap_or_default();
-            let gradient = pose_gradient(
-                &mechanism.legs[block.leg],
-                &phis[s],
-                &block.pose,
-                &mechanism.home_pose,
-                &mechanism.measured,
-            )
-            .map_err(|source| problem.block_error(i, source, x))?;
-            let pose_part: f64 = (0..6).map(|c| (gradient[c] * noise.pose[c]).powi(2)).sum();
-            Ok(noise.reading.powi(2) + pose_part)
+    let measured = &problem.mechanism().measured;
+    problem.map_solved(x, |index, leg, _, solution| {
+        let pose = &problem.blocks()[index].pose;
+        let gradient = leg.pose_gradient_of(pose, solution, measured);
+        let pose_part: f64 = (0..6).map(|c| (gradient[c] * noise.pose[c]).powi(2)).sum();
+        noise.reading.powi(2) + pose_part
+    })
+}
+
+/// The hat matrix's factor `W = V_r Σ_r⁻¹` of `jacobian` (n × r: the right singular vectors of
+/// its non-negligible singular values, each divided by its value), from its thin SVD without
+/// the m × r `U`: `U = J W`, so row `i` of `U` is `J_i W` and the hat matrix is `J W Wᵀ Jᵀ`.
+fn hat_factor(jacobian: &DMatrix<f64>) -> DMatrix<f64> {
+    let n = jacobian.ncols();
+    let svd = jacobian.clone().svd(false, true);
+    let Some(v_t) = svd.v_t else {
+        return DMatrix::zeros(n, 0);
+    };
+    let s = &svd.singular_values;
+    let largest = s.max();
+    let kept: Vec<usize> = (0..s.len()).filter(|&k| s[k] > 1e-12 * largest).collect();
+    DMatrix::from_fn(n, kept.len(), |j, k| v_t[(kept[k], j)] / s[kept[k]])
+}
+
+/// Row `i` of the column space's orthonormal basis `U = J W` ([`hat_factor`]), into `row`.
+fn basis_row(jacobian: &DMatrix<f64>, w: &DMatrix<f64>, i: usize, row: &mut [f64]) {
+    for (k, value) in row.iter_mut().enumerate() {
+        *value = (0..w.nrows()).map(|j| jacobian[(i, j)] * w[(j, k)]).sum();
+    }
+}
+
+/// The leverages `‖U_i‖²` of every row, from the factor `w` ([`hat_factor`]).
+fn leverages_from(jacobian: &DMatrix<f64>, w: &DMatrix<f64>) -> Vec<f64> {
+    let mut row = vec![0.0; w.ncols()];
+    (0..jacobian.nrows())
+        .map(|i| {
+            basis_row(jacobian, w, i, &mut row);
+            row.iter().map(|v| v * v).sum()
         })
         .collect()
 }
 
-/// The orthonormal basis `U` of the column space of `jacobian` (thin SVD, columns of
-/// non-negligible singular values): the hat matrix is `U Uᵀ`.
-fn column_basis(jacobian: &DMatrix<f64>) -> DMatrix<f64> {
-    let svd = jacobian.clone().svd(true, false);
-    let Some(u) = svd.u else {
-        return DMatrix::zeros(jacobian.nrows(), 0);
-    };
-    let largest = svd.singular_values.max();
-    let kept: Vec<usize> = (0..svd.singular_values.len())
-        .filter(|&k| svd.singular_values[k] > 1e-12 * largest)
-        .collect();
-    u.select_columns(&kept)
-}
-
 /// Leverages `h_ii` (diagonal of the hat matrix `J (JᵀJ)⁻¹ Jᵀ`) from the thin SVD of `J`.
 pub fn leverages(jacobian: &DMatrix<f64>) -> Vec<f64> {
-    let u = column_basis(jacobian);
-    (0..jacobian.nrows())
-        .map(|i| u.row(i).norm_squared())
-        .collect()
+    leverages_from(jacobian, &hat_factor(jacobian))
 }
 
 /// Externally studentized residuals of a least-squares fit with residuals `e` and Jacobian
@@ -237,9 +227,10 @@ pub fn studentized(e: &[f64], jacobian: &DMatrix<f64>) -> Vec<Option<f64>> {
     if m <= n + 1 {
         return vec![None; m];
     }
-    let u = column_basis(jacobian);
-    let h: Vec<f64> = (0..m).map(|i| u.row(i).norm_squared()).collect();
+    let w = hat_factor(jacobian);
+    let h = leverages_from(jacobian, &w);
     let total: f64 = e.iter().map(|v| v * v).sum();
+    let (mut row_i, mut row_j) = (vec![0.0; w.ncols()], vec![0.0; w.ncols()]);
     (0..m)
         .map(|i| {
             let free = 1.0 - h[i];
@@ -249,9 +240,14 @@ pub fn studentized(e: &[f64], jacobian: &DMatrix<f64>) -> Vec<Option<f64>> {
             let mut without = total - e[i] * e[i] / free;
             if without.is_nan() || without <= 1e-6 * total {
                 let shift = e[i] / free;
+                basis_row(jacobian, &w, i, &mut row_i);
                 without = (0..m)
                     .filter(|&j| j != i)
-                    .map(|j| (e[j] + u.row(j).dot(&u.row(i)) * shift).powi(2))
+                    .map(|j| {
+                        basis_row(jacobian, &w, j, &mut row_j);
+                        let h_ji: f64 = row_j.iter().zip(&row_i).map(|(a, b)| a * b).sum();
+                        (e[j] + h_ji * shift).powi(2)
+                    })
                     .sum();
             }
             let s = (without.max(0.0) / (m - n - 1) as f64).sqrt();
@@ -323,8 +319,12 @@ pub enum FitKind {
     Robust,
 }
 
+/// A problem's residuals and Jacobian at one point.
+pub type Evaluated<'e> = (&'e DVector<f64>, &'e DMatrix<f64>);
+
 /// The statistics of the leg in `slot` at the estimate `x` of `problem` (as fitted, with its
-/// weights); `noise` is the declared noise.
+/// weights), given the residuals and Jacobian there as fitted (`fitted`) and unweighted
+/// (`raw`); `noise` is the declared noise.
 ///
 /// # Errors
 /// A block whose leg cannot reach its pose.
@@ -332,22 +332,19 @@ pub fn leg_statistics(
     problem: &IdentificationProblem<'_>,
     slot: &LegSlot,
     x: &DVector<f64>,
+    (fitted, raw): (Evaluated<'_>, Evaluated<'_>),
     noise: Option<&MeasurementNoise>,
     kind: FitKind,
 ) -> Result<LegStatistics, BlockError> {
     let rows = problem.rows_of(slot);
     let (m, n) = (rows.len(), slot.columns.len());
-    let raw_problem = problem.unweighted();
-    let (raw, raw_jacobian) = raw_problem.residuals_and_jacobian(x)?;
+    let (raw, raw_jacobian) = raw;
     let variances = match noise {
-        Some(noise) => Some(row_variances(&raw_problem, x, noise)?),
+        Some(noise) => Some(row_variances(&problem.unweighted(), x, noise)?),
         None => None,
     };
     let leg_rows = |r: &DVector<f64>| -> Vec<f64> { rows.iter().map(|&i| r[i]).collect() };
-    let leg_jacobian = |j: &DMatrix<f64>, scale: &dyn Fn(usize) -> f64| {
-        DMatrix::from_fn(m, n, |i, k| j[(rows[i], slot.offset + k)] * scale(rows[i]))
-    };
-    let e = leg_rows(&raw);
+    let e = leg_rows(raw);
     let leg_variances: Option<Vec<f64>> = variances
         .as_ref()
         .map(|v| rows.iter().map(|&i| v[i]).collect());
@@ -357,7 +354,9 @@ pub fn leg_statistics(
     let (t, threshold): (Vec<Option<f64>>, Option<f64>) = match (kind, positive) {
         (FitKind::Robust, Some(v)) => {
             let all = variances.as_deref().unwrap_or_default();
-            let j = leg_jacobian(&raw_jacobian, &|i| 1.0 / all[i].sqrt());
+            let j = DMatrix::from_fn(m, n, |i, k| {
+                raw_jacobian[(rows[i], slot.offset + k)] / all[rows[i]].sqrt()
+            });
             let h = leverages(&j);
             let t = e
                 .iter()
@@ -371,9 +370,9 @@ pub fn leg_statistics(
             (t, outlier_threshold(m, None))
         }
         _ => {
-            let (fitted, fitted_jacobian) = problem.residuals_and_jacobian(x)?;
-            let j = leg_jacobian(&fitted_jacobian, &|_| 1.0);
-            let t = studentized(&leg_rows(&fitted), &j);
+            let (fitted, fitted_jacobian) = fitted;
+            let j = problem.slot_jacobian(slot, fitted_jacobian);
+            let t = studentized(&leg_rows(fitted), &j);
             let threshold = (m > n + 1)
                 .then(|| outlier_threshold(m, Some(m - n - 1)))
                 .flatten();

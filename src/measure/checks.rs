@@ -15,8 +15,10 @@
 //! * Two rows with the same leg label, pose and readings: a **warning** naming both lines (the
 //!   same measurement counted twice makes the standard deviations √2 too small).
 
-use std::collections::HashMap;
 use std::f64::consts::TAU;
+use std::hash::{DefaultHasher, Hasher};
+
+use rayon::prelude::*;
 
 use super::MeasurementSet;
 use crate::error::{Error, Result};
@@ -191,34 +193,61 @@ fn range_warnings(mechanism: &Mechanism, data: &MeasurementSet) -> Result<Vec<St
 }
 
 fn duplicate_warnings(mechanism: &Mechanism, data: &MeasurementSet) -> Vec<String> {
-    let mut seen: HashMap<Vec<u64>, usize> = HashMap::new();
-    let mut warnings = Vec::new();
-    for (index, pose) in data.poses.iter().enumerate() {
-        let mut key = vec![pose.leg.map_or(u64::MAX, |l| l as u64)];
-        key.extend(mechanism.measured.iter().map(|&c| pose.pose[c].to_bits()));
-        key.extend(
-            pose.readings
+    // The key of a row: its leg label, measured coordinates and readings, bit for bit.
+    let poses = &data.poses;
+    let key = |index: usize| {
+        let pose = &poses[index];
+        let leg = pose.leg.map_or(u64::MAX, |l| l as u64);
+        let coordinates = mechanism.measured.iter().map(|&c| pose.pose[c].to_bits());
+        let readings = pose
+            .readings
+            .iter()
+            .map(|r| r.map_or(u64::MAX - 1, f64::to_bits));
+        std::iter::once(leg).chain(coordinates).chain(readings)
+    };
+    // Rows sorted by a hash of their key, then by index (parallel, no per-row allocation):
+    // equal keys are in one run of equal hashes, in file order; a run's rows are compared by
+    // their keys (two different keys may share a hash).
+    let hashes: Vec<(u64, usize)> = (0..poses.len())
+        .into_par_iter()
+        .map(|index| {
+            let mut hasher = DefaultHasher::new();
+            key(index).for_each(|word| hasher.write_u64(word));
+            (hasher.finish(), index)
+        })
+        .collect();
+    let mut order = hashes;
+    order.par_sort_unstable();
+    let mut repeats: Vec<(usize, usize)> = Vec::new();
+    for run in order
+        .chunk_by(|a, b| a.0 == b.0)
+        .filter(|run| run.len() > 1)
+    {
+        for (k, &(_, index)) in run.iter().enumerate().skip(1) {
+            let first = run[..k]
                 .iter()
-                .map(|r| r.map_or(u64::MAX - 1, f64::to_bits)),
-        );
-        match seen.get(&key) {
-            Some(&first) => {
-                let place = |i: usize| {
-                    data.poses[i]
-                        .line
-                        .map_or(format!("simulated row {}", i + 1), |l| format!("line {l}"))
-                };
-                warnings.push(format!(
-                    "{} repeats {} exactly (same leg, pose and readings): a measurement counted \
-                     twice makes the standard deviations too small; remove one of them",
-                    place(index),
-                    place(first)
-                ));
-            }
-            None => {
-                seen.insert(key, index);
+                .map(|&(_, earlier)| earlier)
+                .find(|&earlier| key(earlier).eq(key(index)));
+            if let Some(first) = first {
+                repeats.push((index, first));
             }
         }
     }
-    warnings
+    repeats.sort_unstable();
+    let place = |i: usize| {
+        poses[i]
+            .line
+            .map_or(format!("simulated row {}", i + 1), |l| format!("line {l}"))
+    };
+    repeats
+        .into_iter()
+        .map(|(index, first)| {
+            format!(
+                "{} repeats {} exactly (same leg, pose and readings): a measurement counted \
+                 twice makes the standard deviations too small; remove one of them",
+                place(index),
+                place(first)
+            )
+        })
+        .collect()
 }

@@ -21,12 +21,12 @@ fn expected_columns(mechanism: &Mechanism) -> Vec<String> {
     columns
 }
 
-/// Reads a measurement file for `mechanism`.
+/// Reads a measurement file for `mechanism`, streaming (the file's text is never held whole).
 ///
 /// # Errors
 /// [`Error::Io`] if unreadable; [`Error::Measurement`] naming the line and column for a missing
-/// or unknown column, an unknown leg, a non-numeric or non-finite cell, a missing coordinate, or
-/// a file without rows.
+/// or unknown column, an unknown leg, a non-numeric or non-finite cell, a missing coordinate,
+/// text that is not UTF-8, or a file without rows.
 pub fn read(path: &Path, mechanism: &Mechanism) -> Result<MeasurementSet> {
     let file = std::fs::File::open(path).map_err(|error| Error::Io {
         path: path.to_path_buf(),
@@ -39,20 +39,9 @@ pub fn read(path: &Path, mechanism: &Mechanism) -> Result<MeasurementSet> {
 /// is the file's name in messages (e.g. `<stdin>`).
 ///
 /// # Errors
-/// [`Error::Io`] if the reader fails or the text is not UTF-8; otherwise as [`parse`].
-pub fn read_from(
-    mut reader: impl Read,
-    name: &Path,
-    mechanism: &Mechanism,
-) -> Result<MeasurementSet> {
-    let mut text = String::new();
-    reader
-        .read_to_string(&mut text)
-        .map_err(|error| Error::Io {
-            path: name.to_path_buf(),
-            error,
-        })?;
-    parse(&text, name, mechanism)
+/// [`Error::Io`] if the reader fails; otherwise as [`parse`].
+pub fn read_from(reader: impl Read, name: &Path, mechanism: &Mechanism) -> Result<MeasurementSet> {
+    parse_rows(reader, name, mechanism, true)
 }
 
 /// Parses measurement CSV text; `path` is only used in messages.
@@ -60,7 +49,7 @@ pub fn read_from(
 /// # Errors
 /// As [`read`].
 pub fn parse(text: &str, path: &Path, mechanism: &Mechanism) -> Result<MeasurementSet> {
-    parse_rows(text, path, mechanism, true)
+    parse_rows(text.as_bytes(), path, mechanism, true)
 }
 
 /// Reads a pose file in the measurement layout for drawing: as [`read`], but a labelled row's
@@ -69,15 +58,18 @@ pub fn parse(text: &str, path: &Path, mechanism: &Mechanism) -> Result<Measureme
 /// # Errors
 /// As [`read`], except for empty readings.
 pub fn read_poses(path: &Path, mechanism: &Mechanism) -> Result<MeasurementSet> {
-    let text = std::fs::read_to_string(path).map_err(|error| Error::Io {
+    let file = std::fs::File::open(path).map_err(|error| Error::Io {
         path: path.to_path_buf(),
         error,
     })?;
-    parse_rows(&text, path, mechanism, false)
+    parse_rows(file, path, mechanism, false)
 }
 
+/// The rows of a measurement CSV read from `source` (buffered by the CSV reader), one record
+/// buffer for all rows, cells read as bytes and trimmed in place (no allocation per row but the
+/// row's readings).
 fn parse_rows(
-    text: &str,
+    source: impl Read,
     path: &Path,
     mechanism: &Mechanism,
     require_readings: bool,
@@ -88,16 +80,16 @@ fn parse_rows(
         message,
     };
     let expected = expected_columns(mechanism);
+    // The cells are trimmed here (of Unicode whitespace, as `str::trim`): the CSV reader's
+    // trimming of the fields builds a new record for every row.
     let mut reader = csv::ReaderBuilder::new()
-        .trim(csv::Trim::All)
+        .trim(csv::Trim::Headers)
         .flexible(false)
-        .from_reader(text.as_bytes());
-    let header: Vec<String> = reader
-        .headers()
-        .map_err(|e| fail("header".into(), e.to_string()))?
-        .iter()
-        .map(str::to_string)
-        .collect();
+        .from_reader(source);
+    let header: Vec<String> = match reader.headers() {
+        Ok(header) => header.iter().map(str::to_string).collect(),
+        Err(e) => return Err(csv_error(path, &e, "header".into())),
+    };
     if header.iter().all(String::is_empty) {
         return Err(fail(
             "header".into(),
@@ -117,27 +109,42 @@ fn parse_rows(
         .iter()
         .map(|name| index(name).unwrap_or_default())
         .collect();
-    // One pose per line at most: no regrowth of a large vector; one record buffer for all rows.
-    let mut poses = Vec::with_capacity(text.bytes().filter(|&b| b == b'\n').count());
-    let mut record = csv::StringRecord::new();
+    let mut poses = Vec::new();
+    let mut record = csv::ByteRecord::new();
     loop {
-        match reader.read_record(&mut record) {
+        match reader.read_byte_record(&mut record) {
             Ok(true) => {}
             Ok(false) => break,
             Err(e) => {
                 let line = e.position().map_or(0, |p| p.line());
-                return Err(fail(format!("line {line}"), csv_message(&e)));
+                return Err(csv_error(path, &e, format!("line {line}")));
             }
         }
         let line = record.position().map_or(0, |p| p.line() as usize);
-        if record.iter().all(str::is_empty) {
+        let blank = |bytes: &[u8]| std::str::from_utf8(bytes).is_ok_and(|t| t.trim().is_empty());
+        if record.iter().all(blank) {
             continue;
         }
-        let cell = |column: usize| record.get(column).unwrap_or("");
-        let number = |column: usize, unit: &str| {
-            rows::number(path, line, &header[column], cell(column), unit)
+        let cell = |column: usize| -> Result<&str> {
+            let bytes = record.get(column).unwrap_or_default();
+            std::str::from_utf8(bytes).map(str::trim).map_err(|_| {
+                fail(
+                    format!("line {line}, column `{}`", header[column]),
+                    format!(
+                        "the cell is not UTF-8 text: `{}`",
+                        String::from_utf8_lossy(bytes)
+                    ),
+                )
+            })
         };
-        let leg = rows::leg_of(path, line, mechanism, leg_column.map_or("", cell))?;
+        let number = |column: usize, unit: &str| {
+            rows::number(path, line, &header[column], cell(column)?, unit)
+        };
+        let leg_cell = match leg_column {
+            Some(column) => cell(column)?,
+            None => "",
+        };
+        let leg = rows::leg_of(path, line, mechanism, leg_cell)?;
         let mut pose = mechanism.home_pose;
         for &(coordinate, column) in &coordinate_columns {
             let unit = if coordinate < 3 { "metres" } else { "radians" };
@@ -165,10 +172,23 @@ fn parse_rows(
     if poses.is_empty() {
         return Err(rows::no_rows(path));
     }
+    poses.shrink_to_fit();
     Ok(MeasurementSet {
         source: Some(path.to_path_buf()),
         poses,
     })
+}
+
+/// A CSV reader's error at `location`: the reader's I/O failure as [`Error::Io`], anything
+/// else as [`Error::Measurement`].
+fn csv_error(path: &Path, error: &csv::Error, location: String) -> Error {
+    match error.kind() {
+        csv::ErrorKind::Io(io) => Error::Io {
+            path: path.to_path_buf(),
+            error: std::io::Error::new(io.kind(), io.to_string()),
+        },
+        _ => rows::fail(path, location, csv_message(error)),
+    }
 }
 
 fn csv_message(error: &csv::Error) -> String {

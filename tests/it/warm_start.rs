@@ -263,3 +263,55 @@ fn residuals_ignore_the_history_and_the_thread_count() {
     let two: Vec<u64> = fit(2).iter().map(|v| v.to_bits()).collect();
     assert_eq!(one, two);
 }
+
+/// A problem too large to keep its full solutions (more than 65 536 rows) takes the Jacobian
+/// where it last evaluated the residuals from its kept seeds (dual passes only): bit for bit
+/// the Jacobian of an evaluation that took both at once, and, row by row, the Jacobian and the
+/// expected variances of a small problem of the same poses (which keeps its solutions).
+#[test]
+fn a_large_problem_takes_its_jacobian_from_the_kept_seeds() {
+    let mech = bundled("5r.yaml");
+    let options = SimulationOptions {
+        poses_per_leg: Some(40),
+        ..Default::default()
+    };
+    let data = simulate(&mech, options).unwrap().measurements;
+    let base = data.leg_blocks(0);
+    let copies = 65_536 / base.len() + 1;
+    let many: Vec<_> = (0..copies).flat_map(|_| base.iter().cloned()).collect();
+    let small = IdentificationProblem::new(&mech, &[0], base.clone());
+    let large = IdentificationProblem::new(&mech, &[0], many.clone());
+    let mut x = large.nominal();
+    x[0] += 2e-3;
+    x[3] -= 1e-3;
+    // Residuals first, then the Jacobian at the same unknowns: from the seeds.
+    let r = large.residuals(&x).unwrap();
+    let (r_seeds, c_seeds) = large.residuals_and_jacobian(&x).unwrap();
+    // Both at once on a fresh problem.
+    let fresh = IdentificationProblem::new(&mech, &[0], many);
+    let (r_once, c_once) = fresh.residuals_and_jacobian(&x).unwrap();
+    // The residuals are the kept evaluation's (a Jacobian's pass reads the prediction off the
+    // dual pass, the residuals' off the closure error: the same to round-off).
+    assert!(r == r_seeds, "the Jacobian's residuals are the kept ones");
+    assert!((&r_once - &r_seeds).amax() < 1e-14);
+    let same_bits = c_once
+        .iter()
+        .zip(c_seeds.iter())
+        .all(|(a, b)| a.to_bits() == b.to_bits());
+    assert!(
+        same_bits,
+        "the seeds' Jacobian is the one-pass Jacobian, bit for bit"
+    );
+    let (r_small, c_small) = small.residuals_and_jacobian(&x).unwrap();
+    let noise = mech.noise.expect("the 5R declares its noise");
+    let v_large = legwise::identify::statistics::row_variances(&large, &x, &noise).unwrap();
+    let v_small = legwise::identify::statistics::row_variances(&small, &x, &noise).unwrap();
+    for i in 0..r_seeds.len() {
+        let k = i % base.len();
+        assert!((r_seeds[i] - r_small[k]).abs() < 1e-13);
+        for j in 0..c_small.ncols() {
+            assert!((c_seeds[(i, j)] - c_small[(k, j)]).abs() < 1e-12);
+        }
+        assert!((v_large[i] - v_small[k]).abs() <= 1e-12 * v_small[k]);
+    }
+}

@@ -62,15 +62,21 @@ fn householder_qr(a: &mut DMatrix<f64>, b: &mut DVector<f64>, mut perm: Option<&
 }
 
 impl Scratch {
-    /// Factorise `J P = Q R` and form `Qᵀ r` (zero rows are appended when `m < n`).
-    pub(super) fn factorize(&mut self, jac: &DMatrix<f64>, res: &DVector<f64>) {
+    /// Factorise `J P = Q R` and form `Qᵀ r` (zero rows are appended when `m < n`), in the
+    /// Jacobian's own storage (a large problem's Jacobian is tens of megabytes: no copy).
+    pub(super) fn factorize(&mut self, jac: DMatrix<f64>, res: &DVector<f64>) {
         let (m, n) = jac.shape();
-        self.jq = DMatrix::zeros(m.max(n), n);
-        self.jq.view_mut((0, 0), (m, n)).copy_from(jac);
+        self.col_norms = DVector::from_iterator(n, jac.column_iter().map(|c| c.norm()));
+        self.jq = if m >= n {
+            jac
+        } else {
+            let mut padded = DMatrix::zeros(n, n);
+            padded.view_mut((0, 0), (m, n)).copy_from(&jac);
+            padded
+        };
         self.rhs = DVector::zeros(m.max(n));
         self.rhs.rows_mut(0, m).copy_from(res);
         self.perm = (0..n).collect();
-        self.col_norms = DVector::from_iterator(n, jac.column_iter().map(|c| c.norm()));
         householder_qr(&mut self.jq, &mut self.rhs, Some(&mut self.perm));
         self.qtr = self.rhs.rows(0, n).into_owned();
         for v in [&mut self.z, &mut self.y, &mut self.step, &mut self.d_perm] {

@@ -246,6 +246,9 @@ where
         let mut r = take(state.take_residuals(), "residual vector")?;
         let (m, n) = (r.len(), x.len());
         let mut fnorm = r.norm();
+        // The last iteration's factorisation is not needed again: freed before the new
+        // Jacobian is built (a large problem's is tens of megabytes).
+        self.scratch.jq = DMatrix::zeros(0, 0);
         let jac = problem.jacobian(&x)?;
         check_len(jac.nrows(), m, "Jacobian row count")?;
         check_len(jac.ncols(), n, "Jacobian column count")?;
@@ -255,7 +258,7 @@ where
             return Ok((state.param(x).residuals(r).terminate_with(reason), None));
         }
         let s = &mut self.scratch;
-        s.factorize(&jac, &r);
+        s.factorize(jac, &r);
         // Gradient test: max_j |(Jᵀr)_j| / (‖J e_j‖‖r‖) ≤ gtol (MINPACK's max-cosine; Jᵀr = P Rᵀ Qᵀr).
         let mut gnorm: f64 = 0.0;
         for j in 0..n {
