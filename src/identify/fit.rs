@@ -142,7 +142,9 @@ fn already_minimal(
 
 #[cfg(test)]
 mod tests {
-    use super::inverse;
+    use nalgebra::{DMatrix, DVector};
+
+    use super::{already_minimal, inverse, STATIONARY_STEP};
 
     /// Weights are `1/v` only when every variance is a usable one: a zero variance (a row no
     /// declared noise reaches) or an infinite one must refuse the weighting, not give an
@@ -155,5 +157,28 @@ mod tests {
         assert_eq!(inverse(&[-1.0]), None);
         assert_eq!(inverse(&[f64::NAN]), None);
         assert_eq!(inverse(&[]), Some(vec![]));
+    }
+
+    /// With C = I the Gauss–Newton step is r itself, so its length is set exactly: at
+    /// ‖x₀‖ = 3 the start is already the minimiser for a step up to 1e-12 · (3 + 1) = 4e-12,
+    /// and not beyond. Each side is checked 2.5 % from the bound.
+    #[test]
+    fn the_start_is_minimal_below_a_step_relative_to_the_parameters() {
+        let x0 = DVector::from_vec(vec![0.0, 3.0, 0.0]);
+        let bound = STATIONARY_STEP * (3.0 + 1.0);
+        let along = |length: f64| DVector::from_vec(vec![length * 0.6, 0.0, length * 0.8]);
+        let minimal = |length: f64| already_minimal(&x0, &along(length), DMatrix::identity(3, 3));
+        let below = minimal(0.975 * bound).expect("a step below the bound");
+        assert_eq!(below.x, x0);
+        assert_eq!(below.iterations, 0);
+        assert!(below.converged);
+        assert!(minimal(1.025 * bound).is_none());
+        // A zero start keeps an absolute bound of 1e-12.
+        let origin = DVector::zeros(3);
+        let at_origin = |length: f64| {
+            already_minimal(&origin, &along(length), DMatrix::identity(3, 3)).is_some()
+        };
+        assert!(at_origin(0.975 * STATIONARY_STEP));
+        assert!(!at_origin(1.025 * STATIONARY_STEP));
     }
 }
