@@ -281,3 +281,45 @@ fn fewer_measurements_than_parameters_say_how_many() {
     );
     assert!(!params.contains("null-space"), "{err}");
 }
+
+/// A reading on another whole turn of a revolute actuator is the same reading: the residual of
+/// a 5R block whose reading is moved by ±2π/gain (leg 1's gain is 1, leg 2's is −1) is the
+/// residual of the original block, in f64 and in its derivative, and a residual within half a
+/// turn is left as it is.
+#[test]
+fn a_reading_moved_by_whole_turns_gives_the_same_residual() {
+    let (mech, data) = noisy_5r_with_a_fixed_parameter();
+    let home = mech.home_pose;
+    for (leg, model) in mech.legs.iter().enumerate() {
+        let phi = model.nominal();
+        let gain = model.geometry(&phi).gain;
+        for block in data.leg_blocks(leg).iter().take(4) {
+            let residual = block.evaluate::<f64>(model, &phi, &home).unwrap();
+            assert!(residual.abs() < 0.1, "leg {leg}: residual {residual}");
+            for turns in [-2.0, -1.0, 1.0, 3.0] {
+                let moved = ResidualBlock {
+                    reading: block.reading + turns * std::f64::consts::TAU / gain,
+                    ..block.clone()
+                };
+                let value = moved.evaluate::<f64>(model, &phi, &home).unwrap();
+                close(value, residual, 1e-9, &format!("leg {leg}, {turns} turns"));
+                let seeded: Vec<Dual64> = phi
+                    .iter()
+                    .enumerate()
+                    .map(|(k, &v)| {
+                        let d = Dual64::from_re(v);
+                        if k == 0 {
+                            d.derivative()
+                        } else {
+                            d
+                        }
+                    })
+                    .collect();
+                let moved_dual = moved.evaluate(model, &seeded, &home).unwrap();
+                let dual = block.evaluate(model, &seeded, &home).unwrap();
+                close(moved_dual.re, dual.re, 1e-9, "dual value");
+                close(moved_dual.eps, dual.eps, 1e-12, "derivative");
+            }
+        }
+    }
+}
