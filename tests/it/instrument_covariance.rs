@@ -3,7 +3,8 @@
 //! differences of the residuals in every measured target coordinate (so a shared row's
 //! residuals of both legs are correlated as the data make them), the pseudo-inverse by SVD,
 //! and `σ² = ŝ² diag(J⁺ V J⁺ᵀ)`, `ŝ² = ‖r‖²/tr((I − J J⁺) V)`. Over seeded Monte Carlo trials
-//! the predicted σ of the frame lies in the interval of the observed spread.
+//! the predicted σ of the frame lies in the interval of the observed spread, and with shared
+//! rows the frame's errors over their σ have the second moment of Student's t.
 use argmin::core::Operator;
 use legwise::identify::shared::SharedProblem;
 use legwise::identify::shared_estimate::{identify_shared, SharedEstimate, SharedStrategy};
@@ -238,5 +239,42 @@ fn over_seeded_trials_the_frames_predicted_sigma_lies_in_the_observed_spreads_in
             );
         }
         assert_eq!(frame, 3, "{model}: x, y, yaw");
+    }
+}
+
+#[test]
+fn over_seeded_experiments_of_shared_rows_the_frames_errors_over_their_sigma_are_students_t() {
+    let mechanism = bundled("5r-tracker.yaml");
+    let trials = 400;
+    let mut squares = [0.0; 3];
+    let mut degrees = None;
+    for t in 0..trials {
+        let options = SimulationOptions {
+            seed: Some(1000 + t),
+            ..Default::default()
+        };
+        let experiment = simulate_observed(&mechanism, options).unwrap();
+        let mut observations = experiment.observations;
+        observations.rows.retain(|row| row.leg.is_none());
+        let estimate = identify_shared(&mechanism, &observations, SharedStrategy::Joint).unwrap();
+        degrees = Some(estimate.rows - estimate.unknowns);
+        let frame = estimate.shared.iter().zip(&experiment.real_shared);
+        for (k, (p, real)) in frame.filter(|(p, _)| p.identified).enumerate() {
+            squares[k] += ((p.estimate - real) / p.std.unwrap()).powi(2) / trials as f64;
+        }
+    }
+    // Error over σ is Student's t with ν = m − n degrees of freedom: E t² = ν/(ν − 2),
+    // Var t² = 2ν²(ν − 1)/((ν − 2)²(ν − 4)). The homoscedastic σ give 1.38 for frame_x.
+    let nu = degrees.unwrap() as f64;
+    assert_eq!(nu, 24.0, "18 shared rows read by 2 legs, 12 unknowns");
+    let mean = nu / (nu - 2.0);
+    let sd =
+        (2.0 * nu * nu * (nu - 1.0) / ((nu - 2.0).powi(2) * (nu - 4.0)) / trials as f64).sqrt();
+    for (name, square) in ["frame_x", "frame_y", "frame_yaw"].iter().zip(squares) {
+        assert!(
+            (square - mean).abs() <= 2.5 * sd,
+            "{name}: mean (error/σ)² {square:.3}, expected {mean:.3} ± {:.3}",
+            2.5 * sd
+        );
     }
 }
