@@ -265,8 +265,9 @@ fn over_seeded_experiments_of_shared_rows_the_frames_errors_over_their_sigma_are
     }
     // Error over σ is Student's t with ν = m − n degrees of freedom: E t² = ν/(ν − 2),
     // Var t² = 2ν²(ν − 1)/((ν − 2)²(ν − 4)). The homoscedastic σ give 1.38 for frame_x.
-    let nu = degrees.unwrap() as f64;
-    assert_eq!(nu, 24.0, "18 shared rows read by 2 legs, 12 unknowns");
+    let degrees = degrees.unwrap();
+    assert_eq!(degrees, 24, "18 shared rows read by 2 legs, 12 unknowns");
+    let nu = degrees as f64;
     let mean = nu / (nu - 2.0);
     let sd =
         (2.0 * nu * nu * (nu - 1.0) / ((nu - 2.0).powi(2) * (nu - 4.0)) / trials as f64).sqrt();
