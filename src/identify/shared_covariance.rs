@@ -7,8 +7,8 @@
 //! targets' coordinates (unit variance after scaling), `W` the [`NoiseLoadings`]. Its covariance
 //! `V = σ_q² I + W Wᵀ` is block-diagonal, one block per measurement. The unweighted fit's
 //! estimate moves by `A Jᵀ e` (`A = (JᵀJ)⁻¹`), so its covariance is the sandwich
-//! `A (Jᵀ V J) A`; `Jᵀ V J = σ_q² JᵀJ + Σ u uᵀ` with one `u = Σ_a W_ai j_a` per measurement and
-//! target coordinate (the sum over the measurement's residuals `a`, `j_a` the Jacobian's row).
+//! `A (Jᵀ V J) A`, `Jᵀ V J = Σ_B J_Bᵀ V_B J_B` over the measurements `B` (`J_B` their rows of
+//! the Jacobian, `V_B` their block of `V`).
 //!
 //! `V` is scaled by `ŝ² = ‖r‖² / tr((I − H) V)`, `H = J A Jᵀ`: the residuals' sum of squares
 //! over its expectation under the declared noise (`r = (I − H) e`, so `E‖r‖² = tr((I − H) V)`).
@@ -41,25 +41,25 @@ impl NoiseLoadings {
             .collect()
     }
 
-    /// `Jᵀ V J` for the Jacobian `jacobian` (rows in the loadings' order).
+    /// `Jᵀ V J` for the Jacobian `jacobian` (rows in the loadings' order): the sum over the
+    /// measurements of `J_Bᵀ V_B J_B`, `V_B = σ_q² I + W_B W_Bᵀ` over the measurement's rows
+    /// `B` (as many operations as forming `JᵀJ`, a measurement being read by a few legs).
     fn meat(&self, jacobian: &DMatrix<f64>) -> DMatrix<f64> {
         let n = jacobian.ncols();
-        let mut meat = jacobian.tr_mul(jacobian) * self.reading.powi(2);
         // The residuals of each measurement, in row order (a deterministic sum).
         let mut measurements: BTreeMap<usize, Vec<usize>> = BTreeMap::new();
         for (a, (measurement, _)) in self.rows.iter().enumerate() {
             measurements.entry(*measurement).or_default().push(a);
         }
-        let coordinates = self.rows.iter().map(|(_, w)| w.len()).max().unwrap_or(0);
+        let mut meat = DMatrix::zeros(n, n);
         for rows in measurements.values() {
-            for i in 0..coordinates {
-                let mut u = DVector::zeros(n);
-                for &a in rows {
-                    let w = self.rows[a].1.get(i).copied().unwrap_or(0.0);
-                    u += jacobian.row(a).transpose() * w;
-                }
-                meat.ger(1.0, &u, &u, 1.0);
-            }
+            let block = DMatrix::from_fn(rows.len(), n, |i, j| jacobian[(rows[i], j)]);
+            let v = DMatrix::from_fn(rows.len(), rows.len(), |i, k| {
+                let (wi, wk) = (&self.rows[rows[i]].1, &self.rows[rows[k]].1);
+                let shared: f64 = wi.iter().zip(wk).map(|(x, y)| x * y).sum();
+                shared + if i == k { self.reading.powi(2) } else { 0.0 }
+            });
+            meat += block.tr_mul(&(v * &block));
         }
         meat
     }
