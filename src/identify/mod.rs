@@ -8,6 +8,7 @@ pub mod problem;
 pub mod residual;
 pub mod robust;
 pub mod shared;
+pub mod shared_covariance;
 pub mod shared_estimate;
 pub mod statistics;
 pub mod trust;

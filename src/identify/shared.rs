@@ -24,18 +24,21 @@ use super::residual::{turn_in_reading_units, turns};
 use crate::error::{Error, Result};
 use crate::measure::observations::{instrument_of, Observations};
 use crate::model::instrument::Instrument;
-use crate::model::mechanism::MeasurementNoise;
 use crate::model::params::ParamTarget;
 use crate::model::Mechanism;
 use crate::solver::bordered::{BorderedBlock, BorderedLayout, BorderedLeastSquares};
 
 mod evaluation;
+mod noise;
 
-use evaluation::{attachment_gradient, Evaluations};
+use evaluation::Evaluations;
 
 /// One row of one leg: the targets' coordinates and the leg's reading.
 #[derive(Debug, Clone)]
 struct Row {
+    /// The row's index in the observations: the rows of several legs with the same index are
+    /// one measurement, whose target noise reaches every leg's residual.
+    source: usize,
     observed: Vec<f64>,
     reading: f64,
     line: Option<usize>,
@@ -79,9 +82,10 @@ impl<'a> SharedProblem<'a> {
         let mut groups = Vec::new();
         for leg in mechanism.identified_legs() {
             let rows: Vec<Row> = observations
-                .leg_rows(leg)
+                .indexed_leg_rows(leg)
                 .into_iter()
-                .map(|(row, reading)| Row {
+                .map(|(source, row, reading)| Row {
+                    source,
                     observed: row.observed.clone(),
                     reading,
                     line: row.line,
@@ -226,62 +230,6 @@ impl<'a> SharedProblem<'a> {
                 phi
             })
             .collect()
-    }
-
-    /// Expected variance of every residual at `x` (rows in group order) under the declared
-    /// `noise`: `σ_q² + Σ_i (∂ψ/∂m_i)² σ_i²` over the row's target coordinates `m_i` (σ of the
-    /// coordinate of the same name: x, y, z, roll, pitch, yaw), `∂ψ/∂m_i` by the chain rule
-    /// through the reading's Newton step and the pose fit (dual numbers in `m_i`).
-    ///
-    /// # Errors
-    /// A leg cannot reach a fitted pose.
-    pub fn row_variances(
-        &self,
-        x: &DVector<f64>,
-        noise: &MeasurementNoise,
-    ) -> std::result::Result<Vec<f64>, ArgminError> {
-        let shared = self.shared_values(x);
-        let sigmas: Vec<f64> = self
-            .instrument
-            .targets
-            .iter()
-            .flat_map(|t| t.pose_indices())
-            .map(|&c| noise.pose[c])
-            .collect();
-        let phis = self.leg_parameters(x);
-        let mut variances = Vec::new();
-        let mut gradient = vec![0.0; sigmas.len()];
-        self.evaluated(x.as_slice(), false, |evaluation| {
-            for ((group, phi), values) in self.groups.iter().zip(&phis).zip(&evaluation.groups) {
-                let leg = &self.mechanism.legs[group.leg];
-                let geometry = leg.geometry(phi);
-                let rows = group.rows.iter().zip(&values.poses).zip(&values.solutions);
-                for ((row, pose), solution) in rows {
-                    let c = attachment_gradient(
-                        leg.actuated,
-                        leg.closure_dims,
-                        geometry.gain,
-                        solution,
-                    );
-                    self.observed_gradient(
-                        &shared,
-                        &row.observed,
-                        (pose, &geometry.attachment),
-                        &c,
-                        &mut gradient,
-                    );
-                    let variance = gradient
-                        .iter()
-                        .zip(&sigmas)
-                        .fold(noise.reading.powi(2), |v, (d, sigma)| {
-                            v + (d * sigma).powi(2)
-                        });
-                    variances.push(variance);
-                }
-            }
-        })
-        .map_err(ArgminError::msg)?;
-        Ok(variances)
     }
 
     /// The blocks, or only the residuals (empty derivative blocks) without `derivatives`.

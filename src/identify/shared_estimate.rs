@@ -11,6 +11,7 @@ use nalgebra::{DMatrix, DVector};
 use super::estimate::ParameterEstimate;
 use super::observability::{analyse, Observability};
 use super::shared::SharedProblem;
+use super::shared_covariance::standard_deviations;
 use super::statistics::{self, figure, NoiseTest};
 use crate::error::{Error, Result};
 use crate::measure::observations::Observations;
@@ -179,19 +180,21 @@ pub fn identify_shared(
         return Err(solver_error("the estimate is not finite"));
     }
     let (m, n) = jacobian.shape();
-    let sigmas = standard_deviations(&r, &jacobian);
     let noise = mechanism
         .noise
         .filter(|n| n.reading > 0.0 || n.pose.iter().any(|&s| s > 0.0));
-    let noise_test = match noise {
-        Some(noise) => {
-            let variances = problem
-                .row_variances(&outcome.x, &noise)
-                .map_err(solver_error)?;
-            statistics::noise_test(r.as_slice(), &variances, n, 0)
-        }
+    let loadings = match noise {
+        Some(noise) => Some(
+            problem
+                .noise_loadings(&outcome.x, &noise)
+                .map_err(solver_error)?,
+        ),
         None => None,
     };
+    let sigmas = standard_deviations(&r, &jacobian, loadings.as_ref());
+    let noise_test = loadings
+        .as_ref()
+        .and_then(|l| statistics::noise_test(r.as_slice(), &l.variances(), n, 0));
     let mut column = 0;
     let mut next = |identified: bool| {
         identified.then(|| {
@@ -261,21 +264,6 @@ pub fn identify_shared(
         seconds,
         noise_test,
     })
-}
-
-/// `σ̂ √diag((JᵀJ)⁻¹)` with `σ̂² = ‖r‖²/(m − n)`, if `m > n` and `JᵀJ` is invertible.
-fn standard_deviations(r: &DVector<f64>, jacobian: &DMatrix<f64>) -> Option<Vec<f64>> {
-    let (m, n) = jacobian.shape();
-    if m <= n {
-        return None;
-    }
-    let variance = r.norm_squared() / (m - n) as f64;
-    let inverse = (jacobian.transpose() * jacobian).try_inverse()?;
-    Some(
-        (0..n)
-            .map(|j| (variance * inverse[(j, j)]).max(0.0).sqrt())
-            .collect(),
-    )
 }
 
 fn solver_error(error: impl std::fmt::Display) -> Error {

@@ -45,17 +45,27 @@ impl Observations {
     /// is, the shared rows where its reading is present (as [`super::MeasurementSet::leg_blocks`]).
     /// Each item is the row and the reading.
     pub fn leg_rows(&self, leg: usize) -> Vec<(&ObservedRow, f64)> {
+        self.indexed_leg_rows(leg)
+            .into_iter()
+            .map(|(_, row, reading)| (row, reading))
+            .collect()
+    }
+
+    /// [`Self::leg_rows`] with each row's index in [`Self::rows`] first: the rows of several
+    /// legs with the same index are the same measurement (a shared row).
+    pub fn indexed_leg_rows(&self, leg: usize) -> Vec<(usize, &ObservedRow, f64)> {
         let labelled = self.rows.iter().any(|r| r.leg == Some(leg));
         self.rows
             .iter()
-            .filter(|r| {
+            .enumerate()
+            .filter(|(_, r)| {
                 if labelled {
                     r.leg == Some(leg)
                 } else {
                     r.leg.is_none()
                 }
             })
-            .filter_map(|r| r.readings[leg].map(|reading| (r, reading)))
+            .filter_map(|(i, r)| r.readings[leg].map(|reading| (i, r, reading)))
             .collect()
     }
 }

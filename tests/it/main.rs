@@ -12,6 +12,7 @@ mod fuzz;
 mod golden;
 mod instrument_cli;
 mod instrument_commands;
+mod instrument_covariance;
 mod instrument_evaluate;
 mod instrument_evaluation;
 mod instrument_identify;

@@ -1,0 +1,177 @@
+//! The covariance of the unweighted least-squares fit through the instrument (docs/method.md
+//! §13, "Statistics").
+//!
+//! Through an instrument the residuals' noise differs from row to row, and the residuals of one
+//! measurement (a shared row read by several legs) share its targets' noise: the residual
+//! noise is `e = ε_q + W ε_m`, `ε_q` each reading's own noise (variance `σ_q²`), `ε_m` the
+//! targets' coordinates (unit variance after scaling), `W` the [`NoiseLoadings`]. Its covariance
+//! `V = σ_q² I + W Wᵀ` is block-diagonal, one block per measurement. The unweighted fit's
+//! estimate moves by `A Jᵀ e` (`A = (JᵀJ)⁻¹`), so its covariance is the sandwich
+//! `A (Jᵀ V J) A`, `Jᵀ V J = Σ_B J_Bᵀ V_B J_B` over the measurements `B` (`J_B` their rows of
+//! the Jacobian, `V_B` their block of `V`).
+//!
+//! `V` is scaled by `ŝ² = ‖r‖² / tr((I − H) V)`, `H = J A Jᵀ`: the residuals' sum of squares
+//! over its expectation under the declared noise (`r = (I − H) e`, so `E‖r‖² = tr((I − H) V)`).
+//! With the noise declared right `ŝ² ≈ 1`; a noise level declared wrong by a common factor
+//! scales the σ as the residuals say; and with equal variances on every row (`V = σ² I`)
+//! the covariance is exactly the homoscedastic `σ̂² A`, `σ̂² = ‖r‖²/(m − n)`, which is also what
+//! is reported without a declared noise.
+
+use std::collections::BTreeMap;
+
+use nalgebra::{DMatrix, DVector};
+
+/// How the declared noise reaches the residuals (rows in the problem's order).
+#[derive(Debug, Clone, PartialEq)]
+pub struct NoiseLoadings {
+    /// The declared reading noise `σ_q` (each residual's own, independent of the others).
+    pub reading: f64,
+    /// Per residual: the index of its measurement (residuals with the same index share the
+    /// noise of the same target coordinates) and, per target coordinate `m_i`,
+    /// `σ_i ∂r/∂m_i`.
+    pub rows: Vec<(usize, Vec<f64>)>,
+}
+
+impl NoiseLoadings {
+    /// Each residual's expected variance, `σ_q² + Σ_i (σ_i ∂r/∂m_i)²` (the diagonal of `V`).
+    pub fn variances(&self) -> Vec<f64> {
+        self.rows
+            .iter()
+            .map(|(_, w)| w.iter().fold(self.reading.powi(2), |v, wi| v + wi.powi(2)))
+            .collect()
+    }
+
+    /// `Jᵀ V J` for the Jacobian `jacobian` (rows in the loadings' order): the sum over the
+    /// measurements of `J_Bᵀ V_B J_B`, `V_B = σ_q² I + W_B W_Bᵀ` over the measurement's rows
+    /// `B` (as many operations as forming `JᵀJ`, a measurement being read by a few legs).
+    fn meat(&self, jacobian: &DMatrix<f64>) -> DMatrix<f64> {
+        let n = jacobian.ncols();
+        // The residuals of each measurement, in row order (a deterministic sum).
+        let mut measurements: BTreeMap<usize, Vec<usize>> = BTreeMap::new();
+        for (a, (measurement, _)) in self.rows.iter().enumerate() {
+            measurements.entry(*measurement).or_default().push(a);
+        }
+        let mut meat = DMatrix::zeros(n, n);
+        for rows in measurements.values() {
+            let block = DMatrix::from_fn(rows.len(), n, |i, j| jacobian[(rows[i], j)]);
+            let v = DMatrix::from_fn(rows.len(), rows.len(), |i, k| {
+                let (wi, wk) = (&self.rows[rows[i]].1, &self.rows[rows[k]].1);
+                let shared: f64 = wi.iter().zip(wk).map(|(x, y)| x * y).sum();
+                shared + if i == k { self.reading.powi(2) } else { 0.0 }
+            });
+            meat += block.tr_mul(&(v * &block));
+        }
+        meat
+    }
+}
+
+/// The covariance of the unweighted least-squares estimate with residuals `r` and Jacobian
+/// `jacobian`: the sandwich `ŝ² A (Jᵀ V J) A` of the module's documentation with `loadings`,
+/// else `σ̂² A`; `None` without redundancy (`m ≤ n`), with a singular `JᵀJ` or a residual
+/// noise whose expected sum of squares is not positive.
+pub fn covariance(
+    r: &DVector<f64>,
+    jacobian: &DMatrix<f64>,
+    loadings: Option<&NoiseLoadings>,
+) -> Option<DMatrix<f64>> {
+    let (m, n) = jacobian.shape();
+    if m <= n || loadings.is_some_and(|l| l.rows.len() != m) {
+        return None;
+    }
+    let inverse = jacobian.tr_mul(jacobian).try_inverse()?;
+    let Some(loadings) = loadings else {
+        return Some(inverse * (r.norm_squared() / (m - n) as f64));
+    };
+    let meat = loadings.meat(jacobian);
+    // tr((I − H) V) = tr V − tr(A Jᵀ V J).
+    let expected = loadings.variances().iter().sum::<f64>() - (&inverse * &meat).trace();
+    if !(expected > 0.0 && expected.is_finite()) {
+        return None;
+    }
+    let scale = r.norm_squared() / expected;
+    Some(&inverse * meat * &inverse * scale)
+}
+
+/// The square roots of the diagonal of [`covariance`].
+pub fn standard_deviations(
+    r: &DVector<f64>,
+    jacobian: &DMatrix<f64>,
+    loadings: Option<&NoiseLoadings>,
+) -> Option<Vec<f64>> {
+    let covariance = covariance(r, jacobian, loadings)?;
+    Some(
+        covariance
+            .diagonal()
+            .iter()
+            .map(|v| v.max(0.0).sqrt())
+            .collect(),
+    )
+}
+
+#[cfg(test)]
+mod tests {
+    use nalgebra::{DMatrix, DVector};
+
+    use super::{covariance, NoiseLoadings};
+
+    /// A small Jacobian and residuals.
+    fn problem() -> (DVector<f64>, DMatrix<f64>) {
+        let jacobian =
+            DMatrix::from_row_slice(5, 2, &[1.0, 0.2, 0.5, -1.0, 2.0, 0.3, -0.7, 1.1, 0.4, 0.9]);
+        let r = DVector::from_vec(vec![0.3, -0.1, 0.25, 0.05, -0.2]);
+        (r, jacobian)
+    }
+
+    #[test]
+    fn equal_variances_give_the_homoscedastic_covariance() {
+        let (r, jacobian) = problem();
+        let plain = covariance(&r, &jacobian, None).unwrap();
+        let expected =
+            (jacobian.transpose() * &jacobian).try_inverse().unwrap() * (r.norm_squared() / 3.0);
+        assert!((&plain - &expected).amax() <= 1e-15 * expected.amax());
+        // Only reading noise: V = σ_q² I, whatever σ_q.
+        let loadings = NoiseLoadings {
+            reading: 0.37,
+            rows: (0..5).map(|a| (a, vec![0.0, 0.0])).collect(),
+        };
+        let sandwich = covariance(&r, &jacobian, Some(&loadings)).unwrap();
+        assert!((&sandwich - &expected).amax() <= 1e-14 * expected.amax());
+    }
+
+    #[test]
+    fn the_sandwich_is_the_dense_formula_with_correlated_rows() {
+        let (r, jacobian) = problem();
+        // Rows 0 and 1 are one measurement, 2 to 4 another; two target coordinates.
+        let w = [[0.5, -0.2], [0.3, 0.4], [1.0, 0.0], [-0.6, 0.8], [0.1, 0.1]];
+        let measurement = [0, 0, 3, 3, 3];
+        let loadings = NoiseLoadings {
+            reading: 0.2,
+            rows: (0..5).map(|a| (measurement[a], w[a].to_vec())).collect(),
+        };
+        let mut v = DMatrix::identity(5, 5) * 0.04;
+        for a in 0..5 {
+            for b in 0..5 {
+                if measurement[a] == measurement[b] {
+                    v[(a, b)] += w[a][0] * w[b][0] + w[a][1] * w[b][1];
+                }
+            }
+        }
+        // The pseudo-inverse by SVD: A Jᵀ, and H = J A Jᵀ.
+        let pinv = jacobian.clone().pseudo_inverse(1e-14).unwrap();
+        let h = &jacobian * &pinv;
+        let scale = r.norm_squared() / ((DMatrix::identity(5, 5) - h) * &v).trace();
+        let expected = &pinv * &v * pinv.transpose() * scale;
+        let sandwich = covariance(&r, &jacobian, Some(&loadings)).unwrap();
+        assert!(
+            (&sandwich - &expected).amax() <= 1e-12 * expected.amax(),
+            "{sandwich} against {expected}"
+        );
+        // The diagonal V alone (rows taken as separate measurements) is not the same.
+        let separate = NoiseLoadings {
+            rows: (0..5).map(|a| (a, w[a].to_vec())).collect(),
+            ..loadings
+        };
+        let diagonal = covariance(&r, &jacobian, Some(&separate)).unwrap();
+        assert!((&diagonal - &expected).amax() > 0.05 * expected.amax());
+    }
+}
