@@ -9,6 +9,7 @@
 use nalgebra::{DMatrix, DVector};
 
 use super::estimate::ParameterEstimate;
+use super::held_test::{held_frame_test, HeldFrameTest};
 use super::observability::{analyse, Observability};
 use super::shared::SharedProblem;
 use super::shared_covariance::standard_deviations;
@@ -65,6 +66,9 @@ pub struct SharedEstimate {
     /// The χ² test of the residuals against the declared noise (propagated from the target
     /// coordinates through the pose fit), if the model declares one.
     pub noise_test: Option<NoiseTest>,
+    /// The likelihood-ratio test of the frame components the model holds (joint strategy,
+    /// when they can be freed and a noise is declared).
+    pub held_frame: Option<HeldFrameTest>,
 }
 
 /// The reasons the results must not be trusted (empty: nothing found), one line each: a solve
@@ -96,6 +100,17 @@ pub fn trust_issues(results: &[SharedEstimate]) -> Vec<String> {
                  scatter, χ² p = {:.2e}): check the instrument frame and targets (are the right \
                  ones identified?), the units, the outliers and the model",
                 figure(test.sigma_ratio),
+                test.p_value
+            ));
+        }
+        if let Some(test) = result.held_frame.as_ref().filter(|t| t.rejected) {
+            issues.push(format!(
+                "{strategy}: the held instrument frame ({}) disagrees with the measurements: \
+                 freeing it lowers χ² by {:.1} on {} dof (p = {:.2e}); identify it \
+                 (`instrument.frame.identify`) or correct the values held",
+                test.freed.join(", "),
+                test.chi_squared_drop,
+                test.degrees_of_freedom,
                 test.p_value
             ));
         }
@@ -252,7 +267,7 @@ pub fn identify_shared(
             }
         })
         .collect();
-    Ok(SharedEstimate {
+    let mut estimate = SharedEstimate {
         strategy,
         legs,
         shared,
@@ -263,7 +278,12 @@ pub fn identify_shared(
         observability,
         seconds,
         noise_test,
-    })
+        held_frame: None,
+    };
+    if strategy == SharedStrategy::Joint {
+        estimate.held_frame = held_frame_test(mechanism, observations, &estimate);
+    }
+    Ok(estimate)
 }
 
 fn solver_error(error: impl std::fmt::Display) -> Error {

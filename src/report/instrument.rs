@@ -75,6 +75,16 @@ pub fn render(report: &InstrumentReport<'_>) -> String {
                 if test.rejected { " (REJECTED)" } else { "" }
             ));
         }
+        if let Some(test) = &result.held_frame {
+            text.push_str(&format!(
+                "  held frame ({}) vs freed: χ² drop {:.1} on {} dof, p = {:.3e}{}\n",
+                test.freed.join(", "),
+                test.chi_squared_drop,
+                test.degrees_of_freedom,
+                test.p_value,
+                if test.rejected { " (REJECTED)" } else { "" }
+            ));
+        }
         text.push_str(" instrument\n");
         for (k, p) in result.shared.iter().enumerate() {
             text.push_str(&line(p, report.real_shared.as_ref().map(|r| r[k])));
@@ -148,6 +158,14 @@ pub fn to_json(report: &InstrumentReport<'_>) -> Value {
                     "p_value": t.p_value,
                     "sigma_ratio": t.sigma_ratio,
                     "rejected": t.rejected,
+                })),
+                "held_frame_test": result.held_frame.as_ref().map(|t| json!({
+                    "freed": t.freed,
+                    "chi_squared_drop": t.chi_squared_drop,
+                    "degrees_of_freedom": t.degrees_of_freedom,
+                    "p_value": t.p_value,
+                    "rejected": t.rejected,
+                    "estimates": t.estimates,
                 })),
                 "observability": {
                     "rank": result.observability.rank,

@@ -15,6 +15,7 @@ mod instrument_commands;
 mod instrument_covariance;
 mod instrument_evaluate;
 mod instrument_evaluation;
+mod instrument_held_frame;
 mod instrument_identify;
 mod instrument_map;
 mod instrument_map_gain;

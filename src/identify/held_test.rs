@@ -1,0 +1,76 @@
+//! A test of the instrument frame's held components: are the values the model holds them at
+//! consistent with the measurements?
+//!
+//! A frame component held at a wrong value is mostly absorbed by the legs' free parameters, and
+//! only what they cannot take shows in the residuals; the χ² goodness-of-fit test spreads that
+//! rest over all its degrees of freedom and rarely sees it. The likelihood-ratio test
+//! concentrates it: identify again with the held frame components freed (when that problem is
+//! still full rank) and compare the two fits' χ² against the declared noise. Under a correct
+//! held value the drop `χ²_held − χ²_freed` follows a χ² law with as many degrees of freedom as
+//! components freed; a drop in its upper tail (p < [`NOISE_TEST_P`]) says the held values are
+//! wrong (docs/models.md §9.2).
+
+use statrs::distribution::{ChiSquared, ContinuousCDF};
+
+use super::shared_estimate::{identify_shared, SharedEstimate, SharedStrategy};
+use super::statistics::NOISE_TEST_P;
+use crate::measure::observations::Observations;
+use crate::model::Mechanism;
+
+/// The outcome of the held-frame test.
+#[derive(Debug, Clone, PartialEq)]
+pub struct HeldFrameTest {
+    /// The frame components held by the model and freed by the test (`frame_x`, …).
+    pub freed: Vec<String>,
+    /// `χ²_held − χ²_freed`: how much the fit improves when they are freed.
+    pub chi_squared_drop: f64,
+    /// Degrees of freedom: the number of components freed.
+    pub degrees_of_freedom: usize,
+    /// Upper-tail probability of the drop.
+    pub p_value: f64,
+    /// `p_value < NOISE_TEST_P`: the held values disagree with the measurements.
+    pub rejected: bool,
+    /// The freed fit's estimates of the freed components, in `freed` order.
+    pub estimates: Vec<f64>,
+}
+
+/// The held-frame test of the joint estimate `held` (made with `mechanism` as written), or
+/// `None` when there is nothing to test: no held frame component, no declared noise (no χ²),
+/// or a freed problem that is rank-deficient (the held components then define the base frame,
+/// and no measurement can tell their value) or that cannot be solved.
+pub fn held_frame_test(
+    mechanism: &Mechanism,
+    observations: &Observations,
+    held: &SharedEstimate,
+) -> Option<HeldFrameTest> {
+    let held_chi_squared = held.noise_test.as_ref()?.chi_squared;
+    let instrument = mechanism.instrument.as_ref()?;
+    let freed: Vec<usize> = (0..instrument.parameters.len())
+        .filter(|&k| {
+            let p = &instrument.parameters[k];
+            !p.identified && p.name.starts_with("frame_")
+        })
+        .collect();
+    if freed.is_empty() {
+        return None;
+    }
+    let mut free = mechanism.clone();
+    let parameters = &mut free.instrument.as_mut()?.parameters;
+    for &k in &freed {
+        parameters[k].identified = true;
+    }
+    let refit = identify_shared(&free, observations, SharedStrategy::Joint).ok()?;
+    let drop = held_chi_squared - refit.noise_test.as_ref()?.chi_squared;
+    let p_value = ChiSquared::new(freed.len() as f64).ok()?.sf(drop.max(0.0));
+    Some(HeldFrameTest {
+        freed: freed
+            .iter()
+            .map(|&k| instrument.parameters[k].name.clone())
+            .collect(),
+        chi_squared_drop: drop,
+        degrees_of_freedom: freed.len(),
+        p_value,
+        rejected: p_value < NOISE_TEST_P,
+        estimates: freed.iter().map(|&k| refit.shared[k].estimate).collect(),
+    })
+}
