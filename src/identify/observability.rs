@@ -327,4 +327,23 @@ mod tests {
             assert!((o.singular_values[1] / scale - 1.0).abs() < 1e-12);
         }
     }
+
+    /// Q·diag(3, 2, 1) with Q the rotation by (3/5, 4/5) about z: a full 3 × 3 block whose
+    /// singular values are exactly 3, 2 and 1. Scaled by 1e-300 or 1e200 the decomposition
+    /// itself would under- or overflow (its Householder norms square the entries); the values
+    /// must still be 3, 2 and 1 times the scale.
+    #[test]
+    fn singular_values_of_a_full_matrix_survive_extreme_magnitudes() {
+        let a = [1.8, -1.6, 0.0, 2.4, 1.2, 0.0, 0.0, 0.0, 1.0];
+        for scale in [1e-300, 1e200, 1.0] {
+            let c = DMatrix::from_row_slice(3, 3, &a.map(|v| v * scale));
+            let values = sorted_singular_values(c);
+            for (value, expected) in values.iter().zip([3.0, 2.0, 1.0]) {
+                assert!(
+                    (value / (expected * scale) - 1.0).abs() < 1e-12,
+                    "scale {scale}: {values:?}"
+                );
+            }
+        }
+    }
 }
