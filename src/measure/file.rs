@@ -231,20 +231,27 @@ pub fn write_to(
     writer.flush()
 }
 
+/// A row's first cells: its leg's name (empty for a shared row), then its pose's measured
+/// coordinates.
+pub(crate) fn leg_and_pose_cells(mechanism: &Mechanism, pose: &MeasuredPose) -> Vec<String> {
+    let mut cells = vec![pose
+        .leg
+        .map_or(String::new(), |l| mechanism.legs[l].name.clone())];
+    cells.extend(
+        mechanism
+            .measured
+            .iter()
+            .map(|&c| format!("{}", pose.pose[c])),
+    );
+    cells
+}
+
 /// The CSV text of a measurement set.
 pub fn to_csv(mechanism: &Mechanism, set: &MeasurementSet) -> String {
     let mut text = expected_columns(mechanism).join(",");
     text.push('\n');
     for pose in &set.poses {
-        let mut cells = vec![pose
-            .leg
-            .map_or(String::new(), |l| mechanism.legs[l].name.clone())];
-        cells.extend(
-            mechanism
-                .measured
-                .iter()
-                .map(|&c| format!("{}", pose.pose[c])),
-        );
+        let mut cells = leg_and_pose_cells(mechanism, pose);
         cells.extend(
             pose.readings
                 .iter()

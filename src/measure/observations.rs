@@ -236,15 +236,7 @@ pub fn template_csv(mechanism: &Mechanism, set: &super::MeasurementSet) -> Resul
     text.push('\n');
     let empty = instrument.columns().len() + mechanism.actuated_names().len();
     for pose in &set.poses {
-        let mut cells = vec![pose
-            .leg
-            .map_or(String::new(), |l| mechanism.legs[l].name.clone())];
-        cells.extend(
-            mechanism
-                .measured
-                .iter()
-                .map(|&c| format!("{}", pose.pose[c])),
-        );
+        let mut cells = super::file::leg_and_pose_cells(mechanism, pose);
         cells.extend(std::iter::repeat_n(String::new(), empty));
         text.push_str(&cells.join(","));
         text.push('\n');
