@@ -230,7 +230,13 @@ fn with_noise_every_identified_error_is_at_the_noise_level_and_a_held_off_frame_
 fn the_jacobian_of_the_shared_problem_matches_central_differences_of_its_residuals() {
     use argmin::core::Operator;
     use legwise::solver::bordered::{to_dense, BorderedLeastSquares};
-    for model in ["5r-tracker.yaml", "3rpr-tracker.yaml"] {
+    // The planar and the spatial tracker models (6-DoF frame, three reflectors on the hexapod).
+    for model in [
+        "5r-tracker.yaml",
+        "3rpr-tracker.yaml",
+        "delta-tracker.yaml",
+        "hexapod-tracker.yaml",
+    ] {
         let mechanism = bundled(model);
         let experiment = simulate_observed(&mechanism, options(1.0)).unwrap();
         let problem = SharedProblem::new(&mechanism, &experiment.observations).unwrap();

@@ -524,35 +524,6 @@ fn a_bad_spatial_instrument_block_is_named_with_exit_2() {
 }
 
 #[test]
-fn the_jacobian_of_the_spatial_problems_matches_central_differences_of_their_residuals() {
-    use argmin::core::Operator;
-    for model in MODELS {
-        let mechanism = bundled(model);
-        let experiment = simulate_observed(&mechanism, options(1.0)).unwrap();
-        let problem = SharedProblem::new(&mechanism, &experiment.observations).unwrap();
-        // Away from the nominal start, every column non-trivial.
-        let x = problem.start().map(|v| v * (1.0 + 1e-3));
-        let (r, jacobian) = to_dense(&problem.layout(), &problem.bordered(&x).unwrap());
-        assert!((&r - problem.apply(&x).unwrap()).amax() < 1e-14);
-        for j in 0..x.len() {
-            let h = 1e-6 * (1.0 + x[j].abs());
-            let mut plus = x.clone();
-            plus[j] += h;
-            let mut minus = x.clone();
-            minus[j] -= h;
-            let central =
-                (problem.apply(&plus).unwrap() - problem.apply(&minus).unwrap()) / (2.0 * h);
-            let gap = (jacobian.column(j) - &central).amax();
-            let scale = central.amax().max(1e-3);
-            assert!(
-                gap <= 1e-6 * scale,
-                "{model}, column {j}: gap {gap:e} (scale {scale:e})"
-            );
-        }
-    }
-}
-
-#[test]
 fn with_noise_the_spatial_estimates_are_within_their_sigma_and_the_noise_test_passes() {
     for model in MODELS {
         let mechanism = bundled(model);
