@@ -16,6 +16,7 @@ use nalgebra::{DMatrix, DVector};
 use serde_json::Value;
 
 use crate::cli::text;
+use crate::instrument_support::target_sigmas;
 use crate::support::bundled;
 
 /// The σ of every identified parameter, in the problem's order, as the estimate reports it.
@@ -69,19 +70,7 @@ impl Recomputed {
             jacobian.set_column(j, &((moved(h) - moved(-h)) / (2.0 * h)));
         }
         let noise = mechanism.noise.expect("a declared noise");
-        let sigmas: Vec<f64> = mechanism
-            .instrument
-            .as_ref()
-            .unwrap()
-            .targets
-            .iter()
-            .flat_map(|t| t.coordinates().iter())
-            .map(|c| match *c {
-                "x" => noise.pose[0],
-                "y" => noise.pose[1],
-                other => panic!("a planar position target, not `{other}`"),
-            })
-            .collect();
+        let sigmas = target_sigmas(mechanism, &noise);
         // V = σ_q² I + Σ_(row, coordinate) g gᵀ, g = σ_i ∂r/∂m_i over all residuals.
         let mut v = DMatrix::identity(m, m) * noise.reading.powi(2);
         let h = 1e-6;

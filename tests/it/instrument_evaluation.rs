@@ -8,6 +8,7 @@ use legwise::measure::observe_simulate::simulate_observed;
 use legwise::measure::simulate::SimulationOptions;
 use legwise::solver::bordered::{to_dense, BorderedLeastSquares};
 
+use crate::instrument_support::target_sigmas;
 use crate::support::bundled;
 
 const MODELS: [&str; 2] = ["5r-tracker.yaml", "3rpr-tracker.yaml"];
@@ -57,19 +58,7 @@ fn row_variances_carry_the_target_noise_through_the_pose_fit_as_central_differen
         let problem = SharedProblem::new(&mechanism, observations).unwrap();
         let x = problem.start().map(|v| v * (1.0 + 1e-3));
         let variances = problem.row_variances(&x, &noise).unwrap();
-        let sigmas: Vec<f64> = mechanism
-            .instrument
-            .as_ref()
-            .unwrap()
-            .targets
-            .iter()
-            .flat_map(|t| t.coordinates().iter())
-            .map(|c| match *c {
-                "x" => noise.pose[0],
-                "y" => noise.pose[1],
-                _ => noise.pose[5],
-            })
-            .collect();
+        let sigmas = target_sigmas(&mechanism, &noise);
         // Σ_i (∂r/∂m_i σ_i)² per residual: a row's coordinates move only its own residuals.
         let mut carried = vec![0.0; variances.len()];
         let h = 1e-6;

@@ -5,52 +5,20 @@
 use std::path::Path;
 
 use legwise::identify::shared::SharedProblem;
-use legwise::identify::shared_estimate::{identify_shared, SharedEstimate, SharedStrategy};
+use legwise::identify::shared_estimate::{identify_shared, SharedStrategy};
 use legwise::measure::observations::{parse, to_csv};
-use legwise::measure::observe_simulate::{simulate_observed, ObservedExperiment};
-use legwise::measure::simulate::SimulationOptions;
-use legwise::measure::targets::platform_pose;
+use legwise::measure::observe_simulate::simulate_observed;
 use legwise::model::Mechanism;
 use legwise::solver::bordered::DenseView;
 use legwise::solver::{solve, solve_bordered, SolverKind};
 
+use crate::instrument_support::{assert_recovered, assert_targets_give_the_true_poses, simulation};
 use crate::support::{bundled, crate_path};
-
-fn options(noise_scale: f64) -> SimulationOptions {
-    SimulationOptions {
-        noise_scale,
-        ..Default::default()
-    }
-}
-
-/// Every identified parameter of `estimate` against the simulation's real value.
-fn assert_recovered(estimate: &SharedEstimate, experiment: &ObservedExperiment, tolerance: f64) {
-    for (leg, parameters) in &estimate.legs {
-        for (p, parameter) in parameters.iter().enumerate() {
-            let real = experiment.real[*leg][p];
-            assert!(
-                (parameter.estimate - real).abs() <= tolerance,
-                "{}: {} but real {real}",
-                parameter.name,
-                parameter.estimate
-            );
-        }
-    }
-    for (k, parameter) in estimate.shared.iter().enumerate() {
-        let real = experiment.real_shared[k];
-        assert!(
-            (parameter.estimate - real).abs() <= tolerance,
-            "{}: {} but real {real}",
-            parameter.name,
-            parameter.estimate
-        );
-    }
-}
 
 #[test]
 fn the_instrument_measurement_file_round_trips_and_its_targets_give_back_the_true_poses() {
     let mechanism = bundled("3rpr-tracker.yaml");
-    let experiment = simulate_observed(&mechanism, options(0.0)).unwrap();
+    let experiment = simulate_observed(&mechanism, simulation(0.0)).unwrap();
     let text = to_csv(&mechanism, &experiment.observations).unwrap();
     assert!(
         text.starts_with("leg,x.r1,y.r1,x.r2,y.r2,P1,P2,P3\n"),
@@ -64,27 +32,7 @@ fn the_instrument_measurement_file_round_trips_and_its_targets_give_back_the_tru
             (&b.observed, &b.readings, b.leg)
         );
     }
-    let instrument = mechanism.instrument.as_ref().unwrap();
-    for (row, truth) in experiment
-        .observations
-        .rows
-        .iter()
-        .zip(&experiment.poses.poses)
-    {
-        let pose = platform_pose::<f64>(
-            instrument,
-            &experiment.real_shared,
-            &row.observed,
-            &mechanism.home_pose,
-        );
-        for c in 0..6 {
-            assert!(
-                (pose[c] - truth.pose[c]).abs() < 1e-12,
-                "{pose:?} vs {:?}",
-                truth.pose
-            );
-        }
-    }
+    assert_targets_give_the_true_poses(&mechanism, &experiment);
     // The perturbed frame really differs from the nominal one.
     assert!((experiment.real_shared[0] - 1.5).abs() > 1e-4);
 }
@@ -114,7 +62,7 @@ fn an_instrument_file_without_a_target_column_names_it() {
 fn zero_noise_recovers_every_identified_leg_and_instrument_parameter_of_the_5r_and_the_3rpr() {
     for model in ["5r-tracker.yaml", "3rpr-tracker.yaml"] {
         let mechanism = bundled(model);
-        let experiment = simulate_observed(&mechanism, options(0.0)).unwrap();
+        let experiment = simulate_observed(&mechanism, simulation(0.0)).unwrap();
         let estimate =
             identify_shared(&mechanism, &experiment.observations, SharedStrategy::Joint).unwrap();
         assert!(
@@ -131,7 +79,7 @@ fn zero_noise_recovers_every_identified_leg_and_instrument_parameter_of_the_5r_a
 fn the_schur_solution_equals_a_dense_levenberg_marquardt_solve_of_the_same_problem() {
     for model in ["5r-tracker.yaml", "3rpr-tracker.yaml"] {
         let mechanism = bundled(model);
-        let experiment = simulate_observed(&mechanism, options(1.0)).unwrap();
+        let experiment = simulate_observed(&mechanism, simulation(1.0)).unwrap();
         let problem = SharedProblem::new(&mechanism, &experiment.observations).unwrap();
         let schur = solve_bordered(&problem, problem.start()).unwrap();
         let dense = solve(
@@ -157,7 +105,7 @@ fn freeing_every_base_joint_and_target_names_the_frame_gauge() {
     let urdf = std::fs::read_to_string(crate_path("models/3rpr.urdf")).unwrap();
     let mechanism =
         Mechanism::parse(&text, Path::new("free.yaml"), &urdf, Path::new("3rpr.urdf")).unwrap();
-    let experiment = simulate_observed(&mechanism, options(0.0)).unwrap();
+    let experiment = simulate_observed(&mechanism, simulation(0.0)).unwrap();
     let err = identify_shared(&mechanism, &experiment.observations, SharedStrategy::Joint)
         .expect_err("rank-deficient")
         .to_string();
@@ -172,7 +120,7 @@ fn freeing_every_base_joint_and_target_names_the_frame_gauge() {
 #[test]
 fn the_two_stage_strategy_also_recovers_at_zero_noise() {
     let mechanism = bundled("3rpr-tracker.yaml");
-    let experiment = simulate_observed(&mechanism, options(0.0)).unwrap();
+    let experiment = simulate_observed(&mechanism, simulation(0.0)).unwrap();
     let estimate = identify_shared(
         &mechanism,
         &experiment.observations,
@@ -189,7 +137,7 @@ fn the_two_stage_strategy_also_recovers_at_zero_noise() {
 fn with_noise_every_identified_error_is_at_the_noise_level_and_a_held_off_frame_is_rejected() {
     use legwise::identify::shared_estimate::trust_issues;
     let mechanism = bundled("3rpr-tracker.yaml");
-    let experiment = simulate_observed(&mechanism, options(1.0)).unwrap();
+    let experiment = simulate_observed(&mechanism, simulation(1.0)).unwrap();
     let estimate =
         identify_shared(&mechanism, &experiment.observations, SharedStrategy::Joint).unwrap();
     let test = estimate.noise_test.as_ref().expect("a declared noise");
@@ -215,7 +163,7 @@ fn with_noise_every_identified_error_is_at_the_noise_level_and_a_held_off_frame_
     let urdf = std::fs::read_to_string(crate_path("models/3rpr.urdf")).unwrap();
     let held =
         Mechanism::parse(&text, Path::new("held.yaml"), &urdf, Path::new("3rpr.urdf")).unwrap();
-    let experiment = simulate_observed(&held, options(1.0)).unwrap();
+    let experiment = simulate_observed(&held, simulation(1.0)).unwrap();
     let estimate = identify_shared(&held, &experiment.observations, SharedStrategy::Joint).unwrap();
     let issues = trust_issues(&[estimate]);
     assert!(
@@ -238,7 +186,7 @@ fn the_jacobian_of_the_shared_problem_matches_central_differences_of_its_residua
         "hexapod-tracker.yaml",
     ] {
         let mechanism = bundled(model);
-        let experiment = simulate_observed(&mechanism, options(1.0)).unwrap();
+        let experiment = simulate_observed(&mechanism, simulation(1.0)).unwrap();
         let problem = SharedProblem::new(&mechanism, &experiment.observations).unwrap();
         // Away from the nominal start, every column non-trivial.
         let x = problem.start().map(|v| v * (1.0 + 1e-3));
@@ -288,7 +236,7 @@ fn a_camera_marker_measuring_the_pose_gives_the_same_zero_noise_recovery() {
         mechanism.instrument.as_ref().unwrap().columns(),
         ["x.marker", "y.marker", "yaw.marker"]
     );
-    let experiment = simulate_observed(&mechanism, options(0.0)).unwrap();
+    let experiment = simulate_observed(&mechanism, simulation(0.0)).unwrap();
     let estimate =
         identify_shared(&mechanism, &experiment.observations, SharedStrategy::Joint).unwrap();
     assert!(estimate.outcome.converged);

@@ -5,6 +5,7 @@ use std::path::Path;
 use legwise::model::instrument::Measures;
 use legwise::model::Mechanism;
 
+use crate::instrument_support::parameter_names;
 use crate::support::{bundled, crate_path};
 
 /// The 3-RPR tracker model's text with `from` replaced by `to` (which must occur).
@@ -30,13 +31,8 @@ const TARGETS: &str =
 fn the_tracker_models_carry_their_frame_and_targets_as_named_shared_parameters() {
     let rpr = bundled("3rpr-tracker.yaml");
     let instrument = rpr.instrument.as_ref().expect("an instrument");
-    let names: Vec<&str> = instrument
-        .parameters
-        .iter()
-        .map(|p| p.name.as_str())
-        .collect();
     assert_eq!(
-        names,
+        parameter_names(instrument),
         [
             "frame_x",
             "frame_y",
@@ -59,13 +55,8 @@ fn the_tracker_models_carry_their_frame_and_targets_as_named_shared_parameters()
     let instrument = five.instrument.as_ref().expect("an instrument");
     assert!(!instrument.rotates);
     assert_eq!(instrument.targets[0].measures, Measures::Position);
-    let names: Vec<&str> = instrument
-        .parameters
-        .iter()
-        .map(|p| p.name.as_str())
-        .collect();
     assert_eq!(
-        names,
+        parameter_names(instrument),
         ["frame_x", "frame_y", "frame_yaw", "target_x", "target_y"]
     );
     // Without the block, nothing changes.

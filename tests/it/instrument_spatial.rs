@@ -7,11 +7,9 @@
 use std::path::Path;
 
 use legwise::identify::shared::SharedProblem;
-use legwise::identify::shared_estimate::{identify_shared, SharedEstimate, SharedStrategy};
+use legwise::identify::shared_estimate::{identify_shared, SharedStrategy};
 use legwise::measure::observations::to_csv;
-use legwise::measure::observe_simulate::{simulate_observed, ObservedExperiment};
-use legwise::measure::simulate::SimulationOptions;
-use legwise::measure::targets::platform_pose;
+use legwise::measure::observe_simulate::simulate_observed;
 use legwise::model::Mechanism;
 use legwise::solver::bordered::{to_dense, BorderedLeastSquares, DenseView};
 use legwise::solver::schur::arrowhead::ArrowheadSystem;
@@ -20,16 +18,12 @@ use nalgebra::{DMatrix, DVector};
 use serde_json::Value;
 
 use crate::cli::{legwise, text};
+use crate::instrument_support::{
+    assert_recovered, assert_targets_give_the_true_poses, parameter_names, simulation,
+};
 use crate::support::{bundled, crate_path};
 
 const MODELS: [&str; 2] = ["delta-tracker.yaml", "hexapod-tracker.yaml"];
-
-fn options(noise_scale: f64) -> SimulationOptions {
-    SimulationOptions {
-        noise_scale,
-        ..Default::default()
-    }
-}
 
 /// `models/<name>` with `from` replaced by `to` (each must occur), its URDF by absolute path.
 fn edited(name: &str, edits: &[(&str, &str)]) -> Mechanism {
@@ -45,39 +39,6 @@ fn edited(name: &str, edits: &[(&str, &str)]) -> Mechanism {
     };
     let urdf = std::fs::read_to_string(crate_path(&format!("models/{urdf_name}"))).unwrap();
     Mechanism::parse(&text, Path::new(name), &urdf, Path::new(urdf_name)).unwrap()
-}
-
-/// Every identified parameter of `estimate` against the simulation's real value; returns how
-/// many were checked.
-fn assert_recovered(
-    estimate: &SharedEstimate,
-    experiment: &ObservedExperiment,
-    tolerance: f64,
-) -> usize {
-    let mut checked = 0;
-    for (leg, parameters) in &estimate.legs {
-        for (p, parameter) in parameters.iter().enumerate() {
-            let real = experiment.real[*leg][p];
-            assert!(
-                (parameter.estimate - real).abs() <= tolerance,
-                "{}: {} but real {real}",
-                parameter.name,
-                parameter.estimate
-            );
-            checked += usize::from(parameter.identified);
-        }
-    }
-    for (k, parameter) in estimate.shared.iter().enumerate() {
-        let real = experiment.real_shared[k];
-        assert!(
-            (parameter.estimate - real).abs() <= tolerance,
-            "{}: {} but real {real}",
-            parameter.name,
-            parameter.estimate
-        );
-        checked += usize::from(parameter.identified);
-    }
-    checked
 }
 
 /// The real frame differs from the nominal one in translation and in rotation.
@@ -98,13 +59,8 @@ fn the_spatial_tracker_models_carry_a_six_dof_frame_and_three_dimensional_target
     let delta = bundled("delta-tracker.yaml");
     let instrument = delta.instrument.as_ref().unwrap();
     assert!(instrument.spatial && !instrument.rotates);
-    let names: Vec<&str> = instrument
-        .parameters
-        .iter()
-        .map(|p| p.name.as_str())
-        .collect();
     assert_eq!(
-        names,
+        parameter_names(instrument),
         [
             "frame_x",
             "frame_y",
@@ -133,26 +89,10 @@ fn the_spatial_tracker_models_carry_a_six_dof_frame_and_three_dimensional_target
 fn zero_noise_recovers_every_identified_leg_frame_and_offset_of_the_spatial_models() {
     for model in MODELS {
         let mechanism = bundled(model);
-        let experiment = simulate_observed(&mechanism, options(0.0)).unwrap();
+        let experiment = simulate_observed(&mechanism, simulation(0.0)).unwrap();
         assert_frame_perturbed(&mechanism, &experiment.real_shared);
         // The targets give back the true poses at the real instrument.
-        let instrument = mechanism.instrument.as_ref().unwrap();
-        for (row, truth) in experiment
-            .observations
-            .rows
-            .iter()
-            .zip(&experiment.poses.poses)
-        {
-            let pose = platform_pose::<f64>(
-                instrument,
-                &experiment.real_shared,
-                &row.observed,
-                &mechanism.home_pose,
-            );
-            for c in 0..6 {
-                assert!((pose[c] - truth.pose[c]).abs() < 1e-12, "{model}: {pose:?}");
-            }
-        }
+        assert_targets_give_the_true_poses(&mechanism, &experiment);
         let estimate =
             identify_shared(&mechanism, &experiment.observations, SharedStrategy::Joint).unwrap();
         assert!(
@@ -204,7 +144,7 @@ fn a_camera_marker_measuring_the_hexapod_pose_gives_the_same_zero_noise_recovery
             "yaw.marker"
         ]
     );
-    let experiment = simulate_observed(&mechanism, options(0.0)).unwrap();
+    let experiment = simulate_observed(&mechanism, simulation(0.0)).unwrap();
     assert_frame_perturbed(&mechanism, &experiment.real_shared);
     let estimate =
         identify_shared(&mechanism, &experiment.observations, SharedStrategy::Joint).unwrap();
@@ -260,7 +200,7 @@ fn relative(a: &DVector<f64>, b: &DVector<f64>) -> f64 {
 fn on_the_spatial_models_the_schur_step_and_solve_equal_the_dense_ones() {
     for model in MODELS {
         let mechanism = bundled(model);
-        let experiment = simulate_observed(&mechanism, options(1.0)).unwrap();
+        let experiment = simulate_observed(&mechanism, simulation(1.0)).unwrap();
         let problem = SharedProblem::new(&mechanism, &experiment.observations).unwrap();
         // One damped step away from the start, every block and border non-trivial.
         let x = problem.start().map(|v| v * (1.0 + 1e-4));
@@ -329,7 +269,7 @@ fn freeing_every_base_joint_attachment_and_target_names_the_gauge_of_the_spatial
             ["frame_x", "frame_yaw", "t1x"],
         ),
     ] {
-        let experiment = simulate_observed(&mechanism, options(0.0)).unwrap();
+        let experiment = simulate_observed(&mechanism, simulation(0.0)).unwrap();
         let err = identify_shared(&mechanism, &experiment.observations, SharedStrategy::Joint)
             .expect_err("rank-deficient")
             .to_string();
@@ -413,7 +353,7 @@ fn simulate_then_identify_measurements_round_trips_the_spatial_models() {
         assert_eq!(out.status.code(), Some(0), "{}", text(&out.stderr));
         // The file is the instrument's report, as the library simulates it for the same seed.
         let mechanism = bundled(model);
-        let experiment = simulate_observed(&mechanism, options(0.0)).unwrap();
+        let experiment = simulate_observed(&mechanism, simulation(0.0)).unwrap();
         let written = std::fs::read_to_string(&csv).unwrap();
         assert_eq!(
             written,
@@ -527,7 +467,7 @@ fn a_bad_spatial_instrument_block_is_named_with_exit_2() {
 fn with_noise_the_spatial_estimates_are_within_their_sigma_and_the_noise_test_passes() {
     for model in MODELS {
         let mechanism = bundled(model);
-        let experiment = simulate_observed(&mechanism, options(1.0)).unwrap();
+        let experiment = simulate_observed(&mechanism, simulation(1.0)).unwrap();
         let estimate =
             identify_shared(&mechanism, &experiment.observations, SharedStrategy::Joint).unwrap();
         // The expected residual variances use the noise of x, y, z at every reflector.

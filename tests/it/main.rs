@@ -22,6 +22,7 @@ mod instrument_map_gain;
 mod instrument_model;
 mod instrument_montecarlo;
 mod instrument_spatial;
+mod instrument_support;
 mod inverse_kinematics;
 mod jacobian;
 mod kinematics;
