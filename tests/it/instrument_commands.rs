@@ -9,12 +9,8 @@ use legwise::measure::simulate::{simulate_at, PoseSets, SimulationOptions};
 use legwise::model::Mechanism;
 use serde_json::Value;
 
-use crate::cli::legwise;
+use crate::cli::{legwise, text};
 use crate::support::bundled;
-
-fn text(bytes: &[u8]) -> String {
-    String::from_utf8_lossy(bytes).into_owned()
-}
 
 const ZERO_NOISE: SimulationOptions = SimulationOptions {
     seed: None,
@@ -91,7 +87,12 @@ fn assert_recovered_through(model: &str, csv: &Path, real: &[Vec<f64>], real_sha
 #[test]
 fn simulate_writes_target_columns_that_identify_reads_back_and_recovers_at_zero_noise() {
     let directory = tempfile::tempdir().unwrap();
-    for name in ["5r-tracker", "3rpr-tracker"] {
+    for name in [
+        "5r-tracker",
+        "3rpr-tracker",
+        "delta-tracker",
+        "hexapod-tracker",
+    ] {
         let model = format!("models/{name}.yaml");
         let csv = directory.path().join(format!("{name}.csv"));
         let out = legwise(&[
@@ -117,6 +118,8 @@ fn simulate_writes_target_columns_that_identify_reads_back_and_recovers_at_zero_
             header.contains(",x.") && !header.contains(",x,"),
             "{header}"
         );
+        let spatial = mechanism.instrument.as_ref().unwrap().spatial;
+        assert_eq!(header.contains(",z."), spatial, "{header}");
         assert_recovered_through(&model, &csv, &experiment.real, &experiment.real_shared);
     }
 }
