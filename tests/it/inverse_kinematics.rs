@@ -1,7 +1,7 @@
 //! Leg inverse kinematics on cases whose answer is checked independently (the closure equations
 //! evaluated at the returned joints, and the branch sign): a pose only continuation from home
 //! reaches, a seed exactly at a serial singularity, the unwrap of revolute joints around the
-//! seed, and `wrap_angle`.
+//! seed, `wrap_angle`, and a leg scaled by powers of ten (the same angles).
 use legwise::error::KinematicsError;
 use legwise::kinematics::chain::{attachment_world, tip_and_jacobian, tip_position};
 use legwise::kinematics::inverse::{newton, solve_leg, solve_leg_from, wrap_angle, LegSolution};
@@ -133,4 +133,44 @@ fn revolute_joints_are_unwrapped_around_the_seed() {
         }
     }
     assert!(solved > 12, "{solved}");
+}
+
+/// Every length of a leg and of the pose scaled by `scale` (joint origins, attachment,
+/// position): revolute angles do not change, prismatic strokes scale. The convergence test is
+/// relative to the target's size, so a leg measured in kilometres or in millimetres converges
+/// to the same angles as in metres.
+#[test]
+fn a_leg_scaled_by_powers_of_ten_reaches_the_same_angles() {
+    use legwise::model::joint::JointKind;
+    for model in ["5r.yaml", "3rpr.yaml", "delta.yaml", "hexapod.yaml"] {
+        let mech = bundled(model);
+        let leg = &mech.legs[0];
+        let geometry = leg.geometry(&leg.nominal());
+        let pose = mech.home_pose.map(|v| v + 0.01);
+        let reference = solve_leg(leg, &geometry, &pose, &mech.home_pose).unwrap();
+        for scale in [1e-3, 1e4] {
+            let mut scaled = geometry.clone();
+            for origin in &mut scaled.origins {
+                for value in &mut origin[..3] {
+                    *value *= scale;
+                }
+            }
+            scaled.attachment = scaled.attachment.map(|v| v * scale);
+            let lengths =
+                |p: &[f64; 6]| std::array::from_fn(|i| p[i] * if i < 3 { scale } else { 1.0 });
+            let solution = solve_leg(leg, &scaled, &lengths(&pose), &lengths(&mech.home_pose))
+                .unwrap_or_else(|e| panic!("{model} at scale {scale}: {e}"));
+            for (k, &joint) in leg.moving.iter().enumerate() {
+                let expected = match leg.joints[joint].kind {
+                    JointKind::Prismatic => reference.q[k] * scale,
+                    _ => reference.q[k],
+                };
+                assert!(
+                    (solution.q[k] - expected).abs() <= 1e-9 * expected.abs().max(1.0),
+                    "{model} at scale {scale}: joint {k} {} instead of {expected}",
+                    solution.q[k]
+                );
+            }
+        }
+    }
 }
