@@ -24,9 +24,9 @@
 //! candidates of b rows. When the b rows of every candidate live in disjoint sets of columns
 //! (the stacked traditional design: leg r's row only in leg r's parameters), which is read from
 //! the pool's numbers, M is block-diagonal and a separable path multiplies one rank-one factor
-//! per row position instead (the same decisions at b² times fewer flops). [`select_naive`] runs the same
-//! algorithm but evaluates every trial design from scratch; it is the reference of the tests
-//! and of the benchmark.
+//! per row position instead (the same decisions, about b² times fewer flops per trial swap).
+//! [`select_naive`] runs the same algorithm but evaluates every trial design from scratch; it
+//! is the reference of the tests and of the benchmark.
 //!
 //! # Reference
 //! docs/method.md §6 (identities and algorithm); §5 for the indices.
