@@ -4,8 +4,12 @@
 //!
 //! Run with `cargo bench --bench pose_selection` (set `POSE_SELECTION_COMPARE=1` to print both
 //! selections first). Ids: `select/5r/rank_one` and `select/5r/naive` (one leg, 6 parameters,
-//! K = 3000 candidates, N = 18), `select/5r/block` (both legs stacked, 2 × 12 blocks, K = 3000),
-//! `select/5r/block_k1000` and `select/5r/block_naive_k1000` (K = 1000).
+//! K = 3000 candidates, N = 18), `select/5r/block` (both legs stacked, 2 × 12 blocks, K = 3000,
+//! the dense block engine), `select/5r/block_k1000` and `select/5r/block_naive_k1000`
+//! (K = 1000). The traditional design of a bundled model from its own candidate pool, with the
+//! separable engine that `select` picks for it and with the dense block engine forced:
+//! `select/5r/traditional`, `select/5r/traditional_dense`, `select/hexapod/traditional`,
+//! `select/hexapod/traditional_dense`.
 //!
 //! # Reference
 //! docs/method.md §6 (the greedy and exchange phases and their rank-one updates).
@@ -15,8 +19,8 @@ use std::time::Duration;
 
 use criterion::{criterion_group, criterion_main, Criterion};
 use legwise::model::Mechanism;
-use legwise::selection::{select, select_naive, SelectionOptions};
-use legwise::workspace::candidates::candidate_pool;
+use legwise::selection::{select, select_dense_blocks, select_naive, SelectionOptions};
+use legwise::workspace::candidates::{candidate_pool, CandidatePool};
 use nalgebra::DMatrix;
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
@@ -170,11 +174,12 @@ fn bench(c: &mut Criterion) {
     group.bench_function("5r/rank_one", |b| {
         b.iter(|| select(black_box(&leg), &options).unwrap())
     });
+    // The stacked pools are separable: the dense block engine is forced, as these ids measure it.
     group.bench_function("5r/block", |b| {
-        b.iter(|| select(black_box(&stacked), &options).unwrap())
+        b.iter(|| select_dense_blocks(black_box(&stacked), &options).unwrap())
     });
     group.bench_function("5r/block_k1000", |b| {
-        b.iter(|| select(black_box(&stacked_small), &options).unwrap())
+        b.iter(|| select_dense_blocks(black_box(&stacked_small), &options).unwrap())
     });
     group
         .sample_size(10)
@@ -230,5 +235,67 @@ fn hexapod(c: &mut Criterion) {
     group.finish();
 }
 
-criterion_group!(benches, bench, hexapod);
+/// The traditional design's candidates: one block-diagonal matrix per candidate, row r the r-th
+/// identified leg's row in the columns of that leg's parameters.
+fn shared_blocks(mechanism: &Mechanism, pool: &CandidatePool) -> Vec<DMatrix<f64>> {
+    let legs = mechanism.identified_legs();
+    let n: usize = legs.iter().map(|&l| pool.candidates[0].rows[l].len()).sum();
+    pool.candidates
+        .iter()
+        .map(|candidate| {
+            let mut block = DMatrix::zeros(legs.len(), n);
+            let mut offset = 0;
+            for (r, &l) in legs.iter().enumerate() {
+                for (p, &value) in candidate.rows[l].iter().enumerate() {
+                    block[(r, offset + p)] = value;
+                }
+                offset += candidate.rows[l].len();
+            }
+            block
+        })
+        .collect()
+}
+
+/// The traditional (shared) design of the bundled models 5R and hexapod from their candidate
+/// pools, N = the model's poses per leg: `select` (the separable engine) against the dense
+/// block engine. Ids: `select/{5r,hexapod}/traditional` and `.../traditional_dense`.
+fn traditional(c: &mut Criterion) {
+    let mut group = c.benchmark_group("select");
+    group
+        .sample_size(10)
+        .measurement_time(Duration::from_secs(5));
+    for name in ["5r", "hexapod"] {
+        let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+            .join("models")
+            .join(format!("{name}.yaml"));
+        let mechanism = Mechanism::load(&path).expect("bundled model");
+        let pool = candidate_pool(&mechanism, None).expect("candidate pool");
+        let blocks = shared_blocks(&mechanism, &pool);
+        let options = SelectionOptions {
+            count: mechanism.selection.poses_per_leg,
+            ..Default::default()
+        };
+        let (separable, dense) = (
+            select(&blocks, &options).unwrap(),
+            select_dense_blocks(&blocks, &options).unwrap(),
+        );
+        assert_eq!(separable.indices, dense.indices, "{name}");
+        println!(
+            "{name} traditional: {} candidates, {} × {} blocks, N = {}, the same selection",
+            blocks.len(),
+            blocks[0].nrows(),
+            blocks[0].ncols(),
+            options.count
+        );
+        group.bench_function(format!("{name}/traditional"), |b| {
+            b.iter(|| select(black_box(&blocks), &options).unwrap())
+        });
+        group.bench_function(format!("{name}/traditional_dense"), |b| {
+            b.iter(|| select_dense_blocks(black_box(&blocks), &options).unwrap())
+        });
+    }
+    group.finish();
+}
+
+criterion_group!(benches, bench, hexapod, traditional);
 criterion_main!(benches);

@@ -162,43 +162,24 @@ pub fn traditional(
     count: usize,
     criterion: SelectionCriterion,
 ) -> Result<SharedDesign> {
-    let included = mechanism.identified_legs();
+    let (included, widths) = shared_layout(mechanism);
     let Some(&first) = included.first() else {
         return Err(nothing_identified(mechanism));
     };
-    let legs = included.len();
-    let widths: Vec<usize> = included
-        .iter()
-        .map(|&l| mechanism.legs[l].identified().len())
-        .collect();
-    let total: usize = widths.iter().sum();
-    // Entry (r, p) of candidate i's block-diagonal legs × total block: leg r's row, in the
-    // columns of that leg's parameters.
-    let entries = |i: usize, (r, leg): (usize, usize)| {
-        let offset: usize = widths[..r].iter().sum();
-        (0..widths[r]).map(move |j| (offset + j, pool.candidates[i].rows[leg][j]))
-    };
+    let (legs, total) = (included.len(), widths.iter().sum());
     let all_names: Vec<String> = included.iter().flat_map(|&l| names(mechanism, l)).collect();
     let stack = |indices: &[usize]| {
         let mut matrix = DMatrix::zeros(indices.len() * legs, total);
         for (k, &i) in indices.iter().enumerate() {
-            for (r, &leg) in included.iter().enumerate() {
-                for (p, value) in entries(i, (r, leg)) {
+            for r in 0..legs {
+                for (p, value) in shared_entries(pool, (&included, &widths), i, r) {
                     matrix[(k * legs + r, p)] = value;
                 }
             }
         }
         matrix
     };
-    // The candidates' rows as columns (column i·legs + r: row r of candidate i).
-    let mut columns = DMatrix::zeros(total, pool.candidates.len() * legs);
-    for i in 0..pool.candidates.len() {
-        for (r, &leg) in included.iter().enumerate() {
-            for (p, value) in entries(i, (r, leg)) {
-                columns[(p, i * legs + r)] = value;
-            }
-        }
-    }
+    let columns = shared_columns(mechanism, pool);
     let all: Vec<usize> = (0..pool.candidates.len()).collect();
     let selection = select_columns(columns, legs, &options(count, criterion)).map_err(|err| {
         let leg = included.iter().zip(&widths).find_map(|(&l, &width)| {
@@ -226,6 +207,46 @@ pub fn traditional(
         stacked: analyse(&stack(&selection.indices), &all_names),
         selection,
     })
+}
+
+/// The identified legs of the traditional design and their numbers of identified parameters.
+fn shared_layout(mechanism: &Mechanism) -> (Vec<usize>, Vec<usize>) {
+    let included = mechanism.identified_legs();
+    let widths = included
+        .iter()
+        .map(|&l| mechanism.legs[l].identified().len())
+        .collect();
+    (included, widths)
+}
+
+/// The entries (column, value) of row r of candidate i's block-diagonal legs × total block in
+/// the traditional design: leg `included[r]`'s row, in the columns of that leg's parameters
+/// (`included` and `widths` from [`shared_layout`]).
+fn shared_entries<'p>(
+    pool: &'p CandidatePool,
+    (included, widths): (&[usize], &[usize]),
+    i: usize,
+    r: usize,
+) -> impl Iterator<Item = (usize, f64)> + 'p {
+    let offset: usize = widths[..r].iter().sum();
+    let row = &pool.candidates[i].rows[included[r]];
+    (0..widths[r]).map(move |j| (offset + j, row[j]))
+}
+
+/// The candidates of the traditional design as the columns of one matrix (column i·legs + r:
+/// row r of candidate i's block-diagonal block), as [`select_columns`] takes them.
+pub(super) fn shared_columns(mechanism: &Mechanism, pool: &CandidatePool) -> DMatrix<f64> {
+    let (included, widths) = shared_layout(mechanism);
+    let legs = included.len();
+    let mut columns = DMatrix::zeros(widths.iter().sum(), pool.candidates.len() * legs);
+    for i in 0..pool.candidates.len() {
+        for r in 0..legs {
+            for (p, value) in shared_entries(pool, (&included, &widths), i, r) {
+                columns[(p, i * legs + r)] = value;
+            }
+        }
+    }
+    columns
 }
 
 /// Turns a selection failure into an error; a rank-deficient pool names the parameters.

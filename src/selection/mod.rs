@@ -21,9 +21,12 @@
 //! For the D criterion the gains come from rank-one identities (matrix determinant lemma,
 //! Sherman–Morrison, the Fedorov swap ratio Δ_ij = (1+d_j)(1−d_i) + d_ij²), with a fast path
 //! for one row per candidate and a block path (b × b determinants, Woodbury updates) for
-//! candidates of b rows (the stacked traditional design). [`select_naive`] runs the same
-//! algorithm but evaluates every trial design from scratch; it is the reference of the tests
-//! and of the benchmark.
+//! candidates of b rows. When the b rows of every candidate live in disjoint sets of columns
+//! (the stacked traditional design: leg r's row only in leg r's parameters), which is read from
+//! the pool's numbers, M is block-diagonal and a separable path multiplies one rank-one factor
+//! per row position instead (the same decisions, about b² times fewer flops per trial swap).
+//! [`select_naive`] runs the same algorithm but evaluates every trial design from scratch; it
+//! is the reference of the tests and of the benchmark.
 //!
 //! # Reference
 //! docs/method.md §6 (identities and algorithm); §5 for the indices.
@@ -41,6 +44,7 @@ mod naive;
 mod pool;
 mod rank_one_d;
 mod running_inverse;
+mod separable_d;
 #[cfg(test)]
 mod tests;
 
@@ -52,6 +56,7 @@ use linalg::log_det_spd;
 use naive::Naive;
 use pool::Pool;
 use rank_one_d::RankOneD;
+use separable_d::SeparableD;
 
 /// Ridge factor ε of the start M = ε·diag(Σ_j c_j∘c_j)/K of the greedy construction.
 ///
@@ -261,11 +266,38 @@ pub fn select_columns(
     )
 }
 
-/// [`select`] on a validated pool: the engine by criterion and rows per candidate.
+/// As [`select`], but candidates of b > 1 rows are always handed to the dense block engine for
+/// the D criterion, even when their rows are separable (disjoint column supports, where
+/// [`select`] multiplies rank-one factors instead). The same selection up to round-off; the
+/// reference of the separable engine in the tests and the benchmark.
+///
+/// # Errors
+/// As [`select`].
+///
+/// # Reference
+/// docs/method.md §6 (the separable pools).
+#[doc(hidden)]
+pub fn select_dense_blocks(
+    candidates: &[DMatrix<f64>],
+    options: &SelectionOptions,
+) -> Result<Selection, SelectionError> {
+    let pool = Pool::new(candidates, options)?;
+    match (options.criterion, pool.b) {
+        (Criterion::D, 2..) => run(&pool, options, &mut BlockD::new(&pool)),
+        _ => select_in(&pool, options),
+    }
+}
+
+/// [`select`] on a validated pool: the engine by criterion and rows per candidate (for D with
+/// b > 1: the separable engine when the rows' column supports are disjoint, the dense block
+/// engine otherwise).
 fn select_in(pool: &Pool, options: &SelectionOptions) -> Result<Selection, SelectionError> {
     match (options.criterion, pool.b) {
         (Criterion::D, 1) => run(pool, options, &mut RankOneD::new(pool)),
-        (Criterion::D, _) => run(pool, options, &mut BlockD::new(pool)),
+        (Criterion::D, _) => match SeparableD::new(pool) {
+            Some(mut separable) => run(pool, options, &mut separable),
+            None => run(pool, options, &mut BlockD::new(pool)),
+        },
         (Criterion::A, _) => run(pool, options, &mut AOptimal { pool }),
         (Criterion::E, _) => run(pool, options, &mut EOptimal { pool }),
     }

@@ -33,7 +33,7 @@ fn block_updates_give_the_naive_selection() {
 /// Runs one exchange sweep from the poor start "the first `count` candidates" with `fast`
 /// and with the from-scratch evaluation; both must choose the same swaps, and the updated
 /// M⁻¹ must equal (C_SᵀC_S)⁻¹ recomputed from scratch.
-fn follow_sweep<E: Engine>(
+pub(super) fn follow_sweep<E: Engine>(
     pool: &Pool,
     count: usize,
     fast: &mut E,

@@ -1,5 +1,6 @@
 //! Tests of the pose selection: shared pools and helpers, errors, determinism and log det;
-//! agreement with the naive reference in [`engines`], design quality in [`optimality`].
+//! agreement with the naive reference in [`engines`] and [`separable`], design quality in
+//! [`optimality`].
 
 use super::*;
 use rand::{Rng, SeedableRng};
@@ -8,6 +9,7 @@ use rand_distr::StandardNormal;
 
 mod engines;
 mod optimality;
+mod separable;
 
 fn options(count: usize) -> SelectionOptions {
     SelectionOptions {
