@@ -435,9 +435,9 @@ fn measurements_round_trip_through_any_writer_and_reader() {
     let mut bytes = Vec::new();
     write_to(&mut bytes, &mech, &set).unwrap();
     let back = read_from(&bytes[..], Path::new("<memory>"), &mech).unwrap();
-    assert_eq!(back.poses.len(), 3 * 7);
-    for (a, b) in set.poses.iter().zip(&back.poses) {
-        assert_eq!((a.leg, a.pose, &a.readings), (b.leg, b.pose, &b.readings));
+    assert_eq!(back.len(), 3 * 7);
+    for ((a, a_readings), (b, b_readings)) in set.rows().zip(back.rows()) {
+        assert_eq!((a.leg, a.pose, a_readings), (b.leg, b.pose, b_readings));
     }
     let error = read_from(&b"leg,x,y,A1\n"[..], Path::new("<memory>"), &mech).unwrap_err();
     assert_eq!(

@@ -69,7 +69,7 @@ fn the_instrument_measurement_file_round_trips_and_its_targets_give_back_the_tru
         .observations
         .rows
         .iter()
-        .zip(&experiment.poses.poses)
+        .zip(experiment.poses.poses())
     {
         let pose = platform_pose::<f64>(
             instrument,

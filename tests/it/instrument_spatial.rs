@@ -141,7 +141,7 @@ fn zero_noise_recovers_every_identified_leg_frame_and_offset_of_the_spatial_mode
             .observations
             .rows
             .iter()
-            .zip(&experiment.poses.poses)
+            .zip(experiment.poses.poses())
         {
             let pose = platform_pose::<f64>(
                 instrument,
