@@ -122,12 +122,27 @@ const STATIONARY_STEP: f64 = 1e-12;
 /// The outcome of a solve that is not needed: `x0` is already the least-squares minimiser (its
 /// Gauss–Newton step, solved by SVD, is shorter than [`STATIONARY_STEP`]`·(‖x0‖ + 1)`), e.g.
 /// when identifying again from a calibrated model on the same measurements.
+///
+/// The step `C⁺r = V Σ⁻¹ Uᵀr` is taken as `V Σ⁻² Vᵀ (Cᵀr)` (singular values up to machine
+/// epsilon count as zero), without the SVD's `m × n` factor `U` (a large problem's Jacobian is
+/// tens of megabytes).
 fn already_minimal(
     x0: &DVector<f64>,
     r0: &DVector<f64>,
     c0: DMatrix<f64>,
 ) -> Option<SolverOutcome> {
-    let step = c0.svd(true, true).solve(r0, f64::EPSILON).ok()?;
+    let gradient = c0.tr_mul(r0);
+    let svd = c0.svd(false, true);
+    let v_t = svd.v_t?;
+    let mut projected = &v_t * gradient;
+    for (value, &s) in projected.iter_mut().zip(svd.singular_values.iter()) {
+        *value = if s > f64::EPSILON {
+            *value / (s * s)
+        } else {
+            0.0
+        };
+    }
+    let step = v_t.tr_mul(&projected);
     let length = step.norm();
     (length.is_finite() && length <= STATIONARY_STEP * (x0.norm() + 1.0)).then(|| SolverOutcome {
         x: x0.clone(),

@@ -62,7 +62,7 @@ pub struct IdentificationProblem<'a> {
     slots: Vec<LegSlot>,
     slot_of_leg: Vec<Option<usize>>,
     /// Shared by the problem's clones (a solver clones its problem).
-    blocks: Arc<[ResidualBlock]>,
+    blocks: Arc<Vec<ResidualBlock>>,
     /// `√w_i` per block, if weighted.
     row_scales: Option<Vec<f64>>,
     /// Each block's platform transform (its pose's trigonometry done once), for problems of at
@@ -182,6 +182,14 @@ impl Evaluations {
     }
 }
 
+/// Frees the gradients of the kept evaluations (before the gradients of another one are
+/// computed).
+fn release_older_gradients(state: &mut Evaluations) {
+    for older in &mut state.recent {
+        older.gradients = Vec::new();
+    }
+}
+
 /// One task's rows: the chunk's index, its seeds, predicted readings and gradients.
 type ChunkOfRows<'c> = (usize, ((&'c mut [f64], &'c mut [f64]), &'c mut [f64]));
 
@@ -216,10 +224,12 @@ impl<'a> IdentificationProblem<'a> {
             });
             offset += count;
         }
-        let blocks: Arc<[ResidualBlock]> = blocks
-            .into_iter()
-            .filter(|b| slot_of_leg[b.leg].is_some())
-            .collect();
+        // Filtered in place and moved into the `Arc` (a large problem's blocks are tens of
+        // megabytes: no copy).
+        let mut blocks = blocks;
+        blocks.retain(|b| slot_of_leg[b.leg].is_some());
+        blocks.shrink_to_fit();
+        let blocks = Arc::new(blocks);
         Self {
             blocks: blocks.clone(),
             mechanism,
@@ -363,6 +373,9 @@ impl<'a> IdentificationProblem<'a> {
     /// Calls `read` with the evaluation at the unknowns `x` (with the gradients if
     /// `derivatives`): a kept one if there is one at exactly `x`, else a new one, which is
     /// then kept. Solving a block's inverse kinematics is warm-started from its last solution.
+    /// Only the newest gradients are kept: an older evaluation's are freed before new ones
+    /// are computed (a large problem's are as large as its Jacobian; the solvers never ask
+    /// for a Jacobian at a point before the last one they took a Jacobian at).
     ///
     /// # Errors
     /// The first block (in row order) whose leg cannot reach its pose.
@@ -381,10 +394,14 @@ impl<'a> IdentificationProblem<'a> {
                 // The oldest kept evaluation would go once this one is kept: it goes first
                 // (a large problem's evaluations are tens of megabytes).
                 state.recent.truncate(KEPT_EVALUATIONS - 1);
+                if derivatives {
+                    release_older_gradients(&mut state);
+                }
                 self.solve_rows(x, key, derivatives, &mut state)?
             }
         };
         if derivatives && evaluation.gradients.is_empty() && !self.blocks.is_empty() {
+            release_older_gradients(&mut state);
             if !evaluation.solutions.is_empty() {
                 let solutions = std::mem::take(&mut evaluation.solutions);
                 evaluation.gradients = self.gradients(x, |i| solutions[i]);
