@@ -16,7 +16,7 @@ use rayon::prelude::*;
 use super::jacobian::PreparedLeg;
 use super::residual::{turn_in_reading_units, turns, ResidualBlock};
 use crate::error::KinematicsError;
-use crate::kinematics::chain::{platform_transform, Transform};
+use crate::kinematics::chain::{platform_transform_f64, Transform};
 use crate::kinematics::inverse::{joints, Joints, Solution};
 use crate::model::leg::LegModel;
 use crate::model::params::ParamTarget;
@@ -237,7 +237,10 @@ impl<'a> IdentificationProblem<'a> {
             slot_of_leg,
             row_scales: None,
             platforms: if blocks.len() <= KEPT_SOLUTION_ROWS {
-                blocks.iter().map(|b| platform_transform(&b.pose)).collect()
+                blocks
+                    .iter()
+                    .map(|b| platform_transform_f64(&b.pose))
+                    .collect()
             } else {
                 Arc::from(Vec::new())
             },
@@ -344,7 +347,7 @@ impl<'a> IdentificationProblem<'a> {
         self.platforms
             .get(index)
             .copied()
-            .unwrap_or_else(|| platform_transform(&self.blocks[index].pose))
+            .unwrap_or_else(|| platform_transform_f64(&self.blocks[index].pose))
     }
 
     /// The evaluation state, for this problem's blocks and legs.
