@@ -482,10 +482,8 @@ fn a_long_file_is_read_in_row_order_and_its_first_error_in_file_order_is_named()
         let k = expected_line - 2;
         assert_eq!(pose.line, Some(expected_line));
         assert_eq!(pose.leg, Some(0));
-        assert_eq!(
-            pose.pose[0],
-            format!("{}", k as f64 * 1e-6).parse::<f64>().unwrap()
-        );
+        let x = format!("{}", k as f64 * 1e-6).parse::<f64>().unwrap();
+        assert_eq!(pose.pose[0].to_bits(), x.to_bits());
         let reading = format!("{}", 2.0 + k as f64 * 1e-7).parse::<f64>().unwrap();
         assert_eq!(readings, [Some(reading), None]);
         expected_line += 1;
