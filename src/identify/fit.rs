@@ -196,4 +196,27 @@ mod tests {
         assert!(at_origin(0.975 * STATIONARY_STEP));
         assert!(!at_origin(1.025 * STATIONARY_STEP));
     }
+
+    /// With a consistent `r = C s` the Gauss–Newton step is `s` itself whatever `C` (here
+    /// non-orthogonal, with singular values far apart): the step taken without `U` is the
+    /// least-squares solution, not a scaled one.
+    #[test]
+    fn the_step_of_a_general_jacobian_is_its_least_squares_solution() {
+        let c = DMatrix::from_row_slice(
+            4,
+            3,
+            &[20.0, 1.0, 0.0, 0.0, 0.5, 0.3, 1.0, 0.0, 0.01, 2.0, 2.0, 2.0],
+        );
+        let x0 = DVector::from_vec(vec![0.0, 3.0, 0.0]);
+        let bound = STATIONARY_STEP * (3.0 + 1.0);
+        let direction = DVector::from_vec(vec![0.48, -0.6, 0.64]);
+        let minimal = |length: f64| {
+            let r = &c * (&direction * length);
+            already_minimal(&x0, &r, c.clone()).is_some()
+        };
+        assert!(minimal(0.975 * bound));
+        assert!(!minimal(1.025 * bound));
+        // A large step is far from minimal.
+        assert!(!minimal(1.0));
+    }
 }
