@@ -14,7 +14,6 @@ use criterion::{criterion_group, criterion_main, Criterion};
 use legwise::identify::estimate::{identify, Strategy};
 use legwise::identify::problem::IdentificationProblem;
 use legwise::measure::simulate::{simulate, SimulationOptions};
-use legwise::measure::MeasurementSet;
 use legwise::model::Mechanism;
 use legwise::solver::{solve, SolverKind};
 
@@ -49,15 +48,7 @@ fn strategies(c: &mut Criterion) {
         let data = simulate(&mechanism, SimulationOptions::default())
             .expect("simulation")
             .measurements;
-        let shared = MeasurementSet {
-            source: None,
-            poses: data
-                .poses
-                .iter()
-                .filter(|p| p.leg.is_none())
-                .cloned()
-                .collect(),
-        };
+        let shared = data.filtered(|p, _| p.leg.is_none());
         let mut group = c.benchmark_group(format!("strategy/{}", name.trim_end_matches(".yaml")));
         for (label, strategy) in [
             ("dc", Strategy::DivideAndConquer),

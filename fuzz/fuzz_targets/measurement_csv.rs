@@ -25,10 +25,10 @@ fuzz_target!(|data: &[u8]| {
     };
     match legwise::measure::file::parse(text, Path::new("fuzz.csv"), mechanism()) {
         Ok(set) => {
-            for pose in &set.poses {
+            for (pose, readings) in set.rows() {
                 assert!(pose.pose.iter().all(|v| v.is_finite()), "non-finite pose");
                 assert!(
-                    pose.readings.iter().flatten().all(|v| v.is_finite()),
+                    readings.iter().flatten().all(|v| v.is_finite()),
                     "non-finite reading"
                 );
             }

@@ -342,7 +342,11 @@ fn write_pictures(
     outputs: &[Output],
 ) -> anyhow::Result<()> {
     let maps = maps.map(|(before, after)| Maps { before, after });
-    let poses: Vec<[f64; 2]> = data.poses.iter().map(|p| [p.pose[0], p.pose[1]]).collect();
+    let poses: Vec<[f64; 2]> = data
+        .poses()
+        .iter()
+        .map(|p| [p.pose[0], p.pose[1]])
+        .collect();
     let format = super::pictures::format(args.pictures.png);
     let pictures = identify_pictures(report, maps, &poses, format)?;
     for (output, bytes) in outputs.iter().zip(&pictures) {

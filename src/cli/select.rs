@@ -38,7 +38,7 @@ pub(super) fn run(args: &SelectArgs) -> anyhow::Result<Verdict> {
         design.candidates, design.spacing, criterion, count
     )?;
     let legs = mechanism.legs.len();
-    let mut poses = Vec::new();
+    let mut set = MeasurementSet::new(None, legs);
     if args.strategy != super::StrategyArg::Traditional {
         for leg_design in &design.legs {
             let o = &leg_design.observability;
@@ -49,12 +49,15 @@ pub(super) fn run(args: &SelectArgs) -> anyhow::Result<Verdict> {
                 o.indices[0], o.indices[1], o.indices[2], o.indices[3], o.indices[4],
                 o.condition, leg_design.selection.certificate, o.singular_values.len()
             )?;
-            poses.extend(leg_design.poses.iter().map(|&pose| MeasuredPose {
-                line: None,
-                leg: Some(leg_design.leg),
-                pose,
-                readings: vec![None; legs],
-            }));
+            for &pose in &leg_design.poses {
+                let leg = Some(leg_design.leg);
+                let row = MeasuredPose {
+                    line: None,
+                    leg,
+                    pose,
+                };
+                set.push(row, &vec![None; legs]);
+            }
         }
     }
     if let Some(shared) = &design.shared {
@@ -64,17 +67,15 @@ pub(super) fn run(args: &SelectArgs) -> anyhow::Result<Verdict> {
             "  shared (all legs): O1 {:.4}, O3 {:.4}; condition {:.1}",
             o.indices[0], o.indices[2], o.condition
         )?;
-        poses.extend(shared.poses.iter().map(|&pose| MeasuredPose {
-            line: None,
-            leg: None,
-            pose,
-            readings: vec![None; legs],
-        }));
+        for &pose in &shared.poses {
+            let row = MeasuredPose {
+                line: None,
+                leg: None,
+                pose,
+            };
+            set.push(row, &vec![None; legs]);
+        }
     }
-    let set = MeasurementSet {
-        source: None,
-        poses,
-    };
     // With an instrument, the file is what `identify --measurements` reads for that model:
     // the poses to command, and the target coordinates and readings to fill in.
     let (csv, fill) = if mechanism.instrument.is_some() {

@@ -28,7 +28,7 @@ pub(super) fn run(args: &SimulateArgs) -> anyhow::Result<Verdict> {
         (csv, rows, source)
     } else {
         let (experiment, source) = args.simulation.experiment(&mechanism)?;
-        let rows = experiment.measurements.poses.len();
+        let rows = experiment.measurements.len();
         (
             file::to_csv(&mechanism, &experiment.measurements),
             rows,

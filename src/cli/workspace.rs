@@ -233,7 +233,7 @@ fn pose_groups(mechanism: &Mechanism, set: &MeasurementSet, axes: [usize; 2]) ->
         .chain(std::iter::once((None, "shared".to_string())))
         .filter_map(|(leg, name)| {
             let points: Vec<[f64; 2]> = set
-                .poses
+                .poses()
                 .iter()
                 .filter(|p| p.leg == leg)
                 .map(|p| [p.pose[axes[0]], p.pose[axes[1]]])

@@ -90,9 +90,9 @@ pub struct Evaluation {
 /// [`Error::Measurement`] if no row holds every actuator reading.
 pub fn evaluate(mechanism: &Mechanism, data: &MeasurementSet) -> Result<Evaluation> {
     let params = mechanism.nominal_parameters();
-    let line = |index: usize| data.poses[index].line.unwrap_or(index + 2);
-    let full: Vec<usize> = (0..data.poses.len())
-        .filter(|&i| data.poses[i].readings.iter().all(Option::is_some))
+    let line = |index: usize| data.poses()[index].line.unwrap_or(index + 2);
+    let full: Vec<usize> = (0..data.len())
+        .filter(|&i| data.readings(i).iter().all(Option::is_some))
         .collect();
     if full.is_empty() {
         return Err(no_full_row(mechanism, data.source.as_deref()));
@@ -101,8 +101,8 @@ pub fn evaluate(mechanism: &Mechanism, data: &MeasurementSet) -> Result<Evaluati
     let row_errors: Vec<RowPoseError> = full
         .iter()
         .map(|&i| {
-            let row = &data.poses[i];
-            let readings: Vec<f64> = row.readings.iter().flatten().copied().collect();
+            let row = &data.poses()[i];
+            let readings: Vec<f64> = data.readings(i).iter().flatten().copied().collect();
             let reached = forward(mechanism, &params, &readings).ok();
             RowPoseError {
                 line: line(i),
@@ -115,12 +115,11 @@ pub fn evaluate(mechanism: &Mechanism, data: &MeasurementSet) -> Result<Evaluati
         })
         .collect();
     let rows: Vec<ResidualRow<'_>> = data
-        .poses
-        .iter()
+        .rows()
         .enumerate()
-        .map(|(i, row)| ResidualRow {
+        .map(|(i, (row, readings))| ResidualRow {
             line: line(i),
-            readings: &row.readings,
+            readings,
             pose: row.pose,
         })
         .collect();
@@ -133,7 +132,7 @@ pub fn evaluate(mechanism: &Mechanism, data: &MeasurementSet) -> Result<Evaluati
     Ok(summarised(
         mechanism,
         data.source.as_deref(),
-        data.poses.len(),
+        data.len(),
         (row_errors, non_assemblable),
         reading_residual,
         Vec::new(),

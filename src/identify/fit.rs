@@ -122,12 +122,27 @@ const STATIONARY_STEP: f64 = 1e-12;
 /// The outcome of a solve that is not needed: `x0` is already the least-squares minimiser (its
 /// Gauss–Newton step, solved by SVD, is shorter than [`STATIONARY_STEP`]`·(‖x0‖ + 1)`), e.g.
 /// when identifying again from a calibrated model on the same measurements.
+///
+/// The step `C⁺r = V Σ⁻¹ Uᵀr` is taken as `V Σ⁻² Vᵀ (Cᵀr)` (singular values up to machine
+/// epsilon count as zero), without the SVD's `m × n` factor `U` (a large problem's Jacobian is
+/// tens of megabytes).
 fn already_minimal(
     x0: &DVector<f64>,
     r0: &DVector<f64>,
     c0: DMatrix<f64>,
 ) -> Option<SolverOutcome> {
-    let step = c0.svd(true, true).solve(r0, f64::EPSILON).ok()?;
+    let gradient = c0.tr_mul(r0);
+    let svd = c0.svd(false, true);
+    let v_t = svd.v_t?;
+    let mut projected = &v_t * gradient;
+    for (value, &s) in projected.iter_mut().zip(svd.singular_values.iter()) {
+        *value = if s > f64::EPSILON {
+            *value / (s * s)
+        } else {
+            0.0
+        };
+    }
+    let step = v_t.tr_mul(&projected);
     let length = step.norm();
     (length.is_finite() && length <= STATIONARY_STEP * (x0.norm() + 1.0)).then(|| SolverOutcome {
         x: x0.clone(),
@@ -180,5 +195,28 @@ mod tests {
         };
         assert!(at_origin(0.975 * STATIONARY_STEP));
         assert!(!at_origin(1.025 * STATIONARY_STEP));
+    }
+
+    /// With a consistent `r = C s` the Gauss–Newton step is `s` itself whatever `C` (here
+    /// non-orthogonal, with singular values far apart): the step taken without `U` is the
+    /// least-squares solution, not a scaled one.
+    #[test]
+    fn the_step_of_a_general_jacobian_is_its_least_squares_solution() {
+        let c = DMatrix::from_row_slice(
+            4,
+            3,
+            &[20.0, 1.0, 0.0, 0.0, 0.5, 0.3, 1.0, 0.0, 0.01, 2.0, 2.0, 2.0],
+        );
+        let x0 = DVector::from_vec(vec![0.0, 3.0, 0.0]);
+        let bound = STATIONARY_STEP * (3.0 + 1.0);
+        let direction = DVector::from_vec(vec![0.48, -0.6, 0.64]);
+        let minimal = |length: f64| {
+            let r = &c * (&direction * length);
+            already_minimal(&x0, &r, c.clone()).is_some()
+        };
+        assert!(minimal(0.975 * bound));
+        assert!(!minimal(1.025 * bound));
+        // A large step is far from minimal.
+        assert!(!minimal(1.0));
     }
 }

@@ -4,7 +4,7 @@
 //! # Reference
 //! docs/method.md §5 (indices O1–O5) and §7 (rank with scaled columns, pivoted elimination).
 
-use nalgebra::DMatrix;
+use nalgebra::{DMatrix, SVD};
 
 /// Relative singular-value threshold on the column-scaled Jacobian below which a direction is
 /// not identifiable.
@@ -134,8 +134,10 @@ pub fn sorted_singular_values(c: DMatrix<f64>) -> Vec<f64> {
     } else {
         1.0
     };
-    let mut values: Vec<f64> = (c / scale)
-        .singular_values()
+    // The scaled matrix itself goes into the decomposition (`singular_values()` would
+    // decompose a copy of it).
+    let mut values: Vec<f64> = SVD::new(c / scale, false, false)
+        .singular_values
         .iter()
         .map(|s| s * scale)
         .collect();

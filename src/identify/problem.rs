@@ -16,7 +16,7 @@ use rayon::prelude::*;
 use super::jacobian::PreparedLeg;
 use super::residual::{turn_in_reading_units, turns, ResidualBlock};
 use crate::error::KinematicsError;
-use crate::kinematics::chain::{platform_transform, Transform};
+use crate::kinematics::chain::{platform_transform_f64, Transform};
 use crate::kinematics::inverse::{joints, Joints, Solution};
 use crate::model::leg::LegModel;
 use crate::model::params::ParamTarget;
@@ -62,7 +62,7 @@ pub struct IdentificationProblem<'a> {
     slots: Vec<LegSlot>,
     slot_of_leg: Vec<Option<usize>>,
     /// Shared by the problem's clones (a solver clones its problem).
-    blocks: Arc<[ResidualBlock]>,
+    blocks: Arc<Vec<ResidualBlock>>,
     /// `√w_i` per block, if weighted.
     row_scales: Option<Vec<f64>>,
     /// Each block's platform transform (its pose's trigonometry done once), for problems of at
@@ -182,6 +182,14 @@ impl Evaluations {
     }
 }
 
+/// Frees the gradients of the kept evaluations (before the gradients of another one are
+/// computed).
+fn release_older_gradients(state: &mut Evaluations) {
+    for older in &mut state.recent {
+        older.gradients = Vec::new();
+    }
+}
+
 /// One task's rows: the chunk's index, its seeds, predicted readings and gradients.
 type ChunkOfRows<'c> = (usize, ((&'c mut [f64], &'c mut [f64]), &'c mut [f64]));
 
@@ -216,10 +224,12 @@ impl<'a> IdentificationProblem<'a> {
             });
             offset += count;
         }
-        let blocks: Arc<[ResidualBlock]> = blocks
-            .into_iter()
-            .filter(|b| slot_of_leg[b.leg].is_some())
-            .collect();
+        // Filtered in place and moved into the `Arc` (a large problem's blocks are tens of
+        // megabytes: no copy).
+        let mut blocks = blocks;
+        blocks.retain(|b| slot_of_leg[b.leg].is_some());
+        blocks.shrink_to_fit();
+        let blocks = Arc::new(blocks);
         Self {
             blocks: blocks.clone(),
             mechanism,
@@ -227,7 +237,10 @@ impl<'a> IdentificationProblem<'a> {
             slot_of_leg,
             row_scales: None,
             platforms: if blocks.len() <= KEPT_SOLUTION_ROWS {
-                blocks.iter().map(|b| platform_transform(&b.pose)).collect()
+                blocks
+                    .iter()
+                    .map(|b| platform_transform_f64(&b.pose))
+                    .collect()
             } else {
                 Arc::from(Vec::new())
             },
@@ -334,7 +347,7 @@ impl<'a> IdentificationProblem<'a> {
         self.platforms
             .get(index)
             .copied()
-            .unwrap_or_else(|| platform_transform(&self.blocks[index].pose))
+            .unwrap_or_else(|| platform_transform_f64(&self.blocks[index].pose))
     }
 
     /// The evaluation state, for this problem's blocks and legs.
@@ -363,6 +376,9 @@ impl<'a> IdentificationProblem<'a> {
     /// Calls `read` with the evaluation at the unknowns `x` (with the gradients if
     /// `derivatives`): a kept one if there is one at exactly `x`, else a new one, which is
     /// then kept. Solving a block's inverse kinematics is warm-started from its last solution.
+    /// Only the newest gradients are kept: an older evaluation's are freed before new ones
+    /// are computed (a large problem's are as large as its Jacobian; the solvers never ask
+    /// for a Jacobian at a point before the last one they took a Jacobian at).
     ///
     /// # Errors
     /// The first block (in row order) whose leg cannot reach its pose.
@@ -381,10 +397,14 @@ impl<'a> IdentificationProblem<'a> {
                 // The oldest kept evaluation would go once this one is kept: it goes first
                 // (a large problem's evaluations are tens of megabytes).
                 state.recent.truncate(KEPT_EVALUATIONS - 1);
+                if derivatives {
+                    release_older_gradients(&mut state);
+                }
                 self.solve_rows(x, key, derivatives, &mut state)?
             }
         };
         if derivatives && evaluation.gradients.is_empty() && !self.blocks.is_empty() {
+            release_older_gradients(&mut state);
             if !evaluation.solutions.is_empty() {
                 let solutions = std::mem::take(&mut evaluation.solutions);
                 evaluation.gradients = self.gradients(x, |i| solutions[i]);

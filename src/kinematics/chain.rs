@@ -40,6 +40,26 @@ pub fn platform_transform<T: Scalar>(pose: &[T; 6]) -> Transform<T> {
     origin_transform(pose)
 }
 
+/// [`platform_transform`] of an f64 pose, without the trigonometry when the orientation is
+/// exactly `+0` (the rows of a planar mechanism, at every evaluation of a large problem): the
+/// same bits, since `sin(+0) = +0` and `cos(+0) = 1` exactly, which makes the rotation the
+/// identity with its `−sin(pitch)` entry at `−0`.
+pub fn platform_transform_f64(pose: &[f64; 6]) -> Transform<f64> {
+    if pose[3..].iter().any(|angle| angle.to_bits() != 0) {
+        return platform_transform(pose);
+    }
+    #[rustfmt::skip]
+    let rotation = Matrix3::new(
+        1.0, 0.0, 0.0,
+        0.0, 1.0, 0.0,
+        -0.0, 0.0, 1.0,
+    );
+    Transform::from_parts(
+        Translation3::new(pose[0], pose[1], pose[2]),
+        Rotation3::from_matrix_unchecked(rotation),
+    )
+}
+
 /// World position of a leg's attachment point for a platform pose.
 pub fn attachment_world<T: Scalar>(pose: &[T; 6], attachment: &[T; 3]) -> Vector3<T> {
     platform_transform(pose)
@@ -427,4 +447,40 @@ pub fn attachment_on_constant<T: Scalar>(
         attachment[0] * m[(i, 0)] + attachment[1] * m[(i, 1)] + attachment[2] * m[(i, 2)] + t[i]
     };
     Vector3::new(row(0), row(1), row(2))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::{platform_transform, platform_transform_f64, Transform};
+
+    /// The shortcut for an orientation of exactly `+0` gives the Euler-angle transform bit for
+    /// bit (its `−0` entry included), and every other orientation (`−0` too) goes through it.
+    #[test]
+    fn the_f64_platform_transform_equals_the_generic_one_bit_for_bit() {
+        let bits = |t: Transform<f64>| -> Vec<u64> {
+            t.to_homogeneous().iter().map(|v| v.to_bits()).collect()
+        };
+        let poses = [
+            [0.3, -1.2, 0.0, 0.0, 0.0, 0.0],
+            [-0.0, 1e-300, 7.5, 0.0, 0.0, 0.0],
+            [0.3, -1.2, 0.1, -0.0, 0.0, 0.0],
+            [0.3, -1.2, 0.1, 0.0, -0.0, -0.0],
+            [0.3, -1.2, 0.1, 0.2, -0.1, 1.3],
+            [0.3, -1.2, 0.1, 0.0, 0.0, 1e-9],
+        ];
+        for pose in poses {
+            let generic = platform_transform(&pose);
+            assert_eq!(
+                bits(platform_transform_f64(&pose)),
+                bits(generic),
+                "{pose:?}"
+            );
+        }
+        // The shortcut's rotation is not the plain identity: −sin(+0) is −0.
+        let planar = platform_transform_f64(&poses[0]);
+        assert_eq!(
+            planar.rotation.matrix()[(2, 0)].to_bits(),
+            (-0.0f64).to_bits()
+        );
+    }
 }

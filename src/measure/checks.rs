@@ -112,7 +112,7 @@ fn range_warnings(mechanism: &Mechanism, data: &MeasurementSet) -> Result<Vec<St
         .iter()
         .map(|_| Offenders::default())
         .collect();
-    for pose in &data.poses {
+    for (pose, pose_readings) in data.rows() {
         for &c in &mechanism.measured {
             let value = pose.pose[c];
             if c < 3 && (value - home[c]).abs() > limit {
@@ -137,7 +137,7 @@ fn range_warnings(mechanism: &Mechanism, data: &MeasurementSet) -> Result<Vec<St
                 coordinates[c].add(pose.line, value);
             }
         }
-        for (l, reading) in pose.readings.iter().enumerate() {
+        for (l, reading) in pose_readings.iter().enumerate() {
             let Some(value) = *reading else { continue };
             let leg = &mechanism.legs[l];
             // The joint value through the nominal actuator model (a geared reading may pass
@@ -194,13 +194,13 @@ fn range_warnings(mechanism: &Mechanism, data: &MeasurementSet) -> Result<Vec<St
 
 fn duplicate_warnings(mechanism: &Mechanism, data: &MeasurementSet) -> Vec<String> {
     // The key of a row: its leg label, measured coordinates and readings, bit for bit.
-    let poses = &data.poses;
+    let poses = data.poses();
     let key = |index: usize| {
         let pose = &poses[index];
         let leg = pose.leg.map_or(u64::MAX, |l| l as u64);
         let coordinates = mechanism.measured.iter().map(|&c| pose.pose[c].to_bits());
-        let readings = pose
-            .readings
+        let readings = data
+            .readings(index)
             .iter()
             .map(|r| r.map_or(u64::MAX - 1, f64::to_bits));
         std::iter::once(leg).chain(coordinates).chain(readings)

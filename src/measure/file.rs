@@ -8,6 +8,8 @@
 use std::io::{Read, Write};
 use std::path::Path;
 
+use rayon::prelude::*;
+
 use super::{rows, MeasuredPose, MeasurementSet};
 use crate::error::{Error, Result};
 use crate::model::mechanism::COORDINATES;
@@ -65,20 +67,23 @@ pub fn read_poses(path: &Path, mechanism: &Mechanism) -> Result<MeasurementSet> 
     parse_rows(file, path, mechanism, false)
 }
 
-/// The rows of a measurement CSV read from `source` (buffered by the CSV reader), one record
-/// buffer for all rows, cells read as bytes and trimmed in place (no allocation per row but the
-/// row's readings).
+/// Records read before their rows are parsed (in parallel, while the next batch is read).
+const BATCH_RECORDS: usize = 16_384;
+
+/// Records a parallel task parses.
+const RECORDS_PER_TASK: usize = 1_024;
+
+/// The rows of a measurement CSV read from `source` (buffered by the CSV reader): records are
+/// read in batches into reused buffers, and each batch's cells are parsed in parallel (rayon)
+/// while the next batch is read. Cells are read as bytes and trimmed in place; the rows'
+/// readings go flat into the set (no allocation per row). The first error in file order is
+/// reported, as a row-by-row reading would.
 fn parse_rows(
     source: impl Read,
     path: &Path,
     mechanism: &Mechanism,
     require_readings: bool,
 ) -> Result<MeasurementSet> {
-    let fail = |location: String, message: String| Error::Measurement {
-        path: path.to_path_buf(),
-        location,
-        message,
-    };
     let expected = expected_columns(mechanism);
     // The cells are trimmed here (of Unicode whitespace, as `str::trim`): the CSV reader's
     // trimming of the fields builds a new record for every row.
@@ -91,39 +96,135 @@ fn parse_rows(
         Err(e) => return Err(csv_error(path, &e, "header".into())),
     };
     if header.iter().all(String::is_empty) {
-        return Err(fail(
+        return Err(rows::fail(
+            path,
             "header".into(),
             format!("empty file; expected the columns {}", expected.join(", ")),
         ));
     }
     rows::check_header(path, &header, &expected, &[], &expected.join(", "))?;
     let index = |name: &str| header.iter().position(|h| h == name);
-    let leg_column = index("leg");
-    let coordinate_columns: Vec<(usize, usize)> = mechanism
-        .measured
-        .iter()
-        .map(|&c| (c, index(COORDINATES[c]).unwrap_or_default()))
-        .collect();
-    let reading_columns: Vec<usize> = mechanism
-        .actuated_names()
-        .iter()
-        .map(|name| index(name).unwrap_or_default())
-        .collect();
-    let mut poses = Vec::new();
-    let mut record = csv::ByteRecord::new();
-    loop {
-        match reader.read_byte_record(&mut record) {
-            Ok(true) => {}
-            Ok(false) => break,
-            Err(e) => {
-                let line = e.position().map_or(0, |p| p.line());
-                return Err(csv_error(path, &e, format!("line {line}")));
+    let layout = Layout {
+        path,
+        mechanism,
+        header: &header,
+        leg_column: index("leg"),
+        coordinate_columns: mechanism
+            .measured
+            .iter()
+            .map(|&c| (c, index(COORDINATES[c]).unwrap_or_default()))
+            .collect(),
+        reading_columns: mechanism
+            .actuated_names()
+            .iter()
+            .map(|name| index(name).unwrap_or_default())
+            .collect(),
+        require_readings,
+    };
+    let mut set = MeasurementSet::new(Some(path.to_path_buf()), mechanism.legs.len());
+    let mut parsing = Batch::default();
+    let mut reading = Batch::default();
+    let mut read_error = reading.fill(&mut reader);
+    while reading.count > 0 || read_error.is_some() {
+        std::mem::swap(&mut parsing, &mut reading);
+        let failed = read_error.take();
+        let mut parsed = Vec::new();
+        rayon::in_place_scope(|scope| {
+            scope.spawn(|_| parsed = layout.parse(&parsing.records[..parsing.count]));
+            // The next batch is read meanwhile (none after a failed read).
+            reading.count = 0;
+            if failed.is_none() {
+                read_error = reading.fill(&mut reader);
+            }
+        });
+        for chunk in parsed {
+            let (poses, readings) = chunk?;
+            for (k, pose) in poses.into_iter().enumerate() {
+                set.push(pose, &readings[k * set.legs()..(k + 1) * set.legs()]);
             }
         }
+        if let Some(e) = failed {
+            let line = e.position().map_or(0, |p| p.line());
+            return Err(csv_error(path, &e, format!("line {line}")));
+        }
+    }
+    if set.is_empty() {
+        return Err(rows::no_rows(path));
+    }
+    set.shrink_to_fit();
+    Ok(set)
+}
+
+/// A batch of records read and not yet parsed (the buffers are reused from batch to batch).
+#[derive(Default)]
+struct Batch {
+    records: Vec<csv::ByteRecord>,
+    count: usize,
+}
+
+impl Batch {
+    /// Reads up to [`BATCH_RECORDS`] records; the reader's error, if it failed (the records
+    /// before it are kept).
+    fn fill(&mut self, reader: &mut csv::Reader<impl Read>) -> Option<csv::Error> {
+        self.count = 0;
+        while self.count < BATCH_RECORDS {
+            if self.records.len() == self.count {
+                self.records.push(csv::ByteRecord::new());
+            }
+            match reader.read_byte_record(&mut self.records[self.count]) {
+                Ok(true) => self.count += 1,
+                Ok(false) => return None,
+                Err(e) => return Some(e),
+            }
+        }
+        None
+    }
+}
+
+/// The parsed rows of one task: the poses and their readings, flat.
+type ParsedRows = Result<(Vec<MeasuredPose>, Vec<Option<f64>>)>;
+
+/// Where the columns of a measurement file are, and what its rows must hold.
+struct Layout<'l> {
+    path: &'l Path,
+    mechanism: &'l Mechanism,
+    header: &'l [String],
+    leg_column: Option<usize>,
+    coordinate_columns: Vec<(usize, usize)>,
+    reading_columns: Vec<usize>,
+    require_readings: bool,
+}
+
+impl Layout<'_> {
+    /// The rows of `records`, in parallel tasks of [`RECORDS_PER_TASK`] records, in order.
+    fn parse(&self, records: &[csv::ByteRecord]) -> Vec<ParsedRows> {
+        records
+            .par_chunks(RECORDS_PER_TASK)
+            .map(|chunk| {
+                let mut poses = Vec::with_capacity(chunk.len());
+                let mut readings = Vec::with_capacity(chunk.len() * self.reading_columns.len());
+                for record in chunk {
+                    if let Some(pose) = self.row(record, &mut readings)? {
+                        poses.push(pose);
+                    }
+                }
+                Ok((poses, readings))
+            })
+            .collect()
+    }
+
+    /// One record's pose (its readings appended to `readings`), `None` for a blank row.
+    fn row(
+        &self,
+        record: &csv::ByteRecord,
+        readings: &mut Vec<Option<f64>>,
+    ) -> Result<Option<MeasuredPose>> {
+        let (path, header) = (self.path, self.header);
+        let fail = |location: String, message: String| rows::fail(path, location, message);
         let line = record.position().map_or(0, |p| p.line() as usize);
         let blank = |bytes: &[u8]| std::str::from_utf8(bytes).is_ok_and(|t| t.trim().is_empty());
         if record.iter().all(blank) {
-            continue;
+            return Ok(None);
         }
         let cell = |column: usize| -> Result<&str> {
             let bytes = record.get(column).unwrap_or_default();
@@ -140,13 +241,13 @@ fn parse_rows(
         let number = |column: usize, unit: &str| {
             rows::number(path, line, &header[column], cell(column)?, unit)
         };
-        let leg_cell = match leg_column {
+        let leg_cell = match self.leg_column {
             Some(column) => cell(column)?,
             None => "",
         };
-        let leg = rows::leg_of(path, line, mechanism, leg_cell)?;
-        let mut pose = mechanism.home_pose;
-        for &(coordinate, column) in &coordinate_columns {
+        let leg = rows::leg_of(path, line, self.mechanism, leg_cell)?;
+        let mut pose = self.mechanism.home_pose;
+        for &(coordinate, column) in &self.coordinate_columns {
             let unit = if coordinate < 3 { "metres" } else { "radians" };
             pose[coordinate] = number(column, unit)?.ok_or_else(|| {
                 fail(
@@ -155,28 +256,19 @@ fn parse_rows(
                 )
             })?;
         }
-        let mut readings = Vec::with_capacity(reading_columns.len());
-        for &column in &reading_columns {
+        let start = readings.len();
+        for &column in &self.reading_columns {
             readings.push(number(column, "SI units (radians or metres)")?);
         }
-        if require_readings {
-            rows::require_leg_reading(path, line, mechanism, leg, &readings)?;
+        if self.require_readings {
+            rows::require_leg_reading(path, line, self.mechanism, leg, &readings[start..])?;
         }
-        poses.push(MeasuredPose {
+        Ok(Some(MeasuredPose {
             line: Some(line),
             leg,
             pose,
-            readings,
-        });
+        }))
     }
-    if poses.is_empty() {
-        return Err(rows::no_rows(path));
-    }
-    poses.shrink_to_fit();
-    Ok(MeasurementSet {
-        source: Some(path.to_path_buf()),
-        poses,
-    })
 }
 
 /// A CSV reader's error at `location`: the reader's I/O failure as [`Error::Io`], anything
@@ -250,10 +342,10 @@ pub(crate) fn leg_and_pose_cells(mechanism: &Mechanism, pose: &MeasuredPose) -> 
 pub fn to_csv(mechanism: &Mechanism, set: &MeasurementSet) -> String {
     let mut text = expected_columns(mechanism).join(",");
     text.push('\n');
-    for pose in &set.poses {
+    for (pose, readings) in set.rows() {
         let mut cells = leg_and_pose_cells(mechanism, pose);
         cells.extend(
-            pose.readings
+            readings
                 .iter()
                 .map(|r| r.map_or(String::new(), |v| format!("{v}"))),
         );

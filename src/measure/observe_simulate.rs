@@ -99,9 +99,8 @@ pub fn observed_from(
         .collect();
     let rows = experiment
         .measurements
-        .poses
-        .iter()
-        .map(|pose| {
+        .rows()
+        .map(|(pose, readings)| {
             let observed = observe(instrument, &shared, &pose.pose)
                 .iter()
                 .zip(&sigma)
@@ -111,7 +110,7 @@ pub fn observed_from(
                 line: pose.line,
                 leg: pose.leg,
                 observed,
-                readings: pose.readings.clone(),
+                readings: readings.to_vec(),
             }
         })
         .collect();

@@ -153,7 +153,7 @@ pub fn simulate_at(
         .enumerate()
         .map(|(l, poses)| (Some(l), poses))
         .chain([(None, &sets.shared)]);
-    let mut poses = Vec::new();
+    let mut poses = MeasurementSet::new(None, legs);
     for (group, true_poses) in groups {
         for true_pose in true_poses {
             let mut readings = Vec::with_capacity(legs);
@@ -171,26 +171,23 @@ pub fn simulate_at(
             for &c in &mechanism.measured {
                 measured[c] += options.noise_scale * simulation.pose_noise[c] * gaussian(&mut rng);
             }
-            let readings = (0..legs)
+            let readings: Vec<Option<f64>> = (0..legs)
                 .map(|l| {
                     let noise = options.noise_scale * simulation.reading_noise * gaussian(&mut rng);
                     group.is_none_or(|g| g == l).then(|| readings[l] + noise)
                 })
                 .collect();
-            poses.push(MeasuredPose {
+            let pose = MeasuredPose {
                 line: None,
                 leg: group,
                 pose: measured,
-                readings,
-            });
+            };
+            poses.push(pose, &readings);
         }
     }
     Ok(SimulatedExperiment {
         real,
-        measurements: MeasurementSet {
-            source: None,
-            poses,
-        },
+        measurements: poses,
     })
 }
 

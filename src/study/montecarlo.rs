@@ -34,7 +34,7 @@ use crate::identify::estimate::{identify_with, FitOptions, Strategy, StrategyRes
 use crate::kinematics::inverse::Joints;
 use crate::kinematics::platform::ForwardKinematics;
 use crate::measure::simulate::{real_parameters, simulate_at, PoseSets, SimulationOptions};
-use crate::measure::{MeasuredPose, MeasurementSet};
+use crate::measure::MeasurementSet;
 use crate::model::params::Unit;
 use crate::model::Mechanism;
 use crate::progress::Progress;
@@ -456,23 +456,29 @@ impl Study {
         };
         let experiment = simulate_at(&self.mechanism, &self.pose_sets, options)?;
         let real = &experiment.real;
-        let (labelled, shared): (Vec<MeasuredPose>, Vec<MeasuredPose>) = experiment
-            .measurements
-            .poses
-            .into_iter()
-            .partition(|p| p.leg.is_some());
-        let (small, equal) = shared.split_at(self.shared_count);
-        let sets = [labelled, small.to_vec(), equal.to_vec()];
+        let measurements = &experiment.measurements;
+        let labelled = measurements.filtered(|p, _| p.leg.is_some());
+        let legs = measurements.legs();
+        let (mut small, mut equal) = (
+            MeasurementSet::new(None, legs),
+            MeasurementSet::new(None, legs),
+        );
+        let shared = measurements.rows().filter(|(p, _)| p.leg.is_none());
+        for (k, (pose, readings)) in shared.enumerate() {
+            let set = if k < self.shared_count {
+                &mut small
+            } else {
+                &mut equal
+            };
+            set.push(*pose, readings);
+        }
+        let sets = [labelled, small, equal];
         let real_kinematics = ForwardKinematics::new(&self.mechanism, real);
         let nominal_map_rms = self.nominal_map_rms(real, &real_kinematics)?;
         // The commanding joints of the last map, the warm starts of the next one.
         let mut joints = self.nominal_joints.clone();
         let mut arms = Vec::with_capacity(ARMS.len());
-        for (arm, poses) in ARMS.into_iter().zip(sets) {
-            let data = MeasurementSet {
-                source: None,
-                poses,
-            };
+        for (arm, data) in ARMS.into_iter().zip(sets) {
             let result = identify_with(
                 &self.mechanism,
                 &data,

@@ -69,7 +69,7 @@ fn the_control_model_copy_loads() {
 fn the_control_csv_identifies_the_nominal_parameters() {
     let mech = bundled("5r.yaml");
     let set = read(&data("valid.csv"), &mech).expect("control CSV reads");
-    assert_eq!(set.poses.len(), 10);
+    assert_eq!(set.len(), 10);
     let result = identify(
         &mech,
         &set,

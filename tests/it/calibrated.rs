@@ -306,15 +306,14 @@ fn row_residuals_of_a_robust_fit_are_the_unweighted_reading_residuals() {
         let phi: Vec<f64> = estimate.parameters.iter().map(|p| p.estimate).collect();
         assert_eq!(estimate.residuals.len(), data.leg_blocks(l).len());
         for row in &estimate.residuals {
-            let pose = data
-                .poses
-                .iter()
-                .find(|p| p.line == row.line)
+            let (pose, readings) = data
+                .rows()
+                .find(|(p, _)| p.line == row.line)
                 .expect("the residual's CSV line is a row of the file");
             let predicted =
                 predict_reading(&mechanism.legs[l], &phi, &pose.pose, &mechanism.home_pose)
                     .unwrap();
-            let expected = pose.readings[l].unwrap() - predicted;
+            let expected = readings[l].unwrap() - predicted;
             assert!(
                 (row.residual - expected).abs() <= 1e-12,
                 "line {:?}: {} vs {expected}",

@@ -21,8 +21,8 @@ fn prismatic_readings_in_millimetres_are_named_first_and_largest() {
     let (mechanism, clean) = clean_3rpr();
     assert!(check(&mechanism, &clean).unwrap().is_empty());
     let mut millimetres = clean.clone();
-    for pose in &mut millimetres.poses {
-        for reading in &mut pose.readings {
+    for i in 0..millimetres.len() {
+        for reading in millimetres.readings_mut(i) {
             *reading = reading.map(|r| r * 1000.0);
         }
     }
@@ -31,9 +31,8 @@ fn prismatic_readings_in_millimetres_are_named_first_and_largest() {
     assert_eq!(warnings.len(), names.len(), "{warnings:?}");
     for (l, (warning, name)) in warnings.iter().zip(&names).enumerate() {
         let rows: Vec<(usize, f64)> = millimetres
-            .poses
-            .iter()
-            .filter_map(|p| p.readings[l].map(|r| (p.line.unwrap(), r)))
+            .rows()
+            .filter_map(|(p, readings)| readings[l].map(|r| (p.line.unwrap(), r)))
             .filter(|&(_, r)| {
                 let joint = r + 0.2;
                 assert!(
@@ -69,16 +68,14 @@ fn prismatic_readings_in_millimetres_are_named_first_and_largest() {
 fn one_prismatic_reading_in_millimetres_is_named_alone() {
     let (mechanism, clean) = clean_3rpr();
     let mut one = clean.clone();
-    let index = one
-        .poses
-        .iter()
-        .position(|p| p.readings[1].is_some())
+    let index = (0..one.len())
+        .position(|i| one.readings(i)[1].is_some())
         .unwrap()
         + 2;
-    assert!(one.poses[index].readings[1].is_some(), "a leg2 row");
-    let value = one.poses[index].readings[1].unwrap() * 1000.0;
-    one.poses[index].readings[1] = Some(value);
-    let line = one.poses[index].line.unwrap();
+    assert!(one.readings(index)[1].is_some(), "a leg2 row");
+    let value = one.readings(index)[1].unwrap() * 1000.0;
+    one.readings_mut(index)[1] = Some(value);
+    let line = one.poses()[index].line.unwrap();
     let warnings = check(&mechanism, &one).unwrap();
     assert_eq!(warnings.len(), 1, "{warnings:?}");
     let name = mechanism.actuated_names()[1];

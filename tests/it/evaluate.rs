@@ -160,6 +160,6 @@ fn the_json_holds_the_documented_keys_for_both_models() {
             let residual = &object["reading_residual"][leg];
             assert!(residual["rms"].as_f64().unwrap() <= residual["max"].as_f64().unwrap());
         }
-        assert_eq!(object["rows"], experiment.measurements.poses.len());
+        assert_eq!(object["rows"], experiment.measurements.len());
     }
 }

@@ -435,13 +435,80 @@ fn measurements_round_trip_through_any_writer_and_reader() {
     let mut bytes = Vec::new();
     write_to(&mut bytes, &mech, &set).unwrap();
     let back = read_from(&bytes[..], Path::new("<memory>"), &mech).unwrap();
-    assert_eq!(back.poses.len(), 3 * 7);
-    for (a, b) in set.poses.iter().zip(&back.poses) {
-        assert_eq!((a.leg, a.pose, &a.readings), (b.leg, b.pose, &b.readings));
+    assert_eq!(back.len(), 3 * 7);
+    for ((a, a_readings), (b, b_readings)) in set.rows().zip(back.rows()) {
+        assert_eq!((a.leg, a.pose, a_readings), (b.leg, b.pose, b_readings));
     }
     let error = read_from(&b"leg,x,y,A1\n"[..], Path::new("<memory>"), &mech).unwrap_err();
     assert_eq!(
         error.to_string(),
         "<memory>: header: missing column `A2`; expected the columns leg, x, y, A1, A2"
+    );
+}
+
+/// A measurement file of `rows` leg1 rows (row `k` at line `k + 2`, x = k µm), with the lines
+/// of `replaced` given instead.
+fn long_csv(rows: usize, replaced: &[(usize, &str)]) -> String {
+    let mut text = String::from("leg,x,y,A1,A2\n");
+    for k in 0..rows {
+        let line = k + 2;
+        match replaced.iter().find(|(l, _)| *l == line) {
+            Some((_, row)) => text.push_str(row),
+            None => text.push_str(&format!(
+                "leg1,{},1.1,{},",
+                k as f64 * 1e-6,
+                2.0 + k as f64 * 1e-7
+            )),
+        }
+        text.push('\n');
+    }
+    text
+}
+
+#[test]
+fn a_long_file_is_read_in_row_order_and_its_first_error_in_file_order_is_named() {
+    use legwise::measure::file::parse;
+    let mech = super::support::bundled("5r.yaml");
+    let path = Path::new("long.csv");
+    // Rows in several reading batches, blank rows among them.
+    let blank = [(9_000, ",,,,"), (40_001, " , ,,,")];
+    let set = parse(&long_csv(50_000, &blank), path, &mech).unwrap();
+    assert_eq!(set.len(), 50_000 - 2);
+    let mut expected_line = 2;
+    for (pose, readings) in set.rows() {
+        if blank.iter().any(|(l, _)| *l == expected_line) {
+            expected_line += 1;
+        }
+        let k = expected_line - 2;
+        assert_eq!(pose.line, Some(expected_line));
+        assert_eq!(pose.leg, Some(0));
+        let x = format!("{}", k as f64 * 1e-6).parse::<f64>().unwrap();
+        assert_eq!(pose.pose[0].to_bits(), x.to_bits());
+        let reading = format!("{}", 2.0 + k as f64 * 1e-7).parse::<f64>().unwrap();
+        assert_eq!(readings, [Some(reading), None]);
+        expected_line += 1;
+    }
+    assert_eq!(expected_line, 50_002);
+    // A bad cell before a row of the wrong length (both past the first batch): the cell.
+    let bad_cell = (30_001, "leg1,abc,1.1,2.0,");
+    let short_row = (35_000, "leg1,0.1");
+    let error = parse(&long_csv(50_000, &[bad_cell, short_row]), path, &mech).unwrap_err();
+    assert_eq!(
+        error.to_string(),
+        "long.csv: line 30001, column `x`: expected a finite number in metres, found `abc`"
+    );
+    // The row of the wrong length first: that row, and no later cell.
+    let early_short = (20_000, "leg1,0.1");
+    let error = parse(&long_csv(50_000, &[early_short, bad_cell]), path, &mech).unwrap_err();
+    assert_eq!(
+        error.to_string(),
+        "long.csv: line 20000: expected 5 fields, found 2"
+    );
+    // A bad cell in the first batch and a wrong row in a later one: the cell.
+    let first = (3, "leg1,0.0,1.1,,");
+    let error = parse(&long_csv(50_000, &[first, short_row]), path, &mech).unwrap_err();
+    assert_eq!(
+        error.to_string(),
+        "long.csv: line 3, column `A1`: the row belongs to leg `leg1` but its reading is empty"
     );
 }

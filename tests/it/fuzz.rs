@@ -167,9 +167,9 @@ proptest! {
         let text = mutate(&bundled_text("tests/data/valid.csv"), &edits);
         match legwise::measure::file::parse(&text, Path::new("m.csv"), &mechanism) {
             Ok(set) => {
-                for pose in &set.poses {
+                for (pose, readings) in set.rows() {
                     prop_assert!(pose.pose.iter().all(|v| v.is_finite()), "{text}");
-                    prop_assert!(pose.readings.iter().flatten().all(|v| v.is_finite()), "{text}");
+                    prop_assert!(readings.iter().flatten().all(|v| v.is_finite()), "{text}");
                 }
             }
             Err(err) => check_message(&err.to_string(), &text),

@@ -187,7 +187,12 @@ fn select_writes_the_poses_to_command_and_the_columns_to_fill_in_which_identify_
     let experiment = simulate_at(&without_pose_noise(&mechanism), &sets, ZERO_NOISE).unwrap();
     let observed = observed_from(&mechanism, experiment, ZERO_NOISE).unwrap();
     let mut filled = String::from("leg,pose.x,pose.y,x.reflector,y.reflector,A1,A2\n");
-    for (row, pose) in observed.observations.rows.iter().zip(&observed.poses.poses) {
+    for (row, pose) in observed
+        .observations
+        .rows
+        .iter()
+        .zip(observed.poses.poses())
+    {
         let leg = row.leg.map_or("", |l| mechanism.legs[l].name.as_str());
         assert!(
             rows.contains(&(leg.to_string(), pose.pose)),

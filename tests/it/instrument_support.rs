@@ -64,7 +64,7 @@ pub(crate) fn assert_targets_give_the_true_poses(
         .observations
         .rows
         .iter()
-        .zip(&experiment.poses.poses)
+        .zip(experiment.poses.poses())
     {
         let pose = platform_pose::<f64>(
             instrument,

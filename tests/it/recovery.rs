@@ -44,7 +44,7 @@ fn recovery_also_holds_through_the_measurement_csv() {
         let path = directory.path().join("measurements.csv");
         file::write(&path, &mech, &experiment.measurements).unwrap();
         let data = file::read(&path, &mech).unwrap();
-        assert_eq!(data.poses.len(), experiment.measurements.poses.len());
+        assert_eq!(data.len(), experiment.measurements.len());
         for solver in [SolverKind::LevenbergMarquardt, SolverKind::GaussNewton] {
             let result = identify(&mech, &data, Strategy::DivideAndConquer, solver).unwrap();
             for (leg, estimate) in result.legs.iter().enumerate() {

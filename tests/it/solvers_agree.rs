@@ -12,15 +12,7 @@ use crate::support::{bundled, bundled_models};
 /// Only the shared poses of a simulated experiment: every leg's D&C then uses exactly the
 /// traditional strategy's poses.
 fn shared_only(data: &MeasurementSet) -> MeasurementSet {
-    MeasurementSet {
-        source: None,
-        poses: data
-            .poses
-            .iter()
-            .filter(|p| p.leg.is_none())
-            .cloned()
-            .collect(),
-    }
+    data.filtered(|p, _| p.leg.is_none())
 }
 
 #[test]

@@ -162,24 +162,25 @@ pub(crate) fn closed_form_rows(
     noise: f64,
 ) -> MeasurementSet {
     let mut rng = ChaCha8Rng::seed_from_u64(99);
-    MeasurementSet {
-        source: None,
-        poses: poses
-            .iter()
-            .map(|pose| MeasuredPose {
+    MeasurementSet::from_rows(
+        None,
+        params.len(),
+        poses.iter().map(|pose| {
+            let row = MeasuredPose {
                 line: None,
                 leg: None,
                 pose: *pose,
-                readings: params
-                    .iter()
-                    .map(|phi| {
-                        let error = noise * rng.random_range(-1.0..1.0);
-                        Some((model.reading)(phi, pose) + error)
-                    })
-                    .collect(),
-            })
-            .collect(),
-    }
+            };
+            let readings = params
+                .iter()
+                .map(|phi| {
+                    let error = noise * rng.random_range(-1.0..1.0);
+                    Some((model.reading)(phi, pose) + error)
+                })
+                .collect();
+            (row, readings)
+        }),
+    )
 }
 
 // ---------------------------------------------------------------- the model files
@@ -540,20 +541,17 @@ fn spatial_measurement_columns_are_read_and_a_missing_coordinate_is_named() {
     let delta = bundled("delta.yaml");
     let csv = "leg,x,y,z,C1,C2,C3\nleg2,0.01,-0.02,0.05,,0.3,\n,0.0,0.0,0.06,0.31,0.32,0.33\n";
     let data = parse(csv, Path::new("d.csv"), &delta).unwrap();
-    assert_eq!(data.poses.len(), 2);
-    assert_eq!(data.poses[0].leg, Some(1));
-    assert_eq!(data.poses[0].pose, [0.01, -0.02, 0.05, 0.0, 0.0, 0.0]);
-    assert_eq!(data.poses[0].readings, vec![None, Some(0.3), None]);
-    assert_eq!(
-        data.poses[1].readings,
-        vec![Some(0.31), Some(0.32), Some(0.33)]
-    );
+    assert_eq!(data.len(), 2);
+    assert_eq!(data.poses()[0].leg, Some(1));
+    assert_eq!(data.poses()[0].pose, [0.01, -0.02, 0.05, 0.0, 0.0, 0.0]);
+    assert_eq!(data.readings(0), [None, Some(0.3), None]);
+    assert_eq!(data.readings(1), [Some(0.31), Some(0.32), Some(0.33)]);
     let hexapod = bundled("hexapod.yaml");
     let csv = "leg,x,y,z,roll,pitch,yaw,P1,P2,P3,P4,P5,P6\n\
                leg6,0.01,0.02,0.61,0.1,-0.1,0.05,,,,,,0.2\n";
     let data = parse(csv, Path::new("h.csv"), &hexapod).unwrap();
-    assert_eq!(data.poses[0].pose, [0.01, 0.02, 0.61, 0.1, -0.1, 0.05]);
-    assert_eq!(data.poses[0].leg, Some(5));
+    assert_eq!(data.poses()[0].pose, [0.01, 0.02, 0.61, 0.1, -0.1, 0.05]);
+    assert_eq!(data.poses()[0].leg, Some(5));
     let csv = "leg,x,y,z,roll,pitch,P1,P2,P3,P4,P5,P6\nleg6,0.01,0.02,0.61,0.1,-0.1,,,,,,0.2\n";
     let error = parse(csv, Path::new("h.csv"), &hexapod)
         .unwrap_err()

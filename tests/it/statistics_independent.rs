@@ -8,7 +8,7 @@ use legwise::error::Error;
 use legwise::identify::estimate::{identify, LegEstimate, Strategy};
 use legwise::identify::residual::ResidualBlock;
 use legwise::measure::simulate::{simulate, SimulationOptions};
-use legwise::measure::MeasurementSet;
+use legwise::measure::{MeasuredPose, MeasurementSet};
 use legwise::model::Mechanism;
 use legwise::solver::SolverKind;
 use nalgebra::{DMatrix, DVector};
@@ -179,32 +179,38 @@ fn traditional_statistics_match_an_independent_recomputation() {
 fn with_leg1_poses(
     data: &MeasurementSet,
     count: usize,
-    map: impl Fn(usize, &legwise::measure::MeasuredPose) -> legwise::measure::MeasuredPose,
+    map: impl Fn(usize, Row<'_>) -> (MeasuredPose, Vec<Option<f64>>),
 ) -> MeasurementSet {
     let mut kept = 0;
-    let mut poses = Vec::new();
-    for pose in &data.poses {
+    let mut poses = MeasurementSet::new(None, data.legs());
+    for (pose, readings) in data.rows() {
         if pose.leg == Some(0) {
             if kept < count {
-                poses.push(map(kept, pose));
+                let (pose, readings) = map(kept, (pose, readings));
+                poses.push(pose, &readings);
                 kept += 1;
             }
         } else if pose.leg == Some(1) {
-            poses.push(pose.clone());
+            poses.push(*pose, readings);
         }
     }
     assert_eq!(kept, count);
-    MeasurementSet {
-        source: None,
-        poses,
-    }
+    poses
+}
+
+/// A pose of a measurement set and its readings.
+type Row<'r> = (&'r MeasuredPose, &'r [Option<f64>]);
+
+/// The row as it is.
+fn same((pose, readings): Row<'_>) -> (MeasuredPose, Vec<Option<f64>>) {
+    (*pose, readings.to_vec())
 }
 
 #[test]
 fn exactly_as_many_measurements_as_parameters_fit_exactly_without_a_std() {
     let (mech, data) = noisy_5r_with_a_fixed_parameter();
     let n = mech.legs[0].identified().len();
-    let exact = with_leg1_poses(&data, n, |_, p| p.clone());
+    let exact = with_leg1_poses(&data, n, |_, row| same(row));
     for solver in [SolverKind::LevenbergMarquardt, SolverKind::GaussNewton] {
         let result = identify(&mech, &exact, Strategy::DivideAndConquer, solver).unwrap();
         let leg = &result.legs[0];
@@ -223,12 +229,7 @@ fn exactly_as_many_measurements_as_parameters_fit_exactly_without_a_std() {
 fn n_copies_of_one_pose_are_rank_deficient_with_null_directions_not_a_count() {
     let (mech, data) = noisy_5r_with_a_fixed_parameter();
     let n = mech.legs[0].identified().len();
-    let first = data
-        .poses
-        .iter()
-        .find(|p| p.leg == Some(0))
-        .unwrap()
-        .clone();
+    let first = same(data.rows().find(|(p, _)| p.leg == Some(0)).unwrap());
     let repeated = with_leg1_poses(&data, n, |_, _| first.clone());
     let err = identify(
         &mech,
@@ -260,7 +261,7 @@ fn n_copies_of_one_pose_are_rank_deficient_with_null_directions_not_a_count() {
 fn fewer_measurements_than_parameters_say_how_many() {
     let (mech, data) = noisy_5r_with_a_fixed_parameter();
     let n = mech.legs[0].identified().len();
-    let short = with_leg1_poses(&data, n - 1, |_, p| p.clone());
+    let short = with_leg1_poses(&data, n - 1, |_, row| same(row));
     let err = identify(
         &mech,
         &short,

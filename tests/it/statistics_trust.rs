@@ -429,8 +429,9 @@ fn revolute_readings_are_judged_by_their_joint_value_so_a_geared_actuator_passes
     let mut geared = mechanism.clone();
     geared.legs[0].gain = 0.02;
     let mut turned = clean.clone();
-    for pose in &mut turned.poses {
-        pose.readings[0] = pose.readings[0].map(|r| r * 50.0);
+    for i in 0..turned.len() {
+        let readings = turned.readings_mut(i);
+        readings[0] = readings[0].map(|r| r * 50.0);
     }
     assert!(check(&geared, &turned).expect("plausible").is_empty());
     // The same readings with gain 1: the joint would sit ~20 turns from home.

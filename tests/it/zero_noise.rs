@@ -83,8 +83,12 @@ fn a_gross_error_among_noise_free_readings_is_still_named() {
         let mechanism = bundled(file);
         let mut data = noise_free(&mechanism);
         // Shift the first row's first reading by 1 mm.
-        let row = &mut data.poses[0];
-        let slot = row.readings.iter_mut().flatten().next().expect("a reading");
+        let slot = data
+            .readings_mut(0)
+            .iter_mut()
+            .flatten()
+            .next()
+            .expect("a reading");
         *slot += 1e-3;
         let result = identify(
             &mechanism,
