@@ -1,7 +1,8 @@
 //! Leg inverse kinematics on cases whose answer is checked independently (the closure equations
 //! evaluated at the returned joints, and the branch sign): a pose only continuation from home
 //! reaches, a seed exactly at a serial singularity, the unwrap of revolute joints around the
-//! seed, `wrap_angle`, and a leg scaled by powers of ten (the same angles).
+//! seed, `wrap_angle`, a leg scaled by powers of ten (the same angles), and overflowing or
+//! non-finite inputs.
 use legwise::error::KinematicsError;
 use legwise::kinematics::chain::{attachment_world, tip_and_jacobian, tip_position};
 use legwise::kinematics::inverse::{newton, solve_leg, solve_leg_from, wrap_angle, LegSolution};
@@ -173,4 +174,26 @@ fn a_leg_scaled_by_powers_of_ten_reaches_the_same_angles() {
             }
         }
     }
+}
+
+/// Finite inputs too large to compute with are an overflow naming the largest magnitude; a NaN
+/// among them is a non-finite input.
+#[test]
+fn a_huge_finite_pose_is_an_overflow_and_a_nan_is_a_non_finite_input() {
+    let mech = bundled("5r.yaml");
+    let leg = &mech.legs[0];
+    let geometry = leg.geometry(&leg.nominal());
+    let huge = [1e308, 1e308, 0.0, 0.0, 0.0, 0.0];
+    match solve_leg(leg, &geometry, &huge, &mech.home_pose) {
+        Err(KinematicsError::Overflow { leg: name, largest }) => {
+            assert_eq!(name, leg.name);
+            assert_eq!(largest, 1e308);
+        }
+        other => panic!("expected an overflow, got {other:?}"),
+    }
+    let nan = [f64::NAN, 0.5, 0.0, 0.0, 0.0, 0.0];
+    assert!(matches!(
+        solve_leg(leg, &geometry, &nan, &mech.home_pose),
+        Err(KinematicsError::NonFinite { .. })
+    ));
 }
