@@ -5,7 +5,7 @@
 //! Unknowns: the measured pose coordinates and every leg's passive joints; equations: every
 //! leg's closure with its actuated joint at `gain·reading + offset`.
 
-use nalgebra::{Matrix3, Vector3};
+use nalgebra::{DMatrix, DVector, Matrix3, Vector3};
 use num_dual::Dual64;
 
 use super::chain::{attachment_on, platform_transform, ChainFrames};
@@ -154,7 +154,7 @@ impl<'m> ForwardKinematics<'m> {
                     .map(|(h, r)| h + t * (r - h))
                     .collect();
                 match self.newton(&target, &mut trial) {
-                    Ok(sign) if sign * home_sign > 0.0 => {}
+                    Ok(sign) if same_mode(sign, home_sign) => {}
                     _ => {
                         ok = false;
                         break;
@@ -187,7 +187,7 @@ impl<'m> ForwardKinematics<'m> {
         let (_, home_sign) = self.home.as_ref().map_err(Clone::clone)?;
         if start.joints.len() == self.mechanism.legs.len() {
             if let Ok(sign) = self.newton(readings, start) {
-                if sign * home_sign > 0.0 {
+                if same_mode(sign, *home_sign) {
                     return Ok(start.pose);
                 }
             }
@@ -197,6 +197,11 @@ impl<'m> ForwardKinematics<'m> {
 
     /// Newton on the stacked closures from `configuration` (updated in place); returns the
     /// determinant of the column-normalised FK Jacobian (its sign is the assembly mode).
+    ///
+    /// The tolerances are relative to the mechanism's size (the largest distance of a platform
+    /// joint from the world origin), so a mechanism in kilometres or millimetres converges
+    /// alike; a step is shortened so that no angle moves by more than 0.5 rad and no length by
+    /// more than half that size.
     fn newton(
         &self,
         readings: &[f64],
@@ -215,14 +220,13 @@ impl<'m> ForwardKinematics<'m> {
             let geometry = &self.geometries[l];
             joints[l][leg.actuated] = geometry.gain * readings[l] + geometry.offset;
         }
-        let mut jacobian = vec![0.0; n * n];
-        let mut f = vec![0.0; n];
+        let mut f = DVector::zeros(n);
         let mut residual = f64::INFINITY;
         for _ in 0..=MAX_ITERATIONS {
-            // The factorisation of the last iteration overwrote the matrix.
-            jacobian.fill(0.0);
+            let mut jacobian = DMatrix::zeros(n, n);
             let platform = platform_transform(pose);
             let pose_derivatives = pose_derivatives(pose, &layout.pose);
+            let mut size = 0.0f64;
             let mut row = 0;
             let mut column = layout.pose.len();
             for (l, leg) in mechanism.legs.iter().enumerate() {
@@ -231,16 +235,17 @@ impl<'m> ForwardKinematics<'m> {
                 let (tip, tip_jacobian) =
                     self.frames[l].tip_and_jacobian(leg, &joints[l][..moving]);
                 let target = attachment_on(&platform, &geometry.attachment);
+                size = size.max(target.norm());
                 let attachment = Vector3::from(geometry.attachment);
                 for (k, derivative) in pose_derivatives.iter().take(layout.pose.len()).enumerate() {
                     let moved = derivative.rotation * attachment + derivative.translation;
                     for d in 0..leg.closure_dims {
-                        jacobian[(row + d) * n + k] = -moved[d];
+                        jacobian[(row + d, k)] = -moved[d];
                     }
                 }
                 for &p in &layout.passive[l] {
                     for d in 0..leg.closure_dims {
-                        jacobian[(row + d) * n + column] = tip_jacobian[(d, p)];
+                        jacobian[(row + d, column)] = tip_jacobian[(d, p)];
                     }
                     column += 1;
                 }
@@ -250,26 +255,24 @@ impl<'m> ForwardKinematics<'m> {
                 row += leg.closure_dims;
             }
             let previous = residual;
-            residual = f.iter().map(|v| v * v).sum::<f64>().sqrt();
+            residual = f.norm();
             if !residual.is_finite() {
                 return Err(KinematicsError::NotAssemblable { residual });
             }
-            if residual < 1e-13 || (residual < 1e-10 && residual >= 0.5 * previous) {
-                let determinant = normalised_determinant(&mut jacobian, n);
+            let tolerance = 1e-13 * size;
+            let stalled = residual < 1e3 * tolerance && residual >= 0.5 * previous;
+            if residual <= tolerance || stalled {
+                let determinant = normalised_determinant(jacobian);
                 if determinant.abs() < 1e-10 {
                     return Err(KinematicsError::AssemblyModeChange);
                 }
                 return Ok(determinant);
             }
-            for v in &mut f {
-                *v = -*v;
-            }
-            if !lu_solve(&mut jacobian, n, &mut f) {
-                return Err(KinematicsError::NotAssemblable { residual });
-            }
-            let step = &f;
-            let largest = step.iter().fold(0.0f64, |m, v| m.max(v.abs()));
-            let scale = if largest > 0.5 { 0.5 / largest } else { 1.0 };
+            let step = match jacobian.lu().solve(&f) {
+                Some(step) if step.iter().all(|v| v.is_finite()) => -step,
+                _ => return Err(KinematicsError::NotAssemblable { residual }),
+            };
+            let scale = self.step_scale(&step, size);
             for (k, &c) in layout.pose.iter().enumerate() {
                 pose[c] += scale * step[k];
             }
@@ -277,7 +280,7 @@ impl<'m> ForwardKinematics<'m> {
             for (l, leg) in mechanism.legs.iter().enumerate() {
                 for &p in &layout.passive[l] {
                     joints[l][p] += scale * step[column];
-                    if leg.joints[leg.moving[p]].kind == JointKind::Revolute {
+                    if self.is_angle(l, p) {
                         let home = leg.home_joints[p];
                         joints[l][p] = home + wrap_angle(joints[l][p] - home);
                     }
@@ -287,6 +290,38 @@ impl<'m> ForwardKinematics<'m> {
         }
         Err(KinematicsError::NotAssemblable { residual })
     }
+
+    /// Is passive joint `p` (an index into the moving joints) of leg `l` revolute?
+    fn is_angle(&self, l: usize, p: usize) -> bool {
+        let leg = &self.mechanism.legs[l];
+        leg.joints[leg.moving[p]].kind == JointKind::Revolute
+    }
+
+    /// The factor (at most 1) that keeps every angle of `step` within 0.5 rad and every length
+    /// within half the mechanism's `size`.
+    fn step_scale(&self, step: &DVector<f64>, size: f64) -> f64 {
+        let layout = &self.layout;
+        let length = 0.5 * size.max(f64::MIN_POSITIVE);
+        let mut largest = 0.0f64;
+        for (k, &c) in layout.pose.iter().enumerate() {
+            let unit = if c < 3 { length } else { 0.5 };
+            largest = largest.max(step[k].abs() / unit);
+        }
+        let mut column = layout.pose.len();
+        for (l, passive) in layout.passive.iter().enumerate() {
+            for &p in passive {
+                let unit = if self.is_angle(l, p) { 0.5 } else { length };
+                largest = largest.max(step[column].abs() / unit);
+                column += 1;
+            }
+        }
+        1.0 / largest.max(1.0)
+    }
+}
+
+/// Are two assembly-mode determinants of the same sign?
+fn same_mode(determinant: f64, home: f64) -> bool {
+    determinant.is_sign_positive() == home.is_sign_positive()
 }
 
 /// The derivative of the platform transform with respect to one pose coordinate: a point `a`
@@ -320,128 +355,12 @@ fn pose_derivatives(pose: &[f64; 6], columns: &[usize]) -> [PoseDerivative; 6] {
     })
 }
 
-/// Solves `a x = b` in place (`a`: `n × n`, row-major, overwritten by its LU factors; `b`
-/// becomes `x`) by Gaussian elimination with partial pivoting. `false` if `a` is singular.
-fn lu_solve(a: &mut [f64], n: usize, b: &mut [f64]) -> bool {
-    for k in 0..n {
-        let pivot = (k..n)
-            .max_by(|&i, &j| a[i * n + k].abs().total_cmp(&a[j * n + k].abs()))
-            .unwrap_or(k);
-        if a[pivot * n + k] == 0.0 || !a[pivot * n + k].is_finite() {
-            return false;
-        }
-        if pivot != k {
-            for j in 0..n {
-                a.swap(k * n + j, pivot * n + j);
-            }
-            b.swap(k, pivot);
-        }
-        let diagonal = a[k * n + k];
-        for i in k + 1..n {
-            let factor = a[i * n + k] / diagonal;
-            if factor != 0.0 {
-                for j in k + 1..n {
-                    a[i * n + j] -= factor * a[k * n + j];
-                }
-                b[i] -= factor * b[k];
-            }
-        }
+/// Determinant of `a` with its columns scaled to unit norm (scale-free, in [−1, 1]); a zero
+/// column stays zero.
+fn normalised_determinant(mut a: DMatrix<f64>) -> f64 {
+    for mut column in a.column_iter_mut() {
+        let norm = column.norm().max(f64::MIN_POSITIVE);
+        column /= norm;
     }
-    for k in (0..n).rev() {
-        let sum: f64 = (k + 1..n).map(|j| a[k * n + j] * b[j]).sum();
-        b[k] = (b[k] - sum) / a[k * n + k];
-    }
-    b.iter().all(|v| v.is_finite())
-}
-
-/// Determinant of `a` (`n × n`, row-major) with its columns scaled to unit norm (scale-free,
-/// in [−1, 1]); overwrites `a`.
-fn normalised_determinant(a: &mut [f64], n: usize) -> f64 {
-    for c in 0..n {
-        let norm = (0..n)
-            .map(|r| a[r * n + c] * a[r * n + c])
-            .sum::<f64>()
-            .sqrt();
-        if norm > 0.0 {
-            for r in 0..n {
-                a[r * n + c] /= norm;
-            }
-        }
-    }
-    let mut determinant = 1.0;
-    for k in 0..n {
-        let pivot = (k..n)
-            .max_by(|&i, &j| a[i * n + k].abs().total_cmp(&a[j * n + k].abs()))
-            .unwrap_or(k);
-        if a[pivot * n + k] == 0.0 {
-            return 0.0;
-        }
-        if pivot != k {
-            for j in 0..n {
-                a.swap(k * n + j, pivot * n + j);
-            }
-            determinant = -determinant;
-        }
-        let diagonal = a[k * n + k];
-        determinant *= diagonal;
-        for i in k + 1..n {
-            let factor = a[i * n + k] / diagonal;
-            for j in k + 1..n {
-                a[i * n + j] -= factor * a[k * n + j];
-            }
-        }
-    }
-    determinant
-}
-
-#[cfg(test)]
-mod tests {
-    use super::{lu_solve, normalised_determinant};
-    use nalgebra::{DMatrix, DVector};
-
-    fn matrix() -> DMatrix<f64> {
-        DMatrix::from_row_slice(
-            4,
-            4,
-            &[
-                0.0, 2.0, -1.0, 3.0, 1.5, -0.5, 4.0, 0.2, -2.0, 1.0, 0.3, -1.0, 0.7, 0.0, 2.5, 1.1,
-            ],
-        )
-    }
-
-    fn row_major(m: &DMatrix<f64>) -> Vec<f64> {
-        m.transpose().as_slice().to_vec()
-    }
-
-    #[test]
-    fn lu_solve_agrees_with_nalgebra_and_refuses_a_singular_matrix() {
-        let m = matrix();
-        let b = DVector::from_column_slice(&[1.0, -2.0, 0.5, 3.0]);
-        let expected = m.clone().lu().solve(&b).unwrap();
-        let mut a = row_major(&m);
-        let mut x = b.as_slice().to_vec();
-        assert!(lu_solve(&mut a, 4, &mut x));
-        for (got, want) in x.iter().zip(expected.iter()) {
-            assert!((got - want).abs() < 1e-13, "{got} against {want}");
-        }
-        // Two equal rows.
-        let mut singular = vec![1.0, 2.0, 1.0, 2.0];
-        assert!(!lu_solve(&mut singular, 2, &mut [1.0, 1.0]));
-    }
-
-    #[test]
-    fn normalised_determinant_agrees_with_nalgebra_on_unit_columns() {
-        let mut m = matrix();
-        for mut c in m.column_iter_mut() {
-            let n = c.norm();
-            c /= n;
-        }
-        let expected = m.determinant();
-        let mut a = row_major(&matrix());
-        let got = normalised_determinant(&mut a, 4);
-        assert!((got - expected).abs() < 1e-14, "{got} against {expected}");
-        assert!(expected.abs() > 0.05, "a test matrix far from singular");
-        let mut singular = vec![1.0, 2.0, 2.0, 4.0];
-        assert!(normalised_determinant(&mut singular, 2).abs() < 1e-15);
-    }
+    a.determinant()
 }

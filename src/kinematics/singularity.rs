@@ -38,7 +38,6 @@ pub fn serial_measure(
 #[derive(Debug, Clone)]
 pub struct ParallelMeasure<'a> {
     mechanism: &'a Mechanism,
-    params: Vec<Vec<f64>>,
     geometries: Vec<LegGeometry<f64>>,
     home_sign: f64,
 }
@@ -58,7 +57,6 @@ impl<'a> ParallelMeasure<'a> {
             .collect();
         let mut measure = Self {
             mechanism,
-            params,
             geometries,
             home_sign: 1.0,
         };
@@ -118,17 +116,17 @@ impl<'a> ParallelMeasure<'a> {
                 let mut seeded = pose_dual;
                 seeded[c].eps = 1.0;
                 let moved = attachment_world(&seeded, &attachment);
-                // ∂F/∂X = −∂(X·attachment)/∂X
-                rows[(l, k)] = -(0..leg.closure_dims)
+                // The row is nᵀ ∂(X·attachment)/∂X = −nᵀ ∂F/∂X. Its sign does not matter: the
+                // measure is signed by the home assembly mode, computed the same way.
+                rows[(l, k)] = (0..leg.closure_dims)
                     .map(|d| normal[d] * moved[d].eps)
                     .sum::<f64>();
             }
         }
         for mut row in rows.row_iter_mut() {
-            let norm = row.norm();
-            if norm > 0.0 {
-                row /= norm;
-            }
+            // A zero row (a leg with no closure direction) stays zero and makes the measure 0.
+            let norm = row.norm().max(f64::MIN_POSITIVE);
+            row /= norm;
         }
         Ok(self.home_sign * rows.determinant())
     }
@@ -137,24 +135,14 @@ impl<'a> ParallelMeasure<'a> {
     pub fn geometries(&self) -> &[LegGeometry<f64>] {
         &self.geometries
     }
-
-    /// The parameters the measure uses, one full vector per leg.
-    pub fn params(&self) -> &[Vec<f64>] {
-        &self.params
-    }
 }
 
-/// Unit vector orthogonal to the passive columns (d = 2: one column; d = 3: two columns).
+/// A vector orthogonal to the passive columns (d = 2: one column; d = 3: two columns). Its
+/// length does not matter: the parallel Jacobian's rows are normalised.
 fn orthogonal_direction(passive: &[Vector3<f64>], dims: usize) -> Vector3<f64> {
-    let normal = match (dims, passive) {
+    match (dims, passive) {
         (2, [p]) => Vector3::new(-p.y, p.x, 0.0),
         (3, [p, q]) => p.cross(q),
         _ => Vector3::zeros(),
-    };
-    let norm = normal.norm();
-    if norm > 0.0 {
-        normal / norm
-    } else {
-        normal
     }
 }

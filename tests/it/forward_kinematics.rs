@@ -1,0 +1,203 @@
+//! Platform forward kinematics beyond the round trip of kinematics.rs: the same answer for a
+//! mechanism in kilometres or millimetres, and a warm start that lands in the other assembly
+//! mode is refused for the home mode's answer.
+use legwise::kinematics::inverse::{joints, predict_reading, solve_leg};
+use legwise::kinematics::platform::{forward, Configuration, ForwardKinematics};
+use legwise::model::joint::JointKind;
+use legwise::model::params::Unit;
+use legwise::model::Mechanism;
+use rand::SeedableRng;
+use rand_chacha::ChaCha8Rng;
+
+use crate::support::{bundled, bundled_models};
+
+/// `mechanism` with every length multiplied by `scale`: joint origins, platform joints,
+/// prismatic offsets and home values, length parameters and the home pose's position.
+fn scaled(mechanism: &Mechanism, scale: f64) -> Mechanism {
+    let mut scaled = mechanism.clone();
+    for value in &mut scaled.home_pose[..3] {
+        *value *= scale;
+    }
+    for leg in &mut scaled.legs {
+        for joint in &mut leg.joints {
+            for value in &mut joint.origin[..3] {
+                *value *= scale;
+            }
+        }
+        leg.attachment = leg.attachment.map(|v| v * scale);
+        if !leg.actuated_is_revolute() {
+            leg.offset *= scale;
+        }
+        for (k, &joint) in leg.moving.iter().enumerate() {
+            if leg.joints[joint].kind == JointKind::Prismatic {
+                leg.home_joints[k] *= scale;
+            }
+        }
+        for parameter in &mut leg.params {
+            if parameter.unit == Unit::Metre {
+                parameter.nominal *= scale;
+            }
+        }
+    }
+    scaled
+}
+
+#[test]
+fn a_mechanism_scaled_by_powers_of_ten_reaches_the_scaled_poses() {
+    let mut rng = ChaCha8Rng::seed_from_u64(11);
+    for mechanism in bundled_models() {
+        let poses: Vec<[f64; 6]> = (0..10)
+            .map(|_| {
+                mechanism
+                    .workspace
+                    .sample(&mechanism.home_pose, &mut rng)
+                    .unwrap()
+            })
+            .collect();
+        for scale in [1e-3, 1e4] {
+            let big = scaled(&mechanism, scale);
+            let home = big.home_pose;
+            for pose in &poses {
+                let pose: [f64; 6] =
+                    std::array::from_fn(|c| pose[c] * if c < 3 { scale } else { 1.0 });
+                let readings: Vec<f64> = big
+                    .legs
+                    .iter()
+                    .map(|leg| predict_reading(leg, &leg.nominal(), &pose, &home).unwrap())
+                    .collect();
+                let back = forward(&big, &big.nominal_parameters(), &readings)
+                    .unwrap_or_else(|e| panic!("{} at scale {scale}: {e}", mechanism.name));
+                for c in 0..6 {
+                    let unit = if c < 3 { scale } else { 1.0 };
+                    assert!(
+                        (back[c] - pose[c]).abs() <= 1e-11 * unit,
+                        "{} at scale {scale}: {pose:?} -> {back:?}",
+                        mechanism.name
+                    );
+                }
+            }
+        }
+    }
+}
+
+/// The 5R's two assembly modes for one pair of readings: the platform point P (home mode) and
+/// its mirror image across the line through the elbows B1, B2. A start in the mirror mode
+/// converges there, is refused, and the home mode's pose is returned.
+#[test]
+fn a_warm_start_in_the_other_assembly_mode_gives_the_home_modes_pose() {
+    let mechanism = bundled("5r.yaml");
+    let params = mechanism.nominal_parameters();
+    let home = mechanism.home_pose;
+    let pose = [0.1, 1.0, 0.0, 0.0, 0.0, 0.0];
+    // models/5r.urdf: base joints A at (∓0.5, 0), proximal links 0.75 m, distal 1.1 m.
+    let mut elbows = Vec::new();
+    let mut actuated = Vec::new();
+    for leg in &mechanism.legs {
+        let q = solve_leg(leg, &leg.geometry(&leg.nominal()), &pose, &home)
+            .unwrap()
+            .q;
+        let base = leg.joints[0].origin;
+        elbows.push([base[0] + 0.75 * q[0].cos(), base[1] + 0.75 * q[0].sin()]);
+        actuated.push(q[0]);
+    }
+    let readings: Vec<f64> = mechanism
+        .legs
+        .iter()
+        .map(|leg| predict_reading(leg, &leg.nominal(), &pose, &home).unwrap())
+        .collect();
+    let (b1, b2) = (elbows[0], elbows[1]);
+    let along = [b2[0] - b1[0], b2[1] - b1[1]];
+    let t = ((pose[0] - b1[0]) * along[0] + (pose[1] - b1[1]) * along[1])
+        / (along[0] * along[0] + along[1] * along[1]);
+    let foot = [b1[0] + t * along[0], b1[1] + t * along[1]];
+    let mirror = [2.0 * foot[0] - pose[0], 2.0 * foot[1] - pose[1]];
+    let start_joints = mechanism
+        .legs
+        .iter()
+        .enumerate()
+        .map(|(l, leg)| {
+            let b = elbows[l];
+            let absolute = (mirror[1] - b[1]).atan2(mirror[0] - b[0]);
+            let relative = legwise::kinematics::inverse::wrap_angle(
+                absolute - actuated[l] - leg.home_joints[1],
+            ) + leg.home_joints[1];
+            joints(&[actuated[l], relative])
+        })
+        .collect();
+    let kinematics = ForwardKinematics::new(&mechanism, &params);
+    let mut start = Configuration {
+        pose: [mirror[0], mirror[1], 0.0, 0.0, 0.0, 0.0],
+        joints: start_joints,
+    };
+    let reached = kinematics.solve_near(&readings, &mut start).unwrap();
+    assert!(
+        (start.pose[0] - mirror[0]).abs() < 1e-12 && (start.pose[1] - mirror[1]).abs() < 1e-12,
+        "Newton from the mirror start stays in the mirror mode: {:?} against {mirror:?}",
+        start.pose
+    );
+    for c in 0..2 {
+        assert!(
+            (reached[c] - pose[c]).abs() < 1e-12,
+            "the home mode's pose {pose:?}, not {reached:?}"
+        );
+    }
+}
+
+/// A start near the answer converges from there and is left at the converged configuration;
+/// a start without joints is solved from home.
+#[test]
+fn a_warm_start_near_the_answer_is_left_at_the_converged_configuration() {
+    let mechanism = bundled("3rpr.yaml");
+    let params = mechanism.nominal_parameters();
+    let home = mechanism.home_pose;
+    let pose = [0.05, -0.04, 0.0, 0.0, 0.0, 0.2];
+    let readings: Vec<f64> = mechanism
+        .legs
+        .iter()
+        .map(|leg| predict_reading(leg, &leg.nominal(), &pose, &home).unwrap())
+        .collect();
+    let kinematics = ForwardKinematics::new(&mechanism, &params);
+    let nearby = [
+        pose[0] + 1e-3,
+        pose[1] - 1e-3,
+        0.0,
+        0.0,
+        0.0,
+        pose[5] + 1e-3,
+    ];
+    let mut start = Configuration {
+        pose: nearby,
+        joints: mechanism
+            .legs
+            .iter()
+            .map(|leg| {
+                let q = solve_leg(leg, &leg.geometry(&leg.nominal()), &nearby, &home)
+                    .unwrap()
+                    .q;
+                joints(&q)
+            })
+            .collect(),
+    };
+    let reached = kinematics.solve_near(&readings, &mut start).unwrap();
+    for c in 0..6 {
+        assert!((reached[c] - pose[c]).abs() < 1e-12, "{reached:?}");
+    }
+    assert_eq!(
+        start.pose.map(f64::to_bits),
+        reached.map(f64::to_bits),
+        "the start holds the converged pose"
+    );
+    let mut empty = Configuration {
+        pose: nearby,
+        joints: Vec::new(),
+    };
+    let from_home = kinematics.solve_near(&readings, &mut empty).unwrap();
+    for c in 0..6 {
+        assert!((from_home[c] - pose[c]).abs() < 1e-12, "{from_home:?}");
+    }
+    assert_eq!(
+        empty.pose.map(f64::to_bits),
+        nearby.map(f64::to_bits),
+        "a start without joints is not used"
+    );
+}
