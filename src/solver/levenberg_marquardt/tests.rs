@@ -435,3 +435,89 @@ fn a_negligible_gauss_newton_step_relative_to_the_parameters_is_stationary() {
         .unwrap();
     assert_eq!(res.solver.stop_reason(), Some(StopReason::Stalled));
 }
+
+/// `r = (10 (x₁ − x₀²), 1 − x₀)` (Rosenbrock), whose start (−1.2, 1) makes MINPACK reject steps.
+struct Rosenbrock;
+impl Operator for Rosenbrock {
+    type Param = DVector<f64>;
+    type Output = DVector<f64>;
+    fn apply(&self, x: &DVector<f64>) -> Result<DVector<f64>, Error> {
+        Ok(DVector::from_column_slice(&[
+            10.0 * (x[1] - x[0] * x[0]),
+            1.0 - x[0],
+        ]))
+    }
+}
+impl Jacobian for Rosenbrock {
+    type Param = DVector<f64>;
+    type Jacobian = DMatrix<f64>;
+    fn jacobian(&self, x: &DVector<f64>) -> Result<DMatrix<f64>, Error> {
+        Ok(DMatrix::from_row_slice(
+            2,
+            2,
+            &[-20.0 * x[0], 10.0, -1.0, 0.0],
+        ))
+    }
+}
+
+/// What an argmin observer is given at each iteration: the cost and the solver's key values.
+#[derive(Default)]
+struct Iterations(std::rc::Rc<std::cell::RefCell<Vec<(f64, argmin::core::KV)>>>);
+impl argmin::core::observers::Observe<LmState> for Iterations {
+    fn observe_iter(&mut self, state: &LmState, kv: &argmin::core::KV) -> Result<(), Error> {
+        self.0.borrow_mut().push((state.get_cost(), kv.clone()));
+        Ok(())
+    }
+}
+
+/// The values an observer sees: `trials` counts an iteration's residual evaluations (they sum
+/// to the run's evaluations less the start's), a step is accepted only with a ratio of at
+/// least 1e-4 and then lowers the cost, and λ and Δ stay finite and non-negative.
+#[test]
+fn the_observed_values_count_the_trials_and_follow_the_accepted_steps() {
+    let iterations = Iterations::default();
+    let seen = iterations.0.clone();
+    let res = Executor::new(Rosenbrock, LevenbergMarquardt::new())
+        .configure(|s| {
+            s.param(DVector::from_column_slice(&[-1.2, 1.0]))
+                .max_iters(200)
+        })
+        .add_observer(iterations, argmin::core::observers::ObserverMode::Always)
+        .run()
+        .unwrap();
+    let x = res.state.get_param().unwrap();
+    assert!(
+        (x[0] - 1.0).abs() < 1e-10 && (x[1] - 1.0).abs() < 1e-10,
+        "{x}"
+    );
+    let seen = seen.borrow();
+    let value = |kv: &argmin::core::KV, key: &str| kv.get(key).and_then(|v| v.get_float());
+    let trials: Vec<u64> = seen
+        .iter()
+        .map(|(_, kv)| kv.get("trials").and_then(|v| v.get_uint()).unwrap())
+        .collect();
+    assert_eq!(trials.iter().sum::<u64>(), res.solver.evaluations() - 1);
+    assert!(
+        trials.iter().any(|&t| t > 1),
+        "a step was rejected on the way: {trials:?}"
+    );
+    let mut cost = 0.5 * (4.4f64.powi(2) + 2.2f64.powi(2)); // ½‖r(−1.2, 1)‖²
+    for (k, (after, kv)) in seen.iter().enumerate() {
+        let ratio = value(kv, "ratio").unwrap();
+        if k + 1 < seen.len() {
+            assert!(ratio >= 1e-4, "iteration {k} ended on an accepted step");
+        }
+        if ratio >= 1e-4 {
+            assert!(*after < cost, "iteration {k}: cost {after} after {cost}");
+        } else {
+            assert_eq!(
+                after.to_bits(),
+                cost.to_bits(),
+                "iteration {k} kept its point"
+            );
+        }
+        cost = *after;
+        let (lambda, delta) = (value(kv, "lambda").unwrap(), value(kv, "delta").unwrap());
+        assert!(lambda >= 0.0 && lambda.is_finite() && delta > 0.0 && delta.is_finite());
+    }
+}
