@@ -521,3 +521,37 @@ fn the_observed_values_count_the_trials_and_follow_the_accepted_steps() {
         assert!(lambda >= 0.0 && lambda.is_finite() && delta > 0.0 && delta.is_finite());
     }
 }
+
+/// At x = 0 the stationarity floor √ε (‖D x‖ + √ε) is ε itself: from the origin, a
+/// Gauss–Newton step of 1e-16 on `r = (t − 1e-14, t + 1e-14)`, `t = x − 1e-16`, is stationary,
+/// so the progress stop it ends with (ftol = 1e-3) is a convergence, not a stall. The gradient
+/// cosine there is 1e-2, above the stationarity tolerance: only the step decides.
+#[test]
+fn at_the_origin_a_step_below_epsilon_is_stationary() {
+    #[derive(Clone, Copy)]
+    struct TinyPair;
+    impl Operator for TinyPair {
+        type Param = DVector<f64>;
+        type Output = DVector<f64>;
+        fn apply(&self, x: &DVector<f64>) -> Result<DVector<f64>, Error> {
+            let t = x[0] - 1e-16;
+            Ok(DVector::from_column_slice(&[t - 1e-14, t + 1e-14]))
+        }
+    }
+    impl Jacobian for TinyPair {
+        type Param = DVector<f64>;
+        type Jacobian = DMatrix<f64>;
+        fn jacobian(&self, _: &DVector<f64>) -> Result<DMatrix<f64>, Error> {
+            Ok(DMatrix::from_row_slice(2, 1, &[1.0, 1.0]))
+        }
+    }
+    let solver = LevenbergMarquardt::new().with_ftol(1e-3).unwrap();
+    let res = Executor::new(TinyPair, solver)
+        .configure(|s| s.param(DVector::from_element(1, 0.0)).max_iters(50))
+        .run()
+        .unwrap();
+    assert_eq!(res.solver.stop_reason(), Some(StopReason::CostReduction));
+    assert_eq!(res.solver.evaluations(), 2, "one step, then the stop");
+    let x = res.state.get_param().unwrap()[0];
+    assert!((x - 1e-16).abs() < 1e-28, "{x}");
+}
