@@ -2,6 +2,7 @@
 mod accuracy_map;
 mod bad_input;
 mod calibrated;
+mod chain;
 mod checks_prismatic;
 mod cli;
 mod estimate_options;
