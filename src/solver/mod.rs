@@ -360,6 +360,8 @@ fn count(counts: &std::collections::HashMap<&'static str, u64>, key: &str) -> u6
 pub mod bordered;
 pub mod gauss_newton;
 pub mod levenberg_marquardt;
+#[cfg(test)]
+mod observed;
 pub mod schur;
 mod settings;
 pub mod stop;

@@ -460,21 +460,12 @@ impl Jacobian for Rosenbrock {
     }
 }
 
-/// What an argmin observer is given at each iteration: the cost and the solver's key values.
-#[derive(Default)]
-struct Iterations(std::rc::Rc<std::cell::RefCell<Vec<(f64, argmin::core::KV)>>>);
-impl argmin::core::observers::Observe<LmState> for Iterations {
-    fn observe_iter(&mut self, state: &LmState, kv: &argmin::core::KV) -> Result<(), Error> {
-        self.0.borrow_mut().push((state.get_cost(), kv.clone()));
-        Ok(())
-    }
-}
-
 /// The values an observer sees: `trials` counts an iteration's residual evaluations (they sum
 /// to the run's evaluations less the start's), a step is accepted only with a ratio of at
 /// least 1e-4 and then lowers the cost, and λ and Δ stay finite and non-negative.
 #[test]
 fn the_observed_values_count_the_trials_and_follow_the_accepted_steps() {
+    use crate::solver::observed::{count, float, Iterations};
     let iterations = Iterations::default();
     let seen = iterations.0.clone();
     let res = Executor::new(Rosenbrock, LevenbergMarquardt::new())
@@ -491,11 +482,7 @@ fn the_observed_values_count_the_trials_and_follow_the_accepted_steps() {
         "{x}"
     );
     let seen = seen.borrow();
-    let value = |kv: &argmin::core::KV, key: &str| kv.get(key).and_then(|v| v.get_float());
-    let trials: Vec<u64> = seen
-        .iter()
-        .map(|(_, kv)| kv.get("trials").and_then(|v| v.get_uint()).unwrap())
-        .collect();
+    let trials: Vec<u64> = seen.iter().map(|(_, kv)| count(kv, "trials")).collect();
     assert_eq!(trials.iter().sum::<u64>(), res.solver.evaluations() - 1);
     assert!(
         trials.iter().any(|&t| t > 1),
@@ -503,7 +490,7 @@ fn the_observed_values_count_the_trials_and_follow_the_accepted_steps() {
     );
     let mut cost = 0.5 * (4.4f64.powi(2) + 2.2f64.powi(2)); // ½‖r(−1.2, 1)‖²
     for (k, (after, kv)) in seen.iter().enumerate() {
-        let ratio = value(kv, "ratio").unwrap();
+        let ratio = float(kv, "ratio");
         if k + 1 < seen.len() {
             assert!(ratio >= 1e-4, "iteration {k} ended on an accepted step");
         }
@@ -517,7 +504,7 @@ fn the_observed_values_count_the_trials_and_follow_the_accepted_steps() {
             );
         }
         cost = *after;
-        let (lambda, delta) = (value(kv, "lambda").unwrap(), value(kv, "delta").unwrap());
+        let (lambda, delta) = (float(kv, "lambda"), float(kv, "delta"));
         assert!(lambda >= 0.0 && lambda.is_finite() && delta > 0.0 && delta.is_finite());
     }
 }

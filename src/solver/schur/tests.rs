@@ -4,6 +4,8 @@
 
 use super::*;
 use crate::solver::bordered::{to_dense, BorderedBlock};
+use crate::solver::observed::{count, float, Iterations};
+use argmin::core::observers::ObserverMode;
 use argmin::core::Executor;
 use nalgebra::DMatrix;
 
@@ -410,8 +412,11 @@ fn the_damping_follows_nielsens_rule() {
             let solver = SchurLevenbergMarquardt::new()
                 .with_initial_damping(initial)
                 .unwrap();
+            let iterations = Iterations::default();
+            let seen = iterations.0.clone();
             let result = Executor::new(problem, solver)
                 .configure(|s| s.param(DVector::zeros(6)).max_iters(3))
+                .add_observer(iterations, ObserverMode::Always)
                 .run()
                 .unwrap();
             let x = result.state.get_param().unwrap();
@@ -422,6 +427,22 @@ fn the_damping_follows_nielsens_rule() {
             );
             assert_eq!(result.solver.stop_reason(), None);
             assert_eq!(result.solver.evaluations(), 4 + failing.len() as u64);
+            // What an observer sees: each iteration's trials (the failing calls all fall in the
+            // first iteration, one more trial each), its accepted step's ratio 1 (to the
+            // round-off of 1 − (‖r₁‖/‖r‖)²), and λ divided by 3 after it.
+            let seen = seen.borrow();
+            assert_eq!(seen.len(), 3);
+            for (k, (_, kv)) in seen.iter().enumerate() {
+                let trials = if k == 0 { 1 + failing.len() as u64 } else { 1 };
+                assert_eq!(count(kv, "trials"), trials, "{failing:?} iteration {k}");
+                let ratio = float(kv, "ratio");
+                assert!(
+                    (ratio - 1.0).abs() < 1e-9,
+                    "{failing:?} iteration {k}: ratio {ratio}"
+                );
+                let lambda = factors[k] * initial / 3.0;
+                assert!((float(kv, "lambda") - lambda).abs() <= 1e-14 * lambda);
+            }
         }
     }
 }
