@@ -46,9 +46,12 @@ struct Outcome {
 }
 
 fn ours(p: Problem, x0: &[f64], tolerance: f64) -> Outcome {
+    // The evaluation budget only bounds a broken solver (whose trust region never shrinks
+    // enough for a step to pass): these runs take a few dozen evaluations.
     let lm = LevenbergMarquardt::new()
         .with_ftol(tolerance)
         .and_then(|l| l.with_xtol(tolerance))
+        .and_then(|l| l.with_max_evaluations(10_000))
         .unwrap();
     let x0 = DVector::from_column_slice(x0);
     let result = Executor::new(p, lm)

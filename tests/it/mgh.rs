@@ -55,6 +55,9 @@ struct Run {
 
 /// Run [`LevenbergMarquardt`] through argmin's [`Executor`] from the standard start.
 fn run(p: TestProblem, lm: LevenbergMarquardt) -> Result<Run, Error> {
+    // A budget far above any of these runs (a few hundred evaluations at most), so that a
+    // broken trust-region update fails a test instead of hanging it.
+    let lm = lm.with_max_evaluations(100_000)?;
     let x0 = DVector::from_column_slice(p.x0);
     let res = Executor::new(p, lm)
         .configure(|s| s.param(x0).max_iters(1000).counting(true))

@@ -88,8 +88,16 @@ impl Jacobian for Trap {
     }
 }
 
+/// A budget far above what these runs take, so that a broken trust-region update fails a test
+/// instead of hanging it in one iteration's loop of rejected steps.
+fn budgeted() -> LevenbergMarquardt {
+    LevenbergMarquardt::new()
+        .with_max_evaluations(10_000)
+        .unwrap()
+}
+
 fn run_trap(t: Trap, x0: [f64; 2]) -> Result<(LmState, LevenbergMarquardt), Error> {
-    let res = Executor::new(t, LevenbergMarquardt::new())
+    let res = Executor::new(t, budgeted())
         .configure(|s| s.param(DVector::from_column_slice(&x0)).max_iters(50))
         .run()?;
     Ok((res.state, res.solver))
@@ -188,7 +196,7 @@ impl Jacobian for Unreachable {
 
 #[test]
 fn an_error_at_a_trial_point_is_a_rejected_step() {
-    let res = Executor::new(Unreachable, LevenbergMarquardt::new())
+    let res = Executor::new(Unreachable, budgeted())
         .configure(|s| {
             s.param(DVector::from_column_slice(&[-10.0, 0.0]))
                 .max_iters(100)
@@ -259,7 +267,7 @@ impl Jacobian for NoMinimum {
 
 #[test]
 fn progress_stopping_away_from_a_stationary_point_is_stalled() {
-    let solver = LevenbergMarquardt::new()
+    let solver = budgeted()
         .with_ftol(1e-12)
         .and_then(|l| l.with_xtol(1e-12))
         .unwrap();
@@ -300,7 +308,7 @@ fn a_stationarity_tolerance_of_one_accepts_any_progress_stop_as_convergence() {
     // On the plateau the residual lies along the second column (cosine 1): with the default
     // tolerance the stop is a stall (test above); a tolerance of 1 calls every cosine
     // stationary, so the same run ends converged.
-    let solver = LevenbergMarquardt::new()
+    let solver = budgeted()
         .with_ftol(1e-12)
         .and_then(|l| l.with_xtol(1e-12))
         .and_then(|l| l.with_stationarity_tolerance(1.0))
@@ -357,7 +365,7 @@ impl Jacobian for Idle {
 
 #[test]
 fn a_parameter_the_residuals_ignore_is_scaled_by_one_and_left_alone() {
-    let res = Executor::new(Idle, LevenbergMarquardt::new())
+    let res = Executor::new(Idle, budgeted())
         .configure(|s| {
             s.param(DVector::from_column_slice(&[-3.0, 5.0]))
                 .max_iters(50)
@@ -401,7 +409,7 @@ fn a_negligible_gauss_newton_step_relative_to_the_parameters_is_stationary() {
     // and the first step's reductions (1e-4) are within ftol = 1e-3: a progress stop. Its
     // Gauss–Newton step, ‖D p‖ = 0.01·√2, is below √ε (‖D x‖ + √ε) = 2.1e-2 for ‖D x‖ = √2·10⁶:
     // a stationary point at the parameters' scale, so the stop is a convergence.
-    let solver = LevenbergMarquardt::new().with_ftol(1e-3).unwrap();
+    let solver = budgeted().with_ftol(1e-3).unwrap();
     let res = Executor::new(FarPair, solver)
         .configure(|s| s.param(DVector::from_element(1, 1e6 + 0.01)).max_iters(50))
         .run()
@@ -428,7 +436,7 @@ fn a_negligible_gauss_newton_step_relative_to_the_parameters_is_stationary() {
             Ok(DMatrix::from_row_slice(2, 1, &[1.0, 1.0]))
         }
     }
-    let solver = LevenbergMarquardt::new().with_ftol(1e-3).unwrap();
+    let solver = budgeted().with_ftol(1e-3).unwrap();
     let res = Executor::new(NearPair, solver)
         .configure(|s| s.param(DVector::from_element(1, 1.01)).max_iters(50))
         .run()
@@ -468,7 +476,7 @@ fn the_observed_values_count_the_trials_and_follow_the_accepted_steps() {
     use crate::solver::observed::{count, float, Iterations};
     let iterations = Iterations::default();
     let seen = iterations.0.clone();
-    let res = Executor::new(Rosenbrock, LevenbergMarquardt::new())
+    let res = Executor::new(Rosenbrock, budgeted())
         .configure(|s| {
             s.param(DVector::from_column_slice(&[-1.2, 1.0]))
                 .max_iters(200)
@@ -532,7 +540,7 @@ fn at_the_origin_a_step_below_epsilon_is_stationary() {
             Ok(DMatrix::from_row_slice(2, 1, &[1.0, 1.0]))
         }
     }
-    let solver = LevenbergMarquardt::new().with_ftol(1e-3).unwrap();
+    let solver = budgeted().with_ftol(1e-3).unwrap();
     let res = Executor::new(TinyPair, solver)
         .configure(|s| s.param(DVector::from_element(1, 0.0)).max_iters(50))
         .run()
