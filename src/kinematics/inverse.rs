@@ -196,7 +196,7 @@ pub fn solve_leg_from(
     seed: &[f64],
 ) -> Result<LegSolution, KinematicsError> {
     newton(leg, geometry, pose, seed).and_then(|s| {
-        if s.normalised_determinant * leg.branch_sign > 0.0 {
+        if leg.on_home_branch(s.normalised_determinant) {
             Ok(s)
         } else {
             Err(branch_change(leg))
@@ -206,7 +206,7 @@ pub fn solve_leg_from(
 
 /// Checks the solution is on the home branch.
 fn on_branch(leg: &LegModel, solution: Solution) -> Result<Solution, KinematicsError> {
-    if solution.normalised_determinant * leg.branch_sign > 0.0 {
+    if leg.on_home_branch(solution.normalised_determinant) {
         Ok(solution)
     } else {
         Err(branch_change(leg))

@@ -31,7 +31,7 @@ pub fn serial_measure(
 ) -> Result<f64, KinematicsError> {
     let model = &mechanism.legs[leg];
     let solution = solve_leg(model, &model.geometry(phi), pose, &mechanism.home_pose)?;
-    Ok(solution.normalised_determinant * model.branch_sign)
+    Ok(model.home_branch_measure(solution.normalised_determinant))
 }
 
 /// The parallel (type II) measure for one parameter set, signed by the home assembly mode.

@@ -67,6 +67,23 @@ impl LegModel {
             .collect()
     }
 
+    /// A closure-Jacobian determinant signed so that it is positive on the leg's home branch
+    /// (the serial singularity measure). `branch_sign` is ±1: the sign is flipped or kept, not
+    /// multiplied, so the value is exactly the determinant's magnitude.
+    pub fn home_branch_measure(&self, determinant: f64) -> f64 {
+        if self.branch_sign.is_sign_negative() {
+            -determinant
+        } else {
+            determinant
+        }
+    }
+
+    /// Is the leg on its home branch for a closure-Jacobian determinant `determinant`? (The
+    /// inverse kinematics refuses any near-zero determinant before this check.)
+    pub fn on_home_branch(&self, determinant: f64) -> bool {
+        determinant.is_sign_positive() == self.branch_sign.is_sign_positive()
+    }
+
     /// Is the actuated joint revolute?
     pub fn actuated_is_revolute(&self) -> bool {
         self.joints[self.moving[self.actuated]].kind == JointKind::Revolute

@@ -114,7 +114,7 @@ pub fn candidate_pool(mechanism: &Mechanism, spacing: Option<f64>) -> Result<Can
         let serial = solutions
             .iter()
             .zip(&mechanism.legs)
-            .map(|(solution, leg)| solution.normalised_determinant * leg.branch_sign)
+            .map(|(solution, leg)| leg.home_branch_measure(solution.normalised_determinant))
             .fold(f64::INFINITY, f64::min);
         if serial < workspace.serial_threshold {
             pool.near_serial += 1;

@@ -132,7 +132,7 @@ impl<'a> SingularityMargin<'a> {
                 None => solve_leg(leg, geometry, &pose, &mechanism.home_pose)?,
             };
             check_limits(leg, &solution.q)?;
-            serial = serial.min(solution.normalised_determinant * leg.branch_sign);
+            serial = serial.min(leg.home_branch_measure(solution.normalised_determinant));
             solutions.push(solution);
         }
         let parallel = self.parallel.at_solutions(&pose, &solutions)?;
