@@ -124,22 +124,16 @@ pub fn unit_columns(c: &DMatrix<f64>) -> DMatrix<f64> {
 }
 
 /// Singular values, largest first (zeros appended when there are fewer rows than columns).
-/// The matrix is scaled by its largest magnitude first, so that entries far from 1 (1e-300 or
-/// 1e200) neither underflow nor overflow inside the decomposition.
+/// Entries far from 1 (1e-300 or 1e200) neither underflow nor overflow: nalgebra's SVD scales
+/// the matrix by its largest magnitude itself (the unit test at extreme magnitudes checks it).
 pub fn sorted_singular_values(c: DMatrix<f64>) -> Vec<f64> {
     let n = c.ncols();
-    let largest = c.amax();
-    let scale = if largest > 0.0 && largest.is_finite() {
-        largest
-    } else {
-        1.0
-    };
-    // The scaled matrix itself goes into the decomposition (`singular_values()` would
-    // decompose a copy of it).
-    let mut values: Vec<f64> = SVD::new(c / scale, false, false)
+    // The matrix itself goes into the decomposition (`singular_values()` would decompose a
+    // copy of it).
+    let mut values: Vec<f64> = SVD::new(c, false, false)
         .singular_values
         .iter()
-        .map(|s| s * scale)
+        .copied()
         .collect();
     values.sort_by(|a, b| b.total_cmp(a));
     values.resize(n, 0.0);
@@ -204,13 +198,15 @@ fn direction(components: impl Iterator<Item = f64>, names: &[String]) -> String 
         .filter(|(v, _)| v.abs() >= 0.05)
         .collect();
     terms.sort_by(|a, b| b.0.abs().total_cmp(&a.0.abs()));
-    let sign = terms.first().map_or(1.0, |t| t.0.signum());
+    // The direction's sign is arbitrary: its largest component is shown positive. (Every
+    // shown component is at least 0.05 in magnitude, never zero.)
+    let flip = terms.first().is_some_and(|t| t.0.is_sign_negative());
     terms
         .iter()
         .enumerate()
         .map(|(i, (v, name))| {
-            let v = v * sign;
-            match (i, v < 0.0) {
+            let v = if flip { -v } else { *v };
+            match (i, v.is_sign_negative()) {
                 (0, _) => format!("{v:.3} {name}"),
                 (_, true) => format!("- {:.3} {name}", -v),
                 (_, false) => format!("+ {v:.3} {name}"),
