@@ -354,14 +354,14 @@ where
                 break (Some(exit("reduction ratio is not finite.")), 0.0);
             }
             if ratio <= P25 {
-                let mut t = if actred >= 0.0 {
+                // MINPACK's factor, kept within [0.1, 0.5].
+                let t = if P1 * fnorm1 >= fnorm {
+                    P1
+                } else if actred >= 0.0 {
                     0.5
                 } else {
-                    0.5 * dirder / (dirder + 0.5 * actred)
+                    (0.5 * dirder / (dirder + 0.5 * actred)).max(P1)
                 };
-                if P1 * fnorm1 >= fnorm || t < P1 {
-                    t = P1;
-                }
                 self.delta = t * self.delta.min(pnorm / P1);
                 self.lambda /= t;
             } else if self.lambda == 0.0 || ratio >= P75 {
