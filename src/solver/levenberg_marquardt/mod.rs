@@ -261,12 +261,12 @@ where
         s.factorize(jac, &r);
         // Gradient test: max_j |(Jᵀr)_j| / (‖J e_j‖‖r‖) ≤ gtol (MINPACK's max-cosine; Jᵀr = P Rᵀ Qᵀr).
         let mut gnorm: f64 = 0.0;
+        // A zero column gives g = 0 and 0/0 = NaN, which `f64::max` ignores (it returns the
+        // other operand): such a column has no cosine, as in MINPACK.
         for j in 0..n {
             let cn = s.col_norms[s.perm[j]];
-            if cn > 0.0 {
-                let g = s.jq.view((0, j), (j + 1, 1)).dot(&s.qtr.rows(0, j + 1));
-                gnorm = gnorm.max((g / (cn * fnorm)).abs());
-            }
+            let g = s.jq.view((0, j), (j + 1, 1)).dot(&s.qtr.rows(0, j + 1));
+            gnorm = gnorm.max((g / (cn * fnorm)).abs());
         }
         if self.diag.len() == n {
             self.diag.zip_apply(&s.col_norms, |d, c| *d = d.max(c));
