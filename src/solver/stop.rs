@@ -100,12 +100,11 @@ pub fn gradient_cosine(jacobian: &DMatrix<f64>, residuals: &DVector<f64>) -> f64
     if r_norm == 0.0 {
         return 0.0;
     }
+    // A zero column's cosine is 0/0 = NaN, which `f64::max` ignores (it returns the other
+    // operand): zero columns do not count.
     jacobian
         .column_iter()
-        .filter_map(|column| {
-            let c_norm = column.norm();
-            (c_norm > 0.0).then(|| (column.dot(residuals) / c_norm / r_norm).abs())
-        })
+        .map(|column| (column.dot(residuals) / column.norm() / r_norm).abs())
         .fold(0.0, f64::max)
 }
 
