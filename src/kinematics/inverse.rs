@@ -356,7 +356,7 @@ fn newton_step(
 
 /// The Newton step `−inverse · F`, shortened as [`newton_step`] says.
 fn limited_step(leg: &LegModel, inverse: &Matrix3<f64>, closure: &Vector3<f64>) -> Vector3<f64> {
-    let mut step = -(inverse * closure);
+    let step = -(inverse * closure);
     let largest_angle = leg
         .moving
         .iter()
@@ -364,10 +364,8 @@ fn limited_step(leg: &LegModel, inverse: &Matrix3<f64>, closure: &Vector3<f64>) 
         .filter(|(_, &j)| leg.joints[j].kind == JointKind::Revolute)
         .map(|(i, _)| step[i].abs())
         .fold(0.0, f64::max);
-    if largest_angle > MAX_ANGLE_STEP {
-        step *= MAX_ANGLE_STEP / largest_angle;
-    }
-    step
+    // Scaled by 1 (exactly the same step) unless an angle would move by more than the limit.
+    step * (MAX_ANGLE_STEP / largest_angle).min(1.0)
 }
 
 /// Newton stopped at a (near-)singular configuration `q`: the pose is on the leg's reach limit
@@ -572,16 +570,14 @@ fn invert(jacobian: &Matrix3<f64>, dims: usize) -> Option<Matrix3<f64>> {
 fn normalised_determinant(jacobian: &Matrix3<f64>, dims: usize) -> f64 {
     let mut block = Matrix3::identity();
     for c in 0..dims {
+        // A zero column stays zero (0 divided by the smallest positive number).
         let norm = (0..dims)
             .map(|r| jacobian[(r, c)] * jacobian[(r, c)])
             .sum::<f64>()
-            .sqrt();
+            .sqrt()
+            .max(f64::MIN_POSITIVE);
         for r in 0..dims {
-            block[(r, c)] = if norm > 0.0 {
-                jacobian[(r, c)] / norm
-            } else {
-                jacobian[(r, c)]
-            };
+            block[(r, c)] = jacobian[(r, c)] / norm;
         }
     }
     block.determinant()
