@@ -325,7 +325,9 @@ pub fn identify_problem(
     let (r, c) = problem
         .residuals_and_jacobian(&outcome.x)
         .map_err(|e| located(mechanism, data, problem, e))?;
-    if !(r.iter().all(|v| v.is_finite()) && outcome.x.iter().all(|v| v.is_finite())) {
+    // A non-finite estimate cannot get here (the inverse kinematics refuses non-finite
+    // parameters); a residual that is not finite would be a silent NaN in every figure below.
+    if !r.iter().all(|v| v.is_finite()) {
         return Err(Error::Solver {
             context: format!("legs {}", names.join(", ")),
             message: "the estimate is not finite".into(),
@@ -581,5 +583,14 @@ mod tests {
         // s_min/s_max = 1e-15: singular to working precision, no covariance.
         let singular = DMatrix::from_row_slice(3, 2, &[10.0, 0.0, 0.0, 1e-14, 0.0, 0.0]);
         assert_eq!(unscaled_covariance(&singular), None);
+        // As many rows as columns: (CᵀC)⁻¹ = C⁻¹C⁻ᵀ, with C = [[2, 0], [2, 1]] and
+        // C⁻¹ = [[1/2, 0], [−1, 1]].
+        let square = DMatrix::from_row_slice(2, 2, &[2.0, 0.0, 2.0, 1.0]);
+        let inverse = DMatrix::from_row_slice(2, 2, &[0.5, 0.0, -1.0, 1.0]);
+        let expected = &inverse * inverse.transpose();
+        assert!((unscaled_covariance(&square).unwrap() - expected).amax() < 1e-14);
+        // Fewer rows than columns: no covariance, whatever the row says.
+        let wide = DMatrix::from_row_slice(1, 2, &[1.0, 2.0]);
+        assert_eq!(unscaled_covariance(&wide), None);
     }
 }
