@@ -201,3 +201,67 @@ fn a_warm_start_near_the_answer_is_left_at_the_converged_configuration() {
         "a start without joints is not used"
     );
 }
+
+/// The 5R's type-II singularity on its symmetry axis: the platform point P = (0, 0.45) on the
+/// line through the elbows B1 = (−1.1, 0.45) and B2 = (1.1, 0.45) (|B − A| = 0.75 with
+/// A = (∓0.5, 0), |P − B| = 1.1).
+const SINGULAR: [f64; 6] = [0.0, 0.45, 0.0, 0.0, 0.0, 0.0];
+
+/// Readings taken on the singularity: the two assembly modes meet there, Newton converges
+/// only linearly, and the answer is the singular pose to about the square root of the
+/// round-off (a double root), reached through the round-off stall, not the tolerance.
+#[test]
+fn readings_on_the_type_two_singularity_give_the_singular_pose_to_the_square_root_of_round_off() {
+    let mechanism = bundled("5r.yaml");
+    let home = mechanism.home_pose;
+    let readings: Vec<f64> = mechanism
+        .legs
+        .iter()
+        .map(|leg| predict_reading(leg, &leg.nominal(), &SINGULAR, &home).unwrap())
+        .collect();
+    let reached = forward(&mechanism, &mechanism.nominal_parameters(), &readings).unwrap();
+    let distance = (reached[0] - SINGULAR[0]).hypot(reached[1] - SINGULAR[1]);
+    assert!(distance < 1e-6, "{reached:?}");
+    assert!(
+        reached[1] > SINGULAR[1],
+        "approached from the home mode's side: {reached:?}"
+    );
+}
+
+/// A home pose on the singularity has no assembly mode to keep: every solve is refused.
+#[test]
+fn a_home_pose_on_the_type_two_singularity_is_refused() {
+    use legwise::error::KinematicsError;
+    let mut mechanism = bundled("5r.yaml");
+    let home = mechanism.home_pose;
+    for leg in &mut mechanism.legs {
+        let q = solve_leg(leg, &leg.geometry(&leg.nominal()), &SINGULAR, &home)
+            .unwrap()
+            .q;
+        leg.home_joints = q;
+    }
+    mechanism.home_pose = SINGULAR;
+    let params = mechanism.nominal_parameters();
+    let kinematics = ForwardKinematics::new(&mechanism, &params);
+    let readings: Vec<f64> = mechanism
+        .legs
+        .iter()
+        .map(|leg| predict_reading(leg, &leg.nominal(), &home, &SINGULAR).unwrap())
+        .collect();
+    let err = kinematics.solve(&readings).unwrap_err();
+    assert!(
+        matches!(err, KinematicsError::AssemblyModeChange),
+        "{err:?}"
+    );
+    // The home readings themselves: the home configuration is already converged there.
+    let at_home: Vec<f64> = mechanism
+        .legs
+        .iter()
+        .map(|leg| predict_reading(leg, &leg.nominal(), &SINGULAR, &SINGULAR).unwrap())
+        .collect();
+    let err = kinematics.solve(&at_home).unwrap_err();
+    assert!(
+        matches!(err, KinematicsError::AssemblyModeChange),
+        "{err:?}"
+    );
+}
