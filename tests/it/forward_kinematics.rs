@@ -207,9 +207,9 @@ fn a_warm_start_near_the_answer_is_left_at_the_converged_configuration() {
 /// A = (∓0.5, 0), |P − B| = 1.1).
 const SINGULAR: [f64; 6] = [0.0, 0.45, 0.0, 0.0, 0.0, 0.0];
 
-/// Readings taken on the singularity: the two assembly modes meet there, Newton converges
-/// only linearly, and the answer is the singular pose to about the square root of the
-/// round-off (a double root), reached through the round-off stall, not the tolerance.
+/// Readings taken on the singularity: the two assembly modes meet there (a double root), and
+/// the answer is the singular pose only to about the square root of the closure's round-off,
+/// from the home mode's side.
 #[test]
 fn readings_on_the_type_two_singularity_give_the_singular_pose_to_the_square_root_of_round_off() {
     let mechanism = bundled("5r.yaml");
