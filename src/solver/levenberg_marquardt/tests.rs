@@ -550,3 +550,40 @@ fn at_the_origin_a_step_below_epsilon_is_stationary() {
     let x = res.state.get_param().unwrap()[0];
     assert!((x - 1e-16).abs() < 1e-28, "{x}");
 }
+
+/// `r = x² − 2` from 1.5: the fit is exact, but √2 is not a double, so the residual ends at a
+/// round-off of about 4e-16 rather than 0. Its cost, about 1e-31, is below ε times the start's
+/// (1/32): a zero residual, which the cost of the step (½‖r‖², not ‖r‖) decides.
+#[test]
+fn an_exact_fit_reached_to_round_off_is_a_zero_residual() {
+    #[derive(Clone, Copy)]
+    struct Root;
+    impl Operator for Root {
+        type Param = DVector<f64>;
+        type Output = DVector<f64>;
+        fn apply(&self, x: &DVector<f64>) -> Result<DVector<f64>, Error> {
+            Ok(DVector::from_element(1, x[0] * x[0] - 2.0))
+        }
+    }
+    impl Jacobian for Root {
+        type Param = DVector<f64>;
+        type Jacobian = DMatrix<f64>;
+        fn jacobian(&self, x: &DVector<f64>) -> Result<DMatrix<f64>, Error> {
+            Ok(DMatrix::from_element(1, 1, 2.0 * x[0]))
+        }
+    }
+    let res = Executor::new(Root, budgeted())
+        .configure(|s| s.param(DVector::from_element(1, 1.5)).max_iters(50))
+        .run()
+        .unwrap();
+    assert_eq!(res.solver.stop_reason(), Some(StopReason::ZeroResidual));
+    let x = res.state.get_param().unwrap()[0];
+    assert!(
+        (x - std::f64::consts::SQRT_2).abs() <= 2.0 * f64::EPSILON,
+        "{x}"
+    );
+    assert!(
+        res.state.get_cost() > 0.0,
+        "a round-off residual, not an exact zero"
+    );
+}
