@@ -42,6 +42,15 @@ fn scaled(mechanism: &Mechanism, scale: f64) -> Mechanism {
     scaled
 }
 
+/// Every leg's reading at `pose` with nominal parameters, on the branch continued from `home`.
+fn nominal_readings(mechanism: &Mechanism, pose: &[f64; 6], home: &[f64; 6]) -> Vec<f64> {
+    mechanism
+        .legs
+        .iter()
+        .map(|leg| predict_reading(leg, &leg.nominal(), pose, home).unwrap())
+        .collect()
+}
+
 #[test]
 fn a_mechanism_scaled_by_powers_of_ten_reaches_the_scaled_poses() {
     let mut rng = ChaCha8Rng::seed_from_u64(11);
@@ -60,11 +69,7 @@ fn a_mechanism_scaled_by_powers_of_ten_reaches_the_scaled_poses() {
             for pose in &poses {
                 let pose: [f64; 6] =
                     std::array::from_fn(|c| pose[c] * if c < 3 { scale } else { 1.0 });
-                let readings: Vec<f64> = big
-                    .legs
-                    .iter()
-                    .map(|leg| predict_reading(leg, &leg.nominal(), &pose, &home).unwrap())
-                    .collect();
+                let readings = nominal_readings(&big, &pose, &home);
                 let back = forward(&big, &big.nominal_parameters(), &readings)
                     .unwrap_or_else(|e| panic!("{} at scale {scale}: {e}", mechanism.name));
                 for c in 0..6 {
@@ -100,11 +105,7 @@ fn a_warm_start_in_the_other_assembly_mode_gives_the_home_modes_pose() {
         elbows.push([base[0] + 0.75 * q[0].cos(), base[1] + 0.75 * q[0].sin()]);
         actuated.push(q[0]);
     }
-    let readings: Vec<f64> = mechanism
-        .legs
-        .iter()
-        .map(|leg| predict_reading(leg, &leg.nominal(), &pose, &home).unwrap())
-        .collect();
+    let readings = nominal_readings(&mechanism, &pose, &home);
     let (b1, b2) = (elbows[0], elbows[1]);
     let along = [b2[0] - b1[0], b2[1] - b1[1]];
     let t = ((pose[0] - b1[0]) * along[0] + (pose[1] - b1[1]) * along[1])
@@ -151,11 +152,7 @@ fn a_warm_start_near_the_answer_is_left_at_the_converged_configuration() {
     let params = mechanism.nominal_parameters();
     let home = mechanism.home_pose;
     let pose = [0.05, -0.04, 0.0, 0.0, 0.0, 0.2];
-    let readings: Vec<f64> = mechanism
-        .legs
-        .iter()
-        .map(|leg| predict_reading(leg, &leg.nominal(), &pose, &home).unwrap())
-        .collect();
+    let readings = nominal_readings(&mechanism, &pose, &home);
     let kinematics = ForwardKinematics::new(&mechanism, &params);
     let nearby = [
         pose[0] + 1e-3,
@@ -214,11 +211,7 @@ const SINGULAR: [f64; 6] = [0.0, 0.45, 0.0, 0.0, 0.0, 0.0];
 fn readings_on_the_type_two_singularity_give_the_singular_pose_to_the_square_root_of_round_off() {
     let mechanism = bundled("5r.yaml");
     let home = mechanism.home_pose;
-    let readings: Vec<f64> = mechanism
-        .legs
-        .iter()
-        .map(|leg| predict_reading(leg, &leg.nominal(), &SINGULAR, &home).unwrap())
-        .collect();
+    let readings = nominal_readings(&mechanism, &SINGULAR, &home);
     let reached = forward(&mechanism, &mechanism.nominal_parameters(), &readings).unwrap();
     let distance = (reached[0] - SINGULAR[0]).hypot(reached[1] - SINGULAR[1]);
     assert!(distance < 1e-6, "{reached:?}");
@@ -243,22 +236,14 @@ fn a_home_pose_on_the_type_two_singularity_is_refused() {
     mechanism.home_pose = SINGULAR;
     let params = mechanism.nominal_parameters();
     let kinematics = ForwardKinematics::new(&mechanism, &params);
-    let readings: Vec<f64> = mechanism
-        .legs
-        .iter()
-        .map(|leg| predict_reading(leg, &leg.nominal(), &home, &SINGULAR).unwrap())
-        .collect();
+    let readings = nominal_readings(&mechanism, &home, &SINGULAR);
     let err = kinematics.solve(&readings).unwrap_err();
     assert!(
         matches!(err, KinematicsError::AssemblyModeChange),
         "{err:?}"
     );
     // The home readings themselves: the home configuration is already converged there.
-    let at_home: Vec<f64> = mechanism
-        .legs
-        .iter()
-        .map(|leg| predict_reading(leg, &leg.nominal(), &SINGULAR, &SINGULAR).unwrap())
-        .collect();
+    let at_home = nominal_readings(&mechanism, &SINGULAR, &SINGULAR);
     let err = kinematics.solve(&at_home).unwrap_err();
     assert!(
         matches!(err, KinematicsError::AssemblyModeChange),
