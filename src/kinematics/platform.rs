@@ -364,3 +364,29 @@ fn normalised_determinant(mut a: DMatrix<f64>) -> f64 {
     }
     a.determinant()
 }
+
+#[cfg(test)]
+mod tests {
+    use super::ForwardKinematics;
+    use crate::model::Mechanism;
+    use nalgebra::DVector;
+
+    /// The step limit: angles within 0.5 rad, lengths within half the size; a step within both
+    /// is left whole. On the 5R the unknowns are x, y and the two elbow angles.
+    #[test]
+    fn a_step_is_scaled_so_that_no_angle_passes_half_a_radian_and_no_length_half_the_size() {
+        let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("models/5r.yaml");
+        let mechanism = Mechanism::load(&path).unwrap();
+        let kinematics = ForwardKinematics::new(&mechanism, &mechanism.nominal_parameters());
+        let check = |step: [f64; 4], size: f64, expected: f64| {
+            let scale = kinematics.step_scale(&DVector::from_column_slice(&step), size);
+            assert!((scale - expected).abs() < 1e-15, "{step:?}: {scale}");
+        };
+        check([0.3, -0.2, 0.4, -0.1], 1.0, 1.0);
+        check([3.0, 0.0, 0.0, 0.0], 2.0, 1.0 / 3.0); // 3 m against 1 m
+        check([0.0, -0.5, 0.0, 0.0], 0.5, 0.5); // 0.5 m against 0.25 m
+        check([0.1, 0.0, 2.0, 0.0], 2.0, 0.25); // 2 rad against 0.5 rad
+        check([0.1, 0.0, 0.0, -1.0], 2.0, 0.5);
+        check([4.0, 0.0, 0.0, -1.0], 2.0, 0.25); // the larger excess decides
+    }
+}
