@@ -388,5 +388,15 @@ mod tests {
         check([0.1, 0.0, 2.0, 0.0], 2.0, 0.25); // 2 rad against 0.5 rad
         check([0.1, 0.0, 0.0, -1.0], 2.0, 0.5);
         check([4.0, 0.0, 0.0, -1.0], 2.0, 0.25); // the larger excess decides
+                                                 // The hexapod: x y z roll pitch yaw, then two universal-joint angles per leg.
+        let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("models/hexapod.yaml");
+        let hexapod = Mechanism::load(&path).unwrap();
+        let kinematics = ForwardKinematics::new(&hexapod, &hexapod.nominal_parameters());
+        for (index, expected) in [(2, 1.0), (3, 0.25), (5, 0.25), (17, 0.25)] {
+            let mut step = DVector::zeros(18);
+            step[index] = 2.0;
+            let scale = kinematics.step_scale(&step, 8.0);
+            assert!((scale - expected).abs() < 1e-15, "unknown {index}: {scale}");
+        }
     }
 }

@@ -384,9 +384,9 @@ where
                 step_converged: self.delta <= tol.xtol * (self.xnorm + tol.xtol),
                 step_at_precision: self.delta <= f64::EPSILON * self.xnorm,
                 gradient_cosine: gnorm,
-                non_finite: !(self.delta.is_finite()
-                    && self.delta > 0.0
-                    && self.lambda.is_finite()),
+                // (A trust region shrunk to Δ ≤ 0 is a step-size stop first: Δ ≤ xtol·(‖D x‖ +
+                // xtol) then holds for any xtol ≥ 0.)
+                non_finite: !(self.delta.is_finite() && self.lambda.is_finite()),
                 budget_spent: self.evaluations >= tol.max_evaluations,
             };
             let reason = trial.verdict(tol.ftol, || stationary);
