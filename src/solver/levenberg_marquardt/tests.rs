@@ -587,3 +587,38 @@ fn an_exact_fit_reached_to_round_off_is_a_zero_residual() {
         "a round-off residual, not an exact zero"
     );
 }
+
+/// At x = 0 the step-size test Δ ≤ xtol (‖D x‖ + xtol) is Δ ≤ xtol²: from the origin, a
+/// problem whose every trial point fails shrinks the trust region (by 10 a rejection, from a
+/// first bound of about the step's length 1) until it is below xtol² = 1e-6, a stop after a
+/// handful of evaluations. The origin is not stationary there: stalled.
+#[test]
+fn at_the_origin_the_trust_region_stops_below_xtol_squared() {
+    #[derive(Clone, Copy)]
+    struct Cliff;
+    impl Operator for Cliff {
+        type Param = DVector<f64>;
+        type Output = DVector<f64>;
+        fn apply(&self, x: &DVector<f64>) -> Result<DVector<f64>, Error> {
+            if x[0] != 0.0 {
+                return Err(Error::msg("only the origin can be evaluated"));
+            }
+            Ok(DVector::from_element(1, x[0] - 1.0))
+        }
+    }
+    impl Jacobian for Cliff {
+        type Param = DVector<f64>;
+        type Jacobian = DMatrix<f64>;
+        fn jacobian(&self, _: &DVector<f64>) -> Result<DMatrix<f64>, Error> {
+            Ok(DMatrix::from_element(1, 1, 1.0))
+        }
+    }
+    let solver = budgeted().with_xtol(1e-3).unwrap();
+    let res = Executor::new(Cliff, solver)
+        .configure(|s| s.param(DVector::from_element(1, 0.0)).max_iters(50))
+        .run()
+        .unwrap();
+    assert_eq!(res.solver.stop_reason(), Some(StopReason::Stalled));
+    let evaluations = res.solver.evaluations();
+    assert!((6..=9).contains(&evaluations), "{evaluations} evaluations");
+}
