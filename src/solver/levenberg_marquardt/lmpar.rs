@@ -278,3 +278,31 @@ fn givens(a: f64, b: f64) -> (f64, f64) {
         (cos, cos * tan)
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::householder_qr;
+    use nalgebra::{DMatrix, DVector};
+
+    /// MINPACK's `qrfac` pivoting: the remaining column of largest norm moves forward, the
+    /// first of equal norms keeping its place; `R` and `Qᵀb` reproduce `J P` and `b`'s norm.
+    #[test]
+    fn the_qr_pivots_on_the_first_largest_column_and_factors_the_permuted_matrix() {
+        // Columns of norms 1, 2, 2: the second one moves first; then the third (norm 2
+        // against 1) comes second.
+        let j = DMatrix::from_row_slice(3, 3, &[1.0, 0.0, 2.0, 0.0, 2.0, 0.0, 0.0, 0.0, 0.0]);
+        let b = DVector::from_column_slice(&[1.0, 2.0, 3.0]);
+        let (mut a, mut qtb, mut perm) = (j.clone(), b.clone(), vec![0, 1, 2]);
+        householder_qr(&mut a, &mut qtb, Some(&mut perm));
+        assert_eq!(perm, vec![1, 2, 0]);
+        let r = a.upper_triangle();
+        let permuted = DMatrix::from_fn(3, 3, |i, k| j[(i, perm[k])]);
+        // RᵀR = (J P)ᵀ(J P), since Q is orthogonal.
+        assert!((r.transpose() * &r - permuted.transpose() * &permuted).amax() < 1e-14);
+        assert!((qtb.norm() - b.norm()).abs() < 1e-14);
+        // Equal norms throughout: no column moves.
+        let (mut a, mut qtb, mut perm) = (DMatrix::identity(2, 2), DVector::zeros(2), vec![0, 1]);
+        householder_qr(&mut a, &mut qtb, Some(&mut perm));
+        assert_eq!(perm, vec![0, 1]);
+    }
+}
