@@ -20,21 +20,6 @@ pub fn origin_transform<T: Scalar>(origin: &[T; 6]) -> Transform<T> {
     )
 }
 
-/// The motion of a joint for variable `q` (radians or metres).
-pub fn joint_motion<T: Scalar>(joint: &JointModel, q: T) -> Transform<T> {
-    let axis: Vector3<T> = joint.axis.map(lift::<T>);
-    match joint.kind {
-        JointKind::Revolute => Transform::from_parts(
-            Translation3::identity(),
-            Rotation3::from_axis_angle(&Unit::new_unchecked(axis), q),
-        ),
-        JointKind::Prismatic => {
-            Transform::from_parts(Translation3::from(axis * q), Rotation3::identity())
-        }
-        JointKind::Fixed => Transform::identity(),
-    }
-}
-
 /// The platform transform of a pose `[x, y, z, roll, pitch, yaw]` in the measurement frame.
 pub fn platform_transform<T: Scalar>(pose: &[T; 6]) -> Transform<T> {
     origin_transform(pose)
@@ -308,20 +293,25 @@ fn chain_tip_and_jacobian<R: Borrow<Rigid<f64>>>(
     (tip, jacobian)
 }
 
-/// World axes of the moving joints for the moving joints' values `q` (f64).
+/// World axes of the moving joints for the moving joints' values `q` (f64). Only the links'
+/// rotations matter: the origins' and the revolute joints' (a prismatic motion moves a link
+/// without turning it).
 pub fn moving_axes(
     leg: &LegModel,
     geometry: &LegGeometry<f64>,
     q: &[f64],
 ) -> Vec<(JointKind, Vector3<f64>)> {
-    let mut world_from_link = Transform::<f64>::identity();
+    let mut world_from_link = Rotation3::<f64>::identity();
     let mut axes = Vec::with_capacity(leg.moving.len());
     let mut next = 0;
     for (joint, origin) in leg.joints.iter().zip(&geometry.origins) {
-        world_from_link *= origin_transform(origin);
+        world_from_link *= Rotation3::from_euler_angles(origin[3], origin[4], origin[5]);
         if joint.is_moving() {
-            axes.push((joint.kind, world_from_link.rotation * joint.axis));
-            world_from_link *= joint_motion(joint, q[next]);
+            axes.push((joint.kind, world_from_link * joint.axis));
+            if joint.kind == JointKind::Revolute {
+                let axis = Unit::new_unchecked(joint.axis);
+                world_from_link *= Rotation3::from_axis_angle(&axis, q[next]);
+            }
             next += 1;
         }
     }
