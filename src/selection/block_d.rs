@@ -6,7 +6,7 @@ use super::driver::{Engine, Step};
 use super::gains::BestSwap;
 use super::linalg::{det_in_place, invert_in_place};
 use super::pool::Pool;
-use super::running_inverse::RunningInverse;
+use super::running_inverse::{Change, RunningInverse};
 use super::{SelectionError, ACCEPT};
 
 pub(super) struct BlockD<'a> {
@@ -23,12 +23,16 @@ impl<'a> BlockD<'a> {
         }
     }
 
-    /// M⁻¹ ← (M + sign·C_jᵀC_j)⁻¹ by the Woodbury identity.
-    fn update(&mut self, j: usize, sign: f64) {
+    /// M⁻¹ ← (M ± C_jᵀC_j)⁻¹ by the Woodbury identity: M⁻¹ − P (±I + C_j P)⁻¹ Pᵀ with
+    /// P = M⁻¹C_jᵀ (±I is its own inverse).
+    fn update(&mut self, j: usize, change: Change) {
         let b = self.pool.b;
         let block = self.pool.block(j);
         let p = &self.inverse.minv * block; // n × b
-        let g = DMatrix::identity(b, b) * sign + block.tr_mul(&p);
+        let mut g = block.tr_mul(&p);
+        for i in 0..b {
+            g[(i, i)] += change.signed(1.0);
+        }
         if let Some(g_inverse) = g.try_inverse() {
             self.inverse.minv -= &p * g_inverse * p.transpose();
         }
@@ -47,7 +51,7 @@ impl Engine for BlockD<'_> {
     }
 
     fn greedy_added(&mut self, design: &[usize], j: usize) {
-        self.update(j, 1.0);
+        self.update(j, Change::Add);
         self.inverse.refresh(self.pool, design);
     }
 
@@ -112,8 +116,8 @@ impl Engine for BlockD<'_> {
     }
 
     fn swapped(&mut self, design: &[usize], pos: usize, j: usize) {
-        self.update(j, 1.0);
-        self.update(design[pos], -1.0);
+        self.update(j, Change::Add);
+        self.update(design[pos], Change::Remove);
     }
 }
 

@@ -5,6 +5,25 @@ use nalgebra::DMatrix;
 use super::linalg::spd_inverse;
 use super::pool::Pool;
 
+/// A design point entering or leaving the design: the sign of its term in M = Σ C_jᵀC_j.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(super) enum Change {
+    /// The point joins the design (+C_jᵀC_j).
+    Add,
+    /// The point leaves the design (−C_jᵀC_j).
+    Remove,
+}
+
+impl Change {
+    /// `value` with the change's sign (kept for an addition, flipped for a removal).
+    pub(super) fn signed(self, value: f64) -> f64 {
+        match self {
+            Change::Add => value,
+            Change::Remove => -value,
+        }
+    }
+}
+
 /// M⁻¹ of the current design: the ridge alone at the start of the greedy construction, then
 /// updated by each engine's Sherman–Morrison or Woodbury formulas.
 pub(super) struct RunningInverse {

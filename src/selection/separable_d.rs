@@ -8,7 +8,7 @@ use super::driver::{Engine, Step};
 use super::gains::{addition, argmax, BestSwap};
 use super::linalg::spd_inverse;
 use super::pool::{column_dots, Pool};
-use super::running_inverse::RunningInverse;
+use super::running_inverse::{Change, RunningInverse};
 use super::{Criterion, SelectionError, ACCEPT};
 
 /// The column supports of the b row positions (row r's: the columns where row r of some
@@ -115,14 +115,15 @@ impl<'a> SeparableD<'a> {
         )
     }
 
-    /// M_r⁻¹ ← (M_r + sign·x_rj x_rjᵀ)⁻¹ for every row position (Sherman–Morrison).
-    fn update(&mut self, j: usize, sign: f64) {
+    /// M_r⁻¹ ← (M_r ± x_rj x_rjᵀ)⁻¹ for every row position (Sherman–Morrison:
+    /// M⁻¹ ∓ u uᵀ/(1 ± xᵀu) with u = M⁻¹x).
+    fn update(&mut self, j: usize, change: Change) {
         for (minv, rows) in self.blocks.iter_mut().zip(&self.rows) {
             let x = rows.column(j);
             let u = &*minv * x;
-            let denominator = 1.0 + sign * x.dot(&u);
+            let denominator = 1.0 + change.signed(x.dot(&u));
             if denominator != 0.0 {
-                minv.ger(-sign / denominator, &u, &u, 1.0);
+                minv.ger(-change.signed(1.0) / denominator, &u, &u, 1.0);
             }
         }
     }
@@ -140,7 +141,7 @@ impl Engine for SeparableD<'_> {
     }
 
     fn greedy_added(&mut self, design: &[usize], j: usize) {
-        self.update(j, 1.0);
+        self.update(j, Change::Add);
         if self.start.refresh(self.pool, design) {
             self.blocks = self.diagonal_blocks(&self.start.minv);
         }
@@ -188,8 +189,8 @@ impl Engine for SeparableD<'_> {
     }
 
     fn swapped(&mut self, design: &[usize], pos: usize, j: usize) {
-        self.update(j, 1.0);
-        self.update(design[pos], -1.0);
+        self.update(j, Change::Add);
+        self.update(design[pos], Change::Remove);
     }
 
     fn best_addition(
