@@ -80,6 +80,10 @@ pub struct ForwardKinematics<'m> {
     layout: Layout,
     geometries: Vec<LegGeometry<f64>>,
     frames: Vec<ChainFrames<f64>>,
+    /// The smallest size the tolerances use: 1e-3 of the longest leg (its joint origins'
+    /// offsets and its platform joint, end to end), for a platform whose joints all pass
+    /// through the world origin.
+    smallest_size: f64,
     /// The home readings and the sign of the home assembly mode, or why they do not exist.
     home: Result<(Vec<f64>, f64), KinematicsError>,
 }
@@ -96,11 +100,23 @@ impl<'m> ForwardKinematics<'m> {
             .map(|(l, p)| l.geometry(p))
             .collect();
         let frames = geometries.iter().map(ChainFrames::new).collect();
+        let longest = geometries
+            .iter()
+            .map(|g| {
+                let offsets: f64 = g
+                    .origins
+                    .iter()
+                    .map(|o| Vector3::new(o[0], o[1], o[2]).norm())
+                    .sum();
+                offsets + Vector3::from(g.attachment).norm()
+            })
+            .fold(0.0, f64::max);
         let mut solver = Self {
             mechanism,
             layout: layout(mechanism),
             geometries,
             frames,
+            smallest_size: 1e-3 * longest,
             home: Err(KinematicsError::NotAssemblable {
                 residual: f64::INFINITY,
             }),
@@ -199,9 +215,9 @@ impl<'m> ForwardKinematics<'m> {
     /// determinant of the column-normalised FK Jacobian (its sign is the assembly mode).
     ///
     /// The tolerances are relative to the mechanism's size (the largest distance of a platform
-    /// joint from the world origin), so a mechanism in kilometres or millimetres converges
-    /// alike; a step is shortened so that no angle moves by more than 0.5 rad and no length by
-    /// more than half that size.
+    /// joint from the world origin, at least `smallest_size`), so a mechanism in kilometres or
+    /// millimetres converges alike; a step is shortened so that no angle moves by more than
+    /// 0.5 rad and no length by more than half that size.
     fn newton(
         &self,
         readings: &[f64],
@@ -226,7 +242,7 @@ impl<'m> ForwardKinematics<'m> {
             let mut jacobian = DMatrix::zeros(n, n);
             let platform = platform_transform(pose);
             let pose_derivatives = pose_derivatives(pose, &layout.pose);
-            let mut size = 0.0f64;
+            let mut size = self.smallest_size;
             let mut row = 0;
             let mut column = layout.pose.len();
             for (l, leg) in mechanism.legs.iter().enumerate() {

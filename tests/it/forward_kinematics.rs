@@ -296,3 +296,34 @@ fn a_home_pose_on_the_type_two_singularity_is_refused() {
         "{err:?}"
     );
 }
+
+/// A platform point on the world origin: the 5R's world frame moved up by 1 m, so that the
+/// pose (0, 1) of the bundled model is the origin and every leg's target there is (0, 0). The
+/// tolerances still have a size (1e-3 of the longest leg): the pose solves.
+#[test]
+fn a_platform_point_on_the_world_origin_still_has_a_tolerance() {
+    let mut mechanism = bundled("5r.yaml");
+    let home = mechanism.home_pose;
+    let origin = [0.0, 1.0, 0.0, 0.0, 0.0, 0.0];
+    // Shift the world so that `origin` becomes (0, 0): the base joints move by −origin.
+    for leg in &mut mechanism.legs {
+        leg.joints[0].origin[1] -= origin[1];
+        for parameter in &mut leg.params {
+            if let legwise::model::params::ParamTarget::JointOrigin {
+                joint: 0,
+                component: 1,
+            } = parameter.target
+            {
+                parameter.nominal -= origin[1];
+            }
+        }
+    }
+    mechanism.home_pose = [home[0], home[1] - origin[1], 0.0, 0.0, 0.0, 0.0];
+    let shifted_home = mechanism.home_pose;
+    let readings = nominal_readings(&mechanism, &[0.0; 6], &shifted_home);
+    let reached = forward(&mechanism, &mechanism.nominal_parameters(), &readings).unwrap();
+    assert!(
+        reached[0].abs() < 1e-12 && reached[1].abs() < 1e-12,
+        "{reached:?}"
+    );
+}
