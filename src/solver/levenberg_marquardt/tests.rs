@@ -444,29 +444,38 @@ fn a_negligible_gauss_newton_step_relative_to_the_parameters_is_stationary() {
     assert_eq!(res.solver.stop_reason(), Some(StopReason::Stalled));
 }
 
-/// `r = (10 (x₁ − x₀²), 1 − x₀)` (Rosenbrock), whose start (−1.2, 1) makes MINPACK reject steps.
-struct Rosenbrock;
-impl Operator for Rosenbrock {
+/// A test problem given by two functions: the residuals (an error where the problem is not
+/// defined) and the Jacobian.
+#[derive(Clone, Copy)]
+struct Functions {
+    residuals: fn(&DVector<f64>) -> Result<DVector<f64>, Error>,
+    jacobian: fn(&DVector<f64>) -> DMatrix<f64>,
+}
+impl Operator for Functions {
     type Param = DVector<f64>;
     type Output = DVector<f64>;
     fn apply(&self, x: &DVector<f64>) -> Result<DVector<f64>, Error> {
+        (self.residuals)(x)
+    }
+}
+impl Jacobian for Functions {
+    type Param = DVector<f64>;
+    type Jacobian = DMatrix<f64>;
+    fn jacobian(&self, x: &DVector<f64>) -> Result<DMatrix<f64>, Error> {
+        Ok((self.jacobian)(x))
+    }
+}
+
+/// `r = (10 (x₁ − x₀²), 1 − x₀)` (Rosenbrock), whose start (−1.2, 1) makes MINPACK reject steps.
+const ROSENBROCK: Functions = Functions {
+    residuals: |x| {
         Ok(DVector::from_column_slice(&[
             10.0 * (x[1] - x[0] * x[0]),
             1.0 - x[0],
         ]))
-    }
-}
-impl Jacobian for Rosenbrock {
-    type Param = DVector<f64>;
-    type Jacobian = DMatrix<f64>;
-    fn jacobian(&self, x: &DVector<f64>) -> Result<DMatrix<f64>, Error> {
-        Ok(DMatrix::from_row_slice(
-            2,
-            2,
-            &[-20.0 * x[0], 10.0, -1.0, 0.0],
-        ))
-    }
-}
+    },
+    jacobian: |x| DMatrix::from_row_slice(2, 2, &[-20.0 * x[0], 10.0, -1.0, 0.0]),
+};
 
 /// The values an observer sees: `trials` counts an iteration's residual evaluations (they sum
 /// to the run's evaluations less the start's), a step is accepted only with a ratio of at
@@ -476,7 +485,7 @@ fn the_observed_values_count_the_trials_and_follow_the_accepted_steps() {
     use crate::solver::observed::{count, float, Iterations};
     let iterations = Iterations::default();
     let seen = iterations.0.clone();
-    let res = Executor::new(Rosenbrock, budgeted())
+    let res = Executor::new(ROSENBROCK, budgeted())
         .configure(|s| {
             s.param(DVector::from_column_slice(&[-1.2, 1.0]))
                 .max_iters(200)
@@ -523,25 +532,15 @@ fn the_observed_values_count_the_trials_and_follow_the_accepted_steps() {
 /// cosine there is 1e-2, above the stationarity tolerance: only the step decides.
 #[test]
 fn at_the_origin_a_step_below_epsilon_is_stationary() {
-    #[derive(Clone, Copy)]
-    struct TinyPair;
-    impl Operator for TinyPair {
-        type Param = DVector<f64>;
-        type Output = DVector<f64>;
-        fn apply(&self, x: &DVector<f64>) -> Result<DVector<f64>, Error> {
+    let tiny_pair = Functions {
+        residuals: |x| {
             let t = x[0] - 1e-16;
             Ok(DVector::from_column_slice(&[t - 1e-14, t + 1e-14]))
-        }
-    }
-    impl Jacobian for TinyPair {
-        type Param = DVector<f64>;
-        type Jacobian = DMatrix<f64>;
-        fn jacobian(&self, _: &DVector<f64>) -> Result<DMatrix<f64>, Error> {
-            Ok(DMatrix::from_row_slice(2, 1, &[1.0, 1.0]))
-        }
-    }
+        },
+        jacobian: |_| DMatrix::from_row_slice(2, 1, &[1.0, 1.0]),
+    };
     let solver = budgeted().with_ftol(1e-3).unwrap();
-    let res = Executor::new(TinyPair, solver)
+    let res = Executor::new(tiny_pair, solver)
         .configure(|s| s.param(DVector::from_element(1, 0.0)).max_iters(50))
         .run()
         .unwrap();
@@ -556,23 +555,11 @@ fn at_the_origin_a_step_below_epsilon_is_stationary() {
 /// (1/32): a zero residual, which the cost of the step (½‖r‖², not ‖r‖) decides.
 #[test]
 fn an_exact_fit_reached_to_round_off_is_a_zero_residual() {
-    #[derive(Clone, Copy)]
-    struct Root;
-    impl Operator for Root {
-        type Param = DVector<f64>;
-        type Output = DVector<f64>;
-        fn apply(&self, x: &DVector<f64>) -> Result<DVector<f64>, Error> {
-            Ok(DVector::from_element(1, x[0] * x[0] - 2.0))
-        }
-    }
-    impl Jacobian for Root {
-        type Param = DVector<f64>;
-        type Jacobian = DMatrix<f64>;
-        fn jacobian(&self, x: &DVector<f64>) -> Result<DMatrix<f64>, Error> {
-            Ok(DMatrix::from_element(1, 1, 2.0 * x[0]))
-        }
-    }
-    let res = Executor::new(Root, budgeted())
+    let root = Functions {
+        residuals: |x| Ok(DVector::from_element(1, x[0] * x[0] - 2.0)),
+        jacobian: |x| DMatrix::from_element(1, 1, 2.0 * x[0]),
+    };
+    let res = Executor::new(root, budgeted())
         .configure(|s| s.param(DVector::from_element(1, 1.5)).max_iters(50))
         .run()
         .unwrap();
@@ -594,27 +581,17 @@ fn an_exact_fit_reached_to_round_off_is_a_zero_residual() {
 /// handful of evaluations. The origin is not stationary there: stalled.
 #[test]
 fn at_the_origin_the_trust_region_stops_below_xtol_squared() {
-    #[derive(Clone, Copy)]
-    struct Cliff;
-    impl Operator for Cliff {
-        type Param = DVector<f64>;
-        type Output = DVector<f64>;
-        fn apply(&self, x: &DVector<f64>) -> Result<DVector<f64>, Error> {
+    let cliff = Functions {
+        residuals: |x| {
             if x[0] != 0.0 {
                 return Err(Error::msg("only the origin can be evaluated"));
             }
             Ok(DVector::from_element(1, x[0] - 1.0))
-        }
-    }
-    impl Jacobian for Cliff {
-        type Param = DVector<f64>;
-        type Jacobian = DMatrix<f64>;
-        fn jacobian(&self, _: &DVector<f64>) -> Result<DMatrix<f64>, Error> {
-            Ok(DMatrix::from_element(1, 1, 1.0))
-        }
-    }
+        },
+        jacobian: |_| DMatrix::from_element(1, 1, 1.0),
+    };
     let solver = budgeted().with_xtol(1e-3).unwrap();
-    let res = Executor::new(Cliff, solver)
+    let res = Executor::new(cliff, solver)
         .configure(|s| s.param(DVector::from_element(1, 0.0)).max_iters(50))
         .run()
         .unwrap();
