@@ -743,3 +743,21 @@ fn a_bad_coordinate_cell_names_the_unit_of_its_coordinate() {
         );
     }
 }
+
+/// A measurement file that opens but cannot be read (a directory) is an I/O error naming the
+/// file, not a complaint about its rows.
+#[test]
+fn a_measurement_file_that_cannot_be_read_is_an_io_error_naming_it() {
+    let mechanism = bundled("5r.yaml");
+    let directory = tempfile::tempdir().unwrap();
+    let err = read(directory.path(), &mechanism).unwrap_err();
+    assert!(
+        matches!(&err, legwise::error::Error::Io { path, .. } if path == directory.path()),
+        "{err:?}"
+    );
+    assert!(
+        err.to_string()
+            .contains(&directory.path().display().to_string()),
+        "{err}"
+    );
+}
