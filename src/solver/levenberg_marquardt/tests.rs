@@ -385,23 +385,13 @@ fn a_parameter_the_residuals_ignore_is_scaled_by_one_and_left_alone() {
 }
 
 /// `r = (x − c − 1, x − c + 1)` with `c = 10⁶`: minimum at `x = c`, where `r = (−1, 1)`.
-#[derive(Clone, Copy)]
-struct FarPair;
-impl Operator for FarPair {
-    type Param = DVector<f64>;
-    type Output = DVector<f64>;
-    fn apply(&self, x: &DVector<f64>) -> Result<DVector<f64>, Error> {
+const FAR_PAIR: Functions = Functions {
+    residuals: |x| {
         let t = x[0] - 1e6;
         Ok(DVector::from_column_slice(&[t - 1.0, t + 1.0]))
-    }
-}
-impl Jacobian for FarPair {
-    type Param = DVector<f64>;
-    type Jacobian = DMatrix<f64>;
-    fn jacobian(&self, _: &DVector<f64>) -> Result<DMatrix<f64>, Error> {
-        Ok(DMatrix::from_row_slice(2, 1, &[1.0, 1.0]))
-    }
-}
+    },
+    jacobian: |_| DMatrix::from_row_slice(2, 1, &[1.0, 1.0]),
+};
 
 #[test]
 fn a_negligible_gauss_newton_step_relative_to_the_parameters_is_stationary() {
@@ -410,7 +400,7 @@ fn a_negligible_gauss_newton_step_relative_to_the_parameters_is_stationary() {
     // Gauss–Newton step, ‖D p‖ = 0.01·√2, is below √ε (‖D x‖ + √ε) = 2.1e-2 for ‖D x‖ = √2·10⁶:
     // a stationary point at the parameters' scale, so the stop is a convergence.
     let solver = budgeted().with_ftol(1e-3).unwrap();
-    let res = Executor::new(FarPair, solver)
+    let res = Executor::new(FAR_PAIR, solver)
         .configure(|s| s.param(DVector::from_element(1, 1e6 + 0.01)).max_iters(50))
         .run()
         .unwrap();
@@ -419,25 +409,15 @@ fn a_negligible_gauss_newton_step_relative_to_the_parameters_is_stationary() {
     assert!((x - 1e6).abs() < 1e-6, "{x}");
     // The same stop with the parameter near 1 instead of 10⁶ (√ε (‖D x‖ + √ε) ≈ 2e-8 then) is
     // not stationary: stalled.
-    #[derive(Clone, Copy)]
-    struct NearPair;
-    impl Operator for NearPair {
-        type Param = DVector<f64>;
-        type Output = DVector<f64>;
-        fn apply(&self, x: &DVector<f64>) -> Result<DVector<f64>, Error> {
+    let near_pair = Functions {
+        residuals: |x| {
             let t = x[0] - 1.0;
             Ok(DVector::from_column_slice(&[t - 1.0, t + 1.0]))
-        }
-    }
-    impl Jacobian for NearPair {
-        type Param = DVector<f64>;
-        type Jacobian = DMatrix<f64>;
-        fn jacobian(&self, _: &DVector<f64>) -> Result<DMatrix<f64>, Error> {
-            Ok(DMatrix::from_row_slice(2, 1, &[1.0, 1.0]))
-        }
-    }
+        },
+        jacobian: |_| DMatrix::from_row_slice(2, 1, &[1.0, 1.0]),
+    };
     let solver = budgeted().with_ftol(1e-3).unwrap();
-    let res = Executor::new(NearPair, solver)
+    let res = Executor::new(near_pair, solver)
         .configure(|s| s.param(DVector::from_element(1, 1.01)).max_iters(50))
         .run()
         .unwrap();
