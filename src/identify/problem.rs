@@ -104,6 +104,8 @@ struct Evaluations {
     solved: Vec<u64>,
     /// The latest evaluations, newest first.
     recent: Vec<Evaluation>,
+    /// Rows whose inverse kinematics were solved so far ([`IdentificationProblem::row_solves`]).
+    row_solves: u64,
 }
 
 /// What is kept of every block's last inverse-kinematics solution, flat: its moving joints
@@ -176,6 +178,7 @@ impl Evaluations {
                 },
                 solved: Vec::new(),
                 recent: Vec::new(),
+                row_solves: state.row_solves,
             };
         }
         state
@@ -495,6 +498,7 @@ impl<'a> IdentificationProblem<'a> {
                 .map(task)
                 .collect()
         };
+        state.row_solves += m as u64;
         let mut solutions = Vec::with_capacity(if keep { m } else { 0 });
         for result in results {
             match result {
@@ -544,6 +548,14 @@ impl<'a> IdentificationProblem<'a> {
         gradients
     }
 
+    /// How many rows' inverse kinematics this problem and its clones have solved so far (a
+    /// row solved at several evaluations counts each time): the cost of its evaluations, which
+    /// reuse what they can. An evaluation at unknowns where one is kept solves no row; a
+    /// Jacobian where the residuals were last evaluated needs the dual passes only.
+    pub fn row_solves(&self) -> u64 {
+        self.lock().row_solves
+    }
+
     /// Forgets the kept evaluations but the newest, and that one's gradients (kept: its
     /// solutions and predicted readings): after a fit, once the residuals and the Jacobian at
     /// the estimate are taken, the statistics need no more (a large problem's gradients are
@@ -570,11 +582,12 @@ impl<'a> IdentificationProblem<'a> {
         row: impl Fn(usize, &PreparedLeg<'a>, &Transform<f64>, &Solution) -> R + Sync,
     ) -> Result<Vec<R>, BlockError> {
         let key = key(x);
-        let state = self.lock();
+        let mut state = self.lock();
         let kept = state
             .recent
             .iter()
             .find(|e| e.x == key && !e.solutions.is_empty());
+        let solves = if kept.is_some() { 0 } else { self.blocks.len() };
         let prepared = self.prepare(x, false);
         let home = &self.mechanism.home_pose;
         let seeds = &state.seeds;
@@ -608,6 +621,7 @@ impl<'a> IdentificationProblem<'a> {
         } else {
             (0..chunks).map(task).collect()
         };
+        state.row_solves += solves as u64;
         let mut values = Vec::with_capacity(self.blocks.len());
         for result in results {
             match result {

@@ -1,0 +1,175 @@
+//! What an identification problem's evaluations reuse, counted in solved rows
+//! (`IdentificationProblem::row_solves`): the two latest evaluations are kept (newest first, the
+//! oldest dropped), a Jacobian where the residuals were evaluated needs no inverse kinematics
+//! (from the kept solutions, or from the seeds for a problem too large to keep them), the
+//! clones share the count, and `map_solved` reuses a kept evaluation and solves otherwise.
+use legwise::identify::problem::IdentificationProblem;
+use legwise::measure::simulate::{simulate, SimulationOptions};
+use legwise::model::Mechanism;
+use nalgebra::DVector;
+
+use crate::support::bundled;
+
+/// Leg 0 of the bundled 5R on `poses` simulated poses.
+fn leg_problem(mech: &Mechanism, poses: usize, copies: usize) -> IdentificationProblem<'_> {
+    let options = SimulationOptions {
+        poses_per_leg: Some(poses),
+        ..Default::default()
+    };
+    let base = simulate(mech, options).unwrap().measurements.leg_blocks(0);
+    let blocks = (0..copies).flat_map(|_| base.iter().cloned()).collect();
+    IdentificationProblem::new(mech, &[0], blocks)
+}
+
+/// Three distinct parameter vectors near the nominal one.
+fn three_points(problem: &IdentificationProblem<'_>) -> [DVector<f64>; 3] {
+    let x0 = problem.nominal();
+    let shifted = |d: f64| {
+        let mut x = x0.clone();
+        x[0] += d;
+        x[3] -= 0.5 * d;
+        x
+    };
+    [shifted(1e-3), shifted(2e-3), shifted(3e-3)]
+}
+
+#[test]
+fn the_two_latest_evaluations_are_kept_and_the_oldest_is_dropped() {
+    let mech = bundled("5r.yaml");
+    let problem = leg_problem(&mech, 30, 1);
+    let m = problem.blocks().len() as u64;
+    let [x1, x2, x3] = three_points(&problem);
+    assert_eq!(problem.row_solves(), 0, "a new problem has solved nothing");
+    let r1 = problem.residuals(&x1).unwrap();
+    assert_eq!(problem.row_solves(), m);
+    assert_eq!(problem.residuals(&x1).unwrap(), r1, "kept: the same values");
+    assert_eq!(problem.row_solves(), m, "kept: no row solved again");
+    let (r, _) = problem.residuals_and_jacobian(&x1).unwrap();
+    assert_eq!(r, r1);
+    assert_eq!(
+        problem.row_solves(),
+        m,
+        "the Jacobian from the kept solutions"
+    );
+    problem.residuals_and_jacobian(&x1).unwrap();
+    assert_eq!(problem.row_solves(), m, "and its gradients kept");
+    problem.residuals(&x2).unwrap();
+    assert_eq!(problem.row_solves(), 2 * m);
+    problem.residuals(&x1).unwrap();
+    assert_eq!(problem.row_solves(), 2 * m, "two evaluations kept");
+    // Kept: x1 (newest), x2. A third point drops x2, the oldest.
+    problem.residuals(&x3).unwrap();
+    assert_eq!(problem.row_solves(), 3 * m);
+    problem.residuals(&x1).unwrap();
+    assert_eq!(problem.row_solves(), 3 * m, "x1 was the newer of the two");
+    problem.residuals(&x2).unwrap();
+    assert_eq!(problem.row_solves(), 4 * m, "x2 was dropped");
+    // Kept: x2, x1. A clone shares the evaluations and the count.
+    let clone = problem.clone();
+    clone.residuals_and_jacobian(&x1).unwrap();
+    assert_eq!(problem.row_solves(), 4 * m, "the clone reuses x1");
+    clone.residuals(&x3).unwrap();
+    assert_eq!(
+        problem.row_solves(),
+        5 * m,
+        "the clone's solves are counted"
+    );
+    // Kept: x3, x1. Without weights, the same evaluations.
+    problem.unweighted().residuals(&x1).unwrap();
+    assert_eq!(problem.row_solves(), 5 * m);
+}
+
+#[test]
+fn map_solved_reuses_a_kept_evaluation_and_solves_otherwise() {
+    let mech = bundled("5r.yaml");
+    let problem = leg_problem(&mech, 30, 1);
+    let m = problem.blocks().len() as u64;
+    let [x1, x2, _] = three_points(&problem);
+    let kept_q = |x: &DVector<f64>| {
+        problem
+            .map_solved(x, |index, _, _, solution| (index, solution.q))
+            .unwrap()
+    };
+    problem.residuals(&x1).unwrap();
+    let at_x1 = kept_q(&x1);
+    assert_eq!(problem.row_solves(), m, "x1's solutions are kept");
+    assert!(at_x1.iter().enumerate().all(|(i, &(index, _))| i == index));
+    let at_x2 = kept_q(&x2);
+    assert_eq!(problem.row_solves(), 2 * m, "x2 is solved");
+    kept_q(&x2);
+    assert_eq!(problem.row_solves(), 3 * m, "and not kept by map_solved");
+    // The solutions are those of an evaluation at each point.
+    let fresh = leg_problem(&mech, 30, 1);
+    fresh.residuals(&x2).unwrap();
+    let fresh_x2 = fresh
+        .map_solved(&x2, |_, _, _, solution| solution.q)
+        .unwrap();
+    let gap = |a: &[f64; 3], b: &[f64; 3]| {
+        a.iter()
+            .zip(b)
+            .map(|(u, v)| (u - v).abs())
+            .fold(0.0, f64::max)
+    };
+    for ((_, q), p) in at_x2.iter().zip(&fresh_x2) {
+        assert!(gap(q, p) < 1e-12);
+    }
+    assert!(at_x1
+        .iter()
+        .zip(&at_x2)
+        .any(|((_, a), (_, b))| gap(a, b) > 1e-6));
+}
+
+/// Small problems run the rows of `map_solved` on the calling thread (no hand-off to the
+/// thread pool for a few rows); more than 512 rows run on the pool's threads.
+#[test]
+fn only_problems_of_several_chunks_go_to_the_thread_pool() {
+    let mech = bundled("5r.yaml");
+    let threads = |problem: &IdentificationProblem<'_>| {
+        let x = problem.nominal();
+        problem
+            .map_solved(&x, |_, _, _, _| rayon::current_thread_index())
+            .unwrap()
+    };
+    let small = leg_problem(&mech, 30, 1);
+    assert!(threads(&small).iter().all(Option::is_none));
+    let at_the_limit = leg_problem(&mech, 32, 16);
+    assert_eq!(at_the_limit.blocks().len(), 512);
+    assert!(threads(&at_the_limit).iter().all(Option::is_none));
+    let large = leg_problem(&mech, 40, 16);
+    assert!(large.blocks().len() > 512);
+    assert!(threads(&large).iter().all(Option::is_some));
+}
+
+/// A problem too large to keep its solutions (more than 65 536 rows) takes a Jacobian where
+/// it last solved from its seeds, and solves again for one at an older kept evaluation.
+#[test]
+fn a_large_problem_solves_again_only_for_an_older_evaluations_jacobian() {
+    let mech = bundled("5r.yaml");
+    let large = leg_problem(&mech, 40, 65_536 / 40 + 1);
+    let m = large.blocks().len() as u64;
+    assert!(m > 65_536);
+    let [x1, x2, _] = three_points(&large);
+    large.residuals(&x1).unwrap();
+    large.residuals_and_jacobian(&x1).unwrap();
+    assert_eq!(large.row_solves(), m, "the Jacobian from the seeds");
+    large.residuals(&x2).unwrap();
+    assert_eq!(large.row_solves(), 2 * m);
+    large.residuals_and_jacobian(&x1).unwrap();
+    assert_eq!(large.row_solves(), 2 * m, "x1's gradients are kept");
+    let (_, c2) = large.residuals_and_jacobian(&x2).unwrap();
+    assert_eq!(large.row_solves(), 2 * m, "x2's seeds are the last solved");
+    large.residuals(&x1).unwrap();
+    large.residuals_and_jacobian(&x2).unwrap();
+    assert_eq!(large.row_solves(), 2 * m, "x2's gradients are kept");
+    let map = large.map_solved(&x1, |_, _, _, _| ()).unwrap();
+    assert_eq!(map.len() as u64, m);
+    assert_eq!(large.row_solves(), 3 * m, "no solutions kept: solved again");
+    // A fresh problem at x2 after residuals at x1: the seeds are x1's, so x2's Jacobian is
+    // solved again, and equals the one from the seeds.
+    let other = leg_problem(&mech, 40, 65_536 / 40 + 1);
+    other.residuals(&x2).unwrap();
+    other.residuals(&x1).unwrap();
+    let (_, c2_again) = other.residuals_and_jacobian(&x2).unwrap();
+    assert_eq!(other.row_solves(), 3 * m, "x2's Jacobian solved again");
+    assert!((&c2 - &c2_again).amax() < 1e-12);
+}
