@@ -7,13 +7,14 @@
 //! concentrates it: identify again with the held frame components freed (when that problem is
 //! still full rank) and compare the two fits' χ² against the declared noise. Under a correct
 //! held value the drop `χ²_held − χ²_freed` follows a χ² law with as many degrees of freedom as
-//! components freed; a drop in its upper tail (p < [`NOISE_TEST_P`]) says the held values are
-//! wrong (docs/models.md §9.2).
+//! components freed; a drop in its upper tail (p below
+//! [`NOISE_TEST_P`](super::statistics::NOISE_TEST_P)) says the held values are wrong
+//! (docs/models.md §9.2).
 
 use statrs::distribution::{ChiSquared, ContinuousCDF};
 
 use super::shared_estimate::{identify_shared, SharedEstimate, SharedStrategy};
-use super::statistics::NOISE_TEST_P;
+use super::statistics::rejects;
 use crate::measure::observations::Observations;
 use crate::model::Mechanism;
 
@@ -28,7 +29,7 @@ pub struct HeldFrameTest {
     pub degrees_of_freedom: usize,
     /// Upper-tail probability of the drop.
     pub p_value: f64,
-    /// `p_value < NOISE_TEST_P`: the held values disagree with the measurements.
+    /// `p_value < NOISE_TEST_P` ([`rejects`]): the held values disagree with the measurements.
     pub rejected: bool,
     /// The freed fit's estimates of the freed components, in `freed` order.
     pub estimates: Vec<f64>,
@@ -70,7 +71,7 @@ pub fn held_frame_test(
         chi_squared_drop: drop,
         degrees_of_freedom: freed.len(),
         p_value,
-        rejected: p_value < NOISE_TEST_P,
+        rejected: rejects(p_value),
         estimates: freed.iter().map(|&k| refit.shared[k].estimate).collect(),
     })
 }

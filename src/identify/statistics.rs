@@ -39,6 +39,12 @@ use crate::model::mechanism::MeasurementNoise;
 /// Upper-tail probability of the χ² statistic below which the declared noise is rejected.
 pub const NOISE_TEST_P: f64 = 1e-3;
 
+/// Whether a χ² test's upper-tail probability `p_value` rejects its hypothesis: below
+/// [`NOISE_TEST_P`], or not a number (a statistic that cannot be trusted rejects).
+pub fn rejects(p_value: f64) -> bool {
+    p_value.is_nan() || p_value < NOISE_TEST_P
+}
+
 /// Family-wise level of the outlier test (Bonferroni over a leg's rows).
 pub const OUTLIER_ALPHA: f64 = 0.01;
 
@@ -82,7 +88,7 @@ pub struct NoiseTest {
     pub expected_sigma: f64,
     /// Rows left out of the test (the outliers of a robust fit).
     pub excluded: usize,
-    /// `p_value < NOISE_TEST_P`.
+    /// `p_value < NOISE_TEST_P` ([`rejects`]).
     pub rejected: bool,
 }
 
@@ -305,7 +311,7 @@ pub fn noise_test(e: &[f64], v: &[f64], parameters: usize, excluded: usize) -> O
         residual_sigma,
         expected_sigma,
         excluded,
-        rejected: p_value.is_nan() || p_value < NOISE_TEST_P,
+        rejected: rejects(p_value),
     })
 }
 

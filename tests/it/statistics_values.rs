@@ -3,9 +3,10 @@
 //! against the diagonal of J (JᵀJ)⁻¹ Jᵀ by an explicit inverse, the χ² noise test with two
 //! degrees of freedom (upper tail e^{−χ²/2} in closed form), the externally studentized
 //! residuals of a gross outlier against a brute-force leave-one-out refit, and the figures of
-//! the messages.
+//! the messages, and the χ² tests' rejection rule at its level.
 use legwise::identify::statistics::{
-    figure, leverages, noise_test, outlier_threshold, studentized, NOISE_TEST_P, OUTLIER_ALPHA,
+    figure, leverages, noise_test, outlier_threshold, rejects, studentized, NOISE_TEST_P,
+    OUTLIER_ALPHA,
 };
 use nalgebra::{DMatrix, DVector};
 
@@ -153,4 +154,15 @@ fn message_figures_have_three_decimals_or_an_exponent() {
     ] {
         assert_eq!(figure(value), text, "{value}");
     }
+}
+
+/// A χ² test rejects strictly below the level, and when its probability is not a number.
+#[test]
+fn a_test_rejects_strictly_below_its_level() {
+    assert!(!rejects(NOISE_TEST_P), "at the level: kept");
+    assert!(rejects(NOISE_TEST_P * (1.0 - f64::EPSILON)));
+    assert!(!rejects(NOISE_TEST_P * (1.0 + f64::EPSILON)));
+    assert!(rejects(0.0));
+    assert!(!rejects(1.0));
+    assert!(rejects(f64::NAN), "an undefined probability is not trusted");
 }
