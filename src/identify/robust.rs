@@ -56,13 +56,8 @@ impl RobustLoss {
     pub fn weight(self, u: f64) -> f64 {
         let c = self.tuning();
         match self {
-            RobustLoss::Huber => {
-                if u.abs() <= c {
-                    1.0
-                } else {
-                    c / u.abs()
-                }
-            }
+            // 1 inside the corner (also at u = 0, where c/|u| is infinite), c/|u| beyond.
+            RobustLoss::Huber => (c / u.abs()).min(1.0),
             RobustLoss::Cauchy => 1.0 / (1.0 + (u / c).powi(2)),
         }
     }

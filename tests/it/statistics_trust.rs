@@ -329,10 +329,16 @@ fn robust_losses_leave_clean_data_alone() {
         assert!(largest_deviation(&fit, &clean) < 0.5, "{loss:?}");
         assert!(fit.legs.iter().all(|l| l.statistics.outliers.is_empty()));
     }
-    // The weights: ρ'(u²) at u = 0, at the tuning constant and far out.
-    assert_relative_eq!(RobustLoss::Huber.weight(1.0), 1.0, max_relative = 0.0);
+    // The weights: ρ'(u²) at u = 0, inside the corner, at the tuning constant and far out,
+    // on either side.
+    for u in [0.0, 1.0, -1.0, 1.345, -1.345] {
+        assert_relative_eq!(RobustLoss::Huber.weight(u), 1.0, max_relative = 0.0);
+    }
     assert_relative_eq!(RobustLoss::Huber.weight(13.45), 0.1);
+    assert_relative_eq!(RobustLoss::Huber.weight(-2.69), 0.5);
+    assert_relative_eq!(RobustLoss::Cauchy.weight(0.0), 1.0, max_relative = 0.0);
     assert_relative_eq!(RobustLoss::Cauchy.weight(2.3849), 0.5);
+    assert_relative_eq!(RobustLoss::Cauchy.weight(-3.0 * 2.3849), 0.1);
 }
 
 #[test]
