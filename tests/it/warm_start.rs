@@ -315,3 +315,47 @@ fn a_large_problem_takes_its_jacobian_from_the_kept_seeds() {
         assert!((v_large[i] - v_small[k]).abs() <= 1e-12 * v_small[k]);
     }
 }
+
+/// Every number of prepared columns, 1 to all of them (every size of a last, partial pass):
+/// the one-pass gradient equals the per-parameter duals, column for column.
+#[test]
+fn every_column_count_gives_the_per_parameter_gradient() {
+    let mech = bundled("3rpr.yaml");
+    let home = mech.home_pose;
+    let leg = every_quantity(&mech.legs[0]);
+    let n = leg.params.len();
+    let pose = [
+        home[0] + 0.01,
+        home[1] - 0.02,
+        0.0,
+        0.0,
+        0.0,
+        home[5] + 0.05,
+    ];
+    let phi: Vec<f64> = leg
+        .nominal()
+        .iter()
+        .enumerate()
+        .map(|(k, v)| v + 1e-3 * (k as f64).sin())
+        .collect();
+    let reference = per_parameter_gradient(&leg, &phi, &pose, &home);
+    for count in 1..=n {
+        // The last `count` parameters, in reverse order.
+        let columns: Vec<usize> = (n - count..n).rev().collect();
+        let prepared = PreparedLeg::new(&leg, &phi, &columns);
+        assert_eq!(prepared.columns(), count);
+        let mut gradient = vec![f64::NAN; count];
+        prepared
+            .reading_and_gradient(&pose, &home, &mut gradient)
+            .unwrap();
+        for (k, &j) in columns.iter().enumerate() {
+            assert!(
+                (gradient[k] - reference[j]).abs() <= 1e-13 * (1.0 + reference[j].abs()),
+                "{count} columns, ∂ψ/∂{}: {} vs {}",
+                leg.params[j].name,
+                gradient[k],
+                reference[j]
+            );
+        }
+    }
+}
