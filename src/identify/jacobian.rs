@@ -150,15 +150,6 @@ impl<'a> PreparedLeg<'a> {
         self.leg
     }
 
-    /// The predicted reading at `pose`.
-    ///
-    /// # Errors
-    /// The leg cannot reach the pose on its home branch.
-    pub fn reading(&self, pose: &[f64; 6], home_pose: &[f64; 6]) -> Result<f64, KinematicsError> {
-        let solution = self.solve_warm(pose, home_pose, None)?;
-        Ok(self.reading_of(&solution))
-    }
-
     /// The predicted reading at `pose`, writing its gradient with respect to the prepared
     /// columns into `gradient` (one value per column).
     ///

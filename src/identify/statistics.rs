@@ -30,10 +30,7 @@
 use nalgebra::{DMatrix, DVector};
 use statrs::distribution::{ChiSquared, ContinuousCDF, Normal, StudentsT};
 
-use super::jacobian::PreparedLeg;
 use super::problem::{BlockError, IdentificationProblem, LegSlot};
-use crate::error::KinematicsError;
-use crate::model::leg::LegModel;
 use crate::model::mechanism::MeasurementNoise;
 
 /// Upper-tail probability of the χ² statistic below which the declared noise is rejected.
@@ -143,24 +140,6 @@ pub struct OtherTurn {
     pub rows: usize,
     /// Their measurement-file lines (if read from a file).
     pub lines: Vec<usize>,
-}
-
-/// `∂ψ/∂P`: the gradient of the leg's predicted reading with respect to the measured pose
-/// coordinates (zero for the others), at full parameter vector `phi`
-/// ([`PreparedLeg::pose_gradient_of`] at the pose's inverse-kinematics solution from home).
-///
-/// # Errors
-/// The leg cannot reach the pose on its home branch.
-pub fn pose_gradient(
-    leg: &LegModel,
-    phi: &[f64],
-    pose: &[f64; 6],
-    home_pose: &[f64; 6],
-    measured: &[usize],
-) -> Result<[f64; 6], KinematicsError> {
-    let prepared = PreparedLeg::new(leg, phi, &[]);
-    let solution = prepared.solve_warm(pose, home_pose, None)?;
-    Ok(prepared.pose_gradient_of(pose, &solution, measured))
 }
 
 /// Expected variance of every residual of `problem` at the unknowns `x`:

@@ -92,7 +92,7 @@ impl<T: Scalar> ChainFrames<T> {
             |frame, joint, k| frame.moved_constant(joint, q[k]),
             |_, _| {},
         );
-        Vector3::from(last.translation)
+        Vector3::from(last)
     }
 }
 
@@ -223,15 +223,15 @@ impl<T: Scalar> Rigid<T> {
     }
 }
 
-/// The world transform of the chain's last link for the joints' origin transforms `origins`
-/// (one per chain joint), moving joint `k`'s frame by `motion(frame, joint, k)`; calls
+/// The world position of the chain's last link (the tip) for the joints' origin transforms
+/// `origins` (one per chain joint), moving joint `k`'s frame by `motion(frame, joint, k)`; calls
 /// `at_moving(k, frame)` with the frame of moving joint `k` before its motion.
 fn chain_walk<T: Scalar, R: Borrow<Rigid<T>>>(
     leg: &LegModel,
     origins: impl Iterator<Item = R>,
     motion: impl Fn(&Rigid<T>, &JointModel, usize) -> Rigid<T>,
     mut at_moving: impl FnMut(usize, &Rigid<T>),
-) -> Rigid<T> {
+) -> [T; 3] {
     let mut world: Option<Rigid<T>> = None;
     let mut next = 0;
     for (joint, origin) in leg.joints.iter().zip(origins) {
@@ -246,12 +246,8 @@ fn chain_walk<T: Scalar, R: Borrow<Rigid<T>>>(
         }
         world = Some(frame);
     }
-    world.unwrap_or(Rigid {
-        rotation: std::array::from_fn(|i| {
-            std::array::from_fn(|j| lift(if i == j { 1.0 } else { 0.0 }))
-        }),
-        translation: [lift(0.0); 3],
-    })
+    // The tip: the last link's origin (the world origin for a chain without joints).
+    world.map_or([lift(0.0); 3], |last| last.translation)
 }
 
 /// The tip position for the joints' origin transforms `origins` (one per chain joint).
@@ -261,7 +257,7 @@ fn chain_tip<T: Scalar, R: Borrow<Rigid<T>>>(
     q: &[T],
 ) -> Vector3<T> {
     let last = chain_walk(leg, origins, |f, joint, k| f.moved(joint, q[k]), |_, _| {});
-    Vector3::from(last.translation)
+    Vector3::from(last)
 }
 
 /// The tip position and ∂tip/∂q for the joints' origin transforms `origins`.
@@ -281,7 +277,7 @@ fn chain_tip_and_jacobian<R: Borrow<Rigid<f64>>>(
             Vector3::from(frame.translation),
         );
     });
-    let tip = Vector3::from(last.translation);
+    let tip = Vector3::from(last);
     let mut jacobian = Matrix3::zeros();
     for (column, (kind, axis, point)) in axes.iter().enumerate().take(leg.moving.len()) {
         let derivative = match kind {

@@ -1,6 +1,7 @@
-//! The dual-number identification Jacobian agrees with central differences on every leg of every
-//! bundled model, at seeded poses of the usable workspace.
-use legwise::identify::jacobian::reading_gradient;
+//! The dual-number identification Jacobian, and the reading's gradient with respect to the
+//! measured pose, agree with central differences on every leg of every bundled model, at
+//! seeded poses of the usable workspace.
+use legwise::identify::jacobian::{reading_gradient, PreparedLeg};
 use legwise::kinematics::inverse::predict_reading;
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
@@ -43,6 +44,50 @@ fn dual_jacobian_matches_central_differences_on_every_leg() {
                 }
             }
             checked += 1;
+        }
+    }
+}
+
+/// `∂ψ/∂P` (the pose noise's way into a residual's expected variance): central differences of
+/// the predicted reading over each measured pose coordinate, sign included, and zero for the
+/// coordinates the instrument does not measure.
+#[test]
+fn the_pose_gradient_matches_central_differences_on_every_leg() {
+    let mut rng = ChaCha8Rng::seed_from_u64(7);
+    for mech in bundled_models() {
+        let home = mech.home_pose;
+        for _ in 0..5 {
+            let pose = mech.workspace.sample(&home, &mut rng).unwrap();
+            for leg in &mech.legs {
+                let phi = leg.nominal();
+                let prepared = PreparedLeg::new(leg, &phi, &[]);
+                let solution = prepared.solve_warm(&pose, &home, None).unwrap();
+                let gradient = prepared.pose_gradient_of(&pose, &solution, &mech.measured);
+                for (c, &g) in gradient.iter().enumerate() {
+                    if !mech.measured.contains(&c) {
+                        assert_eq!(
+                            g.to_bits(),
+                            0.0_f64.to_bits(),
+                            "{}: coordinate {c}",
+                            leg.name
+                        );
+                        continue;
+                    }
+                    let h = 1e-6;
+                    let (mut plus, mut minus) = (pose, pose);
+                    plus[c] += h;
+                    minus[c] -= h;
+                    let difference = (predict_reading(leg, &phi, &plus, &home).unwrap()
+                        - predict_reading(leg, &phi, &minus, &home).unwrap())
+                        / (2.0 * h);
+                    assert!(
+                        (g - difference).abs() <= 1e-6 * g.abs().max(difference.abs()).max(1e-3),
+                        "{} ∂ψ/∂P[{c}]: {g} vs central difference {difference}",
+                        leg.name
+                    );
+                }
+                assert!(gradient.iter().any(|g| g.abs() > 1e-3), "{}", leg.name);
+            }
         }
     }
 }
