@@ -2,7 +2,7 @@
 //! measured pose, agree with central differences on every leg of every bundled model, at
 //! seeded poses of the usable workspace.
 use legwise::identify::jacobian::{reading_gradient, PreparedLeg};
-use legwise::kinematics::inverse::predict_reading;
+use legwise::kinematics::inverse::{predict_reading, solve_leg};
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 
@@ -87,6 +87,52 @@ fn the_pose_gradient_matches_central_differences_on_every_leg() {
                     );
                 }
                 assert!(gradient.iter().any(|g| g.abs() > 1e-3), "{}", leg.name);
+            }
+        }
+    }
+}
+
+/// At a pose solved beforehand (`LegSolution`, as the workspace's candidates are), the reading
+/// and gradient are the predicted reading and the dual gradient, with derivative columns or
+/// without any (the reading then comes from the closure error alone).
+#[test]
+fn the_reading_at_a_solved_pose_is_the_predicted_reading() {
+    let mut rng = ChaCha8Rng::seed_from_u64(11);
+    for mech in bundled_models() {
+        let home = mech.home_pose;
+        for _ in 0..5 {
+            let pose = mech.workspace.sample(&home, &mut rng).unwrap();
+            for leg in &mech.legs {
+                let phi: Vec<f64> = leg.nominal().iter().map(|v| v * (1.0 + 1e-3)).collect();
+                let solved = solve_leg(leg, &leg.geometry(&phi), &pose, &home).unwrap();
+                let expected = predict_reading(leg, &phi, &pose, &home).unwrap();
+                let columns: Vec<usize> = (0..phi.len()).collect();
+                let (_, reference) = reading_gradient(leg, &phi, &columns, &pose, &home).unwrap();
+                let mut gradient = vec![f64::NAN; columns.len()];
+                let with = PreparedLeg::new(leg, &phi, &columns).reading_and_gradient_at(
+                    &pose,
+                    &solved,
+                    &mut gradient,
+                );
+                let without = PreparedLeg::new(leg, &phi, &[]).reading_and_gradient_at(
+                    &pose,
+                    &solved,
+                    &mut [],
+                );
+                for value in [with, without] {
+                    assert!(
+                        (value - expected).abs() <= 1e-12 * (1.0 + expected.abs()),
+                        "{}: {value} vs {expected}",
+                        leg.name
+                    );
+                }
+                for (g, r) in gradient.iter().zip(&reference) {
+                    assert!(
+                        (g - r).abs() <= 1e-12 * (1.0 + r.abs()),
+                        "{}: {g} vs {r}",
+                        leg.name
+                    );
+                }
             }
         }
     }
