@@ -329,8 +329,13 @@ fn robust_losses_leave_clean_data_alone() {
         assert!(largest_deviation(&fit, &clean) < 0.5, "{loss:?}");
         assert!(fit.legs.iter().all(|l| l.statistics.outliers.is_empty()));
     }
-    // The weights: ρ'(u²) at u = 0, inside the corner, at the tuning constant and far out,
-    // on either side.
+}
+
+/// The losses' weights ρ'(u²) at u = 0, inside Huber's corner, at the tuning constants and far
+/// out, on either side (a test of its own: a wrong weight fails it in milliseconds, where a
+/// fit with that weight may run long).
+#[test]
+fn the_robust_weights_at_known_points() {
     for u in [0.0, 1.0, -1.0, 1.345, -1.345] {
         assert_relative_eq!(RobustLoss::Huber.weight(u), 1.0, max_relative = 0.0);
     }
