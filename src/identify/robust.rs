@@ -100,6 +100,13 @@ pub struct RobustFit {
     pub weights: Vec<f64>,
 }
 
+/// Whether a reweighting round that moved the estimate by `change` (Euclidean norm) to `x`
+/// has settled: `change ≤ tol (‖x‖ + tol)`, [`REWEIGHTING_TOLERANCE`] relative to the estimate
+/// and absolute near zero.
+fn settled_at(change: f64, x: &DVector<f64>) -> bool {
+    change <= REWEIGHTING_TOLERANCE * (x.norm() + REWEIGHTING_TOLERANCE)
+}
+
 /// Robust fit of `problem` (its own weights ignored) from `x0` with `loss`; `sigma` holds each
 /// row's standard deviation (all positive).
 ///
@@ -142,7 +149,7 @@ pub fn fit(
                 outcome.jacobian_evaluations += previous.jacobian_evaluations;
             }
             last = Some(outcome);
-            if change <= REWEIGHTING_TOLERANCE * (x.norm() + REWEIGHTING_TOLERANCE) {
+            if settled_at(change, &x) {
                 settled = true;
                 break;
             }
@@ -162,4 +169,100 @@ pub fn fit(
         reweightings,
         weights,
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use std::path::Path;
+
+    use nalgebra::DVector;
+
+    use super::{fit, settled_at, RobustLoss, REWEIGHTING_TOLERANCE};
+    use crate::identify::fit::solve_from;
+    use crate::identify::problem::IdentificationProblem;
+    use crate::identify::statistics::row_variances;
+    use crate::measure::simulate::{simulate, SimulationOptions};
+    use crate::model::Mechanism;
+    use crate::solver::SolverKind;
+
+    #[test]
+    fn a_round_settles_below_the_tolerance_relative_to_the_estimate_and_absolute_near_zero() {
+        let tol = REWEIGHTING_TOLERANCE;
+        let unit = DVector::from_vec(vec![0.6, 0.8]);
+        let limit = tol * (1.0 + tol);
+        assert!(settled_at(limit, &unit), "at the limit: settled");
+        assert!(!settled_at(limit * (1.0 + 4.0 * f64::EPSILON), &unit));
+        let large = DVector::from_vec(vec![3e3, 4e3]);
+        assert!(settled_at(4e-7, &large), "relative: 5e3 × 1e-10 = 5e-7");
+        assert!(!settled_at(6e-7, &large));
+        let zero = DVector::zeros(2);
+        assert!(settled_at(tol * tol, &zero), "absolute at zero");
+        assert!(!settled_at(2.0 * tol * tol, &zero));
+        assert!(!settled_at(f64::NAN, &unit), "a NaN change never settles");
+    }
+
+    /// A Cauchy fit (a Huber fit first) of a leg with a gross outlier is its reweighting rounds
+    /// replayed one by one: the same estimate and final weights, every round counted, and the
+    /// rounds' iterations and evaluations summed.
+    #[test]
+    fn a_fit_is_its_rounds_replayed() {
+        let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("models/5r.yaml");
+        let mechanism = Mechanism::load(&path).unwrap();
+        let data = simulate(&mechanism, SimulationOptions::default()).unwrap();
+        let mut blocks = data.measurements.leg_blocks(0);
+        blocks[3].reading += 0.05;
+        let solver = SolverKind::LevenbergMarquardt;
+        let noise = mechanism.noise.as_ref().unwrap();
+        // The least-squares start and the rows' σ, on a fresh problem: the fit and its replay
+        // see the same evaluation history (warm starts), hence the same bits.
+        let prepared = || {
+            let problem = IdentificationProblem::new(&mechanism, &[0], blocks.clone());
+            let start = solve_from(&problem, &problem.nominal(), solver).unwrap().x;
+            let sigma: Vec<f64> = row_variances(&problem, &start, noise)
+                .unwrap()
+                .iter()
+                .map(|v| v.sqrt())
+                .collect();
+            (problem, start, sigma)
+        };
+        let (problem, start, sigma) = prepared();
+        let robust = fit(&problem, &start, RobustLoss::Cauchy, &sigma, solver).unwrap();
+        let (problem, start, sigma) = prepared();
+        let problem = problem.unweighted();
+        let mut x = start.clone();
+        let (mut rounds, mut iterations, mut residuals, mut jacobians) = (0, 0, 0, 0);
+        let mut weights = Vec::new();
+        for loss in [RobustLoss::Huber, RobustLoss::Cauchy] {
+            loop {
+                let r = problem.residuals(&x).unwrap();
+                weights = r
+                    .iter()
+                    .zip(&sigma)
+                    .map(|(ri, si)| loss.weight(ri / si) / si.powi(2))
+                    .collect();
+                let weighted = problem.clone().with_weights(&weights);
+                let outcome = solve_from(&weighted, &x, solver).unwrap();
+                rounds += 1;
+                iterations += outcome.iterations;
+                residuals += outcome.residual_evaluations;
+                jacobians += outcome.jacobian_evaluations;
+                let change = (&outcome.x - &x).norm();
+                x = outcome.x;
+                if settled_at(change, &x) {
+                    break;
+                }
+            }
+        }
+        assert!(rounds > 3, "{rounds} rounds");
+        assert!(robust.outcome.converged);
+        assert_eq!(robust.reweightings, rounds);
+        assert_eq!(robust.outcome.iterations, iterations);
+        assert_eq!(robust.outcome.residual_evaluations, residuals);
+        assert_eq!(robust.outcome.jacobian_evaluations, jacobians);
+        assert_eq!(robust.x, x);
+        assert_eq!(robust.weights, weights);
+        // The outlier's weight is far below the others'.
+        let outlier = robust.weights[3] * sigma[3].powi(2);
+        assert!(outlier < 0.01, "{outlier}");
+    }
 }
