@@ -60,7 +60,8 @@ fn row_variances_carry_the_target_noise_through_the_pose_fit_as_central_differen
         let variances = problem.row_variances(&x, &noise).unwrap();
         let sigmas = target_sigmas(&mechanism, &noise);
         // Σ_i (∂r/∂m_i σ_i)² per residual: a row's coordinates move only its own residuals.
-        let mut carried = vec![0.0; variances.len()];
+        let mut carried = vec![0.0; problem.apply(&x).unwrap().len()];
+        assert_eq!(variances.len(), carried.len(), "{model}: one per residual");
         let h = 1e-6;
         for row in 0..observations.rows.len() {
             for (i, sigma) in sigmas.iter().enumerate() {
