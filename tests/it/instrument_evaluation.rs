@@ -93,3 +93,42 @@ fn row_variances_carry_the_target_noise_through_the_pose_fit_as_central_differen
         assert_eq!(moved, variances.len(), "{model}");
     }
 }
+
+/// Holding the shared parameters at given values: the residuals are the full problem's at the
+/// same values (the legs' unknowns alone), and the held problem keeps evaluations of its own
+/// (with every frame component held in the model, the two problems' unknowns have the same
+/// length, so a shared evaluation state would hand back the other values).
+#[test]
+fn holding_the_shared_parameters_gives_the_full_problems_residuals_at_their_values() {
+    for model in MODELS {
+        let mechanism = bundled(model);
+        let experiment = simulate_observed(&mechanism, SimulationOptions::default()).unwrap();
+        let observations = &experiment.observations;
+        let full = SharedProblem::new(&mechanism, observations).unwrap();
+        let x = full.start().map(|v| v * (1.0 + 1e-3));
+        let values = full.shared_values(&x);
+        let own = x
+            .rows(0, x.len() - full.shared_columns().len())
+            .into_owned();
+        assert!(!full.shared_columns().is_empty(), "{model}");
+        let held = full.with_shared_fixed(&values);
+        assert!(held.shared_columns().is_empty());
+        let gap = (held.apply(&own).unwrap() - full.apply(&x).unwrap()).amax();
+        assert!(gap <= 1e-12, "{model}: {gap:e}");
+        // Every instrument parameter held by the model: the unknowns are the legs' in both.
+        let mut frozen = mechanism.clone();
+        for p in &mut frozen.instrument.as_mut().unwrap().parameters {
+            p.identified = false;
+        }
+        let nominal = SharedProblem::new(&frozen, observations).unwrap();
+        assert_eq!(nominal.start().len(), own.len(), "{model}");
+        let at_nominal = nominal.apply(&own).unwrap();
+        let moved = nominal.with_shared_fixed(&values).apply(&own).unwrap();
+        let gap = (&moved - full.apply(&x).unwrap()).amax();
+        assert!(gap <= 1e-12, "{model}: {gap:e}");
+        assert!(
+            (&moved - &at_nominal).amax() > 1e-6,
+            "{model}: the values matter"
+        );
+    }
+}
