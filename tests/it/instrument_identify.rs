@@ -210,6 +210,47 @@ fn the_jacobian_of_the_shared_problem_matches_central_differences_of_its_residua
     }
 }
 
+/// Every number of identified shared parameters (1 to all: every size of a last, partial dual
+/// pass over them) gives the border columns of the problem identifying them all, which the
+/// central differences above check.
+#[test]
+fn every_count_of_shared_parameters_gives_the_same_border_columns() {
+    use legwise::solver::bordered::BorderedLeastSquares;
+    let mechanism = bundled("hexapod-tracker.yaml");
+    let experiment = simulate_observed(&mechanism, simulation(1.0)).unwrap();
+    let observations = &experiment.observations;
+    let full = SharedProblem::new(&mechanism, observations).unwrap();
+    let shared = full.shared_columns().to_vec();
+    assert!(shared.len() > 8, "{} shared: two passes", shared.len());
+    let own = full.start().len() - shared.len();
+    // The legs' unknowns moved, the shared ones at their nominal values (as the held ones are).
+    let mut x = full.start();
+    for v in x.rows_mut(0, own).iter_mut() {
+        *v *= 1.0 + 1e-3;
+    }
+    let reference = full.bordered(&x).unwrap();
+    for count in 1..=shared.len() {
+        let mut fewer = mechanism.clone();
+        for &k in &shared[count..] {
+            fewer.instrument.as_mut().unwrap().parameters[k].identified = false;
+        }
+        let problem = SharedProblem::new(&fewer, observations).unwrap();
+        assert_eq!(problem.shared_columns(), &shared[..count]);
+        let blocks = problem
+            .bordered(&x.rows(0, own + count).into_owned())
+            .unwrap();
+        for (block, expected) in blocks.iter().zip(&reference) {
+            assert_eq!(block.residuals, expected.residuals);
+            let columns = expected.shared.columns(0, count);
+            let gap = (&block.shared - columns).amax();
+            assert!(
+                gap <= 1e-12 * columns.amax().max(1.0),
+                "{count} shared parameters: gap {gap:e}"
+            );
+        }
+    }
+}
+
 #[test]
 fn a_camera_marker_measuring_the_pose_gives_the_same_zero_noise_recovery() {
     // One pose target (a camera's marker) instead of the two reflectors; its offset held with

@@ -255,25 +255,15 @@ impl SharedProblem<'_> {
                 }
             }
         }
-        let border = match self.shared.len() {
-            0 => DMatrix::zeros(m, 0),
-            1 => self.border_columns::<1>(g, phi, shared, values),
-            2 => self.border_columns::<2>(g, phi, shared, values),
-            3 => self.border_columns::<3>(g, phi, shared, values),
-            4 => self.border_columns::<4>(g, phi, shared, values),
-            5 => self.border_columns::<5>(g, phi, shared, values),
-            6 => self.border_columns::<6>(g, phi, shared, values),
-            7 => self.border_columns::<7>(g, phi, shared, values),
-            _ => self.border_columns::<SHARED_LANES>(g, phi, shared, values),
-        };
+        let border = self.border_columns(g, phi, shared, values);
         (own, border)
     }
 
     /// Group `g`'s `∂ψ/∂shared` (rows × identified shared parameters): per row,
     /// `Σ_k c_k ∂X_k/∂s` with `X` the world position of the leg's attachment at the pose fitted
-    /// from the row's targets, by dual passes of up to `N` shared parameters through the pose
-    /// fit and the attachment.
-    fn border_columns<const N: usize>(
+    /// from the row's targets, by dual passes of up to [`SHARED_LANES`] shared parameters
+    /// through the pose fit and the attachment.
+    fn border_columns(
         &self,
         g: usize,
         phi: &[f64],
@@ -282,38 +272,63 @@ impl SharedProblem<'_> {
     ) -> DMatrix<f64> {
         let group = &self.groups[g];
         let leg = &self.mechanism.legs[group.leg];
-        let home = &self.mechanism.home_pose;
         let geometry = leg.geometry(phi);
-        let mut border = DMatrix::zeros(group.rows.len(), self.shared.len());
-        // The shared values seeded, `N` identified ones at a time (the same for every row).
-        let passes: Vec<(usize, Vec<DualSVec64<N>>)> = self
-            .shared
-            .chunks(N)
-            .enumerate()
-            .map(|(pass, chunk)| {
-                let mut s: Vec<DualSVec64<N>> =
-                    shared.iter().map(|&v| DualSVec64::from_re(v)).collect();
-                for (lane, &k) in chunk.iter().enumerate() {
-                    s[k] = s[k].derivative(lane);
-                }
-                (pass * N, s)
+        // Per row, the reading's derivative with respect to the fitted pose (the same for
+        // every pass).
+        let pose_derivatives: Vec<[f64; 6]> = values
+            .poses
+            .iter()
+            .zip(&values.solutions)
+            .map(|(pose, solution)| {
+                let c =
+                    attachment_gradient(leg.actuated, leg.closure_dims, geometry.gain, solution);
+                pose_gradient(&c, pose, &geometry.attachment)
             })
             .collect();
-        let rows = group.rows.iter().zip(&values.poses).zip(&values.solutions);
-        for (i, ((row, pose), solution)) in rows.enumerate() {
-            let c = attachment_gradient(leg.actuated, leg.closure_dims, geometry.gain, solution);
-            let d = pose_gradient(&c, pose, &geometry.attachment);
-            for (first, s) in &passes {
-                let fitted = platform_pose(self.instrument, s, &row.observed, home);
-                let lanes: [_; 6] =
-                    std::array::from_fn(|k| fitted[k].eps.unwrap_generic(Const::<N>, U1));
-                let count = N.min(self.shared.len() - first);
-                for lane in 0..count {
-                    border[(i, first + lane)] = (0..6).map(|k| d[k] * lanes[k][lane]).sum();
-                }
+        let mut border = DMatrix::zeros(group.rows.len(), self.shared.len());
+        let passes = (0..self.shared.len()).step_by(SHARED_LANES);
+        for first in passes {
+            let rows = (g, shared, &pose_derivatives[..]);
+            match (self.shared.len() - first).min(SHARED_LANES) {
+                1 => self.border_pass::<1>(rows, first, &mut border),
+                2 => self.border_pass::<2>(rows, first, &mut border),
+                3 => self.border_pass::<3>(rows, first, &mut border),
+                4 => self.border_pass::<4>(rows, first, &mut border),
+                5 => self.border_pass::<5>(rows, first, &mut border),
+                6 => self.border_pass::<6>(rows, first, &mut border),
+                7 => self.border_pass::<7>(rows, first, &mut border),
+                _ => self.border_pass::<SHARED_LANES>(rows, first, &mut border),
             }
         }
         border
+    }
+
+    /// The `N` border columns from `first` on, by one dual pass seeding the identified shared
+    /// parameters `first..first + N` (exactly `N` of them), through group `g`'s pose fits:
+    /// column `first + lane` of row `i` is `Σ_k d_ik ∂P_k/∂s_lane`, with `d_i` the row's
+    /// reading derivative with respect to its fitted pose.
+    fn border_pass<const N: usize>(
+        &self,
+        (g, shared, pose_derivatives): (usize, &[f64], &[[f64; 6]]),
+        first: usize,
+        border: &mut DMatrix<f64>,
+    ) {
+        let home = &self.mechanism.home_pose;
+        let mut seeded: Vec<DualSVec64<N>> =
+            shared.iter().map(|&v| DualSVec64::from_re(v)).collect();
+        for lane in 0..N {
+            let k = self.shared[first + lane];
+            seeded[k] = seeded[k].derivative(lane);
+        }
+        let rows = self.groups[g].rows.iter().zip(pose_derivatives);
+        for (i, (row, d)) in rows.enumerate() {
+            let fitted = platform_pose(self.instrument, &seeded, &row.observed, home);
+            let lanes: [_; 6] =
+                std::array::from_fn(|k| fitted[k].eps.unwrap_generic(Const::<N>, U1));
+            for lane in 0..N {
+                border[(i, first + lane)] = (0..6).map(|k| d[k] * lanes[k][lane]).sum();
+            }
+        }
     }
 
     /// The reading's derivative with respect to each of `observed`'s coordinates at a solved
