@@ -210,6 +210,54 @@ fn the_jacobian_of_the_shared_problem_matches_central_differences_of_its_residua
     }
 }
 
+/// Readings on another turn of their revolute actuator (leg 1 shifted by one turn, 2π/gain, on
+/// every other row): the residuals are matched modulo the turn, and the Jacobian, the identified
+/// gain's column with its turn term included, still matches central differences.
+#[test]
+fn readings_on_another_turn_give_the_same_residuals_and_a_jacobian_that_accounts_for_the_turn() {
+    use argmin::core::Operator;
+    use legwise::solver::bordered::{to_dense, BorderedLeastSquares};
+    let mechanism = bundled("5r-tracker.yaml");
+    let experiment = simulate_observed(&mechanism, simulation(1.0)).unwrap();
+    let mut shifted = experiment.observations.clone();
+    let turn = 2.0 * std::f64::consts::PI / mechanism.legs[0].gain;
+    let mut moved = 0;
+    for (i, row) in shifted.rows.iter_mut().enumerate() {
+        if let (true, Some(reading)) = (i % 2 == 0, row.readings[0].as_mut()) {
+            *reading += turn;
+            moved += 1;
+        }
+    }
+    assert!(moved > 3);
+    let plain = SharedProblem::new(&mechanism, &experiment.observations).unwrap();
+    let problem = SharedProblem::new(&mechanism, &shifted).unwrap();
+    // At the gains the shift was made with, a whole turn: the same residuals.
+    let start = problem.start();
+    let gap = (problem.apply(&start).unwrap() - plain.apply(&start).unwrap()).amax();
+    assert!(gap <= 1e-12, "residuals differ by {gap:e}");
+    let x = start.map(|v| v * (1.0 + 1e-3));
+    let r = problem.apply(&x).unwrap();
+    let (r_dense, jacobian) = to_dense(&problem.layout(), &problem.bordered(&x).unwrap());
+    assert!((&r_dense - &r).amax() < 1e-14);
+    let gain = problem.names().iter().position(|n| n == "k1").unwrap();
+    for j in 0..x.len() {
+        let h = 1e-6 * (1.0 + x[j].abs());
+        let (mut plus, mut minus) = (x.clone(), x.clone());
+        plus[j] += h;
+        minus[j] -= h;
+        let central = (problem.apply(&plus).unwrap() - problem.apply(&minus).unwrap()) / (2.0 * h);
+        let gap = (jacobian.column(j) - &central).amax();
+        assert!(
+            gap <= 1e-6 * central.amax().max(1e-3),
+            "column {j}: gap {gap:e}"
+        );
+    }
+    // The turn term is a large part of the gain's column on the shifted rows.
+    let (_, plain_jacobian) = to_dense(&plain.layout(), &plain.bordered(&x).unwrap());
+    let change = (jacobian.column(gain) - plain_jacobian.column(gain)).amax();
+    assert!(change > 1.0, "{change}");
+}
+
 /// Every number of identified shared parameters (1 to all: every size of a last, partial dual
 /// pass over them) gives the border columns of the problem identifying them all, which the
 /// central differences above check.
