@@ -139,6 +139,28 @@ mod tests {
     }
 
     #[test]
+    fn no_covariance_without_redundancy_matching_loadings_or_a_positive_expected_noise() {
+        let (r, jacobian) = problem();
+        let loadings = |rows: usize, reading: f64, w: f64| NoiseLoadings {
+            reading,
+            rows: (0..rows).map(|a| (a, vec![w, -w])).collect(),
+        };
+        // As many rows as unknowns: no residual degree of freedom, with or without loadings.
+        let square = jacobian.rows(0, 2).into_owned();
+        let r2 = r.rows(0, 2).into_owned();
+        assert!(covariance(&r2, &square, None).is_none());
+        assert!(covariance(&r2, &square, Some(&loadings(2, 0.1, 0.2))).is_none());
+        // One loading too many or too few.
+        assert!(covariance(&r, &jacobian, Some(&loadings(6, 0.1, 0.2))).is_none());
+        assert!(covariance(&r, &jacobian, Some(&loadings(4, 0.1, 0.2))).is_none());
+        // No declared noise at all: the expected sum of squares is zero.
+        assert!(covariance(&r, &jacobian, Some(&loadings(5, 0.0, 0.0))).is_none());
+        // The same with a noise: a covariance.
+        assert!(covariance(&r, &jacobian, Some(&loadings(5, 0.1, 0.2))).is_some());
+        assert!(covariance(&r, &jacobian, Some(&loadings(5, 0.0, 0.2))).is_some());
+    }
+
+    #[test]
     fn the_sandwich_is_the_dense_formula_with_correlated_rows() {
         let (r, jacobian) = problem();
         // Rows 0 and 1 are one measurement, 2 to 4 another; two target coordinates.
