@@ -134,7 +134,8 @@ pub struct LegStatistics {
 /// Readings matched modulo 2π: they sit on another turn than the leg's home value.
 #[derive(Debug, Clone, PartialEq)]
 pub struct OtherTurn {
-    /// The most common number of whole turns between prediction and reading.
+    /// The most common number of whole turns between prediction and reading (of equally
+    /// common ones, the first in row order).
     pub turns: f64,
     /// How many rows were matched across a turn.
     pub rows: usize,
@@ -416,6 +417,7 @@ pub fn leg_statistics(
     })
 }
 
+/// The most common of `values` (of equally common ones, the first; 0 for none).
 fn most_common(values: impl Iterator<Item = f64>) -> f64 {
     let values: Vec<f64> = values.collect();
     let mut best = (0.0, 0);
@@ -490,4 +492,22 @@ pub fn warnings(
         ));
     }
     warnings
+}
+
+#[cfg(test)]
+mod tests {
+    use super::most_common;
+
+    #[test]
+    fn the_most_common_value_and_the_first_of_equally_common_ones() {
+        let of = |values: &[f64]| most_common(values.iter().copied());
+        assert_eq!(
+            of(&[2.0, -1.0, -1.0, 2.0, -1.0]).to_bits(),
+            (-1.0_f64).to_bits()
+        );
+        assert_eq!(of(&[1.0, -1.0, 1.0, -1.0]).to_bits(), 1.0_f64.to_bits());
+        assert_eq!(of(&[-1.0, 1.0, -1.0, 1.0]).to_bits(), (-1.0_f64).to_bits());
+        assert_eq!(of(&[3.0]).to_bits(), 3.0_f64.to_bits());
+        assert_eq!(of(&[]).to_bits(), 0.0_f64.to_bits());
+    }
 }
