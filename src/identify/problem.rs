@@ -812,3 +812,26 @@ impl Jacobian for IdentificationProblem<'_> {
         Ok(self.residuals_and_jacobian(x)?.1)
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::short;
+
+    #[test]
+    fn message_values_have_six_decimals_or_an_exponent() {
+        for (value, text) in [
+            (0.0, "0.000000"),
+            (0.5, "0.500000"),
+            (-3.25, "-3.250000"),
+            (1e-3, "0.001000"),
+            (999_999.0, "999999.000000"),
+            (1e6, "1.000000e6"),
+            (-2.5e7, "-2.500000e7"),
+            (1e-4, "1.000000e-4"),
+            (-9.9e-4, "-9.900000e-4"),
+            (f64::INFINITY, "inf"),
+        ] {
+            assert_eq!(short(value), text, "{value}");
+        }
+    }
+}
