@@ -268,7 +268,7 @@ pub fn identify_problem(
         .map_err(|e| located(mechanism, data, problem, e))?;
     // The residuals at the start, unweighted (all a problem given here has), for the
     // fitted problem's initial cost without solving every row at the start again.
-    let r0_unweighted = problem.weights().is_none().then_some(r0_start);
+    let r0_unweighted = (!problem.is_weighted()).then_some(r0_start);
     for slot in problem.slots() {
         let observability = leg_observability(mechanism, problem, slot, &c0);
         let n = slot.columns.len();
@@ -334,14 +334,15 @@ pub fn identify_problem(
         });
     }
     // Observability is a property of the design: always of the unweighted Jacobian.
-    let unweighted = match problem.weights() {
-        Some(_) => Some(
+    let unweighted = if problem.is_weighted() {
+        Some(
             problem
                 .unweighted()
                 .residuals_and_jacobian(&outcome.x)
                 .map_err(|e| located(mechanism, data, problem, e))?,
-        ),
-        None => None,
+        )
+    } else {
+        None
     };
     let (unweighted_r, unweighted_c) = unweighted.as_ref().map_or((&r, &c), |(r, c)| (r, c));
     problem.release_gradients();

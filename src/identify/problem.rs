@@ -271,11 +271,9 @@ impl<'a> IdentificationProblem<'a> {
         }
     }
 
-    /// The row weights, if the problem is weighted.
-    pub fn weights(&self) -> Option<Vec<f64>> {
-        self.row_scales
-            .as_ref()
-            .map(|s| s.iter().map(|v| v * v).collect())
+    /// Whether the problem is weighted ([`Self::with_weights`]).
+    pub fn is_weighted(&self) -> bool {
+        self.row_scales.is_some()
     }
 
     /// The same legs without the blocks at rows `rows` (and without weights).
