@@ -132,3 +132,47 @@ fn holding_the_shared_parameters_gives_the_full_problems_residuals_at_their_valu
         );
     }
 }
+
+/// What the shared problem's evaluations reuse, counted in solved rows
+/// (`SharedProblem::row_solves`): the two latest evaluations are kept (the oldest dropped), the
+/// derivatives where the residuals were evaluated solve nothing, clones share the count, and a
+/// problem of more than 65 536 rows keeps nothing.
+#[test]
+fn the_shared_problem_keeps_its_two_latest_evaluations() {
+    let mechanism = bundled("5r-tracker.yaml");
+    let experiment = simulate_observed(&mechanism, SimulationOptions::default()).unwrap();
+    let problem = SharedProblem::new(&mechanism, &experiment.observations).unwrap();
+    let point = |d: f64| problem.start().map(|v| v * (1.0 + d));
+    let (x1, x2, x3) = (point(1e-3), point(2e-3), point(3e-3));
+    assert_eq!(problem.row_solves(), 0);
+    let m = problem.apply(&x1).unwrap().len() as u64;
+    assert_eq!(problem.row_solves(), m);
+    problem.apply(&x1).unwrap();
+    problem.bordered(&x1).unwrap();
+    problem.bordered(&x1).unwrap();
+    assert_eq!(
+        problem.row_solves(),
+        m,
+        "kept, derivatives from the kept rows"
+    );
+    problem.apply(&x2).unwrap();
+    problem.apply(&x1).unwrap();
+    assert_eq!(problem.row_solves(), 2 * m, "two kept");
+    problem.clone().apply(&x3).unwrap();
+    assert_eq!(problem.row_solves(), 3 * m, "a clone's solves counted");
+    problem.apply(&x1).unwrap();
+    assert_eq!(problem.row_solves(), 3 * m, "x1 was the newer");
+    problem.apply(&x2).unwrap();
+    assert_eq!(problem.row_solves(), 4 * m, "x2 was dropped");
+    // A problem of more than 65 536 rows keeps nothing.
+    let mut many = experiment.observations.clone();
+    let copies = 65_536 / m as usize + 1;
+    many.rows = (0..copies)
+        .flat_map(|_| experiment.observations.rows.iter().cloned())
+        .collect();
+    let large = SharedProblem::new(&mechanism, &many).unwrap();
+    let rows = large.apply(&x1).unwrap().len() as u64;
+    assert!(rows > 65_536);
+    large.apply(&x1).unwrap();
+    assert_eq!(large.row_solves(), 2 * rows);
+}

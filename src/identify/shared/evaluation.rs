@@ -48,6 +48,8 @@ pub(super) struct Evaluations {
     seeds: Vec<Vec<Option<Joints>>>,
     /// The latest evaluations, newest first.
     recent: Vec<Evaluation>,
+    /// Rows whose inverse kinematics were solved so far ([`SharedProblem::row_solves`]).
+    row_solves: u64,
 }
 
 /// The values of one evaluation, before turn matching: what any evaluation at the same
@@ -123,6 +125,7 @@ impl SharedProblem<'_> {
                     .map(|g| vec![None; g.rows.len()])
                     .collect(),
                 recent: Vec::new(),
+                row_solves: state.row_solves,
             };
         }
         let kept = state.recent.iter().position(|e| e.x == key);
@@ -148,6 +151,13 @@ impl SharedProblem<'_> {
             }
             Ok::<_, String>(values)
         };
+        // The rows of the groups without kept values: solved below.
+        let solving: usize = kept
+            .iter()
+            .zip(&self.groups)
+            .filter(|(v, _)| v.is_none())
+            .map(|(_, group)| group.rows.len())
+            .sum();
         let pending: Vec<usize> = kept
             .iter()
             .zip(&self.groups)
@@ -178,16 +188,26 @@ impl SharedProblem<'_> {
                 .map(|(g, (seeds, values))| work(g, seeds, values.take()))
                 .collect()
         };
-        let evaluation = Evaluation {
-            x: key,
-            groups: results.into_iter().collect::<Result<_, _>>()?,
-        };
+        let groups = results.into_iter().collect::<Result<_, _>>()?;
+        state.row_solves += solving as u64;
+        let evaluation = Evaluation { x: key, groups };
         let value = read(&evaluation);
         if self.groups.iter().map(|g| g.rows.len()).sum::<usize>() <= KEPT_ROWS {
             state.recent.insert(0, evaluation);
             state.recent.truncate(KEPT_EVALUATIONS);
         }
         Ok(value)
+    }
+
+    /// How many rows' inverse kinematics this problem and its clones have solved so far (a
+    /// row solved at several evaluations counts each time): an evaluation at unknowns where one
+    /// is kept solves no row, and its derivatives where the residuals were evaluated need the
+    /// derivative passes only.
+    pub fn row_solves(&self) -> u64 {
+        self.state
+            .lock()
+            .unwrap_or_else(|e| e.into_inner())
+            .row_solves
     }
 
     /// Solves group `g`'s rows at leg parameters `phi` and shared values `shared`,
