@@ -13,6 +13,10 @@ pub(super) struct AOptimal<'a> {
 }
 
 impl Engine for AOptimal<'_> {
+    fn name(&self) -> &'static str {
+        "A"
+    }
+
     fn greedy_pick(
         &mut self,
         design: &[usize],

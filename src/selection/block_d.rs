@@ -40,6 +40,10 @@ impl<'a> BlockD<'a> {
 }
 
 impl Engine for BlockD<'_> {
+    fn name(&self) -> &'static str {
+        "block D"
+    }
+
     fn greedy_pick(
         &mut self,
         design: &[usize],

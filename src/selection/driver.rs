@@ -24,6 +24,8 @@ pub(super) struct Step<'s> {
 /// How trial designs are evaluated; the greedy/exchange skeleton is in [`run`]. Engines that
 /// keep no state between steps (A, E, the naive reference) use the default methods.
 pub(super) trait Engine {
+    /// The engine's name, as [`Selection::engine`] reports it.
+    fn name(&self) -> &'static str;
     /// The eligible candidate whose addition to `design` is best (ties: lowest index).
     fn greedy_pick(&mut self, design: &[usize], eligible: &[bool])
         -> Result<usize, SelectionError>;
@@ -122,7 +124,7 @@ pub(super) fn run(
             None => break,
         }
     }
-    finish(pool, design, counts)
+    finish(pool, design, counts, engine.name())
 }
 
 /// Positions of `design` ordered by candidate index (the tie-breaking order).
@@ -181,6 +183,7 @@ fn finish(
     pool: &Pool,
     mut design: Vec<usize>,
     counts: Counts,
+    engine: &'static str,
 ) -> Result<Selection, SelectionError> {
     let m = pool.gram(&design, false);
     let log_det = log_det_spd(&m);
@@ -194,6 +197,7 @@ fn finish(
         .fold(f64::NEG_INFINITY, f64::max);
     design.sort_unstable();
     Ok(Selection {
+        engine,
         certificate: design.len() as f64 * largest,
         indices: design,
         sweeps: counts.sweeps,

@@ -11,6 +11,10 @@ pub(super) struct EOptimal<'a> {
 }
 
 impl Engine for EOptimal<'_> {
+    fn name(&self) -> &'static str {
+        "E"
+    }
+
     fn best_swap(&mut self, step: &Step<'_>) -> Result<Option<(usize, usize)>, SelectionError> {
         let (pool, design) = (self.pool, step.design);
         let m = pool.gram(design, step.ridge);

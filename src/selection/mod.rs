@@ -139,6 +139,10 @@ pub struct Selection {
     pub excursions: usize,
     /// log det(CᵀC) of the selected design.
     pub log_det: f64,
+    /// The engine that evaluated the trial designs: `rank-one D` (one row per candidate),
+    /// `separable D` (rows with disjoint column supports), `block D`, `A`, `E`, or `naive` (the
+    /// from-scratch reference of [`select_naive`]).
+    pub engine: &'static str,
     /// Kiefer–Wolfowitz certificate max_j N·tr(C_j M⁻¹ C_jᵀ) over the pool, M = CᵀC of the
     /// design (N·d(c_j) for one row per candidate). It is ≥ n; it equals n iff the design is
     /// D-optimal as an approximate design, and n / certificate bounds its D-efficiency from

@@ -69,6 +69,10 @@ impl Naive<'_> {
 }
 
 impl Engine for Naive<'_> {
+    fn name(&self) -> &'static str {
+        "naive"
+    }
+
     fn greedy_pick(
         &mut self,
         design: &[usize],

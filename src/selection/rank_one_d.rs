@@ -80,6 +80,10 @@ fn below(dj: f64, di: f64, target: f64) -> bool {
 }
 
 impl Engine for RankOneD<'_> {
+    fn name(&self) -> &'static str {
+        "rank-one D"
+    }
+
     fn greedy_pick(
         &mut self,
         design: &[usize],

@@ -130,6 +130,10 @@ impl<'a> SeparableD<'a> {
 }
 
 impl Engine for SeparableD<'_> {
+    fn name(&self) -> &'static str {
+        "separable D"
+    }
+
     fn greedy_pick(
         &mut self,
         design: &[usize],

@@ -273,3 +273,40 @@ fn the_rank_of_a_pool_of_many_rows_is_found_from_its_triangular_factor() {
     candidates[4321][(0, 3)] += 0.5;
     assert!(select(&candidates, &options(6)).is_ok());
 }
+
+/// Each entry point hands a pool to the engine its criterion and row structure call for, and
+/// the selection names it: the engines agree on their selections, so only the name tells
+/// which one ran (the benchmarks' and the tests' references depend on it).
+#[test]
+fn each_pool_goes_to_its_engine() {
+    let o = |criterion| SelectionOptions {
+        criterion,
+        ..options(6)
+    };
+    let rows = random_pool(61, 40, 1, 4);
+    let separable = block_diagonal_pool(62, 40, 2, 3);
+    let dense = random_pool(63, 40, 2, 4);
+    let engine = |selection: Result<Selection, SelectionError>| selection.unwrap().engine;
+    assert_eq!(engine(select(&rows, &o(Criterion::D))), "rank-one D");
+    assert_eq!(engine(select(&separable, &o(Criterion::D))), "separable D");
+    assert_eq!(engine(select(&dense, &o(Criterion::D))), "block D");
+    assert_eq!(
+        engine(select_dense_blocks(&separable, &o(Criterion::D))),
+        "block D"
+    );
+    assert_eq!(
+        engine(select_dense_blocks(&rows, &o(Criterion::D))),
+        "rank-one D"
+    );
+    for pool in [&rows, &dense] {
+        assert_eq!(engine(select(pool, &o(Criterion::A))), "A");
+        assert_eq!(engine(select(pool, &o(Criterion::E))), "E");
+        assert_eq!(engine(select_dense_blocks(pool, &o(Criterion::E))), "E");
+        assert_eq!(engine(select_naive(pool, &o(Criterion::D))), "naive");
+    }
+    let columns = DMatrix::from_fn(4, 40, |p, j| rows[j][(0, p)]);
+    assert_eq!(
+        engine(select_columns(columns, 1, &o(Criterion::D))),
+        "rank-one D"
+    );
+}
