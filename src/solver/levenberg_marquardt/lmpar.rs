@@ -93,7 +93,7 @@ impl Scratch {
     }
 
     /// Gauss–Newton step `R z = Qᵀr` (MINPACK: components past the first zero `R_jj` are zero).
-    fn gauss_newton(&mut self) -> usize {
+    fn gauss_newton(&mut self) {
         let n = self.qtr.len();
         let nsing = (0..n).find(|&j| self.jq[(j, j)] == 0.0).unwrap_or(n);
         self.z.fill(0.0);
@@ -102,7 +102,6 @@ impl Scratch {
         self.jq
             .view((0, 0), (nsing, nsing))
             .solve_upper_triangular_mut(&mut head);
-        nsing
     }
 
     /// Damped step from the R factor `S` of `[R; √λ D P]`, right-hand side `[Qᵀr; 0]`
@@ -196,19 +195,19 @@ impl Scratch {
     /// damped system broke down numerically.
     pub(super) fn lm_step(&mut self, delta: f64, lambda0: f64) -> Option<(f64, f64)> {
         let n = self.qtr.len();
-        let nsing = self.gauss_newton();
+        self.gauss_newton();
         let gn_ok = self.z.iter().all(|v| v.is_finite());
         let mut dxnorm = if gn_ok { self.dnorm_z() } else { f64::INFINITY };
         self.gauss_newton_dnorm = dxnorm;
         let mut fp = dxnorm - delta;
         let mut lambda = 0.0;
         if !gn_ok || fp > P1 * delta {
-            let mut lower = 0.0;
-            if gn_ok && nsing == n {
-                lower = self.newton_correction(fp, delta, dxnorm, false);
-                if !lower.is_finite() {
-                    lower = 0.0;
-                }
+            // Moré's lower bound from the Gauss–Newton step, 0 when that step is not finite or
+            // R is singular (MINPACK's `nsing < n`): the correction then divides by R's zero
+            // diagonal entry, or starts from a non-finite step, and is not finite.
+            let mut lower = self.newton_correction(fp, delta, dxnorm, false);
+            if !lower.is_finite() {
+                lower = 0.0;
             }
             // Upper bound ‖D⁻¹ Jᵀ r‖ / Δ.
             for j in 0..n {
