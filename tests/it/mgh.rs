@@ -618,6 +618,65 @@ fn kowalik_osborne() -> TestProblem {
     }
 }
 
+/// MGH 33, linear function of rank 1 (n = 5, m = 10): `f_i = i·Σ_j j·x_j − 1`. The Jacobian
+/// has rank 1, so every step goes through the rank-deficient branch of the trust-region
+/// step (no Newton lower bound on λ).
+fn linear_rank_one() -> TestProblem {
+    let res = |x: &[f64]| {
+        let s: f64 = (0..5).map(|j| (j + 1) as f64 * x[j]).sum();
+        (1..=10).map(|i| i as f64 * s - 1.0).collect()
+    };
+    let jac = |_: &[f64]| {
+        (1..=10)
+            .flat_map(|i| (1..=5).map(move |j| (i * j) as f64))
+            .collect()
+    };
+    TestProblem {
+        m: 10,
+        n: 5,
+        x0: &[1.0; 5],
+        res,
+        jac,
+    }
+}
+
+/// MGH 34, linear function of rank 1 with zero columns and rows (n = 5, m = 10):
+/// `f_1 = f_m = −1`, `f_i = (i − 1)·Σ_{j=2}^{n−1} j·x_j − 1`.
+fn linear_rank_one_zero_columns() -> TestProblem {
+    let res = |x: &[f64]| {
+        let s: f64 = (2..=4).map(|j| j as f64 * x[j - 1]).sum();
+        (1..=10)
+            .map(|i| {
+                if i == 1 || i == 10 {
+                    -1.0
+                } else {
+                    (i - 1) as f64 * s - 1.0
+                }
+            })
+            .collect()
+    };
+    let jac = |_: &[f64]| {
+        (1..=10)
+            .flat_map(|i| {
+                (1..=5).map(move |j| {
+                    if i == 1 || i == 10 || j == 1 || j == 5 {
+                        0.0
+                    } else {
+                        ((i - 1) * j) as f64
+                    }
+                })
+            })
+            .collect()
+    };
+    TestProblem {
+        m: 10,
+        n: 5,
+        x0: &[1.0; 5],
+        res,
+        jac,
+    }
+}
+
 fn all() -> Vec<(&'static str, TestProblem)> {
     vec![
         ("Rosenbrock", rosenbrock()),
@@ -632,6 +691,11 @@ fn all() -> Vec<(&'static str, TestProblem)> {
         ("Box 3-D", box_3d()),
         ("Powell singular", powell_singular()),
         ("Kowalik-Osborne", kowalik_osborne()),
+        ("Linear rank 1", linear_rank_one()),
+        (
+            "Linear rank 1, zero columns and rows",
+            linear_rank_one_zero_columns(),
+        ),
     ]
 }
 
@@ -771,5 +835,53 @@ fn mgh_kowalik_osborne() {
         5e-6,
         &x,
         1e-5,
+    );
+}
+
+/// A rank-one problem against MINPACK's own test results (its `lmder` driver, problems 2 and
+/// 3, n = 5, m = 10, standard start): 3 residual and 2 Jacobian evaluations, final norm
+/// `‖r‖ = √f*`. The `levenberg-marquardt` crate is no reference here: it takes 4 evaluations
+/// and stops at another point of the minimisers' hyperplane. The minimisers are those where
+/// the one combination `s` the residuals see takes its least-squares value `s*`.
+fn check_rank_one(name: &str, p: TestProblem, f_star: f64, s: fn(&[f64]) -> f64, s_star: f64) {
+    let out = run(p, LevenbergMarquardt::new()).unwrap();
+    assert_eq!(out.reason, TerminationReason::SolverConverged, "{name}");
+    assert!(out.stop.is_some_and(StopReason::is_convergence), "{name}");
+    assert_eq!(out.evals, (3, 2), "{name}: MINPACK's evaluations");
+    let f = 2.0 * out.cost;
+    assert!(
+        (f - f_star).abs() <= 1e-12 * f_star,
+        "{name}: f = {f}, f* = {f_star}"
+    );
+    let value = s(out.x.as_slice());
+    assert!(
+        (value - s_star).abs() <= 1e-12,
+        "{name}: s = {value}, s* = {s_star}"
+    );
+}
+
+#[test]
+fn mgh_linear_rank_one() {
+    // f* = m(m − 1)/(2(2m + 1)); s = Σ_j j·x_j, s* = Σ i / Σ i² = 3/(2m + 1).
+    let s = |x: &[f64]| (0..5).map(|j| (j + 1) as f64 * x[j]).sum();
+    check_rank_one(
+        "Linear rank 1",
+        linear_rank_one(),
+        90.0 / 42.0,
+        s,
+        3.0 / 21.0,
+    );
+}
+
+#[test]
+fn mgh_linear_rank_one_zero_columns() {
+    // f* = (m² + 3m − 6)/(2(2m − 3)); s = Σ_{j=2}^{n−1} j·x_j, s* = Σ_{k=1}^{m−2} k / Σ k².
+    let s = |x: &[f64]| (2..=4).map(|j| j as f64 * x[j - 1]).sum();
+    check_rank_one(
+        "Linear rank 1, zero columns and rows",
+        linear_rank_one_zero_columns(),
+        124.0 / 34.0,
+        s,
+        36.0 / 204.0,
     );
 }
