@@ -885,3 +885,35 @@ fn mgh_linear_rank_one_zero_columns() {
         36.0 / 204.0,
     );
 }
+
+/// The rank-one problems from a small initial trust region (`factor` 0.1): the Gauss–Newton
+/// steps are then longer than the region, so the λ iteration runs with no Newton lower bound
+/// (R singular). Against MINPACK itself (scipy 1.17's `leastsq`, which calls `lmder`, with
+/// `Dfun` and `factor = 0.1`): the same evaluation counts, and for MGH 33 the same point of
+/// the minimisers' hyperplane. (For MGH 34, and from smaller regions, the two stop at other
+/// points of the hyperplane: after the first reflection the other columns are round-off, and
+/// which one the pivoting takes depends on the last bits.)
+#[test]
+fn rank_one_problems_from_a_small_trust_region_follow_minpack() {
+    let run_from = |p: TestProblem| {
+        let lm = LevenbergMarquardt::new()
+            .with_initial_step_bound(0.1)
+            .unwrap();
+        run(p, lm).unwrap()
+    };
+    let out = run_from(linear_rank_one());
+    assert_eq!(out.evals, (6, 5), "MINPACK's evaluations");
+    let minpack = [
+        -1.32163735324878,
+        -0.16081867662438964,
+        0.22612088225040694,
+        0.4195906616878053,
+        -0.11411868882954798,
+    ];
+    for (a, b) in out.x.iter().zip(&minpack) {
+        assert!((a - b).abs() <= 1e-9 * (1.0 + b.abs()), "{:?}", out.x);
+    }
+    let out = run_from(linear_rank_one_zero_columns());
+    assert_eq!(out.evals, (6, 5), "MINPACK's evaluations");
+    assert!((2.0 * out.cost - 124.0 / 34.0).abs() <= 1e-12);
+}
