@@ -59,3 +59,36 @@ impl RunningInverse {
         }
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use nalgebra::DMatrix;
+
+    use super::RunningInverse;
+    use crate::selection::pool::Pool;
+    use crate::selection::SelectionOptions;
+
+    /// M⁻¹ is recomputed once, when the greedy design first has n rows (three candidates of
+    /// two rows for n = 6), and never again.
+    #[test]
+    fn the_inverse_is_refreshed_once_when_the_design_first_has_n_rows() {
+        let candidates: Vec<DMatrix<f64>> = (0..8)
+            .map(|j| DMatrix::from_fn(2, 6, |r, c| ((j * 7 + r * 3 + c * 5) % 11) as f64 - 5.0))
+            .collect();
+        let options = SelectionOptions {
+            count: 4,
+            ..Default::default()
+        };
+        let pool = Pool::new(&candidates, &options).unwrap();
+        let mut inverse = RunningInverse::ridge_start(&pool);
+        assert!(!inverse.refresh(&pool, &[0, 1]), "4 rows of 6");
+        assert!(inverse.refresh(&pool, &[0, 1, 2]), "6 rows: refreshed");
+        assert!(!inverse.refresh(&pool, &[0, 1, 2]), "once only");
+        assert!(!inverse.refresh(&pool, &[0, 1, 2, 3]));
+        let mut late = RunningInverse::ridge_start(&pool);
+        assert!(
+            late.refresh(&pool, &[0, 1, 2, 3]),
+            "8 rows, first call: refreshed"
+        );
+    }
+}
