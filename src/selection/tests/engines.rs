@@ -150,6 +150,28 @@ fn a_and_e_criteria_give_the_naive_selection() {
     }
 }
 
+/// Every candidate twice: each swap ties exactly with the one bringing in the copy, and ties
+/// go to the lowest index, as in the naive reference.
+#[test]
+fn a_and_e_ties_go_to_the_lowest_index() {
+    for criterion in [Criterion::A, Criterion::E] {
+        let o = SelectionOptions {
+            criterion,
+            ..options(6)
+        };
+        for seed in 0..3 {
+            let single = random_pool(500 + seed, 25, 1, 4);
+            let pool: Vec<_> = single.iter().chain(&single).cloned().collect();
+            let (fast, naive) = (select(&pool, &o).unwrap(), select_naive(&pool, &o).unwrap());
+            assert_eq!(fast.indices, naive.indices, "{criterion:?}, seed {seed}");
+            assert_eq!(
+                fast.exchanges, naive.exchanges,
+                "{criterion:?}, seed {seed}"
+            );
+        }
+    }
+}
+
 #[test]
 fn pools_larger_than_one_chunk_give_the_naive_selection() {
     // K > CHUNK: the products with X are formed in several chunks, the swaps pruned by the
