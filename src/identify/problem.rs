@@ -496,7 +496,6 @@ impl<'a> IdentificationProblem<'a> {
                 .map(task)
                 .collect()
         };
-        state.row_solves += m as u64;
         let mut solutions = Vec::with_capacity(if keep { m } else { 0 });
         for result in results {
             match result {
@@ -504,6 +503,7 @@ impl<'a> IdentificationProblem<'a> {
                 Err((index, source)) => return Err(self.block_error(index, source, x)),
             }
         }
+        state.row_solves += m as u64;
         if width == 0 {
             gradients = Vec::new();
         }
@@ -619,7 +619,6 @@ impl<'a> IdentificationProblem<'a> {
         } else {
             (0..chunks).map(task).collect()
         };
-        state.row_solves += solves as u64;
         let mut values = Vec::with_capacity(self.blocks.len());
         for result in results {
             match result {
@@ -627,6 +626,7 @@ impl<'a> IdentificationProblem<'a> {
                 Err((index, source)) => return Err(self.block_error(index, source, x)),
             }
         }
+        state.row_solves += solves as u64;
         Ok(values)
     }
 
