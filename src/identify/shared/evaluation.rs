@@ -291,6 +291,11 @@ impl SharedProblem<'_> {
         values: &GroupValues,
     ) -> DMatrix<f64> {
         let group = &self.groups[g];
+        if self.shared.is_empty() {
+            // Every shared parameter held (the legs' stage of the two-stage alternative): no
+            // column, and no pose derivative to compute for it.
+            return DMatrix::zeros(group.rows.len(), 0);
+        }
         let leg = &self.mechanism.legs[group.leg];
         let geometry = leg.geometry(phi);
         // Per row, the reading's derivative with respect to the fitted pose (the same for
