@@ -305,3 +305,6 @@ mod tests {
         assert_eq!(perm, vec![0, 1]);
     }
 }
+
+#[cfg(test)]
+mod minpack_reference;
