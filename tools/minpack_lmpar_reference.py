@@ -35,6 +35,7 @@ def lmpar(lib, r, perm, diag, qtb, delta, par):
 R3 = [[3, 1, 0.5], [0, 2, 0.3], [0, 0, 0.7]]
 RANK2 = [[2, 1, 0.3], [0, 1, 0.2], [0, 0, 0]]
 TINY = [[1e-200, 0], [0, 1e-200]]
+TINIER = [[1e-100, 0, 0], [0, 3e-100, 0], [0, 0, 0]]
 # (what, R, perm, D, Q^T r, delta, starting lambda)
 CASES = [
     ("full rank, λ iterated from 0", R3, [2, 0, 1], [1, 2, 0.5], [1, -2, 0.5], 0.1, 0.0),
@@ -48,6 +49,14 @@ CASES = [
 ] + [
     ("zero gradient, Gauss–Newton step outside the region", TINY, [0, 1], [1, 1],
      [1e-200, 1e-200], 0.1, 0.0),
+    # R is singular and ‖D⁻¹Jᵀr‖ underflows to 0: λ restarts from 1e-3 × MIN_POSITIVE / Δ ≈ 2e-161.
+    ("zero gradient, restart above the smallest normal number", TINIER, [0, 1, 2],
+     [6.7e-20, 2e-19, 1], [1e-230, 2e-230, 1], 1e-150, 0.0),
+    # The minimum-norm least-squares step [0.5, 0.5] is shorter than 0.9 Δ, the truncated
+    # Gauss–Newton step [1, 0] longer than 1.1 Δ: λ falls towards 0 until ‖D p‖ stops growing.
+    ("rank 1 of 2, the region unreachable", [[1, 1], [0, 0]], [0, 1], [1, 1], [1, 0], 0.85, 0.0),
+    ("rank 1 of 2, the region unreachable, pivoted and scaled", [[2, 1], [0, 0]], [1, 0],
+     [0.5, 2], [1, 0], 0.7, 0.0),
 ]
 
 
