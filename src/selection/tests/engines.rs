@@ -150,6 +150,27 @@ fn a_and_e_criteria_give_the_naive_selection() {
     }
 }
 
+/// The E criterion's greedy construction scores by the D gain while a design of `len + 1`
+/// candidates of `b` rows cannot have full rank (`(len + 1)·b < n`), then by s_min itself. With
+/// `b > 1` the switch comes before the count reaches n: the greedy designs (no exchange) of
+/// the fast and the naive engines agree, and differ from the D criterion's.
+#[test]
+fn the_e_greedy_start_switches_to_s_min_when_full_rank_becomes_possible() {
+    for (seed, b) in [(0, 2), (1, 2), (2, 3), (3, 3)] {
+        let pool = random_pool(600 + seed, 40, b, 6);
+        let greedy = |criterion| SelectionOptions {
+            criterion,
+            max_sweeps: 0,
+            ..options(5)
+        };
+        let e = select(&pool, &greedy(Criterion::E)).unwrap();
+        let naive = select_naive(&pool, &greedy(Criterion::E)).unwrap();
+        assert_eq!(e.indices, naive.indices, "b = {b}, seed {seed}");
+        let d = select(&pool, &greedy(Criterion::D)).unwrap();
+        assert_ne!(e.indices, d.indices, "b = {b}, seed {seed}");
+    }
+}
+
 /// Every candidate twice: each swap ties exactly with the one bringing in the copy, and ties
 /// go to the lowest index, as in the naive reference.
 #[test]
