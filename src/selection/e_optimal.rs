@@ -7,7 +7,16 @@ use super::pool::Pool;
 use super::SelectionError;
 
 pub(super) struct EOptimal<'a> {
-    pub(super) pool: &'a Pool,
+    pool: &'a Pool,
+    /// Trial designs whose s_min `best_swap` computed: the swaps the Rayleigh bound did not
+    /// rule out.
+    pub(super) evaluated: usize,
+}
+
+impl<'a> EOptimal<'a> {
+    pub(super) fn new(pool: &'a Pool) -> Self {
+        EOptimal { pool, evaluated: 0 }
+    }
 }
 
 impl Engine for EOptimal<'_> {
@@ -36,6 +45,7 @@ impl Engine for EOptimal<'_> {
                 if half_ln(bound) + 1e-9 <= best.0 {
                     continue;
                 }
+                self.evaluated += 1;
                 let score = half_ln(min_eigenvalue(&reduced + block * block.transpose()));
                 if score > best.0 {
                     best = (score, Some((pos, j)));

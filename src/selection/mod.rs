@@ -303,7 +303,7 @@ fn select_in(pool: &Pool, options: &SelectionOptions) -> Result<Selection, Selec
             None => run(pool, options, &mut BlockD::new(pool)),
         },
         (Criterion::A, _) => run(pool, options, &mut AOptimal { pool }),
-        (Criterion::E, _) => run(pool, options, &mut EOptimal { pool }),
+        (Criterion::E, _) => run(pool, options, &mut EOptimal::new(pool)),
     }
 }
 
