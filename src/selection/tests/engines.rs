@@ -182,8 +182,9 @@ fn the_rayleigh_bound_prunes_e_swaps_without_changing_the_choice() {
             assert_eq!(chosen, naive.best_swap(&step).unwrap(), "seed {seed}");
             assert_eq!(chosen.is_some(), max_sweeps == 0, "seed {seed}");
             let swaps = design.len() * (pool.k - design.len());
+            // At least the chosen swap on the greedy design (7 to 25 on the converged ones).
             assert!(
-                fast.evaluated < swaps / 4,
+                (1..swaps / 4).contains(&fast.evaluated),
                 "seed {seed}: {} of {swaps}",
                 fast.evaluated
             );
