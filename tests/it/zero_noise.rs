@@ -42,6 +42,18 @@ fn exact_fit_compares_the_rms_residual_with_the_readings_and_the_declared_scatte
         &readings,
         Some(&[1e-4; 4])
     ));
+    // The thresholds are on the RMS (a mean over the rows, not a sum): 0.9 and 1.5 times
+    // the round-off threshold 1e-10 · 0.5 …
+    assert!(exact_fit(&[0.45e-10; 4], &readings, None));
+    assert!(!exact_fit(&[0.75e-10; 4], &readings, None));
+    // … and 0.9 and 1.5 times 1e-3 · σ for σ = √(mean variance) = 1e-2 (the variances
+    // differ, so a sum or a single row would give another σ).
+    let variances = [0.5e-4, 1.5e-4, 0.5e-4, 1.5e-4];
+    assert!(exact_fit(&[0.9e-5; 4], &readings, Some(&variances)));
+    assert!(!exact_fit(&[1.5e-5; 4], &readings, Some(&variances)));
+    // A declared scatter that is not finite or not positive is no scatter to compare with.
+    assert!(!exact_fit(&[1e-3; 4], &readings, Some(&[f64::INFINITY; 4])));
+    assert!(!exact_fit(&[1e-9; 4], &readings, Some(&[0.0; 4])));
     // All-zero readings: only zero residuals are exact.
     assert!(exact_fit(&[0.0; 4], &[0.0; 4], None));
     assert!(!exact_fit(&[1e-100; 4], &[0.0; 4], None));
