@@ -63,7 +63,8 @@ pub fn exact_fit(e: &[f64], readings: &[f64], variances: Option<&[f64]>) -> bool
     let declared = variances
         .filter(|v| !v.is_empty())
         .map(|v| (v.iter().sum::<f64>() / v.len() as f64).sqrt())
-        .filter(|s| *s > 0.0 && s.is_finite());
+        // A zero scatter admits only a zero RMS, which the round-off test admits already.
+        .filter(|s| s.is_finite());
     rms <= ROUND_OFF * largest || declared.is_some_and(|s| rms <= EXACT_FIT_FRACTION * s)
 }
 
