@@ -185,12 +185,13 @@ fn take<T>(v: Option<T>, what: &str) -> Result<T, Error> {
     settings::take(NAME, v, what)
 }
 
-/// MINPACK's `max_j |g_j| / (‖J e_j‖·‖r‖)` over the non-zero columns.
+/// MINPACK's `max_j |g_j| / (‖J e_j‖·‖r‖)` over the non-zero columns: a zero column has
+/// `g_j = 0` and `0/0 = NaN`, which `f64::max` ignores (it returns the other operand), as in
+/// [`LevenbergMarquardt`](super::levenberg_marquardt::LevenbergMarquardt).
 fn gradient_measure(gradient: &DVector<f64>, norms: &DVector<f64>, rnorm: f64) -> f64 {
     gradient
         .iter()
         .zip(norms.iter())
-        .filter(|(_, &c)| c > 0.0)
         .map(|(g, c)| (g / (c * rnorm)).abs())
         .fold(0.0, f64::max)
 }
