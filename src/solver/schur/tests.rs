@@ -390,6 +390,36 @@ fn recursion(lambdas: &[f64]) -> DVector<f64> {
     x
 }
 
+/// An accepted step divides `λ` by 3 down to `ε²` and no further (a multiplicative update
+/// could otherwise underflow to zero and never recover): from `λ₀ = 1e-31` the first
+/// iteration's `λ` after its step is `max(λ₀/3, ε²) = ε²`, and the iterate is the damped
+/// Gauss–Newton recursion with `1e-31` and then `ε²`.
+#[test]
+fn the_damping_stops_at_epsilon_squared() {
+    let initial = 1e-31;
+    let floor = f64::EPSILON * f64::EPSILON;
+    assert!(initial / 3.0 < floor);
+    let solver = SchurLevenbergMarquardt::new()
+        .with_initial_damping(initial)
+        .unwrap();
+    let iterations = Iterations::default();
+    let seen = iterations.0.clone();
+    let result = Executor::new(linear(), solver)
+        .configure(|s| s.param(DVector::zeros(6)).max_iters(2))
+        .add_observer(iterations, ObserverMode::Always)
+        .run()
+        .unwrap();
+    let lambdas: Vec<f64> = seen
+        .borrow()
+        .iter()
+        .map(|(_, kv)| float(kv, "lambda"))
+        .collect();
+    assert_eq!(lambdas.first(), Some(&floor));
+    let x = result.state.get_param().unwrap();
+    let expected = recursion(&[initial, floor][..lambdas.len()]);
+    assert!((x - &expected).amax() <= 1e-12 * expected.amax());
+}
+
 /// On a linear problem every step's gain ratio is exactly 1, so an accepted step divides `λ`
 /// by 3 (`max(⅓, 1 − (2ρ − 1)³)`), and a rejected one (a trial point whose residuals fail)
 /// multiplies it by `ν` = 2, 4, 8, … : after three iterations the iterate is the damped
