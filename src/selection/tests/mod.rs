@@ -8,6 +8,7 @@ use rand_chacha::ChaCha8Rng;
 use rand_distr::StandardNormal;
 
 mod engines;
+mod gains;
 mod linalg;
 mod optimality;
 mod separable;
