@@ -524,3 +524,71 @@ fn a_shared_unknown_duplicating_an_own_one_is_singular_only_undamped() {
     assert!((step[0] - 3.0 / 11.0).abs() <= 1e-15, "{step}");
     assert!((step[1] - 3.0 / 11.0).abs() <= 1e-15, "{step}");
 }
+
+/// One group of two rows and `own` own unknowns, no shared one: `r = J x − y`.
+fn single_group(own: &[f64], y: &[f64]) -> Linear {
+    Linear {
+        layout: BorderedLayout {
+            own: vec![own.len() / 2],
+            shared: 0,
+        },
+        blocks: vec![block(2, y, own, &[])],
+        nan_jacobian: false,
+        wrong_layout: false,
+    }
+}
+
+/// `r = (x₀ − 1, x₀ + 1)`: the residuals ignore `x₁` (a zero Jacobian column). Its scale is
+/// 1, as MINPACK's, not 0: damped by `λ·1`, the step along it is 0 and the fit converges
+/// with `x₁` untouched. (Scaled by 0, its damped block would stay singular whatever `λ`.)
+#[test]
+fn a_parameter_the_residuals_ignore_is_scaled_by_one_and_left_alone() {
+    let problem = single_group(&[1.0, 0.0, 1.0, 0.0], &[1.0, -1.0]);
+    let (state, solver) = run(
+        problem,
+        DVector::from_column_slice(&[-3.0, 5.0]),
+        SchurLevenbergMarquardt::new(),
+    )
+    .unwrap();
+    assert!(solver.stop_reason().unwrap().is_convergence());
+    let x = state.get_param().unwrap();
+    assert!(x[0].abs() < 1e-8, "{x}");
+    assert_eq!(x[1].to_bits(), 5.0f64.to_bits(), "{x}");
+    assert_eq!(solver.diag.as_slice(), &[2f64.sqrt(), 1.0]);
+}
+
+/// `r = (x − c − 1, x − c + 1)` from `x₀ = c + 0.01`: the gradient cosine is 0.01 (above the
+/// stationarity tolerance 1e-3) and the first step's reductions (1e-4) are within
+/// `ftol = 1e-3`: a progress stop. Its Gauss–Newton step, `‖D p‖ = 0.01·√2`, is below
+/// `√ε (‖D x‖ + √ε)` = 2.1e-2 for `c = 10⁶` (a stationary point at the parameters' scale: a
+/// convergence) and far above it (2e-8) for `c = 1`: stalled.
+#[test]
+fn a_negligible_gauss_newton_step_relative_to_the_parameters_is_stationary() {
+    for (c, expected) in [(1e6, StopReason::CostReduction), (1.0, StopReason::Stalled)] {
+        let problem = single_group(&[1.0, 1.0], &[c + 1.0, c - 1.0]);
+        let solver = SchurLevenbergMarquardt::new().with_ftol(1e-3).unwrap();
+        let (state, solver) = run(problem, DVector::from_element(1, c + 0.01), solver).unwrap();
+        assert_eq!(solver.stop_reason(), Some(expected), "c = {c}");
+        let x = state.get_param().unwrap()[0];
+        // One step damped by λ₀ = 1e-3: x = c + 0.01 − 0.01/(1 + 1e-3).
+        assert!(
+            (x - c - 0.01 * (1.0 - 1.0 / 1.001)).abs() < 1e-9 * c,
+            "c = {c}: {x}"
+        );
+    }
+}
+
+/// At x = 0 the stationarity floor `√ε (‖D x‖ + √ε)` is ε itself: from the origin, a
+/// Gauss–Newton step of about 1e-16 on `r = (x − 1e-16 − 1e-14, x − 1e-16 + 1e-14)` is
+/// stationary, so the progress stop it ends with (`ftol = 1e-3`) is a convergence, not a
+/// stall (the gradient cosine, 1e-2, is above the stationarity tolerance: the step decides).
+#[test]
+fn at_the_origin_a_step_below_epsilon_is_stationary() {
+    let problem = single_group(&[1.0, 1.0], &[1e-16 + 1e-14, 1e-16 - 1e-14]);
+    let solver = SchurLevenbergMarquardt::new().with_ftol(1e-3).unwrap();
+    let (state, solver) = run(problem, DVector::zeros(1), solver).unwrap();
+    assert_eq!(solver.stop_reason(), Some(StopReason::CostReduction));
+    let x = state.get_param().unwrap()[0];
+    // One step damped by λ₀ = 1e-3.
+    assert!((x - 1e-16 / 1.001).abs() < 1e-28, "{x}");
+}
