@@ -592,3 +592,130 @@ fn at_the_origin_a_step_below_epsilon_is_stationary() {
     // One step damped by λ₀ = 1e-3.
     assert!((x - 1e-16 / 1.001).abs() < 1e-28, "{x}");
 }
+
+/// Every trial point failing: each rejection multiplies `λ` by `ν` (2, 4, 8, …), and the run
+/// stops with a damping overflow as soon as `λ` is no longer finite (long before `ν` is):
+/// one residual evaluation per rejected trial, and one more trial that sees the overflow.
+/// (The data are scaled by 1e150 so that ‖D p‖ ≈ 1e150/λ stays representable up to the
+/// overflow: for data of order 1 its square underflows near λ = 1e154 and the shrinking step
+/// ends the run first.)
+#[test]
+fn rejections_end_in_a_damping_overflow() {
+    let (mut lambda, mut nu, mut rejections) = (1e-3_f64, 2.0_f64, 0_u64);
+    while lambda.is_finite() {
+        lambda *= nu;
+        nu *= 2.0;
+        rejections += 1;
+    }
+    assert!(nu.is_finite());
+    let mut inner = linear();
+    for block in &mut inner.blocks {
+        block.residuals *= 1e150;
+    }
+    let problem = FailingAt {
+        inner,
+        calls: Default::default(),
+        failing: (2..=1000).collect(),
+    };
+    let iterations = Iterations::default();
+    let seen = iterations.0.clone();
+    // No step-size or cost-reduction stop on the way (the steps shrink as λ grows).
+    let solver = SchurLevenbergMarquardt::new()
+        .with_xtol(f64::MIN_POSITIVE)
+        .and_then(|l| l.with_ftol(f64::MIN_POSITIVE))
+        .unwrap();
+    let result = Executor::new(problem, solver)
+        .configure(|s| s.param(DVector::zeros(6)).max_iters(10))
+        .add_observer(iterations, ObserverMode::Always)
+        .run()
+        .unwrap();
+    assert_eq!(result.solver.stop_reason(), Some(StopReason::NonFinite));
+    assert_eq!(
+        exit_text(&result.state),
+        "Schur Levenberg-Marquardt: damping factor overflow."
+    );
+    assert_eq!(result.solver.evaluations(), 1 + rejections);
+    let seen = seen.borrow();
+    assert_eq!(seen.len(), 1);
+    assert_eq!(count(&seen[0].1, "trials"), rejections + 1);
+}
+
+/// [`Linear`] that records every point its residuals are evaluated at, and whose residual
+/// vector loses its last entry after `full_calls` evaluations.
+#[derive(Clone)]
+struct Recording {
+    inner: Linear,
+    points: std::sync::Arc<std::sync::Mutex<Vec<DVector<f64>>>>,
+    full_calls: usize,
+}
+
+impl Operator for Recording {
+    type Param = DVector<f64>;
+    type Output = DVector<f64>;
+    fn apply(&self, x: &DVector<f64>) -> Result<DVector<f64>, Error> {
+        let mut points = self.points.lock().unwrap();
+        points.push(x.clone());
+        let r = self.inner.apply(x)?;
+        Ok(if points.len() > self.full_calls {
+            r.rows(0, r.len() - 1).into_owned()
+        } else {
+            r
+        })
+    }
+}
+
+impl BorderedLeastSquares for Recording {
+    fn layout(&self) -> BorderedLayout {
+        self.inner.layout()
+    }
+    fn bordered(&self, x: &DVector<f64>) -> Result<Vec<BorderedBlock>, Error> {
+        self.inner.bordered(x)
+    }
+}
+
+/// `r = J x − y` with `J = (1e-160, 1e-160)ᵀ`, `y = (1e150, 1e150)`: the undamped step
+/// `(JᵀJ)⁻¹Jᵀr` is about 1e310, beyond the largest double. A step that is not finite is
+/// rejected without evaluating the residuals there (more damping instead), so every point
+/// evaluated is finite.
+#[test]
+fn a_step_that_overflows_is_damped_without_an_evaluation() {
+    let problem = Recording {
+        inner: single_group(&[1e-160, 1e-160], &[1e150, 1e150]),
+        points: Default::default(),
+        full_calls: usize::MAX,
+    };
+    let points = problem.points.clone();
+    let result = Executor::new(problem, SchurLevenbergMarquardt::new())
+        .configure(|s| s.param(DVector::zeros(1)).max_iters(3))
+        .run()
+        .unwrap();
+    let points = points.lock().unwrap();
+    assert!(points.len() > 1, "a step was evaluated");
+    assert!(
+        points.iter().all(|x| x.iter().all(|v| v.is_finite())),
+        "{points:?}"
+    );
+    assert!(result.solver.evaluations() as usize == points.len());
+}
+
+/// A problem whose residual vector changes length at a trial point breaks the solver's
+/// contract: a clear error, not a step.
+#[test]
+fn a_trial_residual_of_another_length_is_an_error() {
+    let problem = Recording {
+        inner: linear(),
+        points: Default::default(),
+        full_calls: 1,
+    };
+    let Err(err) = Executor::new(problem, SchurLevenbergMarquardt::new())
+        .configure(|s| s.param(DVector::zeros(6)).max_iters(10))
+        .run()
+    else {
+        panic!("a residual vector of another length was accepted");
+    };
+    let err = err.to_string();
+    assert!(
+        err.contains("residual vector has length 7, expected 8"),
+        "{err}"
+    );
+}
