@@ -52,6 +52,21 @@ fn leverages_are_the_diagonal_of_the_hat_matrix() {
     for (a, b) in leverages(&duplicated).iter().zip(&h) {
         close(*a, *b, 1e-10);
     }
+    // The same at the scale 1e6 with the third column a combination of the first two, one
+    // entry off by 1e-7: its singular value (about 1e-8, relative 1e-15) is below the cut
+    // 1e-12 × the largest, so it spans nothing and the leverages are still those of rank 2.
+    let combined = DMatrix::from_fn(5, 3, |i, k| {
+        let off = if (i, k) == (4, 2) { 1e-7 } else { 0.0 };
+        off + 1e6
+            * if k < 2 {
+                j[(i, k)]
+            } else {
+                j[(i, 0)] * 0.3 + j[(i, 1)] * 0.7
+            }
+    });
+    for (a, b) in leverages(&combined).iter().zip(&h) {
+        close(*a, *b, 1e-9);
+    }
 }
 
 /// e = (1, 2, 2), v = (1, 4, 1), one parameter: χ² = 1 + 1 + 4 = 6 on 2 dof, p = e⁻³.
