@@ -719,3 +719,77 @@ fn a_trial_residual_of_another_length_is_an_error() {
         "{err}"
     );
 }
+
+/// `r = (10 (s − x²), 1 − x)` (Rosenbrock) with `x` a group's own unknown and `s` shared.
+#[derive(Clone, Copy)]
+struct Rosenbrock;
+impl Operator for Rosenbrock {
+    type Param = DVector<f64>;
+    type Output = DVector<f64>;
+    fn apply(&self, x: &DVector<f64>) -> Result<DVector<f64>, Error> {
+        Ok(DVector::from_column_slice(&[
+            10.0 * (x[1] - x[0] * x[0]),
+            1.0 - x[0],
+        ]))
+    }
+}
+impl BorderedLeastSquares for Rosenbrock {
+    fn layout(&self) -> BorderedLayout {
+        BorderedLayout {
+            own: vec![1],
+            shared: 1,
+        }
+    }
+    fn bordered(&self, x: &DVector<f64>) -> Result<Vec<BorderedBlock>, Error> {
+        Ok(vec![BorderedBlock {
+            residuals: self.apply(x)?,
+            own: DMatrix::from_column_slice(2, 1, &[-20.0 * x[0], -1.0]),
+            shared: DMatrix::from_column_slice(2, 1, &[10.0, 0.0]),
+        }])
+    }
+}
+
+/// On a nonlinear problem the gain ratio ρ of an accepted step varies, and Nielsen's update
+/// `λ ← λ·max(⅓, 1 − (2ρ − 1)³)` follows it: recomputed from the ρ an observer sees, for
+/// every iteration accepted at its first trial, including ratios far from 1 (where the
+/// factor is not ⅓).
+#[test]
+fn nielsens_update_follows_the_gain_ratio() {
+    let iterations = Iterations::default();
+    let seen = iterations.0.clone();
+    let result = Executor::new(Rosenbrock, SchurLevenbergMarquardt::new())
+        .configure(|s| {
+            s.param(DVector::from_column_slice(&[-1.2, 1.0]))
+                .max_iters(200)
+        })
+        .add_observer(iterations, ObserverMode::Always)
+        .run()
+        .unwrap();
+    let x = result.state.get_param().unwrap();
+    assert!(
+        (x[0] - 1.0).abs() < 1e-6 && (x[1] - 1.0).abs() < 1e-6,
+        "{x}"
+    );
+    let seen = seen.borrow();
+    let mut lambda = 1e-3;
+    let mut away_from_one = 0;
+    for (k, (_, kv)) in seen.iter().enumerate() {
+        let (ratio, after) = (float(kv, "ratio"), float(kv, "lambda"));
+        if count(kv, "trials") == 1 && ratio >= 1e-4 {
+            let factor = (1.0 - (2.0 * ratio - 1.0).powi(3)).max(1.0 / 3.0);
+            let expected = (lambda * factor).max(f64::EPSILON * f64::EPSILON);
+            assert!(
+                (after - expected).abs() <= 1e-14 * expected,
+                "iteration {k}: ρ = {ratio}, λ = {after}, expected {expected}"
+            );
+            if factor > 0.4 {
+                away_from_one += 1;
+            }
+        }
+        lambda = after;
+    }
+    assert!(
+        away_from_one >= 2,
+        "{away_from_one} steps with a factor above ⅓"
+    );
+}
