@@ -793,3 +793,40 @@ fn nielsens_update_follows_the_gain_ratio() {
         "{away_from_one} steps with a factor above ⅓"
     );
 }
+
+/// At x = 0 the step-size test `‖D p‖ ≤ xtol (‖D x‖ + xtol)` is `‖D p‖ ≤ xtol²`: with every
+/// trial point failing, `λ` grows (×2, ×4, …) until the damped step, recomputed here by a
+/// dense solve, is below `xtol² ≈ 2.2e-16`; the run then stops, stalled (the origin is not
+/// stationary), after exactly that many trials.
+#[test]
+fn at_the_origin_the_step_size_test_is_below_xtol_squared() {
+    let (y, j) = linear().dense();
+    let d2 = j.row_iter().fold(DVector::zeros(j.ncols()), |acc, row| {
+        acc + row.transpose().map(|v| v * v)
+    });
+    let gradient = j.transpose() * -&y;
+    let xtol = Tolerances::MINPACK.xtol;
+    let (mut lambda, mut nu, mut trials) = (1e-3_f64, 2.0_f64, 0_u64);
+    loop {
+        trials += 1;
+        let normal = j.transpose() * &j + DMatrix::from_diagonal(&(&d2 * lambda));
+        let p = normal.lu().solve(&gradient).unwrap();
+        if p.component_mul(&d2.map(f64::sqrt)).norm() <= xtol * xtol {
+            break;
+        }
+        lambda *= nu;
+        nu *= 2.0;
+    }
+    assert!(trials > 5, "{trials}");
+    let problem = FailingAt {
+        inner: linear(),
+        calls: Default::default(),
+        failing: (2..=1000).collect(),
+    };
+    let result = Executor::new(problem, SchurLevenbergMarquardt::new())
+        .configure(|s| s.param(DVector::zeros(6)).max_iters(10))
+        .run()
+        .unwrap();
+    assert_eq!(result.solver.stop_reason(), Some(StopReason::Stalled));
+    assert_eq!(result.solver.evaluations(), 1 + trials);
+}
