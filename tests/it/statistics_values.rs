@@ -67,6 +67,9 @@ fn leverages_are_the_diagonal_of_the_hat_matrix() {
     for (a, b) in leverages(&combined).iter().zip(&h) {
         close(*a, *b, 1e-9);
     }
+    // A Jacobian of zeros spans nothing: every leverage is 0 (no singular value is kept, not
+    // even against a largest one of 0).
+    assert_eq!(leverages(&DMatrix::zeros(4, 2)), vec![0.0; 4]);
 }
 
 /// e = (1, 2, 2), v = (1, 4, 1), one parameter: χ² = 1 + 1 + 4 = 6 on 2 dof, p = e⁻³.
