@@ -13,6 +13,17 @@ fn ln_det_of(pool: &Pool, design: &[usize]) -> f64 {
     gram_value(&pool.gram(design, false), Criterion::D)
 }
 
+/// The first index of the largest value, written out (the reference for `argmax`'s users).
+fn best_trial(values: impl Iterator<Item = (usize, f64)>) -> usize {
+    let mut best = (usize::MAX, f64::NEG_INFINITY);
+    for (index, value) in values {
+        if value > best.1 {
+            best = (index, value);
+        }
+    }
+    best.0
+}
+
 /// The D step up and down (determinant lemma on M⁻¹) pick what re-evaluating every trial
 /// determinant picks, for single rows and for blocks of two and three rows; the A and E steps
 /// pick the best re-evaluated trial of their own criterion.
@@ -26,37 +37,20 @@ fn additions_and_removals_are_the_best_trial_designs() {
         let order: Vec<usize> = (0..8).collect();
         for criterion in [Criterion::D, Criterion::A, Criterion::E] {
             let value = |design: &[usize]| gram_value(&pool.gram(design, false), criterion);
-            let best_addition = (8..pool.k)
-                .map(|j| {
-                    let mut trial = design.clone();
-                    trial.push(j);
-                    (j, value(&trial))
-                })
-                .fold((usize::MAX, f64::NEG_INFINITY), |a, c| {
-                    if c.1 > a.1 {
-                        c
-                    } else {
-                        a
-                    }
-                });
+            let best_addition = best_trial((8..pool.k).map(|j| {
+                let mut trial = design.clone();
+                trial.push(j);
+                (j, value(&trial))
+            }));
             let added = addition(&pool, &design, &eligible, criterion).unwrap();
-            assert_eq!(added, best_addition.0, "b = {b}, {criterion:?} addition");
-            let best_removal = order
-                .iter()
-                .map(|&pos| {
-                    let mut trial = design.clone();
-                    trial.remove(pos);
-                    (pos, value(&trial))
-                })
-                .fold((usize::MAX, f64::NEG_INFINITY), |a, c| {
-                    if c.1 > a.1 {
-                        c
-                    } else {
-                        a
-                    }
-                });
+            assert_eq!(added, best_addition, "b = {b}, {criterion:?} addition");
+            let best_removal = best_trial(order.iter().map(|&pos| {
+                let mut trial = design.clone();
+                trial.remove(pos);
+                (pos, value(&trial))
+            }));
             let removed = removal(&pool, &design, &order, criterion).unwrap();
-            assert_eq!(removed, best_removal.0, "b = {b}, {criterion:?} removal");
+            assert_eq!(removed, best_removal, "b = {b}, {criterion:?} removal");
         }
         // The chosen D addition gains what the determinants say (not just the same index).
         let added = addition(&pool, &design, &eligible, Criterion::D).unwrap();
