@@ -516,9 +516,15 @@ fn a_shared_unknown_duplicating_an_own_one_is_singular_only_undamped() {
     let blocks = vec![block(2, &[1.0, 1.0], &[1.0, 2.0], &[1.0, 2.0])];
     let system = ArrowheadSystem::assemble(&layout, &blocks).unwrap();
     let scale = DVector::from_element(2, 5.0_f64.sqrt());
+    let singular = system.damped_step(0.0, &scale);
+    assert_eq!(singular, Err(arrowhead::SingularBlock::Shared));
     assert_eq!(
-        system.damped_step(0.0, &scale),
-        Err(arrowhead::SingularBlock::Shared)
+        singular.unwrap_err().to_string(),
+        "the reduced shared system is singular"
+    );
+    assert_eq!(
+        arrowhead::SingularBlock::Group(3).to_string(),
+        "group 3's damped block is singular"
     );
     let step = system.damped_step(0.2, &scale).unwrap();
     assert!((step[0] - 3.0 / 11.0).abs() <= 1e-15, "{step}");
