@@ -836,3 +836,25 @@ fn at_the_origin_the_step_size_test_is_below_xtol_squared() {
     assert_eq!(result.solver.stop_reason(), Some(StopReason::Stalled));
     assert_eq!(result.solver.evaluations(), 1 + trials);
 }
+
+/// Every part of the normal equations is checked: a group's `JᵀJ` that overflows while its
+/// gradient does not (`J` = 1e160, `r` = 1), a gradient that overflows while `JᵀJ` does not
+/// (`J` = 1e150, `r` = 1e160), and a NaN residual (one group, no shared unknowns, so only the
+/// group's own gradient carries it).
+#[test]
+fn the_normal_equations_are_finite_only_if_every_part_is() {
+    let layout = BorderedLayout {
+        own: vec![1],
+        shared: 0,
+    };
+    let finite = |own: f64, residual: f64| {
+        let blocks = vec![block(2, &[residual, residual], &[own, own], &[])];
+        ArrowheadSystem::assemble(&layout, &blocks)
+            .unwrap()
+            .is_finite()
+    };
+    assert!(finite(1.0, 1.0));
+    assert!(!finite(1e160, 1.0));
+    assert!(!finite(1e150, 1e160));
+    assert!(!finite(1.0, f64::NAN));
+}
