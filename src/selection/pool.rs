@@ -145,12 +145,7 @@ impl Pool {
     /// each, all of nearly the same size (none small enough for nalgebra to switch to its
     /// small-matrix product, so each entry is the one the whole product would give).
     pub(super) fn chunks(&self) -> impl Iterator<Item = Range<usize>> {
-        let parts = self.k.div_ceil(CHUNK).max(1);
-        let (width, extra) = (self.k / parts, self.k % parts);
-        (0..parts).map(move |p| {
-            let start = p * width + p.min(extra);
-            start..start + width + usize::from(p < extra)
-        })
+        even_ranges(self.k)
     }
 
     /// The columns of X (rows of the candidates) of the candidates `range`.
@@ -162,13 +157,8 @@ impl Pool {
     /// splits the pool, so that each group's product gives the entries the whole product
     /// would.
     pub(super) fn column_groups<'i>(&self, indices: &'i [usize]) -> Vec<&'i [usize]> {
-        let parts = indices.len().div_ceil(CHUNK).max(1);
-        let (width, extra) = (indices.len() / parts, indices.len() % parts);
-        (0..parts)
-            .map(|p| {
-                let start = p * width + p.min(extra);
-                &indices[start..start + width + usize::from(p < extra)]
-            })
+        even_ranges(indices.len())
+            .map(|range| &indices[range])
             .filter(|group| !group.is_empty())
             .collect()
     }
@@ -282,6 +272,17 @@ impl Pool {
         }
         argmax(gains.into_iter())
     }
+}
+
+/// `0..len` split into ⌈len / [`CHUNK`]⌉ consecutive ranges (at least one), whose lengths
+/// differ by at most one.
+fn even_ranges(len: usize) -> impl Iterator<Item = Range<usize>> {
+    let parts = len.div_ceil(CHUNK).max(1);
+    let (width, extra) = (len / parts, len % parts);
+    (0..parts).map(move |p| {
+        let start = p * width + p.min(extra);
+        start..start + width + usize::from(p < extra)
+    })
 }
 
 /// The dot products of the columns of `x` and `y` into `out`, each summed from the first row

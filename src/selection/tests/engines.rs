@@ -268,7 +268,18 @@ fn chunks_cover_the_pool_in_order_with_nearly_equal_sizes() {
         );
         assert!(longest <= CHUNK && longest - shortest <= 1, "K = {k}");
         assert!(shortest >= k.min(6), "K = {k}: a chunk of {shortest}");
+        // Any k candidate indices are grouped as the pool of k candidates is chunked.
+        let indices: Vec<usize> = (0..k).map(|j| 3 * j + 1).collect();
+        let groups = pool.column_groups(&indices);
+        assert_eq!(groups.len(), ranges.len(), "K = {k}");
+        for (group, range) in groups.iter().zip(&ranges) {
+            assert_eq!(*group, &indices[range.clone()], "K = {k}");
+        }
     }
+    assert!(Pool::new(&random_pool(7, 3, 1, 1), &options(1))
+        .unwrap()
+        .column_groups(&[])
+        .is_empty());
 }
 
 #[test]
