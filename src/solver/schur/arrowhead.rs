@@ -238,9 +238,10 @@ fn cholesky(matrix: DMatrix<f64>) -> Option<DMatrix<f64>> {
     cholesky_against(matrix, &reference)
 }
 
-/// The lower Cholesky factor of `matrix`, or `None` if a pivot `L_ii²` is not positive or is
-/// below [`PIVOT_TOLERANCE`] times `reference_i` (the diagonal the matrix was formed from, so
-/// that a cancellation in forming it is caught too).
+/// The lower Cholesky factor of `matrix`, or `None` if a pivot `L_ii²` is not positive
+/// (nalgebra's factorisation then fails) or is below [`PIVOT_TOLERANCE`] times `reference_i`
+/// (the diagonal the matrix was formed from, so that a cancellation in forming it is caught
+/// too).
 fn cholesky_against(matrix: DMatrix<f64>, reference: &DVector<f64>) -> Option<DMatrix<f64>> {
     if matrix.nrows() == 0 {
         return Some(matrix);
@@ -253,6 +254,6 @@ fn cholesky_against(matrix: DMatrix<f64>, reference: &DVector<f64>) -> Option<DM
         .diagonal()
         .iter()
         .zip(reference.iter())
-        .all(|(&pivot, &diagonal)| pivot > 0.0 && pivot * pivot >= PIVOT_TOLERANCE * diagonal);
+        .all(|(&pivot, &diagonal)| pivot * pivot >= PIVOT_TOLERANCE * diagonal);
     healthy.then_some(l)
 }
