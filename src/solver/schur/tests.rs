@@ -858,3 +858,36 @@ fn the_normal_equations_are_finite_only_if_every_part_is() {
     assert!(!finite(1e150, 1e160));
     assert!(!finite(1.0, f64::NAN));
 }
+
+/// A shared column that is a multiple of the group's own column: the reduced shared system
+/// `S − CᵀA⁻¹C` is zero in exact arithmetic, and what its round-off leaves (up to 1e-14 here)
+/// passes nalgebra's factorisation for these multiples but not the pivot tolerance (16 ε
+/// times the diagonal it was formed from): a singular shared system, not a step of 1e14.
+#[test]
+fn a_round_off_pivot_of_the_reduced_system_is_singular() {
+    let layout = BorderedLayout {
+        own: vec![1],
+        shared: 1,
+    };
+    for (a, b, multiple) in [
+        (1.0, 3.0, 0.7),
+        (1.0, 3.0, 1.0 / 7.0),
+        (1.0, 3.0, 1.9),
+        (1.0, 7.0, 0.1),
+        (0.2, 1.3, 1.0 / 3.0),
+    ] {
+        let blocks = vec![block(
+            2,
+            &[1.0, 1.0],
+            &[a, b],
+            &[a * multiple, b * multiple],
+        )];
+        let system = ArrowheadSystem::assemble(&layout, &blocks).unwrap();
+        let scale = DVector::from_element(2, 1.0);
+        assert_eq!(
+            system.damped_step(0.0, &scale),
+            Err(arrowhead::SingularBlock::Shared),
+            "({a}, {b}) × {multiple}"
+        );
+    }
+}
