@@ -297,3 +297,47 @@ fn column_dots_are_the_row_sums_of_the_componentwise_product_to_the_bit() {
         }
     }
 }
+
+/// With no eligible candidate left, every engine's greedy step names what was asked: one
+/// pose more than the design holds, out of the pool's candidates. (The driver never asks:
+/// the pool holds at least the requested count; this is the engines' own contract.)
+#[test]
+fn a_greedy_step_without_an_eligible_candidate_names_the_poses_requested() {
+    use crate::selection::{AOptimal, EOptimal};
+    for b in [1, 2] {
+        let candidates = random_pool(950 + b as u64, 12, b, 4);
+        let pool = Pool::new(&candidates, &options(6)).unwrap();
+        let design = [0, 1, 2, 3, 4];
+        let none = vec![false; pool.k];
+        let expected = Err(SelectionError::TooFewCandidates {
+            available: 12,
+            requested: 6,
+        });
+        let mut naive = Naive {
+            pool: &pool,
+            criterion: Criterion::D,
+        };
+        assert_eq!(
+            naive.greedy_pick(&design, &none),
+            expected,
+            "naive, b = {b}"
+        );
+        assert_eq!(
+            AOptimal { pool: &pool }.greedy_pick(&design, &none),
+            expected,
+            "A, b = {b}"
+        );
+        assert_eq!(
+            EOptimal::new(&pool).greedy_pick(&design, &none),
+            expected,
+            "E, b = {b}"
+        );
+        if b == 1 {
+            let mut engine = RankOneD::new(&pool);
+            assert_eq!(engine.greedy_pick(&design, &none), expected, "rank one");
+        } else {
+            let mut engine = BlockD::new(&pool);
+            assert_eq!(engine.greedy_pick(&design, &none), expected, "block");
+        }
+    }
+}
