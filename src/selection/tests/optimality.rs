@@ -226,3 +226,29 @@ fn no_single_swap_improves_the_final_design() {
         }
     }
 }
+
+/// An excursion is what lifts a design past a swap-optimal one, and it is counted: on this
+/// pool (E criterion) one sweep of swaps ends on a design that no single swap improves
+/// (brute force), yet the full selection ends higher, so an excursion improved it.
+#[test]
+fn an_excursion_past_a_swap_optimal_design_is_counted() {
+    let pool = skewed_pool(5001, 25, 1, 4);
+    let o = |max_sweeps| SelectionOptions {
+        criterion: Criterion::E,
+        max_sweeps,
+        ..options(6)
+    };
+    let value = |design: &[usize]| criteria(&pool, design).2;
+    let first = select(&pool, &o(1)).unwrap();
+    assert_eq!(first.excursions, 0);
+    for pos in 0..6 {
+        for j in (0..pool.len()).filter(|j| !first.indices.contains(j)) {
+            let mut trial = first.indices.clone();
+            trial[pos] = j;
+            assert!(value(&trial) <= value(&first.indices) * (1.0 + 1e-9));
+        }
+    }
+    let full = select(&pool, &o(50)).unwrap();
+    assert!(value(&full.indices) > value(&first.indices) * (1.0 + 1e-6));
+    assert!(full.excursions >= 1, "{} excursions", full.excursions);
+}
