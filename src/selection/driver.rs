@@ -166,11 +166,10 @@ fn excursion(
             grown.push(j);
             grown_eligible[j] = options.allow_replicates;
         }
-        let (mut trial, mut trial_eligible) = (grown.clone(), grown_eligible.clone());
+        let mut trial = grown.clone();
         for _ in 0..length {
             let pos = engine.best_removal((pool, criterion), &trial, &order(&trial))?;
-            let i = trial.remove(pos);
-            trial_eligible[i] = options.allow_replicates || !trial.contains(&i);
+            trial.remove(pos);
         }
         if gram_value(&pool.gram(&trial, false), criterion) > current + accept_ln() {
             return Some(trial);
@@ -187,9 +186,10 @@ fn finish(
 ) -> Result<Selection, SelectionError> {
     let m = pool.gram(&design, false);
     let log_det = log_det_spd(&m);
-    let minv = match spd_inverse(&m) {
-        Some(minv) if log_det.is_finite() => minv,
-        _ => return Err(pool.singular(&design)),
+    // Both come from the same Jacobi-scaled Cholesky factorisation: where the inverse exists,
+    // the log det is finite.
+    let Some(minv) = spd_inverse(&m) else {
+        return Err(pool.singular(&design));
     };
     let leverage = pool.row_leverages(&minv);
     let largest = (0..pool.k)
