@@ -13,7 +13,7 @@ use legwise::identify::estimate::{
     identify, identify_with, FitOptions, LegEstimate, Strategy, StrategyResult, Weighting,
 };
 use legwise::identify::robust::RobustLoss;
-use legwise::identify::statistics::{studentized, NOISE_TEST_P};
+use legwise::identify::statistics::{outlier_threshold, studentized, NOISE_TEST_P};
 use legwise::identify::trust::trust_issues;
 use legwise::kinematics::inverse::predict_reading;
 use legwise::measure::checks::check;
@@ -274,6 +274,37 @@ fn largest_deviation(fit: &StrategyResult, reference: &StrategyResult) -> f64 {
         }
     }
     largest
+}
+
+/// A least-squares fit's outlier threshold is the Bonferroni t quantile over the leg's m rows
+/// with m − n − 1 degrees of freedom (n identified parameters), recomputed here from the
+/// leg's counts; the robust fit's is the normal law's over the same rows.
+#[test]
+fn the_outlier_thresholds_follow_the_legs_rows_and_parameters() {
+    let clean = fit_5r("stats_5r_clean.csv", FitOptions::default());
+    let robust = fit_5r(
+        "stats_5r_clean.csv",
+        FitOptions {
+            robust: Some(RobustLoss::Huber),
+            ..Default::default()
+        },
+    );
+    for (leg, robust_leg) in clean.legs.iter().zip(&robust.legs) {
+        let (m, n) = (leg.measurements, identified(leg).count());
+        assert!(m > n + 1, "leg {}: {m} rows, {n} parameters", leg.leg);
+        assert_eq!(
+            leg.statistics.outlier_threshold,
+            outlier_threshold(m, Some(m - n - 1)),
+            "leg {}",
+            leg.leg
+        );
+        assert_eq!(
+            robust_leg.statistics.outlier_threshold,
+            outlier_threshold(m, None),
+            "leg {}",
+            leg.leg
+        );
+    }
 }
 
 #[test]
