@@ -278,7 +278,8 @@ fn largest_deviation(fit: &StrategyResult, reference: &StrategyResult) -> f64 {
 
 /// A least-squares fit's outlier threshold is the Bonferroni t quantile over the leg's m rows
 /// with m − n − 1 degrees of freedom (n identified parameters), recomputed here from the
-/// leg's counts; the robust fit's is the normal law's over the same rows.
+/// leg's counts; the robust fit's is the normal law's over the same rows. On clean data both
+/// noise tests keep every row.
 #[test]
 fn the_outlier_thresholds_follow_the_legs_rows_and_parameters() {
     let clean = fit_5r("stats_5r_clean.csv", FitOptions::default());
@@ -304,6 +305,16 @@ fn the_outlier_thresholds_follow_the_legs_rows_and_parameters() {
             "leg {}",
             leg.leg
         );
+        // No row flagged, none left out of the noise test.
+        for fitted in [leg, robust_leg] {
+            let test = fitted.statistics.noise_test.as_ref().expect("noise test");
+            assert_eq!(
+                (test.excluded, test.degrees_of_freedom),
+                (0, m - n),
+                "leg {}",
+                leg.leg
+            );
+        }
     }
 }
 
