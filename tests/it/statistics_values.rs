@@ -184,3 +184,34 @@ fn a_test_rejects_strictly_below_its_level() {
     assert!(!rejects(1.0));
     assert!(rejects(f64::NAN), "an undefined probability is not trusted");
 }
+
+/// The other-turn warning lists at most eight lines, with an ellipsis only when there are
+/// more.
+#[test]
+fn the_other_turn_warning_lists_eight_lines_at_most() {
+    use legwise::identify::statistics::{warnings, LegStatistics, OtherTurn};
+    let text = |count: usize| {
+        let statistics = LegStatistics {
+            other_turn: Some(OtherTurn {
+                turns: 1.0,
+                rows: count,
+                lines: (2..2 + count).collect(),
+            }),
+            ..Default::default()
+        };
+        let warnings = warnings(&statistics, "1", "rad", "q1", 0.5);
+        assert_eq!(warnings.len(), 1);
+        warnings[0].clone()
+    };
+    assert!(text(3).contains("(lines 2, 3, 4)"), "{}", text(3));
+    assert!(
+        text(8).contains("(lines 2, 3, 4, 5, 6, 7, 8, 9)"),
+        "{}",
+        text(8)
+    );
+    assert!(
+        text(9).contains("(lines 2, 3, 4, 5, 6, 7, 8, 9, …)"),
+        "{}",
+        text(9)
+    );
+}
