@@ -265,6 +265,24 @@ fn an_exact_start_and_a_spent_budget() {
     ));
 }
 
+/// One group with one own unknown, and one shared unknown.
+fn one_own_one_shared() -> BorderedLayout {
+    BorderedLayout {
+        own: vec![1],
+        shared: 1,
+    }
+}
+
+/// The block of [`one_own_one_shared`] with two rows: residuals `r`, own column `own`, shared
+/// column `shared`.
+fn two_rows(r: DVector<f64>, own: [f64; 2], shared: [f64; 2]) -> Vec<BorderedBlock> {
+    vec![BorderedBlock {
+        residuals: r,
+        own: DMatrix::from_column_slice(2, 1, &own),
+        shared: DMatrix::from_column_slice(2, 1, &shared),
+    }]
+}
+
 /// `r = (x₀ − 1, 2 + e^{−s})` (one group with one own unknown, one shared unknown) has no
 /// minimum: progress stops with the residual along the shared column (cosine 1): stalled.
 #[derive(Clone, Copy)]
@@ -281,17 +299,10 @@ impl Operator for NoMinimum {
 }
 impl BorderedLeastSquares for NoMinimum {
     fn layout(&self) -> BorderedLayout {
-        BorderedLayout {
-            own: vec![1],
-            shared: 1,
-        }
+        one_own_one_shared()
     }
     fn bordered(&self, x: &DVector<f64>) -> Result<Vec<BorderedBlock>, Error> {
-        Ok(vec![BorderedBlock {
-            residuals: self.apply(x)?,
-            own: DMatrix::from_column_slice(2, 1, &[1.0, 0.0]),
-            shared: DMatrix::from_column_slice(2, 1, &[0.0, -(-x[1]).exp()]),
-        }])
+        Ok(two_rows(self.apply(x)?, [1.0, 0.0], [0.0, -(-x[1]).exp()]))
     }
 }
 
@@ -509,10 +520,7 @@ fn the_gradient_and_stationarity_tolerances() {
 /// the closed form of `[[5 + 5λ, 5], [5, 5 + 5λ]] p = (3, 3)`: `p₀ = p₁ = 3 / (10 + 5λ)`.
 #[test]
 fn a_shared_unknown_duplicating_an_own_one_is_singular_only_undamped() {
-    let layout = BorderedLayout {
-        own: vec![1],
-        shared: 1,
-    };
+    let layout = one_own_one_shared();
     let blocks = vec![block(2, &[1.0, 1.0], &[1.0, 2.0], &[1.0, 2.0])];
     let system = ArrowheadSystem::assemble(&layout, &blocks).unwrap();
     let scale = DVector::from_element(2, 5.0_f64.sqrt());
@@ -741,17 +749,10 @@ impl Operator for Rosenbrock {
 }
 impl BorderedLeastSquares for Rosenbrock {
     fn layout(&self) -> BorderedLayout {
-        BorderedLayout {
-            own: vec![1],
-            shared: 1,
-        }
+        one_own_one_shared()
     }
     fn bordered(&self, x: &DVector<f64>) -> Result<Vec<BorderedBlock>, Error> {
-        Ok(vec![BorderedBlock {
-            residuals: self.apply(x)?,
-            own: DMatrix::from_column_slice(2, 1, &[-20.0 * x[0], -1.0]),
-            shared: DMatrix::from_column_slice(2, 1, &[10.0, 0.0]),
-        }])
+        Ok(two_rows(self.apply(x)?, [-20.0 * x[0], -1.0], [10.0, 0.0]))
     }
 }
 
@@ -865,10 +866,7 @@ fn the_normal_equations_are_finite_only_if_every_part_is() {
 /// times the diagonal it was formed from): a singular shared system, not a step of 1e14.
 #[test]
 fn a_round_off_pivot_of_the_reduced_system_is_singular() {
-    let layout = BorderedLayout {
-        own: vec![1],
-        shared: 1,
-    };
+    let layout = one_own_one_shared();
     for (a, b, multiple) in [
         (1.0, 3.0, 0.7),
         (1.0, 3.0, 1.0 / 7.0),
