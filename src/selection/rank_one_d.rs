@@ -14,6 +14,9 @@ pub(super) struct RankOneD<'a> {
     pub(super) inverse: RunningInverse,
     /// Greedy phase: cached d_j = c_jᵀM⁻¹c_j.
     d: DVector<f64>,
+    /// Exchange phase: the swaps whose Δ was evaluated, the others ruled out by the leverage
+    /// bound (a count for tests of the pruning).
+    pub(super) evaluated: usize,
 }
 
 impl<'a> RankOneD<'a> {
@@ -31,6 +34,7 @@ impl<'a> RankOneD<'a> {
             pool,
             inverse: RunningInverse::ridge_start(pool),
             d,
+            evaluated: 0,
         }
     }
 
@@ -138,6 +142,7 @@ impl Engine for RankOneD<'_> {
                         continue;
                     }
                     let dij = cross[(pos, c)];
+                    self.evaluated += 1;
                     best.offer((1.0 + d[j]) * (1.0 - di) + dij * dij, rank, (pos, j));
                 }
             }
