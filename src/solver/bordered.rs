@@ -204,6 +204,8 @@ where
 
 #[cfg(test)]
 mod tests {
+    #![allow(clippy::float_cmp)] // copies are exact
+
     use super::*;
 
     #[test]
@@ -239,5 +241,126 @@ mod tests {
             ],
         );
         assert_eq!(j, expected);
+    }
+
+    /// A block whose entries say where they come from: residual `100 g + i`, own derivative
+    /// `100 g + 10 i + c`, shared derivative `−(100 g + 10 i + c)`.
+    fn labelled_block(group: usize, rows: usize, own: usize, shared: usize) -> BorderedBlock {
+        let g = 100.0 * group as f64;
+        BorderedBlock {
+            residuals: DVector::from_fn(rows, |i, _| g + i as f64),
+            own: DMatrix::from_fn(rows, own, |i, c| g + (10 * i + c) as f64),
+            shared: DMatrix::from_fn(rows, shared, |i, c| -(g + (10 * i + c) as f64)),
+        }
+    }
+
+    fn three_groups() -> (BorderedLayout, Vec<BorderedBlock>) {
+        let layout = BorderedLayout {
+            own: vec![2, 3, 1],
+            shared: 2,
+        };
+        let blocks = [(0, 3), (1, 4), (2, 2)]
+            .iter()
+            .map(|&(group, rows)| labelled_block(group, rows, layout.own[group], 2))
+            .collect();
+        (layout, blocks)
+    }
+
+    #[test]
+    fn offsets_count_the_own_unknowns_of_every_earlier_group() {
+        let (layout, blocks) = three_groups();
+        assert_eq!(layout.unknowns(), 8);
+        let offsets: Vec<usize> = (0..3).map(|g| layout.offset(g)).collect();
+        assert_eq!(offsets, [0, 2, 5]);
+        assert_eq!(layout.shared_offset(), 6);
+        // Every entry of the dense Jacobian is the labelled one of its row's group, or zero.
+        let (r, j) = to_dense(&layout, &blocks);
+        assert_eq!(j.shape(), (9, 8));
+        let mut row = 0;
+        for (group, block) in blocks.iter().enumerate() {
+            for i in 0..block.residuals.len() {
+                assert_eq!(r[row], block.residuals[i]);
+                for col in 0..8 {
+                    let expected = if col >= 6 {
+                        block.shared[(i, col - 6)]
+                    } else if (offsets[group]..offsets[group] + layout.own[group]).contains(&col) {
+                        block.own[(i, col - offsets[group])]
+                    } else {
+                        0.0
+                    };
+                    assert_eq!(j[(row, col)], expected, "row {row}, column {col}");
+                }
+                row += 1;
+            }
+        }
+        assert_eq!(row, 9);
+    }
+
+    #[test]
+    fn blocks_that_do_not_fit_the_layout_are_named_expected_vs_found() {
+        let (layout, blocks) = three_groups();
+        assert_eq!(check_blocks(&layout, &blocks), Ok(()));
+        let message = |blocks: &[BorderedBlock]| check_blocks(&layout, blocks).unwrap_err().0;
+        assert_eq!(
+            message(&blocks[..2]),
+            "bordered problem: 2 blocks, expected one per group (3)"
+        );
+        let mut wrong_own = blocks.clone();
+        wrong_own[1] = labelled_block(1, 4, 2, 2);
+        assert_eq!(
+            message(&wrong_own),
+            "bordered problem: group 1's own block is 4×2, expected 4×3"
+        );
+        let mut wrong_shared = blocks.clone();
+        wrong_shared[2] = labelled_block(2, 2, 1, 3);
+        assert_eq!(
+            message(&wrong_shared),
+            "bordered problem: group 2's shared block is 2×3, expected 2×2"
+        );
+        assert_eq!(
+            LayoutMismatch("text".into()).to_string(),
+            "text",
+            "Display is the message"
+        );
+    }
+
+    /// A bordered problem returning fixed blocks, whatever `x`.
+    #[derive(Clone)]
+    struct Fixed(BorderedLayout, Vec<BorderedBlock>);
+
+    impl Operator for Fixed {
+        type Param = DVector<f64>;
+        type Output = DVector<f64>;
+
+        fn apply(&self, x: &DVector<f64>) -> Result<DVector<f64>, argmin::core::Error> {
+            Ok(x * 2.0)
+        }
+    }
+
+    impl BorderedLeastSquares for Fixed {
+        fn layout(&self) -> BorderedLayout {
+            self.0.clone()
+        }
+
+        fn bordered(&self, _: &DVector<f64>) -> Result<Vec<BorderedBlock>, argmin::core::Error> {
+            Ok(self.1.clone())
+        }
+    }
+
+    #[test]
+    fn the_dense_view_is_the_problem_with_its_blocks_assembled() {
+        let (layout, blocks) = three_groups();
+        let x = DVector::from_fn(8, |i, _| i as f64);
+        let problem = Fixed(layout.clone(), blocks.clone());
+        let view = DenseView(&problem);
+        let copy = view;
+        assert_eq!(copy.apply(&x).unwrap(), &x * 2.0);
+        assert_eq!(view.jacobian(&x).unwrap(), to_dense(&layout, &blocks).1);
+        let misfit = Fixed(layout, blocks[..2].to_vec());
+        let err = DenseView(&misfit).jacobian(&x).unwrap_err().to_string();
+        assert_eq!(
+            err,
+            "bordered problem: 2 blocks, expected one per group (3)"
+        );
     }
 }
