@@ -26,6 +26,7 @@ mod instrument_model;
 mod instrument_montecarlo;
 mod instrument_spatial;
 mod instrument_support;
+mod instrument_trust;
 mod inverse_kinematics;
 mod jacobian;
 mod kinematics;
