@@ -163,15 +163,14 @@ impl Pool {
             .collect()
     }
 
-    /// The columns of X of the candidates `indices`, side by side; padded with copies of the
-    /// first to at least min(6, K) candidates, since nalgebra forms products of fewer than 6
-    /// columns another way (rounding differently) than the whole-pool product.
-    pub(super) fn gather(&self, indices: &[usize]) -> DMatrix<f64> {
-        let b = self.b;
-        let width = indices.len().max(SMALL_PRODUCT.min(self.k));
-        DMatrix::from_fn(self.n, width * b, |p, c| {
-            let j = indices.get(c / b).copied().unwrap_or(indices[0]);
-            self.x[(p, j * b + c % b)]
+    /// The columns `columns` of X (candidates' rows: candidates themselves when b = 1), side
+    /// by side; padded with copies of the first to at least min(6, K) columns, since nalgebra
+    /// forms products of fewer than 6 columns another way (rounding differently) than the
+    /// whole-pool product.
+    pub(super) fn gather(&self, columns: &[usize]) -> DMatrix<f64> {
+        let width = columns.len().max(SMALL_PRODUCT.min(self.k));
+        DMatrix::from_fn(self.n, width, |p, c| {
+            self.x[(p, columns.get(c).copied().unwrap_or(columns[0]))]
         })
     }
 

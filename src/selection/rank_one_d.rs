@@ -134,7 +134,7 @@ impl Engine for RankOneD<'_> {
         let u_design_t = u_design.transpose();
         let mut best = BestSwap::above(1.0 + ACCEPT);
         for chunk in pool.column_groups(&hopeful) {
-            let cross = &u_design_t * pool.gather(chunk); // d_ij, N × chunk
+            let cross = &u_design_t * pool.gather(chunk); // d_ij, N × chunk (b = 1: X's column j)
             for (rank, &pos) in step.order.iter().enumerate() {
                 let di = d[step.design[pos]];
                 for (c, &j) in chunk.iter().enumerate() {
