@@ -92,7 +92,7 @@ const KEPT_EVALUATIONS: usize = 2;
 const KEPT_SOLUTION_ROWS: usize = 65_536;
 
 /// A problem's evaluation state.
-#[derive(Debug, Default)]
+#[derive(Debug)]
 struct Evaluations {
     /// Each block's solution at its last solved evaluation, [`Seeds::stride`] values a block
     /// (NaN before the first): the warm start of its next inverse-kinematics solve, and what
@@ -112,7 +112,7 @@ struct Evaluations {
 /// (the next warm start), then the actuated joint's row of the closure Jacobian's inverse
 /// (its `closure_dims` first values), which is all the dual pass takes from a solution
 /// besides the joints. 32 bytes a row for a planar leg of two moving joints.
-#[derive(Debug, Default)]
+#[derive(Debug)]
 struct Seeds {
     values: Vec<f64>,
     /// Values a block: the largest `moving + closure_dims` of the problem's legs.
@@ -166,22 +166,18 @@ struct Evaluation {
 }
 
 impl Evaluations {
-    /// The state, with one seed of `stride` values per block of a problem of `blocks`
-    /// blocks.
-    fn lock(state: &Mutex<Self>, blocks: usize, stride: usize) -> MutexGuard<'_, Self> {
-        let mut state = state.lock().unwrap_or_else(|e| e.into_inner());
-        if state.seeds.values.len() != blocks * stride || state.seeds.stride != stride {
-            *state = Self {
-                seeds: Seeds {
-                    values: vec![f64::NAN; blocks * stride],
-                    stride,
-                },
-                solved: Vec::new(),
-                recent: Vec::new(),
-                row_solves: state.row_solves,
-            };
+    /// The state before the first evaluation of a problem of `blocks` blocks: one seed of
+    /// `stride` values per block, NaN (no warm start yet).
+    fn new(blocks: usize, stride: usize) -> Self {
+        Self {
+            seeds: Seeds {
+                values: vec![f64::NAN; blocks * stride],
+                stride,
+            },
+            solved: Vec::new(),
+            recent: Vec::new(),
+            row_solves: 0,
         }
-        state
     }
 }
 
@@ -233,6 +229,16 @@ impl<'a> IdentificationProblem<'a> {
         blocks.retain(|b| slot_of_leg[b.leg].is_some());
         blocks.shrink_to_fit();
         let blocks = Arc::new(blocks);
+        // Seeds of the widest leg's moving joints and closure-inverse row.
+        let stride = slots
+            .iter()
+            .map(|slot| {
+                let leg = &mechanism.legs[slot.leg];
+                leg.moving.len() + leg.closure_dims
+            })
+            .max()
+            .unwrap_or(1);
+        let state = Evaluations::new(blocks.len(), stride);
         Self {
             blocks: blocks.clone(),
             mechanism,
@@ -247,7 +253,7 @@ impl<'a> IdentificationProblem<'a> {
             } else {
                 Arc::from(Vec::new())
             },
-            state: Arc::default(),
+            state: Arc::new(Mutex::new(state)),
         }
     }
 
@@ -351,18 +357,9 @@ impl<'a> IdentificationProblem<'a> {
             .unwrap_or_else(|| platform_transform_f64(&self.blocks[index].pose))
     }
 
-    /// The evaluation state, for this problem's blocks and legs.
+    /// The evaluation state (shared with the problem's clones).
     fn lock(&self) -> MutexGuard<'_, Evaluations> {
-        let stride = self
-            .slots
-            .iter()
-            .map(|slot| {
-                let leg = &self.mechanism.legs[slot.leg];
-                leg.moving.len() + leg.closure_dims
-            })
-            .max()
-            .unwrap_or(1);
-        Evaluations::lock(&self.state, self.blocks.len(), stride)
+        self.state.lock().unwrap_or_else(|e| e.into_inner())
     }
 
     /// The widest slot's number of identified parameters: the stride of the kept gradients.
@@ -552,6 +549,15 @@ impl<'a> IdentificationProblem<'a> {
     /// Jacobian where the residuals were last evaluated needs the dual passes only.
     pub fn row_solves(&self) -> u64 {
         self.lock().row_solves
+    }
+
+    /// The evaluations kept for reuse (at most two) and how many of them hold their gradients
+    /// (at most one: an older evaluation's are freed before another's are computed): what the
+    /// problem holds in memory besides its blocks and its seeds.
+    pub fn kept_evaluations(&self) -> (usize, usize) {
+        let state = self.lock();
+        let with_gradients = state.recent.iter().filter(|e| !e.gradients.is_empty());
+        (state.recent.len(), with_gradients.count())
     }
 
     /// Forgets the kept evaluations but the newest, and that one's gradients (kept: its

@@ -173,3 +173,47 @@ fn a_large_problem_solves_again_only_for_an_older_evaluations_jacobian() {
     assert_eq!(other.row_solves(), 3 * m, "x2's Jacobian solved again");
     assert!((&c2 - &c2_again).amax() < 1e-12);
 }
+
+/// What stays in memory: two evaluations at most, the gradients of one at most (an older
+/// evaluation's freed before another's are computed), nothing but the newest evaluation's
+/// values after `release_gradients`.
+#[test]
+fn at_most_one_kept_evaluation_holds_its_gradients() {
+    let mech = bundled("5r.yaml");
+    let problem = leg_problem(&mech, 30, 1);
+    let [x1, x2, x3] = three_points(&problem);
+    assert_eq!(problem.kept_evaluations(), (0, 0));
+    problem.residuals(&x1).unwrap();
+    assert_eq!(problem.kept_evaluations(), (1, 0));
+    problem.residuals_and_jacobian(&x1).unwrap();
+    assert_eq!(problem.kept_evaluations(), (1, 1));
+    problem.residuals_and_jacobian(&x2).unwrap();
+    assert_eq!(problem.kept_evaluations(), (2, 1), "x1's gradients freed");
+    problem.residuals_and_jacobian(&x1).unwrap();
+    assert_eq!(problem.kept_evaluations(), (2, 1), "x2's freed, x1's again");
+    problem.residuals(&x3).unwrap();
+    assert_eq!(
+        problem.kept_evaluations(),
+        (2, 1),
+        "x2 dropped; residuals alone free no gradients"
+    );
+    problem.release_gradients();
+    assert_eq!(problem.kept_evaluations(), (1, 0));
+    let solves = problem.row_solves();
+    problem.residuals(&x3).unwrap();
+    assert_eq!(
+        problem.row_solves(),
+        solves,
+        "the newest evaluation's values kept"
+    );
+}
+
+#[test]
+fn a_problem_is_weighted_only_with_weights() {
+    let mech = bundled("5r.yaml");
+    let problem = leg_problem(&mech, 10, 1);
+    assert!(!problem.is_weighted());
+    let weighted = problem.clone().with_weights(&[1.0; 10]);
+    assert!(weighted.is_weighted());
+    assert!(!weighted.unweighted().is_weighted());
+}
