@@ -96,6 +96,18 @@ pub(super) fn attachment_gradient(
     c
 }
 
+/// Whether a group's evaluation has work to do: solving its rows (no kept `values`), or
+/// computing their derivatives if `derivatives` are asked for and not kept.
+fn has_work(values: Option<&GroupValues>, derivatives: bool) -> bool {
+    values.is_none_or(|v| derivatives && v.derivatives.is_none())
+}
+
+/// Whether groups with work to do of `rows` rows each are evaluated in parallel (rayon): when
+/// more than one has work and there are enough rows to pay for handing them to other threads.
+fn in_parallel(rows: &[usize]) -> bool {
+    rows.len() > 1 && rows.iter().sum::<usize>() >= PARALLEL_ROWS
+}
+
 impl SharedProblem<'_> {
     /// Calls `read` with the evaluation at the unknowns `x` (with the derivatives if
     /// `derivatives`): a kept one if there is one at exactly `x`, else a new one, which is then
@@ -146,7 +158,7 @@ impl SharedProblem<'_> {
                 Some(values) => values,
                 None => self.solve_group(g, &phis[g], &shared, seeds)?,
             };
-            if derivatives && values.derivatives.is_none() {
+            if has_work(Some(&values), derivatives) {
                 values.derivatives = Some(self.group_derivatives(g, &phis[g], &shared, &values));
             }
             Ok::<_, String>(values)
@@ -161,17 +173,12 @@ impl SharedProblem<'_> {
         let pending: Vec<usize> = kept
             .iter()
             .zip(&self.groups)
-            .filter(|(v, _)| {
-                v.as_ref()
-                    .is_none_or(|v| derivatives && v.derivatives.is_none())
-            })
+            .filter(|(v, _)| has_work(v.as_ref(), derivatives))
             .map(|(_, group)| group.rows.len())
             .collect();
-        // The groups in parallel (rayon) when more than one has work to do and there are
-        // enough rows to pay for it; each group's values depend only on its own rows and
-        // seeds, so not on the number of threads. The first error in group order.
-        let parallel = pending.len() > 1 && pending.iter().sum::<usize>() >= PARALLEL_ROWS;
-        let results: Vec<Result<GroupValues, String>> = if parallel {
+        // Each group's values depend only on its own rows and seeds, so not on the number of
+        // threads. The first error in group order.
+        let results: Vec<Result<GroupValues, String>> = if in_parallel(&pending) {
             state
                 .seeds
                 .par_iter_mut()
@@ -408,8 +415,49 @@ mod tests {
     use nalgebra::{Const, U1};
     use num_dual::DualSVec64;
 
-    use super::pose_gradient;
+    use super::{has_work, in_parallel, pose_gradient, GroupValues, PARALLEL_ROWS};
     use crate::kinematics::chain::attachment_world;
+
+    /// Kept values of a group without rows, with or without their derivatives.
+    fn kept(with_derivatives: bool) -> GroupValues {
+        GroupValues {
+            poses: Vec::new(),
+            solutions: Vec::new(),
+            predicted: Vec::new(),
+            derivatives: with_derivatives.then(|| {
+                (
+                    nalgebra::DMatrix::zeros(0, 0),
+                    nalgebra::DMatrix::zeros(0, 0),
+                )
+            }),
+        }
+    }
+
+    #[test]
+    fn a_group_has_work_without_kept_values_or_without_the_derivatives_asked_for() {
+        for derivatives in [false, true] {
+            assert!(has_work(None, derivatives), "nothing kept: solve");
+            assert!(!has_work(Some(&kept(true)), derivatives), "everything kept");
+        }
+        assert!(
+            !has_work(Some(&kept(false)), false),
+            "values kept, no derivatives asked"
+        );
+        assert!(
+            has_work(Some(&kept(false)), true),
+            "derivatives asked, not kept"
+        );
+    }
+
+    #[test]
+    fn groups_go_to_the_thread_pool_when_several_have_enough_rows_in_all() {
+        let half = PARALLEL_ROWS / 2;
+        assert!(in_parallel(&[half, half]));
+        assert!(in_parallel(&[1, 1, PARALLEL_ROWS - 2]));
+        assert!(!in_parallel(&[half, half - 1]), "too few rows");
+        assert!(!in_parallel(&[10 * PARALLEL_ROWS]), "one group");
+        assert!(!in_parallel(&[]));
+    }
 
     #[test]
     fn the_pose_gradient_is_the_dual_derivative_of_the_attachments_world_position() {
