@@ -737,7 +737,6 @@ impl<'a> IdentificationProblem<'a> {
         })
     }
 
-    /// The error for block `block` failing at the unknowns `x`.
     /// The error of block `block` at the unknowns `x`, located (file line or block) and with the
     /// trial parameter values.
     pub fn block_error(
