@@ -761,3 +761,27 @@ fn a_measurement_file_that_cannot_be_read_is_an_io_error_naming_it() {
         "{err}"
     );
 }
+
+/// Two parameters of the same largest magnitude (k1 = 1e308, k2 = −1e308): the message names
+/// the first of them in model order.
+#[test]
+fn an_overflow_names_the_first_of_equally_large_parameters() {
+    use legwise::model::mechanism::SelectionCriterion;
+    use legwise::selection::design::ExperimentDesign;
+    let mut mech = Mechanism::load(&data("5r_gain_1e308.yaml")).expect("the model loads");
+    let k2 = mech.legs[1]
+        .params
+        .iter_mut()
+        .find(|p| p.name == "k2")
+        .expect("k2");
+    k2.nominal = -1e308;
+    let err = ExperimentDesign::select(&mech, None, 18, SelectionCriterion::D, false)
+        .expect_err("the Jacobian overflows");
+    let msg = message(&err);
+    assert!(
+        msg.ends_with(
+            ": the nominal parameters are too large to compute with (largest: k1 = 1e308)"
+        ),
+        "{msg}"
+    );
+}

@@ -182,3 +182,31 @@ fn a_weak_design_is_reported_with_its_least_observable_direction() {
         assert_eq!(design.observability.warning(), None);
     }
 }
+
+/// The traditional design names the first leg whose own rows cannot identify its parameters:
+/// with the orientation held, leg1 with its attachment held too is identifiable, leg2 is not.
+#[test]
+fn a_rank_deficient_traditional_pool_names_the_first_deficient_leg() {
+    let mut mech = bundled("3rpr.yaml");
+    mech.workspace.ranges[5] = None; // yaw held at home
+    for p in &mut mech.legs[0].params {
+        if p.name.starts_with("b1") {
+            p.identified = false;
+        }
+    }
+    let pool = candidate_pool(&mech, None).unwrap();
+    let err = traditional(&mech, &pool, 18, SelectionCriterion::D)
+        .unwrap_err()
+        .to_string();
+    assert!(
+        err.starts_with(
+            "leg `leg2`: rank-deficient identification: rank 4 of 6 parameters; cannot be \
+             identified: "
+        ),
+        "{err}"
+    );
+    assert!(
+        err.contains("the candidate pool cannot identify them"),
+        "{err}"
+    );
+}
