@@ -274,7 +274,8 @@ impl SharedProblem<'_> {
         let (m, n) = (group.rows.len(), group.columns.len());
         let mut own = DMatrix::zeros(m, n);
         let mut gradient = vec![0.0; n];
-        if n > 0 {
+        // A held leg (the instrument's registration stage) has no column: no dual pass.
+        if !group.columns.is_empty() {
             for (i, (pose, solution)) in values.poses.iter().zip(&values.solutions).enumerate() {
                 prepared.reading_and_gradient_of(pose, solution, &mut gradient);
                 for (k, &v) in gradient.iter().enumerate() {
