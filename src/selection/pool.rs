@@ -295,13 +295,13 @@ pub(super) fn column_dots(x: &DMatrixView<'_, f64>, y: &DMatrix<f64>, out: &mut 
     }
 }
 
-/// Rows of the pool beyond which [`scaled_rank`] works on the triangular factor of the rows.
+/// Rows of the pool [`scaled_rank`] reduces at once.
 const QR_ROWS: usize = 4096;
 
-/// Numerical rank of the rows stored as columns of `x`, each parameter scaled to unit norm.
-/// A pool of more than [`QR_ROWS`] rows is first reduced, chunk by chunk, to the n × n
-/// triangular factor R of its QR factorisation (the same singular values), so that no copy of
-/// the whole pool is made.
+/// Numerical rank of the rows stored as columns of `x`, each parameter scaled to unit norm
+/// (`sums`: the parameters' sums of squares; a zero parameter stays zero). The rows are
+/// reduced, [`QR_ROWS`] at a time, to the n × n triangular factor R of their QR factorisation
+/// (the same singular values), so that no copy of a large pool is made.
 fn scaled_rank(x: &DMatrix<f64>, sums: &DVector<f64>) -> usize {
     let scaled = |columns: nalgebra::DMatrixView<'_, f64>| {
         let mut rows = columns.transpose();
@@ -312,20 +312,15 @@ fn scaled_rank(x: &DMatrix<f64>, sums: &DVector<f64>) -> usize {
         }
         rows
     };
-    let reduced = if x.ncols() <= QR_ROWS {
-        scaled(x.columns(0, x.ncols()))
-    } else {
-        let mut r = DMatrix::zeros(0, x.nrows());
-        for start in (0..x.ncols()).step_by(QR_ROWS) {
-            let chunk = scaled(x.columns(start, QR_ROWS.min(x.ncols() - start)));
-            let mut stacked = DMatrix::zeros(r.nrows() + chunk.nrows(), x.nrows());
-            stacked.rows_mut(0, r.nrows()).copy_from(&r);
-            stacked.rows_mut(r.nrows(), chunk.nrows()).copy_from(&chunk);
-            r = stacked.qr().r();
-        }
-        r
-    };
-    let values = sorted_singular_values(reduced);
+    let mut r = DMatrix::zeros(0, x.nrows());
+    for start in (0..x.ncols()).step_by(QR_ROWS) {
+        let chunk = scaled(x.columns(start, QR_ROWS.min(x.ncols() - start)));
+        let mut stacked = DMatrix::zeros(r.nrows() + chunk.nrows(), x.nrows());
+        stacked.rows_mut(0, r.nrows()).copy_from(&r);
+        stacked.rows_mut(r.nrows(), chunk.nrows()).copy_from(&chunk);
+        r = stacked.qr().r();
+    }
+    let values = sorted_singular_values(r);
     let largest = values.first().copied().unwrap_or(0.0);
     values
         .iter()

@@ -276,6 +276,47 @@ fn the_rank_of_a_pool_of_many_rows_is_found_from_its_triangular_factor() {
     assert!(select(&candidates, &options(6)).is_ok());
 }
 
+/// The rank is that of the parameters scaled to unit norm: parameters of magnitudes 1e-8 and
+/// 1e8 are independent (unscaled, the small one is below the rank tolerance); a parameter that
+/// is zero at every candidate is one rank short, and so is every pool of zeros.
+#[test]
+fn the_rank_is_that_of_the_parameters_scaled_to_unit_norm() {
+    let candidates: Vec<DMatrix<f64>> = random_pool(71, 40, 1, 3)
+        .into_iter()
+        .map(|c| DMatrix::from_row_slice(1, 3, &[1e-8 * c[0], c[1], 1e8 * c[2]]))
+        .collect();
+    assert!(select(&candidates, &options(6)).is_ok());
+    let with_zero: Vec<DMatrix<f64>> = candidates
+        .iter()
+        .map(|c| DMatrix::from_row_slice(1, 4, &[c[0], 0.0, c[1], c[2]]))
+        .collect();
+    assert_eq!(
+        select(&with_zero, &options(6)),
+        Err(SelectionError::RankDeficient { rank: 3, n: 4 })
+    );
+    assert_eq!(
+        select(&vec![DMatrix::zeros(1, 3); 10], &options(6)),
+        Err(SelectionError::RankDeficient { rank: 0, n: 3 })
+    );
+}
+
+/// A design's rank in the error for a singular selection: of its own rows, scaled.
+#[test]
+fn a_singular_design_reports_the_rank_of_its_rows() {
+    let candidates: Vec<DMatrix<f64>> = random_pool(72, 30, 1, 4)
+        .into_iter()
+        .map(|c| DMatrix::from_row_slice(1, 4, &[c[0], 1e6 * c[1], c[2], 1e-6 * c[3]]))
+        .collect();
+    let pool = Pool::new(&candidates, &options(6)).unwrap();
+    for (design, rank) in [(vec![0, 1, 2, 3, 4], 4), (vec![5, 6], 2), (vec![7], 1)] {
+        assert_eq!(
+            pool.singular(&design),
+            SelectionError::SingularDesign { rank, n: 4 },
+            "{design:?}"
+        );
+    }
+}
+
 /// Each entry point hands a pool to the engine its criterion and row structure call for, and
 /// the selection names it: the engines agree on their selections, so only the name tells
 /// which one ran (the benchmarks' and the tests' references depend on it).
