@@ -250,3 +250,21 @@ fn each_row_is_warm_started_from_its_previous_solution() {
     // Measured: 8 of the 30 rows' residuals differ (at most 9e-16).
     assert!(from_home_differs > 0, "no row tells a warm start from home");
 }
+
+/// The oldest kept evaluation is dropped before a new one is solved (so that a large problem
+/// never holds three): also when that solve fails.
+#[test]
+fn the_oldest_evaluation_goes_before_the_next_is_solved() {
+    let mech = bundled("5r.yaml");
+    let problem = leg_problem(&mech, 30, 1);
+    let [x1, x2, _] = three_points(&problem);
+    problem.residuals(&x1).unwrap();
+    problem.residuals(&x2).unwrap();
+    assert_eq!(problem.kept_evaluations(), (2, 0));
+    let unreachable = &x1 * 0.1; // every length a tenth
+    assert!(problem.residuals(&unreachable).is_err());
+    assert_eq!(problem.kept_evaluations(), (1, 0));
+    let solves = problem.row_solves();
+    problem.residuals(&x2).unwrap();
+    assert_eq!(problem.row_solves(), solves, "the newer one kept");
+}
