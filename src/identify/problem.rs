@@ -476,23 +476,14 @@ impl<'a> IdentificationProblem<'a> {
             }
             Ok::<_, (usize, KinematicsError)>(solutions)
         };
-        let results: Vec<_> = if m > ROWS_PER_TASK {
-            seeds
-                .par_chunks_mut(ROWS_PER_TASK * seed_stride)
-                .zip(predicted.par_chunks_mut(ROWS_PER_TASK))
-                .zip(gradients.par_chunks_mut(ROWS_PER_TASK * stride))
-                .enumerate()
-                .map(task)
-                .collect()
-        } else {
-            seeds
-                .chunks_mut(ROWS_PER_TASK * seed_stride)
-                .zip(predicted.chunks_mut(ROWS_PER_TASK))
-                .zip(gradients.chunks_mut(ROWS_PER_TASK * stride))
-                .enumerate()
-                .map(task)
-                .collect()
-        };
+        // One task a chunk of rows; rayon runs a single chunk on the calling thread.
+        let results: Vec<_> = seeds
+            .par_chunks_mut(ROWS_PER_TASK * seed_stride)
+            .zip(predicted.par_chunks_mut(ROWS_PER_TASK))
+            .zip(gradients.par_chunks_mut(ROWS_PER_TASK * stride))
+            .enumerate()
+            .map(task)
+            .collect();
         let mut solutions = Vec::with_capacity(if keep { m } else { 0 });
         for result in results {
             match result {
@@ -529,17 +520,10 @@ impl<'a> IdentificationProblem<'a> {
                 leg.reading_and_gradient_on(&self.platform(index), &solution(index), gradient);
             }
         };
-        if self.blocks.len() > ROWS_PER_TASK {
-            gradients
-                .par_chunks_mut(ROWS_PER_TASK * width)
-                .enumerate()
-                .for_each(task);
-        } else {
-            gradients
-                .chunks_mut(ROWS_PER_TASK * width)
-                .enumerate()
-                .for_each(task);
-        }
+        gradients
+            .par_chunks_mut(ROWS_PER_TASK * width)
+            .enumerate()
+            .for_each(task);
         gradients
     }
 
@@ -620,11 +604,7 @@ impl<'a> IdentificationProblem<'a> {
                 .collect::<Result<Vec<R>, (usize, KinematicsError)>>()
         };
         let chunks = self.blocks.len().div_ceil(ROWS_PER_TASK);
-        let results: Vec<_> = if chunks > 1 {
-            (0..chunks).into_par_iter().map(task).collect()
-        } else {
-            (0..chunks).map(task).collect()
-        };
+        let results: Vec<_> = (0..chunks).into_par_iter().map(task).collect();
         let mut values = Vec::with_capacity(self.blocks.len());
         for result in results {
             match result {
