@@ -749,10 +749,11 @@ impl<'a> IdentificationProblem<'a> {
     }
 
     /// The rows and columns of the leg in `slot` of the problem's Jacobian `c`: borrowed
-    /// when they are all of it (a problem of one leg), else copied.
+    /// when they are all of it (a problem of one leg, whose slot starts at column 0), else
+    /// copied.
     pub fn slot_jacobian<'c>(&self, slot: &LegSlot, c: &'c DMatrix<f64>) -> Cow<'c, DMatrix<f64>> {
         let n = slot.columns.len();
-        if self.slots.len() == 1 && slot.offset == 0 && c.ncols() == n {
+        if self.slots.len() == 1 && c.ncols() == n {
             return Cow::Borrowed(c);
         }
         let rows = self.rows_of(slot);

@@ -8,7 +8,7 @@
 use legwise::identify::problem::IdentificationProblem;
 use legwise::measure::simulate::{simulate, SimulationOptions};
 use legwise::model::Mechanism;
-use nalgebra::DVector;
+use nalgebra::{DMatrix, DVector};
 
 use crate::support::bundled;
 
@@ -267,4 +267,50 @@ fn the_oldest_evaluation_goes_before_the_next_is_solved() {
     let solves = problem.row_solves();
     problem.residuals(&x2).unwrap();
     assert_eq!(problem.row_solves(), solves, "the newer one kept");
+}
+
+/// A leg's part of the Jacobian is the Jacobian itself, borrowed, for a problem of one leg; a
+/// copy of the leg's rows and columns otherwise, even when the leg has every column (the other
+/// leg holding all its parameters).
+#[test]
+fn a_legs_jacobian_is_borrowed_only_when_it_is_the_whole_jacobian() {
+    use std::borrow::Cow;
+    let mech = bundled("5r.yaml");
+    let single = leg_problem(&mech, 12, 1);
+    let (_, c) = single
+        .residuals_and_jacobian(&three_points(&single)[0])
+        .unwrap();
+    let whole = single.slot_jacobian(&single.slots()[0], &c);
+    assert!(matches!(whole, Cow::Borrowed(_)));
+    assert_eq!(*whole, c);
+    let options = SimulationOptions {
+        poses_per_leg: Some(12),
+        ..Default::default()
+    };
+    let measurements = simulate(&mech, options).unwrap().measurements;
+    let blocks = || {
+        let mut blocks = measurements.leg_blocks(0);
+        blocks.extend(measurements.leg_blocks(1));
+        blocks
+    };
+    let mut held = mech.clone();
+    for p in &mut held.legs[1].params {
+        p.identified = false;
+    }
+    for mechanism in [&mech, &held] {
+        let problem = IdentificationProblem::new(mechanism, &[0, 1], blocks());
+        let (_, c) = problem
+            .residuals_and_jacobian(&problem.nominal().map(|v| v * 1.001))
+            .unwrap();
+        for slot in problem.slots() {
+            let part = problem.slot_jacobian(slot, &c);
+            assert!(matches!(part, Cow::Owned(_)));
+            let rows = problem.rows_of(slot);
+            assert_eq!(rows.len(), 12);
+            assert!(rows.iter().all(|&i| problem.blocks()[i].leg == slot.leg));
+            let expected =
+                DMatrix::from_fn(12, slot.columns.len(), |i, j| c[(rows[i], slot.offset + j)]);
+            assert_eq!(*part, expected);
+        }
+    }
 }
