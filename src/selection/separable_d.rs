@@ -5,7 +5,7 @@
 use nalgebra::{DMatrix, DMatrixView};
 
 use super::driver::{Engine, Step};
-use super::gains::{addition, argmax, BestSwap};
+use super::gains::{argmax, BestSwap};
 use super::linalg::spd_inverse;
 use super::pool::{column_dots, Pool};
 use super::running_inverse::{Change, RunningInverse};
@@ -203,9 +203,8 @@ impl Engine for SeparableD<'_> {
         design: &[usize],
         eligible: &[bool],
     ) -> Option<usize> {
-        if criterion != Criterion::D {
-            return addition(pool, design, eligible, criterion);
-        }
+        // The engine of the D criterion only (`select_columns` hands it no other).
+        debug_assert_eq!(criterion, Criterion::D);
         let blocks = self.diagonal_blocks(&spd_inverse(&pool.gram(design, false))?);
         self.best_gain(&self.leverages(&blocks), eligible)
     }
