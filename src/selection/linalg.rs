@@ -99,7 +99,9 @@ pub(super) fn det_in_place(a: &mut [f64], b: usize) -> f64 {
         det *= pivot;
         for r in col + 1..b {
             let factor = a[r * b + col] / pivot;
-            for c in col + 1..b {
+            // From the pivot's column on (that column's entry below the pivot, left at about
+            // zero, is not read again).
+            for c in col..b {
                 a[r * b + c] -= factor * a[col * b + c];
             }
         }
