@@ -16,7 +16,7 @@ use nalgebra::{DMatrix, DVector};
 use serde_json::Value;
 
 use crate::cli::text;
-use crate::instrument_support::target_sigmas;
+use crate::instrument_support::{target_sigmas, unknowns};
 use crate::support::bundled;
 
 /// The σ of every identified parameter, in the problem's order, as the estimate reports it.
@@ -26,17 +26,6 @@ fn reported(estimate: &SharedEstimate) -> Vec<f64> {
         .filter(|p| p.identified)
         .map(|p| p.std.expect("a σ"))
         .collect()
-}
-
-/// The estimate's unknowns, in the problem's order.
-fn unknowns(estimate: &SharedEstimate) -> DVector<f64> {
-    let legs = estimate.legs.iter().flat_map(|(_, p)| p);
-    let values: Vec<f64> = legs
-        .chain(&estimate.shared)
-        .filter(|p| p.identified)
-        .map(|p| p.estimate)
-        .collect();
-    DVector::from_vec(values)
 }
 
 /// The residuals of the problem over `observations` at `x`.

@@ -1,6 +1,6 @@
 //! Helpers shared by the instrument tests: the simulation options, the parameter names of an
-//! instrument block, zero-noise recovery of a joint estimate, and the targets' poses against the
-//! simulated truth.
+//! instrument block, zero-noise recovery of a joint estimate, the targets' poses against the
+//! simulated truth, and an estimate's identified unknowns.
 use legwise::identify::shared_estimate::SharedEstimate;
 use legwise::measure::observe_simulate::ObservedExperiment;
 use legwise::measure::simulate::SimulationOptions;
@@ -8,6 +8,7 @@ use legwise::measure::targets::platform_pose;
 use legwise::model::instrument::Instrument;
 use legwise::model::mechanism::MeasurementNoise;
 use legwise::model::Mechanism;
+use nalgebra::DVector;
 
 /// The default simulation with its noise scaled by `noise_scale` (0: noise-free).
 pub(crate) fn simulation(noise_scale: f64) -> SimulationOptions {
@@ -97,4 +98,15 @@ pub(crate) fn target_sigmas(mechanism: &Mechanism, noise: &MeasurementNoise) -> 
             noise.pose[index]
         })
         .collect()
+}
+
+/// The estimate's unknowns, in the problem's order.
+pub(crate) fn unknowns(estimate: &SharedEstimate) -> DVector<f64> {
+    let legs = estimate.legs.iter().flat_map(|(_, p)| p);
+    let values: Vec<f64> = legs
+        .chain(&estimate.shared)
+        .filter(|p| p.identified)
+        .map(|p| p.estimate)
+        .collect();
+    DVector::from_vec(values)
 }

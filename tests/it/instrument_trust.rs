@@ -10,9 +10,8 @@ use legwise::identify::shared_estimate::{
 use legwise::measure::observe_simulate::{simulate_observed, ObservedExperiment};
 use legwise::model::mechanism::MeasurementNoise;
 use legwise::model::Mechanism;
-use nalgebra::DVector;
 
-use crate::instrument_support::simulation;
+use crate::instrument_support::{simulation, unknowns};
 use crate::support::bundled;
 
 /// The tracker model and a noisy experiment simulated with its declared noise.
@@ -20,17 +19,6 @@ fn experiment() -> (Mechanism, ObservedExperiment) {
     let mechanism = bundled("3rpr-tracker.yaml");
     let experiment = simulate_observed(&mechanism, simulation(1.0)).unwrap();
     (mechanism, experiment)
-}
-
-/// The estimate's identified unknowns, in the problem's order (legs, then the instrument).
-fn unknowns(estimate: &SharedEstimate) -> DVector<f64> {
-    let legs = estimate.legs.iter().flat_map(|(_, p)| p);
-    let values: Vec<f64> = legs
-        .chain(&estimate.shared)
-        .filter(|p| p.identified)
-        .map(|p| p.estimate)
-        .collect();
-    DVector::from_vec(values)
 }
 
 #[test]
