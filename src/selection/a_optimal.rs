@@ -1,4 +1,5 @@
-//! A criterion (minimise tr M⁻¹): Woodbury trial traces, M⁻¹ recomputed every step.
+//! A criterion (minimise tr M⁻¹): Woodbury trial traces, M⁻¹ recomputed every step; while
+//! the design is singular, the D gain and then trial traces from scratch.
 
 use nalgebra::DMatrix;
 
@@ -23,28 +24,39 @@ impl Engine for AOptimal<'_> {
         eligible: &[bool],
     ) -> Result<usize, SelectionError> {
         let (pool, b) = (self.pool, self.pool.b);
-        let minv = spd_inverse(&pool.gram(design, true)).ok_or_else(|| pool.singular(design))?;
-        let trace = minv.trace();
-        let y = &minv * &pool.x;
-        // tr (M + CᵀC)⁻¹ = tr M⁻¹ − tr(G⁻¹ PᵀP), P = M⁻¹Cᵀ, G = I + C P
-        let score = |j: usize| {
-            let p = y.columns(j * b, b);
-            let g = DMatrix::identity(b, b) + pool.block(j).tr_mul(&p);
-            match g.try_inverse() {
-                Some(g_inverse) => {
-                    let reduction = (g_inverse * p.tr_mul(&p)).trace();
-                    let after = trace - reduction;
-                    if after > 0.0 {
-                        -after.ln()
-                    } else {
-                        f64::NEG_INFINITY
-                    }
-                }
-                None => f64::NEG_INFINITY,
-            }
+        let m = pool.gram(design, true);
+        let minv = spd_inverse(&m).ok_or_else(|| pool.singular(design))?;
+        let picked = if (design.len() + 1) * b < pool.n {
+            // The trial design is singular: its tr M⁻¹ is the ridge's, all round-off. The D
+            // gain instead, as for E.
+            pool.best_block_gain(&minv, eligible)
+        } else if design.len() * b < pool.n {
+            // The trial may have full rank but M is the ridge's: tr M⁻¹ − (its reduction)
+            // would cancel to round-off. Each trial's trace from its own inverse.
+            let score = |j: usize| {
+                let block = pool.block(j);
+                spd_inverse(&(&m + block * block.transpose()))
+                    .map_or(f64::NEG_INFINITY, |inverse| -inverse.trace().ln())
+            };
+            argmax((0..pool.k).filter(|&j| eligible[j]).map(|j| (j, score(j))))
+        } else {
+            // tr (M + CᵀC)⁻¹ = tr M⁻¹ − tr(G⁻¹ PᵀP), P = M⁻¹Cᵀ, G = I + C P: the largest
+            // reduction gives the smallest trace.
+            let y = &minv * &pool.x;
+            let reduction = |j: usize| {
+                let p = y.columns(j * b, b);
+                let g = DMatrix::identity(b, b) + pool.block(j).tr_mul(&p);
+                g.try_inverse().map_or(f64::NEG_INFINITY, |g_inverse| {
+                    (g_inverse * p.tr_mul(&p)).trace()
+                })
+            };
+            argmax(
+                (0..pool.k)
+                    .filter(|&j| eligible[j])
+                    .map(|j| (j, reduction(j))),
+            )
         };
-        argmax((0..pool.k).filter(|&j| eligible[j]).map(|j| (j, score(j))))
-            .ok_or_else(|| pool.exhausted(design.len()))
+        picked.ok_or_else(|| pool.exhausted(design.len()))
     }
 
     fn best_swap(&mut self, step: &Step<'_>) -> Result<Option<(usize, usize)>, SelectionError> {

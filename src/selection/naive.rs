@@ -75,7 +75,10 @@ impl Engine for Naive<'_> {
         eligible: &[bool],
     ) -> Result<usize, SelectionError> {
         let criterion = match self.criterion {
-            Criterion::E if (design.len() + 1) * self.pool.b < self.pool.n => Criterion::D,
+            // A singular trial design: s_min is zero and tr M⁻¹ the ridge's, D's gain instead.
+            Criterion::E | Criterion::A if (design.len() + 1) * self.pool.b < self.pool.n => {
+                Criterion::D
+            }
             other => other,
         };
         self.best_extension(design, eligible, true, criterion)

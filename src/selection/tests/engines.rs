@@ -133,19 +133,26 @@ fn a_singular_design_is_exchanged_with_the_ridge() {
 fn a_and_e_criteria_give_the_naive_selection() {
     for seed in 0..3 {
         for criterion in [Criterion::A, Criterion::E] {
-            let o = SelectionOptions {
-                criterion,
-                ..options(8)
-            };
-            let pool = random_pool(300 + seed, 50, 1, 4);
-            let (fast, naive) = (select(&pool, &o).unwrap(), select_naive(&pool, &o).unwrap());
-            assert_eq!(fast.indices, naive.indices, "{criterion:?}, seed {seed}");
-            let pool = block_diagonal_pool(400 + seed, 40, 2, 3);
-            let (fast, naive) = (select(&pool, &o).unwrap(), select_naive(&pool, &o).unwrap());
-            assert_eq!(
-                fast.indices, naive.indices,
-                "{criterion:?} blocks, seed {seed}"
-            );
+            // The greedy construction alone too: the exchange would hide a greedy misstep.
+            for max_sweeps in [0, 50] {
+                let o = SelectionOptions {
+                    criterion,
+                    max_sweeps,
+                    ..options(8)
+                };
+                for (pool, what) in [
+                    (random_pool(300 + seed, 50, 1, 4), "rows"),
+                    (block_diagonal_pool(400 + seed, 40, 2, 3), "leg blocks"),
+                    (random_pool(450 + seed, 40, 3, 5), "blocks of 3"),
+                ] {
+                    let (fast, naive) =
+                        (select(&pool, &o).unwrap(), select_naive(&pool, &o).unwrap());
+                    assert_eq!(
+                        fast.indices, naive.indices,
+                        "{criterion:?}, {what}, {max_sweeps} sweeps, seed {seed}"
+                    );
+                }
+            }
         }
     }
 }
