@@ -213,3 +213,22 @@ fn the_default_budget_is_a_thousand_evaluations_per_unknown_plus_one() {
     }
     assert_eq!(default_budget(usize::MAX), u64::MAX, "saturates");
 }
+
+/// At an exact zero of the residuals (cost 0) the step is zero: it raises no cost, so it is
+/// taken, and as a round-off step it ends the refinement: one step, two residual evaluations
+/// and one Jacobian, the point unchanged.
+#[test]
+fn at_an_exact_zero_one_zero_step_is_taken() {
+    let problem = Power::new(2, 3.0, 0.0);
+    let x0 = start(0.0, 3.0);
+    let refined = refine(&problem, &x0, 1000);
+    assert_eq!(refined.x, x0);
+    assert_eq!(
+        (
+            refined.steps,
+            refined.residual_evaluations,
+            refined.jacobian_evaluations
+        ),
+        (1, 2, 1)
+    );
+}
