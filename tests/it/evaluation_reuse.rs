@@ -314,3 +314,48 @@ fn a_legs_jacobian_is_borrowed_only_when_it_is_the_whole_jacobian() {
         }
     }
 }
+
+/// Readings moved by whole turns on every other row, at unknowns whose gain is 1.3 (not ±1,
+/// where 2π/k and 2π·k agree): the residuals are the unmoved ones, and the Jacobian, whose gain
+/// column carries the turn term n·2π/k², matches central differences.
+#[test]
+fn the_gain_column_carries_the_turn_term_of_readings_on_another_turn() {
+    use argmin::core::Operator;
+    let mech = bundled("5r.yaml");
+    let plain = leg_problem(&mech, 12, 1);
+    let slot = &plain.slots()[0];
+    let gain = slot
+        .columns
+        .iter()
+        .position(|&c| mech.legs[0].params[c].name == "k1")
+        .expect("k1 identified");
+    let mut x = plain.nominal().map(|v| v * (1.0 + 1e-3));
+    x[gain] = 1.3;
+    let turn = std::f64::consts::TAU / 1.3;
+    let blocks: Vec<_> = plain
+        .blocks()
+        .iter()
+        .enumerate()
+        .map(|(i, b)| {
+            let mut b = b.clone();
+            b.reading += if i % 2 == 0 { turn } else { -2.0 * turn };
+            b
+        })
+        .collect();
+    let moved = IdentificationProblem::new(&mech, &[0], blocks);
+    let gap = (moved.residuals(&x).unwrap() - plain.residuals(&x).unwrap()).amax();
+    assert!(gap < 1e-12, "residuals differ by {gap:e}");
+    let (_, jacobian) = moved.residuals_and_jacobian(&x).unwrap();
+    for j in 0..x.len() {
+        let h = 1e-6 * (1.0 + x[j].abs());
+        let (mut plus, mut minus) = (x.clone(), x.clone());
+        plus[j] += h;
+        minus[j] -= h;
+        let central = (moved.apply(&plus).unwrap() - moved.apply(&minus).unwrap()) / (2.0 * h);
+        let gap = (jacobian.column(j) - &central).amax();
+        assert!(
+            gap <= 1e-6 * central.amax().max(1e-3),
+            "column {j}: gap {gap:e}"
+        );
+    }
+}
