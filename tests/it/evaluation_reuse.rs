@@ -4,7 +4,8 @@
 //! (from the kept solutions, or from the seeds for a problem too large to keep them), the
 //! clones share the count, and `map_solved` reuses a kept evaluation and solves otherwise.
 //! Also what stays in memory (`kept_evaluations`) and that every row is warm-started from its
-//! previous solution, seen in the last bits of the solutions.
+//! previous solution, seen in the last bits of the solutions; and what the problem assembles from
+//! an evaluation (a leg's part of the Jacobian, the turn term of readings on another turn).
 use legwise::identify::problem::IdentificationProblem;
 use legwise::measure::simulate::{simulate, SimulationOptions};
 use legwise::model::Mechanism;
