@@ -13,7 +13,7 @@ use legwise::solver::bordered::DenseView;
 use legwise::solver::{solve, solve_bordered, SolverKind};
 
 use crate::instrument_support::{assert_recovered, assert_targets_give_the_true_poses, simulation};
-use crate::support::{bundled, crate_path};
+use crate::support::{assert_central_differences, bundled, crate_path};
 
 #[test]
 fn the_instrument_measurement_file_round_trips_and_its_targets_give_back_the_true_poses() {
@@ -192,21 +192,7 @@ fn the_jacobian_of_the_shared_problem_matches_central_differences_of_its_residua
         let x = problem.start().map(|v| v * (1.0 + 1e-3));
         let (r, jacobian) = to_dense(&problem.layout(), &problem.bordered(&x).unwrap());
         assert!((&r - problem.apply(&x).unwrap()).amax() < 1e-14);
-        for j in 0..x.len() {
-            let h = 1e-6 * (1.0 + x[j].abs());
-            let mut plus = x.clone();
-            plus[j] += h;
-            let mut minus = x.clone();
-            minus[j] -= h;
-            let central =
-                (problem.apply(&plus).unwrap() - problem.apply(&minus).unwrap()) / (2.0 * h);
-            let gap = (jacobian.column(j) - &central).amax();
-            let scale = central.amax().max(1e-3);
-            assert!(
-                gap <= 1e-6 * scale,
-                "{model}, column {j}: gap {gap:e} (scale {scale:e})"
-            );
-        }
+        assert_central_differences(&problem, &x, &jacobian, model);
     }
 }
 
@@ -240,18 +226,7 @@ fn readings_on_another_turn_give_the_same_residuals_and_a_jacobian_that_accounts
     let (r_dense, jacobian) = to_dense(&problem.layout(), &problem.bordered(&x).unwrap());
     assert!((&r_dense - &r).amax() < 1e-14);
     let gain = problem.names().iter().position(|n| n == "k1").unwrap();
-    for j in 0..x.len() {
-        let h = 1e-6 * (1.0 + x[j].abs());
-        let (mut plus, mut minus) = (x.clone(), x.clone());
-        plus[j] += h;
-        minus[j] -= h;
-        let central = (problem.apply(&plus).unwrap() - problem.apply(&minus).unwrap()) / (2.0 * h);
-        let gap = (jacobian.column(j) - &central).amax();
-        assert!(
-            gap <= 1e-6 * central.amax().max(1e-3),
-            "column {j}: gap {gap:e}"
-        );
-    }
+    assert_central_differences(&problem, &x, &jacobian, "turned readings");
     // The turn term is a large part of the gain's column on the shifted rows.
     let (_, plain_jacobian) = to_dense(&plain.layout(), &plain.bordered(&x).unwrap());
     let change = (jacobian.column(gain) - plain_jacobian.column(gain)).amax();

@@ -67,3 +67,29 @@ pub(crate) fn svg_texts(svg: &str) -> Vec<String> {
         })
         .collect()
 }
+
+/// Every column of `jacobian` matches central differences of `problem`'s residuals at `x`
+/// (steps 1e-6 (1 + |x_j|)) to 1e-6 of the column's largest entry (at least 1e-3); `what`
+/// names the case in the message.
+pub(crate) fn assert_central_differences<P>(
+    problem: &P,
+    x: &DVector<f64>,
+    jacobian: &DMatrix<f64>,
+    what: &str,
+) where
+    P: Operator<Param = DVector<f64>, Output = DVector<f64>>,
+{
+    for j in 0..x.len() {
+        let h = 1e-6 * (1.0 + x[j].abs());
+        let (mut plus, mut minus) = (x.clone(), x.clone());
+        plus[j] += h;
+        minus[j] -= h;
+        let central = (problem.apply(&plus).unwrap() - problem.apply(&minus).unwrap()) / (2.0 * h);
+        let gap = (jacobian.column(j) - &central).amax();
+        let scale = central.amax().max(1e-3);
+        assert!(
+            gap <= 1e-6 * scale,
+            "{what}, column {j}: gap {gap:e} (scale {scale:e})"
+        );
+    }
+}
