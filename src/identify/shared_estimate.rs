@@ -191,7 +191,7 @@ pub fn identify_shared(
     };
     let seconds = started.elapsed().as_secs_f64();
     let (r, jacobian) = dense(&problem, &outcome.x)?;
-    if !(r.iter().all(|v| v.is_finite()) && outcome.x.iter().all(|v| v.is_finite())) {
+    if !r.iter().chain(outcome.x.iter()).all(|v| v.is_finite()) {
         return Err(solver_error("the estimate is not finite"));
     }
     let (m, n) = jacobian.shape();

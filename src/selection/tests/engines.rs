@@ -289,6 +289,30 @@ fn chunks_cover_the_pool_in_order_with_nearly_equal_sizes() {
         .is_empty());
 }
 
+/// Every row's leverage x_rᵀM⁻¹x_r, for a pool of several chunks and candidates of two rows,
+/// is the one formed from that row alone (each chunk's leverages land at its own rows).
+#[test]
+fn row_leverages_of_a_pool_of_several_chunks_are_each_rows_own() {
+    let (b, n) = (2, 4);
+    let candidates = random_pool(12, 2 * CHUNK + 7, b, n);
+    let pool = Pool::new(&candidates, &options(3)).unwrap();
+    assert!(pool.chunks().count() >= 2);
+    let minv = spd_inverse(&pool.gram(&[0, 1, 2, 3], false)).unwrap();
+    let leverages = pool.row_leverages(&minv);
+    assert_eq!(leverages.len(), candidates.len() * b);
+    for (j, c) in candidates.iter().enumerate() {
+        for r in 0..b {
+            let row = c.row(r).transpose();
+            let expected = row.dot(&(&minv * &row));
+            let found = leverages[j * b + r];
+            assert!(
+                (found - expected).abs() <= 1e-12 * expected.abs(),
+                "candidate {j}, row {r}: {found} for {expected}"
+            );
+        }
+    }
+}
+
 #[test]
 fn column_dots_are_the_row_sums_of_the_componentwise_product_to_the_bit() {
     // The leverages must be those of the whole-matrix formula, bit for bit, so that the

@@ -3,6 +3,7 @@
 
 use super::*;
 use crate::selection::linalg::min_eigenvalue;
+use crate::selection::pool::CHUNK;
 
 /// Criterion values of a design: (log det, −tr M⁻¹, s_min).
 fn criteria(pool: &[DMatrix<f64>], design: &[usize]) -> (f64, f64, f64) {
@@ -138,6 +139,38 @@ fn the_d_optimal_selection_is_invariant_to_column_scaling() {
         select(&pool, &greedy).unwrap().indices,
         select(&scale(&pool), &greedy).unwrap().indices
     );
+}
+
+/// The certificate is the design's size times the largest tr(C_j M⁻¹ C_jᵀ) over the pool,
+/// recomputed here candidate by candidate from M of the selected rows, for pools of one
+/// chunk and of several, of one row per candidate and of two.
+#[test]
+fn the_certificate_is_the_size_times_the_largest_candidate_variance() {
+    for (seed, k, b, n, count) in [
+        (3, 40, 1, 4, 6),
+        (4, 40, 2, 4, 3),
+        (5, 2 * CHUNK + 7, 2, 4, 3),
+        (6, 2 * CHUNK + 7, 2, 4, 3),
+        (7, 2 * CHUNK + 7, 2, 4, 3),
+    ] {
+        let candidates = random_pool(seed, k, b, n);
+        let selection = select(&candidates, &options(count)).unwrap();
+        let mut m = DMatrix::zeros(n, n);
+        for &j in &selection.indices {
+            m += candidates[j].transpose() * &candidates[j];
+        }
+        let minv = m.try_inverse().unwrap();
+        let largest = candidates
+            .iter()
+            .map(|c| (c * &minv * c.transpose()).trace())
+            .fold(f64::NEG_INFINITY, f64::max);
+        let expected = count as f64 * largest;
+        assert!(
+            (selection.certificate - expected).abs() <= 1e-9 * expected,
+            "seed {seed}: {} for {expected}",
+            selection.certificate
+        );
+    }
 }
 
 #[test]
