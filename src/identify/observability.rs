@@ -126,8 +126,13 @@ pub fn unit_columns(c: &DMatrix<f64>) -> DMatrix<f64> {
 /// Singular values, largest first (zeros appended when there are fewer rows than columns).
 /// Entries far from 1 (1e-300 or 1e200) neither underflow nor overflow: nalgebra's SVD scales
 /// the matrix by its largest magnitude itself (the unit test at extreme magnitudes checks it).
+/// A matrix with a NaN or infinite entry has no singular values: n NaNs (nalgebra's SVD would
+/// iterate on it for ever), which no rank count or index takes for a number.
 pub fn sorted_singular_values(c: DMatrix<f64>) -> Vec<f64> {
     let n = c.ncols();
+    if c.iter().any(|v| !v.is_finite()) {
+        return vec![f64::NAN; n];
+    }
     // The matrix itself goes into the decomposition (`singular_values()` would decompose a
     // copy of it).
     let mut values: Vec<f64> = SVD::new(c, false, false)
@@ -343,5 +348,19 @@ mod tests {
                 );
             }
         }
+    }
+
+    #[test]
+    fn a_matrix_with_a_non_finite_entry_has_no_singular_values() {
+        for bad in [f64::NAN, f64::INFINITY, f64::NEG_INFINITY] {
+            let mut c = DMatrix::from_row_slice(4, 3, &[1.0; 12]);
+            c[(2, 1)] = bad;
+            let values = sorted_singular_values(c);
+            assert_eq!(values.len(), 3);
+            assert!(values.iter().all(|v| v.is_nan()), "{bad}: {values:?}");
+        }
+        // A finite matrix still gets its own.
+        let c = DMatrix::from_row_slice(2, 2, &[3.0, 0.0, 0.0, 2.0]);
+        assert_eq!(sorted_singular_values(c), vec![3.0, 2.0]);
     }
 }

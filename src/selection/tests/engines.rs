@@ -415,3 +415,48 @@ fn the_leverage_bound_prunes_rank_one_swaps_except_under_the_ridge() {
         }
     }
 }
+
+/// The A engine's greedy step, at every design size from empty to past n rows, picks the
+/// candidate the documented rule picks from scratch: while the trial design has fewer than n
+/// rows, the largest det(M + C_jᵀC_j) (the D gain); from then on the smallest
+/// tr (M + C_jᵀC_j)⁻¹, M with the ridge. One row per candidate and three.
+#[test]
+fn the_a_greedy_step_is_the_best_trial_from_scratch_at_every_design_size() {
+    use crate::selection::AOptimal;
+    for (seed, b, n) in [
+        (960, 1, 5),
+        (961, 1, 6),
+        (962, 3, 5),
+        (963, 2, 5),
+        (964, 2, 3),
+        (965, 3, 4),
+    ] {
+        let candidates = random_pool(seed, 40, b, n);
+        let pool = Pool::new(&candidates, &options(8)).unwrap();
+        for size in 0..=n + 1 {
+            let design: Vec<usize> = (0..size).collect();
+            let eligible: Vec<bool> = (0..pool.k).map(|j| j >= size).collect();
+            let m = pool.gram(&design, true);
+            let trial = |j: usize| &m + candidates[j].transpose() * &candidates[j];
+            let singular_trial = (size + 1) * b < n;
+            let score = |j: usize| {
+                if singular_trial {
+                    trial(j).determinant()
+                } else {
+                    -trial(j).try_inverse().unwrap().trace()
+                }
+            };
+            let mut expected = (usize::MAX, f64::NEG_INFINITY);
+            for j in size..pool.k {
+                if score(j) > expected.1 {
+                    expected = (j, score(j));
+                }
+            }
+            assert_eq!(
+                AOptimal { pool: &pool }.greedy_pick(&design, &eligible),
+                Ok(expected.0),
+                "b = {b}, n = {n}, {size} poses"
+            );
+        }
+    }
+}

@@ -300,6 +300,24 @@ fn the_rank_is_that_of_the_parameters_scaled_to_unit_norm() {
     );
 }
 
+/// The rank tolerance is relative to the largest scaled singular value: parameters u and
+/// u + εv (u ⟂ v, unit norms) have scaled singular values √2 and ε/√2 to first order, so they
+/// are one rank short for ε below 2e-8 (ratio 1e-8) and independent above.
+#[test]
+fn the_pools_rank_tolerance_is_relative_to_its_largest_singular_value() {
+    let (u, v) = ([0.5, 0.5, 0.5, 0.5], [0.5, -0.5, 0.5, -0.5]);
+    let pool = |epsilon: f64| -> Vec<DMatrix<f64>> {
+        (0..4)
+            .map(|i| DMatrix::from_row_slice(1, 2, &[u[i], u[i] + epsilon * v[i]]))
+            .collect()
+    };
+    assert_eq!(
+        select(&pool(1.5e-8), &options(2)),
+        Err(SelectionError::RankDeficient { rank: 1, n: 2 })
+    );
+    assert!(select(&pool(2.5e-8), &options(2)).is_ok());
+}
+
 /// A design's rank in the error for a singular selection: of its own rows, scaled.
 #[test]
 fn a_singular_design_reports_the_rank_of_its_rows() {
