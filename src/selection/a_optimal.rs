@@ -26,11 +26,12 @@ impl Engine for AOptimal<'_> {
         let (pool, b) = (self.pool, self.pool.b);
         let m = pool.gram(design, true);
         let minv = spd_inverse(&m).ok_or_else(|| pool.singular(design))?;
-        let picked = if (design.len() + 1) * b < pool.n {
+        let rows = design.len() * b;
+        let picked = if rows + b < pool.n {
             // The trial design is singular: its tr M⁻¹ is the ridge's, all round-off. The D
             // gain instead, as for E.
             pool.best_block_gain(&minv, eligible)
-        } else if design.len() * b < pool.n {
+        } else if rows < pool.n {
             // The trial may have full rank but M is the ridge's: tr M⁻¹ − (its reduction)
             // would cancel to round-off. Each trial's trace from its own inverse.
             let score = |j: usize| {
