@@ -250,7 +250,7 @@ fn newton_on(
 ) -> Result<Solution, KinematicsError> {
     let dims = leg.closure_dims;
     let moving = leg.moving.len();
-    if !target.iter().all(|v| v.is_finite()) || !seed[..moving].iter().all(|v| v.is_finite()) {
+    if !target.iter().chain(&seed[..moving]).all(|v| v.is_finite()) {
         return Err(not_finite(leg, geometry, pose, &seed[..moving]));
     }
     let tolerance = 1e-13 * (1.0 + target.norm());
