@@ -49,24 +49,19 @@ pub(super) fn log_det_spd(m: &DMatrix<f64>) -> f64 {
     }
 }
 
-/// ln det of a small matrix with a positive determinant, −∞ otherwise.
+/// ln det of a small matrix with a positive determinant, −∞ otherwise (NaN included).
 pub(super) fn ln_det_small(g: &DMatrix<f64>) -> f64 {
     let b = g.nrows();
     let mut buffer: Vec<f64> = (0..b * b).map(|k| g[(k / b, k % b)]).collect();
-    let det = det_in_place(&mut buffer, b);
-    if det > 0.0 {
-        det.ln()
-    } else {
-        f64::NEG_INFINITY
-    }
+    // ln 0 = −∞, and `max` takes 0 for a negative or NaN determinant.
+    det_in_place(&mut buffer, b).max(0.0).ln()
 }
 
 /// Row (at or below `col`) of the largest entry in column `col` of the row-major b × b matrix
 /// `a`, or `None` if that column is zero (or NaN) from `col` down: partial pivoting.
 fn pivot_row(a: &[f64], b: usize, col: usize) -> Option<usize> {
-    let mut row = col;
-    let mut largest = a[col * b + col].abs();
-    for r in col + 1..b {
+    let (mut row, mut largest) = (col, 0.0);
+    for r in col..b {
         let v = a[r * b + col].abs();
         if v > largest {
             largest = v;
@@ -144,13 +139,9 @@ pub(super) fn invert_in_place(a: &mut [f64], b: usize, out: &mut [f64]) -> f64 {
     det
 }
 
-/// ½ ln λ (= ln s for λ = s²), −∞ for λ ≤ 0.
+/// ½ ln λ (= ln s for λ = s²), −∞ for λ ≤ 0 or NaN.
 pub(super) fn half_ln(lambda: f64) -> f64 {
-    if lambda > 0.0 {
-        0.5 * lambda.ln()
-    } else {
-        f64::NEG_INFINITY
-    }
+    0.5 * lambda.max(0.0).ln()
 }
 
 /// Smallest eigenvalue of a symmetric matrix.

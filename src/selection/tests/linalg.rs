@@ -162,6 +162,9 @@ fn half_log_and_smallest_eigenvalue() {
     assert!((half_ln(4.0) - 2f64.ln()).abs() < 1e-15);
     assert_eq!(half_ln(0.0), f64::NEG_INFINITY);
     assert_eq!(half_ln(-1.0), f64::NEG_INFINITY);
+    assert_eq!(half_ln(f64::NAN), f64::NEG_INFINITY);
+    let not_a_number = DMatrix::from_row_slice(2, 2, &[1.0, f64::NAN, 0.0, 1.0]);
+    assert_eq!(ln_det_small(&not_a_number), f64::NEG_INFINITY);
     // Q diag(3, −2, 5) Qᵀ for a rotation Q: the smallest eigenvalue is −2.
     let rotation = nalgebra::Rotation3::from_euler_angles(0.3, -0.7, 1.1).into_inner();
     let q = DMatrix::from_fn(3, 3, |i, j| rotation[(i, j)]);
