@@ -79,7 +79,7 @@ impl<'a> RankOneD<'a> {
 
 /// Whether the swap bound 1 + d_j − d_i falls short of `target` by more than rounding could
 /// explain (a relative slack of 1e-6).
-fn below(dj: f64, di: f64, target: f64) -> bool {
+pub(super) fn below(dj: f64, di: f64, target: f64) -> bool {
     1.0 + dj - di < target - 1e-6 * (1.0 + dj.abs() + di.abs())
 }
 

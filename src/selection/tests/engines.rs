@@ -460,3 +460,24 @@ fn the_a_greedy_step_is_the_best_trial_from_scratch_at_every_design_size() {
         }
     }
 }
+
+/// The leverage bound rules a swap out only when 1 + d_j − d_i falls short of the target by
+/// more than the slack 1e-6 (1 + |d_j| + |d_i|): a bound of 1.3 against targets a slack
+/// above it (1.7e-6, and 2.3e-6 for negative leverages, whose magnitudes count), ± 1e-7.
+#[test]
+fn the_leverage_bound_rules_out_only_beyond_its_rounding_slack() {
+    use crate::selection::rank_one_d::below;
+    for (dj, di) in [(0.5, 0.2), (-0.5, -0.8)] {
+        let bound = 1.0 + dj - di;
+        let slack = 1e-6 * (1.0 + f64::abs(dj) + f64::abs(di));
+        assert!(!below(dj, di, bound), "{dj}, {di}: at the bound");
+        assert!(
+            !below(dj, di, bound + slack - 1e-7),
+            "{dj}, {di}: within the slack"
+        );
+        assert!(
+            below(dj, di, bound + slack + 1e-7),
+            "{dj}, {di}: beyond the slack"
+        );
+    }
+}
