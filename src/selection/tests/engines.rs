@@ -481,3 +481,47 @@ fn the_leverage_bound_rules_out_only_beyond_its_rounding_slack() {
         );
     }
 }
+
+/// At a design no swap improves, a candidate identical to a design point swaps for it with
+/// Δ = 1 (to round-off), short of the acceptance 1 + ACCEPT: no D engine swaps them. (With
+/// an acceptance of 1 − ACCEPT every engine would.)
+#[test]
+fn no_d_engine_swaps_a_design_point_for_its_copy() {
+    use crate::selection::SeparableD;
+    // (candidates, design size, separable: one row, or rows on columns of their own)
+    for (candidates, count, separable) in [
+        (random_pool(970, 40, 1, 4), 6, true),
+        (random_pool(971, 40, 2, 4), 4, false),
+        (block_diagonal_pool(972, 40, 2, 3), 4, true),
+    ] {
+        let converged = select_naive(&candidates, &options(count)).unwrap().indices;
+        let mut with_copy = candidates.clone();
+        with_copy.push(candidates[converged[0]].clone());
+        let pool = Pool::new(&with_copy, &options(count)).unwrap();
+        let eligible: Vec<bool> = (0..pool.k).map(|j| !converged.contains(&j)).collect();
+        let step = Step {
+            design: &converged,
+            order: &order(&converged),
+            eligible: &eligible,
+            ridge: false,
+        };
+        let minv = spd_inverse(&pool.gram(&converged, false)).unwrap();
+        let mut engines: Vec<Box<dyn Engine>> = vec![Box::new(Naive {
+            pool: &pool,
+            criterion: Criterion::D,
+        })];
+        if pool.b == 1 {
+            engines.push(Box::new(RankOneD::new(&pool)));
+        } else {
+            engines.push(Box::new(BlockD::new(&pool)));
+        }
+        if let Some(separable) = SeparableD::new(&pool) {
+            engines.push(Box::new(separable));
+        }
+        assert_eq!(engines.len(), 2 + usize::from(separable));
+        for engine in &mut engines {
+            engine.sweep_start(minv.clone());
+            assert_eq!(engine.best_swap(&step).unwrap(), None, "{}", engine.name());
+        }
+    }
+}
