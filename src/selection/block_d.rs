@@ -127,7 +127,7 @@ impl Engine for BlockD<'_> {
 
 /// det(I − D_i + E G⁻¹ Eᵀ) for 2 × 2 blocks written out (the traditional two-leg design):
 /// `di` = D_i and `gi` = G⁻¹ row-major, `e` = D_ij.
-fn ratio_2x2(di: &[f64], gi: &[f64], e: &DMatrixView<'_, f64>) -> f64 {
+pub(super) fn ratio_2x2(di: &[f64], gi: &[f64], e: &DMatrixView<'_, f64>) -> f64 {
     let (d00, d01, d10, d11) = (di[0], di[1], di[2], di[3]);
     let (e00, e01, e10, e11) = (e[(0, 0)], e[(0, 1)], e[(1, 0)], e[(1, 1)]);
     let (f00, f01) = (e00 * gi[0] + e01 * gi[2], e00 * gi[1] + e01 * gi[3]);
@@ -141,7 +141,7 @@ fn ratio_2x2(di: &[f64], gi: &[f64], e: &DMatrixView<'_, f64>) -> f64 {
 
 /// det(I − D_i + E G⁻¹ Eᵀ) for b × b blocks: `di` = D_i and `gi` = G⁻¹ row-major, `e` = D_ij;
 /// `scratch` holds 3 b² numbers.
-fn ratio(di: &[f64], gi: &[f64], e: &DMatrixView<'_, f64>, scratch: &mut [f64]) -> f64 {
+pub(super) fn ratio(di: &[f64], gi: &[f64], e: &DMatrixView<'_, f64>, scratch: &mut [f64]) -> f64 {
     let b = e.nrows();
     let (e_rows, rest) = scratch.split_at_mut(b * b);
     let (f, t) = rest.split_at_mut(b * b);
