@@ -17,6 +17,9 @@ pub(super) struct RankOneD<'a> {
     /// Exchange phase: the swaps whose Δ was evaluated, the others ruled out by the leverage
     /// bound (a count for tests of the pruning).
     pub(super) evaluated: usize,
+    /// Exchange phase: the candidates whose cross products with the design were formed, the
+    /// others ruled out against every design point at once (a count for the same tests).
+    pub(super) hopeful: usize,
 }
 
 impl<'a> RankOneD<'a> {
@@ -35,6 +38,7 @@ impl<'a> RankOneD<'a> {
             inverse: RunningInverse::ridge_start(pool),
             d,
             evaluated: 0,
+            hopeful: 0,
         }
     }
 
@@ -131,6 +135,7 @@ impl Engine for RankOneD<'_> {
         let hopeful: Vec<usize> = (0..pool.k)
             .filter(|&j| step.eligible[j] && !(prune && below(d[j], floor, 1.0 + ACCEPT)))
             .collect();
+        self.hopeful += hopeful.len();
         let u_design_t = u_design.transpose();
         let mut best = BestSwap::above(1.0 + ACCEPT);
         for chunk in pool.column_groups(&hopeful) {

@@ -378,6 +378,7 @@ fn a_greedy_step_without_an_eligible_candidate_names_the_poses_requested() {
 /// without changing the swap chosen; under the ridge it rules out none.
 #[test]
 fn the_leverage_bound_prunes_rank_one_swaps_except_under_the_ridge() {
+    let mut pruned = 0;
     for seed in 0..3 {
         let candidates = random_pool(800 + seed, 60, 1, 4);
         let pool = Pool::new(&candidates, &options(8)).unwrap();
@@ -411,9 +412,29 @@ fn the_leverage_bound_prunes_rank_one_swaps_except_under_the_ridge() {
                     "seed {seed}, ridge {ridge}: {} of {swaps}",
                     fast.evaluated
                 );
+                // The candidates left after the bound against the design's smallest leverage
+                // (all of them under the ridge), counted from leverages formed here.
+                let d = |j: usize| {
+                    let c = candidates[j].transpose();
+                    (c.transpose() * fast.inverse.minv.clone() * c)[(0, 0)]
+                };
+                let floor = design.iter().map(|&i| d(i)).fold(f64::INFINITY, f64::min);
+                let hopeful = (0..pool.k)
+                    .filter(|&j| eligible[j])
+                    .filter(|&j| {
+                        let (bound, slack) = (1.0 + d(j) - floor, 1e-6 * (1.0 + d(j) + floor));
+                        ridge || bound >= 1.0 + ACCEPT - slack
+                    })
+                    .count();
+                assert_eq!(fast.hopeful, hopeful, "seed {seed}, ridge {ridge}");
+                pruned += pool.k - design.len() - hopeful;
             }
         }
     }
+    assert!(
+        pruned > 0,
+        "no candidate ruled out against the whole design"
+    );
 }
 
 /// The A engine's greedy step, at every design size from empty to past n rows, picks the
