@@ -16,6 +16,7 @@ use std::f64::consts::TAU;
 use nalgebra::{Matrix3, Vector3};
 
 use super::chain::{attachment_world, tip_position, ChainFrames};
+use super::newton_stop::{beyond_round_off, converged};
 use crate::error::KinematicsError;
 use crate::model::joint::JointKind;
 use crate::model::leg::{LegGeometry, LegModel};
@@ -37,8 +38,6 @@ const LIMIT_ITERATIONS: usize = 80;
 
 /// Most polishing Newton steps after convergence.
 const MAX_POLISH_STEPS: usize = 3;
-/// A polishing step at most this relative length is round-off (four units in the last place).
-const ROUND_OFF_STEP: f64 = 4.0 * f64::EPSILON;
 
 /// Most moving joints a leg has (as many as closure equations: 3 in space; checked at load).
 pub const MAX_JOINTS: usize = 3;
@@ -266,8 +265,7 @@ fn newton_on(
             return Err(not_finite(leg, geometry, pose, &q[..moving]));
         }
         // Converged: tiny residual, or round-off floor reached after a tiny improvement.
-        let stalled = residual < 1e3 * tolerance && residual >= 0.5 * previous;
-        if residual <= tolerance || stalled {
+        if converged(residual, previous, tolerance) {
             let determinant = normalised_determinant(&jacobian, dims);
             if determinant.abs() <= SINGULAR_DETERMINANT {
                 return Err(at_reach_limit(leg, frames, target, tolerance, q));
@@ -280,11 +278,7 @@ fn newton_on(
             let inverse = invert(&jacobian, dims);
             if polishes < MAX_POLISH_STEPS && iteration < MAX_ITERATIONS {
                 if let Some(step) = inverse.map(|inverse| limited_step(leg, &inverse, &closure)) {
-                    let significant = q[..moving]
-                        .iter()
-                        .zip(step.iter())
-                        .any(|(value, delta)| delta.abs() > ROUND_OFF_STEP * value.abs().max(1.0));
-                    if significant {
+                    if beyond_round_off(&q[..moving], step.as_slice()) {
                         for (value, delta) in q[..moving].iter_mut().zip(step.iter()) {
                             *value += delta;
                         }

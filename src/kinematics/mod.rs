@@ -1,5 +1,6 @@
 //! Kinematics as free functions over the immutable model, generic over the scalar.
 pub mod chain;
 pub mod inverse;
+mod newton_stop;
 pub mod platform;
 pub mod singularity;

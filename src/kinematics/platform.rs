@@ -10,6 +10,7 @@ use num_dual::Dual64;
 
 use super::chain::{attachment_on, platform_transform, ChainFrames};
 use super::inverse::{joints, predict_reading, wrap_angle, Joints};
+use super::newton_stop::converged;
 use crate::error::KinematicsError;
 use crate::model::joint::JointKind;
 use crate::model::leg::LegGeometry;
@@ -276,8 +277,7 @@ impl<'m> ForwardKinematics<'m> {
                 return Err(KinematicsError::NotAssemblable { residual });
             }
             let tolerance = 1e-13 * size;
-            let stalled = residual < 1e3 * tolerance && residual >= 0.5 * previous;
-            if residual <= tolerance || stalled {
+            if converged(residual, previous, tolerance) {
                 let determinant = normalised_determinant(jacobian);
                 if determinant.abs() < 1e-10 {
                     return Err(KinematicsError::AssemblyModeChange);
