@@ -375,6 +375,99 @@ fn workspace_prints_the_5r_miw_and_writes_the_picture() {
             && picture.contains("x (m)")
             && picture.trim_end().ends_with("</svg>")
     );
+    // The MIW as drawn, read back through the axes' tick labels: its centre (the cross) and
+    // its radius (the dashed circle's extent) in metres, to two pixels.
+    let (to_x, to_y) = tick_scales(&picture);
+    let pixel = to_x.1.abs().max(to_y.1.abs());
+    let black = black_wide_polylines(&picture);
+    let cross: Vec<&Vec<(f64, f64)>> = black
+        .iter()
+        .filter(|p| p.len() == 2 && (p[0].0 - p[1].0).abs() == 12.0 && p[0].1 == p[1].1)
+        .collect();
+    assert_eq!(cross.len(), 1, "one horizontal bar of the centre's cross");
+    let centre = (
+        to_x.0 + to_x.1 * 0.5 * (cross[0][0].0 + cross[0][1].0),
+        to_y.0 + to_y.1 * cross[0][0].1,
+    );
+    assert!(centre.0.abs() <= 2.0 * pixel, "{centre:?}");
+    assert!((centre.1 - 1.0956477).abs() <= 2.0 * pixel, "{centre:?}");
+    let dashes: Vec<f64> = black
+        .iter()
+        .filter(|p| p.len() > 2)
+        .flat_map(|p| p.iter().map(|q| q.0))
+        .collect();
+    let (left, right) = dashes
+        .iter()
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), &x| {
+            (lo.min(x), hi.max(x))
+        });
+    let radius = 0.5 * (right - left) * to_x.1.abs();
+    assert!((radius - 0.6456477).abs() <= 2.0 * pixel, "{radius}");
+}
+
+/// The affine maps (value at pixel 0, value per pixel) of a plot's x and y axes, from its
+/// numeric tick labels: the y labels are right-aligned (`text-anchor="end"`) at their tick's
+/// height, the x labels centred under their tick.
+fn tick_scales(svg: &str) -> ((f64, f64), (f64, f64)) {
+    let attribute = |tag: &str, name: &str| -> Option<f64> {
+        let start = tag.find(&format!(" {name}=\""))? + name.len() + 3;
+        tag[start..].split('"').next()?.parse().ok()
+    };
+    let (mut xs, mut ys) = (Vec::new(), Vec::new());
+    for chunk in svg.split("<text").skip(1) {
+        let Some(end) = chunk.find('>') else { continue };
+        let tag = &chunk[..end];
+        let Some(value) = chunk[end + 1..]
+            .split("</text>")
+            .next()
+            .and_then(|t| t.trim().parse::<f64>().ok())
+        else {
+            continue;
+        };
+        if tag.contains("rotate") {
+            continue;
+        }
+        if tag.contains("text-anchor=\"end\"") {
+            ys.push((attribute(tag, "y").unwrap(), value));
+        } else if tag.contains("text-anchor=\"middle\"") {
+            xs.push((attribute(tag, "x").unwrap(), value));
+        }
+    }
+    let fit = |ticks: &[(f64, f64)], axis: &str| {
+        assert!(ticks.len() >= 3, "{axis} ticks: {ticks:?}");
+        let (first, last) = (ticks[0], ticks[ticks.len() - 1]);
+        let per_pixel = (last.1 - first.1) / (last.0 - first.0);
+        // Every tick on the same line, to a pixel (plotters rounds positions to pixels).
+        for &(at, value) in ticks {
+            assert!((first.1 + per_pixel * (at - first.0) - value).abs() <= per_pixel.abs());
+        }
+        (first.1 - per_pixel * first.0, per_pixel)
+    };
+    (fit(&xs, "x"), fit(&ys, "y"))
+}
+
+/// The points of every black polyline of width 2 (the MIW's dashes and its centre's cross).
+fn black_wide_polylines(svg: &str) -> Vec<Vec<(f64, f64)>> {
+    svg.split("<polyline")
+        .skip(1)
+        .filter_map(|chunk| {
+            let tag = &chunk[..chunk.find('>')?];
+            if !tag.contains("stroke=\"#000000\" stroke-width=\"2\"") {
+                return None;
+            }
+            let start = tag.find("points=\"")? + 8;
+            let points = tag[start..].split('"').next()?;
+            Some(
+                points
+                    .split_whitespace()
+                    .map(|p| {
+                        let (x, y) = p.split_once(',').unwrap();
+                        (x.parse().unwrap(), y.parse().unwrap())
+                    })
+                    .collect(),
+            )
+        })
+        .collect()
 }
 
 #[test]
