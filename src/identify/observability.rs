@@ -57,7 +57,7 @@ pub fn analyse(c: &DMatrix<f64>, names: &[String]) -> Observability {
     let singular_values = sorted_singular_values(c.clone());
     // One m × n working copy at a time (a large problem's Jacobian is tens of megabytes): the
     // SVD takes the scaled copy, which the rare rank-deficient case builds again.
-    let svd = unit_columns(c).svd(false, true);
+    let svd = with_a_row_per_column(unit_columns(c)).svd(false, true);
     let mut order: Vec<usize> = (0..svd.singular_values.len()).collect();
     order.sort_by(|&a, &b| svd.singular_values[b].total_cmp(&svd.singular_values[a]));
     let scaled_singular_values: Vec<f64> = order.iter().map(|&i| svd.singular_values[i]).collect();
@@ -92,6 +92,18 @@ pub fn analyse(c: &DMatrix<f64>, names: &[String]) -> Observability {
         null_directions,
         scaled_condition,
         weakest_direction,
+    }
+}
+
+/// `c` with zero rows appended up to one row per column. A thin SVD of fewer rows than
+/// columns has a right singular vector per row only: the directions it leaves out (singular
+/// value 0, the null space's completion) would be missing from the null directions and the
+/// weakest one. Zero rows change no singular value but add those zeros and their vectors.
+fn with_a_row_per_column(c: DMatrix<f64>) -> DMatrix<f64> {
+    let n = c.ncols();
+    match c.nrows().cmp(&n) {
+        std::cmp::Ordering::Less => c.resize_vertically(n, 0.0),
+        _ => c,
     }
 }
 
@@ -254,20 +266,68 @@ mod tests {
         );
         let o = analyse(&c, &names(3));
         assert_eq!(o.rank, 2);
-        assert_eq!(o.unidentifiable.len(), 1);
-        assert!(o.unidentifiable[0] == "p0" || o.unidentifiable[0] == "p2");
-        assert_eq!(o.null_directions.len(), 1);
-        assert!(o.null_directions[0].contains("p0") && o.null_directions[0].contains("p2"));
-        assert!(!o.null_directions[0].contains("p1"));
-        assert!(o.condition.is_infinite());
+        // Equal unit columns: the pivoting takes the last of equally long ones (p2, as
+        // `Iterator::max_by` does), and p0 is left as the combination; the null direction is
+        // (1, 0, −1)/√2.
+        assert_eq!(o.unidentifiable, vec!["p0".to_string()]);
+        assert_eq!(o.null_directions, vec!["0.707 p0 - 0.707 p2"]);
+        assert_eq!(o.weakest_direction, o.null_directions[0]);
+        assert!(o.condition.is_infinite() && o.scaled_condition.is_infinite());
+        assert_eq!(o.indices, [0.0; 5]);
+        // C = [a, b, 2a] has the non-zero singular values of [√5 a, b]: with |a|² = 6,
+        // |b|² = 45/4 and a·b = −½ its Gram matrix [[30, −√5/2], [−√5/2, 45/4]] has trace
+        // 165/4 and determinant 1345/4; the unit columns [u, v, u] those of [√2 u, v]:
+        // [[2, √2 k], [√2 k, 1]] with k = a·b/(|a| |b|), eigenvalues (3 ± √(1 + 8k²))/2.
+        let (t, d): (f64, f64) = (165.0 / 4.0, 1345.0 / 4.0);
+        let root = (t * t - 4.0 * d).sqrt();
+        let expected = [((t + root) / 2.0).sqrt(), ((t - root) / 2.0).sqrt(), 0.0];
+        for (s, e) in o.singular_values.iter().zip(expected) {
+            assert!(
+                (s - e).abs() < 1e-12 * expected[0],
+                "{:?}",
+                o.singular_values
+            );
+        }
+        let k: f64 = -0.5 / (6.0f64 * 45.0 / 4.0).sqrt();
+        let root = (1.0 + 8.0 * k * k).sqrt();
+        let expected = [((3.0 + root) / 2.0).sqrt(), ((3.0 - root) / 2.0).sqrt()];
+        for (s, e) in o.scaled_singular_values.iter().zip(expected) {
+            assert!((s - e).abs() < 1e-12, "{:?}", o.scaled_singular_values);
+        }
+        assert!(o.scaled_singular_values[2].abs() < 1e-12);
     }
 
+    /// C = [[1, 0, ½], [0, 1, ¼]]: p2 = ½ p0 + ¼ p1, so (−½, −¼, 1) spans the null space; with
+    /// unit columns (p2's norm is √(5/16)) it is (−½, −¼, √5/4)/√(5/8) = (−0.632, −0.316,
+    /// 0.707). A thin SVD of 2 rows has no third direction: the null direction (and the weakest
+    /// one, the same) must still be reported, and three scaled singular values, the last 0.
     #[test]
     fn fewer_rows_than_parameters_is_rank_deficient() {
         let c = DMatrix::from_row_slice(2, 3, &[1.0, 0.0, 0.5, 0.0, 1.0, 0.25]);
         let o = analyse(&c, &names(3));
         assert_eq!(o.rank, 2);
-        assert_eq!(o.unidentifiable.len(), 1);
+        assert_eq!(o.unidentifiable, vec!["p2".to_string()]);
+        assert_eq!(o.null_directions, vec!["0.707 p2 - 0.632 p0 - 0.316 p1"]);
+        assert_eq!(o.weakest_direction, o.null_directions[0]);
+        assert_eq!(o.scaled_singular_values.len(), 3);
+        assert_eq!(o.scaled_singular_values[2], 0.0);
+        assert!(o.condition.is_infinite() && o.scaled_condition.is_infinite());
+        // The unit columns' Gram matrix [[1, 0, c0], [0, 1, c1], [c0, c1, 1]] with c0 = 2/√5 and
+        // c1 = 1/√5 has eigenvalues 1 and 1 ± √(c0² + c1²) = 1 ± 1: 2, 1, 0.
+        let expected = [2f64.sqrt(), 1.0];
+        for (s, e) in o.scaled_singular_values.iter().zip(expected) {
+            assert!((s - e).abs() < 1e-12, "{:?}", o.scaled_singular_values);
+        }
+        // Unscaled: CᵀC has eigenvalues 0 and those of CCᵀ = [[5/4, 1/8], [1/8, 17/16]].
+        let (t, d): (f64, f64) = (
+            5.0 / 4.0 + 17.0 / 16.0,
+            5.0 / 4.0 * 17.0 / 16.0 - 1.0 / 64.0,
+        );
+        let root = (t * t - 4.0 * d).sqrt();
+        let expected = [((t + root) / 2.0).sqrt(), ((t - root) / 2.0).sqrt(), 0.0];
+        for (s, e) in o.singular_values.iter().zip(expected) {
+            assert!((s - e).abs() < 1e-12, "{:?}", o.singular_values);
+        }
     }
 
     #[test]
@@ -296,7 +356,12 @@ mod tests {
             "{}",
             o.condition
         );
-        assert!(o.scaled_condition.is_finite());
+        // The columns (1, 0) and (1, ε)/|(1, ε)| (= (1, ε) in f64): the same ratio 2/ε.
+        assert!(
+            (o.scaled_condition / (2.0 / epsilon) - 1.0).abs() < 1e-6,
+            "{}",
+            o.scaled_condition
+        );
     }
 
     #[test]
