@@ -5,7 +5,8 @@
 //! of which the identification itself uses. Plus the edge cases of the measurement count:
 //! exactly n measurements for n parameters, and rank deficiency with n rows.
 use legwise::error::Error;
-use legwise::identify::estimate::{identify, LegEstimate, Strategy};
+use legwise::identify::estimate::{identify, identify_problem, FitOptions, LegEstimate, Strategy};
+use legwise::identify::problem::IdentificationProblem;
 use legwise::identify::residual::ResidualBlock;
 use legwise::measure::simulate::{simulate, SimulationOptions};
 use legwise::measure::{MeasuredPose, MeasurementSet};
@@ -142,6 +143,33 @@ fn divide_and_conquer_statistics_match_an_independent_recomputation() {
             close(run.initial_cost, initial, 1e-9, "run initial cost");
             close(run.final_cost, last, 1e-9, "run final cost");
         }
+    }
+}
+
+/// A problem handed to [`identify_problem`] with row weights of its own is fitted as the
+/// options say (plain least squares by default, its weights dropped): every cost reported is
+/// that of the fitted problem, the initial one included (½‖r(x₀)‖², not ½‖√w r(x₀)‖²), and
+/// the estimate and its statistics are those of the unweighted identification.
+#[test]
+fn a_weighted_problem_fitted_without_weights_reports_the_costs_of_the_fitted_problem() {
+    let (mech, data) = noisy_5r_with_a_fixed_parameter();
+    for leg in 0..mech.legs.len() {
+        let blocks = data.leg_blocks(leg);
+        let weights = vec![4.0; blocks.len()];
+        let problem =
+            IdentificationProblem::new(&mech, &[leg], blocks.clone()).with_weights(&weights);
+        let (estimates, run) = identify_problem(
+            &mech,
+            &data,
+            &problem,
+            SolverKind::GaussNewton,
+            FitOptions::default(),
+        )
+        .unwrap();
+        assert_eq!(estimates.len(), 1);
+        let (initial, last) = check_leg(&mech, leg, &blocks, &estimates[0]);
+        close(run.initial_cost, initial, 1e-9, "run initial cost");
+        close(run.final_cost, last, 1e-9, "run final cost");
     }
 }
 
