@@ -382,7 +382,11 @@ fn workspace_prints_the_5r_miw_and_writes_the_picture() {
     let black = black_wide_polylines(&picture);
     let cross: Vec<&Vec<(f64, f64)>> = black
         .iter()
-        .filter(|p| p.len() == 2 && (p[0].0 - p[1].0).abs() == 12.0 && p[0].1 == p[1].1)
+        .filter(|p| {
+            p.len() == 2
+                && (p[0].0 - p[1].0).abs().to_bits() == 12f64.to_bits()
+                && p[0].1.to_bits() == p[1].1.to_bits()
+        })
         .collect();
     assert_eq!(cross.len(), 1, "one horizontal bar of the centre's cross");
     let centre = (
