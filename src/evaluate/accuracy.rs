@@ -116,8 +116,9 @@ pub fn orientation_error(reached: &[f64; 6], target: &[f64; 6]) -> f64 {
 /// Coordinates other than x, y stay at their home values (a constant-orientation map).
 ///
 /// # Errors
-/// A spacing that is not a positive number of metres, a scale outside (0, 1], or more than
-/// [`MAX_MAP_POINTS`] points.
+/// A spacing that is not a positive number of metres, a scale outside (0, 1], more than
+/// [`MAX_MAP_POINTS`] points, or a lattice over the (scaled) bounding box of more than four
+/// times that many points.
 pub fn map_grid(mechanism: &Mechanism, grid_m: f64, scale: f64) -> Result<Vec<[f64; 6]>> {
     if !(grid_m.is_finite() && grid_m > 0.0) {
         return Err(Error::Invalid(format!(
@@ -136,8 +137,16 @@ pub fn map_grid(mechanism: &Mechanism, grid_m: f64, scale: f64) -> Result<Vec<[f
         ((hi[0] - lo[0]) / grid_m + 1e-9).floor(),
         ((hi[1] - lo[1]) / grid_m + 1e-9).floor(),
     );
-    if (nx + 1.0) * (ny + 1.0) * scale * scale > 4.0 * MAX_MAP_POINTS as f64 {
-        return Err(too_many(grid_m));
+    // Walking the lattice costs its size, whatever the region holds: a lattice far beyond
+    // the limit is refused before it is walked (a region filling little of its box, a thin
+    // slice of a ball, can be refused though it holds few points; the message says so).
+    let lattice = (nx + 1.0) * (ny + 1.0) * scale * scale;
+    if lattice > 4.0 * MAX_MAP_POINTS as f64 {
+        return Err(Error::Invalid(format!(
+            "--map: a spacing of {grid_m} m makes a lattice of {lattice:.0} points over the \
+             region's bounding box (scaled), more than 4 × {MAX_MAP_POINTS} to walk; choose a \
+             coarser grid"
+        )));
     }
     let mut poses = Vec::new();
     for j in 0..=ny as u64 {
@@ -393,4 +402,99 @@ pub fn shared_result_parameters(mechanism: &Mechanism, result: &SharedEstimate) 
             None => leg.nominal(),
         })
         .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use std::f64::consts::PI;
+
+    use super::*;
+
+    #[test]
+    fn a_single_error_is_its_own_rms_median_percentile_and_maximum() {
+        let stats = ErrorStats::of(&[0.003]).unwrap();
+        for value in [stats.rms, stats.median, stats.p95, stats.max] {
+            assert!((value - 0.003).abs() < 1e-17, "{stats:?}");
+        }
+    }
+
+    #[test]
+    fn the_position_error_is_the_distance_between_the_positions_alone() {
+        // Offsets of 3, 4 and 12 m: 13 m, whatever the orientations.
+        let reached = [4.0, 6.0, 15.0, 0.5, -0.2, 1.0];
+        let target = [1.0, 2.0, 3.0, 0.0, 0.3, -2.0];
+        assert!((position_error(&reached, &target) - 13.0).abs() < 1e-12);
+        assert!((position_error(&target, &reached) - 13.0).abs() < 1e-12);
+    }
+
+    /// `Rz(yaw) Ry(pitch) Rx(roll)` of a pose `[.., roll, pitch, yaw]`, written out.
+    fn rotation(p: &[f64; 6]) -> [[f64; 3]; 3] {
+        let (sr, cr) = p[3].sin_cos();
+        let (sp, cp) = p[4].sin_cos();
+        let (sy, cy) = p[5].sin_cos();
+        [
+            [cy * cp, cy * sp * sr - sy * cr, cy * sp * cr + sy * sr],
+            [sy * cp, sy * sp * sr + cy * cr, sy * sp * cr - cy * sr],
+            [-sp, cp * sr, cp * cr],
+        ]
+    }
+
+    #[test]
+    fn the_orientation_error_is_the_angle_of_the_relative_rotation() {
+        let pose = |roll: f64, pitch: f64, yaw: f64| [0.1, 0.2, 0.3, roll, pitch, yaw];
+        // About one axis: the difference of the angles, the short way round.
+        let yaw = orientation_error(&pose(0.0, 0.0, 3.0), &pose(0.0, 0.0, -3.0));
+        assert!((yaw - (2.0 * PI - 6.0)).abs() < 1e-12, "{yaw}");
+        let roll = orientation_error(&pose(0.25, 0.0, 0.0), &pose(0.0, 0.0, 0.0));
+        assert!((roll - 0.25).abs() < 1e-12, "{roll}");
+        // About all three: cos θ = (tr(Raᵀ Rb) − 1) / 2 with the matrices written out.
+        let (a, b) = (pose(0.3, -0.2, 0.5), pose(-0.1, 0.4, 0.2));
+        let (ra, rb) = (rotation(&a), rotation(&b));
+        let trace: f64 = (0..3)
+            .flat_map(|i| (0..3).map(move |k| ra[k][i] * rb[k][i]))
+            .sum();
+        let expected = ((trace - 1.0) / 2.0).acos();
+        let angle = orientation_error(&a, &b);
+        assert!(
+            (angle - expected).abs() < 1e-12,
+            "{angle} against {expected}"
+        );
+        assert!(expected > 0.5, "a sizeable rotation: {expected}");
+    }
+
+    #[test]
+    fn each_target_is_warm_started_from_the_previous_one_or_the_previous_rows_first() {
+        // Three rows of four targets 0.1 m apart, away from the origin, listed as a grid is.
+        let targets: Vec<[f64; 6]> = (0..3)
+            .flat_map(|j| {
+                (0..4).map(move |i| {
+                    [
+                        1.0 + 0.1 * i as f64,
+                        2.0 + 0.1 * j as f64,
+                        0.5,
+                        0.0,
+                        0.0,
+                        0.0,
+                    ]
+                })
+            })
+            .collect();
+        let expected = [
+            None,
+            Some(0),
+            Some(1),
+            Some(2),
+            Some(0),
+            Some(4),
+            Some(5),
+            Some(6),
+            Some(4),
+            Some(8),
+            Some(9),
+            Some(10),
+        ];
+        assert_eq!(warm_start_order(&targets), expected);
+        assert_eq!(warm_start_order(&targets[..1]), [None]);
+        assert_eq!(warm_start_order(&[]), []);
+    }
 }

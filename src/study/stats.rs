@@ -175,4 +175,74 @@ mod tests {
         assert!(e.low.is_nan() && e.high.is_nan());
         assert!(std_interval(&[3.0]).low.is_nan());
     }
+
+    #[test]
+    fn two_values_take_the_one_degree_of_freedom_quantiles() {
+        // s of {1, 3} is √2; t(0.975, 1) = 12.706205; χ²(1) 0.025 and 0.975 quantiles
+        // 0.000982069 and 5.023886 (printed tables).
+        assert!((sample_std(&[1.0, 3.0]) - 2f64.sqrt()).abs() < 1e-15);
+        assert!((t_quantile(2) - 12.706_205).abs() < 1e-5);
+        let m = mean_interval(&[1.0, 3.0]);
+        assert!((m.low - (2.0 - 12.706_205)).abs() < 1e-5);
+        assert!((m.high - (2.0 + 12.706_205)).abs() < 1e-5);
+        let s = std_interval(&[1.0, 3.0]);
+        assert!((s.low - (2.0f64 / 5.023_886).sqrt()).abs() < 1e-6);
+        let high = (2.0f64 / 0.000_982_069).sqrt();
+        assert!(
+            (s.high - high).abs() < 1e-5 * high,
+            "{} against {high}",
+            s.high
+        );
+    }
+
+    #[test]
+    fn no_values_give_no_quantile_no_spread_and_no_interval() {
+        assert!(mean(&[]).is_nan());
+        assert!(t_quantile(0).is_nan() && t_quantile(1).is_nan());
+        assert!(sample_std(&[]).is_nan() && sample_std(&[2.0]).is_nan());
+        let s = std_interval(&[]);
+        assert!(s.value.is_nan() && s.low.is_nan() && s.high.is_nan());
+    }
+
+    #[test]
+    fn an_interval_is_below_or_above_zero_only_when_it_excludes_zero() {
+        let e = |low: f64, high: f64| Estimate {
+            value: (low + high) / 2.0,
+            low,
+            high,
+        };
+        // The smallest positive number: one step either side of zero.
+        let tiny = f64::from_bits(1);
+        assert!(e(-2.0, -tiny).below_zero());
+        assert!(!e(-2.0, 0.0).below_zero());
+        assert!(!e(-2.0, tiny).below_zero());
+        assert!(e(tiny, 2.0).above_zero());
+        assert!(!e(0.0, 2.0).above_zero());
+        assert!(!e(-tiny, 2.0).above_zero());
+        assert!(!e(-1.0, 1.0).below_zero() && !e(-1.0, 1.0).above_zero());
+    }
+
+    #[test]
+    fn scaling_multiplies_every_number_of_an_estimate() {
+        let e = Estimate {
+            value: 0.002,
+            low: -0.0005,
+            high: 0.0045,
+        }
+        .scaled(1e3);
+        assert!((e.value - 2.0).abs() < 1e-12);
+        assert!((e.low + 0.5).abs() < 1e-12);
+        assert!((e.high - 4.5).abs() < 1e-12);
+    }
+
+    #[test]
+    fn a_paired_difference_is_the_t_interval_of_the_differences() {
+        // a − b = 2, 3, 6: mean 11/3, s² = 13/3, half width t(0.975, 2) · √(s²/3) with
+        // t(0.975, 2) = 4.302653.
+        let d = paired_difference(&[3.0, 5.0, 10.0], &[1.0, 2.0, 4.0]);
+        let half = 4.302_653 * (13.0f64 / 9.0).sqrt();
+        assert!((d.value - 11.0 / 3.0).abs() < 1e-12);
+        assert!((d.low - (11.0 / 3.0 - half)).abs() < 1e-5);
+        assert!((d.high - (11.0 / 3.0 + half)).abs() < 1e-5);
+    }
 }

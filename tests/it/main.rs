@@ -7,6 +7,7 @@ mod checks_prismatic;
 mod cli;
 mod estimate_options;
 mod evaluate;
+mod evaluate_values;
 mod evaluation_reuse;
 mod exit_codes;
 mod files;
