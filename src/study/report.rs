@@ -197,3 +197,27 @@ pub fn montecarlo_text(study: &MonteCarlo) -> String {
     text.push_str(&format!("\nverdict: {}\n", study.verdict));
     text
 }
+
+#[cfg(test)]
+mod tests {
+    use super::{interval, Estimate};
+
+    #[test]
+    fn an_interval_prints_its_scaled_value_and_ends_with_three_significant_digits() {
+        // Millimetres from metres: the factor multiplies all three numbers.
+        let estimate = Estimate {
+            value: 0.002,
+            low: -0.0005,
+            high: 0.0125,
+        };
+        assert_eq!(interval(&estimate, 1e3), "2.000e0 [-5.000e-1, 1.250e1]");
+        assert_eq!(interval(&estimate, 1.0), "2.000e-3 [-5.000e-4, 1.250e-2]");
+        // An interval that does not exist (fewer than two trials) prints dashes.
+        let none = Estimate {
+            value: 1.5,
+            low: f64::NAN,
+            high: f64::INFINITY,
+        };
+        assert_eq!(interval(&none, 1.0), "1.500e0 [-, -]");
+    }
+}
