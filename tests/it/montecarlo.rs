@@ -263,3 +263,84 @@ fn bad_input_exits_2_and_names_the_option() {
     assert_eq!(out.status.code(), Some(2));
     assert!(text(&out.stderr).contains("would overwrite the model file"));
 }
+
+/// `value [low, high]` of a JSON estimate times `factor`, as the terminal prints it (three
+/// significant digits; a missing bound as `-`).
+fn printed(estimate: &Value, factor: f64) -> String {
+    let number = |v: &Value| {
+        v.as_f64()
+            .map_or("-".to_string(), |v| format!("{:.3e}", v * factor))
+    };
+    format!(
+        "{} [{}, {}]",
+        number(&estimate["value"]),
+        number(&estimate["ci95"][0]),
+        number(&estimate["ci95"][1])
+    )
+}
+
+/// The study on the terminal (with the JSON in a file) prints the JSON's numbers: every arm's
+/// line per parameter (mean, std, RMS and predicted σ of its errors), the map's RMS errors in
+/// millimetres, the paired differences and the verdict.
+#[test]
+fn the_terminal_study_prints_the_numbers_of_its_json_report() {
+    let dir = tempfile::tempdir().unwrap();
+    let json = dir.path().join("study.json");
+    let trials = TRIALS.to_string();
+    let out = Command::new(env!("CARGO_BIN_EXE_legwise"))
+        .args([
+            "montecarlo",
+            "--model",
+            "models/5r.yaml",
+            "--trials",
+            &trials,
+            "--map",
+            "0.2",
+            "--json",
+            json.to_str().unwrap(),
+        ])
+        .current_dir(env!("CARGO_MANIFEST_DIR"))
+        .output()
+        .expect("the legwise binary runs");
+    assert_eq!(out.status.code(), Some(0), "{}", text(&out.stderr));
+    let stdout = text(&out.stdout);
+    let report: Value =
+        serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).expect("JSON");
+    let seed = report["seed"].as_u64().unwrap();
+    assert!(
+        stdout.contains(&format!("{TRIALS} trials (0 failed), seed {seed}")),
+        "{stdout}"
+    );
+    for arm in report["arms"].as_array().unwrap() {
+        let name = arm["name"].as_str().unwrap();
+        for parameter in arm["parameters"].as_array().unwrap() {
+            let line = format!(
+                "    {name:<26} mean {}  std {}  RMS {}  predicted σ {}\n",
+                printed(&parameter["mean_error"], 1.0),
+                printed(&parameter["std_error"], 1.0),
+                printed(&parameter["rms_error"], 1.0),
+                printed(&parameter["predicted_std"], 1.0)
+            );
+            assert!(stdout.contains(&line), "`{line}` missing from\n{stdout}");
+        }
+        let map = format!("    {name:<26} {}\n", printed(&arm["map_rms_m"], 1e3));
+        assert!(stdout.contains(&map), "`{map}` missing from\n{stdout}");
+    }
+    let nominal = format!(
+        "    {:<26} {}\n",
+        "nominal model",
+        printed(&report["nominal_map_rms_m"], 1e3)
+    );
+    assert!(stdout.contains(&nominal), "`{nominal}` missing");
+    let comparisons = report["comparisons"].as_array().unwrap();
+    assert!(!comparisons.is_empty());
+    for c in comparisons {
+        let difference = format!("{} mm\n", printed(&c["map_rms_difference_m"], 1e3));
+        assert!(stdout.contains(&difference), "`{difference}` missing");
+    }
+    let verdict = report["verdict"].as_str().unwrap();
+    assert!(
+        stdout.contains(&format!("\nverdict: {verdict}\n")),
+        "{stdout}"
+    );
+}
