@@ -344,3 +344,34 @@ fn the_terminal_study_prints_the_numbers_of_its_json_report() {
         "{stdout}"
     );
 }
+
+/// The study's mechanism carries the declared noise times `noise_scale` (what its fits are
+/// told the noise is), every coordinate and the readings alike, and the bundled model's own
+/// noise is left as it was.
+#[test]
+fn the_study_scales_the_declared_noise_by_the_noise_scale() {
+    use legwise::study::montecarlo::{MonteCarloOptions, Study};
+    let mechanism = crate::support::bundled("5r.yaml");
+    let declared = mechanism.noise.expect("the 5R declares its noise");
+    for scale in [0.0, 0.5, 3.0] {
+        let options = MonteCarloOptions {
+            noise_scale: scale,
+            map_grid: 0.2,
+            ..MonteCarloOptions::new(TRIALS, 1)
+        };
+        let study = Study::prepare(&mechanism, options).unwrap();
+        let noise = study.mechanism().noise.unwrap();
+        for (c, (&s, &d)) in noise.pose.iter().zip(&declared.pose).enumerate() {
+            assert_eq!(
+                s.to_bits(),
+                (d * scale).to_bits(),
+                "scale {scale}, coordinate {c}"
+            );
+        }
+        assert_eq!(
+            noise.reading.to_bits(),
+            (declared.reading * scale).to_bits()
+        );
+    }
+    assert_eq!(mechanism.noise, Some(declared));
+}
