@@ -203,7 +203,7 @@ mod tests {
     use super::{interval, Estimate};
 
     #[test]
-    fn an_interval_prints_its_scaled_value_and_ends_with_three_significant_digits() {
+    fn an_interval_prints_its_scaled_value_and_bounds_to_three_significant_digits() {
         // Millimetres from metres: the factor multiplies all three numbers.
         let estimate = Estimate {
             value: 0.002,

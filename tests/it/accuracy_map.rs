@@ -175,7 +175,7 @@ fn three_rpr_map_measures_orientation_and_vanishes_with_the_real_model() {
 fn the_grid_covers_the_scaled_region_only() {
     let mechanism = bundled("5r.yaml");
     let (centre, radius) = ([0.0, 1.0956521739], 0.6456521739);
-    for scale in [0.5, 0.95] {
+    for scale in [0.5, 0.95, 1.0] {
         let grid = map_grid(&mechanism, 0.05, scale).unwrap();
         for pose in &grid {
             let distance = (pose[0] - centre[0]).hypot(pose[1] - centre[1]);
