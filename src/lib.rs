@@ -90,6 +90,7 @@ pub mod identify;
 pub mod kinematics;
 pub mod measure;
 pub mod model;
+pub mod pipeline;
 pub mod progress;
 pub mod report;
 pub mod scalar;

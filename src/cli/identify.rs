@@ -1,112 +1,108 @@
-//! `legwise identify`.
+//! `legwise identify`: the arguments as [`Settings`], one library call ([`crate::run`] or
+//! [`crate::identify`]), then the outputs (JSON, calibrated model, pictures, terminal text).
 
 use std::path::Path;
 
 use super::console::Console;
 use super::output::{Input, Output};
-use super::{IdentifyArgs, Verdict};
-use crate::evaluate::accuracy::{accuracy_map, map_grid, result_parameters, AccuracyMap};
-use crate::identify::estimate::{identify_with, Strategy};
-use crate::identify::trust::trust_issues;
-use crate::measure::{file, MeasurementSet};
+use super::{IdentifyArgs, SolverArg, StrategyArg, Verdict, WeightsArg};
+use crate::evaluate::accuracy::map_grid;
+use crate::measure::{Measurements, STDIN_NAME};
 use crate::model::Mechanism;
+use crate::pipeline::{self, MapSettings, Settings, SimulationSettings};
 use crate::report::calibrated::{calibrated_files, urdf_path, Calibration};
-use crate::report::evaluation::{map_json, map_summary};
-use crate::report::plots::files::{identify_picture_names, identify_pictures, Maps};
-use crate::report::{json, terminal, IdentifyReport};
-
-/// The name of standard input in messages.
-const STDIN: &str = "<stdin>";
+use crate::report::plots::files::{identify_picture_names, identify_pictures};
+use crate::report::Report;
 
 pub(super) fn run(args: &IdentifyArgs) -> anyhow::Result<Verdict> {
-    let options = args.simulation.options()?;
-    let mut mechanism = Mechanism::load(&args.model)?;
+    let simulation = args.simulation.settings()?;
+    let mechanism = Mechanism::load(&args.model)?;
     if mechanism.instrument.is_some() {
-        return super::identify_instrument::run(args, mechanism);
+        refuse_unsupported(args)?;
     }
+    let settings = settings(args, &mechanism, simulation);
     let inputs = identify_inputs(args, &mechanism);
     let json_output = Output::prepare_optional("--json", args.json.as_deref(), &inputs)?;
     let calibrated_outputs = calibrated_outputs(args, &inputs)?;
     let picture_outputs = picture_outputs(args, &inputs)?;
     check_map(args, &mechanism)?;
     let mut console = Console::new(json_output.as_ref().is_some_and(Output::is_stdout));
-    let (data, real, source) = match &args.measurements {
-        Some(path) => {
-            let source = if is_stdin(path) {
-                "standard input".to_string()
-            } else {
-                path.display().to_string()
-            };
-            (read(path, &mechanism)?, None, source)
-        }
-        None => {
-            let (experiment, source) = args.simulation.experiment(&mechanism)?;
-            // The simulated noise is the declared one scaled: so is what the fit expects.
-            if let Some(noise) = &mut mechanism.noise {
-                noise.pose = noise.pose.map(|s| s * options.noise_scale);
-                noise.reading *= options.noise_scale;
-            }
-            (experiment.measurements, Some(experiment.real), source)
-        }
+    let report = match &args.measurements {
+        Some(path) => pipeline::identify(&mechanism, &read(path, &mechanism)?, &settings)?,
+        None => pipeline::run(&mechanism, &settings)?,
     };
-    let mut results = Vec::new();
-    for strategy in args.strategy.strategies() {
-        results.push(identify_with(
-            &mechanism,
-            &data,
-            strategy,
-            args.solver.kind(),
-            args.fit_options(),
-        )?);
-    }
-    let verdict = Verdict::from_reasons(trust_issues(&results));
-    let report = IdentifyReport {
-        mechanism: &mechanism,
-        source,
-        real,
-        results,
-    };
-    let maps = accuracy_maps(args, &report)?;
+    let verdict = Verdict::from_reasons(report.trust_issues());
     let trusted = verdict == Verdict::Trusted;
     if let Some(outputs) = calibrated_outputs.as_ref().filter(|_| trusted) {
         write_calibrated(&report, outputs)?;
     }
     // The file first: a closed terminal pipe must not lose it.
     if let Some(output) = &json_output {
-        let mut value = json::to_json(&report);
-        if let Some((before, after)) = &maps {
-            value["accuracy_map_before"] = map_json(before);
-            for (i, map) in after.iter().enumerate() {
-                value["results"][i]["accuracy_map"] = map_json(map);
-            }
-        }
-        let text = serde_json::to_string_pretty(&value)? + "\n";
-        output.write("JSON report", text.as_bytes())?;
+        output.write("JSON report", report.to_json().to_text()?.as_bytes())?;
     }
     if let Some(outputs) = &picture_outputs {
-        write_pictures(args, &report, maps.as_ref(), &data, outputs)?;
+        let pictures = identify_pictures(&report, super::pictures::format(args.pictures.png))?;
+        for (output, bytes) in outputs.iter().zip(&pictures) {
+            output.write("picture", bytes)?;
+        }
     }
-    console.print(&terminal::render(&report))?;
-    if let Some((before, after)) = &maps {
-        let labels: Vec<&str> = report.results.iter().map(|r| r.strategy.name()).collect();
-        console.print(&maps_text(args, &mechanism, &labels, before, after))?;
-    }
-    if let (Some(outputs), Some(result)) = (&calibrated_outputs, calibrated_result(&report)) {
+    console.print(&report.terminal_text())?;
+    if let (Some(outputs), Some(result)) = (&calibrated_outputs, report.calibrated_result()) {
         say_calibrated(&mut console, outputs, result.strategy.name(), trusted)?;
     }
-    say_json_written(&mut console, json_output.as_ref())?;
+    if let Some(output) = json_output.as_ref().filter(|o| !o.is_stdout()) {
+        console.line(format_args!("\nJSON report written to {}", output.name()))?;
+    }
     for output in picture_outputs.iter().flatten() {
         console.line(format_args!("picture written to {}", output.name()))?;
     }
     Ok(verdict)
 }
 
-/// True for the path `-`.
+/// The library's settings from the command line: the strategies asked for (through an
+/// instrument, the model's: joint and two-stage), the fit, the simulation and the map.
+fn settings(
+    args: &IdentifyArgs,
+    mechanism: &Mechanism,
+    simulation: SimulationSettings,
+) -> Settings {
+    Settings {
+        strategies: match mechanism.instrument {
+            Some(_) => Vec::new(),
+            None => args.strategy.strategies(),
+        },
+        solver: args.solver.kind(),
+        fit: args.fit_options(),
+        simulation,
+        map: args.after.map.map(|grid_m| MapSettings {
+            grid_m,
+            scale: args.after.map_scale,
+        }),
+    }
+}
+
+/// The options an identification through the instrument does not offer (yet), refused before
+/// any work.
+fn refuse_unsupported(args: &IdentifyArgs) -> anyhow::Result<()> {
+    let refused = [
+        (args.solver != SolverArg::Lm, "--solver gn"),
+        (args.strategy != StrategyArg::Dc, "--strategy"),
+        (args.weights != WeightsArg::None, "--weights"),
+        (args.robust.is_some(), "--robust"),
+        (args.drop_outliers, "--drop-outliers"),
+        (args.pictures.plots.is_some(), "--plots"),
+    ];
+    if let Some((_, flag)) = refused.iter().find(|(on, _)| *on) {
+        anyhow::bail!(
+            "{flag}: not available for a model with an instrument block (the legs and the \
+             instrument are identified with Levenberg-Marquardt, jointly and in two stages)"
+        );
+    }
+    Ok(())
+}
+
 /// The files `identify` reads (model, URDF, measurements), which no output may overwrite.
-pub(super) fn identify_inputs<'a>(
-    args: &'a IdentifyArgs,
-    mechanism: &'a Mechanism,
-) -> Vec<Input<'a>> {
+fn identify_inputs<'a>(args: &'a IdentifyArgs, mechanism: &'a Mechanism) -> Vec<Input<'a>> {
     let measurements = args.measurements.as_deref().filter(|p| !is_stdin(p));
     let mut inputs = super::model_inputs(&args.model, mechanism);
     inputs.extend(measurements.map(|path| Input {
@@ -117,24 +113,22 @@ pub(super) fn identify_inputs<'a>(
 }
 
 /// Whether a path names standard input (`-`).
-pub(super) fn is_stdin(path: &Path) -> bool {
+fn is_stdin(path: &Path) -> bool {
     path.as_os_str() == "-"
 }
 
 /// Reads the measurements from `path`, or from standard input for `-`.
-fn read(path: &Path, mechanism: &Mechanism) -> anyhow::Result<MeasurementSet> {
+fn read(path: &Path, mechanism: &Mechanism) -> anyhow::Result<Measurements> {
     Ok(if is_stdin(path) {
-        file::read_from(std::io::stdin().lock(), Path::new(STDIN), mechanism)?
+        Measurements::read_from(std::io::stdin().lock(), Path::new(STDIN_NAME), mechanism)?
     } else {
-        file::read(path, mechanism)?
+        Measurements::read(path, mechanism)?
     })
 }
 
-/// `--calibrated OUT.yaml`: the model file and its URDF, checked against the inputs and against
-/// the JSON report's path.
 /// Says where the calibrated model (from the `strategy` result) was written, or that it was not
 /// because the result must not be trusted.
-pub(super) fn say_calibrated(
+fn say_calibrated(
     console: &mut Console,
     (yaml, urdf): &(Output, Output),
     strategy: &str,
@@ -154,19 +148,9 @@ pub(super) fn say_calibrated(
     }
 }
 
-/// Says where the JSON report was written (nothing when it went to standard output).
-pub(super) fn say_json_written(
-    console: &mut Console,
-    output: Option<&Output>,
-) -> anyhow::Result<()> {
-    match output.filter(|o| !o.is_stdout()) {
-        Some(output) => console.line(format_args!("\nJSON report written to {}", output.name())),
-        None => Ok(()),
-    }
-}
-
-/// The calibrated model's YAML and URDF outputs, checked against the inputs and `--json`.
-pub(super) fn calibrated_outputs(
+/// `--calibrated OUT.yaml`: the model file and its URDF outputs, checked against the inputs and
+/// against the JSON report's path.
+fn calibrated_outputs(
     args: &IdentifyArgs,
     inputs: &[Input<'_>],
 ) -> anyhow::Result<Option<(Output, Output)>> {
@@ -195,7 +179,7 @@ pub(super) fn calibrated_outputs(
 }
 
 /// `--map`: simulation only, with a valid grid, refused before any work otherwise.
-pub(super) fn check_map(args: &IdentifyArgs, mechanism: &Mechanism) -> anyhow::Result<()> {
+fn check_map(args: &IdentifyArgs, mechanism: &Mechanism) -> anyhow::Result<()> {
     if let Some(grid) = args.after.map {
         if args.measurements.is_some() {
             anyhow::bail!("--map: the accuracy map needs the real parameters, known only in simulation (drop --measurements)");
@@ -205,99 +189,22 @@ pub(super) fn check_map(args: &IdentifyArgs, mechanism: &Mechanism) -> anyhow::R
     Ok(())
 }
 
-/// `--map`: the accuracy map of the nominal model, then of each result, against the real mechanism.
-fn accuracy_maps(
-    args: &IdentifyArgs,
-    report: &IdentifyReport<'_>,
-) -> anyhow::Result<Option<(AccuracyMap, Vec<AccuracyMap>)>> {
-    let identified: Vec<(&str, Vec<Vec<f64>>)> = report
-        .results
-        .iter()
-        .map(|r| (r.strategy.name(), result_parameters(report.mechanism, r)))
-        .collect();
-    maps_before_after(args, report.mechanism, report.real.as_deref(), &identified)
-}
-
-/// `--map`: the accuracy map of the nominal model, then of each `(name, identified legs)`, against
-/// the `real` legs (known in simulation only; `None` without `--map` or without them).
-pub(super) fn maps_before_after(
-    args: &IdentifyArgs,
-    mechanism: &Mechanism,
-    real: Option<&[Vec<f64>]>,
-    identified: &[(&str, Vec<Vec<f64>>)],
-) -> anyhow::Result<Option<(AccuracyMap, Vec<AccuracyMap>)>> {
-    let (Some(grid), Some(real)) = (args.after.map, real) else {
-        return Ok(None);
-    };
-    let scale = args.after.map_scale;
-    let nominal = mechanism.nominal_parameters();
-    let before = accuracy_map(mechanism, &nominal, real, grid, scale, "map before")?;
-    let mut after = Vec::new();
-    for (name, parameters) in identified {
-        let label = format!("map after, {name}");
-        after.push(accuracy_map(
-            mechanism, parameters, real, grid, scale, &label,
-        )?);
-    }
-    Ok(Some((before, after)))
-}
-
-/// The accuracy maps in millimetres, for the terminal: `before`, then each of `after` labelled
-/// with its strategy's name in `labels`.
-pub(super) fn maps_text(
-    args: &IdentifyArgs,
-    mechanism: &Mechanism,
-    labels: &[&str],
-    before: &AccuracyMap,
-    after: &[AccuracyMap],
-) -> String {
-    let slice = crate::report::plots::files::map_slice(mechanism)
-        .map_or(String::new(), |slice| format!(", {slice}"));
-    let mut text = format!(
-        "\naccuracy map over {} of the workspace region, grid {} m{slice}:\n{}\n",
-        args.after.map_scale,
-        before.grid_m,
-        map_summary("  before (nominal model)", before)
-    );
-    for (name, map) in labels.iter().zip(after) {
-        let label = format!("  after, {name}");
-        text.push_str(&map_summary(&label, map));
-        text.push('\n');
-    }
-    text
-}
-
-/// The result a calibrated model holds: divide and conquer if it ran, else the first.
-fn calibrated_result<'r>(
-    report: &'r IdentifyReport<'_>,
-) -> Option<&'r crate::identify::estimate::StrategyResult> {
-    report
-        .results
-        .iter()
-        .find(|r| r.strategy == Strategy::DivideAndConquer)
-        .or(report.results.first())
-}
-
 /// Writes the calibrated model (the URDF first: the model file names it).
-fn write_calibrated(report: &IdentifyReport<'_>, outputs: &(Output, Output)) -> anyhow::Result<()> {
-    let Some(result) = calibrated_result(report) else {
+fn write_calibrated(report: &Report<'_>, outputs: &(Output, Output)) -> anyhow::Result<()> {
+    let note = report
+        .calibrated_result()
+        .filter(|_| report.results.len() > 1)
+        .map(|result| {
+            format!(
+                "Several strategies ran; this is the {} result.",
+                result.strategy.name()
+            )
+        });
+    let Some(calibration) = Calibration::of(report, note.as_deref()) else {
         return Ok(());
     };
-    let note = (report.results.len() > 1).then(|| {
-        format!(
-            "Several strategies ran; this is the {} result.",
-            result.strategy.name()
-        )
-    });
-    let calibration = Calibration {
-        mechanism: report.mechanism,
-        result,
-        source: &report.source,
-        real: report.real.as_deref(),
-        note: note.as_deref(),
-    };
     let (yaml, urdf) = outputs;
-    let urdf_name = std::path::Path::new(&urdf.name())
+    let urdf_name = Path::new(&urdf.name())
         .file_name()
         .map_or_else(String::new, |n| n.to_string_lossy().into_owned());
     let files = calibrated_files(&calibration, &urdf_name)?;
@@ -330,27 +237,4 @@ fn picture_outputs(
     let names = identify_picture_names(args.after.map.is_some());
     let format = super::pictures::format(args.pictures.png);
     Ok(Some(super::pictures::prepare(dir, &names, format, inputs)?))
-}
-
-/// Draws the parameter errors and, with `--map`, the accuracy map with the identification
-/// poses, into `outputs` (from [`picture_outputs`]).
-fn write_pictures(
-    args: &IdentifyArgs,
-    report: &IdentifyReport<'_>,
-    maps: Option<&(AccuracyMap, Vec<AccuracyMap>)>,
-    data: &MeasurementSet,
-    outputs: &[Output],
-) -> anyhow::Result<()> {
-    let maps = maps.map(|(before, after)| Maps { before, after });
-    let poses: Vec<[f64; 2]> = data
-        .poses()
-        .iter()
-        .map(|p| [p.pose[0], p.pose[1]])
-        .collect();
-    let format = super::pictures::format(args.pictures.png);
-    let pictures = identify_pictures(report, maps, &poses, format)?;
-    for (output, bytes) in outputs.iter().zip(&pictures) {
-        output.write("picture", bytes)?;
-    }
-    Ok(())
 }

@@ -7,7 +7,6 @@ mod console;
 mod evaluate;
 mod help;
 mod identify;
-mod identify_instrument;
 mod montecarlo;
 mod output;
 mod pictures;
@@ -246,6 +245,7 @@ impl IdentifyArgs {
                 RobustArg::Cauchy => RobustLoss::Cauchy,
             }),
             drop_outliers: self.drop_outliers,
+            ..FitOptions::default()
         }
     }
 }
@@ -379,42 +379,13 @@ impl StrategyArg {
 }
 
 impl SimulationArgs {
-    /// Simulates the model's experiment at selected or random poses; also returns a line
-    /// describing where the measurements came from.
-    fn experiment(
-        &self,
-        mechanism: &crate::model::Mechanism,
-    ) -> anyhow::Result<(crate::measure::simulate::SimulatedExperiment, String)> {
-        use crate::measure::simulate::{setup, simulate, simulate_at};
-        let options = self.options()?;
-        let simulation = setup(mechanism)?;
-        let seed = options.seed.unwrap_or(simulation.seed);
-        let noise = format!("seed {seed}, noise scale {}", options.noise_scale);
-        match self.poses {
-            PosesArg::Random => {
-                let count = options.poses_per_leg.unwrap_or(simulation.poses_per_leg);
-                let experiment = simulate(mechanism, options)?;
-                let text = format!(
-                    "simulated at random poses: {count} per leg and {count} shared, {noise}"
-                );
-                Ok((experiment, text))
-            }
-            PosesArg::Selected => {
-                let count = options
-                    .poses_per_leg
-                    .unwrap_or(mechanism.selection.poses_per_leg);
-                let criterion = mechanism.selection.criterion;
-                let design = crate::selection::design::ExperimentDesign::select(
-                    mechanism, self.grid, count, criterion, true,
-                )?;
-                let experiment = simulate_at(mechanism, &design.pose_sets(), options)?;
-                let text = format!(
-                    "simulated at selected poses ({:?}-optimal from {} feasible candidates, grid {} m): {count} per leg and {count} shared, {noise}",
-                    mechanism.selection.criterion, design.candidates, design.spacing
-                );
-                Ok((experiment, text))
-            }
-        }
+    /// The simulation settings, range-checked (`--grid` too, though only selected poses use it).
+    fn settings(&self) -> anyhow::Result<crate::pipeline::SimulationSettings> {
+        Ok(crate::pipeline::SimulationSettings {
+            options: self.options()?,
+            poses: self.poses.source(),
+            grid: self.grid,
+        })
     }
 
     /// The simulation options, range-checked (`--grid` too, though only selected poses use it).
@@ -425,6 +396,15 @@ impl SimulationArgs {
             noise_scale: checks::non_negative("--noise-scale", self.noise_scale)?,
             poses_per_leg: poses_per_leg(self.poses_per_leg)?,
         })
+    }
+}
+
+impl PosesArg {
+    fn source(self) -> crate::pipeline::PoseSource {
+        match self {
+            PosesArg::Selected => crate::pipeline::PoseSource::Selected,
+            PosesArg::Random => crate::pipeline::PoseSource::Random,
+        }
     }
 }
 

@@ -3,12 +3,11 @@
 use super::console::Console;
 use super::output::Output;
 use super::{SimulateArgs, Verdict};
-use crate::measure::observe_simulate::{observed_from, without_pose_noise};
-use crate::measure::{file, observations};
 use crate::model::Mechanism;
+use crate::pipeline::simulate;
 
 pub(super) fn run(args: &SimulateArgs) -> anyhow::Result<Verdict> {
-    let options = args.simulation.options()?;
+    let settings = args.simulation.settings()?;
     let mechanism = Mechanism::load(&args.model)?;
     let output = Output::prepare(
         "--out",
@@ -18,30 +17,19 @@ pub(super) fn run(args: &SimulateArgs) -> anyhow::Result<Verdict> {
     let mut console = Console::new(output.is_stdout());
     // With an instrument, the file holds what the instrument reports (its targets' coordinates
     // in its own frame), as `identify --measurements` reads it for that model.
-    let (csv, rows, source) = if mechanism.instrument.is_some() {
-        let (experiment, source) = args
-            .simulation
-            .experiment(&without_pose_noise(&mechanism))?;
-        let observed = observed_from(&mechanism, experiment, options)?;
-        let rows = observed.observations.rows.len();
-        let csv = observations::to_csv(&mechanism, &observed.observations)?;
-        (csv, rows, source)
-    } else {
-        let (experiment, source) = args.simulation.experiment(&mechanism)?;
-        let rows = experiment.measurements.len();
-        (
-            file::to_csv(&mechanism, &experiment.measurements),
-            rows,
-            source,
-        )
-    };
+    let simulated = simulate(&mechanism, &settings)?;
+    let csv = simulated.measurements.to_csv(&mechanism)?;
     output.write("measurement CSV", csv.as_bytes())?;
-    console.line(source)?;
+    console.line(&simulated.source)?;
     let what = if mechanism.instrument.is_some() {
         "rows of target coordinates (instrument frame)"
     } else {
         "measured poses"
     };
-    console.line(format_args!("wrote {rows} {what} to {}", output.name()))?;
+    console.line(format_args!(
+        "wrote {} {what} to {}",
+        simulated.measurements.rows(),
+        output.name()
+    ))?;
     Ok(Verdict::Trusted)
 }

@@ -9,7 +9,6 @@ use serde::Serialize;
 
 use crate::error::{Error, Result};
 use crate::identify::estimate::StrategyResult;
-use crate::identify::shared_estimate::SharedEstimate;
 use crate::kinematics::chain::{attachment_on, platform_transform, ChainFrames};
 use crate::kinematics::inverse::{predict_reading, reading_value, solve_warm, Joints, MAX_JOINTS};
 use crate::kinematics::platform::{forward, Configuration, ForwardKinematics};
@@ -384,21 +383,6 @@ pub fn result_parameters(mechanism: &Mechanism, result: &StrategyResult) -> Vec<
         .iter()
         .map(|leg| match result.legs.iter().find(|e| e.leg == leg.name) {
             Some(estimate) => estimate.parameters.iter().map(|p| p.estimate).collect(),
-            None => leg.nominal(),
-        })
-        .collect()
-}
-
-/// The leg parameters an identification through the instrument identified, one full vector per
-/// leg of the mechanism (nominal values for the legs it did not identify). The instrument's own
-/// parameters are not part of them: the map compares mechanisms, not measurements.
-pub fn shared_result_parameters(mechanism: &Mechanism, result: &SharedEstimate) -> Vec<Vec<f64>> {
-    mechanism
-        .legs
-        .iter()
-        .enumerate()
-        .map(|(l, leg)| match result.legs.iter().find(|(i, _)| *i == l) {
-            Some((_, estimates)) => estimates.iter().map(|p| p.estimate).collect(),
             None => leg.nominal(),
         })
         .collect()

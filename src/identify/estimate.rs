@@ -13,153 +13,16 @@ use rayon::prelude::*;
 use super::fit::{self, FitError};
 use super::observability::{analyse, Observability};
 use super::problem::{BlockError, IdentificationProblem, LegSlot};
-use super::robust::RobustLoss;
-use super::statistics::{self, FitKind, LegStatistics, Outlier};
+use super::statistics::{self, FitKind, LegStatistics};
 use crate::error::{Error, Result};
 use crate::measure::MeasurementSet;
-use crate::model::params::Unit;
 use crate::model::Mechanism;
-use crate::solver::{SolverKind, StopReason};
+use crate::solver::SolverKind;
 
-/// How the legs are grouped into least-squares problems.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum Strategy {
-    /// Each leg alone, on the poses labelled with it (Durango et al.).
-    DivideAndConquer,
-    /// All legs in one problem, on the shared poses only.
-    Traditional,
-}
-
-impl Strategy {
-    /// Name for reports.
-    pub fn name(self) -> &'static str {
-        match self {
-            Strategy::DivideAndConquer => "divide and conquer",
-            Strategy::Traditional => "traditional (all legs)",
-        }
-    }
-}
-
-/// One parameter's estimate.
-#[derive(Debug, Clone, PartialEq)]
-pub struct ParameterEstimate {
-    /// Name as in the model file.
-    pub name: String,
-    /// SI unit.
-    pub unit: Unit,
-    /// Nominal value.
-    pub nominal: f64,
-    /// Identified value (the nominal value for a fixed parameter).
-    pub estimate: f64,
-    /// Standard deviation `σ̂ √diag((CᵀC)⁻¹)`, `None` if fixed or without redundancy.
-    pub std: Option<f64>,
-    /// Identified (true) or held fixed.
-    pub identified: bool,
-}
-
-/// One leg's result.
-#[derive(Debug, Clone, PartialEq)]
-pub struct LegEstimate {
-    /// Leg name.
-    pub leg: String,
-    /// Every parameter of the leg, in model order.
-    pub parameters: Vec<ParameterEstimate>,
-    /// Number of residual blocks (measured readings) used.
-    pub measurements: usize,
-    /// ½‖r‖² at the nominal parameters.
-    pub initial_cost: f64,
-    /// ½‖r‖² at the estimate.
-    pub final_cost: f64,
-    /// Residual standard deviation σ̂ = √(‖r‖²/(m − n)), if m > n.
-    pub residual_sigma: Option<f64>,
-    /// Observability of the identification Jacobian at the estimate.
-    pub observability: Observability,
-    /// Noise test, outliers and turns of the fit.
-    pub statistics: LegStatistics,
-    /// Rows left out by `--drop-outliers` (the outliers of the first fit).
-    pub dropped: Vec<Outlier>,
-    /// What the statistics found, one sentence each (noise rejected, outliers, other turns,
-    /// dropped rows).
-    pub warnings: Vec<String>,
-    /// Covariance σ̂²(CᵀC)⁻¹ of the identified parameters (model order), from the SVD of the
-    /// leg's identification Jacobian C; `None` without redundancy (m ≤ n).
-    pub covariance: Option<DMatrix<f64>>,
-    /// Each measurement's residual at the estimate, measured minus predicted reading, in row order.
-    pub residuals: Vec<RowResidual>,
-}
-
-/// One measurement's residual at the estimate.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct RowResidual {
-    /// Line of the measurement file (1-based, the header is line 1), if read from a file.
-    pub line: Option<usize>,
-    /// Measured minus predicted reading (rad or m).
-    pub residual: f64,
-}
-
-/// How the rows are weighted.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
-pub enum Weighting {
-    /// Ordinary least squares (the paper's method).
-    #[default]
-    Unweighted,
-    /// Weighted least squares, each row by the inverse of its expected residual variance under
-    /// the declared noise, evaluated at the nominal parameters.
-    Noise,
-}
-
-/// How each fit treats its rows (the defaults are the paper's plain least squares).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
-pub struct FitOptions {
-    /// Row weights.
-    pub weights: Weighting,
-    /// A robust loss (its scale from the declared noise); replaces the weighting.
-    pub robust: Option<RobustLoss>,
-    /// Refit once without the rows flagged as outliers.
-    pub drop_outliers: bool,
-}
-
-/// One solver run (one per leg for divide and conquer, one in all for traditional).
-#[derive(Debug, Clone, PartialEq)]
-pub struct SolverRun {
-    /// The legs the run identified.
-    pub legs: Vec<String>,
-    /// Iterations.
-    pub iterations: u64,
-    /// Whether the solver converged; `false` means the estimate must not be trusted.
-    pub converged: bool,
-    /// Why the solver stopped (its `Display` is a sentence for humans).
-    pub stop_reason: StopReason,
-    /// Gauss–Newton refinement steps taken after the solver converged.
-    pub refinement_steps: usize,
-    /// ½‖r‖² before.
-    pub initial_cost: f64,
-    /// ½‖r‖² after.
-    pub final_cost: f64,
-    /// Residual evaluations.
-    pub residual_evaluations: u64,
-    /// Jacobian evaluations.
-    pub jacobian_evaluations: u64,
-    /// Wall-clock time of the solver run, seconds.
-    pub seconds: f64,
-}
-
-/// The result of one strategy.
-#[derive(Debug, Clone, PartialEq)]
-pub struct StrategyResult {
-    /// The strategy.
-    pub strategy: Strategy,
-    /// The solver.
-    pub solver: SolverKind,
-    /// Per-leg estimates, in mechanism order.
-    pub legs: Vec<LegEstimate>,
-    /// Solver runs.
-    pub runs: Vec<SolverRun>,
-    /// The fit options.
-    pub options: FitOptions,
-    /// Warnings about the measurements as a whole (implausible values, duplicate rows).
-    pub warnings: Vec<String>,
-}
+pub use super::result::{
+    FitOptions, LegEstimate, ParameterEstimate, RowResidual, SolverRun, Strategy, StrategyResult,
+    Weighting,
+};
 
 /// Identifies the mechanism's parameters from `data` with `strategy` and `solver`, by plain
 /// least squares ([`FitOptions::default`]).
@@ -211,6 +74,14 @@ pub fn identify_with(
             }
             vec![(identified, data.shared_blocks(legs))]
         }
+        Strategy::Joint | Strategy::TwoStage => {
+            return Err(Error::Invalid(format!(
+                "{}: the {} strategy identifies through an instrument: the model needs an \
+                 `instrument` block and target coordinates in the measurements",
+                mechanism.model_path.display(),
+                strategy.name()
+            )))
+        }
     };
     let mut result = StrategyResult {
         strategy,
@@ -219,6 +90,7 @@ pub fn identify_with(
         runs: Vec::new(),
         options,
         warnings: crate::measure::checks::check(mechanism, data)?,
+        instrument: None,
     };
     // The groups in parallel (rayon); results in group order, the first error in group order.
     let fits: Vec<Result<_>> = groups
@@ -293,9 +165,7 @@ pub fn identify_problem(
         }
     }
     drop(c0);
-    let noise = mechanism
-        .noise
-        .filter(|n| n.reading > 0.0 || n.pose.iter().any(|&s| s > 0.0));
+    let noise = options.expected_noise(mechanism);
     let started = std::time::Instant::now();
     let fitted = fit::fit(problem, &x0, solver, options, noise.as_ref()).map_err(|e| match e {
         FitError::Block(e) => located(mechanism, data, problem, e),

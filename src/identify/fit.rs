@@ -4,8 +4,8 @@
 
 use nalgebra::{DMatrix, DVector};
 
-use super::estimate::{FitOptions, Weighting};
 use super::problem::{BlockError, IdentificationProblem};
+use super::result::{FitOptions, Weighting};
 use super::robust::{self, RobustError};
 use super::statistics::{row_variances, FitKind};
 use crate::model::mechanism::MeasurementNoise;

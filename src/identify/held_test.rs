@@ -13,27 +13,12 @@
 
 use statrs::distribution::{ChiSquared, ContinuousCDF};
 
-use super::shared_estimate::{identify_shared, SharedEstimate, SharedStrategy};
+pub use super::result::HeldFrameTest;
+use super::result::{Strategy, StrategyResult};
+use super::shared_estimate::identify_shared;
 use super::statistics::rejects;
 use crate::measure::observations::Observations;
 use crate::model::Mechanism;
-
-/// The outcome of the held-frame test.
-#[derive(Debug, Clone, PartialEq)]
-pub struct HeldFrameTest {
-    /// The frame components held by the model and freed by the test (`frame_x`, …).
-    pub freed: Vec<String>,
-    /// `χ²_held − χ²_freed`: how much the fit improves when they are freed.
-    pub chi_squared_drop: f64,
-    /// Degrees of freedom: the number of components freed.
-    pub degrees_of_freedom: usize,
-    /// Upper-tail probability of the drop.
-    pub p_value: f64,
-    /// `p_value < NOISE_TEST_P` ([`rejects`]): the held values disagree with the measurements.
-    pub rejected: bool,
-    /// The freed fit's estimates of the freed components, in `freed` order.
-    pub estimates: Vec<f64>,
-}
 
 /// The held-frame test of the joint estimate `held` (made with `mechanism` as written), or
 /// `None` when there is nothing to test: no held frame component, no declared noise (no χ²),
@@ -42,9 +27,9 @@ pub struct HeldFrameTest {
 pub fn held_frame_test(
     mechanism: &Mechanism,
     observations: &Observations,
-    held: &SharedEstimate,
+    held: &StrategyResult,
 ) -> Option<HeldFrameTest> {
-    let held_chi_squared = held.noise_test.as_ref()?.chi_squared;
+    let held_chi_squared = held.instrument.as_ref()?.noise_test.as_ref()?.chi_squared;
     let instrument = mechanism.instrument.as_ref()?;
     let freed: Vec<usize> = (0..instrument.parameters.len())
         .filter(|&k| {
@@ -60,7 +45,8 @@ pub fn held_frame_test(
     for &k in &freed {
         parameters[k].identified = true;
     }
-    let refit = identify_shared(&free, observations, SharedStrategy::Joint).ok()?;
+    let refit = identify_shared(&free, observations, Strategy::Joint, held.options).ok()?;
+    let refit = refit.instrument?;
     let drop = held_chi_squared - refit.noise_test.as_ref()?.chi_squared;
     let p_value = ChiSquared::new(freed.len() as f64).ok()?.sf(drop.max(0.0));
     Some(HeldFrameTest {
@@ -72,6 +58,9 @@ pub fn held_frame_test(
         degrees_of_freedom: freed.len(),
         p_value,
         rejected: rejects(p_value),
-        estimates: freed.iter().map(|&k| refit.shared[k].estimate).collect(),
+        estimates: freed
+            .iter()
+            .map(|&k| refit.parameters[k].estimate)
+            .collect(),
     })
 }

@@ -7,6 +7,7 @@ pub mod jacobian;
 pub mod observability;
 pub mod problem;
 pub mod residual;
+pub mod result;
 pub mod robust;
 pub mod shared;
 pub mod shared_covariance;

@@ -156,6 +156,15 @@ impl<'a> SharedProblem<'a> {
         self.instrument
     }
 
+    /// Each group's measurement-file lines, one per row (`None` for simulated rows), in the
+    /// residuals' order.
+    pub fn row_lines(&self) -> Vec<Vec<Option<usize>>> {
+        self.groups
+            .iter()
+            .map(|g| g.rows.iter().map(|r| r.line).collect())
+            .collect()
+    }
+
     /// Indices of the legs, one per group.
     pub fn legs(&self) -> Vec<usize> {
         self.groups.iter().map(|g| g.leg).collect()

@@ -1,122 +1,35 @@
 //! Identification through the instrument: the rank check on the shared problem's Jacobian,
-//! the Schur-complement solve, and the estimates of the legs' and the instrument's parameters.
+//! the Schur-complement solve, and the estimates of the legs' and the instrument's parameters,
+//! as the one [`StrategyResult`] of every strategy.
 //!
-//! Two strategies: *joint* (every leg's parameters and the instrument's identified ones
-//! together, [`SharedProblem`] solved by [`solve_bordered`]) and *two-stage* (first the
-//! instrument alone, the legs at their nominal parameters, from the first rows of every leg;
-//! then every leg on its own with the instrument held at that registration).
+//! Two strategies: [`Strategy::Joint`] (every leg's parameters and the instrument's identified
+//! ones together, [`SharedProblem`] solved by [`solve_bordered`]) and [`Strategy::TwoStage`]
+//! (first the instrument alone, the legs at their nominal parameters, from the first rows of
+//! every leg; then every leg on its own with the instrument held at that registration).
+//!
+//! Each leg's part of the result is its block of the problem: its rows' residuals and costs,
+//! the observability of its own columns of the Jacobian at the estimate, and its block of the
+//! covariance. The fit's statistics as a whole (rows, RMS, the noise test) are the result's
+//! [`InstrumentEstimate`].
 
 use nalgebra::{DMatrix, DVector};
 
-use super::estimate::ParameterEstimate;
-use super::held_test::{held_frame_test, HeldFrameTest};
 use super::observability::{analyse, Observability};
+use super::result::{
+    FitOptions, InstrumentEstimate, LegEstimate, ParameterEstimate, RowResidual, SolverRun,
+    Strategy, StrategyResult,
+};
 use super::shared::SharedProblem;
-use super::shared_covariance::standard_deviations;
-use super::statistics::{self, figure, NoiseTest};
+use super::shared_covariance::covariance;
+use super::statistics::{self, LegStatistics};
 use crate::error::{Error, Result};
 use crate::measure::observations::Observations;
 use crate::model::Mechanism;
 use crate::solver::bordered::{to_dense, BorderedLeastSquares, DenseView};
-use crate::solver::{solve, solve_bordered, SolverKind, SolverOutcome};
+use crate::solver::{solve, solve_bordered, SolverKind};
 
 /// Rows per leg the two-stage strategy registers the instrument from.
 pub const REGISTRATION_ROWS: usize = 6;
-
-/// How the instrument's parameters are identified.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum SharedStrategy {
-    /// With the legs, in one problem (Schur complement on the shared parameters).
-    Joint,
-    /// First the instrument from a few rows with the nominal legs, then the legs on their own.
-    TwoStage,
-}
-
-impl SharedStrategy {
-    /// Name for reports.
-    pub fn name(self) -> &'static str {
-        match self {
-            SharedStrategy::Joint => "joint (legs and instrument, Schur complement)",
-            SharedStrategy::TwoStage => "two-stage (instrument registered first, then D&C)",
-        }
-    }
-}
-
-/// The result of an identification through the instrument.
-#[derive(Debug, Clone)]
-pub struct SharedEstimate {
-    /// The strategy.
-    pub strategy: SharedStrategy,
-    /// Per identified leg: its index and every parameter's estimate (model order).
-    pub legs: Vec<(usize, Vec<ParameterEstimate>)>,
-    /// Every instrument parameter's estimate (the instrument's order).
-    pub shared: Vec<ParameterEstimate>,
-    /// The solver's outcome (of the last stage for the two-stage strategy).
-    pub outcome: SolverOutcome,
-    /// Rows (residuals) of the problem.
-    pub rows: usize,
-    /// Unknowns of the problem (all stages' last).
-    pub unknowns: usize,
-    /// RMS residual at the estimate (reading units).
-    pub rms: f64,
-    /// Observability of the joint problem's Jacobian at the start.
-    pub observability: Observability,
-    /// Wall-clock seconds of the solve.
-    pub seconds: f64,
-    /// The χ² test of the residuals against the declared noise (propagated from the target
-    /// coordinates through the pose fit), if the model declares one.
-    pub noise_test: Option<NoiseTest>,
-    /// The likelihood-ratio test of the frame components the model holds (joint strategy,
-    /// when they can be freed and a noise is declared).
-    pub held_frame: Option<HeldFrameTest>,
-}
-
-/// The reasons the results must not be trusted (empty: nothing found), one line each: a solve
-/// that did not converge, a non-finite value, residuals that reject the declared noise.
-pub fn trust_issues(results: &[SharedEstimate]) -> Vec<String> {
-    let mut issues = Vec::new();
-    for result in results {
-        let strategy = result.strategy.name();
-        if !result.outcome.converged {
-            issues.push(format!(
-                "{strategy}: the solver did not converge ({}) after {} iterations; the estimate \
-                 must not be trusted",
-                result.outcome.stop_reason, result.outcome.iterations
-            ));
-        }
-        let values = result
-            .legs
-            .iter()
-            .flat_map(|(_, p)| p)
-            .chain(&result.shared);
-        for p in values {
-            if !(p.estimate.is_finite() && p.std.is_none_or(f64::is_finite)) {
-                issues.push(format!("{strategy}: {} is not a finite number", p.name));
-            }
-        }
-        if let Some(test) = result.noise_test.as_ref().filter(|t| t.rejected) {
-            issues.push(format!(
-                "{strategy}: the residuals reject the declared noise (σ̂ {} times the declared \
-                 scatter, χ² p = {:.2e}): check the instrument frame and targets (are the right \
-                 ones identified?), the units, the outliers and the model",
-                figure(test.sigma_ratio),
-                test.p_value
-            ));
-        }
-        if let Some(test) = result.held_frame.as_ref().filter(|t| t.rejected) {
-            issues.push(format!(
-                "{strategy}: the held instrument frame ({}) disagrees with the measurements: \
-                 freeing it lowers χ² by {:.1} on {} dof (p = {:.2e}); identify it \
-                 (`instrument.frame.identify`) or correct the values held",
-                test.freed.join(", "),
-                test.chi_squared_drop,
-                test.degrees_of_freedom,
-                test.p_value
-            ));
-        }
-    }
-    issues
-}
 
 /// The dense Jacobian of `problem` at `x`.
 fn dense(problem: &SharedProblem<'_>, x: &DVector<f64>) -> Result<(DVector<f64>, DMatrix<f64>)> {
@@ -157,37 +70,46 @@ pub fn check_rank(problem: &SharedProblem<'_>, source: &Observations) -> Result<
     Ok(observability)
 }
 
-/// Identifies the legs and the instrument from `observations` with `strategy`.
+/// Identifies the legs and the instrument from `observations` with `strategy` (joint or
+/// two-stage), by Levenberg–Marquardt; `options` give the noise the statistics expect (the
+/// fit itself is unweighted). The held-frame test is not run here
+/// ([`super::held_test::held_frame_test`]).
 ///
 /// # Errors
-/// No instrument, a leg without rows, a rank-deficient problem, a pose a leg cannot reach at
-/// the start, or a solver failure.
+/// No instrument, a strategy that does not identify through an instrument, a leg without
+/// rows, a rank-deficient problem, a pose a leg cannot reach at the start, or a solver failure.
 pub fn identify_shared(
     mechanism: &Mechanism,
     observations: &Observations,
-    strategy: SharedStrategy,
-) -> Result<SharedEstimate> {
+    strategy: Strategy,
+    options: FitOptions,
+) -> Result<StrategyResult> {
+    if !strategy.through_instrument() {
+        return Err(Error::Invalid(format!(
+            "{}: the model has an instrument block: its legs are identified through it (joint \
+             or two-stage), not by {}",
+            mechanism.model_path.display(),
+            strategy.name()
+        )));
+    }
     let problem = SharedProblem::new(mechanism, observations)?;
     let observability = check_rank(&problem, observations)?;
     let started = std::time::Instant::now();
-    let (problem, outcome) = match strategy {
-        SharedStrategy::Joint => {
-            let outcome = solve_bordered(&problem, problem.start()).map_err(solver_error)?;
-            (problem, outcome)
-        }
-        SharedStrategy::TwoStage => {
-            let registration = problem.with_legs_fixed().with_rows(REGISTRATION_ROWS);
-            let first = solve(
-                &DenseView(&registration),
-                registration.start(),
-                SolverKind::LevenbergMarquardt,
-            )
-            .map_err(solver_error)?;
-            let frame = registration.shared_values(&first.x);
-            let legs = problem.with_shared_fixed(&frame);
-            let outcome = solve_bordered(&legs, legs.start()).map_err(solver_error)?;
-            (legs, outcome)
-        }
+    let (problem, outcome) = if strategy == Strategy::Joint {
+        let outcome = solve_bordered(&problem, problem.start()).map_err(solver_error)?;
+        (problem, outcome)
+    } else {
+        let registration = problem.with_legs_fixed().with_rows(REGISTRATION_ROWS);
+        let first = solve(
+            &DenseView(&registration),
+            registration.start(),
+            SolverKind::LevenbergMarquardt,
+        )
+        .map_err(solver_error)?;
+        let frame = registration.shared_values(&first.x);
+        let legs = problem.with_shared_fixed(&frame);
+        let outcome = solve_bordered(&legs, legs.start()).map_err(solver_error)?;
+        (legs, outcome)
     };
     let seconds = started.elapsed().as_secs_f64();
     let (r, jacobian) = dense(&problem, &outcome.x)?;
@@ -195,10 +117,7 @@ pub fn identify_shared(
         return Err(solver_error("the estimate is not finite"));
     }
     let (m, n) = jacobian.shape();
-    let noise = mechanism
-        .noise
-        .filter(|n| n.reading > 0.0 || n.pose.iter().any(|&s| s > 0.0));
-    let loadings = match noise {
+    let loadings = match options.expected_noise(mechanism) {
         Some(noise) => Some(
             problem
                 .noise_loadings(&outcome.x, &noise)
@@ -206,84 +125,174 @@ pub fn identify_shared(
         ),
         None => None,
     };
-    let sigmas = standard_deviations(&r, &jacobian, loadings.as_ref());
+    let covariance = covariance(&r, &jacobian, loadings.as_ref());
+    let sigmas: Option<Vec<f64>> = covariance
+        .as_ref()
+        .map(|v| v.diagonal().iter().map(|v| v.max(0.0).sqrt()).collect());
     let noise_test = loadings
         .as_ref()
         .and_then(|l| statistics::noise_test(r.as_slice(), &l.variances(), n, 0));
-    let mut column = 0;
-    let mut next = |identified: bool| {
-        identified.then(|| {
-            column += 1;
-            sigmas.as_ref().map(|s| s[column - 1])
-        })
+    // The residuals at the start, for each leg's cost before (evaluated last: the warm starts
+    // of the estimate's evaluations are untouched).
+    let r0 = dense(&problem, &problem.start())?.0;
+    let blocks = Blocks {
+        problem: &problem,
+        x: &outcome.x,
+        r: &r,
+        r0: &r0,
+        jacobian: &jacobian,
+        covariance: covariance.as_ref(),
+        sigmas: sigmas.as_deref(),
     };
-    let phis = problem.leg_parameters(&outcome.x);
-    let legs = problem
-        .legs()
-        .into_iter()
-        .zip(&phis)
-        .map(|(l, phi)| {
+    let legs = blocks.legs(mechanism);
+    let names: Vec<String> = legs.iter().map(|l| l.leg.clone()).collect();
+    let instrument = InstrumentEstimate {
+        parameters: blocks.instrument(),
+        rows: m,
+        unknowns: n,
+        rms: (r.norm_squared() / m.max(1) as f64).sqrt(),
+        observability,
+        noise_test,
+        held_frame: None,
+    };
+    let run = SolverRun {
+        legs: names,
+        iterations: outcome.iterations,
+        converged: outcome.converged,
+        stop_reason: outcome.stop_reason,
+        refinement_steps: outcome.refinement_steps,
+        initial_cost: 0.5 * r0.norm_squared(),
+        final_cost: 0.5 * r.norm_squared(),
+        residual_evaluations: outcome.residual_evaluations,
+        jacobian_evaluations: outcome.jacobian_evaluations,
+        seconds,
+    };
+    Ok(StrategyResult {
+        strategy,
+        solver: SolverKind::LevenbergMarquardt,
+        legs,
+        runs: vec![run],
+        options,
+        warnings: Vec::new(),
+        instrument: Some(instrument),
+    })
+}
+
+/// The solved problem, split into its parameter blocks.
+struct Blocks<'p> {
+    problem: &'p SharedProblem<'p>,
+    x: &'p DVector<f64>,
+    r: &'p DVector<f64>,
+    r0: &'p DVector<f64>,
+    jacobian: &'p DMatrix<f64>,
+    covariance: Option<&'p DMatrix<f64>>,
+    sigmas: Option<&'p [f64]>,
+}
+
+impl Blocks<'_> {
+    /// Each leg's block: its parameters (σ from the covariance's diagonal), its rows'
+    /// residuals and costs, the observability of its own columns at the estimate and its
+    /// block of the covariance.
+    fn legs(&self, mechanism: &Mechanism) -> Vec<LegEstimate> {
+        let phis = self.problem.leg_parameters(self.x);
+        let layout = self.problem.layout();
+        let lines = self.problem.row_lines();
+        let (mut row, mut column) = (0, 0);
+        let mut estimates = Vec::new();
+        for (((l, phi), &own), lines) in self
+            .problem
+            .legs()
+            .into_iter()
+            .zip(&phis)
+            .zip(&layout.own)
+            .zip(&lines)
+        {
             let leg = &mechanism.legs[l];
-            let estimates = leg
+            let rows = row..row + lines.len();
+            let columns = column..column + own;
+            let mut k = column;
+            let parameters = leg
                 .params
                 .iter()
                 .zip(phi)
                 .map(|(p, &value)| {
-                    let identified = p.identified;
+                    let std = p.identified.then(|| {
+                        k += 1;
+                        self.sigmas.map(|s| s[k - 1])
+                    });
                     ParameterEstimate {
                         name: p.name.clone(),
                         unit: p.unit,
                         nominal: p.nominal,
                         estimate: value,
-                        std: next(identified).flatten(),
-                        identified,
+                        std: std.flatten(),
+                        identified: p.identified,
                     }
                 })
                 .collect();
-            (l, estimates)
-        })
-        .collect();
-    let values = problem.shared_values(&outcome.x);
-    let identified_shared = problem.shared_columns().to_vec();
-    let instrument = problem.instrument();
-    let shared = instrument
-        .parameters
-        .iter()
-        .enumerate()
-        .map(|(k, p)| {
-            // Estimated here, or registered by the first stage (no σ of its own then).
-            let std = if identified_shared.contains(&k) {
-                next(true).flatten()
-            } else {
-                None
-            };
-            ParameterEstimate {
-                name: p.name.clone(),
-                unit: p.unit,
-                nominal: p.nominal,
-                estimate: values[k],
-                std,
-                identified: p.identified,
-            }
-        })
-        .collect();
-    let mut estimate = SharedEstimate {
-        strategy,
-        legs,
-        shared,
-        outcome,
-        rows: m,
-        unknowns: n,
-        rms: (r.norm_squared() / m.max(1) as f64).sqrt(),
-        observability,
-        seconds,
-        noise_test,
-        held_frame: None,
-    };
-    if strategy == SharedStrategy::Joint {
-        estimate.held_frame = held_frame_test(mechanism, observations, &estimate);
+            let names: Vec<String> = leg
+                .identified()
+                .iter()
+                .map(|&c| leg.params[c].name.clone())
+                .collect();
+            let own_block = self
+                .jacobian
+                .view((rows.start, columns.start), (rows.len(), own));
+            let cost = |r: &DVector<f64>| 0.5 * r.rows_range(rows.clone()).norm_squared();
+            estimates.push(LegEstimate {
+                leg: leg.name.clone(),
+                parameters,
+                measurements: rows.len(),
+                initial_cost: cost(self.r0),
+                final_cost: cost(self.r),
+                residual_sigma: None,
+                observability: analyse(&own_block.into_owned(), &names),
+                statistics: LegStatistics::default(),
+                dropped: Vec::new(),
+                warnings: Vec::new(),
+                covariance: self.covariance.map(|v| {
+                    v.view((columns.start, columns.start), (own, own))
+                        .into_owned()
+                }),
+                residuals: lines
+                    .iter()
+                    .zip(self.r.rows_range(rows.clone()).iter())
+                    .map(|(&line, &residual)| RowResidual { line, residual })
+                    .collect(),
+            });
+            row = rows.end;
+            column = columns.end;
+        }
+        estimates
     }
-    Ok(estimate)
+
+    /// The instrument's parameters: estimated here (σ from the covariance), or held, or
+    /// registered by the two-stage strategy's first stage (no σ of its own then).
+    fn instrument(&self) -> Vec<ParameterEstimate> {
+        let values = self.problem.shared_values(self.x);
+        let identified = self.problem.shared_columns();
+        let first = self.x.len() - identified.len();
+        self.problem
+            .instrument()
+            .parameters
+            .iter()
+            .enumerate()
+            .map(|(k, p)| {
+                let std = identified
+                    .iter()
+                    .position(|&c| c == k)
+                    .and_then(|i| self.sigmas.map(|s| s[first + i]));
+                ParameterEstimate {
+                    name: p.name.clone(),
+                    unit: p.unit,
+                    nominal: p.nominal,
+                    estimate: values[k],
+                    std,
+                    identified: p.identified,
+                }
+            })
+            .collect()
+    }
 }
 
 fn solver_error(error: impl std::fmt::Display) -> Error {

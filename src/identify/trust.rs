@@ -9,7 +9,7 @@
 //! * no leg's residuals reject the declared measurement noise (the χ² test of
 //!   [`super::statistics`]): wrong units, outliers or a wrong model.
 
-use super::estimate::{LegEstimate, StrategyResult};
+use super::result::{InstrumentEstimate, LegEstimate, StrategyResult};
 
 /// The reasons the results of an identification must not be trusted (empty: nothing found).
 /// Each names the strategy, the leg or solver run, and the values.
@@ -62,8 +62,41 @@ pub fn trust_issues(results: &[StrategyResult]) -> Vec<String> {
                 ));
             }
         }
+        if let Some(instrument) = &result.instrument {
+            instrument_issues(&mut issues, strategy, instrument);
+        }
     }
     issues
+}
+
+/// What speaks against the instrument's part of a result: a non-finite value, residuals that
+/// reject the declared noise as a whole, held frame components the measurements disagree with.
+fn instrument_issues(issues: &mut Vec<String>, strategy: &str, instrument: &InstrumentEstimate) {
+    for p in &instrument.parameters {
+        if !(p.estimate.is_finite() && p.std.is_none_or(f64::is_finite)) {
+            issues.push(format!("{strategy}: {} is not a finite number", p.name));
+        }
+    }
+    if let Some(test) = instrument.noise_test.as_ref().filter(|t| t.rejected) {
+        issues.push(format!(
+            "{strategy}: the residuals reject the declared noise (σ̂ {} times the declared \
+             scatter, χ² p = {:.2e}): check the instrument frame and targets (are the right \
+             ones identified?), the units, the outliers and the model",
+            super::statistics::figure(test.sigma_ratio),
+            test.p_value
+        ));
+    }
+    if let Some(test) = instrument.held_frame.as_ref().filter(|t| t.rejected) {
+        issues.push(format!(
+            "{strategy}: the held instrument frame ({}) disagrees with the measurements: \
+             freeing it lowers χ² by {:.1} on {} dof (p = {:.2e}); identify it \
+             (`instrument.frame.identify`) or correct the values held",
+            test.freed.join(", "),
+            test.chi_squared_drop,
+            test.degrees_of_freedom,
+            test.p_value
+        ));
+    }
 }
 
 /// The non-finite values of one leg's estimate, as `name value`.
@@ -155,6 +188,7 @@ mod tests {
             }],
             options: FitOptions::default(),
             warnings: Vec::new(),
+            instrument: None,
         }
     }
 

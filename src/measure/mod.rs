@@ -1,5 +1,6 @@
 //! Measurements: measured platform poses with actuator readings, from a CSV file or simulated.
 pub mod checks;
+mod data;
 pub mod file;
 pub mod observations;
 pub mod observe_simulate;
@@ -8,6 +9,8 @@ pub mod simulate;
 pub mod targets;
 
 use std::path::PathBuf;
+
+pub use data::{Measurements, STDIN_NAME};
 
 /// One measured platform pose (its readings are kept by its [`MeasurementSet`], flat:
 /// [`MeasurementSet::readings`]).

@@ -12,9 +12,11 @@ use std::path::{Path, PathBuf};
 use crate::error::{Error, Result};
 use crate::identify::estimate::StrategyResult;
 use crate::model::file::ModelFile;
+use crate::model::instrument::Instrument;
 use crate::model::joint::ORIGIN_COMPONENTS;
 use crate::model::params::ParamTarget;
 use crate::model::Mechanism;
+use crate::report::{RealValues, Report};
 
 /// What the calibrated model is made from.
 #[derive(Debug, Clone, Copy)]
@@ -25,9 +27,9 @@ pub struct Calibration<'a> {
     pub result: &'a StrategyResult,
     /// Where the measurements came from (a file, or a description of the simulation).
     pub source: &'a str,
-    /// Real parameters of a simulation (per leg, model order): written as `simulation.real` so
-    /// that the calibrated model simulates the same real mechanism.
-    pub real: Option<&'a [Vec<f64>]>,
+    /// Real parameters of a simulation: written as `simulation.real` so that the calibrated
+    /// model simulates the same real mechanism (and instrument).
+    pub real: Option<&'a RealValues>,
     /// A note for the header, e.g. which of several results this is.
     pub note: Option<&'a str>,
 }
@@ -39,6 +41,20 @@ pub struct CalibratedFiles {
     pub yaml: String,
     /// The URDF.
     pub urdf: String,
+}
+
+impl<'a> Calibration<'a> {
+    /// The calibration `report` writes: its [`Report::calibrated_result`] (`None` without a
+    /// result), with a note when several strategies ran.
+    pub fn of(report: &'a Report<'_>, note: Option<&'a str>) -> Option<Self> {
+        Some(Calibration {
+            mechanism: report.mechanism,
+            result: report.calibrated_result()?,
+            source: &report.source,
+            real: report.real.as_ref(),
+            note,
+        })
+    }
 }
 
 /// The URDF path of the calibrated model file `out`: beside it, extension `urdf`.
@@ -145,13 +161,36 @@ fn calibrated_yaml(
     let mut file = ModelFile::read(&mechanism.model_path)?;
     file.urdf = urdf_name.to_string();
     set_leg_values(&mut file, mechanism, values);
+    let instrument = calibration.result.instrument.as_ref();
+    if let (Some(block), Some(model), Some(estimate)) =
+        (file.instrument.as_mut(), &mechanism.instrument, instrument)
+    {
+        let value = |k: usize| estimate.parameters[k].estimate;
+        for (c, component) in model.frame_components().iter().enumerate() {
+            block
+                .frame
+                .pose
+                .insert(component.to_string(), value(Instrument::FRAME + c));
+        }
+        for (k, target) in block.targets.iter_mut().enumerate() {
+            for (c, v) in target.offset.iter_mut().enumerate() {
+                *v = value(model.offset_index(k) + c);
+            }
+        }
+    }
     if let (Some(real), Some(simulation)) = (calibration.real, file.simulation.as_mut()) {
-        simulation.real = mechanism
+        let mut values: BTreeMap<String, f64> = mechanism
             .legs
             .iter()
-            .zip(real)
+            .zip(&real.legs)
             .flat_map(|(leg, phi)| leg.params.iter().map(|p| p.name.clone()).zip(phi.clone()))
-            .collect::<BTreeMap<_, _>>();
+            .collect();
+        if let (Some(model), Some(shared)) = (&mechanism.instrument, &real.instrument) {
+            for (p, &value) in model.parameters.iter().zip(shared) {
+                values.insert(p.name.clone(), value);
+            }
+        }
+        simulation.real = values;
         simulation.perturbation = None;
     }
     let body = serde_saphyr::to_string(&file).map_err(|e| Error::Yaml {
@@ -212,8 +251,14 @@ fn header(
         "Original model: {}. Every identified value replaces its nominal one: joint origins in",
         mechanism.model_path.display()
     ));
+    let instrument = result.instrument.as_ref();
     lines.push(format!(
-        "{urdf_name}, actuator gains and offsets and attachments below."
+        "{urdf_name}, actuator gains and offsets and attachments{} below.",
+        if instrument.is_some() {
+            ", the instrument's frame and target offsets"
+        } else {
+            ""
+        }
     ));
     if calibration.real.is_some() {
         lines.push(
@@ -222,6 +267,17 @@ fn header(
         );
     }
     lines.push("Values (SI units) with their standard deviation σ = σ̂ √diag (CᵀC)⁻¹:".into());
+    for p in instrument.iter().flat_map(|i| &i.parameters) {
+        let status = match (p.identified, p.std) {
+            (false, _) => "fixed (not identified)".to_string(),
+            (true, Some(s)) => format!("σ = {s:.3e} {}", p.unit),
+            (true, None) => "σ unknown (registered by the first stage, or no redundancy)".into(),
+        };
+        lines.push(format!(
+            "  instrument: {} = {} {}, nominal was {}; {status}",
+            p.name, p.estimate, p.unit, p.nominal
+        ));
+    }
     for (leg, leg_values) in mechanism.legs.iter().zip(values) {
         for (param, &(value, std)) in leg.params.iter().zip(leg_values) {
             let unit = param.unit;

@@ -22,22 +22,6 @@ pub fn stats_json(stats: Option<&ErrorStats>) -> Value {
     })
 }
 
-/// An accuracy map as JSON.
-pub fn map_json(map: &AccuracyMap) -> Value {
-    json!({
-        "grid_m": finite(map.grid_m),
-        "scale": finite(map.scale),
-        "points": map.points.iter().map(|p| json!({
-            "pose": p.pose.iter().map(|&v| finite(v)).collect::<Vec<_>>(),
-            "position_error_m": optional(p.position_error),
-            "orientation_error_rad": optional(p.orientation_error),
-        })).collect::<Vec<_>>(),
-        "non_assemblable": map.non_assemblable,
-        "position_error_m": stats_json(Some(&map.position_error)),
-        "orientation_error_rad": stats_json(map.orientation_error.as_ref()),
-    })
-}
-
 /// One evaluation as JSON (without the schema header).
 pub fn evaluation_body(evaluation: &Evaluation) -> Value {
     let residuals: serde_json::Map<String, Value> = evaluation

@@ -1,18 +1,24 @@
-//! The JSON report (`--json PATH`): the same data as the terminal report. Non-finite numbers
-//! are written as `null`, never as NaN.
-
-use serde_json::{json, Value};
+//! The JSON report (`--json PATH`), documented in docs/report.md: built from [`Serialize`]
+//! types that mirror the schema, the same for every set-up (an instrument's parameters are one
+//! more block of parameters, with the same keys as a leg's). Non-finite numbers are written as
+//! `null`, never as NaN.
 
 use nalgebra::DMatrix;
+use serde::{Serialize, Serializer};
+use serde_json::{json, Value};
 
 use super::terminal::all_warnings;
-use super::IdentifyReport;
-use crate::identify::estimate::{LegEstimate, StrategyResult, Weighting};
-use crate::identify::statistics::Outlier;
+use super::Report;
+use crate::evaluate::accuracy::{AccuracyMap, ErrorStats};
+use crate::identify::estimate::{
+    LegEstimate, ParameterEstimate, SolverRun, StrategyResult, Weighting,
+};
+use crate::identify::result::{HeldFrameTest, InstrumentEstimate};
+use crate::identify::statistics::{NoiseTest, Outlier};
 
 /// Version of the JSON layout documented in `docs/report.md`; raised when a key changes meaning or
 /// disappears (new keys do not change it).
-pub const SCHEMA_VERSION: u32 = 1;
+pub const SCHEMA_VERSION: u32 = 2;
 
 /// The keys every legwise JSON document starts with: the schema and the program version.
 pub fn header() -> Value {
@@ -29,15 +35,6 @@ pub fn merge(value: &mut Value, extra: Value) {
     }
 }
 
-/// A matrix as rows of numbers (non-finite entries as `null`).
-pub fn matrix(m: &DMatrix<f64>) -> Value {
-    Value::Array(
-        m.row_iter()
-            .map(|row| Value::Array(row.iter().map(|&v| finite(v)).collect()))
-            .collect(),
-    )
-}
-
 /// The correlation matrix of a covariance matrix: `V_ij / √(V_ii V_jj)`.
 pub fn correlation(covariance: &DMatrix<f64>) -> DMatrix<f64> {
     let std = covariance.diagonal().map(f64::sqrt);
@@ -46,33 +43,9 @@ pub fn correlation(covariance: &DMatrix<f64>) -> DMatrix<f64> {
     })
 }
 
-/// A leg's covariance, correlation and per-row residuals (rows only for measurements from a file).
-fn leg_statistics(leg: &LegEstimate) -> Value {
-    let names: Vec<&str> = leg
-        .parameters
-        .iter()
-        .filter(|p| p.identified)
-        .map(|p| p.name.as_str())
-        .collect();
-    let from_file = leg.residuals.iter().all(|r| r.line.is_some());
-    json!({
-        "covariance_parameters": names,
-        "covariance": leg.covariance.as_ref().map(matrix),
-        "correlation": leg.covariance.as_ref().map(|v| matrix(&correlation(v))),
-        "rows": from_file.then(|| leg.residuals.iter().map(|r| json!({
-            "line": r.line,
-            "residual": finite(r.residual),
-        })).collect::<Vec<_>>()),
-    })
-}
-
 /// A number, or `null` when it is not finite (JSON has no NaN or infinity).
 pub fn finite(value: f64) -> Value {
-    if value.is_finite() {
-        json!(value)
-    } else {
-        Value::Null
-    }
+    serde_json::to_value(Number(value)).unwrap_or(Value::Null)
 }
 
 /// [`finite`] of an optional number (`None` is `null`).
@@ -80,118 +53,467 @@ pub fn optional(value: Option<f64>) -> Value {
     value.map_or(Value::Null, finite)
 }
 
-/// The report as a JSON value.
-pub fn to_json(report: &IdentifyReport<'_>) -> Value {
-    let mut value = header();
-    merge(
-        &mut value,
-        json!({
-            "mechanism": report.mechanism.name,
-            "model": report.mechanism.model_path.display().to_string(),
-            "mode": report.mechanism.mode,
-            "measurements": report.source,
-            "units": "SI (m, rad); costs are 1/2 ||r||^2 in reading units squared",
-            "results": report.results.iter().map(|r| result(report, r)).collect::<Vec<_>>(),
-        }),
-    );
-    value
+/// A number written as `null` when it is not finite.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Number(pub f64);
+
+impl Serialize for Number {
+    fn serialize<S: Serializer>(&self, serializer: S) -> Result<S::Ok, S::Error> {
+        if self.0.is_finite() {
+            serializer.serialize_f64(self.0)
+        } else {
+            serializer.serialize_none()
+        }
+    }
 }
 
-fn result(report: &IdentifyReport<'_>, result: &StrategyResult) -> Value {
-    let legs: Vec<Value> = result
-        .legs
-        .iter()
-        .map(|leg| {
-            let parameters: Vec<Value> = leg
+fn number(value: Option<f64>) -> Option<Number> {
+    value.map(Number)
+}
+
+fn matrix(m: &DMatrix<f64>) -> Vec<Vec<Number>> {
+    m.row_iter()
+        .map(|row| row.iter().map(|&v| Number(v)).collect())
+        .collect()
+}
+
+/// The document of `legwise identify --json`.
+#[derive(Debug, Serialize)]
+pub struct ReportJson<'a> {
+    schema_version: u32,
+    legwise_version: &'static str,
+    mechanism: &'a str,
+    model: String,
+    mode: Option<&'a str>,
+    measurements: &'a str,
+    units: &'static str,
+    instrument_columns: Option<Vec<String>>,
+    results: Vec<ResultJson<'a>>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    accuracy_map_before: Option<MapJson>,
+}
+
+impl<'a> ReportJson<'a> {
+    /// The document of `report`.
+    pub fn new(report: &'a Report<'_>) -> Self {
+        let mechanism = report.mechanism;
+        let maps = report.maps.as_ref();
+        ReportJson {
+            schema_version: SCHEMA_VERSION,
+            legwise_version: env!("CARGO_PKG_VERSION"),
+            mechanism: &mechanism.name,
+            model: mechanism.model_path.display().to_string(),
+            mode: mechanism.mode.as_deref(),
+            measurements: &report.source,
+            units: "SI (m, rad); costs are 1/2 ||r||^2 in reading units squared",
+            instrument_columns: mechanism.instrument.as_ref().map(|i| i.columns()),
+            results: report
+                .results
+                .iter()
+                .enumerate()
+                .map(|(i, r)| ResultJson::new(report, r, maps.and_then(|m| m.after.get(i))))
+                .collect(),
+            accuracy_map_before: maps.map(|m| MapJson::new(&m.before)),
+        }
+    }
+
+    /// The document as pretty-printed text with a final newline.
+    ///
+    /// # Errors
+    /// Serialisation fails (it cannot for these types; the error is passed on, not hidden).
+    pub fn to_text(&self) -> serde_json::Result<String> {
+        Ok(serde_json::to_string_pretty(self)? + "\n")
+    }
+}
+
+#[derive(Debug, Serialize)]
+struct ResultJson<'a> {
+    strategy: &'static str,
+    solver: &'static str,
+    weights: &'static str,
+    robust: Option<&'static str>,
+    drop_outliers: bool,
+    warnings: Vec<String>,
+    instrument: Option<InstrumentJson<'a>>,
+    legs: Vec<LegJson<'a>>,
+    fixed_legs: Vec<String>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    accuracy_map: Option<MapJson>,
+}
+
+impl<'a> ResultJson<'a> {
+    fn new(report: &'a Report<'_>, result: &'a StrategyResult, map: Option<&AccuracyMap>) -> Self {
+        ResultJson {
+            strategy: result.strategy.name(),
+            solver: result.solver.short_name(),
+            weights: match result.options.weights {
+                Weighting::Unweighted => "none",
+                Weighting::Noise => "noise",
+            },
+            robust: result.options.robust.map(|r| r.name()),
+            drop_outliers: result.options.drop_outliers,
+            warnings: all_warnings(result),
+            instrument: result
+                .instrument
+                .as_ref()
+                .map(|i| InstrumentJson::new(report, i)),
+            legs: result
+                .legs
+                .iter()
+                .map(|leg| LegJson::new(report, result, leg))
+                .collect(),
+            fixed_legs: report.fixed_legs(result),
+            accuracy_map: map.map(MapJson::new),
+        }
+    }
+}
+
+/// One parameter: the same keys for a leg's and for the instrument's.
+#[derive(Debug, Serialize)]
+struct ParameterJson<'a> {
+    name: &'a str,
+    unit: String,
+    fixed: bool,
+    nominal: Number,
+    identified: Number,
+    std: Option<Number>,
+    real: Option<Number>,
+    error_before: Option<Number>,
+    error_after: Option<Number>,
+}
+
+impl<'a> ParameterJson<'a> {
+    fn new(p: &'a ParameterEstimate, real: Option<f64>) -> Self {
+        ParameterJson {
+            name: &p.name,
+            unit: p.unit.to_string(),
+            fixed: !p.identified,
+            nominal: Number(p.nominal),
+            identified: Number(p.estimate),
+            std: number(p.std),
+            real: number(real),
+            error_before: number(real.map(|r| p.nominal - r)),
+            error_after: number(real.map(|r| p.estimate - r)),
+        }
+    }
+}
+
+#[derive(Debug, Serialize)]
+struct InstrumentJson<'a> {
+    parameters: Vec<ParameterJson<'a>>,
+    rows: usize,
+    unknowns: usize,
+    rms_residual: Number,
+    noise_test: Option<NoiseTestJson>,
+    held_frame_test: Option<HeldFrameJson<'a>>,
+    observability: InstrumentObservabilityJson<'a>,
+}
+
+impl<'a> InstrumentJson<'a> {
+    fn new(report: &Report<'_>, instrument: &'a InstrumentEstimate) -> Self {
+        InstrumentJson {
+            parameters: instrument
                 .parameters
                 .iter()
                 .enumerate()
-                .map(|(i, p)| {
-                    let real = report.real_value(&leg.leg, i);
-                    json!({
-                        "name": p.name,
-                        "unit": p.unit.to_string(),
-                        "fixed": !p.identified,
-                        "nominal": finite(p.nominal),
-                        "identified": finite(p.estimate),
-                        "std": optional(p.std),
-                        "real": optional(real),
-                        "error_before": optional(real.map(|r| p.nominal - r)),
-                        "error_after": optional(real.map(|r| p.estimate - r)),
-                    })
-                })
-                .collect();
-            let run = result.runs.iter().find(|r| r.legs.contains(&leg.leg));
-            let o = &leg.observability;
-            let mut value = json!({
-                "name": leg.leg,
-                "measurements": leg.measurements,
-                "parameters": parameters,
-                "cost_before": finite(leg.initial_cost),
-                "cost_after": finite(leg.final_cost),
-                "residual_sigma": optional(leg.residual_sigma),
-                "parameter_error_rms_before": optional(report.rms_error(leg, false)),
-                "parameter_error_rms_after": optional(report.rms_error(leg, true)),
-                "singular_values": o.singular_values.iter().map(|&s| finite(s)).collect::<Vec<_>>(),
-                "condition_number": finite(o.condition),
-                "scaled_condition_number": finite(o.scaled_condition),
-                "warnings": o.warning().into_iter().chain(leg.warnings.iter().cloned()).collect::<Vec<_>>(),
-                "noise_test": leg.statistics.noise_test.as_ref().map(|t| json!({
-                    "chi_squared": finite(t.chi_squared),
-                    "degrees_of_freedom": t.degrees_of_freedom,
-                    "p_value": finite(t.p_value),
-                    "sigma_ratio": finite(t.sigma_ratio),
-                    "residual_sigma": finite(t.residual_sigma),
-                    "expected_sigma": finite(t.expected_sigma),
-                    "excluded_rows": t.excluded,
-                    "rejected": t.rejected,
-                })),
-                "outlier_threshold": optional(leg.statistics.outlier_threshold),
-                "outliers": leg.statistics.outliers.iter().map(outlier).collect::<Vec<_>>(),
-                "dropped": leg.dropped.iter().map(outlier).collect::<Vec<_>>(),
-                "observability": {
-                    "O1": finite(o.indices[0]), "O2": finite(o.indices[1]), "O3": finite(o.indices[2]),
-                    "O4": finite(o.indices[3]), "O5": finite(o.indices[4]),
-                },
-                "solver": run.map(|run| json!({
-                    "name": result.solver.name(),
-                    "legs": run.legs,
-                    "iterations": run.iterations,
-                    "converged": run.converged,
-                    "stop_reason": run.stop_reason.key(),
-                    "refinement_steps": run.refinement_steps,
-                    "cost_before": finite(run.initial_cost),
-                    "cost_after": finite(run.final_cost),
-                    "residual_evaluations": run.residual_evaluations,
-                    "jacobian_evaluations": run.jacobian_evaluations,
-                    "seconds": finite(run.seconds),
-                })),
-            });
-            merge(&mut value, leg_statistics(leg));
-            value
-        })
-        .collect();
-    json!({
-        "strategy": result.strategy.name(),
-        "solver": result.solver.short_name(),
-        "weights": match result.options.weights {
-            Weighting::Unweighted => "none",
-            Weighting::Noise => "noise",
-        },
-        "robust": result.options.robust.map(|r| r.name()),
-        "drop_outliers": result.options.drop_outliers,
-        "warnings": all_warnings(result),
-        "legs": legs,
-        "fixed_legs": report.fixed_legs(result),
-    })
+                .map(|(k, p)| ParameterJson::new(p, report.real_instrument_value(k)))
+                .collect(),
+            rows: instrument.rows,
+            unknowns: instrument.unknowns,
+            rms_residual: Number(instrument.rms),
+            noise_test: instrument.noise_test.as_ref().map(NoiseTestJson::new),
+            held_frame_test: instrument.held_frame.as_ref().map(HeldFrameJson::new),
+            observability: InstrumentObservabilityJson {
+                rank: instrument.observability.rank,
+                scaled_condition: Number(instrument.observability.scaled_condition),
+                weakest_direction: &instrument.observability.weakest_direction,
+            },
+        }
+    }
 }
 
-fn outlier(o: &Outlier) -> Value {
-    json!({
-        "line": o.line,
-        "pose": o.pose,
-        "reading": finite(o.reading),
-        "residual": finite(o.residual),
-        "t": finite(o.t),
-    })
+#[derive(Debug, Serialize)]
+struct InstrumentObservabilityJson<'a> {
+    rank: usize,
+    scaled_condition: Number,
+    weakest_direction: &'a str,
+}
+
+#[derive(Debug, Serialize)]
+struct HeldFrameJson<'a> {
+    freed: &'a [String],
+    chi_squared_drop: Number,
+    degrees_of_freedom: usize,
+    p_value: Number,
+    rejected: bool,
+    estimates: Vec<Number>,
+}
+
+impl<'a> HeldFrameJson<'a> {
+    fn new(test: &'a HeldFrameTest) -> Self {
+        HeldFrameJson {
+            freed: &test.freed,
+            chi_squared_drop: Number(test.chi_squared_drop),
+            degrees_of_freedom: test.degrees_of_freedom,
+            p_value: Number(test.p_value),
+            rejected: test.rejected,
+            estimates: test.estimates.iter().map(|&v| Number(v)).collect(),
+        }
+    }
+}
+
+#[derive(Debug, Serialize)]
+struct NoiseTestJson {
+    chi_squared: Number,
+    degrees_of_freedom: usize,
+    p_value: Number,
+    sigma_ratio: Number,
+    residual_sigma: Number,
+    expected_sigma: Number,
+    excluded_rows: usize,
+    rejected: bool,
+}
+
+impl NoiseTestJson {
+    fn new(t: &NoiseTest) -> Self {
+        NoiseTestJson {
+            chi_squared: Number(t.chi_squared),
+            degrees_of_freedom: t.degrees_of_freedom,
+            p_value: Number(t.p_value),
+            sigma_ratio: Number(t.sigma_ratio),
+            residual_sigma: Number(t.residual_sigma),
+            expected_sigma: Number(t.expected_sigma),
+            excluded_rows: t.excluded,
+            rejected: t.rejected,
+        }
+    }
+}
+
+#[derive(Debug, Serialize)]
+struct LegJson<'a> {
+    name: &'a str,
+    measurements: usize,
+    parameters: Vec<ParameterJson<'a>>,
+    cost_before: Number,
+    cost_after: Number,
+    residual_sigma: Option<Number>,
+    parameter_error_rms_before: Option<Number>,
+    parameter_error_rms_after: Option<Number>,
+    singular_values: Vec<Number>,
+    condition_number: Number,
+    scaled_condition_number: Number,
+    warnings: Vec<String>,
+    noise_test: Option<NoiseTestJson>,
+    outlier_threshold: Option<Number>,
+    outliers: Vec<OutlierJson<'a>>,
+    dropped: Vec<OutlierJson<'a>>,
+    observability: IndicesJson,
+    solver: Option<SolverJson<'a>>,
+    covariance_parameters: Vec<&'a str>,
+    covariance: Option<Vec<Vec<Number>>>,
+    correlation: Option<Vec<Vec<Number>>>,
+    rows: Option<Vec<RowJson>>,
+}
+
+impl<'a> LegJson<'a> {
+    fn new(report: &Report<'_>, result: &'a StrategyResult, leg: &'a LegEstimate) -> Self {
+        let o = &leg.observability;
+        let from_file = leg.residuals.iter().all(|r| r.line.is_some());
+        LegJson {
+            name: &leg.leg,
+            measurements: leg.measurements,
+            parameters: leg
+                .parameters
+                .iter()
+                .enumerate()
+                .map(|(i, p)| ParameterJson::new(p, report.real_value(&leg.leg, i)))
+                .collect(),
+            cost_before: Number(leg.initial_cost),
+            cost_after: Number(leg.final_cost),
+            residual_sigma: number(leg.residual_sigma),
+            parameter_error_rms_before: number(report.rms_error(leg, false)),
+            parameter_error_rms_after: number(report.rms_error(leg, true)),
+            singular_values: o.singular_values.iter().map(|&s| Number(s)).collect(),
+            condition_number: Number(o.condition),
+            scaled_condition_number: Number(o.scaled_condition),
+            warnings: o
+                .warning()
+                .into_iter()
+                .chain(leg.warnings.iter().cloned())
+                .collect(),
+            noise_test: leg.statistics.noise_test.as_ref().map(NoiseTestJson::new),
+            outlier_threshold: number(leg.statistics.outlier_threshold),
+            outliers: leg
+                .statistics
+                .outliers
+                .iter()
+                .map(OutlierJson::new)
+                .collect(),
+            dropped: leg.dropped.iter().map(OutlierJson::new).collect(),
+            observability: IndicesJson {
+                o1: Number(o.indices[0]),
+                o2: Number(o.indices[1]),
+                o3: Number(o.indices[2]),
+                o4: Number(o.indices[3]),
+                o5: Number(o.indices[4]),
+            },
+            solver: result
+                .runs
+                .iter()
+                .find(|r| r.legs.contains(&leg.leg))
+                .map(|run| SolverJson::new(result, run)),
+            covariance_parameters: leg
+                .parameters
+                .iter()
+                .filter(|p| p.identified)
+                .map(|p| p.name.as_str())
+                .collect(),
+            covariance: leg.covariance.as_ref().map(matrix),
+            correlation: leg.covariance.as_ref().map(|v| matrix(&correlation(v))),
+            rows: from_file.then(|| {
+                leg.residuals
+                    .iter()
+                    .map(|r| RowJson {
+                        line: r.line,
+                        residual: Number(r.residual),
+                    })
+                    .collect()
+            }),
+        }
+    }
+}
+
+#[derive(Debug, Serialize)]
+struct IndicesJson {
+    #[serde(rename = "O1")]
+    o1: Number,
+    #[serde(rename = "O2")]
+    o2: Number,
+    #[serde(rename = "O3")]
+    o3: Number,
+    #[serde(rename = "O4")]
+    o4: Number,
+    #[serde(rename = "O5")]
+    o5: Number,
+}
+
+#[derive(Debug, Serialize)]
+struct RowJson {
+    line: Option<usize>,
+    residual: Number,
+}
+
+#[derive(Debug, Serialize)]
+struct SolverJson<'a> {
+    name: &'static str,
+    legs: &'a [String],
+    iterations: u64,
+    converged: bool,
+    stop_reason: &'static str,
+    refinement_steps: usize,
+    cost_before: Number,
+    cost_after: Number,
+    residual_evaluations: u64,
+    jacobian_evaluations: u64,
+    seconds: Number,
+}
+
+impl<'a> SolverJson<'a> {
+    fn new(result: &StrategyResult, run: &'a SolverRun) -> Self {
+        SolverJson {
+            name: result.solver.name(),
+            legs: &run.legs,
+            iterations: run.iterations,
+            converged: run.converged,
+            stop_reason: run.stop_reason.key(),
+            refinement_steps: run.refinement_steps,
+            cost_before: Number(run.initial_cost),
+            cost_after: Number(run.final_cost),
+            residual_evaluations: run.residual_evaluations,
+            jacobian_evaluations: run.jacobian_evaluations,
+            seconds: Number(run.seconds),
+        }
+    }
+}
+
+#[derive(Debug, Serialize)]
+struct OutlierJson<'a> {
+    line: Option<usize>,
+    pose: &'a str,
+    reading: Number,
+    residual: Number,
+    t: Number,
+}
+
+impl<'a> OutlierJson<'a> {
+    fn new(o: &'a Outlier) -> Self {
+        OutlierJson {
+            line: o.line,
+            pose: &o.pose,
+            reading: Number(o.reading),
+            residual: Number(o.residual),
+            t: Number(o.t),
+        }
+    }
+}
+
+/// An accuracy map (docs/report.md, "Accuracy maps").
+#[derive(Debug, Serialize)]
+pub struct MapJson {
+    grid_m: Number,
+    scale: Number,
+    points: Vec<MapPointJson>,
+    non_assemblable: usize,
+    position_error_m: StatsJson,
+    orientation_error_rad: Option<StatsJson>,
+}
+
+impl MapJson {
+    /// The map's document.
+    pub fn new(map: &AccuracyMap) -> Self {
+        MapJson {
+            grid_m: Number(map.grid_m),
+            scale: Number(map.scale),
+            points: map
+                .points
+                .iter()
+                .map(|p| MapPointJson {
+                    pose: p.pose.map(Number),
+                    position_error_m: number(p.position_error),
+                    orientation_error_rad: number(p.orientation_error),
+                })
+                .collect(),
+            non_assemblable: map.non_assemblable,
+            position_error_m: StatsJson::new(&map.position_error),
+            orientation_error_rad: map.orientation_error.as_ref().map(StatsJson::new),
+        }
+    }
+}
+
+#[derive(Debug, Serialize)]
+struct MapPointJson {
+    pose: [Number; 6],
+    position_error_m: Option<Number>,
+    orientation_error_rad: Option<Number>,
+}
+
+/// `{"rms", "median", "p95", "max"}` of an error.
+#[derive(Debug, Serialize)]
+pub struct StatsJson {
+    rms: Number,
+    median: Number,
+    p95: Number,
+    max: Number,
+}
+
+impl StatsJson {
+    /// The statistics' document.
+    pub fn new(s: &ErrorStats) -> Self {
+        StatsJson {
+            rms: Number(s.rms),
+            median: Number(s.median),
+            p95: Number(s.p95),
+            max: Number(s.max),
+        }
+    }
 }

@@ -1,13 +1,15 @@
-//! Reports of an identification: the values (this module), terminal tables and JSON.
+//! Reports of an identification: the one [`Report`] value of every set-up, its terminal text,
+//! its JSON document, the calibrated model and the pictures.
 pub mod calibrated;
 pub mod evaluation;
-pub mod instrument;
-pub mod instrument_calibrated;
 pub mod json;
 pub mod plots;
 pub mod terminal;
 
-use crate::identify::estimate::{LegEstimate, StrategyResult};
+use crate::evaluate::accuracy::AccuracyMap;
+use crate::identify::estimate::{LegEstimate, Strategy, StrategyResult};
+use crate::identify::trust::trust_issues;
+use crate::measure::Measurements;
 use crate::model::Mechanism;
 
 /// Rounds `value` to `decimals` decimals so that a tiny negative number does not print as `-0.000…`.
@@ -16,27 +18,60 @@ pub fn tidy(value: f64, decimals: i32) -> f64 {
     (value * scale).round() / scale + 0.0
 }
 
-/// Everything an identification run reports.
+/// Everything an identification run reports, for every set-up (with or without an
+/// instrument): made by [`crate::run`] or [`crate::identify`].
 #[derive(Debug, Clone)]
-pub struct IdentifyReport<'a> {
+pub struct Report<'a> {
     /// The mechanism.
     pub mechanism: &'a Mechanism,
     /// Where the measurements came from (a file, or a description of the simulation).
     pub source: String,
-    /// Real parameter values per leg, known in simulation.
-    pub real: Option<Vec<Vec<f64>>>,
+    /// The measurements identified from.
+    pub measurements: Measurements,
+    /// The real parameters, known in simulation.
+    pub real: Option<RealValues>,
     /// One result per strategy run.
     pub results: Vec<StrategyResult>,
+    /// The accuracy maps before and after (simulation, when asked for).
+    pub maps: Option<AccuracyMaps>,
 }
 
-impl IdentifyReport<'_> {
+/// The real parameters of a simulation.
+#[derive(Debug, Clone, PartialEq)]
+pub struct RealValues {
+    /// Per leg, every parameter (model order).
+    pub legs: Vec<Vec<f64>>,
+    /// Every instrument parameter (the instrument's order), for a model with an instrument.
+    pub instrument: Option<Vec<f64>>,
+}
+
+/// The accuracy maps of a simulated run: where the nominal model and each result command the
+/// real mechanism (docs/report.md).
+#[derive(Debug, Clone, PartialEq)]
+pub struct AccuracyMaps {
+    /// The nominal model's.
+    pub before: AccuracyMap,
+    /// Each result's, in the order of [`Report::results`].
+    pub after: Vec<AccuracyMap>,
+}
+
+impl Report<'_> {
     /// Real value of parameter `p` of the leg called `leg`, if known.
     pub fn real_value(&self, leg: &str, p: usize) -> Option<f64> {
         let index = self.mechanism.leg_index(leg)?;
         self.real
             .as_ref()
-            .and_then(|r| r.get(index))
+            .and_then(|r| r.legs.get(index))
             .and_then(|r| r.get(p))
+            .copied()
+    }
+
+    /// Real value of the instrument's parameter `k`, if known.
+    pub fn real_instrument_value(&self, k: usize) -> Option<f64> {
+        self.real
+            .as_ref()
+            .and_then(|r| r.instrument.as_ref())
+            .and_then(|values| values.get(k))
             .copied()
     }
 
@@ -64,5 +99,45 @@ impl IdentifyReport<'_> {
             .filter(|leg| !result.legs.iter().any(|e| e.leg == leg.name))
             .map(|leg| leg.name.clone())
             .collect()
+    }
+
+    /// The result a calibrated model holds: divide and conquer if it ran, else the first.
+    pub fn calibrated_result(&self) -> Option<&StrategyResult> {
+        self.results
+            .iter()
+            .find(|r| r.strategy == Strategy::DivideAndConquer)
+            .or(self.results.first())
+    }
+
+    /// The results the verdict judges: every result, but through an instrument only the
+    /// calibrated one (the two-stage identification is a comparison: its own misfit is shown,
+    /// not held against the run).
+    pub fn judged_results(&self) -> &[StrategyResult] {
+        if self.mechanism.instrument.is_some() {
+            &self.results[..self.results.len().min(1)]
+        } else {
+            &self.results
+        }
+    }
+
+    /// The reasons the run's result must not be trusted (empty: nothing found), one line
+    /// each; the command line prints them as warnings and exits with status 3.
+    pub fn trust_issues(&self) -> Vec<String> {
+        trust_issues(self.judged_results())
+    }
+
+    /// Whether nothing speaks against the result ([`Self::trust_issues`] is empty).
+    pub fn trusted(&self) -> bool {
+        self.trust_issues().is_empty()
+    }
+
+    /// The report as terminal text (errors in the units of the model; the maps in mm).
+    pub fn terminal_text(&self) -> String {
+        terminal::render(self)
+    }
+
+    /// The report as the JSON document of docs/report.md.
+    pub fn to_json(&self) -> json::ReportJson<'_> {
+        json::ReportJson::new(self)
     }
 }

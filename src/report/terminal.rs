@@ -2,10 +2,11 @@
 
 use std::fmt::Write;
 
-use super::IdentifyReport;
-use crate::identify::estimate::StrategyResult;
+use super::evaluation::map_summary;
+use super::Report;
+use crate::identify::estimate::{ParameterEstimate, StrategyResult};
+use crate::identify::result::InstrumentEstimate;
 use crate::identify::statistics::figure;
-use crate::identify::trust::trust_issues;
 
 /// Formats a number for a table cell (never prints NaN: non-finite shows as `-`).
 fn number(value: Option<f64>, width: usize) -> String {
@@ -23,7 +24,7 @@ fn scientific(value: Option<f64>, width: usize) -> String {
 }
 
 /// The whole report as text.
-pub fn render(report: &IdentifyReport<'_>) -> String {
+pub fn render(report: &Report<'_>) -> String {
     let mut out = String::new();
     let mechanism = report.mechanism;
     let _ = writeln!(
@@ -35,17 +36,114 @@ pub fn render(report: &IdentifyReport<'_>) -> String {
     if let Some(mode) = &mechanism.mode {
         let _ = writeln!(out, "mode: {mode}");
     }
-    let _ = writeln!(out, "measurements: {}", report.source);
-    for issue in trust_issues(&report.results) {
+    let through = mechanism.instrument.as_ref().map_or(String::new(), |i| {
+        format!(" (through the instrument: {})", i.columns().join(", "))
+    });
+    let _ = writeln!(out, "measurements: {}{through}", report.source);
+    for issue in report.trust_issues() {
         let _ = writeln!(out, "WARNING: {issue}");
     }
     for result in &report.results {
         render_result(&mut out, report, result);
     }
+    if let Some(maps) = &report.maps {
+        render_maps(&mut out, report, maps);
+    }
     out
 }
 
-fn render_result(out: &mut String, report: &IdentifyReport<'_>, result: &StrategyResult) {
+/// The accuracy maps in millimetres: before, then after each result.
+fn render_maps(out: &mut String, report: &Report<'_>, maps: &super::AccuracyMaps) {
+    let slice = super::plots::files::map_slice(report.mechanism)
+        .map_or(String::new(), |slice| format!(", {slice}"));
+    let _ = writeln!(
+        out,
+        "\naccuracy map over {} of the workspace region, grid {} m{slice}:\n{}",
+        maps.before.scale,
+        maps.before.grid_m,
+        map_summary("  before (nominal model)", &maps.before)
+    );
+    for (result, map) in report.results.iter().zip(&maps.after) {
+        let label = format!("  after, {}", result.strategy.name());
+        let _ = writeln!(out, "{}", map_summary(&label, map));
+    }
+}
+
+/// The table header of a block of parameters (with the real values' columns in simulation).
+fn table_header(known: bool) -> String {
+    let mut header = format!(
+        "  {:<10} {:>4} {:>15} {:>15} {:>10}",
+        "parameter", "unit", "nominal", "identified", "std"
+    );
+    if known {
+        let _ = write!(
+            header,
+            " {:>15} {:>11} {:>11}",
+            "real", "err before", "err after"
+        );
+    }
+    header
+}
+
+/// One parameter's row of a table.
+fn table_row(p: &ParameterEstimate, real: Option<f64>) -> String {
+    let fixed = if p.identified { "" } else { "  (fixed)" };
+    let mut row = format!(
+        "  {:<10} {:>4} {} {} {}",
+        p.name,
+        p.unit.to_string(),
+        number(Some(p.nominal), 15),
+        number(Some(p.estimate), 15),
+        scientific(p.std, 10)
+    );
+    if let Some(real) = real {
+        let _ = write!(
+            row,
+            " {} {} {}",
+            number(Some(real), 15),
+            scientific(Some(p.nominal - real), 11),
+            scientific(Some(p.estimate - real), 11)
+        );
+    }
+    format!("{row}{fixed}")
+}
+
+/// The instrument's block: the fit as a whole, then its parameters.
+fn render_instrument(out: &mut String, report: &Report<'_>, instrument: &InstrumentEstimate) {
+    let _ = writeln!(
+        out,
+        "\ninstrument ({} rows, {} unknowns in all; RMS residual {:.3e})",
+        instrument.rows, instrument.unknowns, instrument.rms
+    );
+    if let Some(test) = &instrument.noise_test {
+        let _ = writeln!(
+            out,
+            "  residuals vs declared noise: σ̂/σ {:.3}, χ² {:.1} on {} dof, p = {:.3e}{}",
+            test.sigma_ratio,
+            test.chi_squared,
+            test.degrees_of_freedom,
+            test.p_value,
+            if test.rejected { " (REJECTED)" } else { "" }
+        );
+    }
+    if let Some(test) = &instrument.held_frame {
+        let _ = writeln!(
+            out,
+            "  held frame ({}) vs freed: χ² drop {:.1} on {} dof, p = {:.3e}{}",
+            test.freed.join(", "),
+            test.chi_squared_drop,
+            test.degrees_of_freedom,
+            test.p_value,
+            if test.rejected { " (REJECTED)" } else { "" }
+        );
+    }
+    let _ = writeln!(out, "{}", table_header(report.real.is_some()));
+    for (k, p) in instrument.parameters.iter().enumerate() {
+        let _ = writeln!(out, "{}", table_row(p, report.real_instrument_value(k)));
+    }
+}
+
+fn render_result(out: &mut String, report: &Report<'_>, result: &StrategyResult) {
     let _ = writeln!(
         out,
         "\n=== {} — {} ===",
@@ -53,6 +151,9 @@ fn render_result(out: &mut String, report: &IdentifyReport<'_>, result: &Strateg
         result.solver.name()
     );
     let _ = writeln!(out, "fit: {}", fit_text(result));
+    if let Some(instrument) = &result.instrument {
+        render_instrument(out, report, instrument);
+    }
     let known = report.real.is_some();
     for name in report.fixed_legs(result) {
         let _ = writeln!(
@@ -62,38 +163,9 @@ fn render_result(out: &mut String, report: &IdentifyReport<'_>, result: &Strateg
     }
     for leg in &result.legs {
         let _ = writeln!(out, "\nleg {} ({} readings)", leg.leg, leg.measurements);
-        let mut header = format!(
-            "  {:<10} {:>4} {:>15} {:>15} {:>10}",
-            "parameter", "unit", "nominal", "identified", "std"
-        );
-        if known {
-            let _ = write!(
-                header,
-                " {:>15} {:>11} {:>11}",
-                "real", "err before", "err after"
-            );
-        }
-        let _ = writeln!(out, "{header}");
+        let _ = writeln!(out, "{}", table_header(known));
         for (i, p) in leg.parameters.iter().enumerate() {
-            let fixed = if p.identified { "" } else { "  (fixed)" };
-            let mut row = format!(
-                "  {:<10} {:>4} {} {} {}",
-                p.name,
-                p.unit.to_string(),
-                number(Some(p.nominal), 15),
-                number(Some(p.estimate), 15),
-                scientific(p.std, 10)
-            );
-            if let Some(real) = report.real_value(&leg.leg, i) {
-                let _ = write!(
-                    row,
-                    " {} {} {}",
-                    number(Some(real), 15),
-                    scientific(Some(p.nominal - real), 11),
-                    scientific(Some(p.estimate - real), 11)
-                );
-            }
-            let _ = writeln!(out, "{row}{fixed}");
+            let _ = writeln!(out, "{}", table_row(p, report.real_value(&leg.leg, i)));
         }
         if let (Some(before), Some(after)) =
             (report.rms_error(leg, false), report.rms_error(leg, true))
@@ -162,7 +234,9 @@ fn render_result(out: &mut String, report: &IdentifyReport<'_>, result: &Strateg
         if let Some(warning) = leg.observability.warning() {
             let _ = writeln!(out, "  warning: {warning}");
         }
-        render_statistics(out, leg);
+        if result.instrument.is_none() {
+            render_statistics(out, leg);
+        }
     }
     let warnings = all_warnings(result);
     if !warnings.is_empty() {

@@ -95,7 +95,9 @@ impl Arm {
     fn strategy(self) -> Strategy {
         match self {
             Arm::Traditional | Arm::TraditionalEqualPoses => Strategy::Traditional,
-            Arm::DivideAndConquer | Arm::Joint | Arm::TwoStage => Strategy::DivideAndConquer,
+            Arm::DivideAndConquer => Strategy::DivideAndConquer,
+            Arm::Joint => Strategy::Joint,
+            Arm::TwoStage => Strategy::TwoStage,
         }
     }
 }
@@ -299,6 +301,15 @@ pub fn trial_seed(seed: u64, index: usize) -> u64 {
 }
 
 impl Study {
+    /// How every fit of the study treats its rows: plain least squares expecting the declared
+    /// noise times the study's noise scale (as simulated).
+    pub fn fit_options(&self) -> FitOptions {
+        FitOptions {
+            noise_scale: self.options.noise_scale,
+            ..FitOptions::default()
+        }
+    }
+
     /// Selects the poses and builds the map grid.
     ///
     /// # Errors
@@ -307,11 +318,7 @@ impl Study {
     pub fn prepare(mechanism: &Mechanism, options: MonteCarloOptions) -> Result<Self> {
         crate::measure::simulate::setup(mechanism)?;
         let map = map_grid(mechanism, options.map_grid, options.map_scale)?;
-        let mut mechanism = mechanism.clone();
-        if let Some(noise) = &mut mechanism.noise {
-            noise.pose = noise.pose.map(|s| s * options.noise_scale);
-            noise.reading *= options.noise_scale;
-        }
+        let mechanism = mechanism.clone();
         let count = options
             .poses_per_leg
             .unwrap_or(mechanism.selection.poses_per_leg);
@@ -484,7 +491,7 @@ impl Study {
                 &data,
                 arm.strategy(),
                 self.options.solver,
-                FitOptions::default(),
+                self.fit_options(),
             )?;
             if let Some(run) = result.runs.iter().find(|r| !r.converged) {
                 return Err(Error::Solver {

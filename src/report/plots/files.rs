@@ -6,11 +6,10 @@ use super::distribution::{ErrorDistribution, ErrorSample};
 use super::error_map::{ErrorMapFigure, MapPanel};
 use super::parameter_errors::ParameterErrors;
 use crate::error::{Error, Result};
-use crate::evaluate::accuracy::AccuracyMap;
 use crate::evaluate::held_out::Evaluation;
 use crate::model::mechanism::COORDINATES;
 use crate::model::Mechanism;
-use crate::report::IdentifyReport;
+use crate::report::Report;
 
 /// File name (without extension) of the parameter-error picture.
 pub const PARAMETER_ERRORS: &str = "parameter-errors";
@@ -18,15 +17,6 @@ pub const PARAMETER_ERRORS: &str = "parameter-errors";
 pub const ACCURACY_MAP: &str = "accuracy-map";
 /// File name (without extension) of the position-error distribution.
 pub const POSITION_ERRORS: &str = "position-errors";
-
-/// The accuracy maps of one identification: the nominal model's, then one per result.
-#[derive(Debug, Clone, Copy)]
-pub struct Maps<'a> {
-    /// The nominal model's map.
-    pub before: &'a AccuracyMap,
-    /// One map per strategy, in the report's order.
-    pub after: &'a [AccuracyMap],
-}
 
 /// The file names (without extension) [`identify_pictures`] draws, with or without maps.
 pub fn identify_picture_names(maps: bool) -> Vec<&'static str> {
@@ -38,26 +28,28 @@ pub fn identify_picture_names(maps: bool) -> Vec<&'static str> {
 }
 
 /// The identification pictures, in the order of [`identify_picture_names`]: the parameter
-/// errors (needs the real values) and, when `maps` are given, the accuracy map with the
-/// identification `poses` (x, y) on it.
+/// errors (needs the real values) and, when the report has maps, the accuracy map with the
+/// identification poses (x, y) on it.
 ///
 /// # Errors
 /// The report has no real values (measurements from a file), or a picture cannot be drawn.
-pub fn identify_pictures(
-    report: &IdentifyReport<'_>,
-    maps: Option<Maps<'_>>,
-    poses: &[[f64; 2]],
-    format: Format,
-) -> Result<Vec<Vec<u8>>> {
+pub fn identify_pictures(report: &Report<'_>, format: Format) -> Result<Vec<Vec<u8>>> {
     let errors = ParameterErrors::from_report(report).ok_or_else(|| {
         Error::Invalid(
             "--plots: the parameter errors need the real values, known only in simulation".into(),
         )
     })?;
     let mut pictures = vec![render(&errors, format)?];
-    if let Some(maps) = maps {
-        let mut panels = vec![MapPanel::from_map("before (nominal model)", maps.before)];
-        for (result, map) in report.results.iter().zip(maps.after) {
+    if let Some(maps) = &report.maps {
+        let poses: Vec<[f64; 2]> = report
+            .measurements
+            .poses()
+            .map_or(&[][..], |set| set.poses())
+            .iter()
+            .map(|p| [p.pose[0], p.pose[1]])
+            .collect();
+        let mut panels = vec![MapPanel::from_map("before (nominal model)", &maps.before)];
+        for (result, map) in report.results.iter().zip(&maps.after) {
             panels.push(MapPanel::from_map(
                 &format!("after: {}", result.strategy.name()),
                 map,
@@ -73,7 +65,7 @@ pub fn identify_pictures(
             ),
             grid_m: maps.before.grid_m,
             panels,
-            poses: poses.to_vec(),
+            poses,
         };
         pictures.push(render(&figure, format)?);
     }

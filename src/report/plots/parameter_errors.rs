@@ -7,7 +7,7 @@ use plotters::prelude::*;
 use super::canvas::Figure;
 use super::style;
 use crate::model::params::Unit;
-use crate::report::IdentifyReport;
+use crate::report::Report;
 
 /// One identified parameter.
 #[derive(Debug, Clone, PartialEq)]
@@ -41,7 +41,7 @@ pub struct ParameterErrors {
 impl ParameterErrors {
     /// The identified parameters of every leg of `report`, with the nominal error and each
     /// strategy's error; `None` when a real value is unknown (measurements from a file).
-    pub fn from_report(report: &IdentifyReport<'_>) -> Option<Self> {
+    pub fn from_report(report: &Report<'_>) -> Option<Self> {
         let first = report.results.first()?;
         let mut parameters = Vec::new();
         let mut before = Vec::new();

@@ -7,8 +7,9 @@
 
 use super::{Arm, ArmTrial, ParameterOf, Study, TrialValues};
 use crate::error::{Error, Result};
-use crate::evaluate::accuracy::shared_result_parameters;
-use crate::identify::shared_estimate::{identify_shared, SharedEstimate, SharedStrategy};
+use crate::evaluate::accuracy::result_parameters;
+use crate::identify::result::{Strategy, StrategyResult};
+use crate::identify::shared_estimate::identify_shared;
 use crate::kinematics::inverse::Joints;
 use crate::kinematics::platform::ForwardKinematics;
 use crate::measure::observe_simulate::{observed_from, without_pose_noise};
@@ -16,12 +17,8 @@ use crate::measure::simulate::{simulate_at, SimulationOptions};
 
 impl Arm {
     /// The identification through the instrument of an instrument arm (`None` for the others).
-    fn shared_strategy(self) -> Option<SharedStrategy> {
-        match self {
-            Arm::Joint => Some(SharedStrategy::Joint),
-            Arm::TwoStage => Some(SharedStrategy::TwoStage),
-            _ => None,
-        }
+    fn shared_strategy(self) -> Option<Strategy> {
+        Some(self.strategy()).filter(|s| s.through_instrument())
     }
 }
 
@@ -44,11 +41,16 @@ impl Study {
             let strategy = arm.shared_strategy().ok_or_else(|| {
                 Error::Invalid(format!("{}: not an arm through the instrument", arm.name()))
             })?;
-            let result = identify_shared(&self.mechanism, &observed.observations, strategy)?;
-            if !result.outcome.converged {
+            let result = identify_shared(
+                &self.mechanism,
+                &observed.observations,
+                strategy,
+                self.fit_options(),
+            )?;
+            if let Some(run) = result.runs.iter().find(|r| !r.converged) {
                 return Err(Error::Solver {
                     context: arm.name().into(),
-                    message: format!("did not converge: {}", result.outcome.stop_reason),
+                    message: format!("did not converge: {}", run.stop_reason),
                 });
             }
             arms.push(self.shared_arm_trial(
@@ -68,7 +70,7 @@ impl Study {
     /// One arm's values from `result` against the real legs and instrument `(legs, shared)`.
     fn shared_arm_trial(
         &self,
-        result: &SharedEstimate,
+        result: &StrategyResult,
         (real, real_shared): (&[Vec<f64>], &[f64]),
         real_kinematics: &ForwardKinematics<'_>,
         joints: &mut Vec<Option<Joints>>,
@@ -77,13 +79,16 @@ impl Study {
         let mut predicted_std = Vec::with_capacity(self.parameters.len());
         for p in &self.parameters {
             let (estimate, value) = match p.of {
-                ParameterOf::Instrument(k) => (result.shared.get(k), real_shared[k]),
+                ParameterOf::Instrument(k) => (
+                    result.instrument.as_ref().and_then(|i| i.parameters.get(k)),
+                    real_shared[k],
+                ),
                 ParameterOf::Leg { leg, column } => (
                     result
                         .legs
                         .iter()
-                        .find(|(l, _)| *l == leg)
-                        .and_then(|(_, estimates)| estimates.get(column)),
+                        .find(|l| l.leg == self.mechanism.legs[leg].name)
+                        .and_then(|l| l.parameters.get(column)),
                     real[leg][column],
                 ),
             };
@@ -93,7 +98,7 @@ impl Study {
             errors.push(estimate.estimate - value);
             predicted_std.push(estimate.std.unwrap_or(f64::NAN));
         }
-        let identified = shared_result_parameters(&self.mechanism, result);
+        let identified = result_parameters(&self.mechanism, result);
         Ok(ArmTrial {
             errors,
             predicted_std,

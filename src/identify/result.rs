@@ -1,0 +1,244 @@
+//! What an identification returns: one result type for every strategy, with the estimates of
+//! each parameter block (every leg's, and an instrument's when measured through one), the
+//! solver runs and the statistics of the fit.
+
+use nalgebra::DMatrix;
+
+use super::observability::Observability;
+use super::robust::RobustLoss;
+use super::statistics::{LegStatistics, NoiseTest, Outlier};
+use crate::model::mechanism::MeasurementNoise;
+use crate::model::params::Unit;
+use crate::model::Mechanism;
+use crate::solver::{SolverKind, StopReason};
+
+/// How the parameter blocks are grouped into least-squares problems. The first two group the
+/// legs' readings at measured poses; the last two are for measurements through an instrument,
+/// whose frame and target offsets are parameter blocks shared by every leg.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Strategy {
+    /// Each leg alone, on the poses labelled with it (Durango et al.).
+    DivideAndConquer,
+    /// All legs in one problem, on the shared poses only.
+    Traditional,
+    /// Every leg's parameters and the instrument's identified ones in one problem, each leg's
+    /// rows on its own poses (Levenberg–Marquardt steps by the Schur complement on the shared
+    /// parameters).
+    Joint,
+    /// First the instrument alone from a few rows of every leg with the nominal legs, then every
+    /// leg on its own with the instrument held at that registration.
+    TwoStage,
+}
+
+impl Strategy {
+    /// Name for reports.
+    pub fn name(self) -> &'static str {
+        match self {
+            Strategy::DivideAndConquer => "divide and conquer",
+            Strategy::Traditional => "traditional (all legs)",
+            Strategy::Joint => "joint (legs and instrument, Schur complement)",
+            Strategy::TwoStage => "two-stage (instrument registered first, then D&C)",
+        }
+    }
+
+    /// Whether the strategy identifies through an instrument (shared parameter blocks).
+    pub fn through_instrument(self) -> bool {
+        match self {
+            Strategy::DivideAndConquer | Strategy::Traditional => false,
+            Strategy::Joint | Strategy::TwoStage => true,
+        }
+    }
+}
+
+/// One parameter's estimate.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ParameterEstimate {
+    /// Name as in the model file.
+    pub name: String,
+    /// SI unit.
+    pub unit: Unit,
+    /// Nominal value.
+    pub nominal: f64,
+    /// Identified value (the nominal value for a fixed parameter).
+    pub estimate: f64,
+    /// Standard deviation `σ̂ √diag((CᵀC)⁻¹)`, `None` if fixed or without redundancy.
+    pub std: Option<f64>,
+    /// Identified (true) or held fixed.
+    pub identified: bool,
+}
+
+/// One leg's result.
+#[derive(Debug, Clone, PartialEq)]
+pub struct LegEstimate {
+    /// Leg name.
+    pub leg: String,
+    /// Every parameter of the leg, in model order.
+    pub parameters: Vec<ParameterEstimate>,
+    /// Number of residual blocks (measured readings) used.
+    pub measurements: usize,
+    /// ½‖r‖² at the nominal parameters.
+    pub initial_cost: f64,
+    /// ½‖r‖² at the estimate.
+    pub final_cost: f64,
+    /// Residual standard deviation σ̂ = √(‖r‖²/(m − n)), if m > n.
+    pub residual_sigma: Option<f64>,
+    /// Observability of the identification Jacobian at the estimate.
+    pub observability: Observability,
+    /// Noise test, outliers and turns of the fit.
+    pub statistics: LegStatistics,
+    /// Rows left out by `--drop-outliers` (the outliers of the first fit).
+    pub dropped: Vec<Outlier>,
+    /// What the statistics found, one sentence each (noise rejected, outliers, other turns,
+    /// dropped rows).
+    pub warnings: Vec<String>,
+    /// Covariance σ̂²(CᵀC)⁻¹ of the identified parameters (model order), from the SVD of the
+    /// leg's identification Jacobian C; `None` without redundancy (m ≤ n).
+    pub covariance: Option<DMatrix<f64>>,
+    /// Each measurement's residual at the estimate, measured minus predicted reading, in row order.
+    pub residuals: Vec<RowResidual>,
+}
+
+/// One measurement's residual at the estimate.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct RowResidual {
+    /// Line of the measurement file (1-based, the header is line 1), if read from a file.
+    pub line: Option<usize>,
+    /// Measured minus predicted reading (rad or m).
+    pub residual: f64,
+}
+
+/// How the rows are weighted.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum Weighting {
+    /// Ordinary least squares (the paper's method).
+    #[default]
+    Unweighted,
+    /// Weighted least squares, each row by the inverse of its expected residual variance under
+    /// the declared noise, evaluated at the nominal parameters.
+    Noise,
+}
+
+/// How each fit treats its rows (the defaults are the paper's plain least squares).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct FitOptions {
+    /// Row weights.
+    pub weights: Weighting,
+    /// A robust loss (its scale from the declared noise); replaces the weighting.
+    pub robust: Option<RobustLoss>,
+    /// Refit once without the rows flagged as outliers.
+    pub drop_outliers: bool,
+    /// The factor on the model's declared noise that the fit expects (1: as declared; a
+    /// simulation at `noise_scale` F expects F times the declared noise). It scales what the
+    /// statistics and the weights assume, never the model.
+    pub noise_scale: f64,
+}
+
+impl Default for FitOptions {
+    fn default() -> Self {
+        FitOptions {
+            weights: Weighting::Unweighted,
+            robust: None,
+            drop_outliers: false,
+            noise_scale: 1.0,
+        }
+    }
+}
+
+impl FitOptions {
+    /// The noise the fit expects: the model's declared noise times
+    /// [`noise_scale`](Self::noise_scale), `None` when none is declared or all of it is zero.
+    pub fn expected_noise(&self, mechanism: &Mechanism) -> Option<MeasurementNoise> {
+        let scale = self.noise_scale;
+        mechanism
+            .noise
+            .map(|noise| MeasurementNoise {
+                pose: noise.pose.map(|s| s * scale),
+                reading: noise.reading * scale,
+            })
+            .filter(|n| n.reading > 0.0 || n.pose.iter().any(|&s| s > 0.0))
+    }
+}
+
+/// One solver run (one per leg for divide and conquer, one in all for traditional).
+#[derive(Debug, Clone, PartialEq)]
+pub struct SolverRun {
+    /// The legs the run identified.
+    pub legs: Vec<String>,
+    /// Iterations.
+    pub iterations: u64,
+    /// Whether the solver converged; `false` means the estimate must not be trusted.
+    pub converged: bool,
+    /// Why the solver stopped (its `Display` is a sentence for humans).
+    pub stop_reason: StopReason,
+    /// Gauss–Newton refinement steps taken after the solver converged.
+    pub refinement_steps: usize,
+    /// ½‖r‖² before.
+    pub initial_cost: f64,
+    /// ½‖r‖² after.
+    pub final_cost: f64,
+    /// Residual evaluations.
+    pub residual_evaluations: u64,
+    /// Jacobian evaluations.
+    pub jacobian_evaluations: u64,
+    /// Wall-clock time of the solver run, seconds.
+    pub seconds: f64,
+}
+
+/// The result of one strategy.
+#[derive(Debug, Clone, PartialEq)]
+pub struct StrategyResult {
+    /// The strategy.
+    pub strategy: Strategy,
+    /// The solver.
+    pub solver: SolverKind,
+    /// Per-leg estimates, in mechanism order.
+    pub legs: Vec<LegEstimate>,
+    /// Solver runs.
+    pub runs: Vec<SolverRun>,
+    /// The fit options.
+    pub options: FitOptions,
+    /// Warnings about the measurements as a whole (implausible values, duplicate rows).
+    pub warnings: Vec<String>,
+    /// Through an instrument: its parameters and the fit's statistics as a whole.
+    pub instrument: Option<InstrumentEstimate>,
+}
+
+/// The instrument's part of a result identified through it: its parameters (a parameter block
+/// shared by every leg) and the statistics of the fit as a whole.
+#[derive(Debug, Clone, PartialEq)]
+pub struct InstrumentEstimate {
+    /// Every instrument parameter (frame, then target offsets), the instrument's order.
+    pub parameters: Vec<ParameterEstimate>,
+    /// Rows (residuals) of the problem.
+    pub rows: usize,
+    /// Unknowns of the problem (of the last stage for the two-stage strategy).
+    pub unknowns: usize,
+    /// RMS residual at the estimate (reading units).
+    pub rms: f64,
+    /// Observability of the whole problem's Jacobian at the start.
+    pub observability: Observability,
+    /// The χ² test of the residuals against the declared noise (propagated from the target
+    /// coordinates through the pose fit), if the model declares one.
+    pub noise_test: Option<NoiseTest>,
+    /// The likelihood-ratio test of the frame components the model holds (joint strategy,
+    /// when they can be freed and a noise is declared).
+    pub held_frame: Option<HeldFrameTest>,
+}
+
+/// The outcome of the held-frame test ([`super::held_test`]).
+#[derive(Debug, Clone, PartialEq)]
+pub struct HeldFrameTest {
+    /// The frame components held by the model and freed by the test (`frame_x`, …).
+    pub freed: Vec<String>,
+    /// `χ²_held − χ²_freed`: how much the fit improves when they are freed.
+    pub chi_squared_drop: f64,
+    /// Degrees of freedom: the number of components freed.
+    pub degrees_of_freedom: usize,
+    /// Upper-tail probability of the drop.
+    pub p_value: f64,
+    /// `p_value < NOISE_TEST_P` ([`super::statistics::rejects`]): the held values disagree
+    /// with the measurements.
+    pub rejected: bool,
+    /// The freed fit's estimates of the freed components, in `freed` order.
+    pub estimates: Vec<f64>,
+}

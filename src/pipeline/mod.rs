@@ -1,0 +1,187 @@
+//! The whole identification job, one entry point for every set-up: the measurements given or
+//! simulated (at selected or random poses), the identification by the strategies the model
+//! calls for (divide and conquer; through an instrument, joint and two-stage), the statistics
+//! and trust checks of every fit, and in simulation the accuracy maps — returned as one
+//! [`Report`], from which the terminal text, the JSON document and the calibrated model come.
+//!
+//! ```no_run
+//! use legwise::{identify, Measurements, Mechanism, Settings};
+//!
+//! let mechanism = Mechanism::load("models/5r.yaml".as_ref())?;
+//! let data = Measurements::read("measurements.csv".as_ref(), &mechanism)?;
+//! let report = identify(&mechanism, &data, &Settings::default())?;
+//! println!("{}", report.terminal_text());
+//! # Ok::<(), legwise::Error>(())
+//! ```
+
+mod settings;
+mod simulation;
+
+pub use settings::{MapSettings, PoseSource, Settings, SimulationSettings};
+pub use simulation::{simulate, Simulated};
+
+use crate::error::{Error, Result};
+use crate::evaluate::accuracy::{accuracy_map, result_parameters};
+use crate::identify::estimate::identify_with;
+use crate::identify::held_test::held_frame_test;
+use crate::identify::result::{FitOptions, Strategy, StrategyResult};
+use crate::identify::shared_estimate::identify_shared;
+use crate::measure::Measurements;
+use crate::model::Mechanism;
+use crate::report::{AccuracyMaps, Report};
+use crate::solver::SolverKind;
+
+/// Simulates the model's experiment as `settings.simulation` says and identifies it: the
+/// report knows the real parameters, so it holds the parameter errors and, with
+/// `settings.map`, the accuracy maps. The fits expect the declared noise times the
+/// simulation's noise scale.
+///
+/// # Errors
+/// No `simulation` block, no reachable pose, or any error of [`identify`].
+pub fn run<'m>(mechanism: &'m Mechanism, settings: &Settings) -> Result<Report<'m>> {
+    if let Some(map) = settings.map {
+        crate::evaluate::accuracy::map_grid(mechanism, map.grid_m, map.scale)?;
+    }
+    let simulated = simulate(mechanism, &settings.simulation)?;
+    let fit = FitOptions {
+        noise_scale: settings.simulation.options.noise_scale,
+        ..settings.fit
+    };
+    let mut report = identify_all(
+        mechanism,
+        simulated.measurements,
+        simulated.source,
+        settings,
+        fit,
+    )?;
+    report.real = Some(simulated.real);
+    if let Some(map) = settings.map {
+        report.maps = Some(maps(&report, map)?);
+    }
+    Ok(report)
+}
+
+/// Identifies the mechanism from measured `data` (read with [`Measurements::read`], or made
+/// in memory) as `settings` say.
+///
+/// # Errors
+/// `settings.map` (the map needs the real parameters, known only in simulation), measurements
+/// of the wrong kind for the model, an option the model's pipeline does not offer, or any
+/// error of the identification (a leg without rows, a rank-deficient design naming the
+/// parameters, a pose a leg cannot reach, a solver failure).
+pub fn identify<'m>(
+    mechanism: &'m Mechanism,
+    data: &Measurements,
+    settings: &Settings,
+) -> Result<Report<'m>> {
+    if settings.map.is_some() {
+        return Err(Error::Invalid(
+            "the accuracy map needs the real parameters, known only in simulation".into(),
+        ));
+    }
+    let source = data
+        .origin()
+        .unwrap_or_else(|| "measurements given in memory".into());
+    identify_all(mechanism, data.clone(), source, settings, settings.fit)
+}
+
+/// Every strategy of `settings` on `data`.
+fn identify_all<'m>(
+    mechanism: &'m Mechanism,
+    data: Measurements,
+    source: String,
+    settings: &Settings,
+    fit: FitOptions,
+) -> Result<Report<'m>> {
+    let results = settings
+        .strategies_for(mechanism)
+        .into_iter()
+        .map(|strategy| identify_one(mechanism, &data, strategy, settings.solver, fit))
+        .collect::<Result<Vec<_>>>()?;
+    Ok(Report {
+        mechanism,
+        source,
+        measurements: data,
+        real: None,
+        results,
+        maps: None,
+    })
+}
+
+/// One strategy on `data`, by the pipeline the measurements' kind calls for: readings at
+/// measured poses by [`identify_with`], targets through the instrument by
+/// [`identify_shared`] (with the held-frame test for the joint strategy).
+///
+/// # Errors
+/// Measurements of the other kind than the model's, a strategy or option the pipeline does
+/// not offer, or the identification's error.
+pub fn identify_one(
+    mechanism: &Mechanism,
+    data: &Measurements,
+    strategy: Strategy,
+    solver: SolverKind,
+    fit: FitOptions,
+) -> Result<StrategyResult> {
+    match data {
+        Measurements::Readings(set) => {
+            if mechanism.instrument.is_some() {
+                return Err(Error::Invalid(format!(
+                    "{}: the model has an instrument block: its measurements are the targets' \
+                     coordinates in the instrument frame, not platform poses",
+                    mechanism.model_path.display()
+                )));
+            }
+            identify_with(mechanism, set, strategy, solver, fit)
+        }
+        Measurements::Targets(observations) => {
+            let defaults = FitOptions {
+                noise_scale: fit.noise_scale,
+                ..FitOptions::default()
+            };
+            if solver != SolverKind::LevenbergMarquardt || fit != defaults {
+                return Err(Error::Invalid(format!(
+                    "{}: through an instrument the legs and the instrument are identified by \
+                     unweighted Levenberg-Marquardt (no Gauss-Newton, weights, robust loss or \
+                     outlier dropping yet)",
+                    mechanism.model_path.display()
+                )));
+            }
+            let mut result = identify_shared(mechanism, observations, strategy, fit)?;
+            if strategy == Strategy::Joint {
+                let test = held_frame_test(mechanism, observations, &result);
+                if let Some(instrument) = result.instrument.as_mut() {
+                    instrument.held_frame = test;
+                }
+            }
+            Ok(result)
+        }
+    }
+}
+
+/// The accuracy map of the nominal model, then of each result, against the real mechanism
+/// (the instrument only measures: the maps compare the legs).
+fn maps(report: &Report<'_>, settings: MapSettings) -> Result<AccuracyMaps> {
+    let mechanism = report.mechanism;
+    let real = &report
+        .real
+        .as_ref()
+        .ok_or_else(|| Error::Invalid("the accuracy map needs the real parameters".into()))?
+        .legs;
+    let (grid, scale) = (settings.grid_m, settings.scale);
+    let nominal = mechanism.nominal_parameters();
+    let before = accuracy_map(mechanism, &nominal, real, grid, scale, "map before")?;
+    let mut after = Vec::new();
+    for result in &report.results {
+        let label = format!("map after, {}", result.strategy.name());
+        let parameters = result_parameters(mechanism, result);
+        after.push(accuracy_map(
+            mechanism,
+            &parameters,
+            real,
+            grid,
+            scale,
+            &label,
+        )?);
+    }
+    Ok(AccuracyMaps { before, after })
+}

@@ -1,0 +1,97 @@
+//! The simulated experiment of a run: the model's real mechanism (its simulation block)
+//! measured at observability-optimal selected poses or at random ones, with the declared
+//! noise times the noise scale; through the instrument when the model has one.
+
+use super::settings::{PoseSource, SimulationSettings};
+use crate::error::Result;
+use crate::measure::observe_simulate::{observed_from, without_pose_noise};
+use crate::measure::simulate::{self as simulator, setup, simulate_at, SimulatedExperiment};
+use crate::measure::Measurements;
+use crate::model::Mechanism;
+use crate::report::RealValues;
+use crate::selection::design::ExperimentDesign;
+
+/// A simulated experiment.
+#[derive(Debug, Clone)]
+pub struct Simulated {
+    /// The measurements (through the instrument for a model with one).
+    pub measurements: Measurements,
+    /// The real parameters the measurements were simulated with.
+    pub real: RealValues,
+    /// Where the measurements come from, in words: poses, counts, seed and noise scale.
+    pub source: String,
+}
+
+/// Simulates the model's experiment as `settings` say.
+///
+/// # Errors
+/// No `simulation` block (or no `instrument` block where one is needed), no reachable pose,
+/// or a pose selection that fails (naming what).
+pub fn simulate(mechanism: &Mechanism, settings: &SimulationSettings) -> Result<Simulated> {
+    let options = settings.options;
+    let simulation = setup(mechanism)?;
+    let seed = options.seed.unwrap_or(simulation.seed);
+    let noise = format!("seed {seed}, noise scale {}", options.noise_scale);
+    // Through an instrument the poses are simulated exactly; the instrument's noise comes on
+    // the targets' coordinates.
+    let quiet;
+    let simulated = if mechanism.instrument.is_some() {
+        quiet = without_pose_noise(mechanism);
+        &quiet
+    } else {
+        mechanism
+    };
+    let (experiment, source) = match settings.poses {
+        PoseSource::Random => {
+            let count = options.poses_per_leg.unwrap_or(simulation.poses_per_leg);
+            let experiment = simulator::simulate(simulated, options)?;
+            let text =
+                format!("simulated at random poses: {count} per leg and {count} shared, {noise}");
+            (experiment, text)
+        }
+        PoseSource::Selected => {
+            let count = options
+                .poses_per_leg
+                .unwrap_or(mechanism.selection.poses_per_leg);
+            let criterion = mechanism.selection.criterion;
+            let design =
+                ExperimentDesign::select(simulated, settings.grid, count, criterion, true)?;
+            let experiment = simulate_at(simulated, &design.pose_sets(), options)?;
+            let text = format!(
+                "simulated at selected poses ({criterion:?}-optimal from {} feasible candidates, grid {} m): {count} per leg and {count} shared, {noise}",
+                design.candidates, design.spacing
+            );
+            (experiment, text)
+        }
+    };
+    through_instrument(mechanism, experiment, options, source)
+}
+
+/// What the model measures of `experiment`: the poses themselves, or the instrument's view of
+/// them.
+fn through_instrument(
+    mechanism: &Mechanism,
+    experiment: SimulatedExperiment,
+    options: crate::measure::simulate::SimulationOptions,
+    source: String,
+) -> Result<Simulated> {
+    if mechanism.instrument.is_none() {
+        return Ok(Simulated {
+            measurements: Measurements::Readings(experiment.measurements),
+            real: RealValues {
+                legs: experiment.real,
+                instrument: None,
+            },
+            source,
+        });
+    }
+    let observed = observed_from(mechanism, experiment, options)?;
+    Ok(Simulated {
+        measurements: Measurements::Targets(observed.observations),
+        real: RealValues {
+            legs: observed.real,
+            instrument: Some(observed.real_shared),
+        },
+        source,
+    })
+}
