@@ -7,25 +7,41 @@
 //! conquer* strategy (Durango et al., ICINCO 2010) each leg is identified on its own; the
 //! traditional strategy stacks all legs on shared poses.
 //!
+//! ## The public face
+//! Load a [`Mechanism`], read its [`Measurements`] (or simulate them), and call [`identify`]
+//! (or [`run`] to simulate first) with [`Settings`]: the model decides the pipeline (readings at
+//! measured poses, or target coordinates through an instrument). The [`Report`] holds one
+//! [`StrategyResult`] per strategy, the trust verdict, and in simulation the real values and
+//! accuracy maps; it renders as terminal text and as the JSON document of docs/report.md, and
+//! gives the calibrated model ([`report::calibrated`]).
+//! ```
+//! use legwise::{run, Mechanism, Settings};
+//!
+//! let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("models/5r.yaml");
+//! let mechanism = Mechanism::load(&path)?;
+//! let mut settings = Settings::default();
+//! settings.simulation.options.noise_scale = 0.0;
+//! let report = run(&mechanism, &settings)?;
+//! let l1 = report.results[0].parameters().next().unwrap();
+//! assert_eq!(l1.name, "l1");
+//! assert!((l1.estimate - 0.7507).abs() < 1e-9); // the "real" value of Table 2
+//! assert!(report.trusted());
+//! # Ok::<(), legwise::Error>(())
+//! ```
+//!
 //! ## Data flow of `legwise identify --model models/5r.yaml`
 //! ```text
 //! model file (YAML) ─► model::file::ModelFile        syntax, types (file:line:column errors)
-//! + URDF            ─► model::Mechanism::load        cross-checks (errors name the field;
-//!                                                    defined in assembly)
-//! measurements      ─► measure::file::read | measure::simulate::simulate
-//! per leg           ─► identify::problem::IdentificationProblem (residual blocks)
-//!                      identify::observability       rank check, names unidentifiable params
-//!                      solver::solve                 Levenberg–Marquardt | Gauss–Newton (argmin)
-//!                      identify::estimate            estimates, σ, cost, singular values
-//! report            ─► report::terminal | report::json
+//! + URDF            ─► model::Mechanism::load        cross-checks (errors name the field)
+//! measurements      ─► measure::Measurements::read | pipeline::simulate
+//! pipeline::identify_one: by the measurements' kind
+//!   readings        ─► identify::estimate            per leg (D&C) or all legs: residual
+//!                      blocks, observability, solver::solve (LM | GN), statistics
+//!   targets         ─► identify::shared_estimate     legs + instrument blocks, Schur LM
+//!                      (solver::solve_bordered), sandwich covariance, held-frame test
+//! report            ─► report::Report                terminal text, JSON, calibrated model,
+//!                                                    accuracy maps, pictures
 //! ```
-//! With an `instrument` block (model::instrument) the rows are the targets' coordinates in the
-//! instrument frame (measure::observations, measure::observe_simulate); the platform pose is
-//! fitted from them inside every evaluation (measure::targets), and the legs and the instrument
-//! are identified together (identify::shared, identify::shared_estimate, solver::solve_bordered;
-//! report::instrument). After the fit, evaluate::through_instrument compares where a model puts
-//! each target with where the instrument saw it; accuracy maps and study::montecarlo compare the
-//! identified legs with the real ones.
 //!
 //! ## Data flow of `legwise select --model models/5r.yaml`
 //! ```text
@@ -64,24 +80,6 @@
 //! * One residual block = one leg × one pose; strategies only group blocks differently.
 //! * Units are SI everywhere: metres, radians, dimensionless gains.
 //!
-//! ## Example
-//! ```
-//! use legwise::identify::estimate::{identify, Strategy};
-//! use legwise::measure::simulate::{simulate, SimulationOptions};
-//! use legwise::model::Mechanism;
-//! use legwise::solver::SolverKind;
-//!
-//! let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("models/5r.yaml");
-//! let mechanism = Mechanism::load(&path)?;
-//! let noise_free = SimulationOptions { noise_scale: 0.0, ..Default::default() };
-//! let experiment = simulate(&mechanism, noise_free)?;
-//! let result = identify(&mechanism, &experiment.measurements, Strategy::DivideAndConquer,
-//!                       SolverKind::GaussNewton)?;
-//! let l1 = &result.legs[0].parameters[0];
-//! assert_eq!(l1.name, "l1");
-//! assert!((l1.estimate - 0.7507).abs() < 1e-9); // the "real" value of Table 2
-//! # Ok::<(), legwise::error::Error>(())
-//! ```
 pub mod assembly;
 pub mod cli;
 pub mod error;
@@ -98,3 +96,16 @@ pub mod selection;
 pub mod solver;
 pub mod study;
 pub mod workspace;
+
+pub use error::{Error, Result};
+pub use identify::result::{
+    FitOptions, InstrumentEstimate, LegEstimate, ParameterEstimate, Strategy, StrategyResult,
+    Weighting,
+};
+pub use identify::robust::RobustLoss;
+pub use measure::Measurements;
+pub use model::Mechanism;
+pub use pipeline::{identify, run, MapSettings, PoseSource, Settings, SimulationSettings};
+pub use report::json::ReportJson;
+pub use report::Report;
+pub use solver::SolverKind;

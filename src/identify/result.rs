@@ -203,6 +203,15 @@ pub struct StrategyResult {
     pub instrument: Option<InstrumentEstimate>,
 }
 
+impl StrategyResult {
+    /// Every parameter estimate of the result: the instrument's first (when measured through
+    /// one), then each identified leg's, in model order.
+    pub fn parameters(&self) -> impl Iterator<Item = &ParameterEstimate> {
+        let instrument = self.instrument.iter().flat_map(|i| &i.parameters);
+        instrument.chain(self.legs.iter().flat_map(|l| &l.parameters))
+    }
+}
+
 /// The instrument's part of a result identified through it: its parameters (a parameter block
 /// shared by every leg) and the statistics of the fit as a whole.
 #[derive(Debug, Clone, PartialEq)]

@@ -39,6 +39,7 @@ mod observability_values;
 mod parallel_measure;
 mod plots;
 mod recovery;
+mod report_schema;
 mod robust_stationarity;
 mod schur;
 mod selection;
