@@ -30,14 +30,16 @@ use rayon::prelude::*;
 use super::stats::{self, Estimate};
 use crate::error::{Error, Result};
 use crate::evaluate::accuracy::{map_grid, position_error, reached_poses_from, result_parameters};
-use crate::identify::estimate::{identify_with, FitOptions, Strategy, StrategyResult};
+use crate::identify::estimate::{FitOptions, Strategy, StrategyResult};
 use crate::kinematics::inverse::Joints;
 use crate::kinematics::platform::ForwardKinematics;
 use crate::measure::simulate::{real_parameters, simulate_at, PoseSets, SimulationOptions};
-use crate::measure::MeasurementSet;
+use crate::measure::{MeasurementSet, Measurements};
 use crate::model::params::Unit;
 use crate::model::Mechanism;
+use crate::pipeline::identify_one;
 use crate::progress::Progress;
+use crate::report::RealValues;
 use crate::selection::design::{divide_and_conquer, traditional};
 use crate::solver::SolverKind;
 use crate::workspace::candidates::candidate_pool;
@@ -317,6 +319,13 @@ impl Study {
     /// design); an invalid map grid or scale.
     pub fn prepare(mechanism: &Mechanism, options: MonteCarloOptions) -> Result<Self> {
         crate::measure::simulate::setup(mechanism)?;
+        if mechanism.instrument.is_some() && options.solver != SolverKind::LevenbergMarquardt {
+            return Err(Error::Invalid(format!(
+                "{}: through an instrument the legs and the instrument are identified by \
+                 Levenberg-Marquardt (choose --solver lm)",
+                mechanism.model_path.display()
+            )));
+        }
         let map = map_grid(mechanism, options.map_grid, options.map_scale)?;
         let mechanism = mechanism.clone();
         let count = options
@@ -453,16 +462,43 @@ impl Study {
     }
 
     fn trial_values(&self, seed: u64) -> Result<TrialValues> {
-        if self.mechanism.instrument.is_some() {
-            return self.instrument_trial_values(seed);
-        }
         let options = SimulationOptions {
             seed: Some(seed),
             noise_scale: self.options.noise_scale,
             poses_per_leg: None,
         };
+        let (real, sets) = if self.mechanism.instrument.is_some() {
+            self.instrument_trial_data(options)?
+        } else {
+            self.trial_data(options)?
+        };
+        let real_kinematics = ForwardKinematics::new(&self.mechanism, &real.legs);
+        let nominal_map_rms = self.nominal_map_rms(&real.legs, &real_kinematics)?;
+        // The commanding joints of the last map, the warm starts of the next one.
+        let mut joints = self.nominal_joints.clone();
+        let mut arms = Vec::with_capacity(self.arms.len());
+        for (arm, data) in self.arms.iter().zip(&sets) {
+            let (solver, fit) = (self.options.solver, self.fit_options());
+            let result = identify_one(&self.mechanism, data, arm.strategy(), solver, fit)?;
+            if let Some(run) = result.runs.iter().find(|r| !r.converged) {
+                return Err(Error::Solver {
+                    context: format!("{}, legs {}", arm.name(), run.legs.join(", ")),
+                    message: format!("did not converge: {}", run.stop_reason),
+                });
+            }
+            arms.push(self.arm_trial(&result, &real, &real_kinematics, &mut joints)?);
+        }
+        Ok(TrialValues {
+            nominal_map_rms,
+            real: self.real_values(&real),
+            arms,
+        })
+    }
+
+    /// A trial's real legs and the measurements of each arm (in the order of the arms): each
+    /// leg's own rows, the shared rows of one leg's count, the shared rows of D&C's count.
+    fn trial_data(&self, options: SimulationOptions) -> Result<(RealValues, Vec<Measurements>)> {
         let experiment = simulate_at(&self.mechanism, &self.pose_sets, options)?;
-        let real = &experiment.real;
         let measurements = &experiment.measurements;
         let labelled = measurements.filtered(|p, _| p.leg.is_some());
         let legs = measurements.legs();
@@ -479,42 +515,26 @@ impl Study {
             };
             set.push(*pose, readings);
         }
-        let sets = [labelled, small, equal];
-        let real_kinematics = ForwardKinematics::new(&self.mechanism, real);
-        let nominal_map_rms = self.nominal_map_rms(real, &real_kinematics)?;
-        // The commanding joints of the last map, the warm starts of the next one.
-        let mut joints = self.nominal_joints.clone();
-        let mut arms = Vec::with_capacity(ARMS.len());
-        for (arm, data) in ARMS.into_iter().zip(sets) {
-            let result = identify_with(
-                &self.mechanism,
-                &data,
-                arm.strategy(),
-                self.options.solver,
-                self.fit_options(),
-            )?;
-            if let Some(run) = result.runs.iter().find(|r| !r.converged) {
-                return Err(Error::Solver {
-                    context: format!("{}, legs {}", arm.name(), run.legs.join(", ")),
-                    message: format!("did not converge: {}", run.stop_reason),
-                });
-            }
-            arms.push(self.arm_trial(&result, real, &real_kinematics, &mut joints)?);
-        }
-        Ok(TrialValues {
-            nominal_map_rms,
-            real: self.real_values(real, &[]),
-            arms,
-        })
+        let real = RealValues {
+            legs: experiment.real,
+            instrument: None,
+        };
+        let sets = [labelled, small, equal].map(Measurements::Readings);
+        Ok((real, sets.to_vec()))
     }
 
     /// The real value of every study parameter, from the real legs and instrument parameters.
-    fn real_values(&self, legs: &[Vec<f64>], shared: &[f64]) -> Vec<f64> {
+    fn real_values(&self, real: &RealValues) -> Vec<f64> {
         self.parameters
             .iter()
             .map(|p| match p.of {
-                ParameterOf::Leg { leg, column } => legs[leg][column],
-                ParameterOf::Instrument(k) => shared.get(k).copied().unwrap_or(f64::NAN),
+                ParameterOf::Leg { leg, column } => real.legs[leg][column],
+                ParameterOf::Instrument(k) => real
+                    .instrument
+                    .as_ref()
+                    .and_then(|values| values.get(k))
+                    .copied()
+                    .unwrap_or(f64::NAN),
             })
             .collect()
     }
@@ -536,32 +556,34 @@ impl Study {
         }
     }
 
+    /// One arm's values from `result`: each study parameter's error against `real` and its
+    /// predicted σ, and the RMS map error of the identified legs commanding the real ones.
     fn arm_trial(
         &self,
         result: &StrategyResult,
-        real: &[Vec<f64>],
+        real: &RealValues,
         real_kinematics: &ForwardKinematics<'_>,
         joints: &mut Vec<Option<Joints>>,
     ) -> Result<ArmTrial> {
+        let values = self.real_values(real);
         let mut errors = Vec::with_capacity(self.parameters.len());
         let mut predicted_std = Vec::with_capacity(self.parameters.len());
-        for p in &self.parameters {
-            let ParameterOf::Leg { leg, column } = p.of else {
-                continue;
+        for (p, real) in self.parameters.iter().zip(values) {
+            let estimate = match p.of {
+                ParameterOf::Leg { leg, column } => {
+                    let name = &self.mechanism.legs[leg].name;
+                    let leg = result.legs.iter().find(|e| &e.leg == name);
+                    leg.and_then(|e| e.parameters.get(column))
+                }
+                ParameterOf::Instrument(k) => {
+                    let instrument = result.instrument.as_ref();
+                    instrument.and_then(|i| i.parameters.get(k))
+                }
             };
-            let leg_name = &self.mechanism.legs[leg].name;
-            let estimate = result
-                .legs
-                .iter()
-                .find(|e| &e.leg == leg_name)
-                .map(|e| &e.parameters[column])
-                .ok_or_else(|| {
-                    Error::Invalid(format!(
-                        "{}: leg `{leg_name}` missing",
-                        result.strategy.name()
-                    ))
-                })?;
-            errors.push(estimate.estimate - real[leg][column]);
+            let estimate = estimate.ok_or_else(|| {
+                Error::Invalid(format!("{}: `{}` missing", result.strategy.name(), p.name))
+            })?;
+            errors.push(estimate.estimate - real);
             predicted_std.push(estimate.std.unwrap_or(f64::NAN));
         }
         let identified = result_parameters(&self.mechanism, result);
