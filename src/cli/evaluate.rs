@@ -5,9 +5,9 @@ use std::path::Path;
 use super::console::Console;
 use super::output::{Input, Output};
 use super::{EvaluateArgs, Verdict};
-use crate::evaluate::held_out::{evaluate, Evaluation};
-use crate::evaluate::through_instrument::evaluate_observed;
-use crate::measure::{file, observations};
+use crate::evaluate::evaluate;
+use crate::evaluate::held_out::Evaluation;
+use crate::measure::Measurements;
 use crate::model::Mechanism;
 use crate::report::evaluation::{evaluation_json, evaluation_text};
 use crate::report::plots::files::{evaluate_picture, POSITION_ERRORS};
@@ -65,14 +65,9 @@ pub(super) fn run(args: &EvaluateArgs) -> anyhow::Result<Verdict> {
     Ok(Verdict::Trusted)
 }
 
-/// Evaluates `model` on the measurement file at `path`: platform poses, or what its instrument
-/// reports for a model with an instrument block.
+/// Evaluates `model` on the measurement file at `path` (read in the model's layout).
 fn evaluate_file(model: &Mechanism, path: &Path) -> anyhow::Result<Evaluation> {
-    Ok(if model.instrument.is_some() {
-        evaluate_observed(model, &observations::read(path, model)?)?
-    } else {
-        evaluate(model, &file::read(path, model)?)?
-    })
+    Ok(evaluate(model, &Measurements::read(path, model)?)?)
 }
 
 /// Refuses `--against` a model that reads another kind of measurement file: one with an

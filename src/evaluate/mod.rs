@@ -11,3 +11,22 @@
 pub mod accuracy;
 pub mod held_out;
 pub mod through_instrument;
+
+use crate::error::Result;
+use crate::measure::Measurements;
+use crate::model::Mechanism;
+
+/// Evaluates the model `mechanism` on `data` (typically held out of the fit): platform poses
+/// by [`held_out::evaluate`], target coordinates through its instrument by
+/// [`through_instrument::evaluate_observed`].
+///
+/// # Errors
+/// No row holding every actuator reading, or measurements of another kind than the model's.
+pub fn evaluate(mechanism: &Mechanism, data: &Measurements) -> Result<held_out::Evaluation> {
+    match data {
+        Measurements::Readings(set) => held_out::evaluate(mechanism, set),
+        Measurements::Targets(observations) => {
+            through_instrument::evaluate_observed(mechanism, observations)
+        }
+    }
+}

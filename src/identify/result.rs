@@ -2,7 +2,7 @@
 //! each parameter block (every leg's, and an instrument's when measured through one), the
 //! solver runs and the statistics of the fit.
 
-use nalgebra::DMatrix;
+use nalgebra::{DMatrix, DVector};
 
 use super::observability::Observability;
 use super::robust::RobustLoss;
@@ -10,7 +10,7 @@ use super::statistics::{LegStatistics, NoiseTest, Outlier};
 use crate::model::mechanism::MeasurementNoise;
 use crate::model::params::Unit;
 use crate::model::Mechanism;
-use crate::solver::{SolverKind, StopReason};
+use crate::solver::{SolverKind, SolverOutcome, StopReason};
 
 /// How the parameter blocks are grouped into least-squares problems. The first two group the
 /// legs' readings at measured poses; the last two are for measurements through an instrument,
@@ -182,6 +182,30 @@ pub struct SolverRun {
     pub jacobian_evaluations: u64,
     /// Wall-clock time of the solver run, seconds.
     pub seconds: f64,
+}
+
+impl SolverRun {
+    /// The run of `outcome` on `legs`, with the residuals `(r0, r)` at the start and at the
+    /// estimate (its costs ½‖r‖²), in `seconds`.
+    pub fn new(
+        legs: Vec<String>,
+        outcome: &SolverOutcome,
+        (r0, r): (&DVector<f64>, &DVector<f64>),
+        seconds: f64,
+    ) -> Self {
+        SolverRun {
+            legs,
+            iterations: outcome.iterations,
+            converged: outcome.converged,
+            stop_reason: outcome.stop_reason,
+            refinement_steps: outcome.refinement_steps,
+            initial_cost: 0.5 * r0.norm_squared(),
+            final_cost: 0.5 * r.norm_squared(),
+            residual_evaluations: outcome.residual_evaluations,
+            jacobian_evaluations: outcome.jacobian_evaluations,
+            seconds,
+        }
+    }
 }
 
 /// The result of one strategy.

@@ -155,18 +155,7 @@ pub fn identify_shared(
         noise_test,
         held_frame: None,
     };
-    let run = SolverRun {
-        legs: names,
-        iterations: outcome.iterations,
-        converged: outcome.converged,
-        stop_reason: outcome.stop_reason,
-        refinement_steps: outcome.refinement_steps,
-        initial_cost: 0.5 * r0.norm_squared(),
-        final_cost: 0.5 * r.norm_squared(),
-        residual_evaluations: outcome.residual_evaluations,
-        jacobian_evaluations: outcome.jacobian_evaluations,
-        seconds,
-    };
+    let run = SolverRun::new(names, &outcome, (&r0, &r), seconds);
     Ok(StrategyResult {
         strategy,
         solver: SolverKind::LevenbergMarquardt,
