@@ -84,6 +84,7 @@ pub mod assembly;
 pub mod cli;
 pub mod error;
 pub mod evaluate;
+pub mod files;
 pub mod identify;
 pub mod kinematics;
 pub mod measure;

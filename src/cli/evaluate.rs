@@ -3,10 +3,10 @@
 use std::path::Path;
 
 use super::console::Console;
-use super::output::{Input, Output};
 use super::{EvaluateArgs, Verdict};
 use crate::evaluate::evaluate;
 use crate::evaluate::held_out::Evaluation;
+use crate::files::{Input, Output};
 use crate::measure::Measurements;
 use crate::model::Mechanism;
 use crate::report::evaluation::{evaluation_json, evaluation_text};
@@ -27,9 +27,9 @@ pub(super) fn run(args: &EvaluateArgs) -> anyhow::Result<Verdict> {
         path: &args.measurements,
     });
     let json_output = Output::prepare_optional("--json", args.json.as_deref(), &inputs)?;
-    let format = super::pictures::format(args.png);
+    let format = crate::files::format(args.png);
     let picture_output =
-        super::pictures::prepare_one(args.plots.as_deref(), POSITION_ERRORS, format, &inputs)?;
+        crate::files::prepare_one(args.plots.as_deref(), POSITION_ERRORS, format, &inputs)?;
     let mut console = Console::new(json_output.as_ref().is_some_and(Output::is_stdout));
     let evaluation = evaluate_file(&mechanism, &args.measurements)?;
     let against = other

@@ -4,9 +4,9 @@
 use std::path::Path;
 
 use super::console::Console;
-use super::output::{Input, Output};
 use super::{IdentifyArgs, SolverArg, StrategyArg, Verdict, WeightsArg};
 use crate::evaluate::accuracy::map_grid;
+use crate::files::{Input, Output};
 use crate::measure::{Measurements, STDIN_NAME};
 use crate::model::Mechanism;
 use crate::pipeline::{self, MapSettings, Settings, SimulationSettings};
@@ -41,7 +41,7 @@ pub(super) fn run(args: &IdentifyArgs) -> anyhow::Result<Verdict> {
         output.write("JSON report", report.to_json().to_text()?.as_bytes())?;
     }
     if let Some(outputs) = &picture_outputs {
-        let pictures = identify_pictures(&report, super::pictures::format(args.pictures.png))?;
+        let pictures = identify_pictures(&report, crate::files::format(args.pictures.png))?;
         for (output, bytes) in outputs.iter().zip(&pictures) {
             output.write("picture", bytes)?;
         }
@@ -235,6 +235,6 @@ fn picture_outputs(
         anyhow::bail!("--plots: the pictures compare with the real parameters, known only in simulation (drop --measurements)");
     }
     let names = identify_picture_names(args.after.map.is_some());
-    let format = super::pictures::format(args.pictures.png);
-    Ok(Some(super::pictures::prepare(dir, &names, format, inputs)?))
+    let format = crate::files::format(args.pictures.png);
+    Ok(Some(crate::files::prepare(dir, &names, format, inputs)?))
 }

@@ -8,8 +8,6 @@ mod evaluate;
 mod help;
 mod identify;
 mod montecarlo;
-mod output;
-mod pictures;
 mod select;
 mod simulate;
 mod workspace;
@@ -418,13 +416,13 @@ fn poses_per_leg(count: Option<i64>) -> anyhow::Result<Option<usize>> {
 fn model_inputs<'a>(
     model: &'a std::path::Path,
     mechanism: &'a crate::model::Mechanism,
-) -> Vec<output::Input<'a>> {
+) -> Vec<crate::files::Input<'a>> {
     vec![
-        output::Input {
+        crate::files::Input {
             role: "model file",
             path: model,
         },
-        output::Input {
+        crate::files::Input {
             role: "URDF",
             path: &mechanism.urdf_path,
         },

@@ -1,8 +1,8 @@
 //! `legwise montecarlo`.
 
 use super::console::Console;
-use super::output::Output;
 use super::{checks, MontecarloArgs, Verdict};
+use crate::files::Output;
 use crate::model::Mechanism;
 use crate::report::plots::render;
 use crate::study::montecarlo::{MonteCarloOptions, Study};
@@ -24,9 +24,9 @@ pub(super) fn run(args: &MontecarloArgs) -> anyhow::Result<Verdict> {
     let mechanism = Mechanism::load(&args.model)?;
     let inputs = super::model_inputs(&args.model, &mechanism);
     let json_output = Output::prepare_optional("--json", args.json.as_deref(), &inputs)?;
-    let format = super::pictures::format(args.png);
+    let format = crate::files::format(args.png);
     let picture_output =
-        super::pictures::prepare_one(args.plots.as_deref(), PICTURE, format, &inputs)?;
+        crate::files::prepare_one(args.plots.as_deref(), PICTURE, format, &inputs)?;
     let simulation = crate::measure::simulate::setup(&mechanism)?;
     let options = MonteCarloOptions {
         solver: args.solver.kind(),

@@ -3,8 +3,8 @@
 use std::fmt::Write as _;
 
 use super::console::Console;
-use super::output::Output;
 use super::{SelectArgs, Verdict};
+use crate::files::Output;
 use crate::measure::{file, observations, MeasuredPose, MeasurementSet};
 use crate::model::Mechanism;
 use crate::selection::design::ExperimentDesign;

@@ -1,8 +1,8 @@
 //! `legwise simulate`.
 
 use super::console::Console;
-use super::output::Output;
 use super::{SimulateArgs, Verdict};
+use crate::files::Output;
 use crate::model::Mechanism;
 use crate::pipeline::simulate;
 

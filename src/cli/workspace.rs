@@ -4,8 +4,8 @@ use std::fmt::Write as _;
 use std::path::PathBuf;
 
 use super::console::Console;
-use super::output::{Input, Output};
 use super::{Verdict, WorkspaceArgs};
+use crate::files::{Input, Output};
 use crate::measure::{file, MeasurementSet};
 use crate::model::mechanism::COORDINATES;
 use crate::model::Mechanism;
@@ -190,7 +190,7 @@ fn spatial(
 /// `--out` (`-`: standard output), its format by the extension (or `--png` for standard
 /// output), checked before any work; or the default `<model name>-workspace.svg|png`.
 fn picture_path(args: &WorkspaceArgs) -> anyhow::Result<(PathBuf, Format)> {
-    let png = super::pictures::format(args.png);
+    let png = crate::files::format(args.png);
     match &args.out {
         Some(path) if path.as_os_str() == "-" => Ok((path.clone(), png)),
         Some(path) => {

@@ -1,4 +1,5 @@
-//! Output files of the command line, one way for every command.
+//! Output files, one way for every command and for library users: each output is checked
+//! when the run starts, before the long work, and written atomically.
 //!
 //! An output is checked when the command starts, before the long work: its directory must exist
 //! and take a new file, it must not be a directory or a read-only file, and it must not be one
@@ -15,15 +16,23 @@ use std::fs;
 use std::io::{self, Write};
 use std::path::{Path, PathBuf};
 
-use anyhow::{anyhow, Context};
+use crate::error::{Error, Result};
+use crate::report::plots::Format;
+
+/// An [`Error::Invalid`] with a formatted message.
+macro_rules! invalid {
+    ($($arg:tt)*) => {
+        Error::Invalid(format!($($arg)*))
+    };
+}
 
 /// One input of a run, which no output may overwrite.
 #[derive(Debug, Clone, Copy)]
-pub(super) struct Input<'a> {
+pub struct Input<'a> {
     /// What it is, for messages: "model file", "URDF", "measurement file".
-    pub(super) role: &'a str,
+    pub role: &'a str,
     /// Its path as the user (or the model file) gave it.
-    pub(super) path: &'a Path,
+    pub path: &'a Path,
 }
 
 /// Where an output goes.
@@ -40,7 +49,7 @@ enum Target {
 
 /// A checked output path.
 #[derive(Debug, Clone)]
-pub(super) struct Output {
+pub struct Output {
     /// The option that named it, e.g. `--out`.
     flag: &'static str,
     /// The path as given.
@@ -54,11 +63,11 @@ impl Output {
     ///
     /// # Errors
     /// As [`Self::prepare`].
-    pub(super) fn prepare_optional(
+    pub fn prepare_optional(
         flag: &'static str,
         path: Option<&Path>,
         inputs: &[Input<'_>],
-    ) -> anyhow::Result<Option<Output>> {
+    ) -> Result<Option<Output>> {
         path.map(|path| Self::prepare(flag, path, inputs))
             .transpose()
     }
@@ -68,11 +77,7 @@ impl Output {
     /// # Errors
     /// The path is a directory, its directory does not exist or cannot take a new file, or it
     /// is one of the inputs; each message names the path (and the input).
-    pub(super) fn prepare(
-        flag: &'static str,
-        path: &Path,
-        inputs: &[Input<'_>],
-    ) -> anyhow::Result<Output> {
+    pub fn prepare(flag: &'static str, path: &Path, inputs: &[Input<'_>]) -> Result<Output> {
         let target = resolve(flag, path)?;
         let output = Output {
             flag,
@@ -81,12 +86,12 @@ impl Output {
         };
         for input in inputs {
             if output.is_input(input.path) {
-                anyhow::bail!(
+                return Err(invalid!(
                     "{}: {flag} would overwrite the {} {} (an input of this run); choose another path",
                     path.display(),
                     input.role,
                     input.path.display()
-                );
+                ));
             }
         }
         Ok(output)
@@ -94,12 +99,12 @@ impl Output {
 
     /// True when the output goes to standard output (then the human-readable text goes to
     /// standard error, so that the output stays clean).
-    pub(super) fn is_stdout(&self) -> bool {
+    pub fn is_stdout(&self) -> bool {
         self.target == Target::Stdout
     }
 
     /// The output as given, for messages (`standard output` for `-`).
-    pub(super) fn name(&self) -> String {
+    pub fn name(&self) -> String {
         match self.target {
             Target::Stdout => "standard output".into(),
             _ => self.given.display().to_string(),
@@ -111,9 +116,9 @@ impl Output {
     /// # Errors
     /// The file cannot be created, written or renamed; the message names the path. A closed
     /// standard output is not an error.
-    pub(super) fn write(&self, what: &str, contents: &[u8]) -> anyhow::Result<()> {
+    pub fn write(&self, what: &str, contents: &[u8]) -> Result<()> {
         let fail = |error: io::Error| {
-            anyhow!(
+            invalid!(
                 "{}: cannot write the {what}: {}",
                 self.given.display(),
                 plain(&error)
@@ -123,7 +128,7 @@ impl Output {
             Target::Stdout => {
                 let mut stdout = io::stdout().lock();
                 match stdout.write_all(contents).and_then(|()| stdout.flush()) {
-                    Err(e) if e.kind() != io::ErrorKind::BrokenPipe => Err(anyhow!(
+                    Err(e) if e.kind() != io::ErrorKind::BrokenPipe => Err(invalid!(
                         "{} ({}): cannot write the {what}: {e}",
                         self.flag,
                         self.name()
@@ -163,7 +168,7 @@ impl Output {
 }
 
 /// Resolves and checks an output path.
-fn resolve(flag: &str, path: &Path) -> anyhow::Result<Target> {
+fn resolve(flag: &str, path: &Path) -> Result<Target> {
     let shown = path.display();
     if path.as_os_str() == "-" {
         return Ok(Target::Stdout);
@@ -173,50 +178,57 @@ fn resolve(flag: &str, path: &Path) -> anyhow::Result<Target> {
             return Ok(Target::Stdout);
         }
         if metadata.is_dir() {
-            anyhow::bail!("{shown}: {flag}: is a directory; expected a file path");
+            return Err(invalid!(
+                "{shown}: {flag}: is a directory; expected a file path"
+            ));
         }
         if !metadata.is_file() {
             return Ok(Target::Special(path.to_path_buf()));
         }
         if metadata.permissions().readonly() {
             // The rename would replace it all the same; a read-only file says "keep me".
-            anyhow::bail!(
+            return Err(invalid!(
                 "{shown}: {flag}: the file is read-only; expected a writable file or a new path"
-            );
+            ));
         }
-        let canonical = fs::canonicalize(path).with_context(|| format!("{shown}: {flag}"))?;
+        let canonical = fs::canonicalize(path).map_err(|e| invalid!("{shown}: {flag}: {e}"))?;
         probe(flag, path, &canonical)?;
         return Ok(Target::File(canonical));
     }
     let name = path
         .file_name()
-        .ok_or_else(|| anyhow!("{shown}: {flag}: expected a file path"))?;
+        .ok_or_else(|| invalid!("{shown}: {flag}: expected a file path"))?;
     let parent = match path.parent() {
         Some(p) if !p.as_os_str().is_empty() => p,
         _ => Path::new("."),
     };
     match fs::metadata(parent) {
-        Err(_) => anyhow::bail!(
-            "{shown}: {flag}: the directory {} does not exist",
-            parent.display()
-        ),
+        Err(_) => {
+            return Err(invalid!(
+                "{shown}: {flag}: the directory {} does not exist",
+                parent.display()
+            ))
+        }
         Ok(m) if !m.is_dir() => {
-            anyhow::bail!("{shown}: {flag}: {} is not a directory", parent.display())
+            return Err(invalid!(
+                "{shown}: {flag}: {} is not a directory",
+                parent.display()
+            ))
         }
         Ok(_) => {}
     }
     let canonical = fs::canonicalize(parent)
-        .with_context(|| format!("{shown}: {flag}"))?
+        .map_err(|e| invalid!("{shown}: {flag}: {e}"))?
         .join(name);
     probe(flag, path, &canonical)?;
     Ok(Target::File(canonical))
 }
 
 /// Checks that the directory of `canonical` takes a new file, by creating (and removing) one.
-fn probe(flag: &str, path: &Path, canonical: &Path) -> anyhow::Result<()> {
+fn probe(flag: &str, path: &Path, canonical: &Path) -> Result<()> {
     let directory = canonical.parent().unwrap_or(Path::new("/"));
     temporary_in(directory, canonical).map(drop).map_err(|e| {
-        anyhow!(
+        invalid!(
             "{}: {flag}: cannot create a file in {}: {}",
             path.display(),
             directory.display(),
@@ -297,4 +309,63 @@ fn same_file(a: &fs::Metadata, b: &fs::Metadata) -> bool {
         let _ = (a, b);
         false
     }
+}
+
+/// SVG, or PNG with `--png`.
+pub fn format(png: bool) -> Format {
+    if png {
+        Format::Png
+    } else {
+        Format::Svg
+    }
+}
+
+/// The single picture `name` of a command in `--plots` directory `plots` (if given), checked
+/// before any work.
+///
+/// # Errors
+/// As [`prepare`].
+pub fn prepare_one(
+    plots: Option<&Path>,
+    name: &str,
+    format: Format,
+    inputs: &[Input<'_>],
+) -> Result<Option<Output>> {
+    match plots {
+        Some(dir) => Ok(prepare(dir, &[name], format, inputs)?.pop()),
+        None => Ok(None),
+    }
+}
+
+/// Creates `dir` if missing and checks one output per picture `names` (without extension)
+/// in it, before any work.
+///
+/// # Errors
+/// `dir` exists and is not a directory or cannot be created; a picture would overwrite an
+/// input or cannot be written there.
+pub fn prepare(
+    dir: &Path,
+    names: &[&str],
+    format: Format,
+    inputs: &[Input<'_>],
+) -> Result<Vec<Output>> {
+    if dir.exists() && !dir.is_dir() {
+        return Err(invalid!(
+            "{}: --plots expects a directory, found a file; choose another path",
+            dir.display()
+        ));
+    }
+    std::fs::create_dir_all(dir).map_err(|e| {
+        invalid!(
+            "{}: --plots: cannot create the directory: {e}",
+            dir.display()
+        )
+    })?;
+    names
+        .iter()
+        .map(|name| {
+            let path = dir.join(format!("{name}.{}", format.extension()));
+            Output::prepare("--plots", &path, inputs)
+        })
+        .collect()
 }
