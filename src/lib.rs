@@ -11,7 +11,8 @@
 //! ```text
 //! model file (YAML) ─► model::file::ModelFile        syntax, types (file:line:column errors)
 //! + URDF            ─► model::Mechanism::load        cross-checks (errors name the field;
-//!                                                    defined in assembly)
+//!                                                    model::load: values, then the region's
+//!                                                    geometry and the kinematic checks)
 //! measurements      ─► measure::file::read | measure::simulate::simulate
 //! per leg           ─► identify::problem::IdentificationProblem (residual blocks)
 //!                      identify::observability       rank check, names unidentifiable params
@@ -43,8 +44,9 @@
 //! ```text
 //! scalar, error, progress, solver      numbers, errors, progress bars, least-squares solvers
 //! model                                model file + URDF cross-checks (no kinematics)
-//! kinematics                           chains, leg IK, singularities (takes model types)
-//! assembly                             Mechanism::load: model + kinematic checks (home, platform)
+//! kinematics                           chains, leg IK, singularities (takes model types);
+//!                                      kinematics::assembly: home closure, platform
+//! model::load                          Mechanism::load: model + region and kinematic checks
 //! measure                              measurement files, simulation, residual blocks
 //! identify                             problems, Jacobians, fits, statistics, trust
 //! evaluate                             accuracy maps, held-out evaluation
@@ -82,7 +84,6 @@
 //! assert!((l1.estimate - 0.7507).abs() < 1e-9); // the "real" value of Table 2
 //! # Ok::<(), legwise::error::Error>(())
 //! ```
-pub mod assembly;
 pub mod cli;
 pub mod error;
 pub mod evaluate;

@@ -99,7 +99,7 @@ pub struct Simulation {
 
 impl Mechanism {
     /// The model file and its URDF cross-checked, before the kinematic checks of
-    /// [`crate::assembly`] (which solve each leg's home configuration and set its branch): use
+    /// [`crate::workspace::region::check_usable`] and [`crate::kinematics::assembly`] (which solve each leg's home configuration and set its branch): use
     /// [`Mechanism::load`] or [`Mechanism::parse`], which run both.
     ///
     /// # Errors
