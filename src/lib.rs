@@ -31,8 +31,9 @@
 //! ## Data flow of `legwise select --model models/5r.yaml`
 //! ```text
 //! model file        ─► model::Mechanism::load
-//! candidate poses   ─► workspace::candidates::candidate_pool  grid over the usable region, feasible
-//!                                                             poses, identification rows
+//! candidate poses   ─► workspace::candidates::feasible_poses  grid over the usable region, feasible
+//!                                                             poses (geometry, kinematics)
+//!                      selection::candidates::candidate_pool  their identification rows
 //! experiment design ─► selection::design::ExperimentDesign    per leg (D&C), shared (traditional)
 //!                      selection::select                      greedy + exchange + DETMAX (D, A, E)
 //!                      identify::observability                indices of the chosen poses

@@ -3,7 +3,7 @@
 //!
 //! The selection engines work on plain matrices (one b × n block of identification rows per
 //! candidate) and know nothing of poses, their dimension or the mechanism; [`design`] builds
-//! those matrices from a mechanism's candidate pool ([`crate::workspace::candidates`]) and maps
+//! those matrices from a mechanism's candidate pool ([`crate::selection::candidates`]) and maps
 //! the chosen indices back to poses.
 //!
 //! This is a D-optimal exchange algorithm in the spirit of Sun & Hollerbach (2008) / DETMAX
@@ -35,6 +35,7 @@ use nalgebra::DMatrix;
 
 mod a_optimal;
 mod block_d;
+pub mod candidates;
 pub mod design;
 mod driver;
 mod e_optimal;
