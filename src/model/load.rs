@@ -1,5 +1,5 @@
 //! Loading a mechanism: the model file cross-checked against its URDF
-//! ([`Mechanism::unassembled`], values only), then the checks that need the region's geometry
+//! (`Mechanism::unassembled`, values only), then the checks that need the region's geometry
 //! ([`crate::workspace::region::check_usable`]: a polyhedron encloses a volume, the margin
 //! leaves a usable region) and the kinematics ([`crate::kinematics::assembly`]: home closure
 //! and branch, planar axes, platform). The one file of the model that uses the layers above it.
