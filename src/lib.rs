@@ -41,19 +41,24 @@
 //! ```
 //!
 //! ## Layers
-//! Each module uses only the ones on lines above it (no module cycles):
+//! Each module uses only the ones on lines above it (no module cycles; `python3
+//! tools/file_cycles.py` lists the import cycles between files):
 //! ```text
 //! scalar, error, progress, solver      numbers, errors, progress bars, least-squares solvers
-//! model                                model file + URDF cross-checks (no kinematics)
+//! model                                model file + URDF cross-checks: values (no kinematics,
+//!                                      no geometry)
 //! kinematics                           chains, leg IK, singularities (takes model types);
-//!                                      kinematics::assembly: home closure, platform
-//! model::load                          Mechanism::load: model + region and kinematic checks
+//!                                      kinematics::assembly: home closure, planar axes, platform
+//! workspace                            geometry only: the region's depths and containment (the
+//!                                      only user of parry), feasible candidate poses, MIW,
+//!                                      singular curves
+//! model::load                          Mechanism::load: model values, then the region checks
+//!                                      (workspace::region) and kinematics::assembly
 //! measure                              measurement files, simulation, residual blocks
 //! identify                             problems, Jacobians, fits, statistics, trust
 //! evaluate                             accuracy maps, held-out evaluation
-//! report                               terminal, JSON, plots
-//! workspace                            candidate poses, MIW, workspace pictures
-//! selection                            experiment design
+//! selection                            candidate identification rows, experiment design
+//! report                               terminal, JSON, plots (the workspace pictures)
 //! study                                Monte Carlo and other studies
 //! cli                                  the command line
 //! ```

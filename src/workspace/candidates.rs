@@ -3,7 +3,8 @@
 //! ranged coordinate, e.g. an orientation angle, at `range_levels` values), kept when the pose
 //! is inside the region with its margin, every leg reaches it on its home branch with its joints
 //! within their URDF limits, and it clears the serial and parallel singularity thresholds.
-//! Geometry and kinematics only: [`crate::selection::candidates`] adds the identification rows.
+//! Geometry and kinematics only: the selection module's `candidates` adds the identification
+//! rows.
 
 use super::limits::check_limits;
 use crate::error::{Error, KinematicsError, Result};

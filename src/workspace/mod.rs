@@ -1,6 +1,7 @@
 //! The robot's usable workspace, geometry only: the region's geometry (the only user of parry),
-//! the feasible candidate poses (selected from by [`crate::selection`]), the MIW and the
-//! singular curves (pictured by [`crate::report::plots::workspace`]).
+//! the feasible candidate poses (the selection module adds their identification rows and
+//! selects from them), the MIW and the singular curves (the report module pictures them). It
+//! uses the model and the kinematics, never the modules above it.
 pub mod candidates;
 pub mod contour;
 pub mod limits;

@@ -1,6 +1,6 @@
 //! The singular curves of the workspace around the singularity-free region, traced smoothly
 //! (marching squares on the singularity measures with sub-cell crossings, bisected on the real
-//! measures where a leg loses reach). Pictured by [`crate::report::plots::workspace`].
+//! measures where a leg loses reach). Pictured by the report module's workspace plot.
 
 use std::collections::VecDeque;
 
