@@ -50,8 +50,8 @@
 //! kinematics                           chains, leg IK, singularities (takes model types);
 //!                                      kinematics::assembly: home closure, planar axes, platform
 //! workspace                            geometry only: the region's depths and containment (the
-//!                                      only user of parry), feasible candidate poses, MIW,
-//!                                      singular curves
+//!                                      only caller of the collision-geometry crates), feasible
+//!                                      candidate poses, MIW, singular curves
 //! model::load                          Mechanism::load: model values, then the region checks
 //!                                      (workspace::region) and kinematics::assembly
 //! measure                              measurement files, simulation, residual blocks
