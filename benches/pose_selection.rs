@@ -19,8 +19,8 @@ use std::time::Duration;
 
 use criterion::{criterion_group, criterion_main, Criterion};
 use legwise::model::Mechanism;
+use legwise::selection::candidates::{candidate_pool, CandidatePool};
 use legwise::selection::{select, select_dense_blocks, select_naive, SelectionOptions};
-use legwise::workspace::candidates::{candidate_pool, CandidatePool};
 use nalgebra::DMatrix;
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;

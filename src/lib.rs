@@ -32,7 +32,9 @@
 //! ## Data flow of `legwise identify --model models/5r.yaml`
 //! ```text
 //! model file (YAML) ─► model::file::ModelFile        syntax, types (file:line:column errors)
-//! + URDF            ─► model::Mechanism::load        cross-checks (errors name the field)
+//! + URDF            ─► model::Mechanism::load        cross-checks (errors name the field;
+//!                                                    model::load: values, then the region's
+//!                                                    geometry and the kinematic checks)
 //! measurements      ─► measure::Measurements::read | pipeline::simulate
 //! pipeline::identify_one: by the measurements' kind
 //!   readings        ─► identify::estimate            per leg (D&C) or all legs: residual
@@ -46,8 +48,9 @@
 //! ## Data flow of `legwise select --model models/5r.yaml`
 //! ```text
 //! model file        ─► model::Mechanism::load
-//! candidate poses   ─► workspace::candidates::candidate_pool  grid over the usable region, feasible
-//!                                                             poses, identification rows
+//! candidate poses   ─► workspace::candidates::feasible_poses  grid over the usable region, feasible
+//!                                                             poses (geometry, kinematics)
+//!                      selection::candidates::candidate_pool  their identification rows
 //! experiment design ─► selection::design::ExperimentDesign    per leg (D&C), shared (traditional)
 //!                      selection::select                      greedy + exchange + DETMAX (D, A, E)
 //!                      identify::observability                indices of the chosen poses
@@ -55,20 +58,30 @@
 //! ```
 //!
 //! ## Layers
-//! Each module uses only the ones on lines above it (no module cycles):
+//! Each module uses only the ones on lines above it (no module cycles; `python3
+//! tools/file_cycles.py` lists the import cycles between files):
 //! ```text
 //! scalar, error, progress, solver      numbers, errors, progress bars, least-squares solvers
-//! model                                model file + URDF cross-checks (no kinematics)
-//! kinematics                           chains, leg IK, singularities (takes model types)
-//! assembly                             Mechanism::load: model + kinematic checks (home, platform)
+//! model                                model file + URDF cross-checks: values (no kinematics,
+//!                                      no geometry)
+//! kinematics                           chains, leg IK, singularities (takes model types);
+//!                                      kinematics::assembly: home closure, planar axes, platform
+//! workspace                            geometry only: the region's depths and containment (the
+//!                                      only caller of the collision-geometry crates), feasible
+//!                                      candidate poses, MIW, singular curves
+//! model::load                          Mechanism::load: model values, then the region checks
+//!                                      (workspace::region) and kinematics::assembly
 //! measure                              measurement files, simulation, residual blocks
 //! identify                             problems, Jacobians, fits, statistics, trust
 //! evaluate                             accuracy maps, held-out evaluation
-//! report                               terminal, JSON, plots
-//! workspace                            candidate poses, MIW, workspace pictures
-//! selection                            experiment design
+//! selection                            candidate identification rows, experiment design
+//! report                               the one Report: terminal, JSON, calibrated model, plots
+//!                                      (the workspace pictures)
+//! files                                output files: checked first, written atomically
+//! pipeline                             the whole job: run / identify (simulate or read, the
+//!                                      model's pipeline, maps)
 //! study                                Monte Carlo and other studies
-//! cli                                  the command line
+//! cli                                  the command line: arguments, one library call, outputs
 //! ```
 //!
 //! ## Principles
@@ -80,7 +93,6 @@
 //! * One residual block = one leg × one pose; strategies only group blocks differently.
 //! * Units are SI everywhere: metres, radians, dimensionless gains.
 //!
-pub mod assembly;
 pub mod cli;
 pub mod error;
 pub mod evaluate;

@@ -11,10 +11,10 @@ use crate::model::mechanism::COORDINATES;
 use crate::model::Mechanism;
 use crate::report::plots::slices::SlicesFigure;
 use crate::report::plots::workspace::PoseGroup;
+use crate::report::plots::workspace::{slice_figure, workspace_figure};
 use crate::report::plots::{render, Format};
 use crate::workspace::miw::{maximal_inscribed_workspace, MiwOptions, SingularityMargin};
 use crate::workspace::miw3d::{self, slice, spatial_inscribed_workspace, Miw3dOptions, REACH};
-use crate::workspace::picture::{slice_figure, workspace_figure};
 
 pub(super) fn run(args: &WorkspaceArgs) -> anyhow::Result<Verdict> {
     let rays = super::checks::count("--rays", args.rays, 16, 100_000)?;

@@ -2,7 +2,7 @@
 
 use std::borrow::Borrow;
 
-use nalgebra::{Matrix3, Rotation3, Translation3, Unit, Vector3};
+use nalgebra::{Matrix3, Rotation3, Translation3, Vector3};
 
 use crate::model::joint::{JointKind, JointModel};
 use crate::model::leg::{LegGeometry, LegModel};
@@ -164,62 +164,82 @@ impl<T: Scalar> Rigid<T> {
         std::array::from_fn(|i| r[i][0] * v[0] + r[i][1] * v[1] + r[i][2] * v[2])
     }
 
-    /// `self` followed by the rotation `motion` (f64 constants or scalars `T`).
-    fn rotated<U: Copy>(&self, motion: &[[U; 3]; 3]) -> Self
+    /// `self` followed by a joint's motion `motion` (in f64 constants or scalars `T`): a
+    /// rotation turns the frame, a translation (in the frame's own axes) moves it.
+    fn moved_by<U: Copy>(&self, motion: &Motion<U>) -> Self
     where
         T: std::ops::Mul<U, Output = T>,
     {
         let r = &self.rotation;
-        Self {
-            rotation: std::array::from_fn(|i| {
-                std::array::from_fn(|j| {
-                    r[i][0] * motion[0][j] + r[i][1] * motion[1][j] + r[i][2] * motion[2][j]
-                })
-            }),
-            translation: self.translation,
+        match motion {
+            Motion::Rotation(m) => Self {
+                rotation: std::array::from_fn(|i| {
+                    std::array::from_fn(|j| {
+                        r[i][0] * m[0][j] + r[i][1] * m[1][j] + r[i][2] * m[2][j]
+                    })
+                }),
+                translation: self.translation,
+            },
+            Motion::Translation(a) => Self {
+                rotation: self.rotation,
+                translation: std::array::from_fn(|i| {
+                    self.translation[i] + (r[i][0] * a[0] + r[i][1] * a[1] + r[i][2] * a[2])
+                }),
+            },
+            Motion::Still => *self,
         }
     }
 
     /// `self` followed by joint `joint`'s motion for a constant (f64) variable `q`: the motion
     /// is computed in f64 and multiplies as constants (no derivative work for it).
     fn moved_constant(&self, joint: &JointModel, q: f64) -> Self {
-        match joint.kind {
-            JointKind::Revolute => {
-                let (s, c) = q.sin_cos();
-                let axis = [joint.axis[0], joint.axis[1], joint.axis[2]];
-                self.rotated(&rodrigues(axis, s, c, 1.0 - c))
-            }
-            JointKind::Prismatic => {
-                let r = &self.rotation;
-                let a = joint.axis * q;
-                Self {
-                    rotation: self.rotation,
-                    translation: std::array::from_fn(|i| {
-                        self.translation[i] + (r[i][0] * a[0] + r[i][1] * a[1] + r[i][2] * a[2])
-                    }),
-                }
-            }
-            JointKind::Fixed => *self,
-        }
+        self.moved_by(&joint_motion(joint, q))
     }
 
     /// `self` followed by joint `joint`'s motion for variable `q`.
     fn moved(&self, joint: &JointModel, q: T) -> Self {
-        let axis: [T; 3] = std::array::from_fn(|i| lift::<T>(joint.axis[i]));
-        match joint.kind {
-            JointKind::Revolute => {
-                let (s, c) = nalgebra::ComplexField::sin_cos(q);
-                self.rotated(&rodrigues(axis, s, c, lift::<T>(1.0) - c))
-            }
-            JointKind::Prismatic => {
-                let step = self.rotate(&axis.map(|a| a * q));
-                Self {
-                    rotation: self.rotation,
-                    translation: std::array::from_fn(|i| self.translation[i] + step[i]),
-                }
-            }
-            JointKind::Fixed => *self,
+        self.moved_by(&joint_motion(joint, q))
+    }
+}
+
+/// What a joint's variable does to the frame that follows it, in the joint's frame.
+#[derive(Debug, Clone, Copy)]
+enum Motion<U> {
+    /// A rotation (matrix by rows) about the joint axis.
+    Rotation([[U; 3]; 3]),
+    /// A translation along the joint axis.
+    Translation([U; 3]),
+    /// No motion.
+    Still,
+}
+
+/// The motion of joint `joint` for its variable `q` (f64, or a scalar carrying derivatives):
+/// the one place a [`JointKind`] becomes a motion, for every chain walker of this module.
+fn joint_motion<U: Scalar>(joint: &JointModel, q: U) -> Motion<U> {
+    let axis: [U; 3] = std::array::from_fn(|i| lift::<U>(joint.axis[i]));
+    match joint.kind {
+        JointKind::Revolute => {
+            let (s, c) = nalgebra::ComplexField::sin_cos(q);
+            Motion::Rotation(rodrigues(axis, s, c, lift::<U>(1.0) - c))
         }
+        JointKind::Prismatic => Motion::Translation(axis.map(|a| a * q)),
+        JointKind::Fixed => Motion::Still,
+    }
+}
+
+/// The derivative of the tip position with respect to a moving joint's variable, for the
+/// joint's world axis `axis` through the world point `point` and the tip `tip`: `axis × (tip −
+/// point)` for a rotation, `axis` for a translation, zero for a joint that does not move.
+fn tip_derivative(
+    kind: JointKind,
+    axis: &Vector3<f64>,
+    point: &Vector3<f64>,
+    tip: &Vector3<f64>,
+) -> Vector3<f64> {
+    match kind {
+        JointKind::Revolute => axis.cross(&(tip - point)),
+        JointKind::Prismatic => *axis,
+        JointKind::Fixed => Vector3::zeros(),
     }
 }
 
@@ -280,11 +300,7 @@ fn chain_tip_and_jacobian<R: Borrow<Rigid<f64>>>(
     let tip = Vector3::from(last);
     let mut jacobian = Matrix3::zeros();
     for (column, (kind, axis, point)) in axes.iter().enumerate().take(leg.moving.len()) {
-        let derivative = match kind {
-            JointKind::Revolute => axis.cross(&(tip - point)),
-            _ => *axis,
-        };
-        jacobian.set_column(column, &derivative);
+        jacobian.set_column(column, &tip_derivative(*kind, axis, point, &tip));
     }
     (tip, jacobian)
 }
@@ -304,9 +320,12 @@ pub fn moving_axes(
         world_from_link *= Rotation3::from_euler_angles(origin[3], origin[4], origin[5]);
         if joint.is_moving() {
             axes.push((joint.kind, world_from_link * joint.axis));
-            if joint.kind == JointKind::Revolute {
-                let axis = Unit::new_unchecked(joint.axis);
-                world_from_link *= Rotation3::from_axis_angle(&axis, q[next]);
+            match joint_motion(joint, q[next]) {
+                Motion::Rotation(r) => {
+                    let matrix = Matrix3::from_fn(|i, j| r[i][j]);
+                    world_from_link *= Rotation3::from_matrix_unchecked(matrix);
+                }
+                Motion::Translation(_) | Motion::Still => {}
             }
             next += 1;
         }
@@ -380,19 +399,14 @@ impl<T: Scalar> TipChain<T> {
         for (joint, link) in leg.joints.iter().zip(&self.links).rev() {
             if joint.is_moving() {
                 next -= 1;
-                let value = q[next];
-                let axis = [joint.axis[0], joint.axis[1], joint.axis[2]];
-                match joint.kind {
-                    JointKind::Revolute => {
-                        let (s, c) = value.sin_cos();
-                        p = constant_times(&rodrigues(axis, s, c, 1.0 - c), &p);
-                    }
-                    JointKind::Prismatic => {
-                        for (pi, ai) in p.iter_mut().zip(axis) {
-                            *pi += lift::<T>(ai * value);
+                match joint_motion(joint, q[next]) {
+                    Motion::Rotation(r) => p = constant_times(&r, &p),
+                    Motion::Translation(a) => {
+                        for (pi, ai) in p.iter_mut().zip(a) {
+                            *pi += lift::<T>(ai);
                         }
                     }
-                    JointKind::Fixed => {}
+                    Motion::Still => {}
                 }
             }
             let [x, y, z] = match &link.rotation {

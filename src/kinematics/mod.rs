@@ -1,4 +1,5 @@
 //! Kinematics as free functions over the immutable model, generic over the scalar.
+pub mod assembly;
 pub mod chain;
 pub mod inverse;
 mod newton_stop;

@@ -2,18 +2,14 @@
 //! URDF. Every error names the file and the field.
 
 use std::collections::BTreeMap;
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 
-use super::file::ModelFile;
 use super::instrument::Instrument;
 use super::joint::ORIGIN_COMPONENTS;
 use super::leg::LegModel;
 use super::workspace::Workspace;
-use crate::error::Result;
 
 mod validate;
-
-use validate::Builder;
 
 /// Largest number of identification poses per leg (simulated or selected).
 pub const MAX_POSES_PER_LEG: usize = 100_000;
@@ -98,28 +94,6 @@ pub struct Simulation {
 }
 
 impl Mechanism {
-    /// The model file and its URDF cross-checked, before the kinematic checks of
-    /// [`crate::assembly`] (which solve each leg's home configuration and set its branch): use
-    /// [`Mechanism::load`] or [`Mechanism::parse`], which run both.
-    ///
-    /// # Errors
-    /// [`crate::error::Error::Urdf`] (with the line where there is one) or
-    /// [`crate::error::Error::Model`] naming the field.
-    pub(crate) fn unassembled(
-        path: &Path,
-        file: ModelFile,
-        urdf_path: &Path,
-        urdf_text: &str,
-    ) -> Result<Self> {
-        let robot = super::urdf::parse(urdf_text, urdf_path)?;
-        Builder {
-            path,
-            urdf_path,
-            robot: &robot,
-        }
-        .build(file)
-    }
-
     /// Index of the leg called `name`.
     pub fn leg_index(&self, name: &str) -> Option<usize> {
         self.legs.iter().position(|leg| leg.name == name)

@@ -3,6 +3,7 @@ pub mod file;
 pub mod instrument;
 pub mod joint;
 pub mod leg;
+pub mod load;
 pub mod mechanism;
 pub mod params;
 pub mod region;

@@ -4,9 +4,9 @@
 use nalgebra::DMatrix;
 
 use super::driver::{Engine, Step};
-use super::gains::{accept_ln, argmax};
+use super::gains::accept_ln;
 use super::linalg::{ln_det_small, spd_inverse};
-use super::pool::Pool;
+use super::pool::{argmax, Pool};
 use super::SelectionError;
 
 pub(super) struct AOptimal<'a> {

@@ -12,7 +12,7 @@ use crate::error::{Error, Result};
 use crate::identify::observability::{analyse, Observability};
 use crate::model::mechanism::SelectionCriterion;
 use crate::model::Mechanism;
-use crate::workspace::candidates::CandidatePool;
+use crate::selection::candidates::CandidatePool;
 
 /// The selected poses of one leg.
 #[derive(Debug, Clone)]
@@ -319,7 +319,7 @@ impl ExperimentDesign {
     ///
     /// # Errors
     /// [`nothing_identified`] first (before the pool is built), then as
-    /// [`crate::workspace::candidates::candidate_pool`], [`divide_and_conquer`] and [`traditional`].
+    /// [`crate::selection::candidates::candidate_pool`], [`divide_and_conquer`] and [`traditional`].
     pub fn select(
         mechanism: &Mechanism,
         spacing: Option<f64>,
@@ -330,7 +330,7 @@ impl ExperimentDesign {
         if mechanism.identified_legs().is_empty() {
             return Err(nothing_identified(mechanism));
         }
-        let pool = crate::workspace::candidates::candidate_pool(mechanism, spacing)?;
+        let pool = crate::selection::candidates::candidate_pool(mechanism, spacing)?;
         let legs = divide_and_conquer(mechanism, &pool, count, criterion)?;
         let shared = if shared {
             Some(traditional(mechanism, &pool, count, criterion)?)

@@ -1,9 +1,9 @@
 //! E criterion (maximise s_min): eigenvalues of the trial M, pruned by a Rayleigh bound.
 
 use super::driver::{Engine, Step};
-use super::gains::{accept_ln, argmax};
+use super::gains::accept_ln;
 use super::linalg::{half_ln, min_eigenvalue, spd_inverse};
-use super::pool::Pool;
+use super::pool::{argmax, Pool};
 use super::SelectionError;
 
 pub(super) struct EOptimal<'a> {

@@ -3,7 +3,7 @@
 use nalgebra::DMatrix;
 
 use super::linalg::{half_ln, ln_det_small, log_det_spd, min_eigenvalue, spd_inverse};
-use super::pool::Pool;
+use super::pool::{argmax, Pool};
 use super::{Criterion, ACCEPT};
 
 /// The criterion (larger is better, log scale) of the information matrix `m`: ln det M (D),
@@ -141,17 +141,6 @@ impl BestSwap {
     pub(super) fn swap(&self) -> Option<(usize, usize)> {
         self.swap
     }
-}
-
-/// The first eligible index of largest score (strictly larger replaces: ties to the lowest).
-pub(super) fn argmax(scores: impl Iterator<Item = (usize, f64)>) -> Option<usize> {
-    let mut best: Option<(usize, f64)> = None;
-    for (j, score) in scores {
-        if best.is_none_or(|(_, b)| score > b) {
-            best = Some((j, score));
-        }
-    }
-    best.map(|(j, _)| j)
 }
 
 /// ln(1 + ACCEPT): the improvement of a log-scale criterion a swap must exceed.

@@ -3,9 +3,9 @@
 use nalgebra::DMatrix;
 
 use super::driver::{Engine, Step};
-use super::gains::{accept_ln, argmax};
+use super::gains::accept_ln;
 use super::linalg::{log_det_spd, spd_inverse};
-use super::pool::Pool;
+use super::pool::{argmax, Pool};
 use super::{Criterion, SelectionError};
 use crate::identify::observability::{indices, sorted_singular_values};
 

@@ -5,7 +5,6 @@ use std::ops::Range;
 
 use nalgebra::{DMatrix, DMatrixView, DVector, RowDVector};
 
-use super::gains::argmax;
 use super::linalg::{det_in_place, spd_inverse};
 use super::{SelectionError, SelectionOptions, RIDGE};
 use crate::identify::observability::{sorted_singular_values, RANK_TOLERANCE};
@@ -326,4 +325,15 @@ fn scaled_rank(x: &DMatrix<f64>, sums: &DVector<f64>) -> usize {
         .iter()
         .filter(|&&s| s > RANK_TOLERANCE * largest)
         .count()
+}
+
+/// The first eligible index of largest score (strictly larger replaces: ties to the lowest).
+pub(super) fn argmax(scores: impl Iterator<Item = (usize, f64)>) -> Option<usize> {
+    let mut best: Option<(usize, f64)> = None;
+    for (j, score) in scores {
+        if best.is_none_or(|(_, b)| score > b) {
+            best = Some((j, score));
+        }
+    }
+    best.map(|(j, _)| j)
 }

@@ -3,8 +3,8 @@
 use nalgebra::{DMatrix, DVector, RowDVector};
 
 use super::driver::{Engine, Step};
-use super::gains::{argmax, BestSwap};
-use super::pool::{column_dots, Pool};
+use super::gains::BestSwap;
+use super::pool::{argmax, column_dots, Pool};
 use super::running_inverse::RunningInverse;
 use super::{SelectionError, ACCEPT};
 

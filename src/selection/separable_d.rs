@@ -5,9 +5,9 @@
 use nalgebra::{DMatrix, DMatrixView};
 
 use super::driver::{Engine, Step};
-use super::gains::{argmax, BestSwap};
+use super::gains::BestSwap;
 use super::linalg::spd_inverse;
-use super::pool::{column_dots, Pool};
+use super::pool::{argmax, column_dots, Pool};
 use super::running_inverse::{Change, RunningInverse};
 use super::{Criterion, SelectionError, ACCEPT};
 

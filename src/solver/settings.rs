@@ -5,8 +5,14 @@
 
 use argmin::core::{ArgminError, Error, TerminationReason};
 
-use super::levenberg_marquardt::STATIONARITY_TOLERANCE;
 use super::stop::StopReason;
+
+/// Default stationarity tolerance on MINPACK's gradient measure `max_j |cos(J e_j, r)|` for
+/// calling a cost-reduction or step stop a convergence. A cost-reduction stop with an undamped
+/// step implies a measure of at most √ftol (≤ 1.2e-4 at MINPACK's default ftol). Measured at
+/// the stopping iteration: at most 6.3e-7 over the 54 NIST StRD fits and 2.8e-7 over the MGH
+/// problems and the simulated 5R (non-zero residuals); 0.64 where MINPACK stalls on NIST BoxBOD.
+pub const STATIONARITY_TOLERANCE: f64 = 1e-3;
 
 /// MINPACK's default relative cost-reduction and step tolerance (≈ √ε).
 const MINPACK_TOLERANCE: f64 = 1.49012e-8;
@@ -205,7 +211,7 @@ macro_rules! tolerance_builders {
 
         /// Stationarity tolerance on `max_j |cos(J e_j, r)|` for a cost-reduction or step stop
         /// to count as convergence (default
-        /// [`STATIONARITY_TOLERANCE`](crate::solver::levenberg_marquardt::STATIONARITY_TOLERANCE)).
+        /// [`STATIONARITY_TOLERANCE`]).
         /// Must be non-negative and finite.
         pub fn with_stationarity_tolerance(
             mut self,

@@ -40,9 +40,9 @@ use crate::model::Mechanism;
 use crate::pipeline::identify_one;
 use crate::progress::Progress;
 use crate::report::RealValues;
+use crate::selection::candidates::candidate_pool;
 use crate::selection::design::{divide_and_conquer, traditional};
 use crate::solver::SolverKind;
-use crate::workspace::candidates::candidate_pool;
 
 /// The strategies a study compares, in report order.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]

@@ -1,40 +1,39 @@
-//! Candidate identification poses: a grid over the usable workspace (spacing `grid` in x, y —
-//! and z for a spatial region — from the lower corner of the usable region's bounding box, each
+//! Feasible candidate poses: a grid over the usable workspace (spacing `grid` in x, y — and z
+//! for a spatial region — from the lower corner of the usable region's bounding box, each
 //! ranged coordinate, e.g. an orientation angle, at `range_levels` values), kept when the pose
 //! is inside the region with its margin, every leg reaches it on its home branch with its joints
-//! within their URDF limits, and it clears
-//! the serial and parallel singularity thresholds. Each candidate carries every leg's identification row at the nominal
-//! parameters.
-
-use nalgebra::DVector;
+//! within their URDF limits, and it clears the serial and parallel singularity thresholds.
+//! Geometry and kinematics only: the selection module's `candidates` adds the identification
+//! rows.
 
 use super::limits::check_limits;
 use crate::error::{Error, KinematicsError, Result};
-use crate::identify::jacobian::PreparedLeg;
+use crate::kinematics::chain::ChainFrames;
+use crate::kinematics::inverse::{solve_from_home, LegSolution};
 use crate::kinematics::singularity::ParallelMeasure;
 use crate::model::Mechanism;
 
 /// Largest candidate grid (poses before the feasibility checks).
 pub const MAX_GRID_POSES: usize = 2_000_000;
 
-/// One feasible candidate pose.
-#[derive(Debug, Clone, PartialEq)]
-pub struct Candidate {
+/// One feasible pose.
+#[derive(Debug, Clone)]
+pub struct FeasiblePose {
     /// The pose `[x, y, z, roll, pitch, yaw]`.
     pub pose: [f64; 6],
-    /// Per leg, the identification row ∂ψ/∂φ (identified parameters) at the nominal values.
-    pub rows: Vec<DVector<f64>>,
+    /// Per leg, its home-branch solution at the pose (nominal parameters).
+    pub solutions: Vec<LegSolution>,
     /// Smallest serial (type I) measure over the legs.
     pub serial: f64,
     /// Parallel (type II) measure, when defined.
     pub parallel: Option<f64>,
 }
 
-/// The candidate pool and what was rejected.
-#[derive(Debug, Clone, PartialEq)]
-pub struct CandidatePool {
-    /// Feasible candidates, in grid order.
-    pub candidates: Vec<Candidate>,
+/// The feasible poses of the grid and what was rejected.
+#[derive(Debug, Clone)]
+pub struct FeasiblePoses {
+    /// Feasible poses, in grid order.
+    pub poses: Vec<FeasiblePose>,
     /// Grid points inside the region with its margin.
     pub inside: usize,
     /// Rejected: a leg cannot reach the pose on its home branch.
@@ -49,12 +48,12 @@ pub struct CandidatePool {
     pub spacing: f64,
 }
 
-/// Builds the candidate pool of `mechanism` with grid spacing `spacing` (metres; default: the
-/// model's `workspace.grid`).
+/// The feasible poses of `mechanism`'s candidate grid with spacing `spacing` (metres; default:
+/// the model's `workspace.grid`), at the nominal parameters.
 ///
 /// # Errors
-/// No spacing given anywhere, or an empty pool.
-pub fn candidate_pool(mechanism: &Mechanism, spacing: Option<f64>) -> Result<CandidatePool> {
+/// No spacing given anywhere, a grid too fine, or no feasible pose.
+pub fn feasible_poses(mechanism: &Mechanism, spacing: Option<f64>) -> Result<FeasiblePoses> {
     let workspace = &mechanism.workspace;
     let spacing = spacing.or(workspace.grid).ok_or_else(|| Error::Model {
         path: mechanism.model_path.clone(),
@@ -72,14 +71,18 @@ pub fn candidate_pool(mechanism: &Mechanism, spacing: Option<f64>) -> Result<Can
         Err(KinematicsError::NotSquare { .. }) => None,
         Err(err) => return Err(err.into()),
     };
-    let prepared: Vec<PreparedLeg<'_>> = mechanism
+    let legs: Vec<_> = mechanism
         .legs
         .iter()
         .zip(&nominal)
-        .map(|(leg, phi)| PreparedLeg::new(leg, phi, &leg.identified()))
+        .map(|(leg, phi)| {
+            let geometry = leg.geometry(phi);
+            let frames = ChainFrames::new(&geometry);
+            (leg, geometry, frames)
+        })
         .collect();
-    let mut pool = CandidatePool {
-        candidates: Vec::new(),
+    let mut feasible = FeasiblePoses {
+        poses: Vec::new(),
         inside: 0,
         unreachable: 0,
         beyond_limits: 0,
@@ -94,13 +97,16 @@ pub fn candidate_pool(mechanism: &Mechanism, spacing: Option<f64>) -> Result<Can
         if !workspace.contains(&pose) {
             continue;
         }
-        pool.inside += 1;
-        let Ok(solutions) = prepared
+        feasible.inside += 1;
+        let Ok(solutions) = legs
             .iter()
-            .map(|leg| leg.solve(&pose, &mechanism.home_pose))
+            .map(|(leg, geometry, frames)| {
+                solve_from_home(leg, geometry, frames, &pose, &mechanism.home_pose)
+                    .map(|solution| solution.to_leg_solution(leg))
+            })
             .collect::<Result<Vec<_>, _>>()
         else {
-            pool.unreachable += 1;
+            feasible.unreachable += 1;
             continue;
         };
         let within = mechanism.legs.iter().zip(&solutions);
@@ -108,7 +114,7 @@ pub fn candidate_pool(mechanism: &Mechanism, spacing: Option<f64>) -> Result<Can
             .map(|(leg, solution)| check_limits(leg, &solution.q))
             .any(|checked| checked.is_err())
         {
-            pool.beyond_limits += 1;
+            feasible.beyond_limits += 1;
             continue;
         }
         let serial = solutions
@@ -117,7 +123,7 @@ pub fn candidate_pool(mechanism: &Mechanism, spacing: Option<f64>) -> Result<Can
             .map(|(solution, leg)| leg.home_branch_measure(solution.normalised_determinant))
             .fold(f64::INFINITY, f64::min);
         if serial < workspace.serial_threshold {
-            pool.near_serial += 1;
+            feasible.near_serial += 1;
             continue;
         }
         let parallel = match &parallel {
@@ -125,37 +131,28 @@ pub fn candidate_pool(mechanism: &Mechanism, spacing: Option<f64>) -> Result<Can
             None => None,
         };
         if parallel.is_some_and(|p| p < workspace.parallel_threshold) {
-            pool.near_parallel += 1;
+            feasible.near_parallel += 1;
             continue;
         }
-        let rows = prepared
-            .iter()
-            .zip(&solutions)
-            .map(|(leg, solution)| {
-                let mut row = DVector::zeros(leg.columns());
-                leg.reading_and_gradient_at(&pose, solution, row.as_mut_slice());
-                row
-            })
-            .collect();
-        pool.candidates.push(Candidate {
+        feasible.poses.push(FeasiblePose {
             pose,
-            rows,
+            solutions,
             serial,
             parallel,
         });
     }
-    if pool.candidates.is_empty() {
+    if feasible.poses.is_empty() {
         return Err(Error::Invalid(format!(
             "{}: no feasible candidate pose ({} grid points inside the usable workspace: {} unreachable, {} beyond a joint limit, {} near a serial singularity, {} near a parallel singularity)",
             mechanism.model_path.display(),
-            pool.inside,
-            pool.unreachable,
-            pool.beyond_limits,
-            pool.near_serial,
-            pool.near_parallel
+            feasible.inside,
+            feasible.unreachable,
+            feasible.beyond_limits,
+            feasible.near_serial,
+            feasible.near_parallel
         )));
     }
-    Ok(pool)
+    Ok(feasible)
 }
 
 /// Grid poses from the lower corner of the usable region's bounding box (the region's bounds

@@ -381,7 +381,7 @@ fn poses_at_one_distance_from_the_base_joint_are_rank_deficient_and_name_the_par
 #[test]
 fn a_candidate_grid_too_fine_is_refused() {
     let mech = bundled("5r.yaml");
-    let err = legwise::workspace::candidates::candidate_pool(&mech, Some(1e-6)).unwrap_err();
+    let err = legwise::selection::candidates::candidate_pool(&mech, Some(1e-6)).unwrap_err();
     assert_eq!(
         err.to_string(),
         "grid spacing 0.000001 m (workspace.grid or --grid) gives 1.505e12 grid poses; at most \

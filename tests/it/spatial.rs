@@ -11,8 +11,8 @@ use legwise::identify::jacobian::reading_gradient;
 use legwise::kinematics::inverse::predict_reading;
 use legwise::measure::{MeasuredPose, MeasurementSet};
 use legwise::model::Mechanism;
+use legwise::selection::candidates::candidate_pool;
 use legwise::solver::SolverKind;
-use legwise::workspace::candidates::candidate_pool;
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 
@@ -686,7 +686,7 @@ fn a_polyhedron_region_gives_the_same_candidates_as_the_cuboid_it_spans() {
     let b = candidate_pool(&by_polyhedron, None).unwrap();
     assert_eq!(a.inside, 27 * 8);
     assert_eq!(a.inside, b.inside);
-    let poses = |pool: &legwise::workspace::candidates::CandidatePool| -> Vec<[f64; 6]> {
+    let poses = |pool: &legwise::selection::candidates::CandidatePool| -> Vec<[f64; 6]> {
         pool.candidates.iter().map(|c| c.pose).collect()
     };
     assert_eq!(poses(&a), poses(&b));

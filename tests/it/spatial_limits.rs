@@ -2,7 +2,7 @@
 //! workspace computations (candidate poses, MIW rays), checked against leg lengths computed here
 //! from the hexapod's definition; a malformed limit is refused with the joint named.
 use legwise::model::joint::JointKind;
-use legwise::workspace::candidates::candidate_pool;
+use legwise::selection::candidates::candidate_pool;
 
 use crate::cli::{legwise, text};
 use crate::spatial::{edited, platform_point};

@@ -7,7 +7,7 @@ use legwise::kinematics::singularity::ParallelMeasure;
 use legwise::model::Mechanism;
 use legwise::workspace::miw::SingularityMargin;
 use legwise::workspace::miw3d::{slice, spatial_inscribed_workspace, Miw3dOptions};
-use legwise::workspace::picture::singular_curves;
+use legwise::workspace::singular::singular_curves;
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 

@@ -26,7 +26,7 @@ fn the_5r_maximal_inscribed_workspace_matches_the_closed_form() {
 
 #[test]
 fn the_5r_candidate_pool_is_the_grid_inside_the_usable_disc() {
-    use legwise::workspace::candidates::candidate_pool;
+    use legwise::selection::candidates::candidate_pool;
     let mech = bundled("5r.yaml");
     let pool = candidate_pool(&mech, None).unwrap();
     // The lattice from the usable disc's lower-left corner, counted independently.
@@ -80,7 +80,7 @@ fn the_5r_candidate_pool_is_the_grid_inside_the_usable_disc() {
 
 #[test]
 fn the_3rpr_candidate_pool_varies_the_orientation() {
-    use legwise::workspace::candidates::candidate_pool;
+    use legwise::selection::candidates::candidate_pool;
     let mech = bundled("3rpr.yaml");
     let pool = candidate_pool(&mech, None).unwrap();
     // docs/method.md §10: a 0.05 m grid in the 0.2 m disc (49 points) × 9 orientations.
@@ -104,7 +104,7 @@ fn the_3rpr_candidate_pool_varies_the_orientation() {
 #[test]
 fn the_5r_serial_curves_are_the_reach_circles_not_a_staircase() {
     use legwise::workspace::miw::SingularityMargin;
-    use legwise::workspace::picture::singular_curves;
+    use legwise::workspace::singular::singular_curves;
     let mech = bundled("5r.yaml");
     let margin = SingularityMargin::new(&mech).unwrap();
     let (lo, hi) = ([-2.0, -1.2], [2.0, 2.8]);

@@ -6,6 +6,12 @@ use plotters::prelude::*;
 
 use super::canvas::Figure;
 use super::style;
+use crate::model::Mechanism;
+use crate::report::tidy;
+use crate::workspace::limits::has_limits;
+use crate::workspace::miw::{Miw, SingularityMargin};
+use crate::workspace::miw3d::Miw3d;
+use crate::workspace::singular::{singular_curves, SingularCurves};
 
 /// A set of poses drawn with one marker colour.
 #[derive(Debug, Clone, PartialEq)]
@@ -244,5 +250,117 @@ impl WorkspaceFigure {
             x += width;
         }
         Ok(())
+    }
+}
+
+/// Grid cells per side sampled to trace the singular curves of the picture.
+pub const GRID: usize = 120;
+
+/// The workspace picture of `miw`, with the singular curves of `margin` over the region around
+/// it, and `poses` drawn on top.
+pub fn workspace_figure(
+    margin: &SingularityMargin<'_>,
+    miw: &Miw,
+    title: &str,
+    poses: Vec<PoseGroup>,
+) -> WorkspaceFigure {
+    let (mut lo, mut hi) = ([f64::INFINITY; 2], [f64::NEG_INFINITY; 2]);
+    let points = miw
+        .boundary
+        .iter()
+        .chain(poses.iter().flat_map(|g| g.points.iter()));
+    for p in points {
+        for k in 0..2 {
+            lo[k] = lo[k].min(p[k]);
+            hi[k] = hi[k].max(p[k]);
+        }
+    }
+    let pad = 0.25 * (hi[0] - lo[0]).max(hi[1] - lo[1]);
+    let (lo, hi) = ([lo[0] - pad, lo[1] - pad], [hi[0] + pad, hi[1] + pad]);
+    let SingularCurves { serial, parallel } = singular_curves(margin, (lo, hi), miw.centre, GRID);
+    WorkspaceFigure {
+        title: title.to_string(),
+        region: miw.boundary.clone(),
+        serial,
+        parallel,
+        miw_centre: miw.centre,
+        miw_radius: miw.radius,
+        poses,
+        bounds: (lo, hi),
+        axes: ["x".into(), "y".into()],
+        region_label:
+            "singularity-free region of the home working and assembly modes, seen from the MIW centre"
+                .into(),
+        serial_label: serial_label(margin.mechanism()),
+        miw_label: format!(
+            "MIW: centre ({}, {}) m, radius {:.4} m",
+            tidy(miw.centre[0], 4),
+            tidy(miw.centre[1], 4),
+            miw.radius
+        ),
+    }
+}
+
+/// The serial curves' legend entry: they include the joint limits where the mechanism has any.
+fn serial_label(mechanism: &Mechanism) -> String {
+    if mechanism.legs.iter().any(has_limits) {
+        SERIAL_OR_LIMIT_LABEL.into()
+    } else {
+        SERIAL_LABEL.into()
+    }
+}
+
+/// Grid cells per side of a spatial slice's singular curves (three slices are drawn).
+pub const SLICE_GRID: usize = 80;
+
+/// The picture of one slice of a spatial mechanism's workspace through the home position, in
+/// the plane of the position coordinates `axes` (`margin` set on that plane with
+/// [`SingularityMargin::in_plane`]): the region's `boundary` there (from
+/// [`crate::workspace::miw3d::slice`]), its singular curves, the 3-D MIW's cross-section and the
+/// `poses` (projected on the plane).
+pub fn slice_figure(
+    margin: &SingularityMargin<'_>,
+    boundary: Vec<[f64; 2]>,
+    axes: [usize; 2],
+    miw: &Miw3d,
+    poses: Vec<PoseGroup>,
+) -> WorkspaceFigure {
+    const NAMES: [&str; 3] = ["x", "y", "z"];
+    let (mut lo, mut hi) = ([f64::INFINITY; 2], [f64::NEG_INFINITY; 2]);
+    for p in boundary
+        .iter()
+        .chain(poses.iter().flat_map(|g| g.points.iter()))
+    {
+        for k in 0..2 {
+            lo[k] = lo[k].min(p[k]);
+            hi[k] = hi[k].max(p[k]);
+        }
+    }
+    let pad = 0.25 * (hi[0] - lo[0]).max(hi[1] - lo[1]);
+    let (lo, hi) = ([lo[0] - pad, lo[1] - pad], [hi[0] + pad, hi[1] + pad]);
+    let centre = [miw.centre[axes[0]], miw.centre[axes[1]]];
+    let SingularCurves { serial, parallel } = singular_curves(margin, (lo, hi), centre, SLICE_GRID);
+    let fixed = 3 - axes[0] - axes[1];
+    let c = miw.centre.map(|v| tidy(v, 4));
+    WorkspaceFigure {
+        title: format!(
+            "slice {} = {} m",
+            NAMES[fixed],
+            tidy(miw.centre[fixed], 4)
+        ),
+        region: boundary,
+        serial,
+        parallel,
+        miw_centre: centre,
+        miw_radius: miw.radius,
+        poses,
+        bounds: (lo, hi),
+        axes: [NAMES[axes[0]].into(), NAMES[axes[1]].into()],
+        region_label: "singularity-free region of the home working and assembly modes at the home orientation, seen from the home position".into(),
+        serial_label: serial_label(margin.mechanism()),
+        miw_label: format!(
+            "3-D MIW: a ball about ({}, {}, {}) m, radius {:.4} m (its cross-section)",
+            c[0], c[1], c[2], miw.radius
+        ),
     }
 }

@@ -5,7 +5,8 @@
 #![allow(clippy::float_cmp)]
 
 use super::*;
-use crate::selection::gains::{addition, argmax, gram_value, removal, BestSwap};
+use crate::selection::gains::{addition, gram_value, removal, BestSwap};
+use crate::selection::pool::argmax;
 use crate::selection::Pool;
 
 /// ln det of the information matrix of `design` (no ridge), from scratch.

@@ -154,7 +154,7 @@ fn the_traditional_designs_of_the_bundled_models_are_the_dense_block_selections(
     assert!(paths.len() >= 8, "{paths:?}");
     for path in paths {
         let mechanism = crate::model::Mechanism::load(&path).unwrap();
-        let mut pool = crate::workspace::candidates::candidate_pool(&mechanism, None).unwrap();
+        let mut pool = crate::selection::candidates::candidate_pool(&mechanism, None).unwrap();
         let step = pool.candidates.len().div_ceil(1500);
         pool.candidates = pool.candidates.into_iter().step_by(step).collect();
         let setup = &mechanism.selection;

@@ -3,7 +3,9 @@
 
 use nalgebra::{DMatrix, DVector};
 
-use super::P1;
+/// MINPACK's `p1`: the step bound's relative tolerance here, and the step-control factor of
+/// the Levenberg–Marquardt iteration.
+pub(super) const P1: f64 = 0.1;
 
 /// Reusable buffers; `jq` holds `R` of `J P = Q R`, `damped` holds the upper-triangular `S` with
 /// `SᵀS = RᵀR + λ (D P)²` (the R factor of `[R; √λ D P]`).

@@ -13,11 +13,10 @@ mod lmpar;
 #[cfg(test)]
 mod tests;
 
-use lmpar::Scratch;
+use lmpar::{Scratch, P1};
 
 type LmState = IterState<DVector<f64>, (), DMatrix<f64>, (), DVector<f64>, f64>;
 
-const P1: f64 = 0.1;
 const P25: f64 = 0.25;
 const P75: f64 = 0.75;
 const P0001: f64 = 1.0e-4;
@@ -105,12 +104,7 @@ pub struct LevenbergMarquardt {
     scratch: Scratch,
 }
 
-/// Default stationarity tolerance on MINPACK's gradient measure `max_j |cos(J e_j, r)|` for
-/// calling a cost-reduction or step stop a convergence. A cost-reduction stop with an undamped
-/// step implies a measure of at most √ftol (≤ 1.2e-4 at MINPACK's default ftol). Measured at
-/// the stopping iteration: at most 6.3e-7 over the 54 NIST StRD fits and 2.8e-7 over the MGH
-/// problems and the simulated 5R (non-zero residuals); 0.64 where MINPACK stalls on NIST BoxBOD.
-pub const STATIONARITY_TOLERANCE: f64 = 1e-3;
+pub use super::settings::STATIONARITY_TOLERANCE;
 
 /// Relative length of a Gauss–Newton step below which the point counts as stationary (√ε).
 const NEGLIGIBLE_GAUSS_NEWTON_STEP: f64 = 1.490_116_119_384_765_6e-8;

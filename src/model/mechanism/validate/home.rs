@@ -1,5 +1,5 @@
 //! The home pose and each leg's home configuration (its joints' seeds, checked for presence
-//! here; solved at the home pose, which fixes the branch, by [`crate::assembly`]).
+//! here; solved at the home pose, which fixes the branch, by [`crate::kinematics::assembly`]).
 
 use std::collections::BTreeMap;
 
@@ -76,7 +76,7 @@ impl Builder<'_> {
             ));
         }
         // The kinematic checks (planar axes, closure at the home pose, branch) are
-        // `crate::assembly`'s: this module stays below the kinematics.
+        // `crate::kinematics::assembly`'s: this module stays below the kinematics.
         leg.home_joints = seed;
         Ok(())
     }

@@ -16,6 +16,30 @@ mod scale;
 mod setup;
 mod workspace;
 
+impl Mechanism {
+    /// The model file and its URDF cross-checked, before the kinematic checks of
+    /// [`crate::workspace::region::check_usable`] and [`crate::kinematics::assembly`] (which solve each leg's home configuration and set its branch): use
+    /// [`Mechanism::load`] or [`Mechanism::parse`], which run both.
+    ///
+    /// # Errors
+    /// [`crate::error::Error::Urdf`] (with the line where there is one) or
+    /// [`crate::error::Error::Model`] naming the field.
+    pub(crate) fn unassembled(
+        path: &Path,
+        file: ModelFile,
+        urdf_path: &Path,
+        urdf_text: &str,
+    ) -> Result<Self> {
+        let robot = crate::model::urdf::parse(urdf_text, urdf_path)?;
+        Builder {
+            path,
+            urdf_path,
+            robot: &robot,
+        }
+        .build(file)
+    }
+}
+
 /// Cross-checks a model file against the URDF it names.
 pub(super) struct Builder<'a> {
     pub(super) path: &'a Path,

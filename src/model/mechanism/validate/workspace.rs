@@ -74,12 +74,6 @@ impl Builder<'_> {
                         "expected at least four finite vertices [x, y, z] (metres)",
                     ));
                 }
-                if !region.encloses_volume() {
-                    return Err(self.error(
-                        "workspace.region.polyhedron",
-                        "the vertices enclose no volume (they are coplanar): expected the corners of a solid",
-                    ));
-                }
             }
         }
         if region.is_spatial() && !measured.contains(&2) {
@@ -135,7 +129,9 @@ impl Builder<'_> {
                 "expected a number in [0, 1)",
             )),
         };
-        let workspace = Workspace {
+        // The geometric checks (a polyhedron's volume, a usable region within the margin)
+        // are `crate::workspace::region::check_usable`'s, run when the mechanism is loaded.
+        Ok(Workspace {
             region,
             margin: entry.margin,
             ranges,
@@ -143,39 +139,6 @@ impl Builder<'_> {
             range_levels: levels,
             serial_threshold: threshold(thresholds.and_then(|t| t.serial), "serial")?,
             parallel_threshold: threshold(thresholds.and_then(|t| t.parallel), "parallel")?,
-        };
-        let (lo, hi) = workspace.region.bounds();
-        let [z_lo, z_hi] = workspace.region.z_bounds().unwrap_or([0.0, f64::INFINITY]);
-        let smallest = (hi[0] - lo[0]).min(hi[1] - lo[1]).min(z_hi - z_lo);
-        let centre = [
-            (lo[0] + hi[0]) / 2.0,
-            (lo[1] + hi[1]) / 2.0,
-            if z_hi.is_finite() {
-                (z_lo + z_hi) / 2.0
-            } else {
-                0.0
-            },
-        ];
-        let usable = entry.margin * 2.0 < smallest
-            && (workspace.region.depth(centre) >= entry.margin || {
-                // A non-convex polygon may not contain its bounding box's centre: try a few points.
-                use rand::SeedableRng;
-                let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(0);
-                workspace.sample(&[0.0; 6], &mut rng).is_some()
-            });
-        if !usable {
-            return Err(self.error(
-                "workspace.margin",
-                format!(
-                    "the margin ({} m) leaves no usable region",
-                    if entry.margin < 1e6 {
-                        entry.margin.to_string()
-                    } else {
-                        format!("{:e}", entry.margin)
-                    }
-                ),
-            ));
-        }
-        Ok(workspace)
+        })
     }
 }

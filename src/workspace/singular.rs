@@ -1,134 +1,15 @@
-//! The data of the workspace picture: the singularity-free region, its singular curves traced
-//! smoothly (marching squares on the singularity measures with sub-cell crossings, bisected
-//! on the real measures where a leg loses reach) and the MIW. Drawn by
-//! [`crate::report::plots::workspace`].
+//! The singular curves of the workspace around the singularity-free region, traced smoothly
+//! (marching squares on the singularity measures with sub-cell crossings, bisected on the real
+//! measures where a leg loses reach). Pictured by the report module's workspace plot.
 
 use std::collections::VecDeque;
 
 use super::contour::{zero_contours, Polyline, Samples, Undefined};
-use super::limits::has_limits;
-use super::miw::{Miw, SingularityMargin};
-use super::miw3d::Miw3d;
+use super::miw::SingularityMargin;
 use crate::kinematics::inverse::LegSolution;
-use crate::model::Mechanism;
-use crate::report::plots::workspace::{
-    PoseGroup, WorkspaceFigure, SERIAL_LABEL, SERIAL_OR_LIMIT_LABEL,
-};
-
-/// Grid cells per side sampled to trace the singular curves of the picture.
-pub const GRID: usize = 120;
 
 /// Bisection steps on an edge between a reachable and an unreachable node (2⁻²⁰ of a cell, then extrapolated).
 const BISECTIONS: usize = 20;
-
-/// The workspace picture of `miw`, with the singular curves of `margin` over the region around
-/// it, and `poses` drawn on top.
-pub fn workspace_figure(
-    margin: &SingularityMargin<'_>,
-    miw: &Miw,
-    title: &str,
-    poses: Vec<PoseGroup>,
-) -> WorkspaceFigure {
-    let (mut lo, mut hi) = ([f64::INFINITY; 2], [f64::NEG_INFINITY; 2]);
-    let points = miw
-        .boundary
-        .iter()
-        .chain(poses.iter().flat_map(|g| g.points.iter()));
-    for p in points {
-        for k in 0..2 {
-            lo[k] = lo[k].min(p[k]);
-            hi[k] = hi[k].max(p[k]);
-        }
-    }
-    let pad = 0.25 * (hi[0] - lo[0]).max(hi[1] - lo[1]);
-    let (lo, hi) = ([lo[0] - pad, lo[1] - pad], [hi[0] + pad, hi[1] + pad]);
-    let SingularCurves { serial, parallel } = singular_curves(margin, (lo, hi), miw.centre, GRID);
-    WorkspaceFigure {
-        title: title.to_string(),
-        region: miw.boundary.clone(),
-        serial,
-        parallel,
-        miw_centre: miw.centre,
-        miw_radius: miw.radius,
-        poses,
-        bounds: (lo, hi),
-        axes: ["x".into(), "y".into()],
-        region_label:
-            "singularity-free region of the home working and assembly modes, seen from the MIW centre"
-                .into(),
-        serial_label: serial_label(margin.mechanism()),
-        miw_label: format!(
-            "MIW: centre ({}, {}) m, radius {:.4} m",
-            crate::report::tidy(miw.centre[0], 4),
-            crate::report::tidy(miw.centre[1], 4),
-            miw.radius
-        ),
-    }
-}
-
-/// The serial curves' legend entry: they include the joint limits where the mechanism has any.
-fn serial_label(mechanism: &Mechanism) -> String {
-    if mechanism.legs.iter().any(has_limits) {
-        SERIAL_OR_LIMIT_LABEL.into()
-    } else {
-        SERIAL_LABEL.into()
-    }
-}
-
-/// Grid cells per side of a spatial slice's singular curves (three slices are drawn).
-pub const SLICE_GRID: usize = 80;
-
-/// The picture of one slice of a spatial mechanism's workspace through the home position, in
-/// the plane of the position coordinates `axes` (`margin` set on that plane with
-/// [`SingularityMargin::in_plane`]): the region's `boundary` there (from
-/// [`crate::workspace::miw3d::slice`]), its singular curves, the 3-D MIW's cross-section and the
-/// `poses` (projected on the plane).
-pub fn slice_figure(
-    margin: &SingularityMargin<'_>,
-    boundary: Vec<[f64; 2]>,
-    axes: [usize; 2],
-    miw: &Miw3d,
-    poses: Vec<PoseGroup>,
-) -> WorkspaceFigure {
-    const NAMES: [&str; 3] = ["x", "y", "z"];
-    let (mut lo, mut hi) = ([f64::INFINITY; 2], [f64::NEG_INFINITY; 2]);
-    for p in boundary
-        .iter()
-        .chain(poses.iter().flat_map(|g| g.points.iter()))
-    {
-        for k in 0..2 {
-            lo[k] = lo[k].min(p[k]);
-            hi[k] = hi[k].max(p[k]);
-        }
-    }
-    let pad = 0.25 * (hi[0] - lo[0]).max(hi[1] - lo[1]);
-    let (lo, hi) = ([lo[0] - pad, lo[1] - pad], [hi[0] + pad, hi[1] + pad]);
-    let centre = [miw.centre[axes[0]], miw.centre[axes[1]]];
-    let SingularCurves { serial, parallel } = singular_curves(margin, (lo, hi), centre, SLICE_GRID);
-    let fixed = 3 - axes[0] - axes[1];
-    let c = miw.centre.map(|v| crate::report::tidy(v, 4));
-    WorkspaceFigure {
-        title: format!(
-            "slice {} = {} m",
-            NAMES[fixed],
-            crate::report::tidy(miw.centre[fixed], 4)
-        ),
-        region: boundary,
-        serial,
-        parallel,
-        miw_centre: centre,
-        miw_radius: miw.radius,
-        poses,
-        bounds: (lo, hi),
-        axes: [NAMES[axes[0]].into(), NAMES[axes[1]].into()],
-        region_label: "singularity-free region of the home working and assembly modes at the home orientation, seen from the home position".into(),
-        serial_label: serial_label(margin.mechanism()),
-        miw_label: format!(
-            "3-D MIW: a ball about ({}, {}, {}) m, radius {:.4} m (its cross-section)",
-            c[0], c[1], c[2], miw.radius
-        ),
-    }
-}
 
 /// The singular curves of a region.
 #[derive(Debug, Clone, PartialEq)]

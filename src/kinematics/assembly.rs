@@ -1,68 +1,18 @@
-//! Loading a mechanism: the model file cross-checked against its URDF by [`crate::model`], then
-//! the checks that need the kinematics, which sit above the model: each leg's home
-//! configuration must close at the home pose (this fixes its branch, the working mode), a planar
-//! model's joints must move in the plane, and the platform must not be degenerate at home.
-//! Every error names the model file and the field.
+//! The kinematic checks of a loaded mechanism (run by [`Mechanism::load`] and
+//! [`Mechanism::parse`] after the model file has been cross-checked against its URDF): each
+//! leg's home configuration must close at the home pose (this fixes its branch, the working
+//! mode), a planar model's joints must move in the plane, and the platform must not be
+//! degenerate at home. Every error names the model file and the field.
 
-use std::path::Path;
-
+use super::chain::moving_axes;
+use super::inverse::newton;
+use super::singularity::ParallelMeasure;
 use crate::error::{Error, KinematicsError, Result};
-use crate::kinematics::chain::moving_axes;
-use crate::kinematics::inverse::newton;
-use crate::kinematics::singularity::ParallelMeasure;
-use crate::model::file::ModelFile;
 use crate::model::joint::JointKind;
-use crate::model::source::read_text;
 use crate::model::Mechanism;
 
 /// Parallel measure (unit-norm rows, in [−1, 1]) at or below which the home pose is degenerate.
 pub const DEGENERATE_PARALLEL_MEASURE: f64 = 1e-8;
-
-impl Mechanism {
-    /// Loads and validates a model file and the URDF it names.
-    ///
-    /// # Errors
-    /// [`Error::Io`] if the model file cannot be read or is not a regular file,
-    /// [`Error::Model`] on field `urdf` if the URDF cannot be (not found, not a regular file,
-    /// unreadable), then as [`Mechanism::parse`].
-    pub fn load(path: &Path) -> Result<Self> {
-        let text = read_text(path).map_err(|error| Error::Io {
-            path: path.to_path_buf(),
-            error,
-        })?;
-        let file = ModelFile::parse(&text, path)?;
-        let urdf_path = path
-            .parent()
-            .unwrap_or_else(|| Path::new("."))
-            .join(&file.urdf);
-        let urdf_text = read_text(&urdf_path).map_err(|error| Error::Model {
-            path: path.to_path_buf(),
-            field: "urdf".into(),
-            message: if error.kind() == std::io::ErrorKind::NotFound {
-                format!("URDF file `{}` not found", urdf_path.display())
-            } else {
-                format!("URDF file `{}`: {error}", urdf_path.display())
-            },
-        })?;
-        assemble(Self::unassembled(path, file, &urdf_path, &urdf_text)?)
-    }
-
-    /// Parses and validates model-file text and URDF text (no file is read: the paths are only
-    /// used in messages). [`Mechanism::load`] without the file system, e.g. for fuzzing.
-    ///
-    /// # Errors
-    /// [`Error::Yaml`], [`Error::Urdf`] (with the line where there is one) or [`Error::Model`]
-    /// naming the field.
-    pub fn parse(
-        model_text: &str,
-        model_path: &Path,
-        urdf_text: &str,
-        urdf_path: &Path,
-    ) -> Result<Self> {
-        let file = ModelFile::parse(model_text, model_path)?;
-        assemble(Self::unassembled(model_path, file, urdf_path, urdf_text)?)
-    }
-}
 
 fn model_error(mechanism: &Mechanism, field: impl Into<String>, message: String) -> Error {
     Error::Model {
@@ -74,7 +24,10 @@ fn model_error(mechanism: &Mechanism, field: impl Into<String>, message: String)
 
 /// Solves every leg's home configuration from its seeds (setting its branch) and checks the
 /// platform at home.
-fn assemble(mut mechanism: Mechanism) -> Result<Mechanism> {
+///
+/// # Errors
+/// [`Error::Model`] naming the leg's `chain` or `home`, or the legs' attachments.
+pub(crate) fn assemble(mut mechanism: Mechanism) -> Result<Mechanism> {
     for index in 0..mechanism.legs.len() {
         home(&mut mechanism, index)?;
     }
@@ -95,7 +48,8 @@ fn home(mechanism: &mut Mechanism, index: usize) -> Result<()> {
         for ((kind, axis), &j) in axes.iter().zip(&leg.moving) {
             let planar = match kind {
                 JointKind::Revolute => axis.z.abs() > 1.0 - 1e-9,
-                _ => axis.z.abs() < 1e-9,
+                JointKind::Prismatic => axis.z.abs() < 1e-9,
+                JointKind::Fixed => true,
             };
             if !planar {
                 let name = &leg.joints[j].name;
