@@ -11,11 +11,12 @@ use std::path::PathBuf;
 
 use criterion::{criterion_group, criterion_main, Criterion};
 use legwise::identify::estimate::{identify, Strategy};
-use legwise::identify::shared_estimate::{identify_shared, SharedStrategy};
+use legwise::identify::shared_estimate::identify_shared;
 use legwise::measure::observe_simulate::simulate_observed;
 use legwise::measure::simulate::SimulationOptions;
 use legwise::model::Mechanism;
 use legwise::solver::SolverKind;
+use legwise::FitOptions;
 
 fn model(name: &str) -> Mechanism {
     let path = PathBuf::from(env!("CARGO_MANIFEST_DIR"))
@@ -42,13 +43,18 @@ fn instrument(c: &mut Criterion) {
             })
         });
         for (id, strategy) in [
-            ("joint", SharedStrategy::Joint),
-            ("two_stage", SharedStrategy::TwoStage),
+            ("joint", Strategy::Joint),
+            ("two_stage", Strategy::TwoStage),
         ] {
             group.bench_function(id, |b| {
                 b.iter(|| {
-                    identify_shared(black_box(&mechanism), &experiment.observations, strategy)
-                        .expect("identifies")
+                    identify_shared(
+                        black_box(&mechanism),
+                        &experiment.observations,
+                        strategy,
+                        FitOptions::default(),
+                    )
+                    .expect("identifies")
                 })
             });
         }

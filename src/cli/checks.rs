@@ -71,6 +71,29 @@ pub(super) fn seed(flag: &str, value: Option<i128>) -> anyhow::Result<Option<u64
         .transpose()
 }
 
+/// `--poses-per-leg` within 1..=[`MAX_POSES_PER_LEG`](crate::model::mechanism::MAX_POSES_PER_LEG).
+pub(super) fn poses_per_leg(count: Option<i64>) -> anyhow::Result<Option<usize>> {
+    use crate::model::mechanism::MAX_POSES_PER_LEG;
+    optional_count("--poses-per-leg", count, 1, MAX_POSES_PER_LEG)
+}
+
+/// The inputs every command reads: the model file and its URDF.
+pub(super) fn model_inputs<'a>(
+    model: &'a std::path::Path,
+    mechanism: &'a crate::model::Mechanism,
+) -> Vec<crate::files::Input<'a>> {
+    vec![
+        crate::files::Input {
+            role: "model file",
+            path: model,
+        },
+        crate::files::Input {
+            role: "URDF",
+            path: &mechanism.urdf_path,
+        },
+    ]
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -2,8 +2,9 @@
 
 use std::path::Path;
 
+use super::args::EvaluateArgs;
 use super::console::Console;
-use super::{EvaluateArgs, Verdict};
+use super::verdict::Verdict;
 use crate::evaluate::evaluate;
 use crate::evaluate::held_out::Evaluation;
 use crate::files::{Input, Output};
@@ -18,9 +19,9 @@ pub(super) fn run(args: &EvaluateArgs) -> anyhow::Result<Verdict> {
     if let (Some(path), Some(other)) = (&args.against, &other) {
         same_measurements(&args.model, &mechanism, path, other)?;
     }
-    let mut inputs = super::model_inputs(&args.model, &mechanism);
+    let mut inputs = super::checks::model_inputs(&args.model, &mechanism);
     if let (Some(path), Some(other)) = (&args.against, &other) {
-        inputs.extend(super::model_inputs(path, other));
+        inputs.extend(super::checks::model_inputs(path, other));
     }
     inputs.push(Input {
         role: "measurement file",

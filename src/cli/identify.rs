@@ -3,8 +3,9 @@
 
 use std::path::Path;
 
+use super::args::{IdentifyArgs, SolverArg, StrategyArg, WeightsArg};
 use super::console::Console;
-use super::{IdentifyArgs, SolverArg, StrategyArg, Verdict, WeightsArg};
+use super::verdict::Verdict;
 use crate::evaluate::accuracy::map_grid;
 use crate::files::{Input, Output};
 use crate::measure::{Measurements, STDIN_NAME};
@@ -104,7 +105,7 @@ fn refuse_unsupported(args: &IdentifyArgs) -> anyhow::Result<()> {
 /// The files `identify` reads (model, URDF, measurements), which no output may overwrite.
 fn identify_inputs<'a>(args: &'a IdentifyArgs, mechanism: &'a Mechanism) -> Vec<Input<'a>> {
     let measurements = args.measurements.as_deref().filter(|p| !is_stdin(p));
-    let mut inputs = super::model_inputs(&args.model, mechanism);
+    let mut inputs = super::checks::model_inputs(&args.model, mechanism);
     inputs.extend(measurements.map(|path| Input {
         role: "measurement file",
         path,

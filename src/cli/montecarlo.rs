@@ -1,7 +1,9 @@
 //! `legwise montecarlo`.
 
+use super::args::MontecarloArgs;
+use super::checks;
 use super::console::Console;
-use super::{checks, MontecarloArgs, Verdict};
+use super::verdict::Verdict;
 use crate::files::Output;
 use crate::model::Mechanism;
 use crate::report::plots::render;
@@ -20,9 +22,9 @@ pub(super) fn run(args: &MontecarloArgs) -> anyhow::Result<Verdict> {
     let seed = checks::seed("--seed", args.seed)?;
     let noise_scale = checks::non_negative("--noise-scale", args.noise_scale)?;
     let grid = checks::positive_metres("--grid", args.grid)?;
-    let poses_per_leg = super::poses_per_leg(args.poses_per_leg)?;
+    let poses_per_leg = super::checks::poses_per_leg(args.poses_per_leg)?;
     let mechanism = Mechanism::load(&args.model)?;
-    let inputs = super::model_inputs(&args.model, &mechanism);
+    let inputs = super::checks::model_inputs(&args.model, &mechanism);
     let json_output = Output::prepare_optional("--json", args.json.as_deref(), &inputs)?;
     let format = crate::files::format(args.png);
     let picture_output =

@@ -2,25 +2,26 @@
 
 use std::fmt::Write as _;
 
+use super::args::SelectArgs;
 use super::console::Console;
-use super::{SelectArgs, Verdict};
+use super::verdict::Verdict;
 use crate::files::Output;
 use crate::measure::{file, observations, MeasuredPose, MeasurementSet};
 use crate::model::Mechanism;
 use crate::selection::design::ExperimentDesign;
 
 pub(super) fn run(args: &SelectArgs) -> anyhow::Result<Verdict> {
-    let poses_per_leg = super::poses_per_leg(args.poses_per_leg)?;
+    let poses_per_leg = super::checks::poses_per_leg(args.poses_per_leg)?;
     super::checks::positive_metres("--grid", args.grid)?;
     let mechanism = Mechanism::load(&args.model)?;
     let output = Output::prepare(
         "--out",
         &args.out,
-        &super::model_inputs(&args.model, &mechanism),
+        &super::checks::model_inputs(&args.model, &mechanism),
     )?;
     let mut console = Console::new(output.is_stdout());
     let count = poses_per_leg.unwrap_or(mechanism.selection.poses_per_leg);
-    let shared = args.strategy != super::StrategyArg::Dc;
+    let shared = args.strategy != super::args::StrategyArg::Dc;
     let criterion = args
         .criterion
         .map_or(mechanism.selection.criterion, |c| c.criterion());
@@ -39,7 +40,7 @@ pub(super) fn run(args: &SelectArgs) -> anyhow::Result<Verdict> {
     )?;
     let legs = mechanism.legs.len();
     let mut set = MeasurementSet::new(None, legs);
-    if args.strategy != super::StrategyArg::Traditional {
+    if args.strategy != super::args::StrategyArg::Traditional {
         for leg_design in &design.legs {
             let o = &leg_design.observability;
             writeln!(

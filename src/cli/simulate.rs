@@ -1,7 +1,8 @@
 //! `legwise simulate`.
 
+use super::args::SimulateArgs;
 use super::console::Console;
-use super::{SimulateArgs, Verdict};
+use super::verdict::Verdict;
 use crate::files::Output;
 use crate::model::Mechanism;
 use crate::pipeline::simulate;
@@ -12,7 +13,7 @@ pub(super) fn run(args: &SimulateArgs) -> anyhow::Result<Verdict> {
     let output = Output::prepare(
         "--out",
         &args.out,
-        &super::model_inputs(&args.model, &mechanism),
+        &super::checks::model_inputs(&args.model, &mechanism),
     )?;
     let mut console = Console::new(output.is_stdout());
     // With an instrument, the file holds what the instrument reports (its targets' coordinates

@@ -3,8 +3,9 @@
 use std::fmt::Write as _;
 use std::path::PathBuf;
 
+use super::args::WorkspaceArgs;
 use super::console::Console;
-use super::{Verdict, WorkspaceArgs};
+use super::verdict::Verdict;
 use crate::files::{Input, Output};
 use crate::measure::{file, MeasurementSet};
 use crate::model::mechanism::COORDINATES;
@@ -20,7 +21,7 @@ pub(super) fn run(args: &WorkspaceArgs) -> anyhow::Result<Verdict> {
     let rays = super::checks::count("--rays", args.rays, 16, 100_000)?;
     let mechanism = Mechanism::load(&args.model)?;
     let (path, format) = picture_path(args)?;
-    let mut inputs = super::model_inputs(&args.model, &mechanism);
+    let mut inputs = super::checks::model_inputs(&args.model, &mechanism);
     inputs.extend(args.poses.as_deref().map(|path| Input {
         role: "pose file",
         path,

@@ -227,7 +227,7 @@ fn cli_both_strategies_write_the_divide_and_conquer_result_and_evaluate_improves
 
     let report: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
-    assert_eq!(report["schema_version"], 1);
+    assert_eq!(report["schema_version"], 2);
     let before = &report["accuracy_map_before"];
     assert!(before["position_error_m"]["rms"].as_f64().unwrap() > 5e-3);
     for result in report["results"].as_array().unwrap() {

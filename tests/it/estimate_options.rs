@@ -48,6 +48,7 @@ const WEIGHTED: FitOptions = FitOptions {
     weights: Weighting::Noise,
     robust: None,
     drop_outliers: false,
+    noise_scale: 1.0,
 };
 
 /// √(Σ r²/(m − n)) from the reported row residuals.

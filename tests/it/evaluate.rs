@@ -145,7 +145,7 @@ fn the_json_holds_the_documented_keys_for_both_models() {
     );
     assert!(stdout.contains("(mm)") && stdout.contains("(mrad)") && stdout.contains("1.0x"));
     let value: Value = serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
-    assert_eq!(value["schema_version"], 1);
+    assert_eq!(value["schema_version"], 2);
     assert_eq!(value["legwise_version"], env!("CARGO_PKG_VERSION"));
     for object in [&value, &value["against"]] {
         for key in ["model", "measurements", "rows", "non_assemblable"] {

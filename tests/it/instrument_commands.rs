@@ -39,14 +39,14 @@ fn assert_recovered_through(model: &str, csv: &Path, real: &[Vec<f64>], real_sha
     let instrument = mechanism.instrument.as_ref().unwrap();
     let mut checked = 0;
     for (p, value) in instrument.parameters.iter().zip(real_shared) {
-        let entry = joint["instrument"]
+        let entry = joint["instrument"]["parameters"]
             .as_array()
             .unwrap()
             .iter()
             .find(|e| e["name"] == p.name.as_str())
             .unwrap();
         if p.identified {
-            let estimate = entry["estimate"].as_f64().unwrap();
+            let estimate = entry["identified"].as_f64().unwrap();
             assert!(
                 (estimate - value).abs() <= 1e-9,
                 "{}: {estimate} vs {value}",
@@ -60,7 +60,7 @@ fn assert_recovered_through(model: &str, csv: &Path, real: &[Vec<f64>], real_sha
             .as_array()
             .unwrap()
             .iter()
-            .find(|e| e["leg"] == leg.name.as_str())
+            .find(|e| e["name"] == leg.name.as_str())
             .unwrap();
         for (p, value) in leg.params.iter().zip(&real[l]) {
             if !p.identified {
@@ -72,7 +72,7 @@ fn assert_recovered_through(model: &str, csv: &Path, real: &[Vec<f64>], real_sha
                 .iter()
                 .find(|e| e["name"] == p.name.as_str())
                 .unwrap();
-            let estimate = found["estimate"].as_f64().unwrap();
+            let estimate = found["identified"].as_f64().unwrap();
             assert!(
                 (estimate - value).abs() <= 1e-9,
                 "{}: {estimate} vs {value}",

@@ -6,8 +6,8 @@
 //! the predicted σ of the frame lies in the interval of the observed spread, and with shared
 //! rows the frame's errors over their σ have the second moment of Student's t.
 use argmin::core::Operator;
+use legwise::identify::result::{Strategy, StrategyResult};
 use legwise::identify::shared::SharedProblem;
-use legwise::identify::shared_estimate::{identify_shared, SharedEstimate, SharedStrategy};
 use legwise::measure::observations::Observations;
 use legwise::measure::observe_simulate::simulate_observed;
 use legwise::measure::simulate::SimulationOptions;
@@ -16,13 +16,13 @@ use nalgebra::{DMatrix, DVector};
 use serde_json::Value;
 
 use crate::cli::text;
-use crate::instrument_support::{target_sigmas, unknowns};
+use crate::instrument_support::{identify_shared, instrument, shared, target_sigmas, unknowns};
 use crate::support::bundled;
 
 /// The σ of every identified parameter, in the problem's order, as the estimate reports it.
-fn reported(estimate: &SharedEstimate) -> Vec<f64> {
-    let legs = estimate.legs.iter().flat_map(|(_, p)| p);
-    legs.chain(&estimate.shared)
+fn reported(estimate: &StrategyResult) -> Vec<f64> {
+    let legs = estimate.legs.iter().flat_map(|leg| &leg.parameters);
+    legs.chain(shared(estimate))
         .filter(|p| p.identified)
         .map(|p| p.std.expect("a σ"))
         .collect()
@@ -118,7 +118,7 @@ fn check(
     mechanism: &Mechanism,
     observations: &Observations,
 ) -> (Recomputed, Vec<f64>, Vec<String>) {
-    let estimate = identify_shared(mechanism, observations, SharedStrategy::Joint).unwrap();
+    let estimate = identify_shared(mechanism, observations, Strategy::Joint).unwrap();
     let x = unknowns(&estimate);
     let names = SharedProblem::new(mechanism, observations).unwrap().names();
     let recomputed = Recomputed::new(mechanism, observations, &x);
@@ -234,9 +234,10 @@ fn over_seeded_experiments_of_shared_rows_the_frames_errors_over_their_sigma_are
         let experiment = simulate_observed(&mechanism, options).unwrap();
         let mut observations = experiment.observations;
         observations.rows.retain(|row| row.leg.is_none());
-        let estimate = identify_shared(&mechanism, &observations, SharedStrategy::Joint).unwrap();
-        degrees = Some(estimate.rows - estimate.unknowns);
-        let frame = estimate.shared.iter().zip(&experiment.real_shared);
+        let estimate = identify_shared(&mechanism, &observations, Strategy::Joint).unwrap();
+        let whole = instrument(&estimate);
+        degrees = Some(whole.rows - whole.unknowns);
+        let frame = shared(&estimate).iter().zip(&experiment.real_shared);
         for (k, (p, real)) in frame.filter(|(p, _)| p.identified).enumerate() {
             squares[k] += ((p.estimate - real) / p.std.unwrap()).powi(2) / trials as f64;
         }

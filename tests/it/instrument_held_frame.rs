@@ -40,7 +40,8 @@ fn chi_squared_3_tail(x: f64) -> f64 {
         + (2.0 * x / std::f64::consts::PI).sqrt() * (-x / 2.0).exp()
 }
 
-/// `identify --measurements csv --json -` with `model`: (exit code, joint result, stderr).
+/// `identify --measurements csv --json -` with `model`: (exit code, the joint result's
+/// instrument section, stderr).
 fn joint(model: &str, csv: &str) -> (Option<i32>, Value, String) {
     let out = legwise(&[
         "identify",
@@ -54,12 +55,13 @@ fn joint(model: &str, csv: &str) -> (Option<i32>, Value, String) {
     let report: Value = serde_json::from_str(&text(&out.stdout)).unwrap();
     (
         out.status.code(),
-        report["results"][0].clone(),
+        report["results"][0]["instrument"].clone(),
         text(&out.stderr),
     )
 }
 
-/// Checks the held-frame test of `held` against the freed fit `freed` of the same file.
+/// Checks the held-frame test of `held` against the freed fit `freed` of the same file (the
+/// instrument sections of their joint results).
 fn check_against_the_freed_fit(held: &Value, freed: &Value) -> f64 {
     let test = &held["held_frame_test"];
     assert_eq!(
@@ -83,7 +85,7 @@ fn check_against_the_freed_fit(held: &Value, freed: &Value) -> f64 {
     assert_eq!(test["rejected"], Value::Bool(p < 1e-3));
     for k in 0..3 {
         let estimate = test["estimates"][k].as_f64().unwrap();
-        let freed_estimate = freed["instrument"][k]["estimate"].as_f64().unwrap();
+        let freed_estimate = freed["parameters"][k]["identified"].as_f64().unwrap();
         assert!(
             (estimate - freed_estimate).abs() < 1e-9,
             "frame component {k}"

@@ -4,15 +4,18 @@
 //! frame/base gauge when everything is freed.
 use std::path::Path;
 
+use legwise::identify::result::Strategy;
 use legwise::identify::shared::SharedProblem;
-use legwise::identify::shared_estimate::{identify_shared, SharedStrategy};
 use legwise::measure::observations::{parse, to_csv};
 use legwise::measure::observe_simulate::simulate_observed;
 use legwise::model::Mechanism;
 use legwise::solver::bordered::DenseView;
 use legwise::solver::{solve, solve_bordered, SolverKind};
 
-use crate::instrument_support::{assert_recovered, assert_targets_give_the_true_poses, simulation};
+use crate::instrument_support::{
+    assert_recovered, assert_targets_give_the_true_poses, identify_shared, instrument, shared,
+    simulation,
+};
 use crate::support::{assert_central_differences, bundled, crate_path};
 
 #[test]
@@ -64,14 +67,15 @@ fn zero_noise_recovers_every_identified_leg_and_instrument_parameter_of_the_5r_a
         let mechanism = bundled(model);
         let experiment = simulate_observed(&mechanism, simulation(0.0)).unwrap();
         let estimate =
-            identify_shared(&mechanism, &experiment.observations, SharedStrategy::Joint).unwrap();
+            identify_shared(&mechanism, &experiment.observations, Strategy::Joint).unwrap();
         assert!(
-            estimate.outcome.converged,
+            estimate.runs[0].converged,
             "{model}: {:?}",
-            estimate.outcome
+            estimate.runs[0]
         );
-        assert_recovered(&estimate, &experiment, 1e-9);
-        assert!(estimate.rms < 1e-10, "{model}: rms {}", estimate.rms);
+        assert_recovered(&mechanism, &estimate, &experiment, 1e-9);
+        let rms = instrument(&estimate).rms;
+        assert!(rms < 1e-10, "{model}: rms {rms}");
     }
 }
 
@@ -106,7 +110,7 @@ fn freeing_every_base_joint_and_target_names_the_frame_gauge() {
     let mechanism =
         Mechanism::parse(&text, Path::new("free.yaml"), &urdf, Path::new("3rpr.urdf")).unwrap();
     let experiment = simulate_observed(&mechanism, simulation(0.0)).unwrap();
-    let err = identify_shared(&mechanism, &experiment.observations, SharedStrategy::Joint)
+    let err = identify_shared(&mechanism, &experiment.observations, Strategy::Joint)
         .expect_err("rank-deficient")
         .to_string();
     // 18 leg parameters and 7 instrument ones; 3 base-frame and 3 platform-frame directions,
@@ -121,28 +125,26 @@ fn freeing_every_base_joint_and_target_names_the_frame_gauge() {
 fn the_two_stage_strategy_also_recovers_at_zero_noise() {
     let mechanism = bundled("3rpr-tracker.yaml");
     let experiment = simulate_observed(&mechanism, simulation(0.0)).unwrap();
-    let estimate = identify_shared(
-        &mechanism,
-        &experiment.observations,
-        SharedStrategy::TwoStage,
-    )
-    .unwrap();
+    let estimate =
+        identify_shared(&mechanism, &experiment.observations, Strategy::TwoStage).unwrap();
     // The registration uses the nominal legs: its frame is off by the legs' errors, and the
     // legs then absorb what they can of it. Only the order of magnitude is asserted.
-    let frame_error = (estimate.shared[0].estimate - experiment.real_shared[0]).abs();
+    let frame_error = (shared(&estimate)[0].estimate - experiment.real_shared[0]).abs();
     assert!(frame_error < 0.01, "frame_x off by {frame_error}");
 }
 
 #[test]
 fn with_noise_every_identified_error_is_at_the_noise_level_and_a_held_off_frame_is_rejected() {
-    use legwise::identify::shared_estimate::trust_issues;
+    use legwise::identify::trust::trust_issues;
     let mechanism = bundled("3rpr-tracker.yaml");
     let experiment = simulate_observed(&mechanism, simulation(1.0)).unwrap();
-    let estimate =
-        identify_shared(&mechanism, &experiment.observations, SharedStrategy::Joint).unwrap();
-    let test = estimate.noise_test.as_ref().expect("a declared noise");
+    let estimate = identify_shared(&mechanism, &experiment.observations, Strategy::Joint).unwrap();
+    let test = instrument(&estimate)
+        .noise_test
+        .as_ref()
+        .expect("a declared noise");
     assert!(!test.rejected, "{test:?}");
-    for (k, p) in estimate.shared.iter().enumerate() {
+    for (k, p) in shared(&estimate).iter().enumerate() {
         if let Some(std) = p.std {
             let error = p.estimate - experiment.real_shared[k];
             assert!(error.abs() < 4.0 * std, "{}: error {error} σ {std}", p.name);
@@ -164,7 +166,7 @@ fn with_noise_every_identified_error_is_at_the_noise_level_and_a_held_off_frame_
     let held =
         Mechanism::parse(&text, Path::new("held.yaml"), &urdf, Path::new("3rpr.urdf")).unwrap();
     let experiment = simulate_observed(&held, simulation(1.0)).unwrap();
-    let estimate = identify_shared(&held, &experiment.observations, SharedStrategy::Joint).unwrap();
+    let estimate = identify_shared(&held, &experiment.observations, Strategy::Joint).unwrap();
     let issues = trust_issues(&[estimate]);
     assert!(
         issues
@@ -301,8 +303,7 @@ fn a_camera_marker_measuring_the_pose_gives_the_same_zero_noise_recovery() {
         ["x.marker", "y.marker", "yaw.marker"]
     );
     let experiment = simulate_observed(&mechanism, simulation(0.0)).unwrap();
-    let estimate =
-        identify_shared(&mechanism, &experiment.observations, SharedStrategy::Joint).unwrap();
-    assert!(estimate.outcome.converged);
-    assert_recovered(&estimate, &experiment, 1e-9);
+    let estimate = identify_shared(&mechanism, &experiment.observations, Strategy::Joint).unwrap();
+    assert!(estimate.runs[0].converged);
+    assert_recovered(&mechanism, &estimate, &experiment, 1e-9);
 }

@@ -30,7 +30,8 @@ fn identify_with_map(extra: &[&str]) -> Value {
     serde_json::from_str(&text(&out.stdout)).unwrap()
 }
 
-/// Per leg, the values under `key` (`estimate` or `real`) of every parameter of a result.
+/// Per leg, the values under `key` (`identified`, `nominal` or `real`) of every parameter of a
+/// result.
 fn legs(result: &Value, key: &str) -> Vec<Vec<f64>> {
     result["legs"]
         .as_array()
@@ -88,7 +89,7 @@ fn the_maps_follow_the_closed_form_and_the_joint_result_vanishes_without_noise()
     let nominal = legs(joint, "nominal");
     let before = assert_closed_form(&report["accuracy_map_before"], &nominal, &real, "before");
     assert!(before > 5e-3, "the nominal 5R is mm off: {before}");
-    let identified = legs(joint, "estimate");
+    let identified = legs(joint, "identified");
     let after = assert_closed_form(&joint["accuracy_map"], &identified, &real, "joint");
     assert!(after < 1e-9, "joint, zero noise: {after}");
     assert!(
@@ -105,7 +106,7 @@ fn the_maps_follow_the_closed_form_and_the_joint_result_vanishes_without_noise()
         .starts_with("two-stage"));
     assert_closed_form(
         &two_stage["accuracy_map"],
-        &legs(two_stage, "estimate"),
+        &legs(two_stage, "identified"),
         &real,
         "two-stage",
     );
@@ -124,7 +125,7 @@ fn with_noise_the_joint_map_is_the_identified_legs_against_the_real_ones() {
     );
     let after = assert_closed_form(
         &joint["accuracy_map"],
-        &legs(joint, "estimate"),
+        &legs(joint, "identified"),
         &real,
         "joint",
     );

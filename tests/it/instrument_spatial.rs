@@ -7,8 +7,8 @@
 //! is in `instrument_commands.rs`).
 use std::path::Path;
 
+use legwise::identify::result::Strategy;
 use legwise::identify::shared::SharedProblem;
-use legwise::identify::shared_estimate::{identify_shared, SharedStrategy};
 use legwise::measure::observe_simulate::simulate_observed;
 use legwise::model::Mechanism;
 use legwise::solver::bordered::{to_dense, BorderedLeastSquares, DenseView};
@@ -19,7 +19,8 @@ use serde_json::Value;
 
 use crate::cli::{legwise, text};
 use crate::instrument_support::{
-    assert_recovered, assert_targets_give_the_true_poses, parameter_names, simulation,
+    assert_recovered, assert_targets_give_the_true_poses, identify_shared, instrument,
+    parameter_names, shared, simulation,
 };
 use crate::support::{bundled, crate_path};
 
@@ -94,15 +95,16 @@ fn zero_noise_recovers_every_identified_leg_frame_and_offset_of_the_spatial_mode
         // The targets give back the true poses at the real instrument.
         assert_targets_give_the_true_poses(&mechanism, &experiment);
         let estimate =
-            identify_shared(&mechanism, &experiment.observations, SharedStrategy::Joint).unwrap();
+            identify_shared(&mechanism, &experiment.observations, Strategy::Joint).unwrap();
         assert!(
-            estimate.outcome.converged,
+            estimate.runs[0].converged,
             "{model}: {:?}",
-            estimate.outcome
+            estimate.runs[0]
         );
-        let checked = assert_recovered(&estimate, &experiment, 1e-9);
+        let checked = assert_recovered(&mechanism, &estimate, &experiment, 1e-9);
         assert!(checked >= 17, "{model}: only {checked} identified");
-        assert!(estimate.rms < 1e-10, "{model}: rms {}", estimate.rms);
+        let rms = instrument(&estimate).rms;
+        assert!(rms < 1e-10, "{model}: rms {rms}");
     }
 }
 
@@ -146,10 +148,9 @@ fn a_camera_marker_measuring_the_hexapod_pose_gives_the_same_zero_noise_recovery
     );
     let experiment = simulate_observed(&mechanism, simulation(0.0)).unwrap();
     assert_frame_perturbed(&mechanism, &experiment.real_shared);
-    let estimate =
-        identify_shared(&mechanism, &experiment.observations, SharedStrategy::Joint).unwrap();
-    assert!(estimate.outcome.converged);
-    assert_recovered(&estimate, &experiment, 1e-9);
+    let estimate = identify_shared(&mechanism, &experiment.observations, Strategy::Joint).unwrap();
+    assert!(estimate.runs[0].converged);
+    assert_recovered(&mechanism, &estimate, &experiment, 1e-9);
 }
 
 /// `(JᵀJ + λD²) p = Jᵀr` on the dense Jacobian, by LU of the normal equations.
@@ -270,7 +271,7 @@ fn freeing_every_base_joint_attachment_and_target_names_the_gauge_of_the_spatial
         ),
     ] {
         let experiment = simulate_observed(&mechanism, simulation(0.0)).unwrap();
-        let err = identify_shared(&mechanism, &experiment.observations, SharedStrategy::Joint)
+        let err = identify_shared(&mechanism, &experiment.observations, Strategy::Joint)
             .expect_err("rank-deficient")
             .to_string();
         assert!(err.contains(rank), "{err}");
@@ -286,7 +287,8 @@ fn freeing_every_base_joint_attachment_and_target_names_the_gauge_of_the_spatial
 fn json_parameters(report: &Value) -> Vec<(String, bool, f64, f64)> {
     let joint = &report["results"][0];
     assert!(joint["strategy"].as_str().unwrap().starts_with("joint"));
-    let mut all: Vec<&Value> = joint["instrument"].as_array().unwrap().iter().collect();
+    let instrument = joint["instrument"]["parameters"].as_array().unwrap();
+    let mut all: Vec<&Value> = instrument.iter().collect();
     for leg in joint["legs"].as_array().unwrap() {
         all.extend(leg["parameters"].as_array().unwrap());
     }
@@ -294,8 +296,8 @@ fn json_parameters(report: &Value) -> Vec<(String, bool, f64, f64)> {
         .map(|p| {
             (
                 p["name"].as_str().unwrap().to_string(),
-                p["identified"].as_bool().unwrap(),
-                p["estimate"].as_f64().unwrap(),
+                !p["fixed"].as_bool().unwrap(),
+                p["identified"].as_f64().unwrap(),
                 p["real"].as_f64().unwrap_or(f64::NAN),
             )
         })
@@ -399,12 +401,15 @@ fn with_noise_the_spatial_estimates_are_within_their_sigma_and_the_noise_test_pa
         let mechanism = bundled(model);
         let experiment = simulate_observed(&mechanism, simulation(1.0)).unwrap();
         let estimate =
-            identify_shared(&mechanism, &experiment.observations, SharedStrategy::Joint).unwrap();
+            identify_shared(&mechanism, &experiment.observations, Strategy::Joint).unwrap();
         // The expected residual variances use the noise of x, y, z at every reflector.
-        let test = estimate.noise_test.as_ref().expect("a declared noise");
+        let test = instrument(&estimate)
+            .noise_test
+            .as_ref()
+            .expect("a declared noise");
         assert!(!test.rejected, "{model}: {test:?}");
         assert!((0.5..2.0).contains(&test.sigma_ratio), "{model}: {test:?}");
-        for (k, p) in estimate.shared.iter().enumerate() {
+        for (k, p) in shared(&estimate).iter().enumerate() {
             if let Some(std) = p.std {
                 let error = p.estimate - experiment.real_shared[k];
                 assert!(

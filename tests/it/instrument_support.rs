@@ -1,14 +1,40 @@
 //! Helpers shared by the instrument tests: the simulation options, the parameter names of an
 //! instrument block, zero-noise recovery of a joint estimate, the targets' poses against the
-//! simulated truth, and an estimate's identified unknowns.
-use legwise::identify::shared_estimate::SharedEstimate;
+//! simulated truth, an estimate's identified unknowns, and the identification through the
+//! instrument by one strategy as the pipeline runs it (with the held-frame test for the joint
+//! strategy).
+use legwise::error::Result;
+use legwise::identify::result::{
+    FitOptions, InstrumentEstimate, ParameterEstimate, Strategy, StrategyResult,
+};
+use legwise::measure::observations::Observations;
 use legwise::measure::observe_simulate::ObservedExperiment;
 use legwise::measure::simulate::SimulationOptions;
 use legwise::measure::targets::platform_pose;
+use legwise::measure::Measurements;
 use legwise::model::instrument::Instrument;
 use legwise::model::mechanism::MeasurementNoise;
 use legwise::model::Mechanism;
+use legwise::pipeline::identify_one;
+use legwise::solver::SolverKind;
 use nalgebra::DVector;
+
+/// Identifies the legs and the instrument from `observations` by `strategy` (joint or
+/// two-stage) as the pipeline does: Levenberg–Marquardt, the default fit options, and for the
+/// joint strategy the held-frame test.
+pub(crate) fn identify_shared(
+    mechanism: &Mechanism,
+    observations: &Observations,
+    strategy: Strategy,
+) -> Result<StrategyResult> {
+    identify_one(
+        mechanism,
+        &Measurements::Targets(observations.clone()),
+        strategy,
+        SolverKind::LevenbergMarquardt,
+        FitOptions::default(),
+    )
+}
 
 /// The default simulation with its noise scaled by `noise_scale` (0: noise-free).
 pub(crate) fn simulation(noise_scale: f64) -> SimulationOptions {
@@ -30,17 +56,21 @@ pub(crate) fn parameter_names(instrument: &Instrument) -> Vec<&str> {
 /// Every parameter of `estimate` (legs and instrument) within `tolerance` of the simulation's
 /// real value; returns how many of them were identified.
 pub(crate) fn assert_recovered(
-    estimate: &SharedEstimate,
+    mechanism: &Mechanism,
+    estimate: &StrategyResult,
     experiment: &ObservedExperiment,
     tolerance: f64,
 ) -> usize {
-    let legs = estimate.legs.iter().flat_map(|(leg, parameters)| {
-        parameters
+    let legs = estimate.legs.iter().flat_map(|leg| {
+        let index = mechanism
+            .leg_index(&leg.leg)
+            .expect("a leg of the mechanism");
+        leg.parameters
             .iter()
             .enumerate()
-            .map(|(p, parameter)| (parameter, experiment.real[*leg][p]))
+            .map(move |(p, parameter)| (parameter, experiment.real[index][p]))
     });
-    let shared = estimate.shared.iter().zip(&experiment.real_shared);
+    let shared = shared(estimate).iter().zip(&experiment.real_shared);
     let mut identified = 0;
     for (parameter, real) in legs.chain(shared.map(|(parameter, &real)| (parameter, real))) {
         assert!(
@@ -101,12 +131,25 @@ pub(crate) fn target_sigmas(mechanism: &Mechanism, noise: &MeasurementNoise) -> 
 }
 
 /// The estimate's unknowns, in the problem's order.
-pub(crate) fn unknowns(estimate: &SharedEstimate) -> DVector<f64> {
-    let legs = estimate.legs.iter().flat_map(|(_, p)| p);
+pub(crate) fn unknowns(estimate: &StrategyResult) -> DVector<f64> {
+    let legs = estimate.legs.iter().flat_map(|leg| &leg.parameters);
     let values: Vec<f64> = legs
-        .chain(&estimate.shared)
+        .chain(shared(estimate))
         .filter(|p| p.identified)
         .map(|p| p.estimate)
         .collect();
     DVector::from_vec(values)
+}
+
+/// The instrument's parameter estimates of a result through the instrument.
+pub(crate) fn shared(estimate: &StrategyResult) -> &[ParameterEstimate] {
+    &instrument(estimate).parameters
+}
+
+/// The instrument's part of a result through the instrument.
+pub(crate) fn instrument(estimate: &StrategyResult) -> &InstrumentEstimate {
+    estimate
+        .instrument
+        .as_ref()
+        .expect("a result through the instrument")
 }

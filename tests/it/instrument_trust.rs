@@ -3,15 +3,14 @@
 //! declared noise deciding the noise test (zeros are no noise, readings or pose alone are one),
 //! and each reason `trust_issues` gives, word for word.
 use argmin::core::Operator;
+use legwise::identify::result::{Strategy, StrategyResult};
 use legwise::identify::shared::SharedProblem;
-use legwise::identify::shared_estimate::{
-    identify_shared, trust_issues, SharedEstimate, SharedStrategy,
-};
+use legwise::identify::trust::trust_issues;
 use legwise::measure::observe_simulate::{simulate_observed, ObservedExperiment};
 use legwise::model::mechanism::MeasurementNoise;
 use legwise::model::Mechanism;
 
-use crate::instrument_support::{simulation, unknowns};
+use crate::instrument_support::{identify_shared, instrument, shared, simulation, unknowns};
 use crate::support::bundled;
 
 /// The tracker model and a noisy experiment simulated with its declared noise.
@@ -25,7 +24,7 @@ fn experiment() -> (Mechanism, ObservedExperiment) {
 fn the_rms_and_the_size_are_those_of_the_residuals_at_the_estimate() {
     let (mechanism, experiment) = experiment();
     let observations = &experiment.observations;
-    for strategy in [SharedStrategy::Joint, SharedStrategy::TwoStage] {
+    for strategy in [Strategy::Joint, Strategy::TwoStage] {
         let estimate = identify_shared(&mechanism, observations, strategy).unwrap();
         let problem = SharedProblem::new(&mechanism, observations).unwrap();
         let identified = unknowns(&estimate);
@@ -38,21 +37,18 @@ fn the_rms_and_the_size_are_those_of_the_residuals_at_the_estimate() {
             .map(|leg| observations.indexed_leg_rows(leg).len())
             .sum();
         assert_eq!(readings, 54);
-        assert_eq!(
-            (estimate.rows, r.len()),
-            (readings, readings),
-            "{strategy:?}"
-        );
+        let whole = instrument(&estimate);
+        assert_eq!((whole.rows, r.len()), (readings, readings), "{strategy:?}");
         let rms = (r.norm_squared() / r.len() as f64).sqrt();
         assert!(
-            (estimate.rms - rms).abs() <= 1e-12 * rms,
+            (whole.rms - rms).abs() <= 1e-12 * rms,
             "{strategy:?}: {} vs {rms}",
-            estimate.rms
+            whole.rms
         );
         // Scattered at the noise level (1e-4 on targets and readings), not zero.
         assert!((1e-6..1e-2).contains(&rms), "{strategy:?}: {rms}");
-        if strategy == SharedStrategy::Joint {
-            assert_eq!(estimate.unknowns, identified.len());
+        if strategy == Strategy::Joint {
+            assert_eq!(whole.unknowns, identified.len());
         }
     }
 }
@@ -63,19 +59,19 @@ fn a_declared_noise_of_zeros_is_no_noise_and_readings_or_pose_alone_are_one() {
     let with = |noise: Option<MeasurementNoise>| {
         let mut m = mechanism.clone();
         m.noise = noise;
-        identify_shared(&m, &experiment.observations, SharedStrategy::Joint).unwrap()
+        identify_shared(&m, &experiment.observations, Strategy::Joint).unwrap()
     };
-    let sigmas = |e: &SharedEstimate| -> Vec<Option<f64>> {
-        let legs = e.legs.iter().flat_map(|(_, p)| p);
-        legs.chain(&e.shared).map(|p| p.std).collect()
+    let sigmas = |e: &StrategyResult| -> Vec<Option<f64>> {
+        let legs = e.legs.iter().flat_map(|leg| &leg.parameters);
+        legs.chain(shared(e)).map(|p| p.std).collect()
     };
     let none = with(None);
-    assert!(none.noise_test.is_none());
+    assert!(instrument(&none).noise_test.is_none());
     let zeros = with(Some(MeasurementNoise {
         pose: [0.0; 6],
         reading: 0.0,
     }));
-    assert!(zeros.noise_test.is_none());
+    assert!(instrument(&zeros).noise_test.is_none());
     assert_eq!(sigmas(&zeros), sigmas(&none), "zeros are no noise");
     let declared = mechanism.noise.expect("the tracker declares a noise");
     let readings_only = with(Some(MeasurementNoise {
@@ -87,7 +83,7 @@ fn a_declared_noise_of_zeros_is_no_noise_and_readings_or_pose_alone_are_one() {
         ..declared
     }));
     for (what, estimate) in [("readings", &readings_only), ("pose", &pose_only)] {
-        let test = estimate.noise_test.as_ref();
+        let test = instrument(estimate).noise_test.as_ref();
         assert!(test.is_some(), "{what} alone declare a noise");
         assert_ne!(sigmas(estimate), sigmas(&none), "{what} alone");
     }
@@ -96,52 +92,70 @@ fn a_declared_noise_of_zeros_is_no_noise_and_readings_or_pose_alone_are_one() {
 #[test]
 fn each_reason_not_to_trust_a_result_is_one_line_naming_the_strategy() {
     let (mechanism, experiment) = experiment();
-    let estimate =
-        identify_shared(&mechanism, &experiment.observations, SharedStrategy::Joint).unwrap();
+    let estimate = identify_shared(&mechanism, &experiment.observations, Strategy::Joint).unwrap();
     assert_eq!(
         trust_issues(std::slice::from_ref(&estimate)),
         Vec::<String>::new()
     );
     let joint = "joint (legs and instrument, Schur complement)";
 
+    // One solver run for every identified leg.
+    assert_eq!(estimate.runs.len(), 1);
+    assert_eq!(estimate.runs[0].legs, ["leg1", "leg2", "leg3"]);
+
     let mut unconverged = estimate.clone();
-    unconverged.outcome.converged = false;
-    unconverged.outcome.iterations = 17;
-    let reason = unconverged.outcome.stop_reason.to_string();
+    unconverged.runs[0].converged = false;
+    unconverged.runs[0].iterations = 17;
+    unconverged.runs[0].residual_evaluations = 23;
+    let reason = unconverged.runs[0].stop_reason.to_string();
     assert_eq!(
         trust_issues(&[unconverged]),
         [format!(
-            "{joint}: the solver did not converge ({reason}) after 17 iterations; the estimate \
-             must not be trusted"
+            "Levenberg-Marquardt ({joint}) did not converge for legs leg1, leg2, leg3: {reason} \
+             after 17 iterations and 23 residual evaluations; the estimate must not be trusted"
         )]
     );
 
-    // A leg's value, a leg's σ, the instrument's value: each named; a missing σ is not.
+    // A leg's value, a leg's σ, the instrument's value: each named (a leg's with its leg and
+    // its value); a missing σ is not, nor a fixed leg parameter (the plain pipeline's rule).
     let mut not_finite = estimate.clone();
-    let leg_name = not_finite.legs[1].1[0].name.clone();
-    not_finite.legs[1].1[0].estimate = f64::NAN;
-    let sigma_name = not_finite.legs[0].1[2].name.clone();
-    not_finite.legs[0].1[2].std = Some(f64::INFINITY);
-    not_finite.legs[0].1[3].std = None;
-    let shared_name = not_finite.shared[0].name.clone();
-    not_finite.shared[0].estimate = f64::NEG_INFINITY;
+    let value = &mut not_finite.legs[1].parameters[1];
+    assert!(value.identified, "{value:?}");
+    let leg_name = value.name.clone();
+    value.estimate = f64::NAN;
+    let sigma = &mut not_finite.legs[0].parameters[4];
+    assert!(sigma.identified, "{sigma:?}");
+    let sigma_name = sigma.name.clone();
+    sigma.std = Some(f64::INFINITY);
+    not_finite.legs[0].parameters[5].std = None;
+    let fixed = &mut not_finite.legs[0].parameters[2];
+    assert!(!fixed.identified, "{fixed:?}");
+    fixed.estimate = f64::NAN;
+    fixed.std = Some(f64::INFINITY);
+    let shared_name = shared(&not_finite)[0].name.clone();
+    not_finite.instrument.as_mut().unwrap().parameters[0].estimate = f64::NEG_INFINITY;
     assert_eq!(
         trust_issues(&[not_finite]),
         [
-            format!("{joint}: {sigma_name} is not a finite number"),
-            format!("{joint}: {leg_name} is not a finite number"),
+            format!("{joint}, leg `leg1`: not a finite number: std({sigma_name}) inf"),
+            format!("{joint}, leg `leg2`: not a finite number: {leg_name} NaN"),
             format!("{joint}: {shared_name} is not a finite number"),
         ]
     );
 
     // Two results: the reasons of each, in order.
     let mut two_stage = estimate.clone();
-    two_stage.strategy = SharedStrategy::TwoStage;
-    two_stage.outcome.converged = false;
+    two_stage.strategy = Strategy::TwoStage;
+    two_stage.runs[0].converged = false;
+    let run = two_stage.runs[0].clone();
     let issues = trust_issues(&[estimate, two_stage]);
-    assert_eq!(issues.len(), 1, "{issues:?}");
-    assert!(
-        issues[0].starts_with("two-stage (instrument registered first, then D&C): the solver"),
-        "{issues:?}"
+    assert_eq!(
+        issues,
+        [format!(
+            "Levenberg-Marquardt (two-stage (instrument registered first, then D&C)) did not \
+             converge for legs leg1, leg2, leg3: {} after {} iterations and {} residual \
+             evaluations; the estimate must not be trusted",
+            run.stop_reason, run.iterations, run.residual_evaluations
+        )]
     );
 }

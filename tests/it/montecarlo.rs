@@ -345,9 +345,9 @@ fn the_terminal_study_prints_the_numbers_of_its_json_report() {
     );
 }
 
-/// The study's mechanism carries the declared noise times `noise_scale` (what its fits are
-/// told the noise is), every coordinate and the readings alike, and the bundled model's own
-/// noise is left as it was.
+/// The study's fits are told the declared noise times `noise_scale` (their fit options carry
+/// the scale, never the model), every coordinate and the readings alike; the study's mechanism
+/// and the bundled model's own noise are left as declared.
 #[test]
 fn the_study_scales_the_declared_noise_by_the_noise_scale() {
     use legwise::study::montecarlo::{MonteCarloOptions, Study};
@@ -360,18 +360,26 @@ fn the_study_scales_the_declared_noise_by_the_noise_scale() {
             ..MonteCarloOptions::new(TRIALS, 1)
         };
         let study = Study::prepare(&mechanism, options).unwrap();
-        let noise = study.mechanism().noise.unwrap();
-        for (c, (&s, &d)) in noise.pose.iter().zip(&declared.pose).enumerate() {
-            assert_eq!(
-                s.to_bits(),
-                (d * scale).to_bits(),
-                "scale {scale}, coordinate {c}"
-            );
+        let fit = study.fit_options();
+        assert_eq!(fit.noise_scale.to_bits(), scale.to_bits(), "scale {scale}");
+        assert_eq!(study.mechanism().noise, Some(declared), "scale {scale}");
+        match fit.expected_noise(study.mechanism()) {
+            // All zero: no noise expected.
+            None => assert_eq!(scale.to_bits(), 0f64.to_bits()),
+            Some(noise) => {
+                for (c, (&s, &d)) in noise.pose.iter().zip(&declared.pose).enumerate() {
+                    assert_eq!(
+                        s.to_bits(),
+                        (d * scale).to_bits(),
+                        "scale {scale}, coordinate {c}"
+                    );
+                }
+                assert_eq!(
+                    noise.reading.to_bits(),
+                    (declared.reading * scale).to_bits()
+                );
+            }
         }
-        assert_eq!(
-            noise.reading.to_bits(),
-            (declared.reading * scale).to_bits()
-        );
     }
     assert_eq!(mechanism.noise, Some(declared));
 }

@@ -6,11 +6,12 @@ use std::process::Command;
 
 use legwise::identify::estimate::{identify, Strategy};
 use legwise::measure::simulate::{simulate, SimulationOptions};
+use legwise::measure::Measurements;
 use legwise::report::plots::distribution::{ErrorDistribution, ErrorSample};
 use legwise::report::plots::error_map::{ErrorMapFigure, MapCell, MapPanel};
 use legwise::report::plots::parameter_errors::ParameterErrors;
 use legwise::report::plots::{render, Figure, Format};
-use legwise::report::IdentifyReport;
+use legwise::report::{RealValues, Report};
 use legwise::solver::SolverKind;
 
 use crate::support::{bundled, svg_texts};
@@ -52,11 +53,16 @@ fn the_parameter_error_bars_show_every_identified_parameter_per_unit_and_strateg
         .into_iter()
         .map(|s| identify(&mech, &experiment.measurements, s, SolverKind::GaussNewton).unwrap())
         .collect();
-    let report = IdentifyReport {
+    let report = Report {
         mechanism: &mech,
         source: "test".into(),
-        real: Some(experiment.real.clone()),
+        measurements: Measurements::Readings(experiment.measurements.clone()),
+        real: Some(RealValues {
+            legs: experiment.real.clone(),
+            instrument: None,
+        }),
         results,
+        maps: None,
     };
     let figure = ParameterErrors::from_report(&report).expect("real values are known");
     // Table 2: nominal l1 = 0.75, real 0.7507.
@@ -87,7 +93,7 @@ fn the_parameter_error_bars_show_every_identified_parameter_per_unit_and_strateg
     );
     assert_eq!(rects_filled(&svg, "#009E73"), 12 + 1, "traditional bars");
     // From a measurement file there are no real values: no figure.
-    let without_real = IdentifyReport {
+    let without_real = Report {
         real: None,
         ..report
     };

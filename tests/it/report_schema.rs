@@ -102,11 +102,19 @@ const INSTRUMENT: [&str; 7] = [
 /// nominal value and has no σ.
 fn check_parameter(p: &Value) {
     assert_eq!(keys(p), set(&PARAMETER), "{p}");
-    let real = p["real"].as_f64().expect("a simulation knows the real value");
+    let real = p["real"]
+        .as_f64()
+        .expect("a simulation knows the real value");
     let after = p["identified"].as_f64().unwrap() - real;
     let before = p["nominal"].as_f64().unwrap() - real;
-    assert_eq!(p["error_after"].as_f64().unwrap().to_bits(), after.to_bits());
-    assert_eq!(p["error_before"].as_f64().unwrap().to_bits(), before.to_bits());
+    assert_eq!(
+        p["error_after"].as_f64().unwrap().to_bits(),
+        after.to_bits()
+    );
+    assert_eq!(
+        p["error_before"].as_f64().unwrap().to_bits(),
+        before.to_bits()
+    );
     if p["fixed"] == true {
         assert!(p["std"].is_null(), "{p}");
         assert_eq!(p["identified"], p["nominal"], "{p}");
@@ -199,5 +207,8 @@ fn every_key_of_the_reports_is_documented() {
         .into_iter()
         .filter(|key| !docs.contains(&format!("`{key}`")) && !matches!(*key, "O2" | "O3" | "O4"))
         .collect();
-    assert!(undocumented.is_empty(), "not in docs/report.md: {undocumented:?}");
+    assert!(
+        undocumented.is_empty(),
+        "not in docs/report.md: {undocumented:?}"
+    );
 }

@@ -190,7 +190,8 @@ fn both_solvers_end_on_the_stationary_point_over_many_seeds() {
 #[test]
 fn runs_report_convergence_in_the_terminal_and_the_json() {
     use legwise::identify::trust::trust_issues;
-    use legwise::report::{json::to_json, terminal::render, IdentifyReport};
+    use legwise::measure::Measurements;
+    use legwise::report::Report;
     use legwise::solver::StopReason;
 
     let mech = bundled("5r.yaml");
@@ -206,20 +207,22 @@ fn runs_report_convergence_in_the_terminal_and_the_json() {
     .unwrap();
     assert!(result.runs.iter().all(|r| r.converged));
     assert!(trust_issues(std::slice::from_ref(&result)).is_empty());
-    let mut report = IdentifyReport {
+    let mut report = Report {
         mechanism: &mech,
         source: "simulation".into(),
+        measurements: Measurements::Readings(data.clone()),
         real: None,
         results: vec![result],
+        maps: None,
     };
-    let json = to_json(&report);
+    let json = serde_json::to_value(report.to_json()).unwrap();
     let keys: Vec<&str> = StopReason::ALL.iter().map(|r| r.key()).collect();
     for leg in json["results"][0]["legs"].as_array().unwrap() {
         assert_eq!(leg["solver"]["converged"], serde_json::Value::Bool(true));
         let key = leg["solver"]["stop_reason"].as_str().unwrap();
         assert!(keys.contains(&key), "{key}");
     }
-    let text = render(&report);
+    let text = report.terminal_text();
     assert!(
         !text.contains("WARNING") && text.contains(": converged ("),
         "{text}"
@@ -235,7 +238,7 @@ fn runs_report_convergence_in_the_terminal_and_the_json() {
         "{}",
         issues[0]
     );
-    let text = render(&report);
+    let text = report.terminal_text();
     let first_leg_table = text.find("\nleg ").unwrap();
     let warning = text.find("WARNING: ").expect("a warning");
     assert!(
@@ -243,7 +246,7 @@ fn runs_report_convergence_in_the_terminal_and_the_json() {
         "the warning is not at the top:\n{text}"
     );
     assert!(text.contains("NOT CONVERGED (budget of residual evaluations exhausted)"));
-    let json = to_json(&report);
+    let json = serde_json::to_value(report.to_json()).unwrap();
     let legs = json["results"][0]["legs"].as_array().unwrap();
     let flagged = legs.iter().find(|l| l["name"] == leg.as_str()).unwrap();
     assert_eq!(

@@ -1,0 +1,397 @@
+//! The command line's arguments (clap derive) and how each becomes the library's settings.
+
+use std::path::PathBuf;
+
+use clap::{Parser, Subcommand, ValueEnum};
+
+use super::checks;
+use super::help;
+use crate::identify::estimate::Strategy;
+use crate::solver::SolverKind;
+
+/// Kinematic identification of parallel mechanisms, leg by leg.
+#[derive(Debug, Parser)]
+#[command(name = "legwise", version, about, after_help = help::TOP)]
+pub struct Cli {
+    /// What to do.
+    #[command(subcommand)]
+    pub command: Command,
+}
+
+/// The subcommands.
+#[derive(Debug, Subcommand)]
+pub enum Command {
+    /// Identify the parameters of a mechanism from measurements (or from a simulation).
+    #[command(after_help = help::IDENTIFY)]
+    Identify(IdentifyArgs),
+    /// Select the identification poses to measure (observability-optimal, feasible) and write
+    /// them as a measurement CSV with empty readings.
+    #[command(after_help = help::SELECT)]
+    Select(SelectArgs),
+    /// Simulate an identification experiment and write it as a measurement CSV.
+    #[command(after_help = help::SIMULATE)]
+    Simulate(SimulateArgs),
+    /// Compute the singularity-free region and its maximal inscribed workspace (MIW), with a picture.
+    #[command(after_help = help::WORKSPACE)]
+    Workspace(WorkspaceArgs),
+    /// How well a model explains measurements (typically held out of the fit): pose errors by
+    /// forward kinematics from the readings, and each leg's reading residuals.
+    #[command(after_help = help::EVALUATE)]
+    Evaluate(EvaluateArgs),
+    /// Monte Carlo comparison of the strategies: many simulated experiments, the same draws fed
+    /// to divide and conquer and to the traditional strategy (through an instrument: to the
+    /// joint and the two-stage identification), with 95 % confidence intervals.
+    #[command(after_help = help::MONTECARLO)]
+    Montecarlo(MontecarloArgs),
+}
+
+/// Options of `legwise montecarlo`.
+#[derive(Debug, clap::Args)]
+pub struct MontecarloArgs {
+    /// The model file (YAML) with a simulation block.
+    #[arg(long)]
+    pub model: PathBuf,
+    /// Number of trials (2 to 1000000).
+    #[arg(long, allow_negative_numbers = true)]
+    pub trials: i64,
+    /// Study seed, 0 to 2^64 − 1 (default: the model's `simulation.seed`); each trial's draws
+    /// derive from it and the trial's index.
+    #[arg(long, allow_negative_numbers = true)]
+    pub seed: Option<i128>,
+    /// Least-squares solver of every fit.
+    #[arg(long, value_enum, default_value_t = SolverArg::Lm)]
+    pub solver: SolverArg,
+    /// Multiplies every simulated noise standard deviation (0 = noise-free).
+    #[arg(long, default_value_t = 1.0, allow_negative_numbers = true)]
+    pub noise_scale: f64,
+    /// Poses per leg (default: the model's `selection.poses_per_leg`).
+    #[arg(long, allow_negative_numbers = true)]
+    pub poses_per_leg: Option<i64>,
+    /// Candidate grid spacing of the pose selection, metres (default: the model's `workspace.grid`).
+    #[arg(long, allow_negative_numbers = true)]
+    pub grid: Option<f64>,
+    /// Grid spacing of the accuracy map, metres.
+    #[arg(long, value_name = "GRID_M", default_value_t = crate::study::montecarlo::DEFAULT_MAP_GRID, allow_negative_numbers = true)]
+    pub map: f64,
+    /// Fraction of the workspace region the accuracy map covers (shrunk about its centre).
+    #[arg(long, default_value_t = 0.95, allow_negative_numbers = true)]
+    pub map_scale: f64,
+    /// Also write the study as JSON to this file, every trial's values included (`-`: standard
+    /// output; the terminal report then goes to standard error).
+    #[arg(long)]
+    pub json: Option<PathBuf>,
+    /// Directory for the pictures (created if missing): the error distributions per strategy.
+    #[arg(long, value_name = "DIR")]
+    pub plots: Option<PathBuf>,
+    /// Draw the pictures as PNG instead of SVG.
+    #[arg(long)]
+    pub png: bool,
+}
+
+/// Options of `legwise evaluate`.
+#[derive(Debug, clap::Args)]
+pub struct EvaluateArgs {
+    /// The model file (YAML), e.g. a calibrated model.
+    #[arg(long)]
+    pub model: PathBuf,
+    /// Measurement CSV (rows with every actuator reading give pose errors).
+    #[arg(long)]
+    pub measurements: PathBuf,
+    /// Another model to evaluate side by side (typically the nominal one), with the improvement.
+    #[arg(long)]
+    pub against: Option<PathBuf>,
+    /// Also write the evaluation as JSON to this file.
+    #[arg(long)]
+    pub json: Option<PathBuf>,
+    /// Directory for the pictures (created if missing): the distribution of position errors.
+    #[arg(long, value_name = "DIR")]
+    pub plots: Option<PathBuf>,
+    /// Draw the pictures as PNG instead of SVG.
+    #[arg(long)]
+    pub png: bool,
+}
+
+/// `identify` options for after the fit: the calibrated model and the accuracy map.
+#[derive(Debug, Clone, clap::Args)]
+pub struct AfterFitArgs {
+    /// Write the calibrated model (identified values in place of nominal ones) to this YAML
+    /// file, and its URDF beside it (same name, extension `urdf`).
+    #[arg(long, value_name = "OUT.yaml")]
+    pub calibrated: Option<PathBuf>,
+    /// Simulation only: the accuracy map (model IK commands, real mechanism moves) over a grid
+    /// of this spacing (metres), before and after identification.
+    #[arg(long, value_name = "GRID_M")]
+    pub map: Option<f64>,
+    /// Fraction of the workspace region the accuracy map covers (shrunk about its centre).
+    #[arg(long, default_value_t = 0.95)]
+    pub map_scale: f64,
+}
+
+/// Options of `legwise workspace`.
+#[derive(Debug, clap::Args)]
+pub struct WorkspaceArgs {
+    /// The model file (YAML).
+    #[arg(long)]
+    pub model: PathBuf,
+    /// Where to write the picture, SVG or PNG by the extension (default:
+    /// `<model name>-workspace.svg`, or `.png` with `--png`; `-`: standard output).
+    #[arg(long, visible_alias = "svg")]
+    pub out: Option<PathBuf>,
+    /// Draw the picture as PNG instead of SVG (the default name, or standard output).
+    #[arg(long)]
+    pub png: bool,
+    /// A pose file to draw on the picture (measurement CSV layout; readings may be empty).
+    #[arg(long)]
+    pub poses: Option<PathBuf>,
+    /// Rays cast to trace the region's boundary (16 to 100000).
+    #[arg(long, default_value_t = 1440, allow_negative_numbers = true)]
+    pub rays: i64,
+}
+
+/// Options of `legwise identify`.
+#[derive(Debug, clap::Args)]
+pub struct IdentifyArgs {
+    /// The model file (YAML).
+    #[arg(long)]
+    pub model: PathBuf,
+    /// Measurement CSV (`-`: standard input); without it, the model's simulation block is
+    /// simulated.
+    #[arg(long)]
+    pub measurements: Option<PathBuf>,
+    /// Least-squares solver.
+    #[arg(long, value_enum, default_value_t = SolverArg::Lm)]
+    pub solver: SolverArg,
+    /// Divide and conquer, traditional (all legs on shared poses), or both.
+    #[arg(long, value_enum, default_value_t = StrategyArg::Dc)]
+    pub strategy: StrategyArg,
+    /// Also write the report as JSON to this file (`-`: standard output; the terminal report
+    /// then goes to standard error).
+    #[arg(long)]
+    pub json: Option<PathBuf>,
+    /// Row weights: none (ordinary least squares, the paper's method) or noise (each row by the
+    /// inverse of its expected residual variance under the model's `noise` block).
+    #[arg(long, value_enum, default_value_t = WeightsArg::None)]
+    pub weights: WeightsArg,
+    /// A robust loss inside the fit (scaled by the model's `noise` block): huber or cauchy.
+    #[arg(long, value_enum)]
+    pub robust: Option<RobustArg>,
+    /// Refit once without the rows flagged as outliers, and list them.
+    #[arg(long)]
+    pub drop_outliers: bool,
+    /// Simulation overrides.
+    #[command(flatten)]
+    pub simulation: SimulationArgs,
+    /// Calibrated model and accuracy map.
+    #[command(flatten)]
+    pub after: AfterFitArgs,
+    /// Pictures.
+    #[command(flatten)]
+    pub pictures: IdentifyPlotArgs,
+}
+
+/// `identify` options for the pictures.
+#[derive(Debug, Clone, clap::Args)]
+pub struct IdentifyPlotArgs {
+    /// Simulation only: write the pictures to this directory (created if missing): the
+    /// parameter errors before and after, and with `--map` the accuracy map.
+    #[arg(long, value_name = "DIR")]
+    pub plots: Option<PathBuf>,
+    /// Draw the pictures as PNG instead of SVG.
+    #[arg(long)]
+    pub png: bool,
+}
+
+/// `--weights`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
+pub enum WeightsArg {
+    /// Unweighted.
+    None,
+    /// By the declared measurement noise.
+    Noise,
+}
+
+/// `--robust`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
+pub enum RobustArg {
+    /// Huber's loss (quadratic near zero, linear beyond 1.345 σ).
+    Huber,
+    /// Cauchy's loss (logarithmic beyond 2.385 σ: gross outliers get almost no weight).
+    Cauchy,
+}
+
+impl IdentifyArgs {
+    pub(super) fn fit_options(&self) -> crate::identify::estimate::FitOptions {
+        use crate::identify::estimate::{FitOptions, Weighting};
+        use crate::identify::robust::RobustLoss;
+        FitOptions {
+            weights: match self.weights {
+                WeightsArg::None => Weighting::Unweighted,
+                WeightsArg::Noise => Weighting::Noise,
+            },
+            robust: self.robust.map(|r| match r {
+                RobustArg::Huber => RobustLoss::Huber,
+                RobustArg::Cauchy => RobustLoss::Cauchy,
+            }),
+            drop_outliers: self.drop_outliers,
+            ..FitOptions::default()
+        }
+    }
+}
+
+/// Options of `legwise simulate`.
+#[derive(Debug, clap::Args)]
+pub struct SimulateArgs {
+    /// The model file (YAML).
+    #[arg(long)]
+    pub model: PathBuf,
+    /// Where to write the measurement CSV (`-`: standard output).
+    #[arg(long)]
+    pub out: PathBuf,
+    /// Simulation overrides.
+    #[command(flatten)]
+    pub simulation: SimulationArgs,
+}
+
+/// Options of `legwise select`.
+#[derive(Debug, clap::Args)]
+pub struct SelectArgs {
+    /// The model file (YAML).
+    #[arg(long)]
+    pub model: PathBuf,
+    /// Where to write the poses (measurement CSV layout, readings empty; `-`: standard output).
+    #[arg(long)]
+    pub out: PathBuf,
+    /// Per-leg sets (dc), one shared set (traditional), or both.
+    #[arg(long, value_enum, default_value_t = StrategyArg::Dc)]
+    pub strategy: StrategyArg,
+    /// Candidate grid spacing, metres (default: the model's `workspace.grid`).
+    #[arg(long, allow_negative_numbers = true)]
+    pub grid: Option<f64>,
+    /// Poses per leg (default: the model's `selection.poses_per_leg`).
+    #[arg(long, allow_negative_numbers = true)]
+    pub poses_per_leg: Option<i64>,
+    /// Design criterion (default: the model's `selection.criterion`): D maximises det CᵀC (O1),
+    /// A minimises tr (CᵀC)⁻¹, E maximises the smallest singular value (O3).
+    #[arg(long, value_enum)]
+    pub criterion: Option<CriterionArg>,
+}
+
+/// `--criterion`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
+pub enum CriterionArg {
+    /// D-optimal.
+    D,
+    /// A-optimal.
+    A,
+    /// E-optimal.
+    E,
+}
+
+impl CriterionArg {
+    pub(super) fn criterion(self) -> crate::model::mechanism::SelectionCriterion {
+        use crate::model::mechanism::SelectionCriterion;
+        match self {
+            CriterionArg::D => SelectionCriterion::D,
+            CriterionArg::A => SelectionCriterion::A,
+            CriterionArg::E => SelectionCriterion::E,
+        }
+    }
+}
+
+/// Where simulated identification poses come from.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
+pub enum PosesArg {
+    /// Observability-optimal poses selected from the candidate grid (the paper's protocol).
+    Selected,
+    /// A seeded random spread over the usable workspace.
+    Random,
+}
+
+/// Simulation overrides.
+#[derive(Debug, Clone, clap::Args)]
+pub struct SimulationArgs {
+    /// Where the simulated poses come from.
+    #[arg(long, value_enum, default_value_t = PosesArg::Selected)]
+    pub poses: PosesArg,
+    /// Candidate grid spacing for selected poses, metres (default: the model's `workspace.grid`).
+    #[arg(long, allow_negative_numbers = true)]
+    pub grid: Option<f64>,
+    /// Random seed, 0 to 2^64 − 1 (default: the model's `simulation.seed`).
+    #[arg(long, allow_negative_numbers = true)]
+    pub seed: Option<i128>,
+    /// Multiplies every simulated noise standard deviation (0 = noise-free).
+    #[arg(long, default_value_t = 1.0, allow_negative_numbers = true)]
+    pub noise_scale: f64,
+    /// Poses per leg (default: the model's `simulation.poses_per_leg`).
+    #[arg(long, allow_negative_numbers = true)]
+    pub poses_per_leg: Option<i64>,
+}
+
+/// `--solver`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
+pub enum SolverArg {
+    /// Levenberg–Marquardt.
+    Lm,
+    /// Gauss–Newton.
+    Gn,
+}
+
+/// `--strategy`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
+pub enum StrategyArg {
+    /// Divide and conquer: each leg on its own poses.
+    Dc,
+    /// All legs stacked on shared poses.
+    Traditional,
+    /// Both, one after the other.
+    Both,
+}
+
+impl SolverArg {
+    pub(super) fn kind(self) -> SolverKind {
+        match self {
+            SolverArg::Lm => SolverKind::LevenbergMarquardt,
+            SolverArg::Gn => SolverKind::GaussNewton,
+        }
+    }
+}
+
+impl StrategyArg {
+    pub(super) fn strategies(self) -> Vec<Strategy> {
+        match self {
+            StrategyArg::Dc => vec![Strategy::DivideAndConquer],
+            StrategyArg::Traditional => vec![Strategy::Traditional],
+            StrategyArg::Both => vec![Strategy::DivideAndConquer, Strategy::Traditional],
+        }
+    }
+}
+
+impl SimulationArgs {
+    /// The simulation settings, range-checked (`--grid` too, though only selected poses use it).
+    pub(super) fn settings(&self) -> anyhow::Result<crate::pipeline::SimulationSettings> {
+        Ok(crate::pipeline::SimulationSettings {
+            options: self.options()?,
+            poses: self.poses.source(),
+            grid: self.grid,
+        })
+    }
+
+    /// The simulation options, range-checked (`--grid` too, though only selected poses use it).
+    pub(super) fn options(&self) -> anyhow::Result<crate::measure::simulate::SimulationOptions> {
+        checks::positive_metres("--grid", self.grid)?;
+        Ok(crate::measure::simulate::SimulationOptions {
+            seed: checks::seed("--seed", self.seed)?,
+            noise_scale: checks::non_negative("--noise-scale", self.noise_scale)?,
+            poses_per_leg: checks::poses_per_leg(self.poses_per_leg)?,
+        })
+    }
+}
+
+impl PosesArg {
+    pub(super) fn source(self) -> crate::pipeline::PoseSource {
+        match self {
+            PosesArg::Selected => crate::pipeline::PoseSource::Selected,
+            PosesArg::Random => crate::pipeline::PoseSource::Random,
+        }
+    }
+}
