@@ -10,9 +10,10 @@
 use nalgebra::{DMatrix, DVector};
 use rayon::prelude::*;
 
-use super::fit::{self, FitError};
+use super::fit;
 use super::observability::{analyse, Observability};
 use super::problem::{BlockError, IdentificationProblem, LegSlot};
+use super::solve_from::FitError;
 use super::statistics::{self, FitKind, LegStatistics};
 use crate::error::{Error, Result};
 use crate::measure::MeasurementSet;

@@ -12,5 +12,6 @@ pub mod robust;
 pub mod shared;
 pub mod shared_covariance;
 pub mod shared_estimate;
+mod solve_from;
 pub mod statistics;
 pub mod trust;

@@ -5,7 +5,6 @@
 use nalgebra::{DMatrix, DVector};
 
 use super::observability::Observability;
-use super::robust::RobustLoss;
 use super::statistics::{LegStatistics, NoiseTest, Outlier};
 use crate::model::mechanism::MeasurementNoise;
 use crate::model::params::Unit;
@@ -105,6 +104,15 @@ pub struct RowResidual {
     pub line: Option<usize>,
     /// Measured minus predicted reading (rad or m).
     pub residual: f64,
+}
+
+/// A robust loss.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum RobustLoss {
+    /// Huber: quadratic inside `c = 1.345 σ`, linear beyond.
+    Huber,
+    /// Cauchy (Lorentzian): logarithmic, `c = 2.3849 σ`; a gross outlier gets almost no weight.
+    Cauchy,
 }
 
 /// How the rows are weighted.
@@ -228,6 +236,15 @@ pub struct StrategyResult {
 }
 
 impl StrategyResult {
+    /// Every warning of the result: the data's, then each leg's statistics'.
+    pub fn all_warnings(&self) -> Vec<String> {
+        let legs = self
+            .legs
+            .iter()
+            .flat_map(|leg| leg.warnings.iter().cloned());
+        self.warnings.iter().cloned().chain(legs).collect()
+    }
+
     /// Every parameter estimate of the result: the instrument's first (when measured through
     /// one), then each identified leg's, in model order.
     pub fn parameters(&self) -> impl Iterator<Item = &ParameterEstimate> {

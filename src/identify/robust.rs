@@ -16,8 +16,8 @@
 
 use nalgebra::DVector;
 
-use super::fit::{solve_from, FitError};
 use super::problem::{BlockError, IdentificationProblem};
+use super::solve_from::{solve_from, FitError};
 use crate::solver::{SolverKind, SolverOutcome, StopReason};
 
 /// Largest number of reweighting rounds per loss.
@@ -26,14 +26,7 @@ pub const MAX_REWEIGHTINGS: usize = 50;
 /// Relative change of the estimate below which the reweighting has converged.
 pub const REWEIGHTING_TOLERANCE: f64 = 1e-10;
 
-/// A robust loss.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum RobustLoss {
-    /// Huber: quadratic inside `c = 1.345 σ`, linear beyond.
-    Huber,
-    /// Cauchy (Lorentzian): logarithmic, `c = 2.3849 σ`; a gross outlier gets almost no weight.
-    Cauchy,
-}
+pub use super::result::RobustLoss;
 
 impl RobustLoss {
     /// Lower-case name, as on the command line.
@@ -178,8 +171,8 @@ mod tests {
     use nalgebra::DVector;
 
     use super::{fit, settled_at, RobustLoss, REWEIGHTING_TOLERANCE};
-    use crate::identify::fit::solve_from;
     use crate::identify::problem::IdentificationProblem;
+    use crate::identify::solve_from::solve_from;
     use crate::identify::statistics::row_variances;
     use crate::measure::simulate::{simulate, SimulationOptions};
     use crate::model::Mechanism;

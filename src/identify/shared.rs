@@ -30,8 +30,9 @@ use crate::solver::bordered::{BorderedBlock, BorderedLayout, BorderedLeastSquare
 
 mod evaluation;
 mod noise;
+mod state;
 
-use evaluation::Evaluations;
+use state::Evaluations;
 
 /// One row of one leg: the targets' coordinates and the leg's reading.
 #[derive(Debug, Clone)]

@@ -7,7 +7,6 @@ use nalgebra::DMatrix;
 use serde::{Serialize, Serializer};
 use serde_json::{json, Value};
 
-use super::terminal::all_warnings;
 use super::Report;
 use crate::evaluate::accuracy::{AccuracyMap, ErrorStats};
 use crate::identify::estimate::{
@@ -75,6 +74,13 @@ fn matrix(m: &DMatrix<f64>) -> Vec<Vec<Number>> {
     m.row_iter()
         .map(|row| row.iter().map(|&v| Number(v)).collect())
         .collect()
+}
+
+impl Report<'_> {
+    /// The report as the JSON document of docs/report.md.
+    pub fn to_json(&self) -> ReportJson<'_> {
+        ReportJson::new(self)
+    }
 }
 
 /// The document of `legwise identify --json`.
@@ -152,7 +158,7 @@ impl<'a> ResultJson<'a> {
             },
             robust: result.options.robust.map(|r| r.name()),
             drop_outliers: result.options.drop_outliers,
-            warnings: all_warnings(result),
+            warnings: result.all_warnings(),
             instrument: result
                 .instrument
                 .as_ref()

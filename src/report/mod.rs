@@ -130,14 +130,4 @@ impl Report<'_> {
     pub fn trusted(&self) -> bool {
         self.trust_issues().is_empty()
     }
-
-    /// The report as terminal text (errors in the units of the model; the maps in mm).
-    pub fn terminal_text(&self) -> String {
-        terminal::render(self)
-    }
-
-    /// The report as the JSON document of docs/report.md.
-    pub fn to_json(&self) -> json::ReportJson<'_> {
-        json::ReportJson::new(self)
-    }
 }

@@ -23,6 +23,13 @@ fn scientific(value: Option<f64>, width: usize) -> String {
     }
 }
 
+impl Report<'_> {
+    /// The report as terminal text (errors in the units of the model; the maps in mm).
+    pub fn terminal_text(&self) -> String {
+        render(self)
+    }
+}
+
 /// The whole report as text.
 pub fn render(report: &Report<'_>) -> String {
     let mut out = String::new();
@@ -238,7 +245,7 @@ fn render_result(out: &mut String, report: &Report<'_>, result: &StrategyResult)
             render_statistics(out, leg);
         }
     }
-    let warnings = all_warnings(result);
+    let warnings = result.all_warnings();
     if !warnings.is_empty() {
         let _ = writeln!(out, "\nwarnings ({}):", warnings.len());
         for warning in warnings {
@@ -263,15 +270,6 @@ fn fit_text(result: &StrategyResult) -> String {
         text.push_str("; refitted without the outlier rows");
     }
     text
-}
-
-/// Every warning of a result: the data's, then each leg's statistics'.
-pub fn all_warnings(result: &StrategyResult) -> Vec<String> {
-    let mut warnings = result.warnings.clone();
-    for leg in &result.legs {
-        warnings.extend(leg.warnings.iter().cloned());
-    }
-    warnings
 }
 
 /// The noise test and outlier lines of a leg.

@@ -17,6 +17,7 @@ use nalgebra::{Const, DMatrix, U1};
 use num_dual::{Dual64, DualSVec64};
 use rayon::prelude::*;
 
+use super::state::{key, Evaluation, Evaluations, GroupValues};
 use super::SharedProblem;
 use crate::identify::jacobian::PreparedLeg;
 use crate::kinematics::inverse::{Joints, Solution};
@@ -38,48 +39,6 @@ const PARALLEL_ROWS: usize = 512;
 /// Most lanes of one dual pass over the shared parameters in the pose fit (fewer shared
 /// parameters take as many lanes as there are).
 const SHARED_LANES: usize = 8;
-
-/// A problem's evaluation state: shared by its clones (a solver clones its problem and refines
-/// on the original), which are evaluated one after the other, never at once.
-#[derive(Debug, Default)]
-pub(super) struct Evaluations {
-    /// Per group, each row's joints at its last solved evaluation (`None` before the first):
-    /// the warm start of its next inverse-kinematics solve.
-    seeds: Vec<Vec<Option<Joints>>>,
-    /// The latest evaluations, newest first.
-    recent: Vec<Evaluation>,
-    /// Rows whose inverse kinematics were solved so far ([`SharedProblem::row_solves`]).
-    row_solves: u64,
-}
-
-/// The values of one evaluation, before turn matching: what any evaluation at the same
-/// unknowns (bit for bit) returns without solving again.
-#[derive(Debug)]
-pub(super) struct Evaluation {
-    /// The unknowns' bits.
-    x: Vec<u64>,
-    /// One per group.
-    pub(super) groups: Vec<GroupValues>,
-}
-
-/// One group's rows at one evaluation.
-#[derive(Debug)]
-pub(super) struct GroupValues {
-    /// Each row's platform pose fitted from its target coordinates.
-    pub(super) poses: Vec<[f64; 6]>,
-    /// Each row's inverse-kinematics solution at its fitted pose.
-    pub(super) solutions: Vec<Solution>,
-    /// Each row's predicted reading.
-    pub(super) predicted: Vec<f64>,
-    /// `∂ψ/∂own` (rows × own) and `∂ψ/∂shared` (rows × shared), without the turn matching's
-    /// term; `None` until the derivatives are asked for.
-    pub(super) derivatives: Option<(DMatrix<f64>, DMatrix<f64>)>,
-}
-
-/// The bits of `x`: evaluations are reused only at exactly the same unknowns.
-fn key(x: &[f64]) -> Vec<u64> {
-    x.iter().map(|v| v.to_bits()).collect()
-}
 
 /// `c_k / gain` for the closure's coordinates: the reading's derivative with respect to the
 /// world position of the leg's attachment at a converged solution.
