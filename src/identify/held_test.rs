@@ -40,11 +40,13 @@ pub fn held_frame_test(
     if freed.is_empty() {
         return None;
     }
-    let mut free = mechanism.clone();
-    let parameters = &mut free.instrument.as_mut()?.parameters;
-    for &k in &freed {
-        parameters[k].identified = true;
-    }
+    let free = mechanism.edited(|parts| {
+        if let Some(instrument) = parts.instrument.as_mut() {
+            for &k in &freed {
+                instrument.parameters[k].identified = true;
+            }
+        }
+    });
     let refit = identify_shared(&free, observations, Strategy::Joint, held.options).ok()?;
     let refit = refit.instrument?;
     let drop = held_chi_squared - refit.noise_test.as_ref()?.chi_squared;

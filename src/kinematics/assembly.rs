@@ -71,7 +71,7 @@ fn home(mechanism: &mut Mechanism, index: usize) -> Result<()> {
             format!("the home configuration does not close at the home pose: {err}"),
         )
     })?;
-    let leg = &mut mechanism.legs[index];
+    let leg = &mut mechanism.parts_mut().legs[index];
     leg.branch_sign = solution.normalised_determinant.signum();
     leg.home_joints = solution.q;
     Ok(())

@@ -56,11 +56,11 @@ fn gaussian(rng: &mut ChaCha8Rng) -> f64 {
 /// the true poses (and the noisy readings) that [`observed_from`] turns into target
 /// measurements.
 pub fn without_pose_noise(mechanism: &Mechanism) -> Mechanism {
-    let mut quiet = mechanism.clone();
-    if let Some(s) = quiet.simulation.as_mut() {
-        s.pose_noise = [0.0; 6];
-    }
-    quiet
+    mechanism.edited(|parts| {
+        if let Some(s) = parts.simulation.as_mut() {
+            s.pose_noise = [0.0; 6];
+        }
+    })
 }
 
 /// Simulates the model's experiment through its instrument at random poses.

@@ -17,9 +17,47 @@ pub const MAX_POSES_PER_LEG: usize = 100_000;
 /// Names of the end-effector coordinates, in pose-vector order (metres, radians).
 pub const COORDINATES: [&str; 6] = ORIGIN_COMPONENTS;
 
-/// A complete, validated mechanism. Immutable once loaded.
+/// A complete, validated mechanism, immutable once loaded: its [`MechanismParts`] are read
+/// through it (`mechanism.legs`, `mechanism.noise`, …) and never written. A variant for a
+/// study or a test is a new value ([`Mechanism::edited`]); a new mechanism is a model file.
 #[derive(Debug, Clone)]
 pub struct Mechanism {
+    parts: MechanismParts,
+}
+
+impl std::ops::Deref for Mechanism {
+    type Target = MechanismParts;
+
+    fn deref(&self) -> &MechanismParts {
+        &self.parts
+    }
+}
+
+impl Mechanism {
+    /// The mechanism of validated `parts` (the model's cross-checks and the kinematic checks
+    /// run by [`Mechanism::load`]).
+    pub(crate) fn from_parts(parts: MechanismParts) -> Self {
+        Mechanism { parts }
+    }
+
+    /// The parts, for the kinematic checks that complete them while loading.
+    pub(crate) fn parts_mut(&mut self) -> &mut MechanismParts {
+        &mut self.parts
+    }
+
+    /// A copy of this mechanism with `edit` applied to its parts, this one unchanged: for
+    /// studies and tests that vary one thing of a loaded model (the declared noise, which
+    /// parameters are identified, the simulation's noise). The copy is not validated again.
+    pub fn edited(&self, edit: impl FnOnce(&mut MechanismParts)) -> Mechanism {
+        let mut parts = self.parts.clone();
+        edit(&mut parts);
+        Mechanism { parts }
+    }
+}
+
+/// What a [`Mechanism`] is made of (read through it).
+#[derive(Debug, Clone)]
+pub struct MechanismParts {
     /// Human-readable name.
     pub name: String,
     /// The model file it was loaded from.

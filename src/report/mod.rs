@@ -5,6 +5,7 @@ pub mod evaluation;
 pub mod json;
 pub mod plots;
 pub mod terminal;
+pub mod workspace;
 
 use crate::evaluate::accuracy::AccuracyMap;
 use crate::identify::estimate::{LegEstimate, Strategy, StrategyResult};

@@ -5,7 +5,7 @@ use std::path::Path;
 
 use crate::error::{Error, Result};
 use crate::model::file::ModelFile;
-use crate::model::mechanism::{Mechanism, COORDINATES};
+use crate::model::mechanism::{Mechanism, MechanismParts, COORDINATES};
 
 mod home;
 mod instrument;
@@ -81,7 +81,7 @@ impl Builder<'_> {
         let instrument = self.instrument(file.instrument.as_ref(), &measured, &legs)?;
         let simulation = self.simulation(&file, &measured, &legs, noise, instrument.as_ref())?;
         let selection = self.selection(&file, simulation.as_ref())?;
-        let mechanism = Mechanism {
+        let mechanism = Mechanism::from_parts(MechanismParts {
             name: file.name,
             model_path: self.path.to_path_buf(),
             urdf_path: self.urdf_path.to_path_buf(),
@@ -94,7 +94,7 @@ impl Builder<'_> {
             noise,
             simulation,
             instrument,
-        };
+        });
         Ok(mechanism)
     }
 
