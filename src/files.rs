@@ -59,6 +59,38 @@ pub struct Output {
 }
 
 impl Output {
+    /// `--calibrated OUT.yaml`: the model file and the URDF beside it (extension `urdf`),
+    /// checked against the inputs and against the JSON report's path `json`.
+    ///
+    /// # Errors
+    /// `-` (the URDF is written beside the file), `OUT.urdf`, a path the JSON report would also
+    /// write, or as [`Self::prepare`].
+    pub fn prepare_calibrated(
+        out: &Path,
+        json: Option<&Path>,
+        inputs: &[Input<'_>],
+    ) -> Result<(Output, Output)> {
+        if let Some(json) = json {
+            let urdf = out.with_extension("urdf");
+            if [out, &urdf].iter().any(|p| same_destination(p, json)) {
+                return Err(invalid!(
+                    "{}: --calibrated and --json would write the same file; choose another path",
+                    json.display()
+                ));
+            }
+        }
+        if out.as_os_str() == "-" {
+            return Err(invalid!(
+                "--calibrated: expected a file path (the URDF is written beside it), found `-`"
+            ));
+        }
+        let urdf = crate::report::calibrated::urdf_path(out)?;
+        Ok((
+            Output::prepare("--calibrated", out, inputs)?,
+            Output::prepare("--calibrated", &urdf, inputs)?,
+        ))
+    }
+
     /// As [`Self::prepare`] for an optional path (`None` when the flag was not given).
     ///
     /// # Errors
@@ -309,6 +341,16 @@ fn same_file(a: &fs::Metadata, b: &fs::Metadata) -> bool {
         let _ = (a, b);
         false
     }
+}
+
+/// Whether two output paths name the same file (their directories compared canonically).
+fn same_destination(a: &Path, b: &Path) -> bool {
+    let resolve = |p: &Path| {
+        let parent = p.parent().filter(|d| !d.as_os_str().is_empty());
+        let dir = parent.unwrap_or(Path::new(".")).canonicalize().ok();
+        (dir, p.file_name().map(|n| n.to_os_string()))
+    };
+    resolve(a) == resolve(b)
 }
 
 /// SVG, or PNG with `--png`.

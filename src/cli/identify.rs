@@ -11,7 +11,6 @@ use crate::files::{Input, Output};
 use crate::measure::{Measurements, STDIN_NAME};
 use crate::model::Mechanism;
 use crate::pipeline::{self, MapSettings, Settings, SimulationSettings};
-use crate::report::calibrated::{calibrated_files, urdf_path, Calibration};
 use crate::report::plots::files::{identify_picture_names, identify_pictures};
 use crate::report::Report;
 
@@ -158,25 +157,11 @@ fn calibrated_outputs(
     let Some(out) = &args.after.calibrated else {
         return Ok(None);
     };
-    if let Some(json) = &args.json {
-        let urdf = out.with_extension("urdf");
-        if [out, &urdf].iter().any(|p| same_destination(p, json)) {
-            anyhow::bail!(
-                "{}: --calibrated and --json would write the same file; choose another path",
-                json.display()
-            );
-        }
-    }
-    if out.as_os_str() == "-" {
-        anyhow::bail!(
-            "--calibrated: expected a file path (the URDF is written beside it), found `-`"
-        );
-    }
-    let urdf = urdf_path(out)?;
-    Ok(Some((
-        Output::prepare("--calibrated", out, inputs)?,
-        Output::prepare("--calibrated", &urdf, inputs)?,
-    )))
+    Ok(Some(Output::prepare_calibrated(
+        out,
+        args.json.as_deref(),
+        inputs,
+    )?))
 }
 
 /// `--map`: simulation only, with a valid grid, refused before any work otherwise.
@@ -191,37 +176,15 @@ fn check_map(args: &IdentifyArgs, mechanism: &Mechanism) -> anyhow::Result<()> {
 }
 
 /// Writes the calibrated model (the URDF first: the model file names it).
-fn write_calibrated(report: &Report<'_>, outputs: &(Output, Output)) -> anyhow::Result<()> {
-    let note = report
-        .calibrated_result()
-        .filter(|_| report.results.len() > 1)
-        .map(|result| {
-            format!(
-                "Several strategies ran; this is the {} result.",
-                result.strategy.name()
-            )
-        });
-    let Some(calibration) = Calibration::of(report, note.as_deref()) else {
-        return Ok(());
-    };
-    let (yaml, urdf) = outputs;
+fn write_calibrated(report: &Report<'_>, (yaml, urdf): &(Output, Output)) -> anyhow::Result<()> {
     let urdf_name = Path::new(&urdf.name())
         .file_name()
         .map_or_else(String::new, |n| n.to_string_lossy().into_owned());
-    let files = calibrated_files(&calibration, &urdf_name)?;
-    urdf.write("calibrated URDF", files.urdf.as_bytes())?;
-    yaml.write("calibrated model", files.yaml.as_bytes())?;
+    if let Some(files) = report.calibrated_files(&urdf_name)? {
+        urdf.write("calibrated URDF", files.urdf.as_bytes())?;
+        yaml.write("calibrated model", files.yaml.as_bytes())?;
+    }
     Ok(())
-}
-
-/// Whether two output paths name the same file (their directories compared canonically).
-fn same_destination(a: &Path, b: &Path) -> bool {
-    let resolve = |p: &Path| {
-        let parent = p.parent().filter(|d| !d.as_os_str().is_empty());
-        let dir = parent.unwrap_or(Path::new(".")).canonicalize().ok();
-        (dir, p.file_name().map(|n| n.to_os_string()))
-    };
-    resolve(a) == resolve(b)
 }
 
 /// `--plots DIR`: simulation only; one checked output per picture, before any work.

@@ -57,6 +57,29 @@ impl<'a> Calibration<'a> {
     }
 }
 
+impl Report<'_> {
+    /// The calibrated model of the report's [`Report::calibrated_result`] (`None` without a
+    /// result), its model file naming the URDF `urdf_name`; with several results, its header
+    /// says which one it holds.
+    ///
+    /// # Errors
+    /// As [`calibrated_files`].
+    pub fn calibrated_files(&self, urdf_name: &str) -> Result<Option<CalibratedFiles>> {
+        let note = self
+            .calibrated_result()
+            .filter(|_| self.results.len() > 1)
+            .map(|result| {
+                format!(
+                    "Several strategies ran; this is the {} result.",
+                    result.strategy.name()
+                )
+            });
+        Calibration::of(self, note.as_deref())
+            .map(|calibration| calibrated_files(&calibration, urdf_name))
+            .transpose()
+    }
+}
+
 /// The URDF path of the calibrated model file `out`: beside it, extension `urdf`.
 ///
 /// # Errors

@@ -4,6 +4,7 @@ pub mod calibrated;
 pub mod evaluation;
 pub mod json;
 pub mod plots;
+pub mod selection;
 pub mod terminal;
 pub mod workspace;
 

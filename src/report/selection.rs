@@ -1,0 +1,99 @@
+//! The report of `legwise select`: the selected design in words (each leg's observability
+//! indices and its optimality certificate, the shared set's), and the pose file to measure.
+
+use std::fmt::Write as _;
+
+use crate::error::Result;
+use crate::measure::{file, observations, MeasuredPose, MeasurementSet};
+use crate::model::mechanism::SelectionCriterion;
+use crate::model::Mechanism;
+use crate::selection::design::ExperimentDesign;
+
+/// Which of a design's pose sets go into the pose file.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Sets {
+    /// Each leg's own poses (divide and conquer).
+    pub per_leg: bool,
+    /// The shared poses (traditional).
+    pub shared: bool,
+}
+
+/// The text of `design`, selected with `count` poses per leg by `criterion`, for the sets
+/// `sets`.
+pub fn selection_text(
+    mechanism: &Mechanism,
+    design: &ExperimentDesign,
+    (count, criterion): (usize, SelectionCriterion),
+    sets: Sets,
+) -> String {
+    let mut text = String::new();
+    let _ = writeln!(
+        text,
+        "legwise select: {} ({})",
+        mechanism.name,
+        mechanism.model_path.display()
+    );
+    let _ = writeln!(
+        text,
+        "{} feasible candidate poses (grid {} m); criterion {:?}; {} poses per leg",
+        design.candidates, design.spacing, criterion, count
+    );
+    for leg_design in design.legs.iter().filter(|_| sets.per_leg) {
+        let o = &leg_design.observability;
+        let _ = writeln!(
+            text,
+            "  leg {}: O1 {:.4}, O2 {:.3e}, O3 {:.4}, O4 {:.3e}, O5 {:.4}; condition {:.1}; Kiefer-Wolfowitz {:.2} (n = {})",
+            mechanism.legs[leg_design.leg].name,
+            o.indices[0], o.indices[1], o.indices[2], o.indices[3], o.indices[4],
+            o.condition, leg_design.selection.certificate, o.singular_values.len()
+        );
+    }
+    if let Some(shared) = &design.shared {
+        let o = &shared.stacked;
+        let _ = writeln!(
+            text,
+            "  shared (all legs): O1 {:.4}, O3 {:.4}; condition {:.1}",
+            o.indices[0], o.indices[2], o.condition
+        );
+    }
+    text
+}
+
+/// The pose file of `design`'s `sets` in the measurement CSV layout `mechanism` reads, with
+/// what the user fills in: the readings, or through an instrument the poses to command and the
+/// target coordinates and readings to fill in.
+///
+/// # Errors
+/// The instrument's template cannot be written.
+pub fn pose_file(
+    mechanism: &Mechanism,
+    design: &ExperimentDesign,
+    sets: Sets,
+) -> Result<(String, &'static str)> {
+    let legs = mechanism.legs.len();
+    let mut set = MeasurementSet::new(None, legs);
+    let mut push = |leg: Option<usize>, poses: &[[f64; 6]]| {
+        for &pose in poses {
+            let row = MeasuredPose {
+                line: None,
+                leg,
+                pose,
+            };
+            set.push(row, &vec![None; legs]);
+        }
+    };
+    for leg_design in design.legs.iter().filter(|_| sets.per_leg) {
+        push(Some(leg_design.leg), &leg_design.poses);
+    }
+    if let Some(shared) = design.shared.as_ref().filter(|_| sets.shared) {
+        push(None, &shared.poses);
+    }
+    Ok(if mechanism.instrument.is_some() {
+        (
+            observations::template_csv(mechanism, &set)?,
+            "command the pose.* columns, fill in the target coordinates and the readings",
+        )
+    } else {
+        (file::to_csv(mechanism, &set), "fill in the readings")
+    })
+}
