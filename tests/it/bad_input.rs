@@ -712,8 +712,7 @@ fn a_gain_of_1e308_is_named_as_an_overflow_of_the_nominal_parameters() {
 /// roll, pitch, yaw (a model may measure any of the six; the bundled planar ones measure three).
 #[test]
 fn a_bad_coordinate_cell_names_the_unit_of_its_coordinate() {
-    let mut mech = bundled("5r.yaml");
-    mech.measured = (0..6).collect();
+    let mech = bundled("5r.yaml").edited(|parts| parts.measured = (0..6).collect());
     let readings = ",".repeat(mech.actuated_names().len());
     let header = format!(
         "leg,x,y,z,roll,pitch,yaw,{}",
@@ -768,13 +767,16 @@ fn a_measurement_file_that_cannot_be_read_is_an_io_error_naming_it() {
 fn an_overflow_names_the_first_of_equally_large_parameters() {
     use legwise::model::mechanism::SelectionCriterion;
     use legwise::selection::design::ExperimentDesign;
-    let mut mech = Mechanism::load(&data("5r_gain_1e308.yaml")).expect("the model loads");
-    let k2 = mech.legs[1]
-        .params
-        .iter_mut()
-        .find(|p| p.name == "k2")
-        .expect("k2");
-    k2.nominal = -1e308;
+    let mech = Mechanism::load(&data("5r_gain_1e308.yaml"))
+        .expect("the model loads")
+        .edited(|parts| {
+            let k2 = parts.legs[1]
+                .params
+                .iter_mut()
+                .find(|p| p.name == "k2")
+                .expect("k2");
+            k2.nominal = -1e308;
+        });
     let err = ExperimentDesign::select(&mech, None, 18, SelectionCriterion::D, false)
         .expect_err("the Jacobian overflows");
     let msg = message(&err);

@@ -36,12 +36,12 @@ fn clean_csv() -> std::path::PathBuf {
 }
 
 fn with_noise(pose_sigma: f64, reading_sigma: f64) -> Mechanism {
-    let mut mechanism = bundled("5r.yaml");
-    mechanism.noise = Some(MeasurementNoise {
-        pose: [pose_sigma, pose_sigma, 0.0, 0.0, 0.0, 0.0],
-        reading: reading_sigma,
-    });
-    mechanism
+    bundled("5r.yaml").edited(|parts| {
+        parts.noise = Some(MeasurementNoise {
+            pose: [pose_sigma, pose_sigma, 0.0, 0.0, 0.0, 0.0],
+            reading: reading_sigma,
+        });
+    })
 }
 
 const WEIGHTED: FitOptions = FitOptions {
@@ -61,8 +61,7 @@ fn sigma_from_rows(leg: &LegEstimate) -> f64 {
 
 #[test]
 fn a_noise_block_of_zeros_is_no_declared_noise() {
-    let mut silent = bundled("5r.yaml");
-    silent.noise = None;
+    let silent = bundled("5r.yaml").edited(|parts| parts.noise = None);
     let zeros = with_noise(0.0, 0.0);
     let robust = FitOptions {
         robust: Some(RobustLoss::Huber),

@@ -13,13 +13,13 @@ use crate::support::{bundled, crate_path};
 
 /// `mechanism` with its nominal parameters replaced by `values` (the "real" model).
 fn with_parameters(mechanism: &Mechanism, values: &[Vec<f64>]) -> Mechanism {
-    let mut model = mechanism.clone();
-    for (leg, phi) in model.legs.iter_mut().zip(values) {
-        for (param, &value) in leg.params.iter_mut().zip(phi) {
-            param.nominal = value;
+    mechanism.edited(|parts| {
+        for (leg, phi) in parts.legs.iter_mut().zip(values) {
+            for (param, &value) in leg.params.iter_mut().zip(phi) {
+                param.nominal = value;
+            }
         }
-    }
-    model
+    })
 }
 
 #[test]

@@ -21,10 +21,10 @@ const G: f64 = 1.0 / 1024.0;
 /// The 5R model with its workspace region replaced by `region` and its home pose by `home`
 /// (all the grid reads of a mechanism).
 fn with_region(region: Region, home: [f64; 6]) -> Mechanism {
-    let mut mechanism = bundled("5r.yaml");
-    mechanism.workspace.region = region;
-    mechanism.home_pose = home;
-    mechanism
+    bundled("5r.yaml").edited(|parts| {
+        parts.workspace.region = region;
+        parts.home_pose = home;
+    })
 }
 
 /// The lattice points `(i, j)` (units of [`G`], from the disc's centre) of a disc of radius

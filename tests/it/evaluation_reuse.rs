@@ -294,10 +294,11 @@ fn a_legs_jacobian_is_borrowed_only_when_it_is_the_whole_jacobian() {
         blocks.extend(measurements.leg_blocks(1));
         blocks
     };
-    let mut held = mech.clone();
-    for p in &mut held.legs[1].params {
-        p.identified = false;
-    }
+    let held = mech.edited(|parts| {
+        for p in &mut parts.legs[1].params {
+            p.identified = false;
+        }
+    });
     for mechanism in [&mech, &held] {
         let problem = IdentificationProblem::new(mechanism, &[0, 1], blocks());
         let (_, c) = problem

@@ -14,32 +14,32 @@ use crate::support::{bundled, bundled_models};
 /// `mechanism` with every length multiplied by `scale`: joint origins, platform joints,
 /// prismatic offsets and home values, length parameters and the home pose's position.
 fn scaled(mechanism: &Mechanism, scale: f64) -> Mechanism {
-    let mut scaled = mechanism.clone();
-    for value in &mut scaled.home_pose[..3] {
-        *value *= scale;
-    }
-    for leg in &mut scaled.legs {
-        for joint in &mut leg.joints {
-            for value in &mut joint.origin[..3] {
-                *value *= scale;
+    mechanism.edited(|scaled| {
+        for value in &mut scaled.home_pose[..3] {
+            *value *= scale;
+        }
+        for leg in &mut scaled.legs {
+            for joint in &mut leg.joints {
+                for value in &mut joint.origin[..3] {
+                    *value *= scale;
+                }
+            }
+            leg.attachment = leg.attachment.map(|v| v * scale);
+            if !leg.actuated_is_revolute() {
+                leg.offset *= scale;
+            }
+            for (k, &joint) in leg.moving.iter().enumerate() {
+                if leg.joints[joint].kind == JointKind::Prismatic {
+                    leg.home_joints[k] *= scale;
+                }
+            }
+            for parameter in &mut leg.params {
+                if parameter.unit == Unit::Metre {
+                    parameter.nominal *= scale;
+                }
             }
         }
-        leg.attachment = leg.attachment.map(|v| v * scale);
-        if !leg.actuated_is_revolute() {
-            leg.offset *= scale;
-        }
-        for (k, &joint) in leg.moving.iter().enumerate() {
-            if leg.joints[joint].kind == JointKind::Prismatic {
-                leg.home_joints[k] *= scale;
-            }
-        }
-        for parameter in &mut leg.params {
-            if parameter.unit == Unit::Metre {
-                parameter.nominal *= scale;
-            }
-        }
-    }
-    scaled
+    })
 }
 
 /// Every leg's reading at `pose` with nominal parameters, on the branch continued from `home`.
@@ -56,17 +56,17 @@ fn nominal_readings(mechanism: &Mechanism, pose: &[f64; 6], home: &[f64; 6]) -> 
 /// must be neither wrapped like an angle nor limited in steps of 0.5 rad.
 fn actuated_at_the_base(mechanism: &Mechanism) -> Mechanism {
     use legwise::model::params::ParamTarget;
-    let mut revolute = mechanism.clone();
-    revolute.name = format!("{} driven at the base", mechanism.name);
-    for leg in &mut revolute.legs {
-        leg.actuated = 0;
-        for parameter in &mut leg.params {
-            if parameter.target == ParamTarget::Offset {
-                parameter.unit = Unit::Radian;
+    mechanism.edited(|revolute| {
+        revolute.name = format!("{} driven at the base", mechanism.name);
+        for leg in &mut revolute.legs {
+            leg.actuated = 0;
+            for parameter in &mut leg.params {
+                if parameter.target == ParamTarget::Offset {
+                    parameter.unit = Unit::Radian;
+                }
             }
         }
-    }
-    revolute
+    })
 }
 
 /// The forward kinematics of the mechanism scaled by 1e-3 and 1e4 gives the scaled poses: for
@@ -271,15 +271,17 @@ fn readings_on_the_type_two_singularity_give_the_singular_pose_to_the_square_roo
 #[test]
 fn a_home_pose_on_the_type_two_singularity_is_refused() {
     use legwise::error::KinematicsError;
-    let mut mechanism = bundled("5r.yaml");
+    let mechanism = bundled("5r.yaml");
     let home = mechanism.home_pose;
-    for leg in &mut mechanism.legs {
-        let q = solve_leg(leg, &leg.geometry(&leg.nominal()), &SINGULAR, &home)
-            .unwrap()
-            .q;
-        leg.home_joints = q;
-    }
-    mechanism.home_pose = SINGULAR;
+    let mechanism = mechanism.edited(|parts| {
+        for leg in &mut parts.legs {
+            let q = solve_leg(leg, &leg.geometry(&leg.nominal()), &SINGULAR, &home)
+                .unwrap()
+                .q;
+            leg.home_joints = q;
+        }
+        parts.home_pose = SINGULAR;
+    });
     let params = mechanism.nominal_parameters();
     let kinematics = ForwardKinematics::new(&mechanism, &params);
     let readings = nominal_readings(&mechanism, &home, &SINGULAR);
@@ -302,23 +304,25 @@ fn a_home_pose_on_the_type_two_singularity_is_refused() {
 /// tolerances still have a size (1e-3 of the longest leg): the pose solves.
 #[test]
 fn a_platform_point_on_the_world_origin_still_has_a_tolerance() {
-    let mut mechanism = bundled("5r.yaml");
+    let mechanism = bundled("5r.yaml");
     let home = mechanism.home_pose;
     let origin = [0.0, 1.0, 0.0, 0.0, 0.0, 0.0];
     // Shift the world so that `origin` becomes (0, 0): the base joints move by −origin.
-    for leg in &mut mechanism.legs {
-        leg.joints[0].origin[1] -= origin[1];
-        for parameter in &mut leg.params {
-            if let legwise::model::params::ParamTarget::JointOrigin {
-                joint: 0,
-                component: 1,
-            } = parameter.target
-            {
-                parameter.nominal -= origin[1];
+    let mechanism = mechanism.edited(|parts| {
+        for leg in &mut parts.legs {
+            leg.joints[0].origin[1] -= origin[1];
+            for parameter in &mut leg.params {
+                if let legwise::model::params::ParamTarget::JointOrigin {
+                    joint: 0,
+                    component: 1,
+                } = parameter.target
+                {
+                    parameter.nominal -= origin[1];
+                }
             }
         }
-    }
-    mechanism.home_pose = [home[0], home[1] - origin[1], 0.0, 0.0, 0.0, 0.0];
+        parts.home_pose = [home[0], home[1] - origin[1], 0.0, 0.0, 0.0, 0.0];
+    });
     let shifted_home = mechanism.home_pose;
     let readings = nominal_readings(&mechanism, &[0.0; 6], &shifted_home);
     let reached = forward(&mechanism, &mechanism.nominal_parameters(), &readings).unwrap();

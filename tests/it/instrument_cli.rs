@@ -68,7 +68,7 @@ fn identify_reports_the_instrument_in_the_terminal_and_json_and_writes_the_calib
     assert_eq!(report["results"].as_array().unwrap().len(), 2);
     // The calibrated model loads, with the frame at its estimate.
     let mechanism = Mechanism::load(&calibrated).unwrap();
-    let instrument = mechanism.instrument.unwrap();
+    let instrument = mechanism.instrument.as_ref().unwrap();
     let estimate = frame_x["identified"].as_f64().unwrap();
     assert!((instrument.parameters[0].nominal - estimate).abs() < 1e-12);
 }

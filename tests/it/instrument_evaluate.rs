@@ -398,20 +398,21 @@ fn a_camera_marker_adds_the_orientation_error_of_the_target() {
     };
     let experiment = simulate_observed(&mechanism, options).unwrap();
     // The real mechanism as a model: its errors vanish.
-    let mut real = mechanism.clone();
-    for (leg, phi) in real.legs.iter_mut().zip(&experiment.real) {
-        for (p, &v) in leg.params.iter_mut().zip(phi) {
+    let real = mechanism.edited(|real| {
+        for (leg, phi) in real.legs.iter_mut().zip(&experiment.real) {
+            for (p, &v) in leg.params.iter_mut().zip(phi) {
+                p.nominal = v;
+            }
+        }
+        let instrument = real.instrument.as_mut().unwrap();
+        for (p, &v) in instrument
+            .parameters
+            .iter_mut()
+            .zip(&experiment.real_shared)
+        {
             p.nominal = v;
         }
-    }
-    let instrument = real.instrument.as_mut().unwrap();
-    for (p, &v) in instrument
-        .parameters
-        .iter_mut()
-        .zip(&experiment.real_shared)
-    {
-        p.nominal = v;
-    }
+    });
     let exact = evaluate_observed(&real, &experiment.observations).unwrap();
     assert!(exact.position_error.unwrap().max <= 1e-9);
     assert!(exact.orientation_error.unwrap().max <= 1e-9);

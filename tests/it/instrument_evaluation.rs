@@ -116,10 +116,11 @@ fn holding_the_shared_parameters_gives_the_full_problems_residuals_at_their_valu
         let gap = (held.apply(&own).unwrap() - full.apply(&x).unwrap()).amax();
         assert!(gap <= 1e-12, "{model}: {gap:e}");
         // Every instrument parameter held by the model: the unknowns are the legs' in both.
-        let mut frozen = mechanism.clone();
-        for p in &mut frozen.instrument.as_mut().unwrap().parameters {
-            p.identified = false;
-        }
+        let frozen = mechanism.edited(|frozen| {
+            for p in &mut frozen.instrument.as_mut().unwrap().parameters {
+                p.identified = false;
+            }
+        });
         let nominal = SharedProblem::new(&frozen, observations).unwrap();
         assert_eq!(nominal.start().len(), own.len(), "{model}");
         let at_nominal = nominal.apply(&own).unwrap();

@@ -255,10 +255,11 @@ fn every_count_of_shared_parameters_gives_the_same_border_columns() {
     }
     let reference = full.bordered(&x).unwrap();
     for count in 1..=shared.len() {
-        let mut fewer = mechanism.clone();
-        for &k in &shared[count..] {
-            fewer.instrument.as_mut().unwrap().parameters[k].identified = false;
-        }
+        let fewer = mechanism.edited(|fewer| {
+            for &k in &shared[count..] {
+                fewer.instrument.as_mut().unwrap().parameters[k].identified = false;
+            }
+        });
         let problem = SharedProblem::new(&fewer, observations).unwrap();
         assert_eq!(problem.shared_columns(), &shared[..count]);
         let blocks = problem

@@ -86,7 +86,7 @@ fn one_pose_target_is_enough_for_a_rotating_platform() {
     let urdf = std::fs::read_to_string(crate_path("models/3rpr.urdf")).unwrap();
     let mechanism =
         Mechanism::parse(&text, Path::new("m.yaml"), &urdf, Path::new("3rpr.urdf")).unwrap();
-    let instrument = mechanism.instrument.unwrap();
+    let instrument = mechanism.instrument.as_ref().unwrap();
     assert_eq!(instrument.columns(), ["x.m", "y.m", "yaw.m"]);
 }
 

@@ -441,7 +441,7 @@ fn the_calibrated_spatial_model_carries_the_estimated_frame_and_offsets() {
     let report: Value = serde_json::from_slice(&out.stdout).unwrap();
     let parameters = json_parameters(&report);
     let mechanism = Mechanism::load(&calibrated).unwrap();
-    let instrument = mechanism.instrument.unwrap();
+    let instrument = mechanism.instrument.as_ref().unwrap();
     for p in &instrument.parameters {
         let estimate = parameters.iter().find(|q| q.0 == p.name).unwrap().2;
         assert!(

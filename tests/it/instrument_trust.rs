@@ -57,8 +57,7 @@ fn the_rms_and_the_size_are_those_of_the_residuals_at_the_estimate() {
 fn a_declared_noise_of_zeros_is_no_noise_and_readings_or_pose_alone_are_one() {
     let (mechanism, experiment) = experiment();
     let with = |noise: Option<MeasurementNoise>| {
-        let mut m = mechanism.clone();
-        m.noise = noise;
+        let m = mechanism.edited(|m| m.noise = noise);
         identify_shared(&m, &experiment.observations, Strategy::Joint).unwrap()
     };
     let sigmas = |e: &StrategyResult| -> Vec<Option<f64>> {

@@ -37,6 +37,7 @@ mod montecarlo;
 mod nist;
 mod observability_values;
 mod parallel_measure;
+mod pipeline;
 mod plots;
 mod recovery;
 mod report_schema;

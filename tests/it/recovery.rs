@@ -67,10 +67,11 @@ fn recovery_also_holds_through_the_measurement_csv() {
 #[test]
 fn a_leg_with_every_parameter_fixed_is_left_out() {
     use legwise::selection::design::ExperimentDesign;
-    let mut mech = crate::support::bundled("5r.yaml");
-    for p in &mut mech.legs[1].params {
-        p.identified = false;
-    }
+    let mech = crate::support::bundled("5r.yaml").edited(|parts| {
+        for p in &mut parts.legs[1].params {
+            p.identified = false;
+        }
+    });
     let design = ExperimentDesign::select(&mech, None, 18, mech.selection.criterion, true).unwrap();
     assert_eq!(design.legs.len(), 1);
     let sets = design.pose_sets();

@@ -115,8 +115,7 @@ fn the_3rpr_selection_varies_the_orientation() {
 
 #[test]
 fn a_fixed_orientation_pool_is_rank_deficient_in_named_parameters() {
-    let mut mech = bundled("3rpr.yaml");
-    mech.workspace.ranges[5] = None; // yaw held at home
+    let mech = bundled("3rpr.yaml").edited(|parts| parts.workspace.ranges[5] = None); // yaw held at home
     let pool = candidate_pool(&mech, None).unwrap();
     let err = divide_and_conquer(&mech, &pool, 18, SelectionCriterion::D)
         .unwrap_err()
@@ -149,8 +148,7 @@ fn a_weak_design_is_reported_with_its_least_observable_direction() {
     use legwise::identify::estimate::{identify, Strategy};
     use legwise::measure::simulate::{simulate, SimulationOptions};
     use legwise::solver::SolverKind;
-    let mut mech = bundled("3rpr.yaml");
-    mech.workspace.ranges[5] = None;
+    let mech = bundled("3rpr.yaml").edited(|parts| parts.workspace.ranges[5] = None);
     let data = simulate(&mech, SimulationOptions::default())
         .unwrap()
         .measurements;
@@ -187,13 +185,14 @@ fn a_weak_design_is_reported_with_its_least_observable_direction() {
 /// with the orientation held, leg1 with its attachment held too is identifiable, leg2 is not.
 #[test]
 fn a_rank_deficient_traditional_pool_names_the_first_deficient_leg() {
-    let mut mech = bundled("3rpr.yaml");
-    mech.workspace.ranges[5] = None; // yaw held at home
-    for p in &mut mech.legs[0].params {
-        if p.name.starts_with("b1") {
-            p.identified = false;
+    let mech = bundled("3rpr.yaml").edited(|parts| {
+        parts.workspace.ranges[5] = None; // yaw held at home
+        for p in &mut parts.legs[0].params {
+            if p.name.starts_with("b1") {
+                p.identified = false;
+            }
         }
-    }
+    });
     let pool = candidate_pool(&mech, None).unwrap();
     let err = traditional(&mech, &pool, 18, SelectionCriterion::D)
         .unwrap_err()

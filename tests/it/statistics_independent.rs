@@ -22,8 +22,8 @@ const FIXED: (usize, usize) = (0, 3);
 
 /// The bundled 5R with `A1y` fixed, and its seeded noisy experiment.
 fn noisy_5r_with_a_fixed_parameter() -> (Mechanism, MeasurementSet) {
-    let mut mech = bundled("5r.yaml");
-    mech.legs[FIXED.0].params[FIXED.1].identified = false;
+    let mech =
+        bundled("5r.yaml").edited(|parts| parts.legs[FIXED.0].params[FIXED.1].identified = false);
     let data = simulate(&mech, SimulationOptions::default())
         .unwrap()
         .measurements;

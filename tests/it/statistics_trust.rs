@@ -117,7 +117,7 @@ fn the_noise_block_is_validated_and_is_the_simulations_default() {
         max_relative = 0.0
     );
     assert_relative_eq!(
-        both.simulation.expect("simulation").reading_noise,
+        both.simulation.as_ref().expect("simulation").reading_noise,
         1e-4,
         max_relative = 0.0
     );
@@ -418,8 +418,7 @@ fn weights_noise_fits_by_the_inverse_expected_variance() {
         assert_relative_eq!(sigma, test.sigma_ratio, max_relative = 0.05);
     }
     let mechanism = bundled("5r.yaml");
-    let mut silent = mechanism.clone();
-    silent.noise = None;
+    let silent = mechanism.edited(|parts| parts.noise = None);
     let err = identify_with(
         &silent,
         &measurements(&mechanism, "stats_5r_clean.csv"),
@@ -479,8 +478,7 @@ fn revolute_readings_are_judged_by_their_joint_value_so_a_geared_actuator_passes
     let clean = measurements(&mechanism, "stats_5r_clean.csv");
     assert!(check(&mechanism, &clean).expect("plausible").is_empty());
     // A 1:50 gear on leg1: readings 50 times the joint angle, gain 1/50.
-    let mut geared = mechanism.clone();
-    geared.legs[0].gain = 0.02;
+    let geared = mechanism.edited(|parts| parts.legs[0].gain = 0.02);
     let mut turned = clean.clone();
     for i in 0..turned.len() {
         let readings = turned.readings_mut(i);

@@ -66,11 +66,12 @@ fn zero_noise_fits_of_the_bundled_models_name_no_outlier() {
         let data = noise_free(&declared);
         // As `identify --noise-scale 0` (declared noise scaled to zero) and with the declared
         // noise kept (residuals far below it).
-        let mut zeroed = declared.clone();
-        if let Some(noise) = &mut zeroed.noise {
-            noise.pose = [0.0; 6];
-            noise.reading = 0.0;
-        }
+        let zeroed = declared.edited(|zeroed| {
+            if let Some(noise) = &mut zeroed.noise {
+                noise.pose = [0.0; 6];
+                noise.reading = 0.0;
+            }
+        });
         for mechanism in [&zeroed, &declared] {
             for strategy in [Strategy::DivideAndConquer, Strategy::Traditional] {
                 let result = identify(mechanism, &data, strategy, SolverKind::LevenbergMarquardt)
