@@ -17,7 +17,8 @@ pub(super) fn run(args: &EvaluateArgs) -> anyhow::Result<Verdict> {
     let mechanism = Mechanism::load(&args.model)?;
     let other = args.against.as_deref().map(Mechanism::load).transpose()?;
     if let (Some(path), Some(other)) = (&args.against, &other) {
-        same_measurements(&args.model, &mechanism, path, other)?;
+        Measurements::same_layout(&mechanism, other)
+            .map_err(|e| anyhow::anyhow!("--against {}: {e}", path.display()))?;
     }
     let mut inputs = super::checks::model_inputs(&args.model, &mechanism);
     if let (Some(path), Some(other)) = (&args.against, &other) {
@@ -69,39 +70,6 @@ pub(super) fn run(args: &EvaluateArgs) -> anyhow::Result<Verdict> {
 /// Evaluates `model` on the measurement file at `path` (read in the model's layout).
 fn evaluate_file(model: &Mechanism, path: &Path) -> anyhow::Result<Evaluation> {
     Ok(evaluate(model, &Measurements::read(path, model)?)?)
-}
-
-/// Refuses `--against` a model that reads another kind of measurement file: one with an
-/// instrument block and one without, or instruments reporting different target columns.
-fn same_measurements(
-    path: &Path,
-    model: &Mechanism,
-    other_path: &Path,
-    other: &Mechanism,
-) -> anyhow::Result<()> {
-    let columns = |m: &Mechanism| m.instrument.as_ref().map(|i| i.columns());
-    let describe = |m: &Mechanism| {
-        columns(m).map_or_else(
-            || "platform poses".to_string(),
-            |c| {
-                format!(
-                    "target coordinates through its instrument ({})",
-                    c.join(", ")
-                )
-            },
-        )
-    };
-    if columns(model) != columns(other) {
-        anyhow::bail!(
-            "--against {}: its measurements are {}, those of {} are {}; both models must read \
-             the same measurement file",
-            other_path.display(),
-            describe(other),
-            path.display(),
-            describe(model)
-        );
-    }
-    Ok(())
 }
 
 /// A model's file name, for the picture's legend.

@@ -90,6 +90,36 @@ impl Measurements {
         }
     }
 
+    /// Whether `model` and `other` read the same measurement file: both platform poses, or
+    /// both the same target columns through their instruments.
+    ///
+    /// # Errors
+    /// [`Error::Invalid`] saying what each reads.
+    pub fn same_layout(model: &Mechanism, other: &Mechanism) -> Result<()> {
+        let columns = |m: &Mechanism| m.instrument.as_ref().map(|i| i.columns());
+        let describe = |m: &Mechanism| {
+            columns(m).map_or_else(
+                || "platform poses".to_string(),
+                |c| {
+                    format!(
+                        "target coordinates through its instrument ({})",
+                        c.join(", ")
+                    )
+                },
+            )
+        };
+        if columns(model) == columns(other) {
+            return Ok(());
+        }
+        Err(Error::Invalid(format!(
+            "its measurements are {}, those of {} are {}; both models must read the same \
+             measurement file",
+            describe(other),
+            model.model_path.display(),
+            describe(model)
+        )))
+    }
+
     /// Rows of the measurement file (measured poses, or rows of target coordinates).
     pub fn rows(&self) -> usize {
         match self {
