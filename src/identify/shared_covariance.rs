@@ -92,22 +92,6 @@ pub fn covariance(
     Some(&inverse * meat * &inverse * scale)
 }
 
-/// The square roots of the diagonal of [`covariance`].
-pub fn standard_deviations(
-    r: &DVector<f64>,
-    jacobian: &DMatrix<f64>,
-    loadings: Option<&NoiseLoadings>,
-) -> Option<Vec<f64>> {
-    let covariance = covariance(r, jacobian, loadings)?;
-    Some(
-        covariance
-            .diagonal()
-            .iter()
-            .map(|v| v.max(0.0).sqrt())
-            .collect(),
-    )
-}
-
 #[cfg(test)]
 mod tests {
     use nalgebra::{DMatrix, DVector};

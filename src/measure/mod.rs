@@ -127,11 +127,6 @@ impl MeasurementSet {
         &self.poses
     }
 
-    /// The poses, to change in place.
-    pub fn poses_mut(&mut self) -> &mut [MeasuredPose] {
-        &mut self.poses
-    }
-
     /// Pose `index`'s readings, one per leg.
     pub fn readings(&self, index: usize) -> &[Option<f64>] {
         &self.readings[index * self.legs..(index + 1) * self.legs]

@@ -145,48 +145,6 @@ impl<'a> SingularityMargin<'a> {
             .map_or(-1.0, |(serial, parallel)| serial.min(parallel))
     }
 
-    /// The measures on a `count × count` grid from `lo` with spacing `step` (indexed `[i][j]`
-    /// for x, y), each point's legs solved from the previous point of its column (a
-    /// continuation), or directly from home when there is none; `None` where a leg fails.
-    pub fn sample_grid(
-        &self,
-        lo: [f64; 2],
-        step: [f64; 2],
-        count: usize,
-    ) -> Vec<Vec<Option<(f64, f64)>>> {
-        let home: Vec<LegSolution> = self
-            .mechanism
-            .legs
-            .iter()
-            .map(|leg| LegSolution {
-                q: leg.home_joints.clone(),
-                closure_inverse: nalgebra::Matrix3::zeros(),
-                normalised_determinant: leg.branch_sign,
-            })
-            .collect();
-        (0..count)
-            .map(|i| {
-                let mut seeds: Option<Vec<LegSolution>> = None;
-                (0..count)
-                    .map(|j| {
-                        let p = [lo[0] + i as f64 * step[0], lo[1] + j as f64 * step[1]];
-                        let from = seeds.as_deref().unwrap_or(&home);
-                        match self.measures_from(p, Some(from)) {
-                            Ok((measures, solutions)) => {
-                                seeds = Some(solutions);
-                                Some(measures)
-                            }
-                            Err(_) => {
-                                seeds = None;
-                                None
-                            }
-                        }
-                    })
-                    .collect()
-            })
-            .collect()
-    }
-
     /// The margin at `p` continued from `seeds`, with the solutions there when inside.
     fn continued(&self, p: [f64; 2], seeds: &[LegSolution]) -> Option<Vec<LegSolution>> {
         match self.measures_from(p, Some(seeds)) {

@@ -144,19 +144,6 @@ fn home_start(
     Ok((margin, centre, start))
 }
 
-/// The boundary of the singularity-free region in the horizontal plane through the home
-/// position (orientation at home), along `rays` rays in that plane: the `(x, y)` crossings.
-///
-/// # Errors
-/// As [`spatial_inscribed_workspace`].
-pub fn horizontal_slice(
-    mechanism: &Mechanism,
-    options: Miw3dOptions,
-    rays: usize,
-) -> Result<Vec<[f64; 2]>> {
-    slice(mechanism, options, [0, 1], rays)
-}
-
 /// The boundary of the singularity-free region in the plane through the home position spanned
 /// by the position coordinates `axes` (`[0, 1]`: x–y, `[0, 2]`: x–z, `[1, 2]`: y–z; orientation
 /// at home), along `rays` rays in that plane: the crossings in those two coordinates.
