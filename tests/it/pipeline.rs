@@ -184,3 +184,28 @@ fn measurements_read_by_the_models_layout_say_where_they_came_from() {
         std::fs::read_to_string(&path).unwrap()
     );
 }
+
+/// Readings ten times noisier than the model declares: the χ² test rejects the declared noise,
+/// so the report must not be trusted (the command line exits 3), and says why.
+#[test]
+fn a_report_whose_residuals_reject_the_declared_noise_is_not_trusted() {
+    let plain = bundled("5r.yaml");
+    let mut noisy = quiet().simulation;
+    noisy.options.noise_scale = 10.0;
+    let data = simulate(&plain, &noisy).unwrap().measurements;
+    let report = identify(&plain, &data, &Settings::default()).unwrap();
+    let issues = report.trust_issues();
+    assert!(!report.trusted());
+    assert!(!issues.is_empty());
+    assert!(
+        issues
+            .iter()
+            .all(|i| i.contains("reject the declared noise")),
+        "{issues:?}"
+    );
+    // The same data identified expecting ten times the declared noise is trusted.
+    let mut expecting = Settings::default();
+    expecting.fit.noise_scale = 10.0;
+    let report = identify(&plain, &data, &expecting).unwrap();
+    assert!(report.trusted(), "{:?}", report.trust_issues());
+}
