@@ -209,3 +209,23 @@ fn a_report_whose_residuals_reject_the_declared_noise_is_not_trusted() {
     let report = identify(&plain, &data, &expecting).unwrap();
     assert!(report.trusted(), "{:?}", report.trust_issues());
 }
+
+/// A result's parameters: the instrument's block first (through an instrument), then each
+/// identified leg's, every parameter once, in model order.
+#[test]
+fn a_results_parameters_are_the_instruments_then_each_legs() {
+    for model in ["5r.yaml", "5r-tracker.yaml"] {
+        let mechanism = bundled(model);
+        let report = run(&mechanism, &quiet()).unwrap();
+        let result = &report.results[0];
+        let names: Vec<&str> = result.parameters().map(|p| p.name.as_str()).collect();
+        let mut expected: Vec<&str> = Vec::new();
+        if let Some(instrument) = &mechanism.instrument {
+            expected.extend(instrument.parameters.iter().map(|p| p.name.as_str()));
+        }
+        for leg in mechanism.legs.iter() {
+            expected.extend(leg.params.iter().map(|p| p.name.as_str()));
+        }
+        assert_eq!(names, expected, "{model}");
+    }
+}
