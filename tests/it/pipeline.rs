@@ -229,3 +229,25 @@ fn a_results_parameters_are_the_instruments_then_each_legs() {
         assert_eq!(names, expected, "{model}");
     }
 }
+
+/// The calibrated model says which strategy it holds when several ran, and only then: the
+/// tracker model runs two (joint, two-stage), the plain 5R one.
+#[test]
+fn the_calibrated_header_names_the_strategy_only_when_several_ran() {
+    let note =
+        "Several strategies ran; this is the joint (legs and instrument, Schur complement) result.";
+    let (tracker_model, plain_model) = (bundled("5r-tracker.yaml"), bundled("5r.yaml"));
+    let tracker = run(&tracker_model, &quiet()).unwrap();
+    assert_eq!(tracker.results.len(), 2);
+    let files = tracker.calibrated_files("5r.urdf").unwrap().unwrap();
+    assert!(files.yaml.contains(note), "{}", files.yaml);
+    let plain = run(&plain_model, &quiet()).unwrap();
+    assert_eq!(plain.results.len(), 1);
+    let files = plain.calibrated_files("5r.urdf").unwrap().unwrap();
+    assert!(
+        !files.yaml.contains("Several strategies ran"),
+        "{}",
+        files.yaml
+    );
+    assert!(files.yaml.contains("5r.urdf"));
+}
