@@ -35,7 +35,7 @@ fn solvers(c: &mut Criterion) {
             c.benchmark_group(format!("identify_leg/{}", name.trim_end_matches(".yaml")));
         for kind in [SolverKind::LevenbergMarquardt, SolverKind::GaussNewton] {
             group.bench_function(kind.short_name(), |b| {
-                b.iter(|| solve(black_box(&problem), problem.nominal(), kind).expect("solves"))
+                b.iter(|| solve(black_box(&problem), problem.start(), kind).expect("solves"))
             });
         }
         group.finish();

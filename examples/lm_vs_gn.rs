@@ -109,7 +109,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             for leg in mechanism.identified_legs() {
                 let blocks = experiment.measurements.leg_blocks(leg);
                 let problem = IdentificationProblem::new(&mechanism, &[leg], blocks);
-                let reference = solve(&problem, problem.nominal(), SolverKind::LevenbergMarquardt)?;
+                let reference = solve(&problem, problem.start(), SolverKind::LevenbergMarquardt)?;
                 let columns = mechanism.legs[leg].identified();
                 let truth =
                     DVector::from_iterator(columns.len(), columns.iter().map(|&c| real[leg][c]));

@@ -135,7 +135,7 @@ pub fn identify_problem(
             });
         }
     }
-    let x0 = problem.nominal();
+    let x0 = problem.start();
     let (r0_start, c0) = problem
         .residuals_and_jacobian(&x0)
         .map_err(|e| located(mechanism, data, problem, e))?;

@@ -150,6 +150,11 @@ impl<'a> PreparedLeg<'a> {
         self.leg
     }
 
+    /// The leg's geometry at the prepared parameters.
+    pub fn geometry(&self) -> &LegGeometry<f64> {
+        &self.geometry
+    }
+
     /// The predicted reading at `pose`, writing its gradient with respect to the prepared
     /// columns into `gradient` (one value per column).
     ///

@@ -9,7 +9,6 @@ pub mod problem;
 pub mod residual;
 pub mod result;
 pub mod robust;
-pub mod shared;
 pub mod shared_covariance;
 pub mod shared_estimate;
 mod solve_from;

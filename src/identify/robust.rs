@@ -210,7 +210,7 @@ mod tests {
         // see the same evaluation history (warm starts), hence the same bits.
         let prepared = || {
             let problem = IdentificationProblem::new(&mechanism, &[0], blocks.clone());
-            let start = solve_from(&problem, &problem.nominal(), solver).unwrap().x;
+            let start = solve_from(&problem, &problem.start(), solver).unwrap().x;
             let sigma: Vec<f64> = row_variances(&problem, &start, noise)
                 .unwrap()
                 .iter()

@@ -3,7 +3,7 @@
 //! as the one [`StrategyResult`] of every strategy.
 //!
 //! Two strategies: [`Strategy::Joint`] (every leg's parameters and the instrument's identified
-//! ones together, [`SharedProblem`] solved by [`solve_bordered`]) and [`Strategy::TwoStage`]
+//! ones together, [`IdentificationProblem`] solved by [`solve_bordered`]) and [`Strategy::TwoStage`]
 //! (first the instrument alone, the legs at their nominal parameters, from the first rows of
 //! every leg; then every leg on its own with the instrument held at that registration).
 //!
@@ -15,28 +15,32 @@
 use nalgebra::{DMatrix, DVector};
 
 use super::observability::{analyse, Observability};
+use super::problem::IdentificationProblem;
 use super::result::{
     FitOptions, InstrumentEstimate, LegEstimate, ParameterEstimate, RowResidual, SolverRun,
     Strategy, StrategyResult,
 };
-use super::shared::SharedProblem;
 use super::shared_covariance::covariance;
 use super::statistics::{self, LegStatistics};
 use crate::error::{Error, Result};
 use crate::measure::observations::Observations;
 use crate::model::Mechanism;
-use crate::solver::bordered::{to_dense, BorderedLeastSquares, DenseView};
 use crate::solver::{solve, solve_bordered, SolverKind};
 
 /// Rows per leg the two-stage strategy registers the instrument from.
 pub const REGISTRATION_ROWS: usize = 6;
 
 /// The dense Jacobian of `problem` at `x`.
-fn dense(problem: &SharedProblem<'_>, x: &DVector<f64>) -> Result<(DVector<f64>, DMatrix<f64>)> {
-    let blocks = problem
-        .bordered(x)
-        .map_err(|e| Error::Invalid(format!("the legs and the instrument: {e}")))?;
-    Ok(to_dense(&problem.layout(), &blocks))
+fn dense(
+    problem: &IdentificationProblem<'_>,
+    x: &DVector<f64>,
+) -> Result<(DVector<f64>, DMatrix<f64>)> {
+    problem.residuals_and_jacobian(x).map_err(|e| {
+        Error::Invalid(format!(
+            "the legs and the instrument: {}: {}",
+            e.location, e.source
+        ))
+    })
 }
 
 /// The rank check of `problem` at its start: an error naming the parameters and the null
@@ -45,7 +49,10 @@ fn dense(problem: &SharedProblem<'_>, x: &DVector<f64>) -> Result<(DVector<f64>,
 /// # Errors
 /// [`Error::Invalid`] naming the parameters and directions when rank-deficient; the problem's
 /// evaluation error.
-pub fn check_rank(problem: &SharedProblem<'_>, source: &Observations) -> Result<Observability> {
+pub fn check_rank(
+    problem: &IdentificationProblem<'_>,
+    source: &Observations,
+) -> Result<Observability> {
     let x0 = problem.start();
     let (_, jacobian) = dense(problem, &x0)?;
     let names = problem.names();
@@ -92,7 +99,7 @@ pub fn identify_shared(
             strategy.name()
         )));
     }
-    let problem = SharedProblem::new(mechanism, observations)?;
+    let problem = IdentificationProblem::through_instrument(mechanism, observations)?;
     let observability = check_rank(&problem, observations)?;
     let started = std::time::Instant::now();
     let (problem, outcome) = if strategy == Strategy::Joint {
@@ -101,7 +108,7 @@ pub fn identify_shared(
     } else {
         let registration = problem.with_legs_fixed().with_rows(REGISTRATION_ROWS);
         let first = solve(
-            &DenseView(&registration),
+            &registration,
             registration.start(),
             SolverKind::LevenbergMarquardt,
         )
@@ -169,7 +176,7 @@ pub fn identify_shared(
 
 /// The solved problem, split into its parameter blocks.
 struct Blocks<'p> {
-    problem: &'p SharedProblem<'p>,
+    problem: &'p IdentificationProblem<'p>,
     x: &'p DVector<f64>,
     r: &'p DVector<f64>,
     r0: &'p DVector<f64>,
@@ -183,27 +190,20 @@ impl Blocks<'_> {
     /// residuals and costs, the observability of its own columns at the estimate and its
     /// block of the covariance.
     fn legs(&self, mechanism: &Mechanism) -> Vec<LegEstimate> {
-        let phis = self.problem.leg_parameters(self.x);
-        let layout = self.problem.layout();
         let lines = self.problem.row_lines();
         let (mut row, mut column) = (0, 0);
         let mut estimates = Vec::new();
-        for (((l, phi), &own), lines) in self
-            .problem
-            .legs()
-            .into_iter()
-            .zip(&phis)
-            .zip(&layout.own)
-            .zip(&lines)
-        {
-            let leg = &mechanism.legs[l];
+        for (slot, lines) in self.problem.slots().iter().zip(&lines) {
+            let phi = self.problem.leg_parameters(slot, self.x);
+            let own = slot.columns.len();
+            let leg = &mechanism.legs[slot.leg];
             let rows = row..row + lines.len();
             let columns = column..column + own;
             let mut k = column;
             let parameters = leg
                 .params
                 .iter()
-                .zip(phi)
+                .zip(&phi)
                 .map(|(p, &value)| {
                     let std = p.identified.then(|| {
                         k += 1;
@@ -261,8 +261,10 @@ impl Blocks<'_> {
         let values = self.problem.shared_values(self.x);
         let identified = self.problem.shared_columns();
         let first = self.x.len() - identified.len();
-        self.problem
-            .instrument()
+        let Some(instrument) = self.problem.instrument() else {
+            return Vec::new();
+        };
+        instrument
             .parameters
             .iter()
             .enumerate()

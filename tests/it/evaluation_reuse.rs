@@ -26,7 +26,7 @@ fn leg_problem(mech: &Mechanism, poses: usize, copies: usize) -> IdentificationP
 
 /// Three distinct parameter vectors near the nominal one.
 fn three_points(problem: &IdentificationProblem<'_>) -> [DVector<f64>; 3] {
-    let x0 = problem.nominal();
+    let x0 = problem.start();
     let shifted = |d: f64| {
         let mut x = x0.clone();
         x[0] += d;
@@ -128,7 +128,7 @@ fn map_solved_reuses_a_kept_evaluation_and_solves_otherwise() {
 fn only_problems_of_several_chunks_go_to_the_thread_pool() {
     let mech = bundled("5r.yaml");
     let threads = |problem: &IdentificationProblem<'_>| {
-        let x = problem.nominal();
+        let x = problem.start();
         problem
             .map_solved(&x, |_, _, _, _| rayon::current_thread_index())
             .unwrap()
@@ -302,7 +302,7 @@ fn a_legs_jacobian_is_borrowed_only_when_it_is_the_whole_jacobian() {
     for mechanism in [&mech, &held] {
         let problem = IdentificationProblem::new(mechanism, &[0, 1], blocks());
         let (_, c) = problem
-            .residuals_and_jacobian(&problem.nominal().map(|v| v * 1.001))
+            .residuals_and_jacobian(&problem.start().map(|v| v * 1.001))
             .unwrap();
         for slot in problem.slots() {
             let part = problem.slot_jacobian(slot, &c);
@@ -330,7 +330,7 @@ fn the_gain_column_carries_the_turn_term_of_readings_on_another_turn() {
         .iter()
         .position(|&c| mech.legs[0].params[c].name == "k1")
         .expect("k1 identified");
-    let mut x = plain.nominal().map(|v| v * (1.0 + 1e-3));
+    let mut x = plain.start().map(|v| v * (1.0 + 1e-3));
     x[gain] = 1.3;
     let turn = std::f64::consts::TAU / 1.3;
     let blocks: Vec<_> = plain

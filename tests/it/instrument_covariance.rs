@@ -6,8 +6,8 @@
 //! the predicted σ of the frame lies in the interval of the observed spread, and with shared
 //! rows the frame's errors over their σ have the second moment of Student's t.
 use argmin::core::Operator;
+use legwise::identify::problem::IdentificationProblem;
 use legwise::identify::result::{Strategy, StrategyResult};
-use legwise::identify::shared::SharedProblem;
 use legwise::measure::observations::Observations;
 use legwise::measure::observe_simulate::simulate_observed;
 use legwise::measure::simulate::SimulationOptions;
@@ -30,7 +30,7 @@ fn reported(estimate: &StrategyResult) -> Vec<f64> {
 
 /// The residuals of the problem over `observations` at `x`.
 fn residuals(mechanism: &Mechanism, observations: &Observations, x: &DVector<f64>) -> DVector<f64> {
-    SharedProblem::new(mechanism, observations)
+    IdentificationProblem::through_instrument(mechanism, observations)
         .unwrap()
         .apply(x)
         .unwrap()
@@ -120,7 +120,9 @@ fn check(
 ) -> (Recomputed, Vec<f64>, Vec<String>) {
     let estimate = identify_shared(mechanism, observations, Strategy::Joint).unwrap();
     let x = unknowns(&estimate);
-    let names = SharedProblem::new(mechanism, observations).unwrap().names();
+    let names = IdentificationProblem::through_instrument(mechanism, observations)
+        .unwrap()
+        .names();
     let recomputed = Recomputed::new(mechanism, observations, &x);
     let sigmas = reported(&estimate);
     let expected = recomputed.sigmas(&recomputed.v);

@@ -3,7 +3,7 @@
 //! expected variance equals the declared reading variance plus the target coordinates'
 //! variances carried by central differences of the residuals in those coordinates.
 use argmin::core::Operator;
-use legwise::identify::shared::SharedProblem;
+use legwise::identify::problem::IdentificationProblem;
 use legwise::measure::observe_simulate::simulate_observed;
 use legwise::measure::simulate::SimulationOptions;
 use legwise::solver::bordered::{to_dense, BorderedLeastSquares};
@@ -18,7 +18,9 @@ fn blocks_after_other_evaluations_equal_a_fresh_problems_at_the_same_unknowns() 
     for model in MODELS {
         let mechanism = bundled(model);
         let experiment = simulate_observed(&mechanism, SimulationOptions::default()).unwrap();
-        let problem = SharedProblem::new(&mechanism, &experiment.observations).unwrap();
+        let problem =
+            IdentificationProblem::through_instrument(&mechanism, &experiment.observations)
+                .unwrap();
         let x1 = problem.start().map(|v| v * (1.0 + 1e-3));
         let x2 = problem.start().map(|v| v * (1.0 - 2e-3));
         // Residuals at x1 (kept), then at x2 in a clone (a solver's copy), then blocks at x1
@@ -32,7 +34,9 @@ fn blocks_after_other_evaluations_equal_a_fresh_problems_at_the_same_unknowns() 
         assert_eq!(r2, b2, "{model}: residuals at x2");
         assert!((&r1 - &r2).amax() > 1e-6, "{model}: x1 and x2 must differ");
         for (x, r, j) in [(&x1, &b1, &j1), (&x2, &b2, &j2)] {
-            let fresh = SharedProblem::new(&mechanism, &experiment.observations).unwrap();
+            let fresh =
+                IdentificationProblem::through_instrument(&mechanism, &experiment.observations)
+                    .unwrap();
             let (fr, fj) = to_dense(&layout, &fresh.bordered(x).unwrap());
             assert!(
                 (r - &fr).amax() <= 1e-12,
@@ -55,7 +59,7 @@ fn row_variances_carry_the_target_noise_through_the_pose_fit_as_central_differen
         let noise = mechanism.noise.expect("a declared noise");
         let experiment = simulate_observed(&mechanism, SimulationOptions::default()).unwrap();
         let observations = &experiment.observations;
-        let problem = SharedProblem::new(&mechanism, observations).unwrap();
+        let problem = IdentificationProblem::through_instrument(&mechanism, observations).unwrap();
         let x = problem.start().map(|v| v * (1.0 + 1e-3));
         let variances = problem.row_variances(&x, &noise).unwrap();
         let sigmas = target_sigmas(&mechanism, &noise);
@@ -68,7 +72,7 @@ fn row_variances_carry_the_target_noise_through_the_pose_fit_as_central_differen
                 let residuals = |delta: f64| {
                     let mut moved = observations.clone();
                     moved.rows[row].observed[i] += delta;
-                    SharedProblem::new(&mechanism, &moved)
+                    IdentificationProblem::through_instrument(&mechanism, &moved)
                         .unwrap()
                         .apply(&x)
                         .unwrap()
@@ -104,7 +108,7 @@ fn holding_the_shared_parameters_gives_the_full_problems_residuals_at_their_valu
         let mechanism = bundled(model);
         let experiment = simulate_observed(&mechanism, SimulationOptions::default()).unwrap();
         let observations = &experiment.observations;
-        let full = SharedProblem::new(&mechanism, observations).unwrap();
+        let full = IdentificationProblem::through_instrument(&mechanism, observations).unwrap();
         let x = full.start().map(|v| v * (1.0 + 1e-3));
         let values = full.shared_values(&x);
         let own = x
@@ -121,7 +125,7 @@ fn holding_the_shared_parameters_gives_the_full_problems_residuals_at_their_valu
                 p.identified = false;
             }
         });
-        let nominal = SharedProblem::new(&frozen, observations).unwrap();
+        let nominal = IdentificationProblem::through_instrument(&frozen, observations).unwrap();
         assert_eq!(nominal.start().len(), own.len(), "{model}");
         let at_nominal = nominal.apply(&own).unwrap();
         let moved = nominal.with_shared_fixed(&values).apply(&own).unwrap();
@@ -135,14 +139,15 @@ fn holding_the_shared_parameters_gives_the_full_problems_residuals_at_their_valu
 }
 
 /// What the shared problem's evaluations reuse, counted in solved rows
-/// (`SharedProblem::row_solves`): the two latest evaluations are kept (the oldest dropped), the
+/// (`IdentificationProblem::row_solves`): the two latest evaluations are kept (the oldest dropped), the
 /// derivatives where the residuals were evaluated solve nothing, clones share the count, and a
-/// problem of more than 65 536 rows keeps nothing.
+/// problem of more than 65 536 rows keeps its readings but not its solutions.
 #[test]
 fn the_shared_problem_keeps_its_two_latest_evaluations() {
     let mechanism = bundled("5r-tracker.yaml");
     let experiment = simulate_observed(&mechanism, SimulationOptions::default()).unwrap();
-    let problem = SharedProblem::new(&mechanism, &experiment.observations).unwrap();
+    let problem =
+        IdentificationProblem::through_instrument(&mechanism, &experiment.observations).unwrap();
     let point = |d: f64| problem.start().map(|v| v * (1.0 + d));
     let (x1, x2, x3) = (point(1e-3), point(2e-3), point(3e-3));
     assert_eq!(problem.row_solves(), 0);
@@ -165,15 +170,28 @@ fn the_shared_problem_keeps_its_two_latest_evaluations() {
     assert_eq!(problem.row_solves(), 3 * m, "x1 was the newer");
     problem.apply(&x2).unwrap();
     assert_eq!(problem.row_solves(), 4 * m, "x2 was dropped");
-    // A problem of more than 65 536 rows keeps nothing.
+    // A problem of more than 65 536 rows keeps its readings, not its solutions: the derivatives
+    // where it last solved need the derivative passes only (from its warm starts), elsewhere a
+    // solve again.
     let mut many = experiment.observations.clone();
     let copies = 65_536 / m as usize + 1;
     many.rows = (0..copies)
         .flat_map(|_| experiment.observations.rows.iter().cloned())
         .collect();
-    let large = SharedProblem::new(&mechanism, &many).unwrap();
+    let large = IdentificationProblem::through_instrument(&mechanism, &many).unwrap();
     let rows = large.apply(&x1).unwrap().len() as u64;
     assert!(rows > 65_536);
     large.apply(&x1).unwrap();
-    assert_eq!(large.row_solves(), 2 * rows);
+    large.bordered(&x1).unwrap();
+    assert_eq!(large.row_solves(), rows);
+    large.apply(&x2).unwrap();
+    large.bordered(&x2).unwrap();
+    assert_eq!(
+        large.row_solves(),
+        2 * rows,
+        "the derivatives from the warm starts"
+    );
+    // x1's readings are kept, its solutions are not: its derivatives need a solve again.
+    large.bordered(&x1).unwrap();
+    assert_eq!(large.row_solves(), 3 * rows);
 }

@@ -4,8 +4,8 @@
 //! frame/base gauge when everything is freed.
 use std::path::Path;
 
+use legwise::identify::problem::IdentificationProblem;
 use legwise::identify::result::Strategy;
-use legwise::identify::shared::SharedProblem;
 use legwise::measure::observations::{parse, to_csv};
 use legwise::measure::observe_simulate::simulate_observed;
 use legwise::model::Mechanism;
@@ -84,7 +84,9 @@ fn the_schur_solution_equals_a_dense_levenberg_marquardt_solve_of_the_same_probl
     for model in ["5r-tracker.yaml", "3rpr-tracker.yaml"] {
         let mechanism = bundled(model);
         let experiment = simulate_observed(&mechanism, simulation(1.0)).unwrap();
-        let problem = SharedProblem::new(&mechanism, &experiment.observations).unwrap();
+        let problem =
+            IdentificationProblem::through_instrument(&mechanism, &experiment.observations)
+                .unwrap();
         let schur = solve_bordered(&problem, problem.start()).unwrap();
         let dense = solve(
             &DenseView(&problem),
@@ -189,7 +191,9 @@ fn the_jacobian_of_the_shared_problem_matches_central_differences_of_its_residua
     ] {
         let mechanism = bundled(model);
         let experiment = simulate_observed(&mechanism, simulation(1.0)).unwrap();
-        let problem = SharedProblem::new(&mechanism, &experiment.observations).unwrap();
+        let problem =
+            IdentificationProblem::through_instrument(&mechanism, &experiment.observations)
+                .unwrap();
         // Away from the nominal start, every column non-trivial.
         let x = problem.start().map(|v| v * (1.0 + 1e-3));
         let (r, jacobian) = to_dense(&problem.layout(), &problem.bordered(&x).unwrap());
@@ -217,8 +221,9 @@ fn readings_on_another_turn_give_the_same_residuals_and_a_jacobian_that_accounts
         }
     }
     assert!(moved > 3);
-    let plain = SharedProblem::new(&mechanism, &experiment.observations).unwrap();
-    let problem = SharedProblem::new(&mechanism, &shifted).unwrap();
+    let plain =
+        IdentificationProblem::through_instrument(&mechanism, &experiment.observations).unwrap();
+    let problem = IdentificationProblem::through_instrument(&mechanism, &shifted).unwrap();
     // At the gains the shift was made with, a whole turn: the same residuals.
     let start = problem.start();
     let gap = (problem.apply(&start).unwrap() - plain.apply(&start).unwrap()).amax();
@@ -244,7 +249,7 @@ fn every_count_of_shared_parameters_gives_the_same_border_columns() {
     let mechanism = bundled("hexapod-tracker.yaml");
     let experiment = simulate_observed(&mechanism, simulation(1.0)).unwrap();
     let observations = &experiment.observations;
-    let full = SharedProblem::new(&mechanism, observations).unwrap();
+    let full = IdentificationProblem::through_instrument(&mechanism, observations).unwrap();
     let shared = full.shared_columns().to_vec();
     assert!(shared.len() > 8, "{} shared: two passes", shared.len());
     let own = full.start().len() - shared.len();
@@ -260,7 +265,7 @@ fn every_count_of_shared_parameters_gives_the_same_border_columns() {
                 fewer.instrument.as_mut().unwrap().parameters[k].identified = false;
             }
         });
-        let problem = SharedProblem::new(&fewer, observations).unwrap();
+        let problem = IdentificationProblem::through_instrument(&fewer, observations).unwrap();
         assert_eq!(problem.shared_columns(), &shared[..count]);
         let blocks = problem
             .bordered(&x.rows(0, own + count).into_owned())

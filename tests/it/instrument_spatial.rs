@@ -7,8 +7,8 @@
 //! is in `instrument_commands.rs`).
 use std::path::Path;
 
+use legwise::identify::problem::IdentificationProblem;
 use legwise::identify::result::Strategy;
-use legwise::identify::shared::SharedProblem;
 use legwise::measure::observe_simulate::simulate_observed;
 use legwise::model::Mechanism;
 use legwise::solver::bordered::{to_dense, BorderedLeastSquares, DenseView};
@@ -202,7 +202,9 @@ fn on_the_spatial_models_the_schur_step_and_solve_equal_the_dense_ones() {
     for model in MODELS {
         let mechanism = bundled(model);
         let experiment = simulate_observed(&mechanism, simulation(1.0)).unwrap();
-        let problem = SharedProblem::new(&mechanism, &experiment.observations).unwrap();
+        let problem =
+            IdentificationProblem::through_instrument(&mechanism, &experiment.observations)
+                .unwrap();
         // One damped step away from the start, every block and border non-trivial.
         let x = problem.start().map(|v| v * (1.0 + 1e-4));
         let blocks = problem.bordered(&x).unwrap();

@@ -3,8 +3,8 @@
 //! declared noise deciding the noise test (zeros are no noise, readings or pose alone are one),
 //! and each reason `trust_issues` gives, word for word.
 use argmin::core::Operator;
+use legwise::identify::problem::IdentificationProblem;
 use legwise::identify::result::{Strategy, StrategyResult};
-use legwise::identify::shared::SharedProblem;
 use legwise::identify::trust::trust_issues;
 use legwise::measure::observe_simulate::{simulate_observed, ObservedExperiment};
 use legwise::model::mechanism::MeasurementNoise;
@@ -26,7 +26,7 @@ fn the_rms_and_the_size_are_those_of_the_residuals_at_the_estimate() {
     let observations = &experiment.observations;
     for strategy in [Strategy::Joint, Strategy::TwoStage] {
         let estimate = identify_shared(&mechanism, observations, strategy).unwrap();
-        let problem = SharedProblem::new(&mechanism, observations).unwrap();
+        let problem = IdentificationProblem::through_instrument(&mechanism, observations).unwrap();
         let identified = unknowns(&estimate);
         let r = problem.apply(&identified).unwrap();
         // One residual per reading of a leg's rows (its labelled ones, or the shared ones

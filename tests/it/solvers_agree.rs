@@ -63,7 +63,7 @@ fn the_stacked_jacobian_is_block_diagonal() {
     );
     let legs: Vec<usize> = (0..mech.legs.len()).collect();
     let problem = IdentificationProblem::new(&mech, &legs, data.shared_blocks(legs.len()));
-    let (_, c) = problem.residuals_and_jacobian(&problem.nominal()).unwrap();
+    let (_, c) = problem.residuals_and_jacobian(&problem.start()).unwrap();
     for (i, block) in problem.blocks().iter().enumerate() {
         for slot in problem.slots() {
             for k in 0..slot.columns.len() {
@@ -128,7 +128,7 @@ fn levenberg_marquardt_agrees_with_the_minpack_port_on_the_noisy_5r_leg() {
         .measurements;
     for leg in 0..mech.legs.len() {
         let problem = IdentificationProblem::new(&mech, &[leg], data.leg_blocks(leg));
-        let ours = solve(&problem, problem.nominal(), SolverKind::LevenbergMarquardt).unwrap();
+        let ours = solve(&problem, problem.start(), SolverKind::LevenbergMarquardt).unwrap();
         let fresh = IdentificationProblem::new(&mech, &[leg], data.leg_blocks(leg));
         let (minpack, report) = levenberg_marquardt::LevenbergMarquardt::new()
             .with_ftol(legwise::solver::LM_TOLERANCE)
@@ -136,7 +136,7 @@ fn levenberg_marquardt_agrees_with_the_minpack_port_on_the_noisy_5r_leg() {
             .with_gtol(0.0)
             .minimize(MinpackLeg {
                 problem: &fresh,
-                x: fresh.nominal(),
+                x: fresh.start(),
             });
         assert!(
             report.termination.was_successful(),
@@ -165,8 +165,8 @@ fn both_solvers_end_on_the_stationary_point_over_many_seeds() {
         let data = simulate(&mech, options).unwrap().measurements;
         for leg in 0..mech.legs.len() {
             let problem = IdentificationProblem::new(&mech, &[leg], data.leg_blocks(leg));
-            let lm = solve(&problem, problem.nominal(), SolverKind::LevenbergMarquardt).unwrap();
-            let gn = solve(&problem, problem.nominal(), SolverKind::GaussNewton).unwrap();
+            let lm = solve(&problem, problem.start(), SolverKind::LevenbergMarquardt).unwrap();
+            let gn = solve(&problem, problem.start(), SolverKind::GaussNewton).unwrap();
             let (r, c) = problem.residuals_and_jacobian(&lm.x).unwrap();
             let step = c.svd(true, true).solve(&r, f64::EPSILON).unwrap();
             assert!(

@@ -236,7 +236,7 @@ fn residuals_ignore_the_history_and_the_thread_count() {
     let data = simulate(&mech, options).unwrap().measurements;
     let problem = IdentificationProblem::new(&mech, &[0], data.leg_blocks(0));
     assert!(problem.blocks().len() > 512, "several parallel chunks");
-    let x0 = problem.nominal();
+    let x0 = problem.start();
     let mut x = x0.clone();
     for step in 0..4 {
         x[0] += 1e-3 * step as f64;
@@ -255,7 +255,7 @@ fn residuals_ignore_the_history_and_the_thread_count() {
             .build()
             .unwrap();
         let problem = IdentificationProblem::new(&mech, &[0], data.leg_blocks(0));
-        pool.install(|| solve(&problem, problem.nominal(), SolverKind::LevenbergMarquardt))
+        pool.install(|| solve(&problem, problem.start(), SolverKind::LevenbergMarquardt))
             .unwrap()
             .x
     };
@@ -281,7 +281,7 @@ fn a_large_problem_takes_its_jacobian_from_the_kept_seeds() {
     let many: Vec<_> = (0..copies).flat_map(|_| base.iter().cloned()).collect();
     let small = IdentificationProblem::new(&mech, &[0], base.clone());
     let large = IdentificationProblem::new(&mech, &[0], many.clone());
-    let mut x = large.nominal();
+    let mut x = large.start();
     x[0] += 2e-3;
     x[3] -= 1e-3;
     // Residuals first, then the Jacobian at the same unknowns: from the seeds.

@@ -1,0 +1,476 @@
+//! The evaluations of an [`IdentificationProblem`]: each block's platform pose (measured, or
+//! fitted from its targets), inverse-kinematics solution and predicted reading at one unknowns
+//! vector, and (once asked for) the reading's gradients; the latest two kept, keyed by the
+//! exact bits of the unknowns, and every block's last solution kept as the warm start of its
+//! next solve.
+
+use std::sync::MutexGuard;
+
+use nalgebra::{DVector, Matrix3, Vector3};
+use rayon::prelude::*;
+
+use super::IdentificationProblem;
+use super::{BlockError, Placed};
+use crate::error::KinematicsError;
+use crate::identify::jacobian::PreparedLeg;
+use crate::kinematics::inverse::{joints, Joints, Solution};
+use crate::model::leg::LegModel;
+
+/// Rows per task: a problem with more rows is evaluated in parallel (rayon), in chunks of this
+/// many rows. The chunks do not depend on the number of threads, and every row's warm start
+/// only on that row's own history, so neither do the results.
+pub(super) const ROWS_PER_TASK: usize = 512;
+
+/// Latest evaluations kept (the solvers evaluate the Jacobian where they last evaluated the
+/// residuals; the refinement may end on a rejected point after the estimate).
+const KEPT_EVALUATIONS: usize = 2;
+
+/// Largest problem (in blocks) whose inverse-kinematics solutions (and fitted poses) are kept
+/// with its latest evaluations (128 bytes a row, 176 through an instrument), so that a
+/// Jacobian at any kept evaluation needs the derivative passes only; a larger problem has that
+/// only at its last solved evaluation (from its seeds, [`Evaluations::solved`]) and solves an
+/// older one again (warm-started).
+pub(super) const KEPT_SOLUTION_ROWS: usize = 65_536;
+
+/// A problem's evaluation state.
+#[derive(Debug)]
+pub(super) struct Evaluations {
+    /// Each block's solution at its last solved evaluation, [`Seeds::stride`] values a block
+    /// (NaN before the first): the warm start of its next inverse-kinematics solve, and what
+    /// a derivative pass needs at that evaluation's unknowns ([`Evaluations::solved`]).
+    seeds: Seeds,
+    /// The unknowns' bits of the evaluation the seeds are the solutions of (empty when none,
+    /// or when a solve failed part-way): a Jacobian asked for there needs the derivative
+    /// passes only, even for a problem too large to keep its full solutions.
+    solved: Vec<u64>,
+    /// The latest evaluations, newest first.
+    recent: Vec<Evaluation>,
+    /// Rows whose inverse kinematics were solved so far ([`IdentificationProblem::row_solves`]).
+    row_solves: u64,
+}
+
+/// What is kept of every block's last inverse-kinematics solution, flat: its moving joints
+/// (the next warm start), then the actuated joint's row of the closure Jacobian's inverse
+/// (its `closure_dims` first values), which is all a derivative pass takes from a solution
+/// besides the joints. 32 bytes a row for a planar leg of two moving joints.
+#[derive(Debug)]
+struct Seeds {
+    values: Vec<f64>,
+    /// Values a block: the largest `moving + closure_dims` of the problem's legs.
+    stride: usize,
+}
+
+/// One block's seed within [`Seeds::values`].
+fn seed_joints(seed: &[f64], leg: &LegModel) -> Option<Joints> {
+    (!seed[0].is_nan()).then(|| joints(&seed[..leg.moving.len()]))
+}
+
+/// Stores `solution` as block's seed.
+fn store_seed(seed: &mut [f64], leg: &LegModel, solution: &Solution) {
+    let moving = leg.moving.len();
+    seed[..moving].copy_from_slice(&solution.q[..moving]);
+    for k in 0..leg.closure_dims {
+        seed[moving + k] = solution.closure_inverse[(leg.actuated, k)];
+    }
+}
+
+/// A solution for the derivative passes from a block's seed: the joints and the actuated row
+/// of the closure inverse; its closure error and the other rows are zero (not read by them).
+fn seed_solution(seed: &[f64], leg: &LegModel) -> Solution {
+    let moving = leg.moving.len();
+    let mut closure_inverse = Matrix3::zeros();
+    for k in 0..leg.closure_dims {
+        closure_inverse[(leg.actuated, k)] = seed[moving + k];
+    }
+    Solution {
+        q: joints(&seed[..moving]),
+        closure: Vector3::zeros(),
+        closure_inverse,
+        normalised_determinant: 0.0,
+    }
+}
+
+/// The values of one evaluation, before turn matching and row weights: what any evaluation
+/// at the same unknowns (bit for bit) returns without solving again.
+#[derive(Debug)]
+pub(super) struct Evaluation {
+    /// The unknowns' bits.
+    x: Vec<u64>,
+    /// Each block's inverse-kinematics solution (empty above [`KEPT_SOLUTION_ROWS`]).
+    solutions: Vec<Solution>,
+    /// Each block's platform pose fitted from its targets (through an instrument, up to
+    /// [`KEPT_SOLUTION_ROWS`] blocks; else empty).
+    poses: Vec<[f64; 6]>,
+    /// Each block's predicted reading.
+    pub(super) predicted: Vec<f64>,
+    /// Each block's gradient with respect to its slot's identified parameters, then to the
+    /// identified shared parameters, [`IdentificationProblem::gradient_stride`] values a block;
+    /// empty until a Jacobian is asked for.
+    pub(super) gradients: Vec<f64>,
+}
+
+impl Evaluations {
+    /// The state before the first evaluation of a problem of `blocks` blocks: one seed of
+    /// `stride` values per block, NaN (no warm start yet).
+    pub(super) fn new(blocks: usize, stride: usize) -> Self {
+        Self {
+            seeds: Seeds {
+                values: vec![f64::NAN; blocks * stride],
+                stride,
+            },
+            solved: Vec::new(),
+            recent: Vec::new(),
+            row_solves: 0,
+        }
+    }
+}
+
+/// Frees the gradients of the kept evaluations (before the gradients of another one are
+/// computed).
+fn release_older_gradients(state: &mut Evaluations) {
+    for older in &mut state.recent {
+        older.gradients = Vec::new();
+    }
+}
+
+/// One task's rows: the chunk's index, its seeds, predicted readings and gradients.
+type ChunkOfRows<'c> = (usize, ((&'c mut [f64], &'c mut [f64]), &'c mut [f64]));
+
+/// The bits of `x`: evaluations are reused only at exactly the same unknowns.
+fn key(x: &DVector<f64>) -> Vec<u64> {
+    x.iter().map(|v| v.to_bits()).collect()
+}
+
+impl<'a> IdentificationProblem<'a> {
+    /// The evaluation state (shared with the problem's clones).
+    fn lock(&self) -> MutexGuard<'_, Evaluations> {
+        self.state.lock().unwrap_or_else(|e| e.into_inner())
+    }
+
+    /// Each slot's leg prepared at the unknowns `x` (built once, reused at every pose), for
+    /// the derivatives with respect to its identified parameters if `derivatives`.
+    fn prepare(&self, x: &DVector<f64>, derivatives: bool) -> Vec<PreparedLeg<'a>> {
+        self.slots
+            .iter()
+            .map(|slot| {
+                let leg = &self.mechanism.legs[slot.leg];
+                let columns: &[usize] = if derivatives { &slot.columns } else { &[] };
+                PreparedLeg::new(leg, &self.leg_parameters(slot, x), columns)
+            })
+            .collect()
+    }
+
+    /// Block `index`'s prepared leg among `prepared` (one per slot).
+    fn prepared_leg<'p>(
+        &self,
+        prepared: &'p [PreparedLeg<'a>],
+        index: usize,
+    ) -> &'p PreparedLeg<'a> {
+        &prepared[self.slot_of_leg[self.blocks[index].leg].unwrap_or_default()]
+    }
+
+    /// Block `index`'s reading at its solved pose `placed`, its gradient written into
+    /// `gradient` ([`Self::gradient_stride`] values): with respect to its leg's identified
+    /// parameters by the leg's dual passes, then to the identified shared parameters `shared`
+    /// by the chain rule through the pose fit ([`super::sighting`]).
+    fn reading_and_gradient(
+        &self,
+        (leg, index): (&PreparedLeg<'a>, usize),
+        (placed, solution): (&Placed, &Solution),
+        shared: &[f64],
+        gradient: &mut [f64],
+    ) -> f64 {
+        let own = self.own_width();
+        let reading =
+            leg.reading_and_gradient_on(&placed.platform, solution, &mut gradient[..leg.columns()]);
+        if let Some(sighted) = self.sighted.as_ref().filter(|s| !s.shared.is_empty()) {
+            let row = (sighted.rows[index].observed.as_slice(), &placed.pose);
+            let home = &self.mechanism.home_pose;
+            sighted.shared_gradient(leg, row, solution, (shared, home), &mut gradient[own..]);
+        }
+        // Through an instrument the reading is the solution's own, the value a residual-only
+        // evaluation gives (its fitted poses' results are those recorded with it); with
+        // measured poses, the dual pass's (the same to round-off).
+        if self.sighted.is_some() {
+            return leg.reading_of(solution);
+        }
+        reading
+    }
+
+    /// Calls `read` with the evaluation at the unknowns `x` (with the gradients if
+    /// `derivatives`): a kept one if there is one at exactly `x`, else a new one, which is
+    /// then kept. Solving a block's inverse kinematics is warm-started from its last solution.
+    /// Only the newest gradients are kept: an older evaluation's are freed before new ones
+    /// are computed (a large problem's are as large as its Jacobian; the solvers never ask
+    /// for a Jacobian at a point before the last one they took a Jacobian at).
+    ///
+    /// # Errors
+    /// The first block (in row order) whose leg cannot reach its pose.
+    pub(super) fn evaluated<R>(
+        &self,
+        x: &DVector<f64>,
+        derivatives: bool,
+        read: impl FnOnce(&Evaluation) -> R,
+    ) -> Result<R, BlockError> {
+        let key = key(x);
+        let mut state = self.lock();
+        let kept = state.recent.iter().position(|e| e.x == key);
+        let mut evaluation = match kept {
+            Some(i) => state.recent.remove(i),
+            None => {
+                // The oldest kept evaluation would go once this one is kept: it goes first
+                // (a large problem's evaluations are tens of megabytes).
+                state.recent.truncate(KEPT_EVALUATIONS - 1);
+                if derivatives {
+                    release_older_gradients(&mut state);
+                }
+                self.solve_rows(x, key, derivatives, &mut state)?
+            }
+        };
+        if derivatives && evaluation.gradients.is_empty() && !self.blocks.is_empty() {
+            release_older_gradients(&mut state);
+            if !evaluation.solutions.is_empty() {
+                let solutions = std::mem::take(&mut evaluation.solutions);
+                let poses = std::mem::take(&mut evaluation.poses);
+                let pose = |i: usize| poses.get(i).copied();
+                evaluation.gradients = self.gradients(x, |i| (solutions[i], pose(i)));
+                evaluation.solutions = solutions;
+                evaluation.poses = poses;
+            } else if state.solved == evaluation.x {
+                // The seeds are this evaluation's solutions.
+                let seeds = &state.seeds;
+                let leg = |i: usize| &self.mechanism.legs[self.blocks[i].leg];
+                evaluation.gradients = self.gradients(x, |i| {
+                    (
+                        seed_solution(&seeds.values[i * seeds.stride..], leg(i)),
+                        None,
+                    )
+                });
+            } else {
+                let key = std::mem::take(&mut evaluation.x);
+                evaluation = self.solve_rows(x, key, true, &mut state)?;
+            }
+        }
+        let value = read(&evaluation);
+        state.recent.insert(0, evaluation);
+        state.recent.truncate(KEPT_EVALUATIONS);
+        Ok(value)
+    }
+
+    /// Solves every block's inverse kinematics at the unknowns `x` (warm-started from the
+    /// state's seeds, which then hold the new solutions) and evaluates the predicted readings
+    /// (and their gradients if `derivatives`). Large problems are evaluated in parallel chunks
+    /// of [`ROWS_PER_TASK`] rows.
+    ///
+    /// # Errors
+    /// The first block (in row order) whose leg cannot reach its pose.
+    fn solve_rows(
+        &self,
+        x: &DVector<f64>,
+        key: Vec<u64>,
+        derivatives: bool,
+        state: &mut Evaluations,
+    ) -> Result<Evaluation, BlockError> {
+        state.solved = Vec::new();
+        let seed_stride = state.seeds.stride;
+        let seeds = &mut state.seeds.values[..];
+        let m = self.blocks.len();
+        let width = if derivatives {
+            self.gradient_stride()
+        } else {
+            0
+        };
+        let prepared = self.prepare(x, derivatives);
+        let shared = self.shared_values(x);
+        let home = &self.mechanism.home_pose;
+        let keep = m <= KEPT_SOLUTION_ROWS;
+        let keep_poses = keep && self.sighted.is_some();
+        let mut predicted = vec![0.0; m];
+        // Without derivatives, a placeholder column (the chunks of all three slices must pair).
+        let stride = width.max(1);
+        let mut gradients = vec![0.0; m * stride];
+        let task = |(chunk, ((seeds, predicted), gradients)): ChunkOfRows<'_>| {
+            let mut solutions = Vec::with_capacity(if keep { predicted.len() } else { 0 });
+            let mut poses = Vec::with_capacity(if keep_poses { predicted.len() } else { 0 });
+            let rows = seeds.chunks_mut(seed_stride).zip(predicted.iter_mut());
+            for (k, (seed, value)) in rows.enumerate() {
+                let index = chunk * ROWS_PER_TASK + k;
+                let leg = self.prepared_leg(&prepared, index);
+                let placed = self.placed(index, &shared);
+                let warm = seed_joints(seed, leg.leg());
+                let solution = leg
+                    .solve_warm_on(&placed.platform, &placed.pose, home, warm.as_ref())
+                    .map_err(|source| (index, source))?;
+                store_seed(seed, leg.leg(), &solution);
+                *value = if derivatives {
+                    let gradient = &mut gradients[k * width..(k + 1) * width];
+                    self.reading_and_gradient((leg, index), (&placed, &solution), &shared, gradient)
+                } else {
+                    leg.reading_of(&solution)
+                };
+                if keep {
+                    solutions.push(solution);
+                }
+                if keep_poses {
+                    poses.push(placed.pose);
+                }
+            }
+            Ok::<_, (usize, KinematicsError)>((solutions, poses))
+        };
+        // One task a chunk of rows; rayon runs a single chunk on the calling thread.
+        let results: Vec<_> = seeds
+            .par_chunks_mut(ROWS_PER_TASK * seed_stride)
+            .zip(predicted.par_chunks_mut(ROWS_PER_TASK))
+            .zip(gradients.par_chunks_mut(ROWS_PER_TASK * stride))
+            .enumerate()
+            .map(task)
+            .collect();
+        let mut solutions = Vec::with_capacity(if keep { m } else { 0 });
+        let mut poses = Vec::with_capacity(if keep_poses { m } else { 0 });
+        for result in results {
+            match result {
+                Ok((mut chunk, mut chunk_poses)) => {
+                    solutions.append(&mut chunk);
+                    poses.append(&mut chunk_poses);
+                }
+                Err((index, source)) => return Err(self.block_error(index, source, x)),
+            }
+        }
+        state.row_solves += m as u64;
+        if width == 0 {
+            gradients = Vec::new();
+        }
+        state.solved.clone_from(&key);
+        Ok(Evaluation {
+            x: key,
+            solutions,
+            poses,
+            predicted,
+            gradients,
+        })
+    }
+
+    /// The gradients of an evaluation at the unknowns `x` whose solutions are known
+    /// (`solution(i)` of block `i`, with its fitted pose when kept): the derivative passes
+    /// only, no inverse kinematics; in parallel chunks of [`ROWS_PER_TASK`] rows for a large
+    /// problem.
+    fn gradients(
+        &self,
+        x: &DVector<f64>,
+        solution: impl Fn(usize) -> (Solution, Option<[f64; 6]>) + Sync,
+    ) -> Vec<f64> {
+        let width = self.gradient_stride();
+        let prepared = self.prepare(x, true);
+        let shared = self.shared_values(x);
+        let mut gradients = vec![0.0; self.blocks.len() * width];
+        let task = |(chunk, rows): (usize, &mut [f64])| {
+            for (k, gradient) in rows.chunks_mut(width).enumerate() {
+                let index = chunk * ROWS_PER_TASK + k;
+                let leg = self.prepared_leg(&prepared, index);
+                let (solution, pose) = solution(index);
+                let placed = match pose {
+                    Some(pose) => Placed::at(pose),
+                    None => self.placed(index, &shared),
+                };
+                self.reading_and_gradient((leg, index), (&placed, &solution), &shared, gradient);
+            }
+        };
+        gradients
+            .par_chunks_mut(ROWS_PER_TASK * width)
+            .enumerate()
+            .for_each(task);
+        gradients
+    }
+
+    /// How many rows' inverse kinematics this problem and its clones have solved so far (a
+    /// row solved at several evaluations counts each time): the cost of its evaluations, which
+    /// reuse what they can. An evaluation at unknowns where one is kept solves no row; a
+    /// Jacobian where the residuals were last evaluated needs the derivative passes only.
+    pub fn row_solves(&self) -> u64 {
+        self.lock().row_solves
+    }
+
+    /// The evaluations kept for reuse (at most two) and how many of them hold their gradients
+    /// (at most one: an older evaluation's are freed before another's are computed): what the
+    /// problem holds in memory besides its blocks and its seeds.
+    pub fn kept_evaluations(&self) -> (usize, usize) {
+        let state = self.lock();
+        let with_gradients = state.recent.iter().filter(|e| !e.gradients.is_empty());
+        (state.recent.len(), with_gradients.count())
+    }
+
+    /// Forgets the kept evaluations but the newest, and that one's gradients (kept: its
+    /// solutions and predicted readings): after a fit, once the residuals and the Jacobian at
+    /// the estimate are taken, the statistics need no more (a large problem's gradients are
+    /// as large as its Jacobian).
+    pub fn release_gradients(&self) {
+        let mut state = self.lock();
+        state.recent.truncate(1);
+        if let Some(newest) = state.recent.first_mut() {
+            newest.gradients = Vec::new();
+        }
+    }
+
+    /// Calls `row` with every block's index, its slot's leg prepared at the unknowns `x`
+    /// (without derivative columns), its platform pose and transform and its
+    /// inverse-kinematics solution at `x`, in row order: the kept solutions of an evaluation at
+    /// `x`, or solved again warm-started from the last ones (at `x` itself after a solve there:
+    /// one Newton check per row). In parallel chunks of 512 rows for a large problem.
+    ///
+    /// # Errors
+    /// The first block (in row order) whose leg cannot reach its pose.
+    pub fn map_solved<R: Send>(
+        &self,
+        x: &DVector<f64>,
+        row: impl Fn(usize, &PreparedLeg<'a>, &Placed, &Solution) -> R + Sync,
+    ) -> Result<Vec<R>, BlockError> {
+        let key = key(x);
+        let mut state = self.lock();
+        let kept = state
+            .recent
+            .iter()
+            .find(|e| e.x == key && !e.solutions.is_empty());
+        let solves = if kept.is_some() { 0 } else { self.blocks.len() };
+        let prepared = self.prepare(x, false);
+        let shared = self.shared_values(x);
+        let home = &self.mechanism.home_pose;
+        let seeds = &state.seeds;
+        let task = |chunk: usize| {
+            let start = chunk * ROWS_PER_TASK;
+            let end = (start + ROWS_PER_TASK).min(self.blocks.len());
+            (start..end)
+                .map(|index| {
+                    let leg = self.prepared_leg(&prepared, index);
+                    let placed = match kept.and_then(|e| e.poses.get(index)) {
+                        Some(&pose) => Placed::at(pose),
+                        None => self.placed(index, &shared),
+                    };
+                    let solution = match kept {
+                        Some(evaluation) => evaluation.solutions[index],
+                        None => leg
+                            .solve_warm_on(
+                                &placed.platform,
+                                &placed.pose,
+                                home,
+                                seed_joints(&seeds.values[index * seeds.stride..], leg.leg())
+                                    .as_ref(),
+                            )
+                            .map_err(|source| (index, source))?,
+                    };
+                    Ok(row(index, leg, &placed, &solution))
+                })
+                .collect::<Result<Vec<R>, (usize, KinematicsError)>>()
+        };
+        let chunks = self.blocks.len().div_ceil(ROWS_PER_TASK);
+        let results: Vec<_> = (0..chunks).into_par_iter().map(task).collect();
+        let mut values = Vec::with_capacity(self.blocks.len());
+        for result in results {
+            match result {
+                Ok(mut chunk) => values.append(&mut chunk),
+                Err((index, source)) => return Err(self.block_error(index, source, x)),
+            }
+        }
+        state.row_solves += solves as u64;
+        Ok(values)
+    }
+}
