@@ -5,7 +5,7 @@ use std::fmt::Write;
 
 use serde_json::{json, Value};
 
-use super::json::{finite, header, merge, optional};
+use super::json::{header, merge};
 use crate::evaluate::accuracy::{AccuracyMap, ErrorStats};
 use crate::evaluate::held_out::{Evaluation, TargetErrors};
 use crate::model::Mechanism;
@@ -14,10 +14,10 @@ use crate::model::Mechanism;
 pub fn stats_json(stats: Option<&ErrorStats>) -> Value {
     stats.map_or(Value::Null, |s| {
         json!({
-            "rms": finite(s.rms),
-            "median": finite(s.median),
-            "p95": finite(s.p95),
-            "max": finite(s.max),
+            "rms": s.rms,
+            "median": s.median,
+            "p95": s.p95,
+            "max": s.max,
         })
     })
 }
@@ -29,8 +29,8 @@ pub fn evaluation_body(evaluation: &Evaluation) -> Value {
         .iter()
         .map(|leg| {
             let value = json!({
-                "rms": optional(leg.rms),
-                "max": optional(leg.max),
+                "rms": leg.rms,
+                "max": leg.max,
                 "rows": leg.rows,
                 "unreachable": leg.unreachable,
             });
@@ -49,8 +49,8 @@ pub fn evaluation_body(evaluation: &Evaluation) -> Value {
         "row_errors": evaluation.row_errors.iter().map(|r| {
             let mut row = json!({
                 "line": r.line,
-                "position_error_m": optional(r.position_error),
-                "orientation_error_rad": optional(r.orientation_error),
+                "position_error_m": r.position_error,
+                "orientation_error_rad": r.orientation_error,
             });
             if let Some(target) = r.target.and_then(|k| evaluation.targets.get(k)) {
                 row["target"] = json!(target.name);

@@ -4,7 +4,7 @@
 //! `null`, never as NaN.
 
 use nalgebra::DMatrix;
-use serde::{Serialize, Serializer};
+use serde::Serialize;
 use serde_json::{json, Value};
 
 use super::Report;
@@ -42,37 +42,9 @@ pub fn correlation(covariance: &DMatrix<f64>) -> DMatrix<f64> {
     })
 }
 
-/// A number, or `null` when it is not finite (JSON has no NaN or infinity).
-pub fn finite(value: f64) -> Value {
-    serde_json::to_value(Number(value)).unwrap_or(Value::Null)
-}
-
-/// [`finite`] of an optional number (`None` is `null`).
-pub fn optional(value: Option<f64>) -> Value {
-    value.map_or(Value::Null, finite)
-}
-
-/// A number written as `null` when it is not finite.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct Number(pub f64);
-
-impl Serialize for Number {
-    fn serialize<S: Serializer>(&self, serializer: S) -> Result<S::Ok, S::Error> {
-        if self.0.is_finite() {
-            serializer.serialize_f64(self.0)
-        } else {
-            serializer.serialize_none()
-        }
-    }
-}
-
-fn number(value: Option<f64>) -> Option<Number> {
-    value.map(Number)
-}
-
-fn matrix(m: &DMatrix<f64>) -> Vec<Vec<Number>> {
+fn matrix(m: &DMatrix<f64>) -> Vec<Vec<f64>> {
     m.row_iter()
-        .map(|row| row.iter().map(|&v| Number(v)).collect())
+        .map(|row| row.iter().copied().collect())
         .collect()
 }
 
@@ -180,12 +152,12 @@ struct ParameterJson<'a> {
     name: &'a str,
     unit: String,
     fixed: bool,
-    nominal: Number,
-    identified: Number,
-    std: Option<Number>,
-    real: Option<Number>,
-    error_before: Option<Number>,
-    error_after: Option<Number>,
+    nominal: f64,
+    identified: f64,
+    std: Option<f64>,
+    real: Option<f64>,
+    error_before: Option<f64>,
+    error_after: Option<f64>,
 }
 
 impl<'a> ParameterJson<'a> {
@@ -194,12 +166,12 @@ impl<'a> ParameterJson<'a> {
             name: &p.name,
             unit: p.unit.to_string(),
             fixed: !p.identified,
-            nominal: Number(p.nominal),
-            identified: Number(p.estimate),
-            std: number(p.std),
-            real: number(real),
-            error_before: number(real.map(|r| p.nominal - r)),
-            error_after: number(real.map(|r| p.estimate - r)),
+            nominal: p.nominal,
+            identified: p.estimate,
+            std: (p.std),
+            real: (real),
+            error_before: (real.map(|r| p.nominal - r)),
+            error_after: (real.map(|r| p.estimate - r)),
         }
     }
 }
@@ -209,7 +181,7 @@ struct InstrumentJson<'a> {
     parameters: Vec<ParameterJson<'a>>,
     rows: usize,
     unknowns: usize,
-    rms_residual: Number,
+    rms_residual: f64,
     noise_test: Option<NoiseTestJson>,
     held_frame_test: Option<HeldFrameJson<'a>>,
     observability: InstrumentObservabilityJson<'a>,
@@ -226,12 +198,12 @@ impl<'a> InstrumentJson<'a> {
                 .collect(),
             rows: instrument.rows,
             unknowns: instrument.unknowns,
-            rms_residual: Number(instrument.rms),
+            rms_residual: instrument.rms,
             noise_test: instrument.noise_test.as_ref().map(NoiseTestJson::new),
             held_frame_test: instrument.held_frame.as_ref().map(HeldFrameJson::new),
             observability: InstrumentObservabilityJson {
                 rank: instrument.observability.rank,
-                scaled_condition: Number(instrument.observability.scaled_condition),
+                scaled_condition: instrument.observability.scaled_condition,
                 weakest_direction: &instrument.observability.weakest_direction,
             },
         }
@@ -241,41 +213,41 @@ impl<'a> InstrumentJson<'a> {
 #[derive(Debug, Serialize)]
 struct InstrumentObservabilityJson<'a> {
     rank: usize,
-    scaled_condition: Number,
+    scaled_condition: f64,
     weakest_direction: &'a str,
 }
 
 #[derive(Debug, Serialize)]
 struct HeldFrameJson<'a> {
     freed: &'a [String],
-    chi_squared_drop: Number,
+    chi_squared_drop: f64,
     degrees_of_freedom: usize,
-    p_value: Number,
+    p_value: f64,
     rejected: bool,
-    estimates: Vec<Number>,
+    estimates: Vec<f64>,
 }
 
 impl<'a> HeldFrameJson<'a> {
     fn new(test: &'a HeldFrameTest) -> Self {
         HeldFrameJson {
             freed: &test.freed,
-            chi_squared_drop: Number(test.chi_squared_drop),
+            chi_squared_drop: test.chi_squared_drop,
             degrees_of_freedom: test.degrees_of_freedom,
-            p_value: Number(test.p_value),
+            p_value: test.p_value,
             rejected: test.rejected,
-            estimates: test.estimates.iter().map(|&v| Number(v)).collect(),
+            estimates: test.estimates.clone(),
         }
     }
 }
 
 #[derive(Debug, Serialize)]
 struct NoiseTestJson {
-    chi_squared: Number,
+    chi_squared: f64,
     degrees_of_freedom: usize,
-    p_value: Number,
-    sigma_ratio: Number,
-    residual_sigma: Number,
-    expected_sigma: Number,
+    p_value: f64,
+    sigma_ratio: f64,
+    residual_sigma: f64,
+    expected_sigma: f64,
     excluded_rows: usize,
     rejected: bool,
 }
@@ -283,12 +255,12 @@ struct NoiseTestJson {
 impl NoiseTestJson {
     fn new(t: &NoiseTest) -> Self {
         NoiseTestJson {
-            chi_squared: Number(t.chi_squared),
+            chi_squared: t.chi_squared,
             degrees_of_freedom: t.degrees_of_freedom,
-            p_value: Number(t.p_value),
-            sigma_ratio: Number(t.sigma_ratio),
-            residual_sigma: Number(t.residual_sigma),
-            expected_sigma: Number(t.expected_sigma),
+            p_value: t.p_value,
+            sigma_ratio: t.sigma_ratio,
+            residual_sigma: t.residual_sigma,
+            expected_sigma: t.expected_sigma,
             excluded_rows: t.excluded,
             rejected: t.rejected,
         }
@@ -300,24 +272,24 @@ struct LegJson<'a> {
     name: &'a str,
     measurements: usize,
     parameters: Vec<ParameterJson<'a>>,
-    cost_before: Number,
-    cost_after: Number,
-    residual_sigma: Option<Number>,
-    parameter_error_rms_before: Option<Number>,
-    parameter_error_rms_after: Option<Number>,
-    singular_values: Vec<Number>,
-    condition_number: Number,
-    scaled_condition_number: Number,
+    cost_before: f64,
+    cost_after: f64,
+    residual_sigma: Option<f64>,
+    parameter_error_rms_before: Option<f64>,
+    parameter_error_rms_after: Option<f64>,
+    singular_values: Vec<f64>,
+    condition_number: f64,
+    scaled_condition_number: f64,
     warnings: Vec<String>,
     noise_test: Option<NoiseTestJson>,
-    outlier_threshold: Option<Number>,
+    outlier_threshold: Option<f64>,
     outliers: Vec<OutlierJson<'a>>,
     dropped: Vec<OutlierJson<'a>>,
     observability: IndicesJson,
     solver: Option<SolverJson<'a>>,
     covariance_parameters: Vec<&'a str>,
-    covariance: Option<Vec<Vec<Number>>>,
-    correlation: Option<Vec<Vec<Number>>>,
+    covariance: Option<Vec<Vec<f64>>>,
+    correlation: Option<Vec<Vec<f64>>>,
     rows: Option<Vec<RowJson>>,
 }
 
@@ -334,21 +306,21 @@ impl<'a> LegJson<'a> {
                 .enumerate()
                 .map(|(i, p)| ParameterJson::new(p, report.real_value(&leg.leg, i)))
                 .collect(),
-            cost_before: Number(leg.initial_cost),
-            cost_after: Number(leg.final_cost),
-            residual_sigma: number(leg.residual_sigma),
-            parameter_error_rms_before: number(report.rms_error(leg, false)),
-            parameter_error_rms_after: number(report.rms_error(leg, true)),
-            singular_values: o.singular_values.iter().map(|&s| Number(s)).collect(),
-            condition_number: Number(o.condition),
-            scaled_condition_number: Number(o.scaled_condition),
+            cost_before: leg.initial_cost,
+            cost_after: leg.final_cost,
+            residual_sigma: (leg.residual_sigma),
+            parameter_error_rms_before: (report.rms_error(leg, false)),
+            parameter_error_rms_after: (report.rms_error(leg, true)),
+            singular_values: o.singular_values.clone(),
+            condition_number: o.condition,
+            scaled_condition_number: o.scaled_condition,
             warnings: o
                 .warning()
                 .into_iter()
                 .chain(leg.warnings.iter().cloned())
                 .collect(),
             noise_test: leg.statistics.noise_test.as_ref().map(NoiseTestJson::new),
-            outlier_threshold: number(leg.statistics.outlier_threshold),
+            outlier_threshold: (leg.statistics.outlier_threshold),
             outliers: leg
                 .statistics
                 .outliers
@@ -357,11 +329,11 @@ impl<'a> LegJson<'a> {
                 .collect(),
             dropped: leg.dropped.iter().map(OutlierJson::new).collect(),
             observability: IndicesJson {
-                o1: Number(o.indices[0]),
-                o2: Number(o.indices[1]),
-                o3: Number(o.indices[2]),
-                o4: Number(o.indices[3]),
-                o5: Number(o.indices[4]),
+                o1: o.indices[0],
+                o2: o.indices[1],
+                o3: o.indices[2],
+                o4: o.indices[3],
+                o5: o.indices[4],
             },
             solver: result
                 .runs
@@ -381,7 +353,7 @@ impl<'a> LegJson<'a> {
                     .iter()
                     .map(|r| RowJson {
                         line: r.line,
-                        residual: Number(r.residual),
+                        residual: r.residual,
                     })
                     .collect()
             }),
@@ -392,21 +364,21 @@ impl<'a> LegJson<'a> {
 #[derive(Debug, Serialize)]
 struct IndicesJson {
     #[serde(rename = "O1")]
-    o1: Number,
+    o1: f64,
     #[serde(rename = "O2")]
-    o2: Number,
+    o2: f64,
     #[serde(rename = "O3")]
-    o3: Number,
+    o3: f64,
     #[serde(rename = "O4")]
-    o4: Number,
+    o4: f64,
     #[serde(rename = "O5")]
-    o5: Number,
+    o5: f64,
 }
 
 #[derive(Debug, Serialize)]
 struct RowJson {
     line: Option<usize>,
-    residual: Number,
+    residual: f64,
 }
 
 #[derive(Debug, Serialize)]
@@ -417,11 +389,11 @@ struct SolverJson<'a> {
     converged: bool,
     stop_reason: &'static str,
     refinement_steps: usize,
-    cost_before: Number,
-    cost_after: Number,
+    cost_before: f64,
+    cost_after: f64,
     residual_evaluations: u64,
     jacobian_evaluations: u64,
-    seconds: Number,
+    seconds: f64,
 }
 
 impl<'a> SolverJson<'a> {
@@ -433,11 +405,11 @@ impl<'a> SolverJson<'a> {
             converged: run.converged,
             stop_reason: run.stop_reason.key(),
             refinement_steps: run.refinement_steps,
-            cost_before: Number(run.initial_cost),
-            cost_after: Number(run.final_cost),
+            cost_before: run.initial_cost,
+            cost_after: run.final_cost,
             residual_evaluations: run.residual_evaluations,
             jacobian_evaluations: run.jacobian_evaluations,
-            seconds: Number(run.seconds),
+            seconds: run.seconds,
         }
     }
 }
@@ -446,9 +418,9 @@ impl<'a> SolverJson<'a> {
 struct OutlierJson<'a> {
     line: Option<usize>,
     pose: &'a str,
-    reading: Number,
-    residual: Number,
-    t: Number,
+    reading: f64,
+    residual: f64,
+    t: f64,
 }
 
 impl<'a> OutlierJson<'a> {
@@ -456,9 +428,9 @@ impl<'a> OutlierJson<'a> {
         OutlierJson {
             line: o.line,
             pose: &o.pose,
-            reading: Number(o.reading),
-            residual: Number(o.residual),
-            t: Number(o.t),
+            reading: o.reading,
+            residual: o.residual,
+            t: o.t,
         }
     }
 }
@@ -466,8 +438,8 @@ impl<'a> OutlierJson<'a> {
 /// An accuracy map (docs/report.md, "Accuracy maps").
 #[derive(Debug, Serialize)]
 pub struct MapJson {
-    grid_m: Number,
-    scale: Number,
+    grid_m: f64,
+    scale: f64,
     points: Vec<MapPointJson>,
     non_assemblable: usize,
     position_error_m: StatsJson,
@@ -478,15 +450,15 @@ impl MapJson {
     /// The map's document.
     pub fn new(map: &AccuracyMap) -> Self {
         MapJson {
-            grid_m: Number(map.grid_m),
-            scale: Number(map.scale),
+            grid_m: map.grid_m,
+            scale: map.scale,
             points: map
                 .points
                 .iter()
                 .map(|p| MapPointJson {
-                    pose: p.pose.map(Number),
-                    position_error_m: number(p.position_error),
-                    orientation_error_rad: number(p.orientation_error),
+                    pose: p.pose,
+                    position_error_m: (p.position_error),
+                    orientation_error_rad: (p.orientation_error),
                 })
                 .collect(),
             non_assemblable: map.non_assemblable,
@@ -498,28 +470,48 @@ impl MapJson {
 
 #[derive(Debug, Serialize)]
 struct MapPointJson {
-    pose: [Number; 6],
-    position_error_m: Option<Number>,
-    orientation_error_rad: Option<Number>,
+    pose: [f64; 6],
+    position_error_m: Option<f64>,
+    orientation_error_rad: Option<f64>,
 }
 
 /// `{"rms", "median", "p95", "max"}` of an error.
 #[derive(Debug, Serialize)]
 pub struct StatsJson {
-    rms: Number,
-    median: Number,
-    p95: Number,
-    max: Number,
+    rms: f64,
+    median: f64,
+    p95: f64,
+    max: f64,
 }
 
 impl StatsJson {
     /// The statistics' document.
     pub fn new(s: &ErrorStats) -> Self {
         StatsJson {
-            rms: Number(s.rms),
-            median: Number(s.median),
-            p95: Number(s.p95),
-            max: Number(s.max),
+            rms: s.rms,
+            median: s.median,
+            p95: s.p95,
+            max: s.max,
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::StatsJson;
+    use crate::evaluate::accuracy::ErrorStats;
+
+    /// JSON has no NaN or infinity: a non-finite figure is written as `null`, a finite one
+    /// as its value.
+    #[test]
+    fn non_finite_numbers_are_written_as_null() {
+        let stats = ErrorStats {
+            rms: f64::NAN,
+            median: 0.25,
+            p95: f64::INFINITY,
+            max: f64::NEG_INFINITY,
+        };
+        let text = serde_json::to_string(&StatsJson::new(&stats)).unwrap();
+        assert_eq!(text, r#"{"rms":null,"median":0.25,"p95":null,"max":null}"#);
     }
 }

@@ -5,13 +5,13 @@ use serde_json::{json, Value};
 
 use super::montecarlo::{Arm, MonteCarlo, Trial};
 use super::stats::Estimate;
-use crate::report::json::{finite, header, merge};
+use crate::report::json::{header, merge};
 
 /// An estimate as JSON: `{"value", "ci95": [low, high]}` (non-finite numbers are `null`).
 pub fn estimate_json(estimate: &Estimate) -> Value {
     json!({
-        "value": finite(estimate.value),
-        "ci95": [finite(estimate.low), finite(estimate.high)],
+        "value": estimate.value,
+        "ci95": [estimate.low, estimate.high],
     })
 }
 
@@ -24,9 +24,9 @@ fn trial_json(trial: &Trial, order: &[Arm]) -> Value {
                 arms.insert(
                     arm.key().into(),
                     json!({
-                        "errors": values.errors.iter().map(|&e| finite(e)).collect::<Vec<_>>(),
-                        "predicted_std": values.predicted_std.iter().map(|&e| finite(e)).collect::<Vec<_>>(),
-                        "map_rms_m": finite(values.map_rms),
+                        "errors": values.errors,
+                        "predicted_std": values.predicted_std,
+                        "map_rms_m": values.map_rms,
                     }),
                 );
             }
@@ -34,8 +34,8 @@ fn trial_json(trial: &Trial, order: &[Arm]) -> Value {
                 "index": trial.index,
                 "seed": trial.seed,
                 "failure": null,
-                "nominal_map_rms_m": finite(values.nominal_map_rms),
-                "real": values.real.iter().map(|&v| finite(v)).collect::<Vec<_>>(),
+                "nominal_map_rms_m": values.nominal_map_rms,
+                "real": values.real,
                 "arms": arms,
             })
         }
@@ -102,10 +102,10 @@ pub fn montecarlo_json(study: &MonteCarlo) -> Value {
             "failed": options.trials - study.succeeded,
             "seed": options.seed,
             "solver": options.solver.short_name(),
-            "noise_scale": finite(options.noise_scale),
+            "noise_scale": options.noise_scale,
             "map": {
-                "grid_m": finite(options.map_grid),
-                "scale": finite(options.map_scale),
+                "grid_m": options.map_grid,
+                "scale": options.map_scale,
                 "points": study.map_points,
             },
             "parameters": study.parameters.iter().map(|p| json!({"name": p.name, "unit": p.unit.to_string()})).collect::<Vec<_>>(),
