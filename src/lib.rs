@@ -8,7 +8,7 @@
 //! traditional strategy stacks all legs on shared poses.
 //!
 //! ## The public face
-//! Load a [`Mechanism`], read its [`Measurements`] (or simulate them), and call [`identify`]
+//! Load a [`Mechanism`], read its [`Measurements`] (or simulate them), and call [`identify()`]
 //! (or [`run`] to simulate first) with [`Settings`]: the model decides the pipeline (readings at
 //! measured poses, or target coordinates through an instrument). The [`Report`] holds one
 //! [`StrategyResult`] per strategy, the trust verdict, and in simulation the real values and
@@ -90,7 +90,10 @@
 //! * Kinematics is written once, generic over [`scalar::Scalar`] (f64 and num-dual duals).
 //!   Identification Jacobians come from dual numbers through the implicit function theorem,
 //!   never from finite differences and never by differentiating Newton iterations.
-//! * One residual block = one leg × one pose; strategies only group blocks differently.
+//! * One residual block = one leg's reading at one platform pose (measured, or fitted from the
+//!   targets an instrument saw); one problem of parameter blocks (each leg's, the instrument's)
+//!   and residual blocks ([`identify::problem::IdentificationProblem`]): strategies only group
+//!   the blocks differently, and the Schur-complement step serves a layout with shared columns.
 //! * Units are SI everywhere: metres, radians, dimensionless gains.
 //!
 pub mod cli;

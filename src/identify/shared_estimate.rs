@@ -1,10 +1,10 @@
-//! Identification through the instrument: the rank check on the shared problem's Jacobian,
-//! the Schur-complement solve, and the estimates of the legs' and the instrument's parameters,
+//! Identification through the instrument: the rank check on the whole problem's Jacobian (the
+//! legs' and the instrument's parameter blocks), the Schur-complement solve, and the estimates of the legs' and the instrument's parameters,
 //! as the one [`StrategyResult`] of every strategy.
 //!
 //! Two strategies: [`Strategy::Joint`] (every leg's parameters and the instrument's identified
-//! ones together, [`IdentificationProblem`] solved by [`solve_bordered`]) and [`Strategy::TwoStage`]
-//! (first the instrument alone, the legs at their nominal parameters, from the first rows of
+//! ones together, [`IdentificationProblem::through_instrument`] solved by [`solve_bordered`]) and
+//! [`Strategy::TwoStage`] (first the instrument alone, the legs at their nominal parameters, from the first rows of
 //! every leg; then every leg on its own with the instrument held at that registration).
 //!
 //! Each leg's part of the result is its block of the problem: its rows' residuals and costs,

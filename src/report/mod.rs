@@ -21,7 +21,7 @@ pub fn tidy(value: f64, decimals: i32) -> f64 {
 }
 
 /// Everything an identification run reports, for every set-up (with or without an
-/// instrument): made by [`crate::run`] or [`crate::identify`].
+/// instrument): made by [`crate::run`] or [`crate::identify()`].
 #[derive(Debug, Clone)]
 pub struct Report<'a> {
     /// The mechanism.

@@ -211,7 +211,7 @@ macro_rules! tolerance_builders {
 
         /// Stationarity tolerance on `max_j |cos(J e_j, r)|` for a cost-reduction or step stop
         /// to count as convergence (default
-        /// [`STATIONARITY_TOLERANCE`]).
+        /// [`STATIONARITY_TOLERANCE`](crate::solver::settings::STATIONARITY_TOLERANCE)).
         /// Must be non-negative and finite.
         pub fn with_stationarity_tolerance(
             mut self,

@@ -8,7 +8,7 @@
 //! leg's rows are one group, the shared parameters its border.
 //!
 //! A block's pose is measured, or fitted from the targets an instrument saw at the current
-//! shared parameters ([`sighting`]). Rows may carry weights `w_i` (weighted least squares:
+//! shared parameters (`problem/sighting.rs`). Rows may carry weights `w_i` (weighted least squares:
 //! each residual and its Jacobian row are multiplied by `√w_i`); a revolute actuator's
 //! residual is matched modulo one turn of the joint ([`super::residual::turns`]).
 
