@@ -187,12 +187,14 @@ impl<'a> IdentificationProblem<'a> {
         Self::with_slots(mechanism, slots, blocks, sighted)
     }
 
-    /// The problem of the legs and identified columns `slots`, in that order.
+    /// The problem of the legs and identified columns `slots`, in that order. Blocks of other
+    /// legs are dropped; through an instrument there are none (`sighted` holds one row per
+    /// block).
     fn with_slots(
         mechanism: &'a Mechanism,
         slots: Vec<(usize, Vec<usize>)>,
         blocks: Vec<ResidualBlock>,
-        mut sighted: Option<Sighted<'a>>,
+        sighted: Option<Sighted<'a>>,
     ) -> Self {
         let mut slot_of_leg = vec![None; mechanism.legs.len()];
         let mut offset = 0;
@@ -212,16 +214,6 @@ impl<'a> IdentificationProblem<'a> {
         // Filtered in place and moved into the `Arc` (a large problem's blocks are tens of
         // megabytes: no copy).
         let mut blocks = blocks;
-        if let Some(sighted) = sighted.as_mut() {
-            let kept: Vec<bool> = blocks
-                .iter()
-                .map(|b| slot_of_leg[b.leg].is_some())
-                .collect();
-            if kept.contains(&false) {
-                let rows = sighted.rows.iter().zip(&kept).filter(|(_, &k)| k);
-                sighted.rows = Arc::new(rows.map(|(r, _)| r.clone()).collect());
-            }
-        }
         blocks.retain(|b| slot_of_leg[b.leg].is_some());
         blocks.shrink_to_fit();
         let blocks = Arc::new(blocks);
