@@ -1,4 +1,4 @@
-//! The command line's arguments (clap derive) and how each becomes the library's settings.
+//! The command line's arguments (clap derive), and the settings that several commands share.
 
 use std::path::PathBuf;
 
@@ -6,7 +6,7 @@ use clap::{Parser, Subcommand, ValueEnum};
 
 use super::checks;
 use super::help;
-use crate::identify::estimate::Strategy;
+use crate::pipeline::{PoseSource, SimulationSettings};
 use crate::solver::SolverKind;
 
 /// Kinematic identification of parallel mechanisms, leg by leg.
@@ -111,22 +111,6 @@ pub struct EvaluateArgs {
     pub png: bool,
 }
 
-/// `identify` options for after the fit: the calibrated model and the accuracy map.
-#[derive(Debug, Clone, clap::Args)]
-pub struct AfterFitArgs {
-    /// Write the calibrated model (identified values in place of nominal ones) to this YAML
-    /// file, and its URDF beside it (same name, extension `urdf`).
-    #[arg(long, value_name = "OUT.yaml")]
-    pub calibrated: Option<PathBuf>,
-    /// Simulation only: the accuracy map (model IK commands, real mechanism moves) over a grid
-    /// of this spacing (metres), before and after identification.
-    #[arg(long, value_name = "GRID_M")]
-    pub map: Option<f64>,
-    /// Fraction of the workspace region the accuracy map covers (shrunk about its centre).
-    #[arg(long, default_value_t = 0.95)]
-    pub map_scale: f64,
-}
-
 /// Options of `legwise workspace`.
 #[derive(Debug, clap::Args)]
 pub struct WorkspaceArgs {
@@ -181,17 +165,17 @@ pub struct IdentifyArgs {
     /// Simulation overrides.
     #[command(flatten)]
     pub simulation: SimulationArgs,
-    /// Calibrated model and accuracy map.
-    #[command(flatten)]
-    pub after: AfterFitArgs,
-    /// Pictures.
-    #[command(flatten)]
-    pub pictures: IdentifyPlotArgs,
-}
-
-/// `identify` options for the pictures.
-#[derive(Debug, Clone, clap::Args)]
-pub struct IdentifyPlotArgs {
+    /// Write the calibrated model (identified values in place of nominal ones) to this YAML
+    /// file, and its URDF beside it (same name, extension `urdf`).
+    #[arg(long, value_name = "OUT.yaml")]
+    pub calibrated: Option<PathBuf>,
+    /// Simulation only: the accuracy map (model IK commands, real mechanism moves) over a grid
+    /// of this spacing (metres), before and after identification.
+    #[arg(long, value_name = "GRID_M")]
+    pub map: Option<f64>,
+    /// Fraction of the workspace region the accuracy map covers (shrunk about its centre).
+    #[arg(long, default_value_t = 0.95)]
+    pub map_scale: f64,
     /// Simulation only: write the pictures to this directory (created if missing): the
     /// parameter errors before and after, and with `--map` the accuracy map.
     #[arg(long, value_name = "DIR")]
@@ -217,25 +201,6 @@ pub enum RobustArg {
     Huber,
     /// Cauchy's loss (logarithmic beyond 2.385 σ: gross outliers get almost no weight).
     Cauchy,
-}
-
-impl IdentifyArgs {
-    pub(super) fn fit_options(&self) -> crate::identify::estimate::FitOptions {
-        use crate::identify::estimate::{FitOptions, Weighting};
-        use crate::identify::robust::RobustLoss;
-        FitOptions {
-            weights: match self.weights {
-                WeightsArg::None => Weighting::Unweighted,
-                WeightsArg::Noise => Weighting::Noise,
-            },
-            robust: self.robust.map(|r| match r {
-                RobustArg::Huber => RobustLoss::Huber,
-                RobustArg::Cauchy => RobustLoss::Cauchy,
-            }),
-            drop_outliers: self.drop_outliers,
-            ..FitOptions::default()
-        }
-    }
 }
 
 /// Options of `legwise simulate`.
@@ -285,17 +250,6 @@ pub enum CriterionArg {
     A,
     /// E-optimal.
     E,
-}
-
-impl CriterionArg {
-    pub(super) fn criterion(self) -> crate::model::mechanism::SelectionCriterion {
-        use crate::model::mechanism::SelectionCriterion;
-        match self {
-            CriterionArg::D => SelectionCriterion::D,
-            CriterionArg::A => SelectionCriterion::A,
-            CriterionArg::E => SelectionCriterion::E,
-        }
-    }
 }
 
 /// Where simulated identification poses come from.
@@ -356,42 +310,23 @@ impl SolverArg {
     }
 }
 
-impl StrategyArg {
-    pub(super) fn strategies(self) -> Vec<Strategy> {
-        match self {
-            StrategyArg::Dc => vec![Strategy::DivideAndConquer],
-            StrategyArg::Traditional => vec![Strategy::Traditional],
-            StrategyArg::Both => vec![Strategy::DivideAndConquer, Strategy::Traditional],
-        }
-    }
-}
-
 impl SimulationArgs {
     /// The simulation settings, range-checked (`--grid` too, though only selected poses use it).
-    pub(super) fn settings(&self) -> anyhow::Result<crate::pipeline::SimulationSettings> {
-        Ok(crate::pipeline::SimulationSettings {
-            options: self.options()?,
-            poses: self.poses.source(),
-            grid: self.grid,
-        })
-    }
-
-    /// The simulation options, range-checked (`--grid` too, though only selected poses use it).
-    pub(super) fn options(&self) -> anyhow::Result<crate::measure::simulate::SimulationOptions> {
+    pub(super) fn settings(&self) -> anyhow::Result<SimulationSettings> {
         checks::positive_metres("--grid", self.grid)?;
-        Ok(crate::measure::simulate::SimulationOptions {
+        let options = crate::measure::simulate::SimulationOptions {
             seed: checks::seed("--seed", self.seed)?,
             noise_scale: checks::non_negative("--noise-scale", self.noise_scale)?,
             poses_per_leg: checks::poses_per_leg(self.poses_per_leg)?,
+        };
+        let poses = match self.poses {
+            PosesArg::Selected => PoseSource::Selected,
+            PosesArg::Random => PoseSource::Random,
+        };
+        Ok(SimulationSettings {
+            options,
+            poses,
+            grid: self.grid,
         })
-    }
-}
-
-impl PosesArg {
-    pub(super) fn source(self) -> crate::pipeline::PoseSource {
-        match self {
-            PosesArg::Selected => crate::pipeline::PoseSource::Selected,
-            PosesArg::Random => crate::pipeline::PoseSource::Random,
-        }
     }
 }

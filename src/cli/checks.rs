@@ -17,19 +17,6 @@ pub(super) fn count(flag: &str, value: i64, min: usize, max: usize) -> anyhow::R
     }
 }
 
-/// An optional count within `min..=max`.
-///
-/// # Errors
-/// As [`count`].
-pub(super) fn optional_count(
-    flag: &str,
-    value: Option<i64>,
-    min: usize,
-    max: usize,
-) -> anyhow::Result<Option<usize>> {
-    value.map(|v| count(flag, v, min, max)).transpose()
-}
-
 /// A length option that must be finite and positive, in metres.
 ///
 /// # Errors
@@ -59,39 +46,22 @@ pub(super) fn non_negative(flag: &str, value: f64) -> anyhow::Result<f64> {
 /// # Errors
 /// Negative or too large.
 pub(super) fn seed(flag: &str, value: Option<i128>) -> anyhow::Result<Option<u64>> {
-    value
-        .map(|v| {
-            u64::try_from(v).map_err(|_| {
-                anyhow::anyhow!(
-                    "{flag}: expected an integer from 0 to {}, found {v}",
-                    u64::MAX
-                )
-            })
-        })
-        .transpose()
+    let Some(v) = value else { return Ok(None) };
+    match u64::try_from(v) {
+        Ok(seed) => Ok(Some(seed)),
+        Err(_) => bail!(
+            "{flag}: expected an integer from 0 to {}, found {v}",
+            u64::MAX
+        ),
+    }
 }
 
 /// `--poses-per-leg` within 1..=[`MAX_POSES_PER_LEG`](crate::model::mechanism::MAX_POSES_PER_LEG).
-pub(super) fn poses_per_leg(count: Option<i64>) -> anyhow::Result<Option<usize>> {
+pub(super) fn poses_per_leg(value: Option<i64>) -> anyhow::Result<Option<usize>> {
     use crate::model::mechanism::MAX_POSES_PER_LEG;
-    optional_count("--poses-per-leg", count, 1, MAX_POSES_PER_LEG)
-}
-
-/// The inputs every command reads: the model file and its URDF.
-pub(super) fn model_inputs<'a>(
-    model: &'a std::path::Path,
-    mechanism: &'a crate::model::Mechanism,
-) -> Vec<crate::files::Input<'a>> {
-    vec![
-        crate::files::Input {
-            role: "model file",
-            path: model,
-        },
-        crate::files::Input {
-            role: "URDF",
-            path: &mechanism.urdf_path,
-        },
-    ]
+    value
+        .map(|n| count("--poses-per-leg", n, 1, MAX_POSES_PER_LEG))
+        .transpose()
 }
 
 #[cfg(test)]

@@ -30,32 +30,20 @@ impl Console {
         if self.closed {
             return Ok(());
         }
-        let written = if self.to_stderr {
-            let mut stderr = io::stderr().lock();
-            stderr
-                .write_all(text.as_bytes())
-                .and_then(|()| stderr.flush())
+        let (mut stream, name): (Box<dyn Write>, _) = if self.to_stderr {
+            (Box::new(io::stderr().lock()), "standard error")
         } else {
-            let mut stdout = io::stdout().lock();
-            stdout
-                .write_all(text.as_bytes())
-                .and_then(|()| stdout.flush())
+            (Box::new(io::stdout().lock()), "standard output")
         };
+        let written = stream
+            .write_all(text.as_bytes())
+            .and_then(|()| stream.flush());
         match written {
-            Err(e) if e.kind() == io::ErrorKind::BrokenPipe => {
-                self.closed = true;
-                Ok(())
-            }
-            Err(e) => {
-                let stream = if self.to_stderr {
-                    "standard error"
-                } else {
-                    "standard output"
-                };
-                Err(anyhow::anyhow!("{stream}: {e}"))
-            }
-            Ok(()) => Ok(()),
+            Err(e) if e.kind() == io::ErrorKind::BrokenPipe => self.closed = true,
+            Err(e) => anyhow::bail!("{name}: {e}"),
+            Ok(()) => {}
         }
+        Ok(())
     }
 
     /// Writes `text` and a newline.

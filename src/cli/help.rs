@@ -1,4 +1,4 @@
-//! The EXAMPLES and EXIT STATUS sections at the end of `--help`.
+//! The EXIT STATUS and EXAMPLES sections at the end of `--help`.
 
 /// The exit codes, shared by every command's help.
 macro_rules! exit_status {
@@ -10,6 +10,13 @@ macro_rules! exit_status {
      residuals reject the declared noise, or a reported number is not finite): one
      `legwise: warning: …` line per reason on standard error
   A closed standard output (`legwise … | head`) is not an error: the output stops there."
+    };
+}
+
+/// A command's closing sections: EXIT STATUS, then EXAMPLES (`$examples`, from a newline).
+macro_rules! examples {
+    ($examples:literal) => {
+        concat!(exit_status!(), "\n\nEXAMPLES:", $examples)
     };
 }
 
@@ -34,11 +41,8 @@ EXAMPLES:
 );
 
 /// `legwise identify --help`.
-pub(super) const IDENTIFY: &str = concat!(
-    exit_status!(),
+pub(super) const IDENTIFY: &str = examples!(
     "
-
-EXAMPLES:
   # the bundled 5R, simulated at its selected poses, divide and conquer with Levenberg-Marquardt
   legwise identify --model models/5r.yaml
   # the 3-RPR, both strategies, Gauss-Newton, noise-free, with a JSON report
@@ -60,11 +64,8 @@ EXAMPLES:
 );
 
 /// `legwise select --help`.
-pub(super) const SELECT: &str = concat!(
-    exit_status!(),
+pub(super) const SELECT: &str = examples!(
     "
-
-EXAMPLES:
   # 18 D-optimal poses per leg (the model's defaults), to measure and fill in
   legwise select --model models/5r.yaml --out poses.csv
   # one shared set for the traditional strategy, E-optimal, on a 1 cm grid
@@ -74,11 +75,8 @@ EXAMPLES:
 );
 
 /// `legwise simulate --help`.
-pub(super) const SIMULATE: &str = concat!(
-    exit_status!(),
+pub(super) const SIMULATE: &str = examples!(
     "
-
-EXAMPLES:
   # the model's simulation block at its selected poses
   legwise simulate --model models/5r.yaml --out measurements.csv
   # noise-free, at 30 random poses per leg, another seed
@@ -88,11 +86,8 @@ EXAMPLES:
 );
 
 /// `legwise workspace --help`.
-pub(super) const WORKSPACE: &str = concat!(
-    exit_status!(),
+pub(super) const WORKSPACE: &str = examples!(
     "
-
-EXAMPLES:
   # the MIW of the bundled 5R and its picture 5r-workspace.svg
   legwise workspace --model models/5r.yaml
   # a finer boundary, the picture elsewhere
@@ -102,11 +97,8 @@ EXAMPLES:
 );
 
 /// `legwise evaluate --help`.
-pub(super) const EVALUATE: &str = concat!(
-    exit_status!(),
+pub(super) const EVALUATE: &str = examples!(
     "
-
-EXAMPLES:
   # the calibrated model on poses held out of the fit, side by side with the nominal model
   legwise evaluate --model calibrated.yaml --measurements held-out.csv --against models/5r.yaml
   # the same as JSON on standard output (the terminal report goes to standard error)

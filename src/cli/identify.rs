@@ -3,11 +3,14 @@
 
 use std::path::Path;
 
-use super::args::{IdentifyArgs, SolverArg, StrategyArg, WeightsArg};
+use super::args::{IdentifyArgs, RobustArg, SolverArg, StrategyArg, WeightsArg};
 use super::console::Console;
+use super::outputs::{input, model_inputs, ReportFiles};
 use super::verdict::Verdict;
 use crate::evaluate::accuracy::map_grid;
 use crate::files::{Input, Output};
+use crate::identify::estimate::{FitOptions, Strategy, Weighting};
+use crate::identify::robust::RobustLoss;
 use crate::measure::{Measurements, STDIN_NAME};
 use crate::model::Mechanism;
 use crate::pipeline::{self, MapSettings, Settings, SimulationSettings};
@@ -22,61 +25,62 @@ pub(super) fn run(args: &IdentifyArgs) -> anyhow::Result<Verdict> {
     }
     let settings = settings(args, &mechanism, simulation);
     let inputs = identify_inputs(args, &mechanism);
-    let json_output = Output::prepare_optional("--json", args.json.as_deref(), &inputs)?;
-    let calibrated_outputs = calibrated_outputs(args, &inputs)?;
-    let picture_outputs = picture_outputs(args, &inputs)?;
+    let json_path = args.json.as_deref();
+    let json = Output::prepare_optional("--json", json_path, &inputs)?;
+    let calibrated = match &args.calibrated {
+        Some(out) => Some(Output::prepare_calibrated(out, json_path, &inputs)?),
+        None => None,
+    };
+    let pictures = picture_outputs(args, &inputs)?;
     check_map(args, &mechanism)?;
-    let mut console = Console::new(json_output.as_ref().is_some_and(Output::is_stdout));
+    let outputs = ReportFiles { json, pictures };
+    let mut console = outputs.console();
     let report = match &args.measurements {
         Some(path) => pipeline::identify(&mechanism, &read(path, &mechanism)?, &settings)?,
         None => pipeline::run(&mechanism, &settings)?,
     };
     let verdict = Verdict::from_reasons(report.trust_issues());
     let trusted = verdict == Verdict::Trusted;
-    if let Some(outputs) = calibrated_outputs.as_ref().filter(|_| trusted) {
-        write_calibrated(&report, outputs)?;
+    if let Some(files) = calibrated.as_ref().filter(|_| trusted) {
+        write_calibrated(&report, files)?;
     }
-    // The file first: a closed terminal pipe must not lose it.
-    if let Some(output) = &json_output {
-        output.write("JSON report", report.to_json().to_text()?.as_bytes())?;
-    }
-    if let Some(outputs) = &picture_outputs {
-        let pictures = identify_pictures(&report, crate::files::format(args.pictures.png))?;
-        for (output, bytes) in outputs.iter().zip(&pictures) {
-            output.write("picture", bytes)?;
-        }
-    }
+    outputs.write_json("JSON report", || Ok(report.to_json().to_text()?))?;
+    outputs.write_pictures(|| Ok(identify_pictures(&report, crate::files::format(args.png))?))?;
     console.print(&report.terminal_text())?;
-    if let (Some(outputs), Some(result)) = (&calibrated_outputs, report.calibrated_result()) {
-        say_calibrated(&mut console, outputs, result.strategy.name(), trusted)?;
+    if let (Some(files), Some(result)) = (&calibrated, report.calibrated_result()) {
+        say_calibrated(&mut console, files, result.strategy.name(), trusted)?;
     }
-    if let Some(output) = json_output.as_ref().filter(|o| !o.is_stdout()) {
-        console.line(format_args!("\nJSON report written to {}", output.name()))?;
-    }
-    for output in picture_outputs.iter().flatten() {
-        console.line(format_args!("picture written to {}", output.name()))?;
-    }
+    outputs.say_written(&mut console, "JSON report")?;
     Ok(verdict)
 }
 
 /// The library's settings from the command line: the strategies asked for (through an
 /// instrument, the model's: joint and two-stage), the fit, the simulation and the map.
-fn settings(
-    args: &IdentifyArgs,
-    mechanism: &Mechanism,
-    simulation: SimulationSettings,
-) -> Settings {
+fn settings(args: &IdentifyArgs, model: &Mechanism, simulation: SimulationSettings) -> Settings {
     Settings {
-        strategies: match mechanism.instrument {
-            Some(_) => Vec::new(),
-            None => args.strategy.strategies(),
+        strategies: match (&model.instrument, args.strategy) {
+            (Some(_), _) => Vec::new(),
+            (None, StrategyArg::Dc) => vec![Strategy::DivideAndConquer],
+            (None, StrategyArg::Traditional) => vec![Strategy::Traditional],
+            (None, StrategyArg::Both) => vec![Strategy::DivideAndConquer, Strategy::Traditional],
         },
         solver: args.solver.kind(),
-        fit: args.fit_options(),
+        fit: FitOptions {
+            weights: match args.weights {
+                WeightsArg::None => Weighting::Unweighted,
+                WeightsArg::Noise => Weighting::Noise,
+            },
+            robust: args.robust.map(|r| match r {
+                RobustArg::Huber => RobustLoss::Huber,
+                RobustArg::Cauchy => RobustLoss::Cauchy,
+            }),
+            drop_outliers: args.drop_outliers,
+            ..FitOptions::default()
+        },
         simulation,
-        map: args.after.map.map(|grid_m| MapSettings {
+        map: args.map.map(|grid_m| MapSettings {
             grid_m,
-            scale: args.after.map_scale,
+            scale: args.map_scale,
         }),
     }
 }
@@ -90,7 +94,7 @@ fn refuse_unsupported(args: &IdentifyArgs) -> anyhow::Result<()> {
         (args.weights != WeightsArg::None, "--weights"),
         (args.robust.is_some(), "--robust"),
         (args.drop_outliers, "--drop-outliers"),
-        (args.pictures.plots.is_some(), "--plots"),
+        (args.plots.is_some(), "--plots"),
     ];
     if let Some((_, flag)) = refused.iter().find(|(on, _)| *on) {
         anyhow::bail!(
@@ -104,11 +108,8 @@ fn refuse_unsupported(args: &IdentifyArgs) -> anyhow::Result<()> {
 /// The files `identify` reads (model, URDF, measurements), which no output may overwrite.
 fn identify_inputs<'a>(args: &'a IdentifyArgs, mechanism: &'a Mechanism) -> Vec<Input<'a>> {
     let measurements = args.measurements.as_deref().filter(|p| !is_stdin(p));
-    let mut inputs = super::checks::model_inputs(&args.model, mechanism);
-    inputs.extend(measurements.map(|path| Input {
-        role: "measurement file",
-        path,
-    }));
+    let mut inputs = model_inputs(&args.model, mechanism);
+    inputs.extend(measurements.map(|path| input("measurement file", path)));
     inputs
 }
 
@@ -134,43 +135,21 @@ fn say_calibrated(
     strategy: &str,
     trusted: bool,
 ) -> anyhow::Result<()> {
-    if trusted {
-        console.line(format_args!(
-            "\ncalibrated model ({strategy} result) written to {} and {}",
-            yaml.name(),
-            urdf.name()
-        ))
+    let (yaml, urdf) = (yaml.name(), urdf.name());
+    console.line(if trusted {
+        format!("\ncalibrated model ({strategy} result) written to {yaml} and {urdf}")
     } else {
-        console.line(format_args!(
-            "\ncalibrated model not written to {}: the result must not be trusted",
-            yaml.name()
-        ))
-    }
-}
-
-/// `--calibrated OUT.yaml`: the model file and its URDF outputs, checked against the inputs and
-/// against the JSON report's path.
-fn calibrated_outputs(
-    args: &IdentifyArgs,
-    inputs: &[Input<'_>],
-) -> anyhow::Result<Option<(Output, Output)>> {
-    let Some(out) = &args.after.calibrated else {
-        return Ok(None);
-    };
-    Ok(Some(Output::prepare_calibrated(
-        out,
-        args.json.as_deref(),
-        inputs,
-    )?))
+        format!("\ncalibrated model not written to {yaml}: the result must not be trusted")
+    })
 }
 
 /// `--map`: simulation only, with a valid grid, refused before any work otherwise.
 fn check_map(args: &IdentifyArgs, mechanism: &Mechanism) -> anyhow::Result<()> {
-    if let Some(grid) = args.after.map {
+    if let Some(grid) = args.map {
         if args.measurements.is_some() {
             anyhow::bail!("--map: the accuracy map needs the real parameters, known only in simulation (drop --measurements)");
         }
-        map_grid(mechanism, grid, args.after.map_scale)?;
+        map_grid(mechanism, grid, args.map_scale)?;
     }
     Ok(())
 }
@@ -188,17 +167,14 @@ fn write_calibrated(report: &Report<'_>, (yaml, urdf): &(Output, Output)) -> any
 }
 
 /// `--plots DIR`: simulation only; one checked output per picture, before any work.
-fn picture_outputs(
-    args: &IdentifyArgs,
-    inputs: &[Input<'_>],
-) -> anyhow::Result<Option<Vec<Output>>> {
-    let Some(dir) = &args.pictures.plots else {
-        return Ok(None);
+fn picture_outputs(args: &IdentifyArgs, inputs: &[Input<'_>]) -> anyhow::Result<Vec<Output>> {
+    let Some(dir) = &args.plots else {
+        return Ok(Vec::new());
     };
     if args.measurements.is_some() {
         anyhow::bail!("--plots: the pictures compare with the real parameters, known only in simulation (drop --measurements)");
     }
-    let names = identify_picture_names(args.after.map.is_some());
-    let format = crate::files::format(args.pictures.png);
-    Ok(Some(crate::files::prepare(dir, &names, format, inputs)?))
+    let names = identify_picture_names(args.map.is_some());
+    let format = crate::files::format(args.png);
+    Ok(crate::files::prepare(dir, &names, format, inputs)?)
 }

@@ -9,6 +9,7 @@ mod evaluate;
 mod help;
 mod identify;
 mod montecarlo;
+mod outputs;
 mod select;
 mod simulate;
 mod verdict;

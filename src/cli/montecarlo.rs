@@ -2,9 +2,9 @@
 
 use super::args::MontecarloArgs;
 use super::checks;
-use super::console::Console;
+use super::outputs::{model_inputs, ReportFiles};
 use super::verdict::Verdict;
-use crate::files::Output;
+use crate::files::{prepare_one, Output};
 use crate::model::Mechanism;
 use crate::report::plots::render;
 use crate::study::montecarlo::{MonteCarloOptions, Study};
@@ -22,13 +22,14 @@ pub(super) fn run(args: &MontecarloArgs) -> anyhow::Result<Verdict> {
     let seed = checks::seed("--seed", args.seed)?;
     let noise_scale = checks::non_negative("--noise-scale", args.noise_scale)?;
     let grid = checks::positive_metres("--grid", args.grid)?;
-    let poses_per_leg = super::checks::poses_per_leg(args.poses_per_leg)?;
+    let poses_per_leg = checks::poses_per_leg(args.poses_per_leg)?;
     let mechanism = Mechanism::load(&args.model)?;
-    let inputs = super::checks::model_inputs(&args.model, &mechanism);
-    let json_output = Output::prepare_optional("--json", args.json.as_deref(), &inputs)?;
+    let inputs = model_inputs(&args.model, &mechanism);
+    let json = Output::prepare_optional("--json", args.json.as_deref(), &inputs)?;
     let format = crate::files::format(args.png);
-    let picture_output =
-        crate::files::prepare_one(args.plots.as_deref(), PICTURE, format, &inputs)?;
+    let picture = prepare_one(args.plots.as_deref(), PICTURE, format, &inputs)?;
+    let pictures = Vec::from_iter(picture);
+    let outputs = ReportFiles { json, pictures };
     let simulation = crate::measure::simulate::setup(&mechanism)?;
     let options = MonteCarloOptions {
         solver: args.solver.kind(),
@@ -39,25 +40,16 @@ pub(super) fn run(args: &MontecarloArgs) -> anyhow::Result<Verdict> {
         map_scale: args.map_scale,
         ..MonteCarloOptions::new(trials, seed.unwrap_or(simulation.seed))
     };
-    let mut console = Console::new(json_output.as_ref().is_some_and(Output::is_stdout));
+    let mut console = outputs.console();
     let study = Study::prepare(&mechanism, options)?;
     let result = study.run();
-    // The file first: a closed terminal pipe must not lose it.
-    if let Some(output) = &json_output {
-        let text = serde_json::to_string_pretty(&montecarlo_json(&result))? + "\n";
-        output.write("JSON study", text.as_bytes())?;
-    }
-    if let Some(output) = &picture_output {
-        output.write("picture", &render(&error_distributions(&result), format)?)?;
-    }
+    outputs.write_json("JSON study", || {
+        Ok(serde_json::to_string_pretty(&montecarlo_json(&result))? + "\n")
+    })?;
+    outputs.write_pictures(|| Ok(vec![render(&error_distributions(&result), format)?]))?;
     console.print(&montecarlo_text(&result))?;
-    if let Some(output) = json_output.filter(|o| !o.is_stdout()) {
-        console.line(format_args!("\nJSON written to {}", output.name()))?;
-    }
-    if let Some(output) = picture_output {
-        console.line(format_args!("picture written to {}", output.name()))?;
-    }
-    let failures: Vec<String> = result
+    outputs.say_written(&mut console, "JSON")?;
+    let mut reasons: Vec<String> = result
         .trials
         .iter()
         .filter_map(|t| t.outcome.as_ref().err().map(|e| (t.index, e)))
@@ -65,7 +57,6 @@ pub(super) fn run(args: &MontecarloArgs) -> anyhow::Result<Verdict> {
         .map(|(index, reason)| format!("trial {index} failed and is left out: {reason}"))
         .collect();
     let failed = trials - result.succeeded;
-    let mut reasons = failures;
     if failed > reasons.len() {
         reasons.push(format!(
             "{failed} of {trials} trials failed in all: the statistics leave them out"

@@ -1,28 +1,31 @@
 //! `legwise select`: the identification poses to measure, in the measurement CSV layout.
 
-use super::args::{SelectArgs, StrategyArg};
+use super::args::{CriterionArg, SelectArgs, StrategyArg};
+use super::checks;
 use super::console::Console;
+use super::outputs::model_inputs;
 use super::verdict::Verdict;
 use crate::files::Output;
+use crate::model::mechanism::SelectionCriterion;
 use crate::model::Mechanism;
 use crate::report::selection::{pose_file, selection_text, Sets};
 use crate::selection::design::ExperimentDesign;
 
 pub(super) fn run(args: &SelectArgs) -> anyhow::Result<Verdict> {
-    let poses_per_leg = super::checks::poses_per_leg(args.poses_per_leg)?;
-    super::checks::positive_metres("--grid", args.grid)?;
+    let poses_per_leg = checks::poses_per_leg(args.poses_per_leg)?;
+    checks::positive_metres("--grid", args.grid)?;
     let mechanism = Mechanism::load(&args.model)?;
-    let output = Output::prepare(
-        "--out",
-        &args.out,
-        &super::checks::model_inputs(&args.model, &mechanism),
-    )?;
+    let inputs = model_inputs(&args.model, &mechanism);
+    let output = Output::prepare("--out", &args.out, &inputs)?;
     let mut console = Console::new(output.is_stdout());
     let count = poses_per_leg.unwrap_or(mechanism.selection.poses_per_leg);
     let shared = args.strategy != StrategyArg::Dc;
-    let criterion = args
-        .criterion
-        .map_or(mechanism.selection.criterion, |c| c.criterion());
+    let criterion = match args.criterion {
+        Some(CriterionArg::D) => SelectionCriterion::D,
+        Some(CriterionArg::A) => SelectionCriterion::A,
+        Some(CriterionArg::E) => SelectionCriterion::E,
+        None => mechanism.selection.criterion,
+    };
     let design = ExperimentDesign::select(&mechanism, args.grid, count, criterion, shared)?;
     let sets = Sets {
         per_leg: args.strategy != StrategyArg::Traditional,

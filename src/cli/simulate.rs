@@ -2,6 +2,7 @@
 
 use super::args::SimulateArgs;
 use super::console::Console;
+use super::outputs::model_inputs;
 use super::verdict::Verdict;
 use crate::files::Output;
 use crate::model::Mechanism;
@@ -10,11 +11,8 @@ use crate::pipeline::simulate;
 pub(super) fn run(args: &SimulateArgs) -> anyhow::Result<Verdict> {
     let settings = args.simulation.settings()?;
     let mechanism = Mechanism::load(&args.model)?;
-    let output = Output::prepare(
-        "--out",
-        &args.out,
-        &super::checks::model_inputs(&args.model, &mechanism),
-    )?;
+    let inputs = model_inputs(&args.model, &mechanism);
+    let output = Output::prepare("--out", &args.out, &inputs)?;
     let mut console = Console::new(output.is_stdout());
     // With an instrument, the file holds what the instrument reports (its targets' coordinates
     // in its own frame), as `identify --measurements` reads it for that model.

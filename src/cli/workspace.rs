@@ -1,11 +1,13 @@
 //! `legwise workspace`.
 
-use std::path::PathBuf;
+use std::ffi::OsStr;
+use std::path::{Path, PathBuf};
 
 use super::args::WorkspaceArgs;
 use super::console::Console;
+use super::outputs::{input, model_inputs};
 use super::verdict::Verdict;
-use crate::files::{Input, Output};
+use crate::files::Output;
 use crate::measure::file;
 use crate::model::Mechanism;
 use crate::report::plots::Format;
@@ -15,16 +17,11 @@ pub(super) fn run(args: &WorkspaceArgs) -> anyhow::Result<Verdict> {
     let rays = super::checks::count("--rays", args.rays, 16, 100_000)?;
     let mechanism = Mechanism::load(&args.model)?;
     let (path, format) = picture_path(args)?;
-    let mut inputs = super::checks::model_inputs(&args.model, &mechanism);
-    inputs.extend(args.poses.as_deref().map(|path| Input {
-        role: "pose file",
-        path,
-    }));
+    let mut inputs = model_inputs(&args.model, &mechanism);
+    inputs.extend(args.poses.as_deref().map(|path| input("pose file", path)));
     let output = Output::prepare("--out", &path, &inputs)?;
-    let pose_set = match &args.poses {
-        Some(poses) => Some(file::read_poses(poses, &mechanism)?),
-        None => None,
-    };
+    let read_poses = |poses: &Path| file::read_poses(poses, &mechanism);
+    let pose_set = args.poses.as_deref().map(read_poses).transpose()?;
     let mut console = Console::new(output.is_stdout());
     let (text, picture) = workspace_report(&mechanism, rays, pose_set.as_ref(), format)?;
     output.write("picture", &picture)?;
@@ -50,14 +47,9 @@ fn picture_path(args: &WorkspaceArgs) -> anyhow::Result<(PathBuf, Format)> {
             Ok((path.clone(), format))
         }
         None => {
-            let stem = args
-                .model
-                .file_stem()
-                .map_or("model".into(), |s| s.to_string_lossy().into_owned());
-            Ok((
-                PathBuf::from(format!("{stem}-workspace.{}", png.extension())),
-                png,
-            ))
+            let stem = args.model.file_stem().unwrap_or(OsStr::new("model"));
+            let name = format!("{}-workspace.{}", stem.to_string_lossy(), png.extension());
+            Ok((PathBuf::from(name), png))
         }
     }
 }
