@@ -195,3 +195,34 @@ fn the_shared_problem_keeps_its_two_latest_evaluations() {
     large.bordered(&x1).unwrap();
     assert_eq!(large.row_solves(), 3 * rows);
 }
+
+/// The two-stage registration's rows: `with_rows(k)` keeps the first `k` rows of every leg, in
+/// order, and their residuals are the full problem's at those rows.
+#[test]
+fn with_rows_keeps_the_first_rows_of_every_leg() {
+    let mechanism = bundled("3rpr-tracker.yaml");
+    let experiment = simulate_observed(&mechanism, SimulationOptions::default()).unwrap();
+    let full =
+        IdentificationProblem::through_instrument(&mechanism, &experiment.observations).unwrap();
+    let x = full.start().map(|v| v * (1.0 + 1e-3));
+    let r_full = full.apply(&x).unwrap();
+    for count in [1, 2, 5] {
+        let few = full.with_rows(count);
+        let mut expected = Vec::new();
+        for leg in full.legs() {
+            let rows = (0..full.blocks().len()).filter(|&i| full.blocks()[i].leg == leg);
+            expected.extend(rows.take(count));
+        }
+        assert_eq!(few.blocks().len(), expected.len());
+        assert_eq!(expected.len(), count * full.legs().len());
+        let r_few = few.apply(&x).unwrap();
+        for (k, &i) in expected.iter().enumerate() {
+            assert_eq!(
+                few.blocks()[k].reading,
+                full.blocks()[i].reading,
+                "{count}: {k}"
+            );
+            assert!((r_few[k] - r_full[i]).abs() <= 1e-12, "{count}: {k}");
+        }
+    }
+}
