@@ -226,3 +226,20 @@ fn with_rows_keeps_the_first_rows_of_every_leg() {
         }
     }
 }
+
+/// Row weights scale a row's residual and its whole Jacobian row, the instrument's columns
+/// included: weights of 4 double them.
+#[test]
+fn weights_scale_the_shared_columns_too() {
+    let mechanism = bundled("5r-tracker.yaml");
+    let experiment = simulate_observed(&mechanism, SimulationOptions::default()).unwrap();
+    let problem =
+        IdentificationProblem::through_instrument(&mechanism, &experiment.observations).unwrap();
+    let x = problem.start().map(|v| v * (1.0 + 1e-3));
+    let (r, jacobian) = problem.residuals_and_jacobian(&x).unwrap();
+    let weighted = problem.clone().with_weights(&vec![4.0; r.len()]);
+    let (rw, jw) = weighted.residuals_and_jacobian(&x).unwrap();
+    assert!(!problem.shared_columns().is_empty());
+    assert_eq!(rw, &r * 2.0);
+    assert_eq!(jw, &jacobian * 2.0);
+}
