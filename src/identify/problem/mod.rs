@@ -8,7 +8,7 @@
 //! leg's rows are one group, the shared parameters its border.
 //!
 //! A block's pose is measured, or fitted from the targets an instrument saw at the current
-//! shared parameters (`problem/sighting.rs`). Rows may carry weights `w_i` (weighted least squares:
+//! shared parameters (`problem/sighted.rs`). Rows may carry weights `w_i` (weighted least squares:
 //! each residual and its Jacobian row are multiplied by `√w_i`); a revolute actuator's
 //! residual is matched modulo one turn of the joint ([`super::residual::turns`]).
 
@@ -29,10 +29,12 @@ use crate::model::Mechanism;
 use crate::solver::bordered::{BorderedBlock, BorderedLayout, BorderedLeastSquares};
 
 mod evaluation;
-mod sighting;
+mod noise;
+mod sighted;
+mod state;
 
-use evaluation::{Evaluation, Evaluations, KEPT_SOLUTION_ROWS};
-use sighting::{Sighted, Sighting};
+use sighted::{Sighted, Sighting};
+use state::{Evaluation, Evaluations, KEPT_SOLUTION_ROWS};
 
 /// Where one leg's identified parameters sit in the problem's parameter vector.
 #[derive(Debug, Clone)]

@@ -8,21 +8,17 @@
 //! the fitted pose `P`), so `∂ψ/∂s = Σ_k c_k/gain · ∂X_k/∂P · ∂P/∂s`: `∂X/∂P` in closed form
 //! ([`pose_gradient`]), `∂P/∂s` from the pose fit in dual numbers. No pass through the chain.
 //! The same chain rule with respect to the target coordinates gives how the instrument's
-//! noise reaches each residual ([`IdentificationProblem::noise_loadings`], docs/method.md §13).
+//! noise reaches each residual (problem/noise.rs, docs/method.md §13).
 
 use std::sync::Arc;
 
-use argmin::core::Error as ArgminError;
-use nalgebra::{Const, DVector, U1};
+use nalgebra::{Const, U1};
 use num_dual::{Dual64, DualSVec64};
 
-use super::IdentificationProblem;
 use crate::identify::jacobian::{PreparedLeg, LANES};
-use crate::identify::shared_covariance::NoiseLoadings;
 use crate::kinematics::inverse::Solution;
 use crate::measure::targets::{platform_pose, platform_pose_from};
 use crate::model::instrument::Instrument;
-use crate::model::mechanism::MeasurementNoise;
 
 /// The instrument's part of a problem.
 #[derive(Debug, Clone)]
@@ -59,7 +55,11 @@ fn attachment_gradient(leg: &PreparedLeg<'_>, solution: &Solution) -> [f64; 3] {
 }
 
 /// The reading's derivative with respect to the fitted pose at a solved row.
-fn reading_pose_gradient(leg: &PreparedLeg<'_>, pose: &[f64; 6], solution: &Solution) -> [f64; 6] {
+pub(super) fn reading_pose_gradient(
+    leg: &PreparedLeg<'_>,
+    pose: &[f64; 6],
+    solution: &Solution,
+) -> [f64; 6] {
     let c = attachment_gradient(leg, solution);
     pose_gradient(&c, pose, &leg.geometry().attachment)
 }
@@ -126,7 +126,7 @@ impl Sighted<'_> {
 
     /// The reading's derivative with respect to each of `observed`'s coordinates at a solved
     /// row (`d` its derivative with respect to the fitted pose), into `out`.
-    fn observed_gradient(
+    pub(super) fn observed_gradient(
         &self,
         (shared, home): (&[f64], &[f64; 6]),
         observed: &[f64],
@@ -141,63 +141,6 @@ impl Sighted<'_> {
             m[i] = Dual64::from(observed[i]);
             *value = (0..6).map(|k| d[k] * fitted[k].eps).sum();
         }
-    }
-}
-
-impl IdentificationProblem<'_> {
-    /// The loadings of the declared `noise` on every residual at `x` (rows in the problem's
-    /// order), through an instrument: per residual, its measurement (the row of the
-    /// observations: a shared row's residuals of several legs share it) and `σ_i ∂ψ/∂m_i`
-    /// over the row's target coordinates `m_i` (σ of the coordinate of the same name: x, y, z,
-    /// roll, pitch, yaw), `∂ψ/∂m_i` by the chain rule through the reading's Newton step and the
-    /// pose fit (dual numbers in `m_i`).
-    ///
-    /// # Errors
-    /// A problem without an instrument; a leg cannot reach a fitted pose.
-    pub fn noise_loadings(
-        &self,
-        x: &DVector<f64>,
-        noise: &MeasurementNoise,
-    ) -> Result<NoiseLoadings, ArgminError> {
-        let sighted = self
-            .sighted
-            .as_ref()
-            .ok_or_else(|| ArgminError::msg("the problem sees no instrument"))?;
-        let shared = self.shared_values(x);
-        let home = &self.mechanism.home_pose;
-        let sigmas: Vec<f64> = sighted
-            .instrument
-            .targets
-            .iter()
-            .flat_map(|t| t.pose_indices())
-            .map(|&c| noise.pose[c])
-            .collect();
-        let rows = self.map_solved(x, |index, leg, placed, solution| {
-            let row = &sighted.rows[index];
-            let d = reading_pose_gradient(leg, &placed.pose, solution);
-            let mut gradient = vec![0.0; sigmas.len()];
-            sighted.observed_gradient((&shared, home), &row.observed, &d, &mut gradient);
-            let loading = gradient.iter().zip(&sigmas).map(|(d, s)| d * s).collect();
-            (row.source, loading)
-        })?;
-        Ok(NoiseLoadings {
-            reading: noise.reading,
-            rows,
-        })
-    }
-
-    /// Expected variance of every residual at `x` (rows in the problem's order) under the
-    /// declared `noise`, through an instrument: `σ_q² + Σ_i (∂ψ/∂m_i)² σ_i²`
-    /// ([`Self::noise_loadings`]).
-    ///
-    /// # Errors
-    /// As [`Self::noise_loadings`].
-    pub fn row_variances(
-        &self,
-        x: &DVector<f64>,
-        noise: &MeasurementNoise,
-    ) -> Result<Vec<f64>, ArgminError> {
-        Ok(self.noise_loadings(x, noise)?.variances())
     }
 }
 

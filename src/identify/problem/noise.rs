@@ -1,0 +1,67 @@
+//! How the declared noise of the instrument's target coordinates reaches the residuals of a
+//! problem seen through it (docs/method.md §13, "Statistics").
+
+use argmin::core::Error as ArgminError;
+use nalgebra::DVector;
+
+use super::sighted::reading_pose_gradient;
+use super::IdentificationProblem;
+use crate::identify::shared_covariance::NoiseLoadings;
+use crate::model::mechanism::MeasurementNoise;
+
+impl IdentificationProblem<'_> {
+    /// The loadings of the declared `noise` on every residual at `x` (rows in the problem's
+    /// order), through an instrument: per residual, its measurement (the row of the
+    /// observations: a shared row's residuals of several legs share it) and `σ_i ∂ψ/∂m_i`
+    /// over the row's target coordinates `m_i` (σ of the coordinate of the same name: x, y, z,
+    /// roll, pitch, yaw), `∂ψ/∂m_i` by the chain rule through the reading's Newton step and the
+    /// pose fit (dual numbers in `m_i`).
+    ///
+    /// # Errors
+    /// A problem without an instrument; a leg cannot reach a fitted pose.
+    pub fn noise_loadings(
+        &self,
+        x: &DVector<f64>,
+        noise: &MeasurementNoise,
+    ) -> Result<NoiseLoadings, ArgminError> {
+        let sighted = self
+            .sighted
+            .as_ref()
+            .ok_or_else(|| ArgminError::msg("the problem sees no instrument"))?;
+        let shared = self.shared_values(x);
+        let home = &self.mechanism.home_pose;
+        let sigmas: Vec<f64> = sighted
+            .instrument
+            .targets
+            .iter()
+            .flat_map(|t| t.pose_indices())
+            .map(|&c| noise.pose[c])
+            .collect();
+        let rows = self.map_solved(x, |index, leg, placed, solution| {
+            let row = &sighted.rows[index];
+            let d = reading_pose_gradient(leg, &placed.pose, solution);
+            let mut gradient = vec![0.0; sigmas.len()];
+            sighted.observed_gradient((&shared, home), &row.observed, &d, &mut gradient);
+            let loading = gradient.iter().zip(&sigmas).map(|(d, s)| d * s).collect();
+            (row.source, loading)
+        })?;
+        Ok(NoiseLoadings {
+            reading: noise.reading,
+            rows,
+        })
+    }
+
+    /// Expected variance of every residual at `x` (rows in the problem's order) under the
+    /// declared `noise`, through an instrument: `σ_q² + Σ_i (∂ψ/∂m_i)² σ_i²`
+    /// ([`Self::noise_loadings`]).
+    ///
+    /// # Errors
+    /// As [`Self::noise_loadings`].
+    pub fn row_variances(
+        &self,
+        x: &DVector<f64>,
+        noise: &MeasurementNoise,
+    ) -> Result<Vec<f64>, ArgminError> {
+        Ok(self.noise_loadings(x, noise)?.variances())
+    }
+}
