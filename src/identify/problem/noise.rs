@@ -40,9 +40,12 @@ impl IdentificationProblem<'_> {
         let rows = self.map_solved(x, |index, leg, placed, solution| {
             let row = &sighted.rows[index];
             let d = reading_pose_gradient(leg, &placed.pose, solution);
-            let mut gradient = vec![0.0; sigmas.len()];
-            sighted.observed_gradient((&shared, home), &row.observed, &d, &mut gradient);
-            let loading = gradient.iter().zip(&sigmas).map(|(d, s)| d * s).collect();
+            // The row's loading, written in place: its gradient, then times each σ.
+            let mut loading = vec![0.0; sigmas.len()];
+            sighted.observed_gradient((&shared, home), &row.observed, &d, &mut loading);
+            for (value, sigma) in loading.iter_mut().zip(&sigmas) {
+                *value *= sigma;
+            }
             (row.source, loading)
         })?;
         Ok(NoiseLoadings {
