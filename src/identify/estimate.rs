@@ -228,16 +228,15 @@ pub fn identify_problem(
             FitKind::Robust => &stats.outlier_rows,
             FitKind::LeastSquares => &[],
         };
+        let (residual_sigma, covariance) = leg_covariance(problem, slot, &r, &c, excluded);
         let fit = Fit {
             x: &outcome.x,
             r0: &r0,
             r: &r,
-            c: &c,
             unweighted_r,
             unweighted_c,
-            excluded,
         };
-        let mut estimate = leg_estimate(mechanism, problem, slot, &fit);
+        let mut estimate = leg_estimate(mechanism, problem, slot, &fit, residual_sigma, covariance);
         estimate.statistics = stats;
         estimate.warnings = leg_warnings(mechanism, slot, &estimate.statistics);
         estimates.push(estimate);
@@ -265,40 +264,56 @@ fn leg_observability(
     analyse(&problem.slot_jacobian(slot, c), &names)
 }
 
-/// A fitted problem's estimate, residuals before and after, Jacobian (weighted as fitted, and
-/// unweighted), and the rows its σ̂ leaves out.
-struct Fit<'f> {
-    x: &'f DVector<f64>,
-    r0: &'f DVector<f64>,
-    r: &'f DVector<f64>,
-    c: &'f DMatrix<f64>,
-    unweighted_r: &'f DVector<f64>,
-    unweighted_c: &'f DMatrix<f64>,
-    excluded: &'f [usize],
+/// A fitted problem's estimate, its residuals at the start and at the estimate (as fitted),
+/// and its unweighted residuals and Jacobian at the estimate.
+pub(super) struct Fit<'f> {
+    pub(super) x: &'f DVector<f64>,
+    pub(super) r0: &'f DVector<f64>,
+    pub(super) r: &'f DVector<f64>,
+    pub(super) unweighted_r: &'f DVector<f64>,
+    pub(super) unweighted_c: &'f DMatrix<f64>,
 }
 
-fn leg_estimate(
+/// The σ̂ of the leg in `slot` (its rows of `r` but the `excluded` ones) and its covariance
+/// `σ̂² (CᵀC)⁻¹` from its block of the Jacobian `c`; `None` without redundancy.
+fn leg_covariance(
+    problem: &IdentificationProblem<'_>,
+    slot: &LegSlot,
+    r: &DVector<f64>,
+    c: &DMatrix<f64>,
+    excluded: &[usize],
+) -> (Option<f64>, Option<DMatrix<f64>>) {
+    let n = slot.columns.len();
+    let kept: Vec<usize> = problem
+        .rows_of(slot)
+        .into_iter()
+        .filter(|i| !excluded.contains(i))
+        .collect();
+    let kept_squares: f64 = kept.iter().map(|&i| r[i] * r[i]).sum();
+    let residual_sigma = (kept.len() > n).then(|| (kept_squares / (kept.len() - n) as f64).sqrt());
+    let covariance = residual_sigma.and_then(|sigma| {
+        unscaled_covariance(&problem.slot_jacobian(slot, c))
+            .map(|inverse| inverse * (sigma * sigma))
+    });
+    (residual_sigma, covariance)
+}
+
+/// The leg in `slot`'s part of a fitted problem: its parameters (σ from the diagonal of
+/// `covariance`, the leg's block of the estimate's covariance), its rows' costs at the start
+/// and at the estimate, their residuals (measured minus predicted reading, unweighted) and the
+/// observability of its own columns of the unweighted Jacobian.
+pub(super) fn leg_estimate(
     mechanism: &Mechanism,
     problem: &IdentificationProblem<'_>,
     slot: &LegSlot,
     fit: &Fit<'_>,
+    residual_sigma: Option<f64>,
+    covariance: Option<DMatrix<f64>>,
 ) -> LegEstimate {
-    let Fit { x, r0, r, c, .. } = *fit;
     let leg = &mechanism.legs[slot.leg];
     let rows = problem.rows_of(slot);
-    let (m, n) = (rows.len(), slot.columns.len());
-    let sum_squares: f64 = rows.iter().map(|&i| r[i] * r[i]).sum();
-    let kept: Vec<usize> = rows
-        .iter()
-        .copied()
-        .filter(|i| !fit.excluded.contains(i))
-        .collect();
-    let kept_squares: f64 = kept.iter().map(|&i| r[i] * r[i]).sum();
-    let residual_sigma = (kept.len() > n).then(|| (kept_squares / (kept.len() - n) as f64).sqrt());
-    let c_leg = problem.slot_jacobian(slot, c);
-    let covariance = residual_sigma
-        .and_then(|sigma| unscaled_covariance(&c_leg).map(|inverse| inverse * (sigma * sigma)));
-    let phi = problem.leg_parameters(slot, x);
+    let cost = |r: &DVector<f64>| 0.5 * rows.iter().map(|&i| r[i] * r[i]).sum::<f64>();
+    let phi = problem.leg_parameters(slot, fit.x);
     let parameters = leg
         .params
         .iter()
@@ -310,7 +325,7 @@ fn leg_estimate(
                 unit: p.unit,
                 nominal: p.nominal,
                 estimate: phi[i],
-                std: column.and_then(|k| covariance.as_ref().map(|v| v[(k, k)].sqrt())),
+                std: column.and_then(|k| covariance.as_ref().map(|v| v[(k, k)].max(0.0).sqrt())),
                 identified: p.identified,
             }
         })
@@ -318,9 +333,9 @@ fn leg_estimate(
     LegEstimate {
         leg: leg.name.clone(),
         parameters,
-        measurements: m,
-        initial_cost: 0.5 * rows.iter().map(|&i| r0[i] * r0[i]).sum::<f64>(),
-        final_cost: 0.5 * sum_squares,
+        measurements: rows.len(),
+        initial_cost: cost(fit.r0),
+        final_cost: cost(fit.r),
         residual_sigma,
         observability: leg_observability(mechanism, problem, slot, fit.unweighted_c),
         statistics: LegStatistics::default(),

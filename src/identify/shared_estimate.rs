@@ -14,14 +14,15 @@
 
 use nalgebra::{DMatrix, DVector};
 
+use super::estimate::{leg_estimate, Fit};
 use super::observability::{analyse, Observability};
 use super::problem::IdentificationProblem;
 use super::result::{
-    FitOptions, InstrumentEstimate, LegEstimate, ParameterEstimate, RowResidual, SolverRun,
-    Strategy, StrategyResult,
+    FitOptions, InstrumentEstimate, LegEstimate, ParameterEstimate, SolverRun, Strategy,
+    StrategyResult,
 };
 use super::shared_covariance::covariance;
-use super::statistics::{self, LegStatistics};
+use super::statistics;
 use crate::error::{Error, Result};
 use crate::measure::observations::Observations;
 use crate::model::Mechanism;
@@ -142,19 +143,32 @@ pub fn identify_shared(
     // The residuals at the start, for each leg's cost before (evaluated last: the warm starts
     // of the estimate's evaluations are untouched).
     let r0 = dense(&problem, &problem.start())?.0;
-    let blocks = Blocks {
-        problem: &problem,
+    let fit = Fit {
         x: &outcome.x,
-        r: &r,
         r0: &r0,
-        jacobian: &jacobian,
-        covariance: covariance.as_ref(),
-        sigmas: sigmas.as_deref(),
+        r: &r,
+        unweighted_r: &r,
+        unweighted_c: &jacobian,
     };
-    let legs = blocks.legs(mechanism);
+    // Each leg's part: its block of the problem's covariance (no σ̂ of its own).
+    let legs: Vec<LegEstimate> = problem
+        .slots()
+        .iter()
+        .map(|slot| {
+            let columns = slot.offset..slot.offset + slot.columns.len();
+            let block = covariance.as_ref().map(|v| {
+                v.view(
+                    (columns.start, columns.start),
+                    (columns.len(), columns.len()),
+                )
+                .into_owned()
+            });
+            leg_estimate(mechanism, &problem, slot, &fit, None, block)
+        })
+        .collect();
     let names: Vec<String> = legs.iter().map(|l| l.leg.clone()).collect();
     let instrument = InstrumentEstimate {
-        parameters: blocks.instrument(),
+        parameters: instrument_parameters(&problem, &outcome.x, sigmas.as_deref()),
         rows: m,
         unknowns: n,
         rms: (r.norm_squared() / m.max(1) as f64).sqrt(),
@@ -174,116 +188,39 @@ pub fn identify_shared(
     })
 }
 
-/// The solved problem, split into its parameter blocks.
-struct Blocks<'p> {
-    problem: &'p IdentificationProblem<'p>,
-    x: &'p DVector<f64>,
-    r: &'p DVector<f64>,
-    r0: &'p DVector<f64>,
-    jacobian: &'p DMatrix<f64>,
-    covariance: Option<&'p DMatrix<f64>>,
-    sigmas: Option<&'p [f64]>,
-}
-
-impl Blocks<'_> {
-    /// Each leg's block: its parameters (σ from the covariance's diagonal), its rows'
-    /// residuals and costs, the observability of its own columns at the estimate and its
-    /// block of the covariance.
-    fn legs(&self, mechanism: &Mechanism) -> Vec<LegEstimate> {
-        let lines = self.problem.row_lines();
-        let (mut row, mut column) = (0, 0);
-        let mut estimates = Vec::new();
-        for (slot, lines) in self.problem.slots().iter().zip(&lines) {
-            let phi = self.problem.leg_parameters(slot, self.x);
-            let own = slot.columns.len();
-            let leg = &mechanism.legs[slot.leg];
-            let rows = row..row + lines.len();
-            let columns = column..column + own;
-            let mut k = column;
-            let parameters = leg
-                .params
+/// The instrument's parameters of `problem` at `x`: estimated (σ from `sigmas`, the
+/// problem's), or held, or registered by the two-stage strategy's first stage (no σ of its own
+/// then).
+fn instrument_parameters(
+    problem: &IdentificationProblem<'_>,
+    x: &DVector<f64>,
+    sigmas: Option<&[f64]>,
+) -> Vec<ParameterEstimate> {
+    let values = problem.shared_values(x);
+    let identified = problem.shared_columns();
+    let first = x.len() - identified.len();
+    let Some(instrument) = problem.instrument() else {
+        return Vec::new();
+    };
+    instrument
+        .parameters
+        .iter()
+        .enumerate()
+        .map(|(k, p)| {
+            let std = identified
                 .iter()
-                .zip(&phi)
-                .map(|(p, &value)| {
-                    let std = p.identified.then(|| {
-                        k += 1;
-                        self.sigmas.map(|s| s[k - 1])
-                    });
-                    ParameterEstimate {
-                        name: p.name.clone(),
-                        unit: p.unit,
-                        nominal: p.nominal,
-                        estimate: value,
-                        std: std.flatten(),
-                        identified: p.identified,
-                    }
-                })
-                .collect();
-            let names: Vec<String> = leg
-                .identified()
-                .iter()
-                .map(|&c| leg.params[c].name.clone())
-                .collect();
-            let own_block = self
-                .jacobian
-                .view((rows.start, columns.start), (rows.len(), own));
-            let cost = |r: &DVector<f64>| 0.5 * r.rows_range(rows.clone()).norm_squared();
-            estimates.push(LegEstimate {
-                leg: leg.name.clone(),
-                parameters,
-                measurements: rows.len(),
-                initial_cost: cost(self.r0),
-                final_cost: cost(self.r),
-                residual_sigma: None,
-                observability: analyse(&own_block.into_owned(), &names),
-                statistics: LegStatistics::default(),
-                dropped: Vec::new(),
-                warnings: Vec::new(),
-                covariance: self.covariance.map(|v| {
-                    v.view((columns.start, columns.start), (own, own))
-                        .into_owned()
-                }),
-                residuals: lines
-                    .iter()
-                    .zip(self.r.rows_range(rows.clone()).iter())
-                    .map(|(&line, &residual)| RowResidual { line, residual })
-                    .collect(),
-            });
-            row = rows.end;
-            column = columns.end;
-        }
-        estimates
-    }
-
-    /// The instrument's parameters: estimated here (σ from the covariance), or held, or
-    /// registered by the two-stage strategy's first stage (no σ of its own then).
-    fn instrument(&self) -> Vec<ParameterEstimate> {
-        let values = self.problem.shared_values(self.x);
-        let identified = self.problem.shared_columns();
-        let first = self.x.len() - identified.len();
-        let Some(instrument) = self.problem.instrument() else {
-            return Vec::new();
-        };
-        instrument
-            .parameters
-            .iter()
-            .enumerate()
-            .map(|(k, p)| {
-                let std = identified
-                    .iter()
-                    .position(|&c| c == k)
-                    .and_then(|i| self.sigmas.map(|s| s[first + i]));
-                ParameterEstimate {
-                    name: p.name.clone(),
-                    unit: p.unit,
-                    nominal: p.nominal,
-                    estimate: values[k],
-                    std,
-                    identified: p.identified,
-                }
-            })
-            .collect()
-    }
+                .position(|&c| c == k)
+                .and_then(|i| sigmas.map(|s| s[first + i]));
+            ParameterEstimate {
+                name: p.name.clone(),
+                unit: p.unit,
+                nominal: p.nominal,
+                estimate: values[k],
+                std,
+                identified: p.identified,
+            }
+        })
+        .collect()
 }
 
 fn solver_error(error: impl std::fmt::Display) -> Error {

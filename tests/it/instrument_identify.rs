@@ -313,3 +313,32 @@ fn a_camera_marker_measuring_the_pose_gives_the_same_zero_noise_recovery() {
     assert!(estimate.runs[0].converged);
     assert_recovered(&mechanism, &estimate, &experiment, 1e-9);
 }
+
+/// Through an instrument too, a row's residual is its measured minus its predicted reading
+/// (docs/report.md, `rows`): raising one reading by δ raises its row's residual by almost δ
+/// (by δ less the part the refit absorbs), with each strategy.
+#[test]
+fn a_rows_residual_is_the_measured_minus_the_predicted_reading() {
+    let mechanism = bundled("5r-tracker.yaml");
+    let experiment = simulate_observed(&mechanism, simulation(1.0)).unwrap();
+    let text = to_csv(&mechanism, &experiment.observations).unwrap();
+    let observations = parse(&text, Path::new("m.csv"), &mechanism).unwrap();
+    let row = 7;
+    let leg = observations.rows[row].leg.unwrap_or(0);
+    let line = observations.rows[row].line;
+    let mut raised = observations.clone();
+    let delta = 1e-3;
+    *raised.rows[row].readings[leg].as_mut().unwrap() += delta;
+    for strategy in [Strategy::Joint, Strategy::TwoStage] {
+        let residual = |data: &_| {
+            let result = identify_shared(&mechanism, data, strategy).unwrap();
+            let rows = &result.legs[leg].residuals;
+            rows.iter().find(|r| r.line == line).unwrap().residual
+        };
+        let change = residual(&raised) - residual(&observations);
+        assert!(
+            (0.5 * delta..delta).contains(&change),
+            "{strategy:?}: the residual moved by {change:e} for a reading raised by {delta:e}"
+        );
+    }
+}
