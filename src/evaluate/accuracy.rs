@@ -35,8 +35,10 @@ pub struct MapPoint {
     /// Target pose `[x, y, z, roll, pitch, yaw]` (m, rad).
     pub pose: [f64; 6],
     /// Position error of the real mechanism at this target (m); `None` when not assemblable.
+    #[serde(rename = "position_error_m")]
     pub position_error: Option<f64>,
     /// Orientation error (rad) where the model measures an orientation and the point assembles.
+    #[serde(rename = "orientation_error_rad")]
     pub orientation_error: Option<f64>,
 }
 
@@ -52,8 +54,10 @@ pub struct AccuracyMap {
     /// Number of points that could not be reached (the model's IK or the real FK failed).
     pub non_assemblable: usize,
     /// Position errors over the assemblable points.
+    #[serde(rename = "position_error_m")]
     pub position_error: ErrorStats,
     /// Orientation errors, when the model measures an orientation.
+    #[serde(rename = "orientation_error_rad")]
     pub orientation_error: Option<ErrorStats>,
 }
 

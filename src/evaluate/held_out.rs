@@ -24,22 +24,27 @@ pub struct RowPoseError {
     pub line: usize,
     /// Distance between the forward-kinematics position and the measured one (m); `None` when
     /// the mechanism cannot be assembled at these readings.
+    #[serde(rename = "position_error_m")]
     pub position_error: Option<f64>,
     /// Orientation error (rad), where the model measures an orientation.
+    #[serde(rename = "orientation_error_rad")]
     pub orientation_error: Option<f64>,
     /// Through an instrument: the index of the target these errors are of (one entry per row
     /// and target, [`Evaluation::targets`]); `None` for a measured platform pose.
+    #[serde(skip)]
     pub target: Option<usize>,
 }
 
 /// Through an instrument: one target's errors over the assembled rows.
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct TargetErrors {
     /// The target's name.
     pub name: String,
     /// Distances between where the model puts the target and where the instrument saw it (m).
+    #[serde(rename = "position_error_m")]
     pub position_error: Option<ErrorStats>,
     /// Orientation errors (rad), for a target whose pose the instrument measures.
+    #[serde(rename = "orientation_error_rad")]
     pub orientation_error: Option<ErrorStats>,
 }
 
@@ -47,6 +52,7 @@ pub struct TargetErrors {
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct LegResidualStats {
     /// Leg name.
+    #[serde(skip)]
     pub leg: String,
     /// Rows with the leg's reading that its inverse kinematics reaches.
     pub rows: usize,

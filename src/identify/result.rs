@@ -276,7 +276,7 @@ pub struct InstrumentEstimate {
 }
 
 /// The outcome of the held-frame test ([`super::held_test`]).
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Debug, Clone, PartialEq, serde::Serialize)]
 pub struct HeldFrameTest {
     /// The frame components held by the model and freed by the test (`frame_x`, …).
     pub freed: Vec<String>,

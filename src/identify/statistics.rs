@@ -69,7 +69,7 @@ pub fn exact_fit(e: &[f64], readings: &[f64], variances: Option<&[f64]>) -> bool
 }
 
 /// The residuals of one leg tested against the declared noise.
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Debug, Clone, PartialEq, serde::Serialize)]
 pub struct NoiseTest {
     /// `Σ r_i² / v_i` over the tested rows.
     pub chi_squared: f64,
@@ -85,13 +85,14 @@ pub struct NoiseTest {
     /// the expected standard deviations `√v_i`), reading units.
     pub expected_sigma: f64,
     /// Rows left out of the test (the outliers of a robust fit).
+    #[serde(rename = "excluded_rows")]
     pub excluded: usize,
     /// `p_value < NOISE_TEST_P` ([`rejects`]).
     pub rejected: bool,
 }
 
 /// One row flagged as an outlier.
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Debug, Clone, PartialEq, serde::Serialize)]
 pub struct Outlier {
     /// Line of the measurement file, if read from one.
     pub line: Option<usize>,

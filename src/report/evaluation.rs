@@ -1,87 +1,80 @@
 //! Terminal and JSON renderings of evaluations and accuracy maps (schema in `docs/report.md`).
 //! The terminal shows millimetres and milliradians; the JSON keeps SI units.
 
+use std::collections::BTreeMap;
 use std::fmt::Write;
 
+use serde::Serialize;
 use serde_json::{json, Value};
 
-use super::json::{header, merge};
+use super::json::Document;
 use crate::evaluate::accuracy::{AccuracyMap, ErrorStats};
-use crate::evaluate::held_out::{Evaluation, TargetErrors};
+use crate::evaluate::held_out::{Evaluation, LegResidualStats, RowPoseError, TargetErrors};
 use crate::model::Mechanism;
 
-/// `{"rms", "median", "p95", "max"}`, or `null`.
-pub fn stats_json(stats: Option<&ErrorStats>) -> Value {
-    stats.map_or(Value::Null, |s| {
-        json!({
-            "rms": s.rms,
-            "median": s.median,
-            "p95": s.p95,
-            "max": s.max,
-        })
-    })
+/// One evaluation's document (docs/report.md), and the other model's as `"against"`.
+#[derive(Debug, Serialize)]
+struct EvaluationJson<'a> {
+    model: &'a str,
+    measurements: &'a str,
+    rows: usize,
+    full_rows: usize,
+    non_assemblable: &'a [usize],
+    position_error_m: Option<ErrorStats>,
+    orientation_error_rad: Option<ErrorStats>,
+    reading_residual: BTreeMap<&'a str, &'a LegResidualStats>,
+    row_errors: Vec<RowJson<'a>>,
+    #[serde(skip_serializing_if = "<[_]>::is_empty")]
+    targets: &'a [TargetErrors],
+    #[serde(skip_serializing_if = "Option::is_none")]
+    against: Option<Box<EvaluationJson<'a>>>,
 }
 
-/// One evaluation as JSON (without the schema header).
-pub fn evaluation_body(evaluation: &Evaluation) -> Value {
-    let residuals: serde_json::Map<String, Value> = evaluation
-        .reading_residual
-        .iter()
-        .map(|leg| {
-            let value = json!({
-                "rms": leg.rms,
-                "max": leg.max,
-                "rows": leg.rows,
-                "unreachable": leg.unreachable,
-            });
-            (leg.leg.clone(), value)
-        })
-        .collect();
-    let mut value = json!({
-        "model": evaluation.model,
-        "measurements": evaluation.measurements,
-        "rows": evaluation.rows,
-        "full_rows": evaluation.row_errors.len(),
-        "non_assemblable": evaluation.non_assemblable,
-        "position_error_m": stats_json(evaluation.position_error.as_ref()),
-        "orientation_error_rad": stats_json(evaluation.orientation_error.as_ref()),
-        "reading_residual": residuals,
-        "row_errors": evaluation.row_errors.iter().map(|r| {
-            let mut row = json!({
-                "line": r.line,
-                "position_error_m": r.position_error,
-                "orientation_error_rad": r.orientation_error,
-            });
-            if let Some(target) = r.target.and_then(|k| evaluation.targets.get(k)) {
-                row["target"] = json!(target.name);
-            }
-            row
-        }).collect::<Vec<_>>(),
-    });
-    if !evaluation.targets.is_empty() {
-        value["targets"] = evaluation
-            .targets
-            .iter()
-            .map(|t| {
-                json!({
-                    "name": t.name,
-                    "position_error_m": stats_json(t.position_error.as_ref()),
-                    "orientation_error_rad": stats_json(t.orientation_error.as_ref()),
+impl<'a> EvaluationJson<'a> {
+    fn new(evaluation: &'a Evaluation, against: Option<&'a Evaluation>) -> Self {
+        EvaluationJson {
+            model: &evaluation.model,
+            measurements: &evaluation.measurements,
+            rows: evaluation.rows,
+            full_rows: evaluation.row_errors.len(),
+            non_assemblable: &evaluation.non_assemblable,
+            position_error_m: evaluation.position_error,
+            orientation_error_rad: evaluation.orientation_error,
+            reading_residual: evaluation
+                .reading_residual
+                .iter()
+                .map(|leg| (leg.leg.as_str(), leg))
+                .collect(),
+            row_errors: evaluation
+                .row_errors
+                .iter()
+                .map(|row| RowJson {
+                    row,
+                    target: row
+                        .target
+                        .and_then(|k| evaluation.targets.get(k))
+                        .map(|t| t.name.as_str()),
                 })
-            })
-            .collect();
+                .collect(),
+            targets: &evaluation.targets,
+            against: against.map(|other| Box::new(EvaluationJson::new(other, None))),
+        }
     }
-    value
 }
 
-/// The `legwise evaluate` JSON document: header, the evaluation, and `"against"`.
+/// One row's errors, with the name of the target they are of.
+#[derive(Debug, Serialize)]
+struct RowJson<'a> {
+    #[serde(flatten)]
+    row: &'a RowPoseError,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    target: Option<&'a str>,
+}
+
+/// The `legwise evaluate` JSON document: header, the evaluation, and `"against"`. Made a
+/// [`Value`], whose objects sort their keys: the document's keys are in alphabetical order.
 pub fn evaluation_json(evaluation: &Evaluation, against: Option<&Evaluation>) -> Value {
-    let mut value = header();
-    merge(&mut value, evaluation_body(evaluation));
-    if let Some(other) = against {
-        merge(&mut value, json!({ "against": evaluation_body(other) }));
-    }
-    value
+    json!(Document::new(EvaluationJson::new(evaluation, against)))
 }
 
 /// Millimetres (or milliradians) with three significant-looking decimals.

@@ -3,12 +3,13 @@
 //! more block of parameters, with the same keys as a leg's). Non-finite numbers are written as
 //! `null`, never as NaN.
 
+use std::collections::BTreeMap;
+
 use nalgebra::DMatrix;
 use serde::Serialize;
-use serde_json::{json, Value};
 
 use super::Report;
-use crate::evaluate::accuracy::{AccuracyMap, ErrorStats};
+use crate::evaluate::accuracy::AccuracyMap;
 use crate::identify::estimate::{
     LegEstimate, ParameterEstimate, SolverRun, StrategyResult, Weighting,
 };
@@ -19,18 +20,23 @@ use crate::identify::statistics::{NoiseTest, Outlier};
 /// disappears (new keys do not change it).
 pub const SCHEMA_VERSION: u32 = 2;
 
-/// The keys every legwise JSON document starts with: the schema and the program version.
-pub fn header() -> Value {
-    json!({
-        "schema_version": SCHEMA_VERSION,
-        "legwise_version": env!("CARGO_PKG_VERSION"),
-    })
+/// A document of its own: the schema and program versions, then the keys of `body`.
+#[derive(Debug, Serialize)]
+pub struct Document<T> {
+    schema_version: u32,
+    legwise_version: &'static str,
+    #[serde(flatten)]
+    body: T,
 }
 
-/// Merges the keys of the object `extra` into the object `value` (later keys win).
-pub fn merge(value: &mut Value, extra: Value) {
-    if let (Value::Object(target), Value::Object(source)) = (value, extra) {
-        target.extend(source);
+impl<T> Document<T> {
+    /// `body` after the schema and program versions.
+    pub fn new(body: T) -> Self {
+        Document {
+            schema_version: SCHEMA_VERSION,
+            legwise_version: env!("CARGO_PKG_VERSION"),
+            body,
+        }
     }
 }
 
@@ -68,7 +74,7 @@ pub struct ReportJson<'a> {
     instrument_columns: Option<Vec<String>>,
     results: Vec<ResultJson<'a>>,
     #[serde(skip_serializing_if = "Option::is_none")]
-    accuracy_map_before: Option<MapJson>,
+    accuracy_map_before: Option<&'a AccuracyMap>,
 }
 
 impl<'a> ReportJson<'a> {
@@ -91,7 +97,7 @@ impl<'a> ReportJson<'a> {
                 .enumerate()
                 .map(|(i, r)| ResultJson::new(report, r, maps.and_then(|m| m.after.get(i))))
                 .collect(),
-            accuracy_map_before: maps.map(|m| MapJson::new(&m.before)),
+            accuracy_map_before: maps.map(|m| &m.before),
         }
     }
 
@@ -116,11 +122,15 @@ struct ResultJson<'a> {
     legs: Vec<LegJson<'a>>,
     fixed_legs: Vec<String>,
     #[serde(skip_serializing_if = "Option::is_none")]
-    accuracy_map: Option<MapJson>,
+    accuracy_map: Option<&'a AccuracyMap>,
 }
 
 impl<'a> ResultJson<'a> {
-    fn new(report: &'a Report<'_>, result: &'a StrategyResult, map: Option<&AccuracyMap>) -> Self {
+    fn new(
+        report: &'a Report<'_>,
+        result: &'a StrategyResult,
+        map: Option<&'a AccuracyMap>,
+    ) -> Self {
         ResultJson {
             strategy: result.strategy.name(),
             solver: result.solver.short_name(),
@@ -141,7 +151,7 @@ impl<'a> ResultJson<'a> {
                 .map(|leg| LegJson::new(report, result, leg))
                 .collect(),
             fixed_legs: report.fixed_legs(result),
-            accuracy_map: map.map(MapJson::new),
+            accuracy_map: map,
         }
     }
 }
@@ -182,8 +192,8 @@ struct InstrumentJson<'a> {
     rows: usize,
     unknowns: usize,
     rms_residual: f64,
-    noise_test: Option<NoiseTestJson>,
-    held_frame_test: Option<HeldFrameJson<'a>>,
+    noise_test: Option<&'a NoiseTest>,
+    held_frame_test: Option<&'a HeldFrameTest>,
     observability: InstrumentObservabilityJson<'a>,
 }
 
@@ -199,8 +209,8 @@ impl<'a> InstrumentJson<'a> {
             rows: instrument.rows,
             unknowns: instrument.unknowns,
             rms_residual: instrument.rms,
-            noise_test: instrument.noise_test.as_ref().map(NoiseTestJson::new),
-            held_frame_test: instrument.held_frame.as_ref().map(HeldFrameJson::new),
+            noise_test: instrument.noise_test.as_ref(),
+            held_frame_test: instrument.held_frame.as_ref(),
             observability: InstrumentObservabilityJson {
                 rank: instrument.observability.rank,
                 scaled_condition: instrument.observability.scaled_condition,
@@ -218,56 +228,6 @@ struct InstrumentObservabilityJson<'a> {
 }
 
 #[derive(Debug, Serialize)]
-struct HeldFrameJson<'a> {
-    freed: &'a [String],
-    chi_squared_drop: f64,
-    degrees_of_freedom: usize,
-    p_value: f64,
-    rejected: bool,
-    estimates: Vec<f64>,
-}
-
-impl<'a> HeldFrameJson<'a> {
-    fn new(test: &'a HeldFrameTest) -> Self {
-        HeldFrameJson {
-            freed: &test.freed,
-            chi_squared_drop: test.chi_squared_drop,
-            degrees_of_freedom: test.degrees_of_freedom,
-            p_value: test.p_value,
-            rejected: test.rejected,
-            estimates: test.estimates.clone(),
-        }
-    }
-}
-
-#[derive(Debug, Serialize)]
-struct NoiseTestJson {
-    chi_squared: f64,
-    degrees_of_freedom: usize,
-    p_value: f64,
-    sigma_ratio: f64,
-    residual_sigma: f64,
-    expected_sigma: f64,
-    excluded_rows: usize,
-    rejected: bool,
-}
-
-impl NoiseTestJson {
-    fn new(t: &NoiseTest) -> Self {
-        NoiseTestJson {
-            chi_squared: t.chi_squared,
-            degrees_of_freedom: t.degrees_of_freedom,
-            p_value: t.p_value,
-            sigma_ratio: t.sigma_ratio,
-            residual_sigma: t.residual_sigma,
-            expected_sigma: t.expected_sigma,
-            excluded_rows: t.excluded,
-            rejected: t.rejected,
-        }
-    }
-}
-
-#[derive(Debug, Serialize)]
 struct LegJson<'a> {
     name: &'a str,
     measurements: usize,
@@ -281,11 +241,11 @@ struct LegJson<'a> {
     condition_number: f64,
     scaled_condition_number: f64,
     warnings: Vec<String>,
-    noise_test: Option<NoiseTestJson>,
+    noise_test: Option<&'a NoiseTest>,
     outlier_threshold: Option<f64>,
-    outliers: Vec<OutlierJson<'a>>,
-    dropped: Vec<OutlierJson<'a>>,
-    observability: IndicesJson,
+    outliers: &'a [Outlier],
+    dropped: &'a [Outlier],
+    observability: BTreeMap<&'static str, f64>,
     solver: Option<SolverJson<'a>>,
     covariance_parameters: Vec<&'a str>,
     covariance: Option<Vec<Vec<f64>>>,
@@ -319,22 +279,14 @@ impl<'a> LegJson<'a> {
                 .into_iter()
                 .chain(leg.warnings.iter().cloned())
                 .collect(),
-            noise_test: leg.statistics.noise_test.as_ref().map(NoiseTestJson::new),
+            noise_test: leg.statistics.noise_test.as_ref(),
             outlier_threshold: (leg.statistics.outlier_threshold),
-            outliers: leg
-                .statistics
-                .outliers
-                .iter()
-                .map(OutlierJson::new)
+            outliers: &leg.statistics.outliers,
+            dropped: &leg.dropped,
+            observability: ["O1", "O2", "O3", "O4", "O5"]
+                .into_iter()
+                .zip(o.indices)
                 .collect(),
-            dropped: leg.dropped.iter().map(OutlierJson::new).collect(),
-            observability: IndicesJson {
-                o1: o.indices[0],
-                o2: o.indices[1],
-                o3: o.indices[2],
-                o4: o.indices[3],
-                o5: o.indices[4],
-            },
             solver: result
                 .runs
                 .iter()
@@ -359,20 +311,6 @@ impl<'a> LegJson<'a> {
             }),
         }
     }
-}
-
-#[derive(Debug, Serialize)]
-struct IndicesJson {
-    #[serde(rename = "O1")]
-    o1: f64,
-    #[serde(rename = "O2")]
-    o2: f64,
-    #[serde(rename = "O3")]
-    o3: f64,
-    #[serde(rename = "O4")]
-    o4: f64,
-    #[serde(rename = "O5")]
-    o5: f64,
 }
 
 #[derive(Debug, Serialize)]
@@ -414,91 +352,8 @@ impl<'a> SolverJson<'a> {
     }
 }
 
-#[derive(Debug, Serialize)]
-struct OutlierJson<'a> {
-    line: Option<usize>,
-    pose: &'a str,
-    reading: f64,
-    residual: f64,
-    t: f64,
-}
-
-impl<'a> OutlierJson<'a> {
-    fn new(o: &'a Outlier) -> Self {
-        OutlierJson {
-            line: o.line,
-            pose: &o.pose,
-            reading: o.reading,
-            residual: o.residual,
-            t: o.t,
-        }
-    }
-}
-
-/// An accuracy map (docs/report.md, "Accuracy maps").
-#[derive(Debug, Serialize)]
-pub struct MapJson {
-    grid_m: f64,
-    scale: f64,
-    points: Vec<MapPointJson>,
-    non_assemblable: usize,
-    position_error_m: StatsJson,
-    orientation_error_rad: Option<StatsJson>,
-}
-
-impl MapJson {
-    /// The map's document.
-    pub fn new(map: &AccuracyMap) -> Self {
-        MapJson {
-            grid_m: map.grid_m,
-            scale: map.scale,
-            points: map
-                .points
-                .iter()
-                .map(|p| MapPointJson {
-                    pose: p.pose,
-                    position_error_m: (p.position_error),
-                    orientation_error_rad: (p.orientation_error),
-                })
-                .collect(),
-            non_assemblable: map.non_assemblable,
-            position_error_m: StatsJson::new(&map.position_error),
-            orientation_error_rad: map.orientation_error.as_ref().map(StatsJson::new),
-        }
-    }
-}
-
-#[derive(Debug, Serialize)]
-struct MapPointJson {
-    pose: [f64; 6],
-    position_error_m: Option<f64>,
-    orientation_error_rad: Option<f64>,
-}
-
-/// `{"rms", "median", "p95", "max"}` of an error.
-#[derive(Debug, Serialize)]
-pub struct StatsJson {
-    rms: f64,
-    median: f64,
-    p95: f64,
-    max: f64,
-}
-
-impl StatsJson {
-    /// The statistics' document.
-    pub fn new(s: &ErrorStats) -> Self {
-        StatsJson {
-            rms: s.rms,
-            median: s.median,
-            p95: s.p95,
-            max: s.max,
-        }
-    }
-}
-
 #[cfg(test)]
 mod tests {
-    use super::StatsJson;
     use crate::evaluate::accuracy::ErrorStats;
 
     /// JSON has no NaN or infinity: a non-finite figure is written as `null`, a finite one
@@ -511,7 +366,7 @@ mod tests {
             p95: f64::INFINITY,
             max: f64::NEG_INFINITY,
         };
-        let text = serde_json::to_string(&StatsJson::new(&stats)).unwrap();
+        let text = serde_json::to_string(&stats).unwrap();
         assert_eq!(text, r#"{"rms":null,"median":0.25,"p95":null,"max":null}"#);
     }
 }

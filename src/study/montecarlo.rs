@@ -196,13 +196,14 @@ pub struct Study {
 }
 
 /// One arm's values in one trial.
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Debug, Clone, PartialEq, serde::Serialize)]
 pub struct ArmTrial {
     /// Estimate − real, per study parameter.
     pub errors: Vec<f64>,
     /// The fit's predicted standard deviation, per study parameter (NaN without redundancy).
     pub predicted_std: Vec<f64>,
     /// RMS position error over the accuracy map, metres.
+    #[serde(rename = "map_rms_m")]
     pub map_rms: f64,
 }
 

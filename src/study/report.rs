@@ -5,7 +5,7 @@ use serde_json::{json, Value};
 
 use super::montecarlo::{Arm, MonteCarlo, Trial};
 use super::stats::Estimate;
-use crate::report::json::{header, merge};
+use crate::report::json::Document;
 
 /// An estimate as JSON: `{"value", "ci95": [low, high]}` (non-finite numbers are `null`).
 pub fn estimate_json(estimate: &Estimate) -> Value {
@@ -19,17 +19,11 @@ pub fn estimate_json(estimate: &Estimate) -> Value {
 fn trial_json(trial: &Trial, order: &[Arm]) -> Value {
     match &trial.outcome {
         Ok(values) => {
-            let mut arms = serde_json::Map::new();
-            for (arm, values) in order.iter().zip(&values.arms) {
-                arms.insert(
-                    arm.key().into(),
-                    json!({
-                        "errors": values.errors,
-                        "predicted_std": values.predicted_std,
-                        "map_rms_m": values.map_rms,
-                    }),
-                );
-            }
+            let arms: serde_json::Map<_, _> = order
+                .iter()
+                .zip(&values.arms)
+                .map(|(arm, values)| (arm.key().into(), json!(values)))
+                .collect();
             json!({
                 "index": trial.index,
                 "seed": trial.seed,
@@ -92,31 +86,27 @@ pub fn montecarlo_json(study: &MonteCarlo) -> Value {
             })
         })
         .collect();
-    let mut value = header();
-    merge(
-        &mut value,
-        json!({
-            "mechanism": study.mechanism,
-            "trials": options.trials,
-            "succeeded": study.succeeded,
-            "failed": options.trials - study.succeeded,
-            "seed": options.seed,
-            "solver": options.solver.short_name(),
-            "noise_scale": options.noise_scale,
-            "map": {
-                "grid_m": options.map_grid,
-                "scale": options.map_scale,
-                "points": study.map_points,
-            },
-            "parameters": study.parameters.iter().map(|p| json!({"name": p.name, "unit": p.unit.to_string()})).collect::<Vec<_>>(),
-            "nominal_map_rms_m": estimate_json(&study.nominal_map_rms),
-            "arms": arms,
-            "comparisons": comparisons,
-            "verdict": study.verdict,
-            "per_trial": study.trials.iter().map(|t| trial_json(t, &arm_order)).collect::<Vec<_>>(),
-        }),
-    );
-    value
+    let body = json!({
+        "mechanism": study.mechanism,
+        "trials": options.trials,
+        "succeeded": study.succeeded,
+        "failed": options.trials - study.succeeded,
+        "seed": options.seed,
+        "solver": options.solver.short_name(),
+        "noise_scale": options.noise_scale,
+        "map": {
+            "grid_m": options.map_grid,
+            "scale": options.map_scale,
+            "points": study.map_points,
+        },
+        "parameters": study.parameters.iter().map(|p| json!({"name": p.name, "unit": p.unit.to_string()})).collect::<Vec<_>>(),
+        "nominal_map_rms_m": estimate_json(&study.nominal_map_rms),
+        "arms": arms,
+        "comparisons": comparisons,
+        "verdict": study.verdict,
+        "per_trial": study.trials.iter().map(|t| trial_json(t, &arm_order)).collect::<Vec<_>>(),
+    });
+    json!(Document::new(body))
 }
 
 /// `value [low, high]` with three significant digits.
