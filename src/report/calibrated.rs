@@ -43,20 +43,6 @@ pub struct CalibratedFiles {
     pub urdf: String,
 }
 
-impl<'a> Calibration<'a> {
-    /// The calibration `report` writes: its [`Report::calibrated_result`] (`None` without a
-    /// result), with a note when several strategies ran.
-    pub fn of(report: &'a Report<'_>, note: Option<&'a str>) -> Option<Self> {
-        Some(Calibration {
-            mechanism: report.mechanism,
-            result: report.calibrated_result()?,
-            source: &report.source,
-            real: report.real.as_ref(),
-            note,
-        })
-    }
-}
-
 impl Report<'_> {
     /// The calibrated model of the report's [`Report::calibrated_result`] (`None` without a
     /// result), its model file naming the URDF `urdf_name`; with several results, its header
@@ -65,18 +51,23 @@ impl Report<'_> {
     /// # Errors
     /// As [`calibrated_files`].
     pub fn calibrated_files(&self, urdf_name: &str) -> Result<Option<CalibratedFiles>> {
-        let note = self
-            .calibrated_result()
-            .filter(|_| self.results.len() > 1)
-            .map(|result| {
-                format!(
-                    "Several strategies ran; this is the {} result.",
-                    result.strategy.name()
-                )
-            });
-        Calibration::of(self, note.as_deref())
-            .map(|calibration| calibrated_files(&calibration, urdf_name))
-            .transpose()
+        let Some(result) = self.calibrated_result() else {
+            return Ok(None);
+        };
+        let note = (self.results.len() > 1).then(|| {
+            format!(
+                "Several strategies ran; this is the {} result.",
+                result.strategy.name()
+            )
+        });
+        let calibration = Calibration {
+            mechanism: self.mechanism,
+            result,
+            source: &self.source,
+            real: self.real.as_ref(),
+            note: note.as_deref(),
+        };
+        calibrated_files(&calibration, urdf_name).map(Some)
     }
 }
 

@@ -20,6 +20,15 @@ pub fn tidy(value: f64, decimals: i32) -> f64 {
     (value * scale).round() / scale + 0.0
 }
 
+/// The first line of a command's terminal report: `legwise COMMAND: NAME (MODEL FILE)`.
+pub fn title(command: &str, mechanism: &Mechanism) -> String {
+    format!(
+        "legwise {command}: {} ({})\n",
+        mechanism.name,
+        mechanism.model_path.display()
+    )
+}
+
 /// Everything an identification run reports, for every set-up (with or without an
 /// instrument): made by [`crate::run`] or [`crate::identify()`].
 #[derive(Debug, Clone)]

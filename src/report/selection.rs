@@ -26,13 +26,7 @@ pub fn selection_text(
     (count, criterion): (usize, SelectionCriterion),
     sets: Sets,
 ) -> String {
-    let mut text = String::new();
-    let _ = writeln!(
-        text,
-        "legwise select: {} ({})",
-        mechanism.name,
-        mechanism.model_path.display()
-    );
+    let mut text = super::title("select", mechanism);
     let _ = writeln!(
         text,
         "{} feasible candidate poses (grid {} m); criterion {:?}; {} poses per leg",

@@ -32,14 +32,8 @@ impl Report<'_> {
 
 /// The whole report as text.
 pub fn render(report: &Report<'_>) -> String {
-    let mut out = String::new();
     let mechanism = report.mechanism;
-    let _ = writeln!(
-        out,
-        "legwise identify: {} ({})",
-        mechanism.name,
-        mechanism.model_path.display()
-    );
+    let mut out = super::title("identify", mechanism);
     if let Some(mode) = &mechanism.mode {
         let _ = writeln!(out, "mode: {mode}");
     }

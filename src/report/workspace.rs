@@ -44,13 +44,7 @@ pub fn workspace_report(
         .filter(|&&c| c >= 2)
         .map(|&c| format!("{} = {}", COORDINATES[c], mechanism.home_pose[c]))
         .collect();
-    let mut text = String::new();
-    let _ = writeln!(
-        text,
-        "legwise workspace: {} ({})",
-        mechanism.name,
-        mechanism.model_path.display()
-    );
+    let mut text = super::title("workspace", mechanism);
     if let Some(mode) = &mechanism.mode {
         let _ = writeln!(text, "mode: {mode}");
     }
@@ -102,13 +96,7 @@ fn spatial(
         .filter(|c| mechanism.measured.contains(c))
         .map(|c| format!("{} = {}", COORDINATES[c], mechanism.home_pose[c]))
         .collect();
-    let mut text = String::new();
-    let _ = writeln!(
-        text,
-        "legwise workspace: {} ({})",
-        mechanism.name,
-        mechanism.model_path.display()
-    );
+    let mut text = super::title("workspace", mechanism);
     if !orientation.is_empty() {
         let _ = writeln!(
             text,
