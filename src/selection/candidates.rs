@@ -22,24 +22,8 @@ pub struct Candidate {
     pub parallel: Option<f64>,
 }
 
-/// The candidate pool and what was rejected.
-#[derive(Debug, Clone, PartialEq)]
-pub struct CandidatePool {
-    /// Feasible candidates, in grid order.
-    pub candidates: Vec<Candidate>,
-    /// Grid points inside the region with its margin.
-    pub inside: usize,
-    /// Rejected: a leg cannot reach the pose on its home branch.
-    pub unreachable: usize,
-    /// Rejected: a leg reaches the pose only with a joint beyond its URDF limits.
-    pub beyond_limits: usize,
-    /// Rejected: too close to a serial singularity.
-    pub near_serial: usize,
-    /// Rejected: too close to a parallel singularity.
-    pub near_parallel: usize,
-    /// Grid spacing used, metres.
-    pub spacing: f64,
-}
+/// The candidate pool and what was rejected: the feasible poses as [`Candidate`]s.
+pub type CandidatePool = FeasiblePoses<Candidate>;
 
 /// Builds the candidate pool of `mechanism` with grid spacing `spacing` (metres; default: the
 /// model's `workspace.grid`).
@@ -47,15 +31,7 @@ pub struct CandidatePool {
 /// # Errors
 /// As [`feasible_poses`]: no spacing given anywhere, or an empty pool.
 pub fn candidate_pool(mechanism: &Mechanism, spacing: Option<f64>) -> Result<CandidatePool> {
-    let FeasiblePoses {
-        poses,
-        inside,
-        unreachable,
-        beyond_limits,
-        near_serial,
-        near_parallel,
-        spacing,
-    } = feasible_poses(mechanism, spacing)?;
+    let feasible = feasible_poses(mechanism, spacing)?;
     let nominal = mechanism.nominal_parameters();
     let prepared: Vec<PreparedLeg<'_>> = mechanism
         .legs
@@ -63,33 +39,21 @@ pub fn candidate_pool(mechanism: &Mechanism, spacing: Option<f64>) -> Result<Can
         .zip(&nominal)
         .map(|(leg, phi)| PreparedLeg::new(leg, phi, &leg.identified()))
         .collect();
-    let candidates = poses
-        .into_iter()
-        .map(|feasible| {
-            let rows = prepared
-                .iter()
-                .zip(&feasible.solutions)
-                .map(|(leg, solution)| {
-                    let mut row = DVector::zeros(leg.columns());
-                    leg.reading_and_gradient_at(&feasible.pose, solution, row.as_mut_slice());
-                    row
-                })
-                .collect();
-            Candidate {
-                pose: feasible.pose,
-                rows,
-                serial: feasible.serial,
-                parallel: feasible.parallel,
-            }
-        })
-        .collect();
-    Ok(CandidatePool {
-        candidates,
-        inside,
-        unreachable,
-        beyond_limits,
-        near_serial,
-        near_parallel,
-        spacing,
-    })
+    Ok(feasible.map(|pose| {
+        let rows = prepared
+            .iter()
+            .zip(&pose.solutions)
+            .map(|(leg, solution)| {
+                let mut row = DVector::zeros(leg.columns());
+                leg.reading_and_gradient_at(&pose.pose, solution, row.as_mut_slice());
+                row
+            })
+            .collect();
+        Candidate {
+            pose: pose.pose,
+            rows,
+            serial: pose.serial,
+            parallel: pose.parallel,
+        }
+    }))
 }

@@ -7,7 +7,7 @@ use plotters::prelude::*;
 
 use super::montecarlo::MonteCarlo;
 use crate::model::params::Unit;
-use crate::report::plots::canvas::Figure;
+use crate::report::plots::canvas::{Drawn, Figure};
 use crate::report::plots::style;
 
 /// One panel: a quantity's values per series.
@@ -70,10 +70,7 @@ impl Figure for Histograms {
         (PANEL.0 * COLUMNS as u32, HEADER + PANEL.1 * rows)
     }
 
-    fn draw<DB: DrawingBackend>(
-        &self,
-        root: &DrawingArea<DB, Shift>,
-    ) -> Result<(), DrawingAreaErrorKind<DB::ErrorType>> {
+    fn draw<DB: DrawingBackend>(&self, root: &DrawingArea<DB, Shift>) -> Drawn<DB> {
         root.fill(&WHITE)?;
         let (header, body) = root.split_vertically(HEADER);
         header.draw(&Text::new(self.title.clone(), (16, 8), style::title()))?;

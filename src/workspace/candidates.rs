@@ -29,11 +29,12 @@ pub struct FeasiblePose {
     pub parallel: Option<f64>,
 }
 
-/// The feasible poses of the grid and what was rejected.
-#[derive(Debug, Clone)]
-pub struct FeasiblePoses {
+/// The feasible poses of the grid (as [`FeasiblePose`]s, or the selection module's candidates)
+/// and what was rejected.
+#[derive(Debug, Clone, PartialEq)]
+pub struct FeasiblePoses<P = FeasiblePose> {
     /// Feasible poses, in grid order.
-    pub poses: Vec<FeasiblePose>,
+    pub candidates: Vec<P>,
     /// Grid points inside the region with its margin.
     pub inside: usize,
     /// Rejected: a leg cannot reach the pose on its home branch.
@@ -46,6 +47,21 @@ pub struct FeasiblePoses {
     pub near_parallel: usize,
     /// Grid spacing used, metres.
     pub spacing: f64,
+}
+
+impl<P> FeasiblePoses<P> {
+    /// The same poses and counts, each pose turned into what `f` makes of it.
+    pub fn map<Q>(self, f: impl FnMut(P) -> Q) -> FeasiblePoses<Q> {
+        FeasiblePoses {
+            candidates: self.candidates.into_iter().map(f).collect(),
+            inside: self.inside,
+            unreachable: self.unreachable,
+            beyond_limits: self.beyond_limits,
+            near_serial: self.near_serial,
+            near_parallel: self.near_parallel,
+            spacing: self.spacing,
+        }
+    }
 }
 
 /// The feasible poses of `mechanism`'s candidate grid with spacing `spacing` (metres; default:
@@ -82,7 +98,7 @@ pub fn feasible_poses(mechanism: &Mechanism, spacing: Option<f64>) -> Result<Fea
         })
         .collect();
     let mut feasible = FeasiblePoses {
-        poses: Vec::new(),
+        candidates: Vec::new(),
         inside: 0,
         unreachable: 0,
         beyond_limits: 0,
@@ -134,14 +150,14 @@ pub fn feasible_poses(mechanism: &Mechanism, spacing: Option<f64>) -> Result<Fea
             feasible.near_parallel += 1;
             continue;
         }
-        feasible.poses.push(FeasiblePose {
+        feasible.candidates.push(FeasiblePose {
             pose,
             solutions,
             serial,
             parallel,
         });
     }
-    if feasible.poses.is_empty() {
+    if feasible.candidates.is_empty() {
         return Err(Error::Invalid(format!(
             "{}: no feasible candidate pose ({} grid points inside the usable workspace: {} unreachable, {} beyond a joint limit, {} near a serial singularity, {} near a parallel singularity)",
             mechanism.model_path.display(),
@@ -186,19 +202,14 @@ fn grid(mechanism: &Mechanism, spacing: f64) -> Result<Vec<[f64; 6]>> {
              at most {MAX_GRID_POSES} are allowed: use a larger spacing"
         )));
     }
-    let mut points = vec![mechanism.home_pose];
-    for &(coordinate, low, steps) in &axes {
-        points = points
-            .iter()
-            .flat_map(|p| {
-                (0..=steps as usize).map(move |i| {
-                    let mut pose = *p;
-                    pose[coordinate] = low + i as f64 * spacing;
-                    pose
-                })
-            })
-            .collect();
-    }
+    // The values of each gridded coordinate: the region's axes, then the ranged coordinates.
+    let mut gridded: Vec<(usize, Vec<f64>)> = axes
+        .iter()
+        .map(|&(c, low, steps)| {
+            let values = (0..=steps as usize).map(|i| low + i as f64 * spacing);
+            (c, values.collect())
+        })
+        .collect();
     for (coordinate, range) in workspace.ranges.iter().enumerate().skip(2) {
         let Some([min, max]) = *range else { continue };
         let levels = workspace.range_levels;
@@ -209,12 +220,16 @@ fn grid(mechanism: &Mechanism, spacing: f64) -> Result<Vec<[f64; 6]>> {
                 .map(|k| min + (max - min) * k as f64 / (levels - 1) as f64)
                 .collect()
         };
+        gridded.push((coordinate, values));
+    }
+    let mut points = vec![mechanism.home_pose];
+    for (coordinate, values) in &gridded {
         points = points
             .iter()
             .flat_map(|p| {
                 values.iter().map(move |&v| {
                     let mut pose = *p;
-                    pose[coordinate] = v;
+                    pose[*coordinate] = v;
                     pose
                 })
             })

@@ -145,9 +145,14 @@ impl<'a> SingularityMargin<'a> {
             .map_or(-1.0, |(serial, parallel)| serial.min(parallel))
     }
 
-    /// The margin at `p` continued from `seeds`, with the solutions there when inside.
-    fn continued(&self, p: [f64; 2], seeds: &[LegSolution]) -> Option<Vec<LegSolution>> {
-        match self.measures_from(p, Some(seeds)) {
+    /// The legs' solutions at `p` solved from `seeds` (from home for none), if `p` is strictly
+    /// inside the singularity-free region.
+    pub(super) fn continued<const D: usize>(
+        &self,
+        p: [f64; D],
+        seeds: Option<&[LegSolution]>,
+    ) -> Option<Vec<LegSolution>> {
+        match self.measures_from(p, seeds) {
             Ok(((serial, parallel), solutions)) if serial.min(parallel) > 0.0 => Some(solutions),
             _ => None,
         }
@@ -227,19 +232,36 @@ fn boundary_along_ray(
     let angle = std::f64::consts::TAU * k as f64 / options.rays as f64;
     let direction = [angle.cos(), angle.sin()];
     let at = |t: f64| [centre[0] + t * direction[0], centre[1] + t * direction[1]];
-    let (mut inside, mut outside) = (0.0, options.step);
+    let march = (options.step, f64::INFINITY, 200_000);
+    crossing(margin, at, start, march, 1e-12)
+}
+
+/// The first boundary crossing along the ray `at(t)`, t ≥ 0, continuing the legs' solutions
+/// from `start` (at `at(0)`): march by `step` until the margin vanishes (at most `max_steps`
+/// steps; a ray still inside at `t` = `limit` stops there), then bisect to `tolerance`.
+pub(super) fn crossing<const D: usize>(
+    margin: &SingularityMargin<'_>,
+    at: impl Fn(f64) -> [f64; D],
+    start: &[LegSolution],
+    (step, limit, max_steps): (f64, f64, usize),
+    tolerance: f64,
+) -> [f64; D] {
+    let (mut inside, mut outside) = (0.0, step);
     let mut seeds = start.to_vec();
-    for _ in 0..200_000 {
-        match margin.continued(at(outside), &seeds) {
+    for _ in 0..max_steps {
+        if inside >= limit {
+            return at(inside);
+        }
+        match margin.continued(at(outside), Some(&seeds)) {
             Some(solutions) => seeds = solutions,
             None => break,
         }
         inside = outside;
-        outside += options.step;
+        outside += step;
     }
-    while outside - inside > 1e-12 {
+    while outside - inside > tolerance {
         let middle = 0.5 * (inside + outside);
-        match margin.continued(at(middle), &seeds) {
+        match margin.continued(at(middle), Some(&seeds)) {
             Some(solutions) => {
                 seeds = solutions;
                 inside = middle;

@@ -14,7 +14,7 @@
 
 use rayon::prelude::*;
 
-use super::miw::SingularityMargin;
+use super::miw::{crossing, SingularityMargin};
 use crate::error::{Error, Result};
 use crate::kinematics::inverse::LegSolution;
 use crate::model::Mechanism;
@@ -58,19 +58,6 @@ pub struct Miw3d {
     pub radius: f64,
     /// The boundary crossing along each ray, metres.
     pub boundary: Vec<[f64; 3]>,
-}
-
-/// The legs' solutions at `p` solved from `seeds`, if `p` is strictly inside the
-/// singularity-free region.
-fn continued(
-    margin: &SingularityMargin<'_>,
-    p: [f64; 3],
-    seeds: &[LegSolution],
-) -> Option<Vec<LegSolution>> {
-    match margin.measures_from(p, Some(seeds)) {
-        Ok(((serial, parallel), solutions)) if serial.min(parallel) > 0.0 => Some(solutions),
-        _ => None,
-    }
 }
 
 /// `count` unit directions spread evenly over the sphere (Fibonacci lattice).
@@ -132,14 +119,11 @@ fn home_start(
         mechanism.home_pose[1],
         mechanism.home_pose[2],
     ];
-    let start = match margin.measures_from(centre, None) {
-        Ok(((serial, parallel), solutions)) if serial.min(parallel) > 0.0 => solutions,
-        _ => {
-            return Err(Error::Invalid(format!(
-                "{}: the home pose is not inside a singularity-free region",
-                mechanism.model_path.display()
-            )))
-        }
+    let Some(start) = margin.continued(centre, None) else {
+        return Err(Error::Invalid(format!(
+            "{}: the home pose is not inside a singularity-free region",
+            mechanism.model_path.display()
+        )));
     };
     Ok((margin, centre, start))
 }
@@ -186,28 +170,5 @@ fn boundary_along_ray(
     limit: f64,
 ) -> [f64; 3] {
     let at = |t: f64| std::array::from_fn(|k| centre[k] + t * d[k]);
-    let (mut inside, mut outside) = (0.0, step);
-    let mut seeds = start.to_vec();
-    loop {
-        if inside >= limit {
-            return at(inside);
-        }
-        match continued(margin, at(outside), &seeds) {
-            Some(solutions) => seeds = solutions,
-            None => break,
-        }
-        inside = outside;
-        outside += step;
-    }
-    while outside - inside > 1e-10 {
-        let middle = 0.5 * (inside + outside);
-        match continued(margin, at(middle), &seeds) {
-            Some(solutions) => {
-                seeds = solutions;
-                inside = middle;
-            }
-            None => outside = middle,
-        }
-    }
-    at(inside)
+    crossing(margin, at, start, (step, limit, usize::MAX), 1e-10)
 }

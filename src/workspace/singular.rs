@@ -35,24 +35,24 @@ pub fn singular_curves(
         (hi[1] - lo[1]) / cells as f64,
     ];
     let sampled = sample_from_home(margin, lo, step, cells + 1, start);
-    let serial: Vec<Vec<Option<f64>>> = sampled
-        .iter()
-        .map(|column| {
-            column
-                .iter()
-                .map(|m| m.as_ref().map(|n| n.serial))
-                .collect()
-        })
-        .collect();
-    let parallel: Vec<Vec<Option<f64>>> = sampled
-        .iter()
-        .map(|column| {
-            column
-                .iter()
-                .map(|m| m.as_ref().map(|n| n.parallel))
-                .collect()
-        })
-        .collect();
+    // The zero contours of one measure at the nodes.
+    let contours = |measure: fn(&Node) -> f64,
+                    undefined: Undefined,
+                    refine: &dyn Fn([f64; 2], [f64; 2]) -> [f64; 2]| {
+        let values: Vec<Vec<Option<f64>>> = sampled
+            .iter()
+            .map(|column| column.iter().map(|m| m.as_ref().map(measure)).collect())
+            .collect();
+        zero_contours(
+            Samples {
+                values: &values,
+                lo,
+                step,
+            },
+            undefined,
+            refine,
+        )
+    };
     let node = |p: [f64; 2]| {
         let i = ((p[0] - lo[0]) / step[0]).round();
         let j = ((p[1] - lo[1]) / step[1]).round();
@@ -68,25 +68,10 @@ pub fn singular_curves(
             0.5 * (inside[1] + outside[1]),
         ],
     };
-    let serial = zero_contours(
-        Samples {
-            values: &serial,
-            lo,
-            step,
-        },
-        Undefined::Outside,
-        &reach,
-    );
-    let parallel = zero_contours(
-        Samples {
-            values: &parallel,
-            lo,
-            step,
-        },
-        Undefined::Skip,
-        &|a, _| a,
-    );
-    SingularCurves { serial, parallel }
+    SingularCurves {
+        serial: contours(|n| n.serial, Undefined::Outside, &reach),
+        parallel: contours(|n| n.parallel, Undefined::Skip, &|a, _| a),
+    }
 }
 
 /// The measures and the legs' solutions at one grid node.
@@ -118,15 +103,17 @@ fn sample_from_home(
         index(home[0], lo[0], step[0]),
         index(home[1], lo[1], step[1]),
     );
-    let Ok(((serial, parallel), solutions)) = margin.measures_from(point(start.0, start.1), None)
-    else {
-        return nodes;
+    // The node at (i, j), its legs solved from `seeds` (from home for none), if they reach it.
+    let solve = |(i, j): (usize, usize), seeds: Option<&[LegSolution]>| {
+        let ((serial, parallel), solutions) = margin.measures_from(point(i, j), seeds).ok()?;
+        Some(Node {
+            serial,
+            parallel,
+            solutions,
+        })
     };
-    nodes[start.0][start.1] = Some(Node {
-        serial,
-        parallel,
-        solutions,
-    });
+    // Nothing is continued from a start the legs do not reach.
+    nodes[start.0][start.1] = solve(start, None);
     let mut queue = VecDeque::from([start]);
     while let Some((i, j)) = queue.pop_front() {
         let neighbours = [
@@ -141,14 +128,8 @@ fn sample_from_home(
             }
             let seeds = &nodes[i][j].as_ref().map(|n| n.solutions.clone());
             let Some(seeds) = seeds else { continue };
-            if let Ok(((serial, parallel), solutions)) =
-                margin.measures_from(point(a, b), Some(seeds))
-            {
-                nodes[a][b] = Some(Node {
-                    serial,
-                    parallel,
-                    solutions,
-                });
+            nodes[a][b] = solve((a, b), Some(seeds));
+            if nodes[a][b].is_some() {
                 queue.push_back((a, b));
             }
         }

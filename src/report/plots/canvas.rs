@@ -8,6 +8,10 @@ use plotters::prelude::*;
 
 use crate::error::{Error, Result};
 
+/// What drawing on a backend `DB` returns: nothing, or the backend's error.
+pub type Drawn<DB> =
+    std::result::Result<(), DrawingAreaErrorKind<<DB as DrawingBackend>::ErrorType>>;
+
 /// A picture: its size in pixels and how to draw it on any plotters backend.
 pub trait Figure {
     /// Width and height in pixels (SVG user units).
@@ -17,10 +21,7 @@ pub trait Figure {
     ///
     /// # Errors
     /// The backend's drawing errors.
-    fn draw<DB: DrawingBackend>(
-        &self,
-        root: &DrawingArea<DB, Shift>,
-    ) -> std::result::Result<(), DrawingAreaErrorKind<DB::ErrorType>>;
+    fn draw<DB: DrawingBackend>(&self, root: &DrawingArea<DB, Shift>) -> Drawn<DB>;
 }
 
 /// Picture file format.

@@ -5,7 +5,7 @@
 use plotters::coord::Shift;
 use plotters::prelude::*;
 
-use super::canvas::Figure;
+use super::canvas::{Drawn, Figure};
 use super::style;
 use crate::evaluate::accuracy::ErrorStats;
 
@@ -74,10 +74,7 @@ impl Figure for ErrorDistribution {
         )
     }
 
-    fn draw<DB: DrawingBackend>(
-        &self,
-        root: &DrawingArea<DB, Shift>,
-    ) -> Result<(), DrawingAreaErrorKind<DB::ErrorType>> {
+    fn draw<DB: DrawingBackend>(&self, root: &DrawingArea<DB, Shift>) -> Drawn<DB> {
         root.fill(&WHITE)?;
         let (lo, hi) = self.range_mm();
         let (plot_area, legend_area) = root.split_vertically(PLOT_HEIGHT);

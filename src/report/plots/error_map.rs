@@ -5,7 +5,7 @@
 use plotters::coord::Shift;
 use plotters::prelude::*;
 
-use super::canvas::Figure;
+use super::canvas::{Drawn, Figure};
 use super::style;
 use crate::evaluate::accuracy::{AccuracyMap, ErrorStats};
 
@@ -74,16 +74,10 @@ impl MapPanel {
             .filter_map(|c| c.error_m)
             .filter(|e| e.is_finite())
             .collect();
-        if errors.is_empty() {
-            return 1.0;
-        }
         errors.sort_by(f64::total_cmp);
-        let top = 1e3 * errors[((errors.len() - 1) as f64 * 0.99).round() as usize];
-        if top > 0.0 {
-            top
-        } else {
-            1.0
-        }
+        let index = (errors.len().saturating_sub(1) as f64 * 0.99).round() as usize;
+        let top = errors.get(index).map(|e| 1e3 * e);
+        top.filter(|top| *top > 0.0).unwrap_or(1.0)
     }
 }
 
@@ -104,18 +98,13 @@ impl ErrorMapFigure {
     /// aspect so that a metre is as long in x as in y.
     fn bounds(&self, plot: (f64, f64)) -> ([f64; 2], [f64; 2]) {
         let half = 0.5 * self.grid_m;
-        let (mut lo, mut hi) = ([f64::INFINITY; 2], [f64::NEG_INFINITY; 2]);
         let points = self
             .panels
             .iter()
             .flat_map(|p| p.cells.iter().map(|c| [c.x, c.y]))
             .chain(self.poses.iter().copied());
-        for p in points {
-            for k in 0..2 {
-                lo[k] = lo[k].min(p[k] - half);
-                hi[k] = hi[k].max(p[k] + half);
-            }
-        }
+        let (lo, hi) = style::bounding_box(points);
+        let (lo, hi) = (lo.map(|v| v - half), hi.map(|v| v + half));
         if !lo[0].is_finite() {
             return ([0.0, 0.0], [1.0, 1.0]);
         }
@@ -138,10 +127,7 @@ impl Figure for ErrorMapFigure {
         (panels * (PANEL + BAR), TITLE + PANEL + FOOTER)
     }
 
-    fn draw<DB: DrawingBackend>(
-        &self,
-        root: &DrawingArea<DB, Shift>,
-    ) -> Result<(), DrawingAreaErrorKind<DB::ErrorType>> {
+    fn draw<DB: DrawingBackend>(&self, root: &DrawingArea<DB, Shift>) -> Drawn<DB> {
         root.fill(&WHITE)?;
         let (top, rest) = root.split_vertically(TITLE);
         top.titled(&self.title, style::title())?;
@@ -169,7 +155,7 @@ impl ErrorMapFigure {
         panel: &MapPanel,
         (lo, hi): ([f64; 2], [f64; 2]),
         top_mm: f64,
-    ) -> Result<(), DrawingAreaErrorKind<DB::ErrorType>> {
+    ) -> Drawn<DB> {
         let caption = match panel.stats() {
             Some(stats) => format!(
                 "{}: RMS {} mm, max {} mm",
@@ -211,24 +197,17 @@ impl ErrorMapFigure {
                 colour.filled(),
             )
         }))?;
-        chart.draw_series(self.poses.iter().map(|p| {
-            EmptyElement::at((p[0], p[1]))
-                + Circle::new((0, 0), 4, WHITE.filled())
-                + Circle::new((0, 0), 4, BLACK.stroke_width(1))
-        }))?;
+        chart.draw_series(
+            self.poses
+                .iter()
+                .map(|p| style::marker((p[0], p[1]), WHITE)),
+        )?;
         Ok(())
     }
 
-    fn draw_footer<DB: DrawingBackend>(
-        &self,
-        area: &DrawingArea<DB, Shift>,
-    ) -> Result<(), DrawingAreaErrorKind<DB::ErrorType>> {
+    fn draw_footer<DB: DrawingBackend>(&self, area: &DrawingArea<DB, Shift>) -> Drawn<DB> {
         let y = 12;
-        area.draw(
-            &(EmptyElement::at((80, y + 7))
-                + Circle::new((0, 0), 4, WHITE.filled())
-                + Circle::new((0, 0), 4, BLACK.stroke_width(1))),
-        )?;
+        area.draw(&style::marker((80, y + 7), WHITE))?;
         area.draw(&Text::new(
             format!("measured poses ({})", self.poses.len()),
             (92, y),
@@ -256,10 +235,7 @@ impl ErrorMapFigure {
 }
 
 /// A vertical colour bar from 0 to `top_mm` millimetres.
-fn draw_colour_bar<DB: DrawingBackend>(
-    area: &DrawingArea<DB, Shift>,
-    top_mm: f64,
-) -> Result<(), DrawingAreaErrorKind<DB::ErrorType>> {
+fn draw_colour_bar<DB: DrawingBackend>(area: &DrawingArea<DB, Shift>, top_mm: f64) -> Drawn<DB> {
     let mut chart = ChartBuilder::on(area)
         .margin_top(MARGIN + CAPTION + 8)
         .margin_bottom(MARGIN + X_LABELS)

@@ -4,7 +4,7 @@
 use plotters::coord::Shift;
 use plotters::prelude::*;
 
-use super::canvas::Figure;
+use super::canvas::{Drawn, Figure};
 use super::style;
 use crate::model::params::Unit;
 use crate::report::Report;
@@ -117,10 +117,7 @@ impl Figure for ParameterErrors {
         (width, TITLE_HEIGHT + 50 + panels * PANEL_HEIGHT)
     }
 
-    fn draw<DB: DrawingBackend>(
-        &self,
-        root: &DrawingArea<DB, Shift>,
-    ) -> Result<(), DrawingAreaErrorKind<DB::ErrorType>> {
+    fn draw<DB: DrawingBackend>(&self, root: &DrawingArea<DB, Shift>) -> Drawn<DB> {
         root.fill(&WHITE)?;
         let (width, _) = self.size();
         let (top, rest) = root.split_vertically(TITLE_HEIGHT);
@@ -141,7 +138,7 @@ impl ParameterErrors {
         &self,
         area: &DrawingArea<DB, Shift>,
         width: u32,
-    ) -> Result<(), DrawingAreaErrorKind<DB::ErrorType>> {
+    ) -> Drawn<DB> {
         let columns = self.series.len().max(1) as i32;
         let step = (width as i32 - 80) / columns;
         for (s, series) in self.series.iter().enumerate() {
@@ -163,7 +160,7 @@ impl ParameterErrors {
         &self,
         area: &DrawingArea<DB, Shift>,
         unit: Unit,
-    ) -> Result<(), DrawingAreaErrorKind<DB::ErrorType>> {
+    ) -> Drawn<DB> {
         let (description, factor) = display_unit(unit);
         let indices: Vec<usize> = (0..self.parameters.len())
             .filter(|&i| self.parameters[i].unit == unit)

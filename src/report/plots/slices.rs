@@ -5,7 +5,7 @@
 use plotters::coord::Shift;
 use plotters::prelude::*;
 
-use super::canvas::Figure;
+use super::canvas::{Drawn, Figure};
 use super::style;
 use super::workspace::{WorkspaceFigure, LEGEND};
 
@@ -32,10 +32,7 @@ impl Figure for SlicesFigure {
         )
     }
 
-    fn draw<DB: DrawingBackend>(
-        &self,
-        root: &DrawingArea<DB, Shift>,
-    ) -> Result<(), DrawingAreaErrorKind<DB::ErrorType>> {
+    fn draw<DB: DrawingBackend>(&self, root: &DrawingArea<DB, Shift>) -> Drawn<DB> {
         root.fill(&WHITE)?;
         let (_, height) = self.size();
         let (top, rest) = root.split_vertically(TITLE);
@@ -46,9 +43,7 @@ impl Figure for SlicesFigure {
             panel.draw_plot(area)?;
         }
         if let Some(first) = self.panels.first() {
-            let serial = self.panels.iter().any(|p| !p.serial.is_empty());
-            let parallel = self.panels.iter().any(|p| !p.parallel.is_empty());
-            first.draw_legend(&legend, (serial, parallel))?;
+            first.draw_legend(&legend, &self.panels)?;
         }
         Ok(())
     }

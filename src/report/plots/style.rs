@@ -1,6 +1,8 @@
-//! Shared look of the figures: colours, text sizes, number formatting.
+//! Shared look of the figures: colours, text sizes, number formatting, the extent of the
+//! points drawn.
 
-use plotters::style::{RGBColor, TextStyle};
+use plotters::element::ComposedElement;
+use plotters::prelude::*;
 
 use super::canvas::FONT;
 
@@ -21,6 +23,19 @@ pub fn series_colour(index: usize) -> RGBColor {
         0 => BEFORE,
         i => AFTER[(i - 1) % AFTER.len()],
     }
+}
+
+/// A circle of a [`marker`], in pixels about its centre.
+type Ring = Circle<(i32, i32), i32>;
+
+/// A pose's marker at `at`: a disc of `colour` ringed in black.
+pub fn marker<C, DB: DrawingBackend>(
+    at: C,
+    colour: RGBColor,
+) -> ComposedElement<C, DB, Ring, Ring> {
+    EmptyElement::at(at)
+        + Circle::new((0, 0), 4, colour.filled())
+        + Circle::new((0, 0), 4, BLACK.stroke_width(1))
 }
 
 /// Text of a figure's title.
@@ -76,6 +91,19 @@ pub fn tick(value: f64, span: f64) -> String {
     } else {
         short_number(value)
     }
+}
+
+/// The smallest box `(lo, hi)` holding `points` (x, y); infinite and inverted when there is
+/// none.
+pub fn bounding_box(points: impl IntoIterator<Item = [f64; 2]>) -> ([f64; 2], [f64; 2]) {
+    let (mut lo, mut hi) = ([f64::INFINITY; 2], [f64::NEG_INFINITY; 2]);
+    for p in points {
+        for k in 0..2 {
+            lo[k] = lo[k].min(p[k]);
+            hi[k] = hi[k].max(p[k]);
+        }
+    }
+    (lo, hi)
 }
 
 #[cfg(test)]

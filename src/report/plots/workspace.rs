@@ -4,7 +4,7 @@
 use plotters::coord::Shift;
 use plotters::prelude::*;
 
-use super::canvas::Figure;
+use super::canvas::{Drawn, Figure};
 use super::style;
 use crate::model::Mechanism;
 use crate::report::tidy;
@@ -93,18 +93,12 @@ impl Figure for WorkspaceFigure {
         (width, height + LEGEND)
     }
 
-    fn draw<DB: DrawingBackend>(
-        &self,
-        root: &DrawingArea<DB, Shift>,
-    ) -> Result<(), DrawingAreaErrorKind<DB::ErrorType>> {
+    fn draw<DB: DrawingBackend>(&self, root: &DrawingArea<DB, Shift>) -> Drawn<DB> {
         root.fill(&WHITE)?;
         let (_, height) = self.size();
         let (plot_area, legend_area) = root.split_vertically(height - LEGEND);
         self.draw_plot(&plot_area)?;
-        self.draw_legend(
-            &legend_area,
-            (!self.serial.is_empty(), !self.parallel.is_empty()),
-        )
+        self.draw_legend(&legend_area, std::slice::from_ref(self))
     }
 }
 
@@ -121,10 +115,7 @@ impl WorkspaceFigure {
     ///
     /// # Errors
     /// The backend fails to draw.
-    pub fn draw_plot<DB: DrawingBackend>(
-        &self,
-        plot_area: &DrawingArea<DB, Shift>,
-    ) -> Result<(), DrawingAreaErrorKind<DB::ErrorType>> {
+    pub fn draw_plot<DB: DrawingBackend>(&self, plot_area: &DrawingArea<DB, Shift>) -> Drawn<DB> {
         let (lo, hi) = self.square_bounds();
         let mut chart = ChartBuilder::on(plot_area)
             .caption(&self.title, style::caption())
@@ -146,18 +137,16 @@ impl WorkspaceFigure {
             .bold_line_style(RGBColor(225, 225, 225))
             .draw()?;
         let region: Vec<(f64, f64)> = self.region.iter().map(|p| (p[0], p[1])).collect();
-        chart.draw_series(std::iter::once(Polygon::new(
-            region.clone(),
-            REGION.filled(),
-        )))?;
+        let plot = chart.plotting_area();
+        plot.draw(&Polygon::new(region.clone(), REGION.filled()))?;
         let mut outline = region;
         if let Some(&first) = outline.first() {
             outline.push(first);
         }
-        chart.draw_series(std::iter::once(PathElement::new(
+        plot.draw(&PathElement::new(
             outline,
             RGBColor(74, 138, 58).stroke_width(1),
-        )))?;
+        ))?;
         for (curves, colour) in [(&self.serial, SERIAL), (&self.parallel, PARALLEL)] {
             chart.draw_series(curves.iter().map(|curve| {
                 PathElement::new(
@@ -184,25 +173,28 @@ impl WorkspaceFigure {
         ))?;
         for (g, group) in self.poses.iter().enumerate() {
             let colour = style::AFTER[g % style::AFTER.len()];
-            chart.draw_series(group.points.iter().map(|p| {
-                EmptyElement::at((p[0], p[1]))
-                    + Circle::new((0, 0), 4, colour.filled())
-                    + Circle::new((0, 0), 4, BLACK.stroke_width(1))
-            }))?;
+            chart.draw_series(
+                group
+                    .points
+                    .iter()
+                    .map(|p| style::marker((p[0], p[1]), colour)),
+            )?;
         }
         Ok(())
     }
 
-    /// The legend: the region, the serial and parallel curves when `curves` says they are drawn,
-    /// the MIW and the pose groups.
+    /// The legend: the region, the serial and parallel curves where any of `panels` (this
+    /// figure, or the slices drawn beside it) has some, the MIW and the pose groups.
     ///
     /// # Errors
     /// The backend fails to draw.
     pub fn draw_legend<DB: DrawingBackend>(
         &self,
         area: &DrawingArea<DB, Shift>,
-        (serial, parallel): (bool, bool),
-    ) -> Result<(), DrawingAreaErrorKind<DB::ErrorType>> {
+        panels: &[WorkspaceFigure],
+    ) -> Drawn<DB> {
+        let serial = panels.iter().any(|p| !p.serial.is_empty());
+        let parallel = panels.iter().any(|p| !p.parallel.is_empty());
         let x0 = (MARGIN + Y_LABELS) as i32;
         let row = |k: i32| 4 + 20 * k;
         let text = |s: String, x: i32, y: i32| Text::new(s, (x + 26, y), style::label());
@@ -239,11 +231,7 @@ impl WorkspaceFigure {
         let mut x = x0;
         for (g, group) in self.poses.iter().enumerate() {
             let colour = style::AFTER[g % style::AFTER.len()];
-            area.draw(
-                &(EmptyElement::at((x + 10, row(4) + 7))
-                    + Circle::new((0, 0), 4, colour.filled())
-                    + Circle::new((0, 0), 4, BLACK.stroke_width(1))),
-            )?;
+            area.draw(&style::marker((x + 10, row(4) + 7), colour))?;
             let label = format!("{} ({})", group.name, group.points.len());
             let width = 40 + 8 * label.chars().count() as i32;
             area.draw(&text(label, x, row(4)))?;
@@ -264,20 +252,8 @@ pub fn workspace_figure(
     title: &str,
     poses: Vec<PoseGroup>,
 ) -> WorkspaceFigure {
-    let (mut lo, mut hi) = ([f64::INFINITY; 2], [f64::NEG_INFINITY; 2]);
-    let points = miw
-        .boundary
-        .iter()
-        .chain(poses.iter().flat_map(|g| g.points.iter()));
-    for p in points {
-        for k in 0..2 {
-            lo[k] = lo[k].min(p[k]);
-            hi[k] = hi[k].max(p[k]);
-        }
-    }
-    let pad = 0.25 * (hi[0] - lo[0]).max(hi[1] - lo[1]);
-    let (lo, hi) = ([lo[0] - pad, lo[1] - pad], [hi[0] + pad, hi[1] + pad]);
-    let SingularCurves { serial, parallel } = singular_curves(margin, (lo, hi), miw.centre, GRID);
+    let (bounds, SingularCurves { serial, parallel }) =
+        around(margin, &miw.boundary, &poses, miw.centre, GRID);
     WorkspaceFigure {
         title: title.to_string(),
         region: miw.boundary.clone(),
@@ -286,7 +262,7 @@ pub fn workspace_figure(
         miw_centre: miw.centre,
         miw_radius: miw.radius,
         poses,
-        bounds: (lo, hi),
+        bounds,
         axes: ["x".into(), "y".into()],
         region_label:
             "singularity-free region of the home working and assembly modes, seen from the MIW centre"
@@ -299,6 +275,23 @@ pub fn workspace_figure(
             miw.radius
         ),
     }
+}
+
+/// The part of the plane shown around the `region`'s boundary and the `poses` (their bounding
+/// box padded by a quarter of its larger side), with the singular curves of `margin` there,
+/// traced from `centre` on `cells × cells` cells.
+fn around(
+    margin: &SingularityMargin<'_>,
+    region: &[[f64; 2]],
+    poses: &[PoseGroup],
+    centre: [f64; 2],
+    cells: usize,
+) -> (([f64; 2], [f64; 2]), SingularCurves) {
+    let points = poses.iter().flat_map(|g| g.points.iter());
+    let (lo, hi) = style::bounding_box(region.iter().chain(points).copied());
+    let pad = 0.25 * (hi[0] - lo[0]).max(hi[1] - lo[1]);
+    let (lo, hi) = ([lo[0] - pad, lo[1] - pad], [hi[0] + pad, hi[1] + pad]);
+    ((lo, hi), singular_curves(margin, (lo, hi), centre, cells))
 }
 
 /// The serial curves' legend entry: they include the joint limits where the mechanism has any.
@@ -326,20 +319,9 @@ pub fn slice_figure(
     poses: Vec<PoseGroup>,
 ) -> WorkspaceFigure {
     const NAMES: [&str; 3] = ["x", "y", "z"];
-    let (mut lo, mut hi) = ([f64::INFINITY; 2], [f64::NEG_INFINITY; 2]);
-    for p in boundary
-        .iter()
-        .chain(poses.iter().flat_map(|g| g.points.iter()))
-    {
-        for k in 0..2 {
-            lo[k] = lo[k].min(p[k]);
-            hi[k] = hi[k].max(p[k]);
-        }
-    }
-    let pad = 0.25 * (hi[0] - lo[0]).max(hi[1] - lo[1]);
-    let (lo, hi) = ([lo[0] - pad, lo[1] - pad], [hi[0] + pad, hi[1] + pad]);
     let centre = [miw.centre[axes[0]], miw.centre[axes[1]]];
-    let SingularCurves { serial, parallel } = singular_curves(margin, (lo, hi), centre, SLICE_GRID);
+    let (bounds, SingularCurves { serial, parallel }) =
+        around(margin, &boundary, &poses, centre, SLICE_GRID);
     let fixed = 3 - axes[0] - axes[1];
     let c = miw.centre.map(|v| tidy(v, 4));
     WorkspaceFigure {
@@ -354,7 +336,7 @@ pub fn slice_figure(
         miw_centre: centre,
         miw_radius: miw.radius,
         poses,
-        bounds: (lo, hi),
+        bounds,
         axes: [NAMES[axes[0]].into(), NAMES[axes[1]].into()],
         region_label: "singularity-free region of the home working and assembly modes at the home orientation, seen from the home position".into(),
         serial_label: serial_label(margin.mechanism()),
