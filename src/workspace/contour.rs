@@ -62,14 +62,11 @@ pub fn zero_contours(
     let mut points: HashMap<Edge, [f64; 2]> = HashMap::new();
     let mut crossing = |edge: Edge| -> [f64; 2] {
         *points.entry(edge).or_insert_with(|| {
+            // From node (i, j) to node (k, l).
             let (i, j, d) = edge;
-            let (a, b) = if d == 0 {
-                ((i, j), (i + 1, j))
-            } else {
-                ((i, j), (i, j + 1))
-            };
-            let (pa, pb) = (samples.point(a.0, a.1), samples.point(b.0, b.1));
-            match (value(a.0, a.1), value(b.0, b.1)) {
+            let (k, l) = if d == 0 { (i + 1, j) } else { (i, j + 1) };
+            let (pa, pb) = (samples.point(i, j), samples.point(k, l));
+            match (value(i, j), value(k, l)) {
                 (Some(va), Some(vb)) => {
                     // The ends lie on opposite sides, so the difference is not zero.
                     let difference = va - vb;

@@ -200,8 +200,8 @@ pub fn maximal_inscribed_workspace(mechanism: &Mechanism, options: MiwOptions) -
 }
 
 /// The first boundary crossing along each of `options.rays` rays from `centre`, continuing the
-/// legs' solutions step by step along the ray. The rays are independent: they are cast in
-/// parallel (rayon), collected in ray order.
+/// legs' solutions step by step along the ray: march by `options.step`, then bisect to 1e-12 m.
+/// The rays are independent: they are cast in parallel (rayon), collected in ray order.
 fn cast_rays(
     margin: &SingularityMargin<'_>,
     centre: [f64; 2],
@@ -215,25 +215,13 @@ fn cast_rays(
         .into_par_iter()
         .map(|k| {
             progress.advance(1);
-            boundary_along_ray(margin, centre, &start, options, k)
+            let angle = std::f64::consts::TAU * k as f64 / options.rays as f64;
+            let direction = [angle.cos(), angle.sin()];
+            let at = |t: f64| [centre[0] + t * direction[0], centre[1] + t * direction[1]];
+            let march = (options.step, f64::INFINITY, 200_000);
+            crossing(margin, at, &start, march, 1e-12)
         })
         .collect())
-}
-
-/// The first boundary crossing along ray `k` of `options.rays` from `centre` (the legs solved
-/// there: `start`): march by `options.step`, then bisect to 1e-12 m.
-fn boundary_along_ray(
-    margin: &SingularityMargin<'_>,
-    centre: [f64; 2],
-    start: &[LegSolution],
-    options: MiwOptions,
-    k: usize,
-) -> [f64; 2] {
-    let angle = std::f64::consts::TAU * k as f64 / options.rays as f64;
-    let direction = [angle.cos(), angle.sin()];
-    let at = |t: f64| [centre[0] + t * direction[0], centre[1] + t * direction[1]];
-    let march = (options.step, f64::INFINITY, 200_000);
-    crossing(margin, at, start, march, 1e-12)
 }
 
 /// The first boundary crossing along the ray `at(t)`, t ≥ 0, continuing the legs' solutions

@@ -111,13 +111,11 @@ impl ErrorMapFigure {
         let span = [(hi[0] - lo[0]).max(1e-9), (hi[1] - lo[1]).max(1e-9)];
         let per_pixel = (span[0] / plot.0).max(span[1] / plot.1);
         let wanted = [per_pixel * plot.0, per_pixel * plot.1];
-        let mut out = (lo, hi);
-        for k in 0..2 {
-            let extra = 0.5 * (wanted[k] - span[k]);
-            out.0[k] = lo[k] - extra;
-            out.1[k] = hi[k] + extra;
-        }
-        out
+        let extra = [0, 1].map(|k| 0.5 * (wanted[k] - span[k]));
+        (
+            [lo[0] - extra[0], lo[1] - extra[1]],
+            [hi[0] + extra[0], hi[1] + extra[1]],
+        )
     }
 }
 

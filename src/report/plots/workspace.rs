@@ -219,14 +219,11 @@ impl WorkspaceFigure {
                 row(2),
             ))?;
         }
-        area.draw(&PathElement::new(
-            vec![(x0, row(3) + 7), (x0 + 8, row(3) + 7)],
-            BLACK.stroke_width(2),
-        ))?;
-        area.draw(&PathElement::new(
-            vec![(x0 + 13, row(3) + 7), (x0 + 20, row(3) + 7)],
-            BLACK.stroke_width(2),
-        ))?;
+        // Two dashes, as the MIW's dashed circle.
+        for (a, b) in [(0, 8), (13, 20)] {
+            let dash = vec![(x0 + a, row(3) + 7), (x0 + b, row(3) + 7)];
+            area.draw(&PathElement::new(dash, BLACK.stroke_width(2)))?;
+        }
         area.draw(&text(self.miw_label.clone(), x0, row(3)))?;
         let mut x = x0;
         for (g, group) in self.poses.iter().enumerate() {
