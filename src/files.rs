@@ -362,35 +362,21 @@ pub fn format(png: bool) -> Format {
     }
 }
 
-/// The single picture `name` of a command in `--plots` directory `plots` (if given), checked
-/// before any work.
-///
-/// # Errors
-/// As [`prepare`].
-pub fn prepare_one(
-    plots: Option<&Path>,
-    name: &str,
-    format: Format,
-    inputs: &[Input<'_>],
-) -> Result<Option<Output>> {
-    match plots {
-        Some(dir) => Ok(prepare(dir, &[name], format, inputs)?.pop()),
-        None => Ok(None),
-    }
-}
-
-/// Creates `dir` if missing and checks one output per picture `names` (without extension)
-/// in it, before any work.
+/// Creates the `--plots` directory `dir` if missing and checks one output per picture `names`
+/// (without extension) in it, before any work; none without `dir`.
 ///
 /// # Errors
 /// `dir` exists and is not a directory or cannot be created; a picture would overwrite an
 /// input or cannot be written there.
 pub fn prepare(
-    dir: &Path,
+    dir: Option<&Path>,
     names: &[&str],
     format: Format,
     inputs: &[Input<'_>],
 ) -> Result<Vec<Output>> {
+    let Some(dir) = dir else {
+        return Ok(Vec::new());
+    };
     if dir.exists() && !dir.is_dir() {
         return Err(invalid!(
             "{}: --plots expects a directory, found a file; choose another path",

@@ -3,11 +3,11 @@
 use std::path::Path;
 
 use super::args::EvaluateArgs;
-use super::outputs::{input, model_inputs, ReportFiles};
+use super::outputs::{file_name, input, model_inputs, ReportFiles};
 use super::verdict::Verdict;
 use crate::evaluate::evaluate;
 use crate::evaluate::held_out::Evaluation;
-use crate::files::{prepare_one, Output};
+use crate::files::{prepare, Output};
 use crate::measure::Measurements;
 use crate::model::Mechanism;
 use crate::report::evaluation::{evaluation_json, evaluation_text};
@@ -25,8 +25,7 @@ pub(super) fn run(args: &EvaluateArgs) -> anyhow::Result<Verdict> {
     inputs.push(input("measurement file", &args.measurements));
     let json = Output::prepare_optional("--json", args.json.as_deref(), &inputs)?;
     let format = crate::files::format(args.png);
-    let picture = prepare_one(args.plots.as_deref(), POSITION_ERRORS, format, &inputs)?;
-    let pictures = Vec::from_iter(picture);
+    let pictures = prepare(args.plots.as_deref(), &[POSITION_ERRORS], format, &inputs)?;
     let outputs = ReportFiles { json, pictures };
     let mut console = outputs.console();
     let evaluation = evaluate_file(&mechanism, &args.measurements)?;
@@ -54,12 +53,4 @@ pub(super) fn run(args: &EvaluateArgs) -> anyhow::Result<Verdict> {
 /// Evaluates `model` on the measurement file at `path` (read in the model's layout).
 fn evaluate_file(model: &Mechanism, path: &Path) -> anyhow::Result<Evaluation> {
     Ok(evaluate(model, &Measurements::read(path, model)?)?)
-}
-
-/// A model's file name, for the picture's legend.
-fn file_name(path: &Path) -> String {
-    path.file_name().map_or_else(
-        || path.display().to_string(),
-        |n| n.to_string_lossy().into_owned(),
-    )
 }

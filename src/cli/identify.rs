@@ -5,7 +5,7 @@ use std::path::Path;
 
 use super::args::{IdentifyArgs, RobustArg, SolverArg, StrategyArg, WeightsArg};
 use super::console::Console;
-use super::outputs::{input, model_inputs, ReportFiles};
+use super::outputs::{file_name, input, model_inputs, ReportFiles};
 use super::verdict::Verdict;
 use crate::evaluate::accuracy::map_grid;
 use crate::files::{Input, Output};
@@ -156,9 +156,7 @@ fn check_map(args: &IdentifyArgs, mechanism: &Mechanism) -> anyhow::Result<()> {
 
 /// Writes the calibrated model (the URDF first: the model file names it).
 fn write_calibrated(report: &Report<'_>, (yaml, urdf): &(Output, Output)) -> anyhow::Result<()> {
-    let urdf_name = Path::new(&urdf.name())
-        .file_name()
-        .map_or_else(String::new, |n| n.to_string_lossy().into_owned());
+    let urdf_name = file_name(Path::new(&urdf.name()));
     if let Some(files) = report.calibrated_files(&urdf_name)? {
         urdf.write("calibrated URDF", files.urdf.as_bytes())?;
         yaml.write("calibrated model", files.yaml.as_bytes())?;
@@ -168,13 +166,15 @@ fn write_calibrated(report: &Report<'_>, (yaml, urdf): &(Output, Output)) -> any
 
 /// `--plots DIR`: simulation only; one checked output per picture, before any work.
 fn picture_outputs(args: &IdentifyArgs, inputs: &[Input<'_>]) -> anyhow::Result<Vec<Output>> {
-    let Some(dir) = &args.plots else {
-        return Ok(Vec::new());
-    };
-    if args.measurements.is_some() {
+    if args.plots.is_some() && args.measurements.is_some() {
         anyhow::bail!("--plots: the pictures compare with the real parameters, known only in simulation (drop --measurements)");
     }
     let names = identify_picture_names(args.map.is_some());
     let format = crate::files::format(args.png);
-    Ok(crate::files::prepare(dir, &names, format, inputs)?)
+    Ok(crate::files::prepare(
+        args.plots.as_deref(),
+        &names,
+        format,
+        inputs,
+    )?)
 }

@@ -4,7 +4,7 @@ use super::args::MontecarloArgs;
 use super::checks;
 use super::outputs::{model_inputs, ReportFiles};
 use super::verdict::Verdict;
-use crate::files::{prepare_one, Output};
+use crate::files::{prepare, Output};
 use crate::model::Mechanism;
 use crate::report::plots::render;
 use crate::study::montecarlo::{MonteCarloOptions, Study};
@@ -27,8 +27,7 @@ pub(super) fn run(args: &MontecarloArgs) -> anyhow::Result<Verdict> {
     let inputs = model_inputs(&args.model, &mechanism);
     let json = Output::prepare_optional("--json", args.json.as_deref(), &inputs)?;
     let format = crate::files::format(args.png);
-    let picture = prepare_one(args.plots.as_deref(), PICTURE, format, &inputs)?;
-    let pictures = Vec::from_iter(picture);
+    let pictures = prepare(args.plots.as_deref(), &[PICTURE], format, &inputs)?;
     let outputs = ReportFiles { json, pictures };
     let simulation = crate::measure::simulate::setup(&mechanism)?;
     let options = MonteCarloOptions {

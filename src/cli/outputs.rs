@@ -23,6 +23,15 @@ pub(super) fn model_inputs<'a>(model: &'a Path, mechanism: &'a Mechanism) -> Vec
     ]
 }
 
+/// The file name of `path` (a model's, for a picture's legend; the URDF's, for the calibrated
+/// model that names it), or the whole path if it has none.
+pub(super) fn file_name(path: &Path) -> String {
+    path.file_name().map_or_else(
+        || path.display().to_string(),
+        |n| n.to_string_lossy().into_owned(),
+    )
+}
+
 /// The checked report files of a command: `--json` and one output per `--plots` picture.
 #[derive(Debug)]
 pub(super) struct ReportFiles {

@@ -59,7 +59,7 @@ fn compact(value: f64) -> String {
 }
 
 /// Offending values of one column: count, first line and value, largest line and value.
-#[derive(Default)]
+#[derive(Clone, Default)]
 struct Offenders {
     count: usize,
     first: Option<(Option<usize>, f64)>,
@@ -106,12 +106,8 @@ fn range_warnings(mechanism: &Mechanism, data: &MeasurementSet) -> Result<Vec<St
     let size = mechanism_size(mechanism);
     let limit = SIZE_FACTOR * size;
     let home = mechanism.home_pose;
-    let mut coordinates: Vec<Offenders> = (0..6).map(|_| Offenders::default()).collect();
-    let mut readings: Vec<Offenders> = mechanism
-        .legs
-        .iter()
-        .map(|_| Offenders::default())
-        .collect();
+    let mut coordinates = vec![Offenders::default(); 6];
+    let mut readings = vec![Offenders::default(); mechanism.legs.len()];
     for (pose, pose_readings) in data.rows() {
         for &c in &mechanism.measured {
             let value = pose.pose[c];
@@ -208,7 +204,7 @@ fn duplicate_warnings(mechanism: &Mechanism, data: &MeasurementSet) -> Vec<Strin
     // Rows sorted by a hash of their key, then by index (parallel, no per-row allocation):
     // equal keys are in one run of equal hashes, in file order; a run's rows are compared by
     // their keys (two different keys may share a hash).
-    let hashes: Vec<(u64, usize)> = (0..poses.len())
+    let mut order: Vec<(u64, usize)> = (0..poses.len())
         .into_par_iter()
         .map(|index| {
             let mut hasher = DefaultHasher::new();
@@ -216,7 +212,6 @@ fn duplicate_warnings(mechanism: &Mechanism, data: &MeasurementSet) -> Vec<Strin
             (hasher.finish(), index)
         })
         .collect();
-    let mut order = hashes;
     order.par_sort_unstable();
     let mut repeats: Vec<(usize, usize)> = Vec::new();
     for run in order

@@ -44,10 +44,7 @@ impl Measurements {
                 let mut text = String::new();
                 reader
                     .read_to_string(&mut text)
-                    .map_err(|error| Error::Io {
-                        path: name.into(),
-                        error,
-                    })?;
+                    .map_err(super::rows::io_error(name))?;
                 Measurements::Targets(observations::parse(&text, name, mechanism)?)
             }
             None => Measurements::Readings(file::read_from(reader, name, mechanism)?),
@@ -76,9 +73,7 @@ impl Measurements {
             Measurements::Targets(_) => None,
         }
     }
-}
 
-impl Measurements {
     /// The measurement CSV of these measurements in the layout `mechanism` reads.
     ///
     /// # Errors

@@ -17,10 +17,11 @@ use crate::model::Mechanism;
 
 /// Column layout of a measurement file for a mechanism.
 fn expected_columns(mechanism: &Mechanism) -> Vec<String> {
-    let mut columns = vec!["leg".to_string()];
-    columns.extend(mechanism.measured_names().iter().map(|s| s.to_string()));
-    columns.extend(mechanism.actuated_names().iter().map(|s| s.to_string()));
-    columns
+    let measured = mechanism
+        .measured_names()
+        .into_iter()
+        .map(|s| s.to_string());
+    rows::columns(mechanism, measured)
 }
 
 /// Reads a measurement file for `mechanism`, streaming (the file's text is never held whole).
@@ -30,10 +31,7 @@ fn expected_columns(mechanism: &Mechanism) -> Vec<String> {
 /// or unknown column, an unknown leg, a non-numeric or non-finite cell, a missing coordinate,
 /// text that is not UTF-8, or a file without rows.
 pub fn read(path: &Path, mechanism: &Mechanism) -> Result<MeasurementSet> {
-    let file = std::fs::File::open(path).map_err(|error| Error::Io {
-        path: path.to_path_buf(),
-        error,
-    })?;
+    let file = std::fs::File::open(path).map_err(rows::io_error(path))?;
     read_from(file, path, mechanism)
 }
 
@@ -60,10 +58,7 @@ pub fn parse(text: &str, path: &Path, mechanism: &Mechanism) -> Result<Measureme
 /// # Errors
 /// As [`read`], except for empty readings.
 pub fn read_poses(path: &Path, mechanism: &Mechanism) -> Result<MeasurementSet> {
-    let file = std::fs::File::open(path).map_err(|error| Error::Io {
-        path: path.to_path_buf(),
-        error,
-    })?;
+    let file = std::fs::File::open(path).map_err(rows::io_error(path))?;
     parse_rows(file, path, mechanism, false)
 }
 
@@ -302,11 +297,8 @@ fn csv_message(error: &csv::Error) -> String {
 /// # Errors
 /// [`Error::Io`] if the file cannot be written.
 pub fn write(path: &Path, mechanism: &Mechanism, set: &MeasurementSet) -> Result<()> {
-    let fail = |error| Error::Io {
-        path: path.to_path_buf(),
-        error,
-    };
-    let file = std::fs::File::create(path).map_err(fail)?;
+    let fail = rows::io_error(path);
+    let file = std::fs::File::create(path).map_err(&fail)?;
     write_to(file, mechanism, set).map_err(fail)
 }
 
@@ -340,17 +332,10 @@ pub(crate) fn leg_and_pose_cells(mechanism: &Mechanism, pose: &MeasuredPose) -> 
 
 /// The CSV text of a measurement set.
 pub fn to_csv(mechanism: &Mechanism, set: &MeasurementSet) -> String {
-    let mut text = expected_columns(mechanism).join(",");
-    text.push('\n');
-    for (pose, readings) in set.rows() {
+    let lines = set.rows().map(|(pose, readings)| {
         let mut cells = leg_and_pose_cells(mechanism, pose);
-        cells.extend(
-            readings
-                .iter()
-                .map(|r| r.map_or(String::new(), |v| format!("{v}"))),
-        );
-        text.push_str(&cells.join(","));
-        text.push('\n');
-    }
-    text
+        cells.extend(readings.iter().map(rows::reading_cell));
+        cells
+    });
+    rows::csv_text(&expected_columns(mechanism), lines)
 }

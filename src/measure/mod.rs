@@ -158,15 +158,10 @@ impl MeasurementSet {
     /// Divide and conquer: the blocks of leg `leg` — the poses labelled with the leg, or, if
     /// no pose is, the shared poses where the leg's reading is present.
     pub fn leg_blocks(&self, leg: usize) -> Vec<ResidualBlock> {
-        let labelled = self.poses.iter().any(|p| p.leg == Some(leg));
+        // The label of the leg's poses: the leg, or none (the shared poses).
+        let label = self.poses.iter().any(|p| p.leg == Some(leg)).then_some(leg);
         self.rows()
-            .filter(|(p, _)| {
-                if labelled {
-                    p.leg == Some(leg)
-                } else {
-                    p.leg.is_none()
-                }
-            })
+            .filter(|(p, _)| p.leg == label)
             .filter_map(|(p, r)| block(p, r, leg))
             .collect()
     }

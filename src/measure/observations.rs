@@ -43,28 +43,15 @@ pub struct Observations {
 impl Observations {
     /// The rows of leg `leg` with its reading: the rows labelled with the leg, or, if no row
     /// is, the shared rows where its reading is present (as [`super::MeasurementSet::leg_blocks`]).
-    /// Each item is the row and the reading.
-    pub fn leg_rows(&self, leg: usize) -> Vec<(&ObservedRow, f64)> {
-        self.indexed_leg_rows(leg)
-            .into_iter()
-            .map(|(_, row, reading)| (row, reading))
-            .collect()
-    }
-
-    /// [`Self::leg_rows`] with each row's index in [`Self::rows`] first: the rows of several
-    /// legs with the same index are the same measurement (a shared row).
+    /// Each item is the row's index in [`Self::rows`] (the rows of several legs with the same
+    /// index are the same measurement: a shared row), the row and the reading.
     pub fn indexed_leg_rows(&self, leg: usize) -> Vec<(usize, &ObservedRow, f64)> {
-        let labelled = self.rows.iter().any(|r| r.leg == Some(leg));
+        // The label of the leg's rows: the leg, or none (the shared rows).
+        let label = self.rows.iter().any(|r| r.leg == Some(leg)).then_some(leg);
         self.rows
             .iter()
             .enumerate()
-            .filter(|(_, r)| {
-                if labelled {
-                    r.leg == Some(leg)
-                } else {
-                    r.leg.is_none()
-                }
-            })
+            .filter(|(_, r)| r.leg == label)
             .filter_map(|(i, r)| r.readings[leg].map(|reading| (i, r, reading)))
             .collect()
     }
@@ -93,10 +80,7 @@ fn commanded_columns(mechanism: &Mechanism) -> Vec<String> {
 }
 
 fn expected_columns(mechanism: &Mechanism, instrument: &Instrument) -> Vec<String> {
-    let mut columns = vec!["leg".to_string()];
-    columns.extend(instrument.columns());
-    columns.extend(mechanism.actuated_names().iter().map(|s| s.to_string()));
-    columns
+    rows::columns(mechanism, instrument.columns())
 }
 
 /// Reads an instrument measurement file for `mechanism`.
@@ -106,10 +90,7 @@ fn expected_columns(mechanism: &Mechanism, instrument: &Instrument) -> Vec<Strin
 /// [`Error::Measurement`] naming the line and column for a missing or unknown column, an
 /// unknown leg, a non-numeric or non-finite cell, a missing coordinate, or no rows.
 pub fn read(path: &Path, mechanism: &Mechanism) -> Result<Observations> {
-    let text = std::fs::read_to_string(path).map_err(|error| Error::Io {
-        path: path.to_path_buf(),
-        error,
-    })?;
+    let text = std::fs::read_to_string(path).map_err(rows::io_error(path))?;
     parse(&text, path, mechanism)
 }
 
@@ -119,11 +100,7 @@ pub fn read(path: &Path, mechanism: &Mechanism) -> Result<Observations> {
 /// As [`read`].
 pub fn parse(text: &str, path: &Path, mechanism: &Mechanism) -> Result<Observations> {
     let instrument = instrument_of(mechanism)?;
-    let fail = |location: String, message: String| Error::Measurement {
-        path: path.to_path_buf(),
-        location,
-        message,
-    };
+    let fail = |location: String, message: String| rows::fail(path, location, message);
     let expected = expected_columns(mechanism, instrument);
     let commanded = commanded_columns(mechanism);
     let listing = format!(
@@ -201,22 +178,18 @@ pub fn parse(text: &str, path: &Path, mechanism: &Mechanism) -> Result<Observati
 /// [`Error::Model`] if the model has no instrument.
 pub fn to_csv(mechanism: &Mechanism, set: &Observations) -> Result<String> {
     let instrument = instrument_of(mechanism)?;
-    let mut text = expected_columns(mechanism, instrument).join(",");
-    text.push('\n');
-    for row in &set.rows {
+    let lines = set.rows.iter().map(|row| {
         let mut cells = vec![row
             .leg
             .map_or(String::new(), |l| mechanism.legs[l].name.clone())];
         cells.extend(row.observed.iter().map(|v| format!("{v}")));
-        cells.extend(
-            row.readings
-                .iter()
-                .map(|r| r.map_or(String::new(), |v| format!("{v}"))),
-        );
-        text.push_str(&cells.join(","));
-        text.push('\n');
-    }
-    Ok(text)
+        cells.extend(row.readings.iter().map(rows::reading_cell));
+        cells
+    });
+    Ok(rows::csv_text(
+        &expected_columns(mechanism, instrument),
+        lines,
+    ))
 }
 
 /// The CSV template of an experiment through the instrument at the platform poses of `set`
@@ -228,18 +201,14 @@ pub fn to_csv(mechanism: &Mechanism, set: &Observations) -> Result<String> {
 /// [`Error::Model`] if the model has no instrument.
 pub fn template_csv(mechanism: &Mechanism, set: &super::MeasurementSet) -> Result<String> {
     let instrument = instrument_of(mechanism)?;
-    let mut columns = vec!["leg".to_string()];
-    columns.extend(commanded_columns(mechanism));
-    columns.extend(instrument.columns());
-    columns.extend(mechanism.actuated_names().iter().map(|s| s.to_string()));
-    let mut text = columns.join(",");
-    text.push('\n');
+    let middle = commanded_columns(mechanism)
+        .into_iter()
+        .chain(instrument.columns());
     let empty = instrument.columns().len() + mechanism.actuated_names().len();
-    for pose in &set.poses {
+    let lines = set.poses.iter().map(|pose| {
         let mut cells = super::file::leg_and_pose_cells(mechanism, pose);
         cells.extend(std::iter::repeat_n(String::new(), empty));
-        text.push_str(&cells.join(","));
-        text.push('\n');
-    }
-    Ok(text)
+        cells
+    });
+    Ok(rows::csv_text(&rows::columns(mechanism, middle), lines))
 }

@@ -7,12 +7,13 @@
 //! The real shared parameters are `simulation.real` by name, else (identified ones) a seeded
 //! perturbation with the instrument's own sizes, else nominal.
 
+use std::borrow::Cow;
+
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
-use rand_distr::{Distribution, Normal};
 
 use super::observations::{instrument_of, Observations, ObservedRow};
-use super::simulate::{setup, simulate, SimulatedExperiment, SimulationOptions};
+use super::simulate::{gaussian, setup, simulate, SimulatedExperiment, SimulationOptions};
 use super::targets::observe;
 use super::MeasurementSet;
 use crate::error::Result;
@@ -48,10 +49,6 @@ pub fn real_shared(instrument: &Instrument, simulation: &Simulation, seed: u64) 
         .collect()
 }
 
-fn gaussian(rng: &mut ChaCha8Rng) -> f64 {
-    Normal::new(0.0, 1.0).map_or(0.0, |n| n.sample(rng))
-}
-
 /// `mechanism` with its simulation's noise on the pose coordinates removed: simulating it gives
 /// the true poses (and the noisy readings) that [`observed_from`] turns into target
 /// measurements.
@@ -61,6 +58,16 @@ pub fn without_pose_noise(mechanism: &Mechanism) -> Mechanism {
             s.pose_noise = [0.0; 6];
         }
     })
+}
+
+/// The mechanism whose simulation gives the poses `mechanism` measures: through an instrument
+/// [`without_pose_noise`] (the poses are exact; the instrument's noise comes on the targets'
+/// coordinates), else `mechanism` itself.
+pub fn simulated_poses(mechanism: &Mechanism) -> Cow<'_, Mechanism> {
+    match mechanism.instrument {
+        Some(_) => Cow::Owned(without_pose_noise(mechanism)),
+        None => Cow::Borrowed(mechanism),
+    }
 }
 
 /// Simulates the model's experiment through its instrument at random poses.

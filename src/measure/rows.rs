@@ -1,7 +1,7 @@
 //! What the two measurement CSV readers (platform poses, `file`; an instrument's target
-//! coordinates, `observations`) share: the header check, number cells, the `leg` cell and the
-//! rule that a leg's row carries that leg's reading. Every error names the file, the line and
-//! the column.
+//! coordinates, `observations`) share: I/O errors, the columns, the header check, number cells,
+//! the `leg` cell, the rule that a leg's row carries that leg's reading, and the CSV text. Every
+//! error names the file, the line and the column.
 
 use std::path::Path;
 
@@ -15,6 +15,42 @@ pub(super) fn fail(path: &Path, location: String, message: String) -> Error {
         location,
         message,
     }
+}
+
+/// An I/O error on the file at `path` (named `path` in messages), for `map_err`.
+pub(super) fn io_error(path: &Path) -> impl Fn(std::io::Error) -> Error + '_ {
+    move |error| Error::Io {
+        path: path.to_path_buf(),
+        error,
+    }
+}
+
+/// The columns of a measurement file: the optional `leg`, then `middle`, then one per actuated
+/// joint with its reading.
+pub(super) fn columns(
+    mechanism: &Mechanism,
+    middle: impl IntoIterator<Item = String>,
+) -> Vec<String> {
+    let mut columns = vec!["leg".to_string()];
+    columns.extend(middle);
+    columns.extend(mechanism.actuated_names().iter().map(|s| s.to_string()));
+    columns
+}
+
+/// CSV text: the `header` line, then one line per row of cells.
+pub(super) fn csv_text(header: &[String], rows: impl Iterator<Item = Vec<String>>) -> String {
+    let mut text = header.join(",");
+    text.push('\n');
+    for cells in rows {
+        text.push_str(&cells.join(","));
+        text.push('\n');
+    }
+    text
+}
+
+/// A reading's cell: the value, empty when not read.
+pub(super) fn reading_cell(reading: &Option<f64>) -> String {
+    reading.map_or(String::new(), |v| format!("{v}"))
 }
 
 /// Checks a header: no column twice, every column among `expected` or `optional`, and every

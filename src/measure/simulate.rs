@@ -92,7 +92,8 @@ pub fn real_parameters(mechanism: &Mechanism, simulation: &Simulation, seed: u64
         .collect()
 }
 
-fn gaussian(rng: &mut ChaCha8Rng) -> f64 {
+/// A standard normal draw.
+pub(super) fn gaussian(rng: &mut ChaCha8Rng) -> f64 {
     Normal::new(0.0, 1.0).map_or(0.0, |n| n.sample(rng))
 }
 

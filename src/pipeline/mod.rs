@@ -18,6 +18,7 @@ mod settings;
 mod simulation;
 
 pub use settings::{MapSettings, PoseSource, Settings, SimulationSettings};
+pub(crate) use simulation::measured;
 pub use simulation::{simulate, Simulated};
 
 use crate::error::{Error, Result};
@@ -54,10 +55,10 @@ pub fn run<'m>(mechanism: &'m Mechanism, settings: &Settings) -> Result<Report<'
         settings,
         fit,
     )?;
-    report.real = Some(simulated.real);
     if let Some(map) = settings.map {
-        report.maps = Some(maps(&report, map)?);
+        report.maps = Some(maps(&report, &simulated.real.legs, map)?);
     }
+    report.real = Some(simulated.real);
     Ok(report)
 }
 
@@ -158,30 +159,21 @@ pub fn identify_one(
     }
 }
 
-/// The accuracy map of the nominal model, then of each result, against the real mechanism
-/// (the instrument only measures: the maps compare the legs).
-fn maps(report: &Report<'_>, settings: MapSettings) -> Result<AccuracyMaps> {
+/// The accuracy map of the nominal model, then of each result, against the `real` legs (the
+/// instrument only measures: the maps compare the legs).
+fn maps(report: &Report<'_>, real: &[Vec<f64>], settings: MapSettings) -> Result<AccuracyMaps> {
     let mechanism = report.mechanism;
-    let real = &report
-        .real
-        .as_ref()
-        .ok_or_else(|| Error::Invalid("the accuracy map needs the real parameters".into()))?
-        .legs;
     let (grid, scale) = (settings.grid_m, settings.scale);
     let nominal = mechanism.nominal_parameters();
     let before = accuracy_map(mechanism, &nominal, real, grid, scale, "map before")?;
-    let mut after = Vec::new();
-    for result in &report.results {
-        let label = format!("map after, {}", result.strategy.name());
-        let parameters = result_parameters(mechanism, result);
-        after.push(accuracy_map(
-            mechanism,
-            &parameters,
-            real,
-            grid,
-            scale,
-            &label,
-        )?);
-    }
+    let after = report
+        .results
+        .iter()
+        .map(|result| {
+            let label = format!("map after, {}", result.strategy.name());
+            let parameters = result_parameters(mechanism, result);
+            accuracy_map(mechanism, &parameters, real, grid, scale, &label)
+        })
+        .collect::<Result<_>>()?;
     Ok(AccuracyMaps { before, after })
 }

@@ -4,8 +4,9 @@
 
 use super::settings::{PoseSource, SimulationSettings};
 use crate::error::Result;
-use crate::measure::observe_simulate::{observed_from, without_pose_noise};
-use crate::measure::simulate::{self as simulator, setup, simulate_at, SimulatedExperiment};
+use crate::measure::observe_simulate::{observed_from, simulated_poses};
+use crate::measure::simulate::{self as simulator, setup, simulate_at};
+use crate::measure::simulate::{SimulatedExperiment, SimulationOptions};
 use crate::measure::Measurements;
 use crate::model::Mechanism;
 use crate::report::RealValues;
@@ -32,19 +33,11 @@ pub fn simulate(mechanism: &Mechanism, settings: &SimulationSettings) -> Result<
     let simulation = setup(mechanism)?;
     let seed = options.seed.unwrap_or(simulation.seed);
     let noise = format!("seed {seed}, noise scale {}", options.noise_scale);
-    // Through an instrument the poses are simulated exactly; the instrument's noise comes on
-    // the targets' coordinates.
-    let quiet;
-    let simulated = if mechanism.instrument.is_some() {
-        quiet = without_pose_noise(mechanism);
-        &quiet
-    } else {
-        mechanism
-    };
+    let simulated = simulated_poses(mechanism);
     let (experiment, source) = match settings.poses {
         PoseSource::Random => {
             let count = options.poses_per_leg.unwrap_or(simulation.poses_per_leg);
-            let experiment = simulator::simulate(simulated, options)?;
+            let experiment = simulator::simulate(&simulated, options)?;
             let text =
                 format!("simulated at random poses: {count} per leg and {count} shared, {noise}");
             (experiment, text)
@@ -55,8 +48,8 @@ pub fn simulate(mechanism: &Mechanism, settings: &SimulationSettings) -> Result<
                 .unwrap_or(mechanism.selection.poses_per_leg);
             let criterion = mechanism.selection.criterion;
             let design =
-                ExperimentDesign::select(simulated, settings.grid, count, criterion, true)?;
-            let experiment = simulate_at(simulated, &design.pose_sets(), options)?;
+                ExperimentDesign::select(&simulated, settings.grid, count, criterion, true)?;
+            let experiment = simulate_at(&simulated, &design.pose_sets(), options)?;
             let text = format!(
                 "simulated at selected poses ({criterion:?}-optimal from {} feasible candidates, grid {} m): {count} per leg and {count} shared, {noise}",
                 design.candidates, design.spacing
@@ -64,34 +57,36 @@ pub fn simulate(mechanism: &Mechanism, settings: &SimulationSettings) -> Result<
             (experiment, text)
         }
     };
-    through_instrument(mechanism, experiment, options, source)
-}
-
-/// What the model measures of `experiment`: the poses themselves, or the instrument's view of
-/// them.
-fn through_instrument(
-    mechanism: &Mechanism,
-    experiment: SimulatedExperiment,
-    options: crate::measure::simulate::SimulationOptions,
-    source: String,
-) -> Result<Simulated> {
-    if mechanism.instrument.is_none() {
-        return Ok(Simulated {
-            measurements: Measurements::Readings(experiment.measurements),
-            real: RealValues {
-                legs: experiment.real,
-                instrument: None,
-            },
-            source,
-        });
-    }
-    let observed = observed_from(mechanism, experiment, options)?;
+    let (real, measurements) = measured(mechanism, experiment, options)?;
     Ok(Simulated {
-        measurements: Measurements::Targets(observed.observations),
-        real: RealValues {
-            legs: observed.real,
-            instrument: Some(observed.real_shared),
-        },
+        measurements,
+        real,
         source,
     })
+}
+
+/// The real values of `experiment` (simulated with `options` on [`simulated_poses`] of
+/// `mechanism`) and what the model measures of it: the poses themselves, or the instrument's
+/// view of them.
+///
+/// # Errors
+/// No simulation block.
+pub(crate) fn measured(
+    mechanism: &Mechanism,
+    experiment: SimulatedExperiment,
+    options: SimulationOptions,
+) -> Result<(RealValues, Measurements)> {
+    if mechanism.instrument.is_none() {
+        let real = RealValues {
+            legs: experiment.real,
+            instrument: None,
+        };
+        return Ok((real, Measurements::Readings(experiment.measurements)));
+    }
+    let observed = observed_from(mechanism, experiment, options)?;
+    let real = RealValues {
+        legs: observed.real,
+        instrument: Some(observed.real_shared),
+    };
+    Ok((real, Measurements::Targets(observed.observations)))
 }

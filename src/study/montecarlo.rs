@@ -14,10 +14,9 @@
 //! previous one's joints).
 //!
 //! With an `instrument` block the study compares the two identifications through the
-//! instrument instead ([`INSTRUMENT_ARMS`], in the private module `instrument`): each trial
-//! also draws the real instrument frame and target offsets, simulates what the instrument
-//! reports, and identifies jointly and in two stages; the study parameters include the
-//! identified shared ones.
+//! instrument instead ([`INSTRUMENT_ARMS`]): each trial also draws the real instrument frame
+//! and target offsets, simulates what the instrument reports, and identifies jointly and in two
+//! stages; the study parameters include the identified shared ones.
 //!
 //! Trials run in parallel (rayon). Trial `i` draws from its own generator, seeded from the
 //! study seed and `i` (a ChaCha stream per trial), and the summary reduces the trials in trial
@@ -33,11 +32,12 @@ use crate::evaluate::accuracy::{map_grid, position_error, reached_poses_from, re
 use crate::identify::estimate::{FitOptions, Strategy, StrategyResult};
 use crate::kinematics::inverse::Joints;
 use crate::kinematics::platform::ForwardKinematics;
+use crate::measure::observe_simulate::simulated_poses;
 use crate::measure::simulate::{real_parameters, simulate_at, PoseSets, SimulationOptions};
 use crate::measure::{MeasurementSet, Measurements};
 use crate::model::params::Unit;
 use crate::model::Mechanism;
-use crate::pipeline::identify_one;
+use crate::pipeline::{identify_one, measured};
 use crate::progress::Progress;
 use crate::report::RealValues;
 use crate::selection::candidates::candidate_pool;
@@ -417,24 +417,14 @@ impl Study {
             return None;
         }
         let kinematics = ForwardKinematics::new(&self.mechanism, &first);
-        let rms = self
-            .map_rms(
-                &self.mechanism.nominal_parameters(),
-                &kinematics,
-                &mut self.nominal_joints.clone(),
-            )
-            .ok()?;
+        // Not fixed yet: computed.
+        let rms = self.nominal_map_rms(&first, &kinematics).ok()?;
         Some((first, rms))
     }
 
     /// The mechanism the study identifies (its declared noise scaled).
     pub fn mechanism(&self) -> &Mechanism {
         &self.mechanism
-    }
-
-    /// Points of the accuracy map.
-    pub fn map_points(&self) -> usize {
-        self.map.len()
     }
 
     /// The arms the study compares, in report order.
@@ -468,11 +458,7 @@ impl Study {
             noise_scale: self.options.noise_scale,
             poses_per_leg: None,
         };
-        let (real, sets) = if self.mechanism.instrument.is_some() {
-            self.instrument_trial_data(options)?
-        } else {
-            self.trial_data(options)?
-        };
+        let (real, sets) = self.trial_data(options)?;
         let real_kinematics = ForwardKinematics::new(&self.mechanism, &real.legs);
         let nominal_map_rms = self.nominal_map_rms(&real.legs, &real_kinematics)?;
         // The commanding joints of the last map, the warm starts of the next one.
@@ -496,11 +482,16 @@ impl Study {
         })
     }
 
-    /// A trial's real legs and the measurements of each arm (in the order of the arms): each
-    /// leg's own rows, the shared rows of one leg's count, the shared rows of D&C's count.
+    /// A trial's real values and the measurements of each arm (in the order of the arms): each
+    /// leg's own rows, the shared rows of one leg's count, the shared rows of D&C's count;
+    /// through the instrument, what it reports at the per-leg poses, the same rows for every arm.
     fn trial_data(&self, options: SimulationOptions) -> Result<(RealValues, Vec<Measurements>)> {
-        let experiment = simulate_at(&self.mechanism, &self.pose_sets, options)?;
-        let measurements = &experiment.measurements;
+        let simulated = simulated_poses(&self.mechanism);
+        let experiment = simulate_at(&simulated, &self.pose_sets, options)?;
+        let (real, data) = measured(&self.mechanism, experiment, options)?;
+        let Measurements::Readings(measurements) = &data else {
+            return Ok((real, vec![data; self.arms.len()]));
+        };
         let labelled = measurements.filtered(|p, _| p.leg.is_some());
         let legs = measurements.legs();
         let (mut small, mut equal) = (
@@ -516,10 +507,6 @@ impl Study {
             };
             set.push(*pose, readings);
         }
-        let real = RealValues {
-            legs: experiment.real,
-            instrument: None,
-        };
         let sets = [labelled, small, equal].map(Measurements::Readings);
         Ok((real, sets.to_vec()))
     }
@@ -769,8 +756,6 @@ pub fn millimetres(value: f64) -> String {
     let decimals = (3 - magnitude).max(0) as usize;
     format!("{value:.decimals$}")
 }
-
-mod instrument;
 
 #[cfg(test)]
 mod tests {
