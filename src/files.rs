@@ -116,17 +116,15 @@ impl Output {
             given: path.to_path_buf(),
             target,
         };
-        for input in inputs {
-            if output.is_input(input.path) {
-                return Err(invalid!(
-                    "{}: {flag} would overwrite the {} {} (an input of this run); choose another path",
-                    path.display(),
-                    input.role,
-                    input.path.display()
-                ));
-            }
+        match inputs.iter().find(|input| output.is_input(input.path)) {
+            Some(input) => Err(invalid!(
+                "{}: {flag} would overwrite the {} {} (an input of this run); choose another path",
+                path.display(),
+                input.role,
+                input.path.display()
+            )),
+            None => Ok(output),
         }
-        Ok(output)
     }
 
     /// True when the output goes to standard output (then the human-readable text goes to
@@ -172,12 +170,9 @@ impl Output {
                 .write(true)
                 .open(path)
                 .and_then(|mut file| file.write_all(contents))
-                .or_else(|e| {
-                    if e.kind() == io::ErrorKind::BrokenPipe {
-                        Ok(())
-                    } else {
-                        Err(e)
-                    }
+                .or_else(|e| match e.kind() {
+                    io::ErrorKind::BrokenPipe => Ok(()),
+                    _ => Err(e),
                 })
                 .map_err(fail),
             Target::File(path) => replace(path, contents).map_err(fail),

@@ -319,13 +319,12 @@ impl SimulationArgs {
             noise_scale: checks::non_negative("--noise-scale", self.noise_scale)?,
             poses_per_leg: checks::poses_per_leg(self.poses_per_leg)?,
         };
-        let poses = match self.poses {
-            PosesArg::Selected => PoseSource::Selected,
-            PosesArg::Random => PoseSource::Random,
-        };
         Ok(SimulationSettings {
             options,
-            poses,
+            poses: match self.poses {
+                PosesArg::Selected => PoseSource::Selected,
+                PosesArg::Random => PoseSource::Random,
+            },
             grid: self.grid,
         })
     }

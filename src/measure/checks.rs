@@ -165,10 +165,8 @@ fn range_warnings(mechanism: &Mechanism, data: &MeasurementSet) -> Result<Vec<St
         .actuated_names()
         .iter()
         .zip(mechanism.legs.iter().zip(&readings))
+        .filter(|(_, (_, offenders))| offenders.count > 0)
     {
-        if offenders.count == 0 {
-            continue;
-        }
         warnings.push(if leg.actuated_is_revolute() {
             format!(
                 "column `{name}`: revolute reading {} puts the joint (gain · reading + offset) \

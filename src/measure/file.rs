@@ -274,18 +274,14 @@ fn csv_error(path: &Path, error: &csv::Error, location: String) -> Error {
             path: path.to_path_buf(),
             error: std::io::Error::new(io.kind(), io.to_string()),
         },
-        _ => rows::fail(path, location, csv_message(error)),
-    }
-}
-
-fn csv_message(error: &csv::Error) -> String {
-    match error.kind() {
         csv::ErrorKind::UnequalLengths {
             expected_len, len, ..
-        } => {
-            format!("expected {expected_len} fields, found {len}")
-        }
-        _ => error.to_string(),
+        } => rows::fail(
+            path,
+            location,
+            format!("expected {expected_len} fields, found {len}"),
+        ),
+        _ => rows::fail(path, location, error.to_string()),
     }
 }
 

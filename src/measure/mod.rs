@@ -168,15 +168,10 @@ impl MeasurementSet {
 
     /// Traditional: the blocks of every leg at the shared poses (rows without a leg label).
     pub fn shared_blocks(&self, legs: usize) -> Vec<ResidualBlock> {
-        let mut blocks = Vec::new();
-        for leg in 0..legs {
-            blocks.extend(
-                self.rows()
-                    .filter(|(p, _)| p.leg.is_none())
-                    .filter_map(|(p, r)| block(p, r, leg)),
-            );
-        }
-        blocks
+        let shared = || self.rows().filter(|(p, _)| p.leg.is_none());
+        (0..legs)
+            .flat_map(|leg| shared().filter_map(move |(p, r)| block(p, r, leg)))
+            .collect()
     }
 
     /// Number of shared poses (rows without a leg label).

@@ -141,19 +141,17 @@ pub fn parse(text: &str, path: &Path, mechanism: &Mechanism) -> Result<Observati
         let number =
             |column: usize| rows::number(path, line, &header[column], cell(column), "SI units");
         let leg = rows::leg_of(path, line, mechanism, leg_column.map_or("", cell))?;
-        let mut observed = Vec::with_capacity(target_columns.len());
-        for &column in &target_columns {
-            observed.push(number(column)?.ok_or_else(|| {
+        let observed = target_columns.iter().map(|&column| {
+            number(column)?.ok_or_else(|| {
                 fail(
                     format!("line {line}, column `{}`", header[column]),
                     "missing value; expected the target's coordinate (metres or radians)".into(),
                 )
-            })?);
-        }
-        let mut readings = Vec::with_capacity(reading_columns.len());
-        for &column in &reading_columns {
-            readings.push(number(column)?);
-        }
+            })
+        });
+        let observed = observed.collect::<Result<Vec<f64>>>()?;
+        let readings = reading_columns.iter().map(|&column| number(column));
+        let readings = readings.collect::<Result<Vec<_>>>()?;
         rows::require_leg_reading(path, line, mechanism, leg, &readings)?;
         rows.push(ObservedRow {
             line: Some(line),

@@ -157,17 +157,15 @@ pub fn simulate_at(
     let mut poses = MeasurementSet::new(None, legs);
     for (group, true_poses) in groups {
         for true_pose in true_poses {
-            let mut readings = Vec::with_capacity(legs);
-            for (l, leg) in mechanism.legs.iter().enumerate() {
-                let value = predict_reading(leg, &real[l], true_pose, &mechanism.home_pose)
-                    .map_err(|err| {
-                        Error::Invalid(format!(
-                            "simulation: with its real parameters, {err} (pose {})",
-                            mechanism.pose_text(true_pose)
-                        ))
-                    })?;
-                readings.push(value);
-            }
+            let readings = mechanism.legs.iter().zip(&real).map(|(leg, real)| {
+                predict_reading(leg, real, true_pose, &mechanism.home_pose).map_err(|err| {
+                    Error::Invalid(format!(
+                        "simulation: with its real parameters, {err} (pose {})",
+                        mechanism.pose_text(true_pose)
+                    ))
+                })
+            });
+            let readings = readings.collect::<Result<Vec<f64>>>()?;
             let mut measured = *true_pose;
             for &c in &mechanism.measured {
                 measured[c] += options.noise_scale * simulation.pose_noise[c] * gaussian(&mut rng);

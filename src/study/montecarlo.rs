@@ -373,6 +373,10 @@ impl Study {
                     of: ParameterOf::Leg { leg, column },
                 })
         }));
+        let nominal = mechanism.nominal_parameters();
+        let kinematics = ForwardKinematics::new(&mechanism, &nominal);
+        let mut joints = Vec::new();
+        reached_poses_from(&mechanism, &nominal, &kinematics, &map, &mut joints);
         let mut study = Self {
             mechanism,
             options,
@@ -385,19 +389,8 @@ impl Study {
             map,
             parameters,
             fixed_real: None,
-            nominal_joints: Vec::new(),
+            nominal_joints: joints,
         };
-        let nominal = study.mechanism.nominal_parameters();
-        let nominal_kinematics = ForwardKinematics::new(&study.mechanism, &nominal);
-        let mut joints = Vec::new();
-        reached_poses_from(
-            &study.mechanism,
-            &nominal,
-            &nominal_kinematics,
-            &study.map,
-            &mut joints,
-        );
-        study.nominal_joints = joints;
         study.fixed_real = study.fixed_real_parameters();
         Ok(study)
     }
@@ -615,11 +608,8 @@ impl Study {
         let progress = Progress::new(self.options.trials as u64, "monte carlo");
         let trials: Vec<Trial> = (0..self.options.trials)
             .into_par_iter()
-            .map(|index| {
-                let trial = self.trial(index);
-                progress.advance(1);
-                trial
-            })
+            .map(|index| self.trial(index))
+            .inspect(|_| progress.advance(1))
             .collect();
         drop(progress);
         self.summarise(trials)
