@@ -168,7 +168,7 @@ impl FitOptions {
 }
 
 /// One solver run (one per leg for divide and conquer, one in all for traditional).
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Debug, Clone, PartialEq, serde::Serialize)]
 pub struct SolverRun {
     /// The legs the run identified.
     pub legs: Vec<String>,
@@ -181,8 +181,10 @@ pub struct SolverRun {
     /// Gauss–Newton refinement steps taken after the solver converged.
     pub refinement_steps: usize,
     /// ½‖r‖² before.
+    #[serde(rename = "cost_before")]
     pub initial_cost: f64,
     /// ½‖r‖² after.
+    #[serde(rename = "cost_after")]
     pub final_cost: f64,
     /// Residual evaluations.
     pub residual_evaluations: u64,

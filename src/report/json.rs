@@ -291,7 +291,10 @@ impl<'a> LegJson<'a> {
                 .runs
                 .iter()
                 .find(|r| r.legs.contains(&leg.leg))
-                .map(|run| SolverJson::new(result, run)),
+                .map(|run| SolverJson {
+                    name: result.solver.name(),
+                    run,
+                }),
             covariance_parameters: leg
                 .parameters
                 .iter()
@@ -319,37 +322,12 @@ struct RowJson {
     residual: f64,
 }
 
+/// A solver run: the solver's name, then the run's own keys.
 #[derive(Debug, Serialize)]
 struct SolverJson<'a> {
     name: &'static str,
-    legs: &'a [String],
-    iterations: u64,
-    converged: bool,
-    stop_reason: &'static str,
-    refinement_steps: usize,
-    cost_before: f64,
-    cost_after: f64,
-    residual_evaluations: u64,
-    jacobian_evaluations: u64,
-    seconds: f64,
-}
-
-impl<'a> SolverJson<'a> {
-    fn new(result: &StrategyResult, run: &'a SolverRun) -> Self {
-        SolverJson {
-            name: result.solver.name(),
-            legs: &run.legs,
-            iterations: run.iterations,
-            converged: run.converged,
-            stop_reason: run.stop_reason.key(),
-            refinement_steps: run.refinement_steps,
-            cost_before: run.initial_cost,
-            cost_after: run.final_cost,
-            residual_evaluations: run.residual_evaluations,
-            jacobian_evaluations: run.jacobian_evaluations,
-            seconds: run.seconds,
-        }
-    }
+    #[serde(flatten)]
+    run: &'a SolverRun,
 }
 
 #[cfg(test)]

@@ -448,6 +448,8 @@ mod tests {
                 "{key}"
             );
             assert!(!keys[..i].contains(key), "{key}");
+            // The JSON report writes the reason by its serde name: the same key.
+            assert_eq!(serde_json::to_value(StopReason::ALL[i]).unwrap(), *key);
         }
         let converging = StopReason::ALL.iter().filter(|r| r.is_convergence());
         assert_eq!(converging.count(), 5);

@@ -9,7 +9,8 @@ use nalgebra::{DMatrix, DVector};
 /// The first five are convergence: the solver stopped because a test says the estimate is a
 /// minimiser to the requested precision (or to machine precision). The others are not, and a
 /// report must say that the estimate is not to be trusted.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, serde::Serialize)]
+#[serde(rename_all = "snake_case")]
 pub enum StopReason {
     /// The residual vanished: ½‖r‖² ≤ `f64::MIN_POSITIVE`, or the cost fell below ε times
     /// its starting value (an exact fit to working precision).

@@ -356,14 +356,6 @@ impl<'a> IdentificationProblem<'a> {
         &self.blocks
     }
 
-    /// Each slot's measurement-file lines, one per row (`None` for simulated rows), in row
-    /// order.
-    pub fn row_lines(&self) -> Vec<Vec<Option<usize>>> {
-        let line = |i: usize| self.blocks[i].line;
-        let lines = |slot| self.rows_of(slot).into_iter().map(line).collect();
-        self.slots.iter().map(lines).collect()
-    }
-
     /// Indices (into the instrument's parameters) of the identified shared parameters (none
     /// without an instrument).
     pub fn shared_columns(&self) -> &[usize] {
