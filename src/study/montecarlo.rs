@@ -171,7 +171,8 @@ pub enum ParameterOf {
     Instrument(usize),
 }
 
-/// A prepared study: the mechanism (its declared noise scaled), the selected poses and the map.
+/// A prepared study: the mechanism (its declared noise as in the model file; the fits expect it
+/// times the noise scale, [`Study::fit_options`]), the selected poses and the map.
 #[derive(Debug, Clone)]
 pub struct Study {
     mechanism: Mechanism,
@@ -415,7 +416,8 @@ impl Study {
         Some((first, rms))
     }
 
-    /// The mechanism the study identifies (its declared noise scaled).
+    /// The mechanism the study identifies (its declared noise unscaled: [`Study::fit_options`]
+    /// carry the scale).
     pub fn mechanism(&self) -> &Mechanism {
         &self.mechanism
     }
