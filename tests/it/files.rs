@@ -512,3 +512,92 @@ fn a_long_file_is_read_in_row_order_and_its_first_error_in_file_order_is_named()
         "long.csv: line 3, column `A1`: the row belongs to leg `leg1` but its reading is empty"
     );
 }
+
+/// Standard output that fails otherwise than by a closed pipe (a full disk: /dev/full) is an
+/// error naming the output, exit 2; only a reader that has gone ends quietly.
+#[cfg(target_os = "linux")]
+#[test]
+fn a_standard_output_that_cannot_be_written_is_exit_2() {
+    let full = fs::OpenOptions::new()
+        .write(true)
+        .open("/dev/full")
+        .unwrap();
+    let result = Command::new(env!("CARGO_BIN_EXE_legwise"))
+        .args(["simulate", "--model", "models/5r.yaml", "--out", "-"])
+        .current_dir(env!("CARGO_MANIFEST_DIR"))
+        .stdout(Stdio::from(full))
+        .stderr(Stdio::piped())
+        .output()
+        .unwrap();
+    let stderr = text(&result.stderr);
+    assert_eq!(result.status.code(), Some(2), "{stderr}");
+    assert!(
+        stderr.contains("legwise: --out (standard output): cannot write the measurement CSV"),
+        "{stderr}"
+    );
+}
+
+/// A named pipe given as the output is written in place; when its reader leaves early the
+/// run ends quietly with exit 0, as on standard output.
+#[cfg(unix)]
+#[test]
+fn a_named_pipe_whose_reader_leaves_ends_quietly() {
+    let dir = tempfile::tempdir().unwrap();
+    let fifo = dir.path().join("pipe.csv");
+    let made = Command::new("mkfifo").arg(&fifo).status().unwrap();
+    assert!(made.success());
+    // More than a pipe's buffer (see `a_pipe_closed_early_ends_quietly`).
+    let child = Command::new(env!("CARGO_BIN_EXE_legwise"))
+        .args(["simulate", "--model", "models/5r.yaml", "--poses", "random"])
+        .args(["--poses-per-leg", "800", "--out", fifo.to_str().unwrap()])
+        .current_dir(env!("CARGO_MANIFEST_DIR"))
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    // Opening blocks until legwise opens its end: a thread, so that a run that fails before
+    // opening fails the assertions below instead of hanging the test.
+    let reader = std::thread::spawn(move || {
+        let mut reader = BufReader::new(fs::File::open(&fifo).unwrap());
+        let mut head = String::new();
+        reader.read_line(&mut head).unwrap();
+        head
+    });
+    let result = child.wait_with_output().unwrap();
+    let stderr = text(&result.stderr);
+    assert_eq!(result.status.code(), Some(0), "{stderr}");
+    assert!(!stderr.contains("panicked"), "{stderr}");
+    assert_eq!(reader.join().unwrap(), "leg,x,y,A1,A2\n");
+}
+
+/// `--calibrated` and `--json` naming one file under two spellings relative to the working
+/// directory (`cal.yaml` and `./cal.yaml`) are refused before the work.
+#[test]
+fn two_outputs_naming_one_file_relative_to_the_working_directory_are_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let model = crate_path("models/5r.yaml");
+    let csv = crate_path("tests/data/noisy.csv");
+    for (calibrated, json) in [("cal.yaml", "./cal.yaml"), ("./cal.yaml", "cal.urdf")] {
+        let result = Command::new(env!("CARGO_BIN_EXE_legwise"))
+            .args(["identify", "--model", model.to_str().unwrap()])
+            .args(["--measurements", csv.to_str().unwrap()])
+            .args(["--calibrated", calibrated, "--json", json])
+            .current_dir(dir.path())
+            .output()
+            .unwrap();
+        let stderr = text(&result.stderr);
+        assert_eq!(
+            result.status.code(),
+            Some(2),
+            "{calibrated} {json}: {stderr}"
+        );
+        assert_eq!(
+            stderr,
+            format!(
+                "legwise: {json}: --calibrated and --json would write the same file; choose \
+                 another path\n"
+            )
+        );
+        assert!(listing(dir.path()).is_empty());
+    }
+}
