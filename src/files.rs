@@ -200,6 +200,12 @@ fn resolve(flag: &str, path: &Path) -> Result<Target> {
     if path.as_os_str() == "-" {
         return Ok(Target::Stdout);
     }
+    if path.to_string_lossy().ends_with(std::path::is_separator) {
+        return Err(invalid!(
+            "{shown}: {flag}: expected a file path, found a directory path (it ends in a \
+             separator)"
+        ));
+    }
     if let Ok(metadata) = fs::metadata(path) {
         if is_stdout(&metadata) {
             return Ok(Target::Stdout);

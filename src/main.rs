@@ -1,15 +1,21 @@
 //! The `legwise` command line.
 //!
-//! Exit status: 0 success; 2 bad input or usage (clap's usage errors too); 3 the run finished
-//! but its result must not be trusted (each reason on standard error as a warning line).
+//! Exit status: 0 success; 2 bad input or usage (clap's usage errors too, on one line); 3 the
+//! run finished but its result must not be trusted (each reason on standard error as a warning
+//! line).
 use std::io::Write;
 use std::process::ExitCode;
 
-use clap::Parser;
+use clap::error::ErrorKind;
+use clap::{CommandFactory, Parser};
 use legwise::cli::{run, Cli, Verdict};
 
 fn main() -> ExitCode {
-    let outcome = run(Cli::parse());
+    let cli = match Cli::try_parse() {
+        Ok(cli) => cli,
+        Err(err) => return usage(&err),
+    };
+    let outcome = run(cli);
     // Standard error may be closed too; there is nowhere left to complain then.
     let mut stderr = std::io::stderr().lock();
     match outcome {
@@ -24,5 +30,52 @@ fn main() -> ExitCode {
             let _ = writeln!(stderr, "legwise: {err:#}");
             ExitCode::from(2)
         }
+    }
+}
+
+/// `--help` and `--version` as clap prints them (exit 0); a usage error as one line
+/// `legwise: …` on standard error, exit 2.
+fn usage(err: &clap::Error) -> ExitCode {
+    let informational = matches!(
+        err.kind(),
+        ErrorKind::DisplayHelp
+            | ErrorKind::DisplayVersion
+            | ErrorKind::DisplayHelpOnMissingArgumentOrSubcommand
+    );
+    if informational {
+        let _ = err.print();
+        return ExitCode::from(u8::try_from(err.exit_code()).unwrap_or(2));
+    }
+    let _ = writeln!(std::io::stderr().lock(), "legwise: {}", one_line(err));
+    ExitCode::from(2)
+}
+
+/// clap's usage error on one line: its message, the possible values and its tip, then where
+/// the usage is shown (`legwise COMMAND --help`) in place of clap's usage block.
+fn one_line(err: &clap::Error) -> String {
+    let text = err.render().to_string();
+    let mut lines = text.lines().map(str::trim).filter(|l| !l.is_empty());
+    let first = lines.next().unwrap_or("invalid usage");
+    let mut line = first.strip_prefix("error: ").unwrap_or(first).to_string();
+    for extra in lines {
+        if let Some(values) = extra.strip_prefix('[').and_then(|v| v.strip_suffix(']')) {
+            line.push_str(&format!(" ({values})"));
+        } else if let Some(tip) = extra.strip_prefix("tip: ") {
+            line.push_str(&format!("; {tip}"));
+        } else if !extra.starts_with("Usage: ") && !extra.starts_with("For more information") {
+            line.push_str(&format!(" {extra}"));
+        }
+    }
+    format!("{line}; see `{} --help`", command_name())
+}
+
+/// `legwise` and the subcommand the command line names, if any.
+fn command_name() -> String {
+    let given = std::env::args().nth(1).unwrap_or_default();
+    let known = Cli::command();
+    let sub = known.get_subcommands().find(|c| c.get_name() == given);
+    match sub {
+        Some(sub) => format!("legwise {}", sub.get_name()),
+        None => "legwise".to_string(),
     }
 }

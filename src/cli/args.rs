@@ -171,10 +171,10 @@ pub struct IdentifyArgs {
     pub calibrated: Option<PathBuf>,
     /// Simulation only: the accuracy map (model IK commands, real mechanism moves) over a grid
     /// of this spacing (metres), before and after identification.
-    #[arg(long, value_name = "GRID_M")]
+    #[arg(long, value_name = "GRID_M", allow_negative_numbers = true)]
     pub map: Option<f64>,
     /// Fraction of the workspace region the accuracy map covers (shrunk about its centre).
-    #[arg(long, default_value_t = 0.95)]
+    #[arg(long, default_value_t = 0.95, allow_negative_numbers = true)]
     pub map_scale: f64,
     /// Simulation only: write the pictures to this directory (created if missing): the
     /// parameter errors before and after, and with `--map` the accuracy map.
@@ -261,21 +261,21 @@ pub enum PosesArg {
     Random,
 }
 
-/// Simulation overrides.
+/// Simulation overrides (none is the model's simulation block as written).
 #[derive(Debug, Clone, clap::Args)]
 pub struct SimulationArgs {
-    /// Where the simulated poses come from.
-    #[arg(long, value_enum, default_value_t = PosesArg::Selected)]
-    pub poses: PosesArg,
+    /// Where the simulated poses come from [default: selected].
+    #[arg(long, value_enum)]
+    pub poses: Option<PosesArg>,
     /// Candidate grid spacing for selected poses, metres (default: the model's `workspace.grid`).
     #[arg(long, allow_negative_numbers = true)]
     pub grid: Option<f64>,
     /// Random seed, 0 to 2^64 − 1 (default: the model's `simulation.seed`).
     #[arg(long, allow_negative_numbers = true)]
     pub seed: Option<i128>,
-    /// Multiplies every simulated noise standard deviation (0 = noise-free).
-    #[arg(long, default_value_t = 1.0, allow_negative_numbers = true)]
-    pub noise_scale: f64,
+    /// Multiplies every simulated noise standard deviation (0 = noise-free) [default: 1].
+    #[arg(long, allow_negative_numbers = true)]
+    pub noise_scale: Option<f64>,
     /// Poses per leg (default: the model's `simulation.poses_per_leg`).
     #[arg(long, allow_negative_numbers = true)]
     pub poses_per_leg: Option<i64>,
@@ -316,16 +316,29 @@ impl SimulationArgs {
         checks::positive_metres("--grid", self.grid)?;
         let options = crate::measure::simulate::SimulationOptions {
             seed: checks::seed("--seed", self.seed)?,
-            noise_scale: checks::non_negative("--noise-scale", self.noise_scale)?,
+            noise_scale: checks::non_negative("--noise-scale", self.noise_scale.unwrap_or(1.0))?,
             poses_per_leg: checks::poses_per_leg(self.poses_per_leg)?,
         };
         Ok(SimulationSettings {
             options,
-            poses: match self.poses {
+            poses: match self.poses.unwrap_or(PosesArg::Selected) {
                 PosesArg::Selected => PoseSource::Selected,
                 PosesArg::Random => PoseSource::Random,
             },
             grid: self.grid,
         })
+    }
+
+    /// The first simulation option given on the command line, if any.
+    pub(super) fn first_given(&self) -> Option<&'static str> {
+        [
+            (self.poses.is_some(), "--poses"),
+            (self.grid.is_some(), "--grid"),
+            (self.seed.is_some(), "--seed"),
+            (self.noise_scale.is_some(), "--noise-scale"),
+            (self.poses_per_leg.is_some(), "--poses-per-leg"),
+        ]
+        .into_iter()
+        .find_map(|(given, flag)| given.then_some(flag))
     }
 }

@@ -47,7 +47,11 @@ pub(super) fn run(args: &EvaluateArgs) -> anyhow::Result<Verdict> {
     })?;
     console.print(&evaluation_text(&mechanism, &evaluation, against.as_ref()))?;
     outputs.say_written(&mut console, "JSON")?;
-    Ok(Verdict::Trusted)
+    let mut issues = mechanism.warnings.clone();
+    issues.extend(other.iter().flat_map(|other| other.warnings.clone()));
+    issues.extend(evaluation.trust_issues());
+    issues.extend(against.iter().flat_map(Evaluation::trust_issues));
+    Ok(Verdict::from_reasons(issues))
 }
 
 /// Evaluates `model` on the measurement file at `path` (read in the model's layout).

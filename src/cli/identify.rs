@@ -19,6 +19,13 @@ use crate::report::Report;
 
 pub(super) fn run(args: &IdentifyArgs) -> anyhow::Result<Verdict> {
     let simulation = args.simulation.settings()?;
+    if let (Some(path), Some(flag)) = (&args.measurements, args.simulation.first_given()) {
+        anyhow::bail!(
+            "{flag}: a simulation option, but the measurements are read from {}; drop {flag} \
+             (or --measurements, to simulate)",
+            path.display()
+        );
+    }
     let mechanism = Mechanism::load(&args.model)?;
     if mechanism.instrument.is_some() {
         refuse_unsupported(args)?;

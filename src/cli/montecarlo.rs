@@ -48,15 +48,17 @@ pub(super) fn run(args: &MontecarloArgs) -> anyhow::Result<Verdict> {
     outputs.write_pictures(|| Ok(vec![render(&error_distributions(&result), format)?]))?;
     console.print(&montecarlo_text(&result))?;
     outputs.say_written(&mut console, "JSON")?;
-    let mut reasons: Vec<String> = result
-        .trials
-        .iter()
-        .filter_map(|t| t.outcome.as_ref().err().map(|e| (t.index, e)))
-        .take(5)
-        .map(|(index, reason)| format!("trial {index} failed and is left out: {reason}"))
-        .collect();
+    let mut reasons = mechanism.warnings.clone();
+    reasons.extend(
+        result
+            .trials
+            .iter()
+            .filter_map(|t| t.outcome.as_ref().err().map(|e| (t.index, e)))
+            .take(5)
+            .map(|(index, reason)| format!("trial {index} failed and is left out: {reason}")),
+    );
     let failed = trials - result.succeeded;
-    if failed > reasons.len() {
+    if failed > reasons.len() - mechanism.warnings.len() {
         reasons.push(format!(
             "{failed} of {trials} trials failed in all: the statistics leave them out"
         ));

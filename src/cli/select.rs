@@ -39,5 +39,5 @@ pub(super) fn run(args: &SelectArgs) -> anyhow::Result<Verdict> {
         "poses written to {} ({fill}, then `legwise identify --measurements`)",
         output.name()
     ))?;
-    Ok(Verdict::Trusted)
+    Ok(Verdict::from_reasons(mechanism.warnings.clone()))
 }

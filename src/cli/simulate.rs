@@ -30,5 +30,5 @@ pub(super) fn run(args: &SimulateArgs) -> anyhow::Result<Verdict> {
         simulated.measurements.rows(),
         output.name()
     ))?;
-    Ok(Verdict::Trusted)
+    Ok(Verdict::from_reasons(mechanism.warnings.clone()))
 }

@@ -27,7 +27,7 @@ pub(super) fn run(args: &WorkspaceArgs) -> anyhow::Result<Verdict> {
     output.write("picture", &picture)?;
     console.print(&text)?;
     console.line(format_args!("picture written to {}", output.name()))?;
-    Ok(Verdict::Trusted)
+    Ok(Verdict::from_reasons(mechanism.warnings.clone()))
 }
 
 /// `--out` (`-`: standard output), its format by the extension (or `--png` for standard

@@ -88,6 +88,41 @@ pub struct Evaluation {
     /// measured platform poses. `position_error` and `orientation_error` then cover every
     /// target at every assembled row.
     pub targets: Vec<TargetErrors>,
+    /// Implausible values of the file for the model (readings or orientations in degrees,
+    /// positions in millimetres), one line each ([`crate::measure::checks::check`]).
+    pub warnings: Vec<String>,
+}
+
+impl Evaluation {
+    /// The reasons this evaluation must not be trusted, one line each (empty: none): no row
+    /// assembles, so there is no pose error at all, or the file holds implausible values.
+    pub fn trust_issues(&self) -> Vec<String> {
+        let mut issues = Vec::new();
+        if self.position_error.is_none() {
+            issues.push(format!(
+                "{} on {}: no row can be assembled by the model's forward kinematics (lines {}): \
+                 there is no pose error to report",
+                self.model,
+                self.measurements,
+                lines(&self.non_assemblable)
+            ));
+        }
+        issues.extend(
+            self.warnings
+                .iter()
+                .map(|w| format!("{} on {}: {w}", self.model, self.measurements)),
+        );
+        issues
+    }
+}
+
+/// CSV lines as `2, 3, 5` (the first ten, then how many more).
+fn lines(lines: &[usize]) -> String {
+    let shown: Vec<String> = lines.iter().take(10).map(usize::to_string).collect();
+    match lines.len().saturating_sub(10) {
+        0 => shown.join(", "),
+        more => format!("{}, and {more} more", shown.join(", ")),
+    }
 }
 
 /// Evaluates the model `mechanism` (its nominal parameters) on the measurements `data`.
@@ -226,5 +261,6 @@ pub(super) fn summarised(
         row_errors,
         reading_residual,
         targets,
+        warnings: Vec::new(),
     }
 }

@@ -23,10 +23,14 @@ use crate::model::Mechanism;
 /// # Errors
 /// No row holding every actuator reading, or measurements of another kind than the model's.
 pub fn evaluate(mechanism: &Mechanism, data: &Measurements) -> Result<held_out::Evaluation> {
-    match data {
+    let mut evaluation = match data {
         Measurements::Readings(set) => held_out::evaluate(mechanism, set),
         Measurements::Targets(observations) => {
             through_instrument::evaluate_observed(mechanism, observations)
         }
+    }?;
+    if let Some(set) = data.poses() {
+        evaluation.warnings = crate::measure::checks::check(mechanism, set)?;
     }
+    Ok(evaluation)
 }

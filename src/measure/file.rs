@@ -5,11 +5,12 @@
 //! radians) and one per actuated joint, named after its URDF joint, holding the raw reading
 //! (empty when not read). Errors name the file, the line and the column.
 
-use std::io::{Read, Write};
+use std::io::{BufRead, Read, Write};
 use std::path::Path;
 
 use rayon::prelude::*;
 
+use super::line_endings::Lines;
 use super::{rows, MeasuredPose, MeasurementSet};
 use crate::error::{Error, Result};
 use crate::model::mechanism::COORDINATES;
@@ -85,7 +86,7 @@ fn parse_rows(
     let mut reader = csv::ReaderBuilder::new()
         .trim(csv::Trim::Headers)
         .flexible(false)
-        .from_reader(source);
+        .from_reader(Lines::new(std::io::BufReader::new(source)));
     let header: Vec<String> = match reader.headers() {
         Ok(header) => header.iter().map(str::to_string).collect(),
         Err(e) => return Err(csv_error(path, &e, "header".into())),
@@ -139,7 +140,9 @@ fn parse_rows(
             }
         }
         if let Some(e) = failed {
-            let line = e.position().map_or(0, |p| p.line());
+            let line = e
+                .position()
+                .map_or(0, |p| reader.get_ref().line_at(p.byte()));
             return Err(csv_error(path, &e, format!("line {line}")));
         }
     }
@@ -160,14 +163,22 @@ struct Batch {
 impl Batch {
     /// Reads up to [`BATCH_RECORDS`] records; the reader's error, if it failed (the records
     /// before it are kept).
-    fn fill(&mut self, reader: &mut csv::Reader<impl Read>) -> Option<csv::Error> {
+    fn fill(&mut self, reader: &mut csv::Reader<Lines<impl BufRead>>) -> Option<csv::Error> {
         self.count = 0;
         while self.count < BATCH_RECORDS {
             if self.records.len() == self.count {
                 self.records.push(csv::ByteRecord::new());
             }
-            match reader.read_byte_record(&mut self.records[self.count]) {
-                Ok(true) => self.count += 1,
+            let record = &mut self.records[self.count];
+            match reader.read_byte_record(record) {
+                Ok(true) => {
+                    // The line as an editor numbers it (see `Lines`).
+                    if let Some(mut position) = record.position().cloned() {
+                        position.set_line(reader.get_ref().line_at(position.byte()));
+                        record.set_position(Some(position));
+                    }
+                    self.count += 1;
+                }
                 Ok(false) => return None,
                 Err(e) => return Some(e),
             }

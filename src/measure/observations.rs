@@ -13,6 +13,7 @@
 
 use std::path::{Path, PathBuf};
 
+use super::line_endings::Lines;
 use super::rows;
 use crate::error::{Error, Result};
 use crate::model::instrument::Instrument;
@@ -111,7 +112,7 @@ pub fn parse(text: &str, path: &Path, mechanism: &Mechanism) -> Result<Observati
     let mut reader = csv::ReaderBuilder::new()
         .trim(csv::Trim::All)
         .flexible(false)
-        .from_reader(text.as_bytes());
+        .from_reader(Lines::new(text.as_bytes()));
     let header: Vec<String> = reader
         .headers()
         .map_err(|e| fail("header".into(), e.to_string()))?
@@ -128,12 +129,21 @@ pub fn parse(text: &str, path: &Path, mechanism: &Mechanism) -> Result<Observati
         .map(|name| index(name))
         .collect();
     let mut rows = Vec::new();
-    for record in reader.records() {
-        let record = record.map_err(|e| {
-            let line = e.position().map_or(0, |p| p.line());
-            fail(format!("line {line}"), e.to_string())
-        })?;
-        let line = record.position().map_or(0, |p| p.line() as usize);
+    let mut record = csv::StringRecord::new();
+    loop {
+        match reader.read_record(&mut record) {
+            Ok(true) => {}
+            Ok(false) => break,
+            Err(e) => {
+                let line = e
+                    .position()
+                    .map_or(0, |p| reader.get_ref().line_at(p.byte()));
+                return Err(fail(format!("line {line}"), e.to_string()));
+            }
+        }
+        let line = record
+            .position()
+            .map_or(0, |p| reader.get_ref().line_at(p.byte()) as usize);
         if record.iter().all(str::is_empty) {
             continue;
         }

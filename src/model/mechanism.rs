@@ -83,6 +83,10 @@ pub struct MechanismParts {
     /// The measuring instrument (frame and targets), if the model has the block: the
     /// measurements are then the targets' coordinates in the instrument frame.
     pub instrument: Option<Instrument>,
+    /// What the model file holds that is accepted but implausible (an angle beyond ±2π rad:
+    /// degrees?), one line each naming the file and the field; every command's result is then
+    /// untrusted.
+    pub warnings: Vec<String>,
 }
 
 /// Measurement noise standard deviations (SI units).

@@ -26,6 +26,7 @@ struct EvaluationJson<'a> {
     row_errors: Vec<RowJson<'a>>,
     #[serde(skip_serializing_if = "<[_]>::is_empty")]
     targets: &'a [TargetErrors],
+    warnings: &'a [String],
     #[serde(skip_serializing_if = "Option::is_none")]
     against: Option<Box<EvaluationJson<'a>>>,
 }
@@ -57,6 +58,7 @@ impl<'a> EvaluationJson<'a> {
                 })
                 .collect(),
             targets: &evaluation.targets,
+            warnings: &evaluation.warnings,
             against: against.map(|other| Box::new(EvaluationJson::new(other, None))),
         }
     }

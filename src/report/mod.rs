@@ -134,7 +134,9 @@ impl Report<'_> {
     /// The reasons the run's result must not be trusted (empty: nothing found), one line
     /// each; the command line prints them as warnings and exits with status 3.
     pub fn trust_issues(&self) -> Vec<String> {
-        trust_issues(self.judged_results())
+        let mut issues = self.mechanism.warnings.clone();
+        issues.extend(trust_issues(self.judged_results()));
+        issues
     }
 
     /// Whether nothing speaks against the result ([`Self::trust_issues`] is empty).

@@ -120,7 +120,8 @@ fn an_unknown_field_is_named_with_its_line_and_the_expected_fields() {
     assert_eq!(
         msg,
         format!(
-            "{}: line 12 column 27: unknown field `gian`, expected one of joint, gain, offset",
+            "{}: line 12 column 27: legs[0].actuator: unknown field `gian`, expected one of \
+             joint, gain, offset",
             path.display()
         )
     );
@@ -551,6 +552,38 @@ fn a_urdf_in_millimetres_is_named_as_a_unit_problem() {
     );
 }
 
+/// The 5R with a nominal gain `k1` of `value`, which a model file may not hold (see
+/// `a_model_value_beyond_a_million_is_refused_naming_the_field`): the checks after loading
+/// still guard a mechanism edited in code.
+fn with_gain_k1(value: f64) -> Mechanism {
+    bundled("5r.yaml").edited(|parts| {
+        parts.legs[0].gain = value;
+        let k1 = parts.legs[0].params.iter_mut().find(|p| p.name == "k1");
+        k1.expect("k1").nominal = value;
+    })
+}
+
+/// A model file's value beyond 1e6 in magnitude (metres, radians, gain) is refused when the
+/// model loads, naming the field: a gain of 1e308 or 1e300 used to surface as an overflow or a
+/// rank deficiency far away.
+#[test]
+fn a_model_value_beyond_a_million_is_refused_naming_the_field() {
+    for (file, value) in [
+        ("5r_gain_1e308.yaml", "1e308"),
+        ("5r_gain_1e300.yaml", "1e300"),
+    ] {
+        let (path, msg) = model_error(file);
+        assert_eq!(
+            msg,
+            format!(
+                "{}: field `legs[0].actuator.gain`: {value} is not a plausible value; legwise \
+                 reads metres, radians and gains, and expects magnitudes up to 1e6",
+                path.display()
+            )
+        );
+    }
+}
+
 /// A nominal gain of 1e300: ∂ψ/∂k = −(θ − γ)/k² underflows to 0, so k1 (alone) cannot be
 /// identified. The column norms of the other columns (~1e-300) underflowed too, and the
 /// pivoting named l1.
@@ -558,7 +591,7 @@ fn a_urdf_in_millimetres_is_named_as_a_unit_problem() {
 fn a_gain_of_1e300_names_k1_not_l1() {
     use legwise::model::mechanism::SelectionCriterion;
     use legwise::selection::design::ExperimentDesign;
-    let mech = Mechanism::load(&data("5r_gain_1e300.yaml")).expect("the model loads");
+    let mech = with_gain_k1(1e300);
     let err = ExperimentDesign::select(&mech, None, 18, SelectionCriterion::D, false)
         .expect_err("k1 is unidentifiable");
     assert_eq!(
@@ -690,14 +723,13 @@ fn a_diverging_gauss_newton_names_the_trial_parameters_not_the_data() {
 fn a_gain_of_1e308_is_named_as_an_overflow_of_the_nominal_parameters() {
     use legwise::model::mechanism::SelectionCriterion;
     use legwise::selection::design::ExperimentDesign;
-    let path = data("5r_gain_1e308.yaml");
-    let mech = Mechanism::load(&path).expect("the model loads");
+    let mech = with_gain_k1(1e308);
     let err = ExperimentDesign::select(&mech, None, 18, SelectionCriterion::D, false)
         .expect_err("the Jacobian overflows");
     let msg = message(&err);
     let prefix = format!(
         "{}: the identification Jacobian overflows at candidate pose x=",
-        path.display()
+        mech.model_path.display()
     );
     assert!(msg.starts_with(&prefix), "{msg}");
     assert!(
@@ -767,16 +799,14 @@ fn a_measurement_file_that_cannot_be_read_is_an_io_error_naming_it() {
 fn an_overflow_names_the_first_of_equally_large_parameters() {
     use legwise::model::mechanism::SelectionCriterion;
     use legwise::selection::design::ExperimentDesign;
-    let mech = Mechanism::load(&data("5r_gain_1e308.yaml"))
-        .expect("the model loads")
-        .edited(|parts| {
-            let k2 = parts.legs[1]
-                .params
-                .iter_mut()
-                .find(|p| p.name == "k2")
-                .expect("k2");
-            k2.nominal = -1e308;
-        });
+    let mech = with_gain_k1(1e308).edited(|parts| {
+        let k2 = parts.legs[1]
+            .params
+            .iter_mut()
+            .find(|p| p.name == "k2")
+            .expect("k2");
+        k2.nominal = -1e308;
+    });
     let err = ExperimentDesign::select(&mech, None, 18, SelectionCriterion::D, false)
         .expect_err("the Jacobian overflows");
     let msg = message(&err);

@@ -152,8 +152,8 @@ fn bad_input_exits_with_code_2_and_one_line_naming_the_file() {
                 "--out",
                 out.to_str().unwrap(),
             ],
-            "legwise: tests/data/5r_unknown_field.yaml: line 12 column 27: unknown field `gian`, \
-             expected one of joint, gain, offset",
+            "legwise: tests/data/5r_unknown_field.yaml: line 12 column 27: legs[0].actuator: \
+             unknown field `gian`, expected one of joint, gain, offset",
         ),
         (
             &["workspace", "--model", "tests/data/5r_missing_urdf.yaml"],

@@ -12,6 +12,7 @@ mod instrument;
 mod legs;
 mod noise;
 mod parameters;
+mod plausible;
 mod scale;
 mod setup;
 mod workspace;
@@ -64,6 +65,7 @@ impl Builder<'_> {
     }
 
     pub(super) fn build(&self, file: ModelFile) -> Result<Mechanism> {
+        self.magnitudes(&file)?;
         let measured = self.measured(&file.measured)?;
         let home_pose = self.home_pose(&file.home.pose, &measured)?;
         let closure_dims = if measured.contains(&2) { 3 } else { 2 };
@@ -81,6 +83,7 @@ impl Builder<'_> {
         let instrument = self.instrument(file.instrument.as_ref(), &measured, &legs)?;
         let simulation = self.simulation(&file, &measured, &legs, noise, instrument.as_ref())?;
         let selection = self.selection(&file, simulation.as_ref())?;
+        let warnings = self.degree_warnings(&file, &legs);
         let mechanism = Mechanism::from_parts(MechanismParts {
             name: file.name,
             model_path: self.path.to_path_buf(),
@@ -94,6 +97,7 @@ impl Builder<'_> {
             noise,
             simulation,
             instrument,
+            warnings,
         });
         Ok(mechanism)
     }

@@ -1,0 +1,121 @@
+//! Values no real mechanism has, caught before they reach a solver or a grid:
+//! * a real-valued field beyond [`MAX_MAGNITUDE`] in magnitude (metres, radians or a gain) is an
+//!   error naming the field, instead of a failure far away (a rank deficiency, an infinite
+//!   grid);
+//! * an angle beyond ±2π rad (a revolute joint's home value or actuator offset, an orientation
+//!   of the home pose, of a workspace range or of the instrument frame) is accepted with a
+//!   warning: degrees instead of radians? The measurement checks apply the same rule to
+//!   readings.
+
+use std::f64::consts::TAU;
+
+use serde_json::Value;
+
+use super::Builder;
+use crate::error::Result;
+use crate::model::file::ModelFile;
+use crate::model::leg::LegModel;
+
+/// Largest magnitude of a real value in a model file: a million metres, radians or gain.
+pub(super) const MAX_MAGNITUDE: f64 = 1e6;
+
+/// The pose components that are angles.
+const ANGLES: [&str; 3] = ["roll", "pitch", "yaw"];
+
+impl Builder<'_> {
+    /// Refuses the first real value of `file` beyond [`MAX_MAGNITUDE`] (whole numbers such as
+    /// the seed or counts are checked where they are read).
+    pub(super) fn magnitudes(&self, file: &ModelFile) -> Result<()> {
+        // The file as a tree of values: every field with its path, whatever its type.
+        let tree = serde_json::to_value(file).unwrap_or(Value::Null);
+        match beyond(&tree, String::new()) {
+            Some((field, value)) => Err(self.error(
+                field,
+                format!(
+                    "{value:e} is not a plausible value; legwise reads metres, radians and \
+                     gains, and expects magnitudes up to {MAX_MAGNITUDE:e}"
+                ),
+            )),
+            None => Ok(()),
+        }
+    }
+}
+
+/// The first real number of `tree` (at path `path`) beyond [`MAX_MAGNITUDE`], with its path.
+fn beyond(tree: &Value, path: String) -> Option<(String, f64)> {
+    let join = |key: &str| match path.as_str() {
+        "" => key.to_string(),
+        _ => format!("{path}.{key}"),
+    };
+    match tree {
+        Value::Number(n) if n.is_f64() => n
+            .as_f64()
+            .filter(|v| v.abs() > MAX_MAGNITUDE)
+            .map(|v| (path, v)),
+        Value::Array(items) => items
+            .iter()
+            .enumerate()
+            .find_map(|(i, item)| beyond(item, format!("{path}[{i}]"))),
+        Value::Object(fields) => fields
+            .iter()
+            .find_map(|(key, item)| beyond(item, join(key))),
+        _ => None,
+    }
+}
+
+impl Builder<'_> {
+    /// The warnings for the angles of `file` beyond ±2π rad (`legs` built from it), each
+    /// naming the model file and the field.
+    pub(super) fn degree_warnings(&self, file: &ModelFile, legs: &[LegModel]) -> Vec<String> {
+        degree_warnings(file, legs)
+            .into_iter()
+            .map(|warning| format!("{}: {warning}", self.path.display()))
+            .collect()
+    }
+}
+
+/// The warnings for the angles of `file` beyond ±2π rad (`legs` built from it).
+fn degree_warnings(file: &ModelFile, legs: &[LegModel]) -> Vec<String> {
+    let mut angles: Vec<(String, f64)> = Vec::new();
+    let orientation = |prefix: &str, pose: &std::collections::BTreeMap<String, f64>| {
+        pose.iter()
+            .filter(|(name, _)| ANGLES.contains(&name.as_str()))
+            .map(|(name, &v)| (format!("{prefix}.{name}"), v))
+            .collect::<Vec<_>>()
+    };
+    angles.extend(orientation("home.pose", &file.home.pose));
+    for (l, (leg, entry)) in legs.iter().zip(&file.legs).enumerate() {
+        if leg.actuated_is_revolute() {
+            angles.push((format!("legs[{l}].actuator.offset"), leg.offset));
+        }
+        for (name, &value) in &entry.home {
+            let joint = leg.joints.iter().find(|j| &j.name == name);
+            if joint.is_some_and(|j| j.kind == crate::model::joint::JointKind::Revolute) {
+                angles.push((format!("legs[{l}].home.{name}"), value));
+            }
+        }
+    }
+    for (name, range) in file.workspace.ranges.iter() {
+        if ANGLES.contains(&name.as_str()) {
+            let widest = if range[0].abs() > range[1].abs() {
+                range[0]
+            } else {
+                range[1]
+            };
+            angles.push((format!("workspace.ranges.{name}"), widest));
+        }
+    }
+    if let Some(instrument) = &file.instrument {
+        angles.extend(orientation("instrument.frame.pose", &instrument.frame.pose));
+    }
+    angles
+        .into_iter()
+        .filter(|(_, v)| v.abs() > TAU)
+        .map(|(field, v)| {
+            format!(
+                "{field}: {v} rad is beyond ±2π: an angle in degrees instead of radians? (every \
+                 angle of a model file is in radians)"
+            )
+        })
+        .collect()
+}
