@@ -526,3 +526,42 @@ fn counts_out_of_range_are_refused_before_any_work() {
         "legwise: --rays: expected between 16 and 100000, found 8",
     );
 }
+
+/// The first line of every command's terminal report names the command, the mechanism and its
+/// model file.
+#[test]
+fn each_report_starts_with_the_command_the_mechanism_and_the_model_file() {
+    let name = "planar 3-RPR parallel mechanism";
+    for (args, command) in [
+        (&["identify", "--model", "models/3rpr.yaml"][..], "identify"),
+        (
+            &["select", "--model", "models/3rpr.yaml", "--out", "-"][..],
+            "select",
+        ),
+        (
+            &["workspace", "--model", "models/3rpr.yaml", "--out", "-"][..],
+            "workspace",
+        ),
+    ] {
+        let out = legwise(args);
+        assert_eq!(
+            out.status.code(),
+            Some(0),
+            "{args:?}: {}",
+            text(&out.stderr)
+        );
+        // `--out -` writes the poses or the picture on standard output, the report on standard
+        // error.
+        let report = if command == "identify" {
+            text(&out.stdout)
+        } else {
+            String::from_utf8_lossy(&out.stderr).into_owned()
+        };
+        let first = report.lines().next().unwrap_or_default();
+        assert_eq!(
+            first,
+            format!("legwise {command}: {name} (models/3rpr.yaml)"),
+            "{args:?}"
+        );
+    }
+}
