@@ -153,9 +153,10 @@ pub struct IdentifyArgs {
     #[arg(long)]
     pub json: Option<PathBuf>,
     /// Row weights: none (ordinary least squares, the paper's method) or noise (each row by the
-    /// inverse of its expected residual variance under the model's `noise` block).
-    #[arg(long, value_enum, default_value_t = WeightsArg::None)]
-    pub weights: WeightsArg,
+    /// inverse of its expected residual variance under the model's `noise` block, evaluated at
+    /// the estimate) [default: noise when the model declares a noise, else none].
+    #[arg(long, value_enum)]
+    pub weights: Option<WeightsArg>,
     /// A robust loss inside the fit (scaled by the model's `noise` block): huber or cauchy.
     #[arg(long, value_enum)]
     pub robust: Option<RobustArg>,

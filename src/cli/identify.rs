@@ -74,8 +74,9 @@ fn settings(args: &IdentifyArgs, model: &Mechanism, simulation: SimulationSettin
         solver: args.solver.kind(),
         fit: FitOptions {
             weights: match args.weights {
-                WeightsArg::None => Weighting::Unweighted,
-                WeightsArg::Noise => Weighting::Noise,
+                None => Weighting::Declared,
+                Some(WeightsArg::None) => Weighting::Unweighted,
+                Some(WeightsArg::Noise) => Weighting::Noise,
             },
             robust: args.robust.map(|r| match r {
                 RobustArg::Huber => RobustLoss::Huber,
@@ -98,7 +99,7 @@ fn refuse_unsupported(args: &IdentifyArgs) -> anyhow::Result<()> {
     let refused = [
         (args.solver != SolverArg::Lm, "--solver gn"),
         (args.strategy != StrategyArg::Dc, "--strategy"),
-        (args.weights != WeightsArg::None, "--weights"),
+        (args.weights.is_some(), "--weights"),
         (args.robust.is_some(), "--robust"),
         (args.drop_outliers, "--drop-outliers"),
         (args.plots.is_some(), "--plots"),

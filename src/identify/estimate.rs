@@ -53,6 +53,7 @@ pub fn identify_with(
     solver: SolverKind,
     options: FitOptions,
 ) -> Result<StrategyResult> {
+    let options = options.resolved(mechanism);
     let legs = mechanism.legs.len();
     let identified = mechanism.identified_legs();
     if identified.is_empty() {
@@ -122,6 +123,7 @@ pub fn identify_problem(
     solver: SolverKind,
     options: FitOptions,
 ) -> Result<(Vec<LegEstimate>, SolverRun)> {
+    let options = options.resolved(mechanism);
     let names: Vec<String> = problem
         .slots()
         .iter()

@@ -32,18 +32,17 @@ pub(super) fn fit<'a>(
     noise: Option<&MeasurementNoise>,
 ) -> Result<Fitted<'a>, FitError> {
     let needs_noise = |what: &str| FitError::NeedsNoise(what.to_string());
-    let weighted = match (options.weights, options.robust) {
+    let (weighted, outcome) = match (options.weights, options.robust) {
         (Weighting::Noise, None) => {
             let noise = noise.ok_or_else(|| needs_noise("--weights noise"))?;
-            let variances = row_variances(problem, x0, noise).map_err(FitError::Block)?;
-            let weights = inverse(&variances).ok_or_else(|| {
-                needs_noise("--weights noise (a row's expected residual variance is zero)")
-            })?;
-            problem.clone().with_weights(&weights)
+            consistent_weights(problem, x0, solver, noise)?
         }
-        _ => problem.unweighted(),
+        _ => {
+            let plain = problem.unweighted();
+            let outcome = solve_from(&plain, x0, solver)?;
+            (plain, outcome)
+        }
     };
-    let outcome = solve_from(&weighted, x0, solver)?;
     let Some(loss) = options.robust else {
         return Ok(Fitted {
             problem: weighted,
@@ -74,6 +73,58 @@ pub(super) fn fit<'a>(
         outcome,
         kind: FitKind::Robust,
     })
+}
+
+/// Most fits of [`consistent_weights`].
+const MAX_WEIGHTINGS: usize = 20;
+
+/// Largest relative change of a row's weight between two fits at which the weights are
+/// consistent with the estimate.
+const WEIGHT_TOLERANCE: f64 = 1e-12;
+
+/// Generalised least squares on the rows' variances under `noise`: weights at `x0`, a fit,
+/// then weights at the estimate and a fit from it, until the weights change by at most
+/// [`WEIGHT_TOLERANCE`] (relative) or after [`MAX_WEIGHTINGS`] fits. The weighted problem and
+/// the last fit's outcome (its iterations and evaluations those of every fit).
+fn consistent_weights<'a>(
+    problem: &IdentificationProblem<'a>,
+    x0: &DVector<f64>,
+    solver: SolverKind,
+    noise: &MeasurementNoise,
+) -> Result<(IdentificationProblem<'a>, SolverOutcome), FitError> {
+    let weights_at = |x: &DVector<f64>| -> Result<Vec<f64>, FitError> {
+        let variances = row_variances(problem, x, noise).map_err(FitError::Block)?;
+        inverse(&variances).ok_or_else(|| {
+            FitError::NeedsNoise(
+                "--weights noise (a row's expected residual variance is zero)".to_string(),
+            )
+        })
+    };
+    let mut weights = weights_at(x0)?;
+    let mut weighted = problem.clone().with_weights(&weights);
+    let mut outcome = solve_from(&weighted, x0, solver)?;
+    let (mut iterations, mut residuals, mut jacobians) = (0, 0, 0);
+    for _ in 1..MAX_WEIGHTINGS {
+        let next = weights_at(&outcome.x)?;
+        let change = next
+            .iter()
+            .zip(&weights)
+            .map(|(a, b)| (a / b - 1.0).abs())
+            .fold(0.0, f64::max);
+        if change <= WEIGHT_TOLERANCE {
+            break;
+        }
+        iterations += outcome.iterations;
+        residuals += outcome.residual_evaluations;
+        jacobians += outcome.jacobian_evaluations;
+        weights = next;
+        weighted = problem.clone().with_weights(&weights);
+        outcome = solve_from(&weighted, &outcome.x, solver)?;
+    }
+    outcome.iterations += iterations;
+    outcome.residual_evaluations += residuals;
+    outcome.jacobian_evaluations += jacobians;
+    Ok((weighted, outcome))
 }
 
 /// `1 / v` for every variance, if all are positive and finite.

@@ -118,11 +118,15 @@ pub enum RobustLoss {
 /// How the rows are weighted.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub enum Weighting {
-    /// Ordinary least squares (the paper's method).
+    /// [`Weighting::Noise`] when the fit expects a noise ([`FitOptions::expected_noise`]),
+    /// else [`Weighting::Unweighted`]: the default.
     #[default]
+    Declared,
+    /// Ordinary least squares (the paper's method).
     Unweighted,
-    /// Weighted least squares, each row by the inverse of its expected residual variance under
-    /// the declared noise, evaluated at the nominal parameters.
+    /// Weighted least squares (generalised least squares on the rows' variances), each row by
+    /// the inverse of its expected residual variance under the declared noise, evaluated at
+    /// the estimate: the weights are re-evaluated and the fit repeated until they agree.
     Noise,
 }
 
@@ -144,7 +148,7 @@ pub struct FitOptions {
 impl Default for FitOptions {
     fn default() -> Self {
         FitOptions {
-            weights: Weighting::Unweighted,
+            weights: Weighting::Declared,
             robust: None,
             drop_outliers: false,
             noise_scale: 1.0,
@@ -164,6 +168,22 @@ impl FitOptions {
                 reading: noise.reading * scale,
             })
             .filter(|n| n.reading > 0.0 || n.pose.iter().any(|&s| s > 0.0))
+    }
+
+    /// These options for `mechanism`: [`Weighting::Declared`] made [`Weighting::Noise`] or
+    /// [`Weighting::Unweighted`] by whether the fit expects a noise (a robust loss replaces
+    /// the weighting: unweighted).
+    pub fn resolved(self, mechanism: &Mechanism) -> FitOptions {
+        let weights = match self.weights {
+            Weighting::Declared
+                if self.robust.is_none() && self.expected_noise(mechanism).is_some() =>
+            {
+                Weighting::Noise
+            }
+            Weighting::Declared => Weighting::Unweighted,
+            chosen => chosen,
+        };
+        FitOptions { weights, ..self }
     }
 }
 

@@ -182,7 +182,12 @@ pub fn identify_shared(
         solver: SolverKind::LevenbergMarquardt,
         legs,
         runs: vec![run],
-        options,
+        // Through the instrument the fit is unweighted (its covariance the sandwich of
+        // `shared_covariance`), whatever the default.
+        options: FitOptions {
+            weights: super::result::Weighting::Unweighted,
+            ..options
+        },
         warnings: Vec::new(),
         instrument: Some(instrument),
     })

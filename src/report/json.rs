@@ -135,7 +135,7 @@ impl<'a> ResultJson<'a> {
             strategy: result.strategy.name(),
             solver: result.solver.short_name(),
             weights: match result.options.weights {
-                Weighting::Unweighted => "none",
+                Weighting::Unweighted | Weighting::Declared => "none",
                 Weighting::Noise => "noise",
             },
             robust: result.options.robust.map(|r| r.name()),

@@ -257,8 +257,8 @@ fn fit_text(result: &StrategyResult) -> String {
             "robust {} loss scaled by the declared noise (iteratively reweighted); costs and σ̂ are of the weighted residuals",
             loss.name()
         ),
-        (None, Weighting::Noise) => "least squares weighted by the declared noise; costs and σ̂ are of the weighted (dimensionless) residuals".to_string(),
-        (None, Weighting::Unweighted) => "unweighted least squares".to_string(),
+        (None, Weighting::Noise) => "least squares weighted by the declared noise (at the estimate); costs and σ̂ are of the weighted (dimensionless) residuals".to_string(),
+        (None, Weighting::Unweighted | Weighting::Declared) => "unweighted least squares".to_string(),
     };
     if options.drop_outliers {
         text.push_str("; refitted without the outlier rows");

@@ -138,7 +138,7 @@ fn covariance_and_row_residuals_match_an_independent_recomputation() {
     let experiment = simulate(&mechanism, SimulationOptions::default()).unwrap();
     file::write(&csv, &mechanism, &experiment.measurements).unwrap();
     let data = file::read(&csv, &mechanism).unwrap();
-    let result = identify(
+    let result = crate::support::identify_unweighted(
         &mechanism,
         &data,
         Strategy::DivideAndConquer,

@@ -90,7 +90,7 @@ fn a_noise_block_of_zeros_is_no_declared_noise() {
 fn a_readings_only_noise_weights_every_row_alike() {
     let sigma_q = 2.0e-4;
     let readings_only = with_noise(0.0, sigma_q);
-    let plain = fit(&readings_only, &clean_csv(), FitOptions::default()).expect("fits");
+    let plain = fit(&readings_only, &clean_csv(), crate::support::unweighted()).expect("fits");
     let weighted =
         fit(&readings_only, &clean_csv(), WEIGHTED).expect("a readings noise is a noise");
     for (w, p) in weighted.legs.iter().zip(&plain.legs) {

@@ -129,10 +129,17 @@ fn one_and_two_threads_give_identical_reports_and_every_statistic_follows_from_t
             let s = (ss / 5.0).sqrt();
             let std = (s, (ss / CHI2_5.1).sqrt(), (ss / CHI2_5.0).sqrt());
             assert_estimate(&stats["std_error"], std, &format!("{what} std"));
+            // The RMS interval is the square root of the mean square's t interval: compared
+            // as squares, since near zero a root magnifies the printed quantile's rounding.
             let squares: Vec<f64> = errors.iter().map(|e| e * e).collect();
             let (ms, lo, hi) = t_interval(&squares);
-            let rms = (ms.sqrt(), lo.max(0.0).sqrt(), hi.sqrt());
-            assert_estimate(&stats["rms_error"], rms, &format!("{what} RMS"));
+            let (v, l, h) = estimate(&stats["rms_error"]);
+            close(v * v, ms, &format!("{what} RMS² value"));
+            assert!(
+                (l * l - lo.max(0.0)).abs() <= 1e-6 * ms,
+                "{what} RMS low {l} for {lo}"
+            );
+            close(h * h, hi, &format!("{what} RMS² high"));
             let predicted = per_trial(key, "predicted_std", Some(p));
             assert!(predicted.iter().all(|s| *s > 0.0), "{what}: a σ per fit");
             assert_estimate(&stats["predicted_std"], t_interval(&predicted), &what);

@@ -9,7 +9,7 @@
 //! residuals t_i = r_i/(σ_i √(1 − h_ii)), h from the explicit hat matrix of the σ-scaled
 //! Jacobian, against the normal law's Bonferroni quantile (printed tables: 3.452433 for
 //! 18 rows at family level 1 %).
-use legwise::identify::estimate::{identify, identify_with, FitOptions, Strategy, StrategyResult};
+use legwise::identify::estimate::{identify_with, FitOptions, Strategy, StrategyResult};
 use legwise::identify::robust::RobustLoss;
 use legwise::kinematics::inverse::predict_reading;
 use legwise::measure::file::read;
@@ -122,7 +122,7 @@ fn robust_fit(mechanism: &Mechanism, data: &MeasurementSet, loss: RobustLoss) ->
 #[test]
 fn robust_estimates_solve_their_weighted_normal_equations() {
     let (mechanism, data) = outlier_data();
-    let plain = identify(
+    let plain = crate::support::identify_unweighted(
         &mechanism,
         &data,
         Strategy::DivideAndConquer,

@@ -266,7 +266,8 @@ fn an_exact_start_converges() {
     let set = legwise::measure::file::read(&path, &mech).unwrap();
     for solver in [SolverKind::LevenbergMarquardt, SolverKind::GaussNewton] {
         for strategy in [Strategy::DivideAndConquer, Strategy::Traditional] {
-            let result = identify(&mech, &set, strategy, solver).unwrap();
+            let result =
+                crate::support::identify_unweighted(&mech, &set, strategy, solver).unwrap();
             for run in &result.runs {
                 assert!(run.final_cost < 1e-28, "{}", run.final_cost);
                 assert!(

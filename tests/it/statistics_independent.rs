@@ -5,7 +5,7 @@
 //! of which the identification itself uses. Plus the edge cases of the measurement count:
 //! exactly n measurements for n parameters, and rank deficiency with n rows.
 use legwise::error::Error;
-use legwise::identify::estimate::{identify, identify_problem, FitOptions, LegEstimate, Strategy};
+use legwise::identify::estimate::{identify, identify_problem, LegEstimate, Strategy};
 use legwise::identify::problem::IdentificationProblem;
 use legwise::identify::residual::ResidualBlock;
 use legwise::measure::simulate::{simulate, SimulationOptions};
@@ -132,7 +132,9 @@ fn check_leg(
 fn divide_and_conquer_statistics_match_an_independent_recomputation() {
     let (mech, data) = noisy_5r_with_a_fixed_parameter();
     for solver in [SolverKind::LevenbergMarquardt, SolverKind::GaussNewton] {
-        let result = identify(&mech, &data, Strategy::DivideAndConquer, solver).unwrap();
+        let result =
+            crate::support::identify_unweighted(&mech, &data, Strategy::DivideAndConquer, solver)
+                .unwrap();
         assert_eq!(result.strategy.name(), "divide and conquer");
         assert_eq!(result.legs.len(), 2);
         assert_eq!(result.runs.len(), 2);
@@ -147,7 +149,7 @@ fn divide_and_conquer_statistics_match_an_independent_recomputation() {
 }
 
 /// A problem handed to [`identify_problem`] with row weights of its own is fitted as the
-/// options say (plain least squares by default, its weights dropped): every cost reported is
+/// options say (here plain least squares, its weights dropped): every cost reported is
 /// that of the fitted problem, the initial one included (½‖r(x₀)‖², not ½‖√w r(x₀)‖²), and
 /// the estimate and its statistics are those of the unweighted identification.
 #[test]
@@ -163,7 +165,7 @@ fn a_weighted_problem_fitted_without_weights_reports_the_costs_of_the_fitted_pro
             &data,
             &problem,
             SolverKind::GaussNewton,
-            FitOptions::default(),
+            crate::support::unweighted(),
         )
         .unwrap();
         assert_eq!(estimates.len(), 1);
@@ -176,7 +178,7 @@ fn a_weighted_problem_fitted_without_weights_reports_the_costs_of_the_fitted_pro
 #[test]
 fn traditional_statistics_match_an_independent_recomputation() {
     let (mech, data) = noisy_5r_with_a_fixed_parameter();
-    let result = identify(
+    let result = crate::support::identify_unweighted(
         &mech,
         &data,
         Strategy::Traditional,

@@ -93,3 +93,24 @@ pub(crate) fn assert_central_differences<P>(
         );
     }
 }
+
+/// The fit options of ordinary (unweighted) least squares, the paper's method: what the tests
+/// of the unweighted formulas ask for, the default being weighted by a declared noise.
+#[allow(dead_code)]
+pub(crate) fn unweighted() -> legwise::identify::estimate::FitOptions {
+    legwise::identify::estimate::FitOptions {
+        weights: legwise::identify::estimate::Weighting::Unweighted,
+        ..Default::default()
+    }
+}
+
+/// [`legwise::identify::estimate::identify`] by ordinary least squares ([`unweighted`]).
+#[allow(dead_code)]
+pub(crate) fn identify_unweighted(
+    mechanism: &Mechanism,
+    data: &legwise::measure::MeasurementSet,
+    strategy: legwise::identify::estimate::Strategy,
+    solver: legwise::solver::SolverKind,
+) -> legwise::error::Result<legwise::identify::estimate::StrategyResult> {
+    legwise::identify::estimate::identify_with(mechanism, data, strategy, solver, unweighted())
+}
