@@ -4,6 +4,8 @@
 //! estimate or its standard deviations and divides σ̂ by σ_q (recomputed from the reported row
 //! residuals); a pose-only noise is a declared noise too; and `--drop-outliers` refits exactly
 //! once, even when the refit reveals an outlier the first fit's large one was masking.
+//! The default fit of a model with a declared noise is weighted, by the variances at the
+//! estimate (its final cost recomputed here with finite-difference gradients).
 use legwise::error::Error;
 use legwise::identify::estimate::{
     identify_with, FitOptions, LegEstimate, Strategy, StrategyResult, Weighting,
@@ -200,4 +202,70 @@ fn drop_outliers_refits_once_even_when_the_refit_finds_a_masked_outlier() {
     let revealed: Vec<Option<usize>> = leg1.statistics.outliers.iter().map(|o| o.line).collect();
     assert_eq!(revealed, vec![Some(3)], "reported, not dropped");
     assert_eq!(dropped.legs[1].measurements, first.legs[1].measurements);
+}
+
+/// The default fit of a model that declares its noise is the weighted one, and the weights are
+/// those of the estimate: the reported final cost is ½ Σ r_i²/v_i with each row's expected
+/// variance v_i = σ_q² + Σ_c (σ_c ∂ψ/∂P_c)² recomputed here at the estimate, the gradient by
+/// central differences of the leg's predicted reading. The same sum with the variances at the
+/// nominal parameters (where the weights start) is measurably different, so the test tells
+/// the two apart. Without a declared noise the default is unweighted.
+#[test]
+fn the_default_fit_is_weighted_by_the_declared_noise_at_the_estimate() {
+    use legwise::kinematics::inverse::predict_reading;
+    let mechanism = bundled("5r.yaml");
+    let data = read(&crate_path("tests/data/stats_5r_clean.csv"), &mechanism).unwrap();
+    let default = fit(&mechanism, &clean_csv(), FitOptions::default()).unwrap();
+    let explicit = fit(&mechanism, &clean_csv(), WEIGHTED).unwrap();
+    assert_eq!(default.options.weights, Weighting::Noise);
+    let noise = mechanism.noise.expect("the 5R declares its noise");
+    for (l, leg) in default.legs.iter().enumerate() {
+        assert_eq!(format!("{leg:?}"), format!("{:?}", explicit.legs[l]));
+        let model = &mechanism.legs[l];
+        let estimate: Vec<f64> = leg.parameters.iter().map(|p| p.estimate).collect();
+        let nominal: Vec<f64> = leg.parameters.iter().map(|p| p.nominal).collect();
+        let variance = |phi: &[f64], pose: &[f64; 6]| {
+            let mut v = noise.reading.powi(2);
+            for c in 0..6 {
+                let h = 1e-6;
+                let (mut up, mut down) = (*pose, *pose);
+                up[c] += h;
+                down[c] -= h;
+                let at =
+                    |p: &[f64; 6]| predict_reading(model, phi, p, &mechanism.home_pose).unwrap();
+                let gradient = (at(&up) - at(&down)) / (2.0 * h);
+                v += (gradient * noise.pose[c]).powi(2);
+            }
+            v
+        };
+        let blocks = data.leg_blocks(l);
+        assert_eq!(blocks.len(), leg.residuals.len());
+        let cost_with = |phi: &[f64]| -> f64 {
+            let terms = blocks.iter().zip(&leg.residuals);
+            0.5 * terms
+                .map(|(b, r)| r.residual.powi(2) / variance(phi, &b.pose))
+                .sum::<f64>()
+        };
+        let at_estimate = cost_with(&estimate);
+        let at_nominal = cost_with(&nominal);
+        assert!(
+            (leg.final_cost - at_estimate).abs() <= 1e-7 * at_estimate,
+            "{}: reported {} against {at_estimate} at the estimate",
+            leg.leg,
+            leg.final_cost
+        );
+        assert!(
+            (at_nominal - at_estimate).abs() > 1e-5 * at_estimate,
+            "{}: the weights at the nominal parameters give {at_nominal}, too close to tell",
+            leg.leg
+        );
+    }
+    let quiet = mechanism.edited(|parts| parts.noise = None);
+    let unweighted = fit(&quiet, &clean_csv(), FitOptions::default()).unwrap();
+    assert_eq!(unweighted.options.weights, Weighting::Unweighted);
+    let plain = fit(&quiet, &clean_csv(), crate::support::unweighted()).unwrap();
+    assert_eq!(
+        format!("{:?}", unweighted.legs),
+        format!("{:?}", plain.legs)
+    );
 }
