@@ -230,7 +230,7 @@ pub fn identify_problem(
             FitKind::Robust => &stats.outlier_rows,
             FitKind::LeastSquares => &[],
         };
-        let (residual_sigma, covariance) = leg_covariance(problem, slot, &r, &c, excluded);
+        let (residual_sigma, covariance, dof) = leg_covariance(problem, slot, &r, &c, excluded);
         let fit = Fit {
             x: &outcome.x,
             r0: &r0,
@@ -238,6 +238,7 @@ pub fn identify_problem(
             unweighted_r,
             unweighted_c,
         };
+        let covariance = (covariance, dof);
         let mut estimate = leg_estimate(mechanism, problem, slot, &fit, residual_sigma, covariance);
         estimate.statistics = stats;
         estimate.warnings = leg_warnings(mechanism, slot, &estimate.statistics);
@@ -276,15 +277,16 @@ pub(super) struct Fit<'f> {
     pub(super) unweighted_c: &'f DMatrix<f64>,
 }
 
-/// The σ̂ of the leg in `slot` (its rows of `r` but the `excluded` ones) and its covariance
-/// `σ̂² (CᵀC)⁻¹` from its block of the Jacobian `c`; `None` without redundancy.
+/// The σ̂ of the leg in `slot` (its rows of `r` but the `excluded` ones), its covariance
+/// `σ̂² (CᵀC)⁻¹` from its block of the Jacobian `c` and the degrees of freedom `m − n` of σ̂;
+/// `None` without redundancy.
 fn leg_covariance(
     problem: &IdentificationProblem<'_>,
     slot: &LegSlot,
     r: &DVector<f64>,
     c: &DMatrix<f64>,
     excluded: &[usize],
-) -> (Option<f64>, Option<DMatrix<f64>>) {
+) -> (Option<f64>, Option<DMatrix<f64>>, Option<usize>) {
     let n = slot.columns.len();
     let kept: Vec<usize> = problem
         .rows_of(slot)
@@ -297,11 +299,15 @@ fn leg_covariance(
         unscaled_covariance(&problem.slot_jacobian(slot, c))
             .map(|inverse| inverse * (sigma * sigma))
     });
-    (residual_sigma, covariance)
+    (
+        residual_sigma,
+        covariance,
+        kept.len().checked_sub(n).filter(|&d| d > 0),
+    )
 }
 
 /// The leg in `slot`'s part of a fitted problem: its parameters (σ from the diagonal of
-/// `covariance`, the leg's block of the estimate's covariance), its rows' costs at the start
+/// `covariance`, the leg's block of the estimate's covariance, on `dof` degrees of freedom), its rows' costs at the start
 /// and at the estimate, their residuals (measured minus predicted reading, unweighted) and the
 /// observability of its own columns of the unweighted Jacobian.
 pub(super) fn leg_estimate(
@@ -310,7 +316,7 @@ pub(super) fn leg_estimate(
     slot: &LegSlot,
     fit: &Fit<'_>,
     residual_sigma: Option<f64>,
-    covariance: Option<DMatrix<f64>>,
+    (covariance, dof): (Option<DMatrix<f64>>, Option<usize>),
 ) -> LegEstimate {
     let leg = &mechanism.legs[slot.leg];
     let rows = problem.rows_of(slot);
@@ -329,6 +335,7 @@ pub(super) fn leg_estimate(
                 estimate: phi[i],
                 std: column.and_then(|k| covariance.as_ref().map(|v| v[(k, k)].max(0.0).sqrt())),
                 identified: p.identified,
+                degrees_of_freedom: column.and(covariance.as_ref()).and(dof),
             }
         })
         .collect();

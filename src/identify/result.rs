@@ -64,6 +64,19 @@ pub struct ParameterEstimate {
     pub std: Option<f64>,
     /// Identified (true) or held fixed.
     pub identified: bool,
+    /// The residual degrees of freedom `m − n` of the σ̂ behind [`Self::std`] (`None`
+    /// without a std).
+    pub degrees_of_freedom: Option<usize>,
+}
+
+impl ParameterEstimate {
+    /// Half the width of the two-sided 95 % interval, `t(0.975, ν) · std` with Student's t on
+    /// the [`degrees_of_freedom`](Self::degrees_of_freedom) ν (σ̂ is estimated from the
+    /// residuals, so the normal 1.96 would make the interval too short); `None` without a std.
+    pub fn half_width95(&self) -> Option<f64> {
+        let (std, dof) = (self.std?, self.degrees_of_freedom?);
+        Some(super::statistics::student_t_975(dof) * std)
+    }
 }
 
 /// One leg's result.

@@ -125,6 +125,8 @@ pub fn identify_shared(
         return Err(solver_error("the estimate is not finite"));
     }
     let (m, n) = jacobian.shape();
+    // The degrees of freedom of the residuals' scale behind every σ.
+    let dof = m.checked_sub(n).filter(|&d| d > 0);
     let loadings = match options.expected_noise(mechanism) {
         Some(noise) => Some(
             problem
@@ -163,12 +165,12 @@ pub fn identify_shared(
                 )
                 .into_owned()
             });
-            leg_estimate(mechanism, &problem, slot, &fit, None, block)
+            leg_estimate(mechanism, &problem, slot, &fit, None, (block, dof))
         })
         .collect();
     let names: Vec<String> = legs.iter().map(|l| l.leg.clone()).collect();
     let instrument = InstrumentEstimate {
-        parameters: instrument_parameters(&problem, &outcome.x, sigmas.as_deref()),
+        parameters: instrument_parameters(&problem, &outcome.x, sigmas.as_deref().zip(dof)),
         rows: m,
         unknowns: n,
         rms: (r.norm_squared() / m.max(1) as f64).sqrt(),
@@ -199,7 +201,7 @@ pub fn identify_shared(
 fn instrument_parameters(
     problem: &IdentificationProblem<'_>,
     x: &DVector<f64>,
-    sigmas: Option<&[f64]>,
+    sigmas: Option<(&[f64], usize)>,
 ) -> Vec<ParameterEstimate> {
     let values = problem.shared_values(x);
     let identified = problem.shared_columns();
@@ -212,10 +214,8 @@ fn instrument_parameters(
         .iter()
         .enumerate()
         .map(|(k, p)| {
-            let std = identified
-                .iter()
-                .position(|&c| c == k)
-                .and_then(|i| sigmas.map(|s| s[first + i]));
+            let column = identified.iter().position(|&c| c == k);
+            let std = column.and_then(|i| sigmas.map(|(s, _)| s[first + i]));
             ParameterEstimate {
                 name: p.name.clone(),
                 unit: p.unit,
@@ -223,6 +223,7 @@ fn instrument_parameters(
                 estimate: values[k],
                 std,
                 identified: p.identified,
+                degrees_of_freedom: std.and(sigmas.map(|(_, dof)| dof)),
             }
         })
         .collect()

@@ -33,6 +33,12 @@ use statrs::distribution::{ChiSquared, ContinuousCDF, Normal, StudentsT};
 use super::problem::{BlockError, IdentificationProblem, LegSlot};
 use crate::model::mechanism::MeasurementNoise;
 
+/// The 0.975 quantile of Student's t with `dof` degrees of freedom (NaN for none): the factor
+/// of a two-sided 95 % interval built on an estimated σ.
+pub fn student_t_975(dof: usize) -> f64 {
+    StudentsT::new(0.0, 1.0, dof as f64).map_or(f64::NAN, |t| t.inverse_cdf(0.975))
+}
+
 /// Upper-tail probability of the χ² statistic below which the declared noise is rejected.
 pub const NOISE_TEST_P: f64 = 1e-3;
 

@@ -142,6 +142,7 @@ mod tests {
             estimate,
             std,
             identified,
+            degrees_of_freedom: std.map(|_| 10),
         }
     }
 

@@ -98,9 +98,12 @@ pub fn calibrated_files(calibration: &Calibration<'_>, urdf_name: &str) -> Resul
     })
 }
 
-/// Per leg, every parameter's calibrated value and σ (the nominal value and no σ for legs the
-/// result did not identify).
-fn calibrated_values(calibration: &Calibration<'_>) -> Vec<Vec<(f64, Option<f64>)>> {
+/// A parameter's calibrated value, its σ and the σ's degrees of freedom.
+type Calibrated = (f64, Option<f64>, Option<usize>);
+
+/// Per leg, every parameter's calibrated value, σ and the σ's degrees of freedom (the nominal
+/// value and no σ for legs the result did not identify).
+fn calibrated_values(calibration: &Calibration<'_>) -> Vec<Vec<Calibrated>> {
     calibration
         .mechanism
         .legs
@@ -110,9 +113,9 @@ fn calibrated_values(calibration: &Calibration<'_>) -> Vec<Vec<(f64, Option<f64>
                 Some(estimate) => estimate
                     .parameters
                     .iter()
-                    .map(|p| (p.estimate, p.std))
+                    .map(|p| (p.estimate, p.std, p.degrees_of_freedom))
                     .collect(),
-                None => leg.params.iter().map(|p| (p.nominal, None)).collect(),
+                None => leg.params.iter().map(|p| (p.nominal, None, None)).collect(),
             },
         )
         .collect()
@@ -126,7 +129,7 @@ fn calibrated_values(calibration: &Calibration<'_>) -> Vec<Vec<(f64, Option<f64>
 pub fn calibrated_urdf(
     mechanism: &Mechanism,
     source: &str,
-    values: &[Vec<(f64, Option<f64>)>],
+    values: &[Vec<Calibrated>],
 ) -> Result<String> {
     let urdf_error = |message: String| Error::Urdf {
         path: mechanism.urdf_path.clone(),
@@ -135,7 +138,7 @@ pub fn calibrated_urdf(
     let mut robot =
         urdf_rs::read_file(&mechanism.urdf_path).map_err(|e| urdf_error(e.to_string()))?;
     for (leg, leg_values) in mechanism.legs.iter().zip(values) {
-        for (param, &(value, _)) in leg.params.iter().zip(leg_values) {
+        for (param, &(value, _, _)) in leg.params.iter().zip(leg_values) {
             if let ParamTarget::JointOrigin { joint, component } = param.target {
                 let name = &leg.joints[joint].name;
                 let urdf_joint = robot
@@ -168,7 +171,7 @@ pub fn calibrated_urdf(
 /// The model file with the identified actuator and attachment values and the new URDF name.
 fn calibrated_yaml(
     calibration: &Calibration<'_>,
-    values: &[Vec<(f64, Option<f64>)>],
+    values: &[Vec<Calibrated>],
     urdf_name: &str,
 ) -> Result<String> {
     let mechanism = calibration.mechanism;
@@ -216,16 +219,12 @@ fn calibrated_yaml(
 
 /// Writes the actuator gains and offsets and the attachments of `values` (per leg, model order)
 /// into the model file `file` of `mechanism` (joint origins go into the URDF).
-pub fn set_leg_values(
-    file: &mut ModelFile,
-    mechanism: &Mechanism,
-    values: &[Vec<(f64, Option<f64>)>],
-) {
+pub fn set_leg_values(file: &mut ModelFile, mechanism: &Mechanism, values: &[Vec<Calibrated>]) {
     for (leg, leg_values) in mechanism.legs.iter().zip(values) {
         let Some(entry) = file.legs.iter_mut().find(|e| e.name == leg.name) else {
             continue;
         };
-        for (param, &(value, _)) in leg.params.iter().zip(leg_values) {
+        for (param, &(value, _, _)) in leg.params.iter().zip(leg_values) {
             match param.target {
                 ParamTarget::Gain => entry.actuator.gain = value,
                 ParamTarget::Offset => entry.actuator.offset = value,
@@ -239,11 +238,7 @@ pub fn set_leg_values(
 }
 
 /// The comment block at the top of the calibrated model file.
-fn header(
-    calibration: &Calibration<'_>,
-    values: &[Vec<(f64, Option<f64>)>],
-    urdf_name: &str,
-) -> String {
+fn header(calibration: &Calibration<'_>, values: &[Vec<Calibrated>], urdf_name: &str) -> String {
     let mechanism = calibration.mechanism;
     let result = calibration.result;
     let mut lines = vec![
@@ -280,11 +275,15 @@ fn header(
                 .into(),
         );
     }
-    lines.push("Values (SI units) with their standard deviation σ = σ̂ √diag (CᵀC)⁻¹:".into());
+    lines.push(
+        "Values (SI units) with their standard deviation σ = σ̂ √diag (CᵀC)⁻¹ and the half width \
+         of their 95 % interval, t·σ with Student's t on σ̂'s degrees of freedom:"
+            .into(),
+    );
     for p in instrument.iter().flat_map(|i| &i.parameters) {
         let status = match (p.identified, p.std) {
             (false, _) => "fixed (not identified)".to_string(),
-            (true, Some(s)) => format!("σ = {s:.3e} {}", p.unit),
+            (true, Some(s)) => uncertainty(s, p.degrees_of_freedom, p.unit),
             (true, None) => "σ unknown (registered by the first stage, or no redundancy)".into(),
         };
         lines.push(format!(
@@ -293,11 +292,11 @@ fn header(
         ));
     }
     for (leg, leg_values) in mechanism.legs.iter().zip(values) {
-        for (param, &(value, std)) in leg.params.iter().zip(leg_values) {
+        for (param, &(value, std, dof)) in leg.params.iter().zip(leg_values) {
             let unit = param.unit;
             let status = match (param.identified, std) {
                 (false, _) => "fixed (not identified)".to_string(),
-                (true, Some(s)) => format!("σ = {s:.3e} {unit}"),
+                (true, Some(s)) => uncertainty(s, dof, unit),
                 (true, None) => "σ unknown (no redundancy, or the leg was not identified)".into(),
             };
             let origin = match param.target {
@@ -317,4 +316,16 @@ fn header(
         .iter()
         .map(|line| format!("# {line}\n"))
         .collect::<String>()
+}
+/// `σ = … unit; 95 %: ± … unit (t on ν degrees of freedom)` for a σ on `dof` degrees of freedom.
+fn uncertainty(std: f64, dof: Option<usize>, unit: impl std::fmt::Display) -> String {
+    match dof {
+        Some(dof) => {
+            let half = crate::identify::statistics::student_t_975(dof) * std;
+            format!(
+                "σ = {std:.3e} {unit}; 95 %: ± {half:.3e} {unit} (t on {dof} degrees of freedom)"
+            )
+        }
+        None => format!("σ = {std:.3e} {unit}"),
+    }
 }

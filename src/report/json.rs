@@ -165,6 +165,8 @@ struct ParameterJson<'a> {
     nominal: f64,
     identified: f64,
     std: Option<f64>,
+    degrees_of_freedom: Option<usize>,
+    ci95: Option<[f64; 2]>,
     real: Option<f64>,
     error_before: Option<f64>,
     error_after: Option<f64>,
@@ -179,6 +181,10 @@ impl<'a> ParameterJson<'a> {
             nominal: p.nominal,
             identified: p.estimate,
             std: (p.std),
+            degrees_of_freedom: p.degrees_of_freedom,
+            ci95: p
+                .half_width95()
+                .map(|half| [p.estimate - half, p.estimate + half]),
             real: (real),
             error_before: (real.map(|r| p.nominal - r)),
             error_after: (real.map(|r| p.estimate - r)),

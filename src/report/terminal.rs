@@ -73,8 +73,8 @@ fn render_maps(out: &mut String, report: &Report<'_>, maps: &super::AccuracyMaps
 /// The table header of a block of parameters (with the real values' columns in simulation).
 fn table_header(known: bool) -> String {
     let mut header = format!(
-        "  {:<10} {:>4} {:>15} {:>15} {:>10}",
-        "parameter", "unit", "nominal", "identified", "std"
+        "  {:<10} {:>4} {:>15} {:>15} {:>10} {:>10}",
+        "parameter", "unit", "nominal", "identified", "std", "± 95 %"
     );
     if known {
         let _ = write!(
@@ -90,12 +90,13 @@ fn table_header(known: bool) -> String {
 fn table_row(p: &ParameterEstimate, real: Option<f64>) -> String {
     let fixed = if p.identified { "" } else { "  (fixed)" };
     let mut row = format!(
-        "  {:<10} {:>4} {} {} {}",
+        "  {:<10} {:>4} {} {} {} {}",
         p.name,
         p.unit.to_string(),
         number(Some(p.nominal), 15),
         number(Some(p.estimate), 15),
-        scientific(p.std, 10)
+        scientific(p.std, 10),
+        scientific(p.half_width95(), 10)
     );
     if let Some(real) = real {
         let _ = write!(

@@ -11,7 +11,7 @@
 //! writes them as `null`).
 
 use serde::Serialize;
-use statrs::distribution::{ChiSquared, ContinuousCDF, StudentsT};
+use statrs::distribution::{ChiSquared, ContinuousCDF};
 
 /// Confidence level of every interval.
 pub const CONFIDENCE: f64 = 0.95;
@@ -68,8 +68,7 @@ pub fn t_quantile(n: usize) -> f64 {
     if n < 2 {
         return f64::NAN;
     }
-    StudentsT::new(0.0, 1.0, (n - 1) as f64)
-        .map_or(f64::NAN, |t| t.inverse_cdf(0.5 + CONFIDENCE / 2.0))
+    crate::identify::statistics::student_t_975(n - 1)
 }
 
 /// The mean of `values` with its t interval.

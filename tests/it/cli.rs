@@ -103,7 +103,7 @@ fn assert_rows_match_the_library(stdout: &str, model: &str) {
                 .map(|w| w.parse().unwrap())
                 .collect();
             let real = experiment.real[leg][p];
-            let [nominal, identified, std, printed_real, before, after] = row[..] else {
+            let [nominal, identified, std, half, printed_real, before, after] = row[..] else {
                 panic!("row of `{}`: {row:?}", param.name);
             };
             let what = &param.name;
@@ -117,6 +117,11 @@ fn assert_rows_match_the_library(stdout: &str, model: &str) {
                 param.estimate
             );
             assert!(near(std, param.std.unwrap(), 6e-3), "{what} std {std}");
+            let t = param.half_width95().unwrap() / param.std.unwrap();
+            assert!(
+                near(half, t * param.std.unwrap(), 6e-3),
+                "{what} ± 95 % {half}"
+            );
             assert!(near(printed_real, real, 0.0), "{what} real {printed_real}");
             assert!(
                 near(before, param.nominal - real, 6e-3),

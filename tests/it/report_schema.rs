@@ -77,13 +77,15 @@ const LEG: [&str; 22] = [
     "correlation",
     "rows",
 ];
-const PARAMETER: [&str; 9] = [
+const PARAMETER: [&str; 11] = [
     "name",
     "unit",
     "fixed",
     "nominal",
     "identified",
     "std",
+    "degrees_of_freedom",
+    "ci95",
     "real",
     "error_before",
     "error_after",
@@ -210,5 +212,98 @@ fn every_key_of_the_reports_is_documented() {
     assert!(
         undocumented.is_empty(),
         "not in docs/report.md: {undocumented:?}"
+    );
+}
+
+/// Each identified parameter's 95 % interval is its estimate ± t·std, t the 0.975 quantile of
+/// Student's t on its degrees of freedom (printed tables: 2.178813 for 12, 2.063899 for 24):
+/// the JSON, the terminal's `± 95 %` column and the calibrated model's comments agree.
+#[test]
+fn intervals_use_student_s_t_on_the_residual_degrees_of_freedom() {
+    use legwise::identify::estimate::ParameterEstimate;
+    let t = |dof: u64| match dof {
+        12 => 2.178_813,
+        24 => 2.063_899,
+        other => panic!("no printed quantile for {other} degrees of freedom"),
+    };
+    for (model, dof) in [("5r.yaml", 12), ("5r-tracker.yaml", 24)] {
+        let out = crate::cli::legwise(&[
+            "identify",
+            "--model",
+            &format!("models/{model}"),
+            "--json",
+            "-",
+        ]);
+        assert_eq!(
+            out.status.code(),
+            Some(0),
+            "{}",
+            crate::cli::text(&out.stderr)
+        );
+        let json: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+        let legs = json["results"][0]["legs"].as_array().unwrap();
+        let mut checked = 0;
+        for p in legs
+            .iter()
+            .flat_map(|l| l["parameters"].as_array().unwrap())
+        {
+            if p["fixed"].as_bool().unwrap() {
+                assert!(p["ci95"].is_null() && p["degrees_of_freedom"].is_null());
+                continue;
+            }
+            assert_eq!(
+                p["degrees_of_freedom"].as_u64(),
+                Some(dof),
+                "{model} {}",
+                p["name"]
+            );
+            let (value, std) = (
+                p["identified"].as_f64().unwrap(),
+                p["std"].as_f64().unwrap(),
+            );
+            let ci: Vec<f64> = p["ci95"]
+                .as_array()
+                .unwrap()
+                .iter()
+                .map(|v| v.as_f64().unwrap())
+                .collect();
+            for (bound, sign) in ci.iter().zip([-1.0, 1.0]) {
+                let expected = value + sign * t(dof) * std;
+                assert!(
+                    (bound - expected).abs() <= 1e-6 * t(dof) * std,
+                    "{model} {}: {bound} vs {expected}",
+                    p["name"]
+                );
+            }
+            checked += 1;
+        }
+        assert!(checked >= 6, "{model}: {checked} intervals");
+    }
+    // The library's half width, which the terminal and the calibrated model print.
+    let p = ParameterEstimate {
+        name: "l1".into(),
+        unit: legwise::model::params::Unit::Metre,
+        nominal: 0.75,
+        estimate: 0.75,
+        std: Some(1e-3),
+        identified: true,
+        degrees_of_freedom: Some(12),
+    };
+    assert!((p.half_width95().unwrap() - 2.178_813e-3).abs() < 1e-9);
+    assert_eq!(
+        ParameterEstimate {
+            std: None,
+            ..p.clone()
+        }
+        .half_width95(),
+        None
+    );
+    assert_eq!(
+        ParameterEstimate {
+            degrees_of_freedom: None,
+            ..p
+        }
+        .half_width95(),
+        None
     );
 }
