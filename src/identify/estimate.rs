@@ -13,6 +13,7 @@ use rayon::prelude::*;
 use super::fit;
 use super::observability::{analyse, Observability};
 use super::problem::{BlockError, IdentificationProblem, LegSlot};
+use super::sandwich::{self, NoiseLoadings};
 use super::solve_from::FitError;
 use super::statistics::{self, FitKind, LegStatistics};
 use crate::error::{Error, Result};
@@ -218,6 +219,15 @@ pub fn identify_problem(
         None
     };
     let (unweighted_r, unweighted_c) = unweighted.as_ref().map_or((&r, &c), |(r, c)| (r, c));
+    // Unweighted with a declared noise: the rows' variances differ, and the covariance is the
+    // sandwich that allows it.
+    let loadings = match (problem.is_weighted(), kind, noise.as_ref()) {
+        (false, FitKind::LeastSquares, Some(noise)) => Some(
+            statistics::row_loadings(problem, &outcome.x, noise)
+                .map_err(|e| located(mechanism, data, problem, e))?,
+        ),
+        _ => None,
+    };
     problem.release_gradients();
     let mut estimates = Vec::new();
     for slot in problem.slots() {
@@ -230,7 +240,8 @@ pub fn identify_problem(
             FitKind::Robust => &stats.outlier_rows,
             FitKind::LeastSquares => &[],
         };
-        let (residual_sigma, covariance, dof) = leg_covariance(problem, slot, &r, &c, excluded);
+        let (residual_sigma, covariance, dof) =
+            leg_covariance(problem, slot, (&r, &c), excluded, loadings.as_ref());
         let fit = Fit {
             x: &outcome.x,
             r0: &r0,
@@ -277,15 +288,16 @@ pub(super) struct Fit<'f> {
     pub(super) unweighted_c: &'f DMatrix<f64>,
 }
 
-/// The σ̂ of the leg in `slot` (its rows of `r` but the `excluded` ones), its covariance
-/// `σ̂² (CᵀC)⁻¹` from its block of the Jacobian `c` and the degrees of freedom `m − n` of σ̂;
-/// `None` without redundancy.
+/// The σ̂ of the leg in `slot` (its rows of `r` but the `excluded` ones), its covariance from
+/// its block of the Jacobian `c` and the degrees of freedom `m − n` of σ̂; `None` without
+/// redundancy. The covariance is `σ̂² (CᵀC)⁻¹`, or with the `loadings` of a declared noise on
+/// an unweighted fit the sandwich of [`super::sandwich`].
 fn leg_covariance(
     problem: &IdentificationProblem<'_>,
     slot: &LegSlot,
-    r: &DVector<f64>,
-    c: &DMatrix<f64>,
+    (r, c): (&DVector<f64>, &DMatrix<f64>),
     excluded: &[usize],
+    loadings: Option<&NoiseLoadings>,
 ) -> (Option<f64>, Option<DMatrix<f64>>, Option<usize>) {
     let n = slot.columns.len();
     let kept: Vec<usize> = problem
@@ -295,10 +307,24 @@ fn leg_covariance(
         .collect();
     let kept_squares: f64 = kept.iter().map(|&i| r[i] * r[i]).sum();
     let residual_sigma = (kept.len() > n).then(|| (kept_squares / (kept.len() - n) as f64).sqrt());
-    let covariance = residual_sigma.and_then(|sigma| {
-        unscaled_covariance(&problem.slot_jacobian(slot, c))
-            .map(|inverse| inverse * (sigma * sigma))
-    });
+    let covariance = match loadings {
+        // The leg's rows (a least-squares fit excludes none), each its own measurement.
+        Some(loadings) => residual_sigma.and_then(|_| {
+            let leg_r = DVector::from_iterator(kept.len(), kept.iter().map(|&i| r[i]));
+            let rows = kept.iter().enumerate();
+            let leg_loadings = NoiseLoadings {
+                reading: loadings.reading,
+                rows: rows
+                    .map(|(k, &i)| (k, loadings.rows[i].1.clone()))
+                    .collect(),
+            };
+            sandwich::covariance(&leg_r, &problem.slot_jacobian(slot, c), Some(&leg_loadings))
+        }),
+        None => residual_sigma.and_then(|sigma| {
+            unscaled_covariance(&problem.slot_jacobian(slot, c))
+                .map(|inverse| inverse * (sigma * sigma))
+        }),
+    };
     (
         residual_sigma,
         covariance,

@@ -9,7 +9,7 @@ pub mod problem;
 pub mod residual;
 pub mod result;
 pub mod robust;
-pub mod shared_covariance;
+pub mod sandwich;
 pub mod shared_estimate;
 mod solve_from;
 pub mod statistics;

@@ -21,7 +21,7 @@ use super::result::{
     FitOptions, InstrumentEstimate, LegEstimate, ParameterEstimate, SolverRun, Strategy,
     StrategyResult,
 };
-use super::shared_covariance::covariance;
+use super::sandwich::covariance;
 use super::statistics;
 use crate::error::{Error, Result};
 use crate::measure::observations::Observations;
@@ -185,7 +185,7 @@ pub fn identify_shared(
         legs,
         runs: vec![run],
         // Through the instrument the fit is unweighted (its covariance the sandwich of
-        // `shared_covariance`), whatever the default.
+        // `sandwich`), whatever the default.
         options: FitOptions {
             weights: super::result::Weighting::Unweighted,
             ..options

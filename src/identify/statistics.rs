@@ -31,6 +31,7 @@ use nalgebra::{DMatrix, DVector};
 use statrs::distribution::{ChiSquared, ContinuousCDF, Normal, StudentsT};
 
 use super::problem::{BlockError, IdentificationProblem, LegSlot};
+use super::sandwich::NoiseLoadings;
 use crate::model::mechanism::MeasurementNoise;
 
 /// The 0.975 quantile of Student's t with `dof` degrees of freedom (NaN for none): the factor
@@ -163,12 +164,34 @@ pub fn row_variances(
     x: &DVector<f64>,
     noise: &MeasurementNoise,
 ) -> Result<Vec<f64>, BlockError> {
+    let loadings = row_loadings(problem, x, noise)?;
+    let pose_part = |w: &[f64]| w.iter().map(|v| v.powi(2)).sum::<f64>();
+    let rows = loadings.rows.iter();
+    Ok(rows
+        .map(|(_, w)| noise.reading.powi(2) + pose_part(w))
+        .collect())
+}
+
+/// How the declared `noise` reaches every residual of `problem` at `x`: per row, `σ_c ∂ψ/∂P_c`
+/// over the pose coordinates (each row its own measurement: the poses' noises are
+/// independent from row to row of a leg), and the readings' own `σ_q`.
+///
+/// # Errors
+/// The first block whose leg cannot reach its pose.
+pub fn row_loadings(
+    problem: &IdentificationProblem<'_>,
+    x: &DVector<f64>,
+    noise: &MeasurementNoise,
+) -> Result<NoiseLoadings, BlockError> {
     let measured = &problem.mechanism().measured;
-    problem.map_solved(x, |index, leg, _, solution| {
+    let rows = problem.map_solved(x, |index, leg, _, solution| {
         let pose = &problem.blocks()[index].pose;
         let gradient = leg.pose_gradient_of(pose, solution, measured);
-        let pose_part: f64 = (0..6).map(|c| (gradient[c] * noise.pose[c]).powi(2)).sum();
-        noise.reading.powi(2) + pose_part
+        (index, (0..6).map(|c| gradient[c] * noise.pose[c]).collect())
+    })?;
+    Ok(NoiseLoadings {
+        reading: noise.reading,
+        rows,
     })
 }
 

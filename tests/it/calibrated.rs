@@ -138,8 +138,9 @@ fn covariance_and_row_residuals_match_an_independent_recomputation() {
     let experiment = simulate(&mechanism, SimulationOptions::default()).unwrap();
     file::write(&csv, &mechanism, &experiment.measurements).unwrap();
     let data = file::read(&csv, &mechanism).unwrap();
+    // Without a declared noise: the homoscedastic covariance recomputed below.
     let result = crate::support::identify_unweighted(
-        &mechanism,
+        &mechanism.edited(|parts| parts.noise = None),
         &data,
         Strategy::DivideAndConquer,
         SolverKind::GaussNewton,

@@ -44,6 +44,7 @@ mod report_schema;
 mod robust_stationarity;
 mod schur;
 mod selection;
+mod sigma_calibration;
 mod silent_inputs;
 mod solver_refine;
 mod solvers_agree;

@@ -20,14 +20,16 @@ use crate::support::bundled;
 /// The fixed parameter: leg 1's base-joint ordinate A1y (index 3), held at its nominal value.
 const FIXED: (usize, usize) = (0, 3);
 
-/// The bundled 5R with `A1y` fixed, and its seeded noisy experiment.
+/// The bundled 5R with `A1y` fixed, and its seeded noisy experiment; the mechanism returned
+/// declares no noise, so that its unweighted fits report the homoscedastic σ̂²(CᵀC)⁻¹
+/// recomputed here (with a declared noise they report the sandwich of `identify::sandwich`).
 fn noisy_5r_with_a_fixed_parameter() -> (Mechanism, MeasurementSet) {
     let mech =
         bundled("5r.yaml").edited(|parts| parts.legs[FIXED.0].params[FIXED.1].identified = false);
     let data = simulate(&mech, SimulationOptions::default())
         .unwrap()
         .measurements;
-    (mech, data)
+    (mech.edited(|parts| parts.noise = None), data)
 }
 
 /// Residuals and identified-column Jacobian of `blocks` at the full leg parameters `phi`,

@@ -6,7 +6,7 @@ use nalgebra::DVector;
 
 use super::sighted::reading_pose_gradient;
 use super::IdentificationProblem;
-use crate::identify::shared_covariance::NoiseLoadings;
+use crate::identify::sandwich::NoiseLoadings;
 use crate::model::mechanism::MeasurementNoise;
 
 impl IdentificationProblem<'_> {

@@ -1,7 +1,8 @@
-//! The covariance of the unweighted least-squares fit through the instrument (docs/method.md
-//! §13, "Statistics").
+//! The covariance of an unweighted least-squares fit whose rows' noise differs from row to row
+//! (docs/method.md §13, "Statistics"; docs/statistics.md, "Weights").
 //!
-//! Through an instrument the residuals' noise differs from row to row, and the residuals of one
+//! With pose noise each row's residual variance depends on the row (through the reading's
+//! gradient with respect to the pose); through an instrument, besides, the residuals of one
 //! measurement (a shared row read by several legs) share its targets' noise: the residual
 //! noise is `e = ε_q + W ε_m`, `ε_q` each reading's own noise (variance `σ_q²`), `ε_m` the
 //! targets' coordinates (unit variance after scaling), `W` the [`NoiseLoadings`]. Its covariance
@@ -21,7 +22,8 @@ use std::collections::BTreeMap;
 
 use nalgebra::{DMatrix, DVector};
 
-/// How the declared noise reaches the residuals (rows in the problem's order).
+/// How the declared noise reaches the residuals (rows in the problem's order): through an
+/// instrument, or from the measured poses ([`super::statistics::row_loadings`]).
 #[derive(Debug, Clone, PartialEq)]
 pub struct NoiseLoadings {
     /// The declared reading noise `σ_q` (each residual's own, independent of the others).
