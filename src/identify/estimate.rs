@@ -112,12 +112,112 @@ pub fn identify_with(
     Ok(result)
 }
 
-/// Identifies one problem: rank check, solver, statistics (and, with
-/// [`FitOptions::drop_outliers`], once more without the outlier rows).
+/// Identifies one problem: rank check, solver, statistics. A least-squares fit's outliers are
+/// those that stay outliers once the worse ones are gone ([`confirmed_outliers`]); with
+/// [`FitOptions::drop_outliers`] the result is the fit without them.
 ///
 /// # Errors
 /// As [`identify_with`].
 pub fn identify_problem(
+    mechanism: &Mechanism,
+    data: &MeasurementSet,
+    problem: &IdentificationProblem<'_>,
+    solver: SolverKind,
+    options: FitOptions,
+) -> Result<(Vec<LegEstimate>, SolverRun)> {
+    let options = options.resolved(mechanism);
+    let (mut estimates, run) = estimate_problem(mechanism, data, problem, solver, options)?;
+    if options.robust.is_some() {
+        return Ok((estimates, run));
+    }
+    let Some((confirmed, refit)) =
+        confirmed_outliers(mechanism, data, problem, solver, options, &estimates)?
+    else {
+        return Ok((estimates, run));
+    };
+    // The first fit's outliers, but the rows a worse one only dragged along.
+    for (estimate, slot) in estimates.iter_mut().zip(problem.slots()) {
+        let stats = &mut estimate.statistics;
+        let keep: Vec<bool> = stats
+            .outlier_rows
+            .iter()
+            .map(|r| confirmed.contains(r))
+            .collect();
+        let mut kept = keep.iter();
+        stats.outliers.retain(|_| *kept.next().unwrap_or(&false));
+        stats.outlier_rows.retain(|r| confirmed.contains(r));
+        estimate.warnings = leg_warnings(mechanism, slot, stats);
+    }
+    if options.drop_outliers && !confirmed.is_empty() {
+        return Ok(dropped(refit, estimates));
+    }
+    Ok((estimates, run))
+}
+
+/// The rows the fit `first` of `problem` flags as outliers that stay outliers once the worse
+/// ones are gone: the worst flagged row (largest |t|) is set aside and the problem refitted,
+/// then the worst of the first fit's flagged rows that the refit still flags, and so on. A gross
+/// error on a high-leverage row drags its neighbours' residuals beyond the threshold too
+/// (swamping); the refit without it does not flag them. The confirmed rows (worst first) and the
+/// last refit (without them); `None` when the first fit flags no row, or when a refit fails
+/// without [`FitOptions::drop_outliers`] (the first fit's flags then stand).
+///
+/// # Errors
+/// As [`identify_with`], for a refit with [`FitOptions::drop_outliers`].
+fn confirmed_outliers(
+    mechanism: &Mechanism,
+    data: &MeasurementSet,
+    problem: &IdentificationProblem<'_>,
+    solver: SolverKind,
+    options: FitOptions,
+    first: &[LegEstimate],
+) -> Result<Option<(Vec<usize>, Fitted)>> {
+    // A fit's flagged rows (indices of the rows it was given) with their |t|.
+    let flagged = |estimates: &[LegEstimate]| -> Vec<(usize, f64)> {
+        let legs = estimates.iter().map(|e| &e.statistics);
+        let pairs = legs.flat_map(|s| s.outlier_rows.iter().copied().zip(&s.outliers));
+        pairs.map(|(row, o)| (row, o.t.abs())).collect()
+    };
+    let candidates: Vec<usize> = flagged(first).into_iter().map(|(row, _)| row).collect();
+    let all: Vec<usize> = (0..problem.blocks().len()).collect();
+    let (mut current, mut alive) = (flagged(first), all.clone());
+    let mut confirmed = Vec::new();
+    let mut refit = None;
+    loop {
+        let worst = current
+            .iter()
+            .map(|&(row, t)| (alive[row], t))
+            .filter(|(row, _)| candidates.contains(row))
+            .max_by(|a, b| a.1.total_cmp(&b.1));
+        let Some((row, _)) = worst else { break };
+        confirmed.push(row);
+        let reduced = problem.without_rows(&confirmed);
+        alive = all
+            .iter()
+            .copied()
+            .filter(|i| !confirmed.contains(i))
+            .collect();
+        let fit = match estimate_problem(mechanism, data, &reduced, solver, options) {
+            Ok(fit) => fit,
+            // Without the row the problem cannot be fitted (too few rows left, say): the
+            // first fit's flags stand, and only dropping them is an error.
+            Err(_) if !options.drop_outliers => return Ok(None),
+            Err(e) => return Err(e),
+        };
+        current = flagged(&fit.0);
+        refit = Some(fit);
+    }
+    Ok(refit.map(|fit| (confirmed, fit)))
+}
+
+/// A problem's leg estimates and its solver run.
+type Fitted = (Vec<LegEstimate>, SolverRun);
+
+/// Fits one problem and estimates its legs: rank check, solver, statistics.
+///
+/// # Errors
+/// As [`identify_with`].
+fn estimate_problem(
     mechanism: &Mechanism,
     data: &MeasurementSet,
     problem: &IdentificationProblem<'_>,
@@ -255,15 +355,6 @@ pub fn identify_problem(
         estimate.warnings = leg_warnings(mechanism, slot, &estimate.statistics);
         estimates.push(estimate);
     }
-    if options.drop_outliers {
-        let rows: Vec<usize> = estimates
-            .iter()
-            .flat_map(|e| e.statistics.outlier_rows.iter().copied())
-            .collect();
-        if !rows.is_empty() {
-            return refit_without(mechanism, data, problem, solver, options, &rows, estimates);
-        }
-    }
     let run = SolverRun::new(names, &outcome, (&r0, &r), seconds);
     Ok((estimates, run))
 }
@@ -400,23 +491,9 @@ fn leg_warnings(mechanism: &Mechanism, slot: &LegSlot, stats: &LegStatistics) ->
     statistics::warnings(stats, &leg.name, unit, joint, leg.home_joints[leg.actuated])
 }
 
-/// `--drop-outliers`: refits `problem` without the rows `rows` (the first fit's outliers) and
-/// records them, per leg, as dropped.
-fn refit_without(
-    mechanism: &Mechanism,
-    data: &MeasurementSet,
-    problem: &IdentificationProblem<'_>,
-    solver: SolverKind,
-    options: FitOptions,
-    rows: &[usize],
-    first: Vec<LegEstimate>,
-) -> Result<(Vec<LegEstimate>, SolverRun)> {
-    let reduced = problem.without_rows(rows);
-    let once = FitOptions {
-        drop_outliers: false,
-        ..options
-    };
-    let (mut estimates, run) = identify_problem(mechanism, data, &reduced, solver, once)?;
+/// `--drop-outliers`: the refit without the confirmed outliers, which the first fit's
+/// `first` estimates list, recorded per leg as dropped.
+fn dropped((mut estimates, run): Fitted, first: Vec<LegEstimate>) -> Fitted {
     for (estimate, before) in estimates.iter_mut().zip(first) {
         let mut warnings: Vec<String> = before
             .statistics
@@ -424,7 +501,7 @@ fn refit_without(
             .iter()
             .map(|o| {
                 format!(
-                            "leg {}: dropped {} (reading {}, studentized residual t = {} in the first fit) and refitted",
+                    "leg {}: dropped {} (reading {}, studentized residual t = {} in the first fit) and refitted",
                     estimate.leg,
                     o.place(),
                     o.reading,
@@ -436,7 +513,7 @@ fn refit_without(
         estimate.warnings = warnings;
         estimate.dropped = before.statistics.outliers;
     }
-    Ok((estimates, run))
+    (estimates, run)
 }
 
 /// (CᵀC)⁻¹ = V Σ⁻² Vᵀ from the SVD of C (never an explicit inverse of CᵀC); `None` if

@@ -269,3 +269,38 @@ fn the_default_fit_is_weighted_by_the_declared_noise_at_the_estimate() {
         format!("{:?}", plain.legs)
     );
 }
+
+/// Swamping: in `tests/data/swamping_5r.csv` leg1 has 16 poses near the centre and two far
+/// apart (high leverage); the reading of the second far one (line 19) is 5 mrad off. Its
+/// pull on the fit gives the other far row (line 18) a studentized residual beyond the
+/// threshold too (the first fit flags lines 19 and 18). Refitted without line 19, line 18 is
+/// clean: only line 19 is an outlier, and `--drop-outliers` drops it alone, weighted or not.
+#[test]
+fn an_outlier_on_a_high_leverage_row_is_the_only_row_flagged_and_dropped() {
+    let mechanism = bundled("5r.yaml");
+    let csv = crate_path("tests/data/swamping_5r.csv");
+    let lines = |outliers: &[legwise::identify::statistics::Outlier]| -> Vec<usize> {
+        outliers.iter().map(|o| o.line.unwrap()).collect()
+    };
+    for weights in [Weighting::Noise, Weighting::Unweighted] {
+        let options = FitOptions {
+            weights,
+            ..FitOptions::default()
+        };
+        let flagged = fit(&mechanism, &csv, options).unwrap();
+        assert_eq!(
+            lines(&flagged.legs[0].statistics.outliers),
+            [19],
+            "{weights:?}"
+        );
+        let dropping = FitOptions {
+            drop_outliers: true,
+            ..options
+        };
+        let refit = fit(&mechanism, &csv, dropping).unwrap();
+        assert_eq!(lines(&refit.legs[0].dropped), [19], "{weights:?}");
+        assert!(refit.legs[0].statistics.outliers.is_empty(), "{weights:?}");
+        assert_eq!(refit.legs[0].measurements, 17);
+        assert!(refit.legs[1].dropped.is_empty());
+    }
+}
