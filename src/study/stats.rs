@@ -107,10 +107,12 @@ pub fn std_interval(values: &[f64]) -> Estimate {
 pub fn rms_interval(values: &[f64]) -> Estimate {
     let squares: Vec<f64> = values.iter().map(|v| v * v).collect();
     let of_squares = mean_interval(&squares);
+    // A bound that cannot be computed (fewer than two values) stays NaN: `max` would make it 0.
+    let root = |v: f64| if v.is_nan() { v } else { v.max(0.0).sqrt() };
     Estimate {
         value: of_squares.value.sqrt(),
-        low: of_squares.low.max(0.0).sqrt(),
-        high: of_squares.high.max(0.0).sqrt(),
+        low: root(of_squares.low),
+        high: root(of_squares.high),
     }
 }
 
@@ -201,6 +203,11 @@ mod tests {
         assert!(sample_std(&[]).is_nan() && sample_std(&[2.0]).is_nan());
         let s = std_interval(&[]);
         assert!(s.value.is_nan() && s.low.is_nan() && s.high.is_nan());
+        // Every trial failed: no RMS and no interval (it printed as [0, 0]).
+        let r = rms_interval(&[]);
+        assert!(r.value.is_nan() && r.low.is_nan() && r.high.is_nan());
+        let one = rms_interval(&[3.0]);
+        assert!((one.value - 3.0).abs() < 1e-15 && one.low.is_nan() && one.high.is_nan());
     }
 
     #[test]
