@@ -570,3 +570,32 @@ fn each_report_starts_with_the_command_the_mechanism_and_the_model_file() {
         );
     }
 }
+
+/// `--weights` reaches the fit: `none` is the unweighted fit, `noise` and the default (the 5R
+/// declares its noise) the weighted one; the JSON says which, and the estimates differ.
+#[test]
+fn the_weights_option_chooses_the_fit() {
+    let run = |extra: &[&str]| -> Value {
+        let mut args = vec!["identify", "--model", "models/5r.yaml", "--json", "-"];
+        args.extend(extra);
+        let out = legwise(&args);
+        assert_eq!(
+            out.status.code(),
+            Some(0),
+            "{extra:?}: {}",
+            text(&out.stderr)
+        );
+        serde_json::from_slice(&out.stdout).unwrap()
+    };
+    let first = |json: &Value| json["results"][0]["legs"][0]["parameters"][0]["identified"].clone();
+    let (default, noise, none) = (
+        run(&[]),
+        run(&["--weights", "noise"]),
+        run(&["--weights", "none"]),
+    );
+    for (json, expected) in [(&default, "noise"), (&noise, "noise"), (&none, "none")] {
+        assert_eq!(json["results"][0]["weights"], expected);
+    }
+    assert_eq!(first(&default), first(&noise));
+    assert_ne!(first(&default), first(&none));
+}

@@ -601,3 +601,24 @@ fn two_outputs_naming_one_file_relative_to_the_working_directory_are_refused() {
         assert!(listing(dir.path()).is_empty());
     }
 }
+
+/// The terminal report on a standard output that fails otherwise than by a closed pipe (a
+/// full disk) is an error naming standard output, exit 2, not a quiet end.
+#[cfg(target_os = "linux")]
+#[test]
+fn a_terminal_report_that_cannot_be_written_is_exit_2() {
+    let full = fs::OpenOptions::new()
+        .write(true)
+        .open("/dev/full")
+        .unwrap();
+    let result = Command::new(env!("CARGO_BIN_EXE_legwise"))
+        .args(["identify", "--model", "models/5r.yaml"])
+        .current_dir(env!("CARGO_MANIFEST_DIR"))
+        .stdout(Stdio::from(full))
+        .stderr(Stdio::piped())
+        .output()
+        .unwrap();
+    let stderr = text(&result.stderr);
+    assert_eq!(result.status.code(), Some(2), "{stderr}");
+    assert!(stderr.starts_with("legwise: standard output: "), "{stderr}");
+}
