@@ -113,7 +113,8 @@ pub fn identify_with(
 }
 
 /// Identifies one problem: rank check, solver, statistics. A least-squares fit's outliers are
-/// those that stay outliers once the worse ones are gone ([`confirmed_outliers`]); with
+/// those that stay outliers once the worse ones are gone (each refitted without the worst, as
+/// docs/statistics.md describes); with
 /// [`FitOptions::drop_outliers`] the result is the fit without them.
 ///
 /// # Errors
@@ -223,8 +224,7 @@ fn estimate_problem(
     problem: &IdentificationProblem<'_>,
     solver: SolverKind,
     options: FitOptions,
-) -> Result<(Vec<LegEstimate>, SolverRun)> {
-    let options = options.resolved(mechanism);
+) -> Result<Fitted> {
     let names: Vec<String> = problem
         .slots()
         .iter()
