@@ -195,7 +195,26 @@ fn calibrated_yaml(
             }
         }
     }
-    if let (Some(real), Some(simulation)) = (calibration.real, file.simulation.as_mut()) {
+    // Identified from measurements, the real mechanism is not known; the simulation block keeps
+    // the one the model's own simulation draws (its seed), instrument frame included: the
+    // calibrated model's nominal values have moved, and a perturbation drawn around them would
+    // be another mechanism.
+    let own = match (calibration.real, &mechanism.simulation) {
+        (None, Some(simulation)) => Some(RealValues {
+            legs: crate::measure::simulate::real_parameters(mechanism, simulation, simulation.seed),
+            instrument: mechanism.instrument.as_ref().map(|instrument| {
+                crate::measure::observe_simulate::real_shared(
+                    instrument,
+                    simulation,
+                    simulation.seed,
+                )
+            }),
+        }),
+        _ => None,
+    };
+    if let (Some(real), Some(simulation)) =
+        (calibration.real.or(own.as_ref()), file.simulation.as_mut())
+    {
         let mut values: BTreeMap<String, f64> = mechanism
             .legs
             .iter()
@@ -269,7 +288,7 @@ fn header(calibration: &Calibration<'_>, values: &[Vec<Calibrated>], urdf_name: 
             ""
         }
     ));
-    if calibration.real.is_some() {
+    if calibration.real.is_some() || calibration.mechanism.simulation.is_some() {
         lines.push(
             "simulation.real lists the simulated real values, so that simulating this model simulates the same mechanism."
                 .into(),

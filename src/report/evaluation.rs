@@ -157,7 +157,8 @@ pub fn evaluation_text(
             .file_name()
             .map_or_else(|| e.model.clone(), |n| n.to_string_lossy().into_owned());
         let label = if i == 0 { name } else { format!("vs {name}") };
-        let _ = write!(head, "{label:>18}");
+        // At least one space between two names, however long.
+        let _ = write!(head, " {label:>17}");
     }
     if against.is_some() {
         let _ = write!(head, "{:>14}", "improvement");
