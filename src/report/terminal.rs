@@ -237,7 +237,8 @@ fn render_result(out: &mut String, report: &Report<'_>, result: &StrategyResult)
             let _ = writeln!(out, "  warning: {warning}");
         }
         if result.instrument.is_none() {
-            render_statistics(out, leg);
+            let no_test = why_no_noise_test(report, result);
+            render_statistics(out, leg, no_test);
         }
     }
     let warnings = result.all_warnings();
@@ -267,8 +268,28 @@ fn fit_text(result: &StrategyResult) -> String {
     text
 }
 
-/// The noise test and outlier lines of a leg.
-fn render_statistics(out: &mut String, leg: &crate::identify::estimate::LegEstimate) {
+/// Why a leg of `result` has no noise test: the model declares no noise, the run scaled it to
+/// zero, or the leg has no redundancy.
+fn why_no_noise_test(report: &Report<'_>, result: &StrategyResult) -> &'static str {
+    match (
+        report.mechanism.noise,
+        result.options.expected_noise(report.mechanism),
+    ) {
+        (None, _) => "the model declares no `noise:` block",
+        (Some(_), None) if result.options.noise_scale <= 0.0 => {
+            "the declared noise is scaled to zero by --noise-scale 0"
+        }
+        (Some(_), None) => "every σ of the model's `noise:` block is zero",
+        (Some(_), Some(_)) => "no redundancy: no more readings than parameters",
+    }
+}
+
+/// The noise test and outlier lines of a leg (`no_test`: why it has no noise test, if so).
+fn render_statistics(
+    out: &mut String,
+    leg: &crate::identify::estimate::LegEstimate,
+    no_test: &str,
+) {
     let stats = &leg.statistics;
     match &stats.noise_test {
         Some(test) => {
@@ -289,10 +310,7 @@ fn render_statistics(out: &mut String, leg: &crate::identify::estimate::LegEstim
             );
         }
         None => {
-            let _ = writeln!(
-                out,
-                "  noise test: not done (no non-zero `noise:` block in the model, or no redundancy)"
-            );
+            let _ = writeln!(out, "  noise test: not done ({no_test})");
         }
     }
     if let (Some(limit), Some(largest)) = (stats.outlier_threshold, stats.largest_t) {

@@ -599,3 +599,41 @@ fn the_weights_option_chooses_the_fit() {
     assert_eq!(first(&default), first(&noise));
     assert_ne!(first(&default), first(&none));
 }
+
+/// A leg without a noise test says why: the run scaled the declared noise to zero, or the model
+/// declares none.
+#[test]
+fn a_missing_noise_test_says_why() {
+    let dir = tempfile::tempdir().unwrap();
+    let quiet = dir.path().join("quiet.yaml");
+    let model = std::fs::read_to_string(crate::support::crate_path("models/5r.yaml")).unwrap();
+    let line = model.lines().find(|l| l.starts_with("noise:")).unwrap();
+    std::fs::write(&quiet, model.replace(line, "")).unwrap();
+    std::fs::copy(
+        crate::support::crate_path("models/5r.urdf"),
+        dir.path().join("5r.urdf"),
+    )
+    .unwrap();
+    for (model, extra, reason) in [
+        (
+            "models/5r.yaml",
+            "0",
+            "the declared noise is scaled to zero by --noise-scale 0",
+        ),
+        (
+            quiet.to_str().unwrap(),
+            "1",
+            "the model declares no `noise:` block",
+        ),
+    ] {
+        let out = legwise(&["identify", "--model", model, "--noise-scale", extra]);
+        assert_eq!(out.status.code(), Some(0), "{}", text(&out.stderr));
+        let expected = format!("  noise test: not done ({reason})");
+        assert_eq!(
+            text(&out.stdout).matches(&expected).count(),
+            2,
+            "{}",
+            text(&out.stdout)
+        );
+    }
+}
