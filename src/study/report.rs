@@ -115,6 +115,20 @@ fn interval(estimate: &Estimate, factor: f64) -> String {
     format!("{} [{}, {}]", short(e.value), short(e.low), short(e.high))
 }
 
+/// An estimate in metres as millimetres in fixed notation, four decimals (`16.8403 [16.8401,
+/// 16.8405]`): the map errors and their differences.
+fn millimetres(estimate: &Estimate) -> String {
+    let e = estimate.scaled(1e3);
+    let fixed = |v: f64| {
+        if v.is_finite() {
+            format!("{v:.4}")
+        } else {
+            "-".into()
+        }
+    };
+    format!("{} [{}, {}]", fixed(e.value), fixed(e.low), fixed(e.high))
+}
+
 fn short(value: f64) -> String {
     if !value.is_finite() {
         return "-".into();
@@ -166,13 +180,13 @@ pub fn montecarlo_text(study: &MonteCarlo) -> String {
     text.push_str(&format!(
         "    {:<26} {}\n",
         "nominal model",
-        interval(&study.nominal_map_rms, 1e3)
+        millimetres(&study.nominal_map_rms)
     ));
     for arm in &study.arms {
         text.push_str(&format!(
             "    {:<26} {}\n",
             arm.arm.name(),
-            interval(&arm.map_rms, 1e3)
+            millimetres(&arm.map_rms)
         ));
     }
     text.push_str("\npaired comparisons (same draws in every arm):\n");
@@ -181,7 +195,7 @@ pub fn montecarlo_text(study: &MonteCarlo) -> String {
             "    {} - {}: {} mm\n",
             c.first.name(),
             c.second.name(),
-            interval(&c.difference, 1e3)
+            millimetres(&c.difference)
         ));
     }
     text.push_str(&format!("\nverdict: {}\n", study.verdict));
@@ -190,7 +204,7 @@ pub fn montecarlo_text(study: &MonteCarlo) -> String {
 
 #[cfg(test)]
 mod tests {
-    use super::{interval, Estimate};
+    use super::{interval, millimetres, Estimate};
 
     #[test]
     fn an_interval_prints_its_scaled_value_and_bounds_to_three_significant_digits() {
@@ -209,5 +223,8 @@ mod tests {
             high: f64::INFINITY,
         };
         assert_eq!(interval(&none, 1.0), "1.500e0 [-, -]");
+        // Map errors: millimetres in fixed notation.
+        assert_eq!(millimetres(&estimate), "2.0000 [-0.5000, 12.5000]");
+        assert_eq!(millimetres(&none), "1500.0000 [-, -]");
     }
 }

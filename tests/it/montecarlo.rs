@@ -271,6 +271,20 @@ fn bad_input_exits_2_and_names_the_option() {
     assert!(text(&out.stderr).contains("would overwrite the model file"));
 }
 
+/// A JSON estimate in metres as the terminal prints map errors: millimetres, four decimals.
+fn printed_mm(estimate: &Value) -> String {
+    let number = |v: &Value| {
+        v.as_f64()
+            .map_or("-".to_string(), |v| format!("{:.4}", v * 1e3))
+    };
+    format!(
+        "{} [{}, {}]",
+        number(&estimate["value"]),
+        number(&estimate["ci95"][0]),
+        number(&estimate["ci95"][1])
+    )
+}
+
 /// `value [low, high]` of a JSON estimate times `factor`, as the terminal prints it (three
 /// significant digits; a missing bound as `-`).
 fn printed(estimate: &Value, factor: f64) -> String {
@@ -330,19 +344,19 @@ fn the_terminal_study_prints_the_numbers_of_its_json_report() {
             );
             assert!(stdout.contains(&line), "`{line}` missing from\n{stdout}");
         }
-        let map = format!("    {name:<26} {}\n", printed(&arm["map_rms_m"], 1e3));
+        let map = format!("    {name:<26} {}\n", printed_mm(&arm["map_rms_m"]));
         assert!(stdout.contains(&map), "`{map}` missing from\n{stdout}");
     }
     let nominal = format!(
         "    {:<26} {}\n",
         "nominal model",
-        printed(&report["nominal_map_rms_m"], 1e3)
+        printed_mm(&report["nominal_map_rms_m"])
     );
     assert!(stdout.contains(&nominal), "`{nominal}` missing");
     let comparisons = report["comparisons"].as_array().unwrap();
     assert!(!comparisons.is_empty());
     for c in comparisons {
-        let difference = format!("{} mm\n", printed(&c["map_rms_difference_m"], 1e3));
+        let difference = format!("{} mm\n", printed_mm(&c["map_rms_difference_m"]));
         assert!(stdout.contains(&difference), "`{difference}` missing");
     }
     let verdict = report["verdict"].as_str().unwrap();
