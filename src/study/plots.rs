@@ -103,12 +103,13 @@ impl Figure for Histograms {
                 .caption(&panel.caption, style::caption())
                 .margin(8)
                 .x_label_area_size(30)
-                .y_label_area_size(44)
+                .y_label_area_size(58)
                 .build_cartesian_2d(lo..hi, 0.0..top.max(1e-9))?;
             chart
                 .configure_mesh()
                 .x_labels(4)
                 .y_labels(4)
+                .y_desc("fraction of trials")
                 .x_label_formatter(&|v| style::tick(*v, hi - lo))
                 .y_label_formatter(&|v| style::tick(*v, top))
                 .label_style(style::label())

@@ -249,7 +249,14 @@ fn the_pictures_show_both_arms() {
     );
     let svg = std::fs::read_to_string(directory.path().join("montecarlo-errors.svg")).unwrap();
     let texts = crate::support::svg_texts(&svg);
-    for label in ["joint", "two-stage", "frame_x error (mm)", "l1 error (mm)"] {
+    let labels = [
+        "joint",
+        "two-stage",
+        "frame_x error (mm)",
+        "l1 error (mm)",
+        "fraction of trials",
+    ];
+    for label in labels {
         assert!(texts.iter().any(|t| t == label), "{label}: {texts:?}");
     }
 }
