@@ -120,8 +120,8 @@ pub fn orientation_error(reached: &[f64; 6], target: &[f64; 6]) -> f64 {
 ///
 /// # Errors
 /// A spacing that is not a positive number of metres, a scale outside (0, 1], more than
-/// [`MAX_MAP_POINTS`] points, or a lattice over the (scaled) bounding box of more than four
-/// times that many points.
+/// [`MAX_MAP_POINTS`] points, a lattice over the (scaled) bounding box of more than four
+/// times that many points, or no point in the region at all.
 pub fn map_grid(mechanism: &Mechanism, grid_m: f64, scale: f64) -> Result<Vec<[f64; 6]>> {
     if !(grid_m.is_finite() && grid_m > 0.0) {
         return Err(Error::Invalid(format!(
@@ -170,6 +170,12 @@ pub fn map_grid(mechanism: &Mechanism, grid_m: f64, scale: f64) -> Result<Vec<[f
                 }
             }
         }
+    }
+    if poses.is_empty() {
+        return Err(Error::Invalid(format!(
+            "--map: a spacing of {grid_m} m puts no grid point in the workspace region (scaled \
+             by {scale}); choose a finer grid"
+        )));
     }
     Ok(poses)
 }

@@ -404,3 +404,45 @@ fn the_study_scales_the_declared_noise_by_the_noise_scale() {
     }
     assert_eq!(mechanism.noise, Some(declared));
 }
+
+/// Failed trials: the first five are listed with their reason, then one line counts them all
+/// when there are more; the statistics leave them out and the run exits 3. A 3-RPR whose real
+/// mechanism is drawn 0.3 m / 0.3 rad / 0.3 away from the nominal one fails 8 of 12 trials.
+#[test]
+fn failed_trials_are_listed_five_at_most_then_counted() {
+    let dir = tempfile::tempdir().unwrap();
+    let original = std::fs::read_to_string(crate::support::crate_path("models/3rpr.yaml")).unwrap();
+    let wild = original.replace(
+        "perturbation: {length: 0.002, angle: 0.002, gain: 0.002}",
+        "perturbation: {length: 0.3, angle: 0.3, gain: 0.3}",
+    );
+    assert_ne!(wild, original);
+    let model = dir.path().join("wild.yaml");
+    std::fs::write(&model, wild).unwrap();
+    std::fs::copy(
+        crate::support::crate_path("models/3rpr.urdf"),
+        dir.path().join("3rpr.urdf"),
+    )
+    .unwrap();
+    let out = Command::new(env!("CARGO_BIN_EXE_legwise"))
+        .args([
+            "montecarlo",
+            "--model",
+            model.to_str().unwrap(),
+            "--trials",
+            "12",
+        ])
+        .output()
+        .unwrap();
+    let stderr = text(&out.stderr);
+    assert_eq!(out.status.code(), Some(3), "{stderr}");
+    assert_eq!(
+        stderr.matches("failed and is left out").count(),
+        5,
+        "{stderr}"
+    );
+    assert!(
+        stderr.contains("legwise: warning: 8 of 12 trials failed in all"),
+        "{stderr}"
+    );
+}

@@ -168,6 +168,9 @@ fn cases() -> Vec<(&'static [&'static str], Ends)> {
          Refused("legwise: --map: expected a positive grid spacing in metres, found -0.01")),
         (&["identify", "--model", "5r.yaml", "--map", "0.05", "--map-scale", "-1"],
          Refused("legwise: --map-scale: expected a fraction of the workspace region in (0, 1], found -1")),
+        // A map grid too coarse for the region: every Monte Carlo trial failed on it.
+        (&["montecarlo", "--model", "{crate}/models/delta.yaml", "--trials", "7", "--map", "0.2"],
+         Refused("legwise: --map: a spacing of 0.2 m puts no grid point in the workspace region (scaled by 0.95); choose a finer grid")),
         // Type errors and absurd values in the model file.
         (&["identify", "--model", "type-error.yaml"],
          Refused("legwise: type-error.yaml: line 10 column 13: home.pose.x: expected a number, found `abc`")),
