@@ -637,3 +637,28 @@ fn a_missing_noise_test_says_why() {
         );
     }
 }
+
+/// The closing line names the JSON file it wrote, and is not printed when the JSON went to
+/// standard output (the report then goes to standard error, and says nothing of itself).
+#[test]
+fn the_json_s_destination_is_said_only_for_a_file() {
+    let dir = tempfile::tempdir().unwrap();
+    let file = dir.path().join("r.json");
+    let out = legwise(&[
+        "identify",
+        "--model",
+        "models/5r.yaml",
+        "--json",
+        file.to_str().unwrap(),
+    ]);
+    assert_eq!(out.status.code(), Some(0), "{}", text(&out.stderr));
+    let said = format!("\nJSON report written to {}\n", file.display());
+    assert!(text(&out.stdout).ends_with(&said), "{}", text(&out.stdout));
+    let out = legwise(&["identify", "--model", "models/5r.yaml", "--json", "-"]);
+    assert_eq!(out.status.code(), Some(0), "{}", text(&out.stderr));
+    assert!(
+        !text(&out.stderr).contains("written to"),
+        "{}",
+        text(&out.stderr)
+    );
+}
