@@ -237,3 +237,53 @@ fn the_hexapod_slice_curves_are_its_stroke_ends() {
         assert!(off < 1e-6, "{p:?}: legs {lengths:?}");
     }
 }
+
+/// The hexapod has no parallel-singularity curve in its slices: its legend's rows follow each
+/// other (region, serial curves, MIW), without the empty row the missing entry left.
+#[test]
+fn the_legend_has_no_empty_row_for_a_curve_not_drawn() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("hexapod.svg");
+    let result = crate::cli::legwise(&[
+        "workspace",
+        "--model",
+        "models/hexapod.yaml",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    assert_eq!(
+        result.status.code(),
+        Some(0),
+        "{}",
+        crate::cli::text(&result.stderr)
+    );
+    let svg = std::fs::read_to_string(&out).unwrap();
+    let row = |start: &str| -> f64 {
+        let chunk = svg
+            .split("<text")
+            .find(|c| {
+                c.split('>')
+                    .nth(1)
+                    .is_some_and(|t| t.trim_start().starts_with(start))
+            })
+            .unwrap_or_else(|| panic!("no legend entry `{start}`"));
+        let y = chunk
+            .split("y=\"")
+            .nth(1)
+            .unwrap()
+            .split('"')
+            .next()
+            .unwrap();
+        y.parse().unwrap()
+    };
+    let rows = [
+        row("singularity-free region"),
+        row("serial (type I)"),
+        row("3-D MIW"),
+    ];
+    assert!(!svg.contains("parallel (type II)"));
+    assert!(
+        (rows[1] - rows[0] - 20.0).abs() < 0.5 && (rows[2] - rows[1] - 20.0).abs() < 0.5,
+        "{rows:?}"
+    );
+}

@@ -206,32 +206,36 @@ impl WorkspaceFigure {
             REGION.filled(),
         ))?;
         area.draw(&text(self.region_label.clone(), x0, row(0)))?;
-        // Only the curves drawn.
+        // Only the curves drawn, one row each, without a gap for the others.
+        let mut next = 1;
         if serial {
-            area.draw(&line(x0, row(1), SERIAL))?;
-            area.draw(&text(self.serial_label.clone(), x0, row(1)))?;
+            area.draw(&line(x0, row(next), SERIAL))?;
+            area.draw(&text(self.serial_label.clone(), x0, row(next)))?;
+            next += 1;
         }
         if parallel {
-            area.draw(&line(x0, row(2), PARALLEL))?;
+            area.draw(&line(x0, row(next), PARALLEL))?;
             area.draw(&text(
                 "parallel (type II) singularity: the platform gains a freedom".into(),
                 x0,
-                row(2),
+                row(next),
             ))?;
+            next += 1;
         }
         // Two dashes, as the MIW's dashed circle.
         for (a, b) in [(0, 8), (13, 20)] {
-            let dash = vec![(x0 + a, row(3) + 7), (x0 + b, row(3) + 7)];
+            let dash = vec![(x0 + a, row(next) + 7), (x0 + b, row(next) + 7)];
             area.draw(&PathElement::new(dash, BLACK.stroke_width(2)))?;
         }
-        area.draw(&text(self.miw_label.clone(), x0, row(3)))?;
+        area.draw(&text(self.miw_label.clone(), x0, row(next)))?;
+        next += 1;
         let mut x = x0;
         for (g, group) in self.poses.iter().enumerate() {
             let colour = style::AFTER[g % style::AFTER.len()];
-            area.draw(&style::marker((x + 10, row(4) + 7), colour))?;
+            area.draw(&style::marker((x + 10, row(next) + 7), colour))?;
             let label = format!("{} ({})", group.name, group.points.len());
             let width = 40 + 8 * label.chars().count() as i32;
-            area.draw(&text(label, x, row(4)))?;
+            area.draw(&text(label, x, row(next)))?;
             x += width;
         }
         Ok(())
