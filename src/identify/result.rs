@@ -75,7 +75,7 @@ impl ParameterEstimate {
     /// residuals, so the normal 1.96 would make the interval too short); `None` without a std.
     pub fn half_width95(&self) -> Option<f64> {
         let (std, dof) = (self.std?, self.degrees_of_freedom?);
-        Some(super::statistics::student_t_975(dof) * std)
+        Some(super::statistics::half_width95(std, dof))
     }
 }
 

@@ -54,7 +54,22 @@ impl NoiseLoadings {
             measurements.entry(*measurement).or_default().push(a);
         }
         let mut meat = DMatrix::zeros(n, n);
-        for rows in measurements.values() {
+        // Measurements of one row (every row of a plain leg): `v_i J_iᵀ J_i`, summed as
+        // `Sᵀ S` with `S` their rows scaled by `√v_i`, one matrix in all rather than a few per
+        // row.
+        let singles: Vec<usize> = measurements
+            .values()
+            .filter(|rows| rows.len() == 1)
+            .map(|rows| rows[0])
+            .collect();
+        if !singles.is_empty() {
+            let variances = self.variances();
+            let scaled = DMatrix::from_fn(singles.len(), n, |k, j| {
+                variances[singles[k]].sqrt() * jacobian[(singles[k], j)]
+            });
+            meat += scaled.tr_mul(&scaled);
+        }
+        for rows in measurements.values().filter(|rows| rows.len() > 1) {
             let block = DMatrix::from_fn(rows.len(), n, |i, j| jacobian[(rows[i], j)]);
             let v = DMatrix::from_fn(rows.len(), rows.len(), |i, k| {
                 let (wi, wk) = (&self.rows[rows[i]].1, &self.rows[rows[k]].1);

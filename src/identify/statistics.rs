@@ -40,6 +40,12 @@ pub fn student_t_975(dof: usize) -> f64 {
     StudentsT::new(0.0, 1.0, dof as f64).map_or(f64::NAN, |t| t.inverse_cdf(0.975))
 }
 
+/// Half the width of the two-sided 95 % interval of an estimate whose σ `std` was estimated on
+/// `dof` degrees of freedom: `t(0.975, dof) · std`.
+pub fn half_width95(std: f64, dof: usize) -> f64 {
+    student_t_975(dof) * std
+}
+
 /// Upper-tail probability of the χ² statistic below which the declared noise is rejected.
 pub const NOISE_TEST_P: f64 = 1e-3;
 
@@ -164,12 +170,11 @@ pub fn row_variances(
     x: &DVector<f64>,
     noise: &MeasurementNoise,
 ) -> Result<Vec<f64>, BlockError> {
-    let loadings = row_loadings(problem, x, noise)?;
-    let pose_part = |w: &[f64]| w.iter().map(|v| v.powi(2)).sum::<f64>();
-    let rows = loadings.rows.iter();
-    Ok(rows
-        .map(|(_, w)| noise.reading.powi(2) + pose_part(w))
-        .collect())
+    // Row by row, without a loading vector each (the weighted fit asks for them at every
+    // reweighting).
+    map_pose_loadings(problem, x, noise, |_, w| {
+        noise.reading.powi(2) + w.iter().map(|v| v.powi(2)).sum::<f64>()
+    })
 }
 
 /// How the declared `noise` reaches every residual of `problem` at `x`: per row, `σ_c ∂ψ/∂P_c`
@@ -183,15 +188,27 @@ pub fn row_loadings(
     x: &DVector<f64>,
     noise: &MeasurementNoise,
 ) -> Result<NoiseLoadings, BlockError> {
-    let measured = &problem.mechanism().measured;
-    let rows = problem.map_solved(x, |index, leg, _, solution| {
-        let pose = &problem.blocks()[index].pose;
-        let gradient = leg.pose_gradient_of(pose, solution, measured);
-        (index, (0..6).map(|c| gradient[c] * noise.pose[c]).collect())
-    })?;
+    let rows = map_pose_loadings(problem, x, noise, |index, w| (index, w.to_vec()))?;
     Ok(NoiseLoadings {
         reading: noise.reading,
         rows,
+    })
+}
+
+/// `f(row, w)` for every row of `problem` at `x`, `w` the row's pose loadings
+/// `σ_c ∂ψ/∂P_c` under `noise` (in parallel for a large problem, as
+/// [`IdentificationProblem::map_solved`]).
+fn map_pose_loadings<T: Send>(
+    problem: &IdentificationProblem<'_>,
+    x: &DVector<f64>,
+    noise: &MeasurementNoise,
+    f: impl Fn(usize, &[f64; 6]) -> T + Sync,
+) -> Result<Vec<T>, BlockError> {
+    let measured = &problem.mechanism().measured;
+    problem.map_solved(x, |index, leg, _, solution| {
+        let pose = &problem.blocks()[index].pose;
+        let gradient = leg.pose_gradient_of(pose, solution, measured);
+        f(index, &std::array::from_fn(|c| gradient[c] * noise.pose[c]))
     })
 }
 

@@ -340,7 +340,7 @@ fn header(calibration: &Calibration<'_>, values: &[Vec<Calibrated>], urdf_name: 
 fn uncertainty(std: f64, dof: Option<usize>, unit: impl std::fmt::Display) -> String {
     match dof {
         Some(dof) => {
-            let half = crate::identify::statistics::student_t_975(dof) * std;
+            let half = crate::identify::statistics::half_width95(std, dof);
             format!(
                 "σ = {std:.3e} {unit}; 95 %: ± {half:.3e} {unit} (t on {dof} degrees of freedom)"
             )
