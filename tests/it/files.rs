@@ -513,24 +513,33 @@ fn a_long_file_is_read_in_row_order_and_its_first_error_in_file_order_is_named()
     );
 }
 
-/// Standard output that fails otherwise than by a closed pipe (a full disk: /dev/full) is an
-/// error naming the output, exit 2; only a reader that has gone ends quietly.
+/// `legwise ARGS` with standard output on /dev/full (every write fails: no space left), which
+/// must end with exit 2; its standard error.
 #[cfg(target_os = "linux")]
-#[test]
-fn a_standard_output_that_cannot_be_written_is_exit_2() {
+fn exit_2_on_a_full_standard_output(args: &[&str]) -> String {
     let full = fs::OpenOptions::new()
         .write(true)
         .open("/dev/full")
         .unwrap();
     let result = Command::new(env!("CARGO_BIN_EXE_legwise"))
-        .args(["simulate", "--model", "models/5r.yaml", "--out", "-"])
+        .args(args)
         .current_dir(env!("CARGO_MANIFEST_DIR"))
         .stdout(Stdio::from(full))
         .stderr(Stdio::piped())
         .output()
         .unwrap();
     let stderr = text(&result.stderr);
-    assert_eq!(result.status.code(), Some(2), "{stderr}");
+    assert_eq!(result.status.code(), Some(2), "{args:?}: {stderr}");
+    stderr
+}
+
+/// Standard output that fails otherwise than by a closed pipe (a full disk: /dev/full) is an
+/// error naming the output, exit 2; only a reader that has gone ends quietly.
+#[cfg(target_os = "linux")]
+#[test]
+fn a_standard_output_that_cannot_be_written_is_exit_2() {
+    let args = ["simulate", "--model", "models/5r.yaml", "--out", "-"];
+    let stderr = exit_2_on_a_full_standard_output(&args);
     assert!(
         stderr.contains("legwise: --out (standard output): cannot write the measurement CSV"),
         "{stderr}"
@@ -607,18 +616,6 @@ fn two_outputs_naming_one_file_relative_to_the_working_directory_are_refused() {
 #[cfg(target_os = "linux")]
 #[test]
 fn a_terminal_report_that_cannot_be_written_is_exit_2() {
-    let full = fs::OpenOptions::new()
-        .write(true)
-        .open("/dev/full")
-        .unwrap();
-    let result = Command::new(env!("CARGO_BIN_EXE_legwise"))
-        .args(["identify", "--model", "models/5r.yaml"])
-        .current_dir(env!("CARGO_MANIFEST_DIR"))
-        .stdout(Stdio::from(full))
-        .stderr(Stdio::piped())
-        .output()
-        .unwrap();
-    let stderr = text(&result.stderr);
-    assert_eq!(result.status.code(), Some(2), "{stderr}");
+    let stderr = exit_2_on_a_full_standard_output(&["identify", "--model", "models/5r.yaml"]);
     assert!(stderr.starts_with("legwise: standard output: "), "{stderr}");
 }
