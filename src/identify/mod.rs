@@ -14,3 +14,4 @@ pub mod shared_estimate;
 mod solve_from;
 pub mod statistics;
 pub mod trust;
+pub mod two_stage;

@@ -23,8 +23,10 @@ use super::result::{
 };
 use super::sandwich::covariance;
 use super::statistics;
+use super::two_stage::TwoStage;
 use crate::error::{Error, Result};
 use crate::measure::observations::Observations;
+use crate::measure::simulate::perturbation_sigma;
 use crate::model::Mechanism;
 use crate::solver::{solve, solve_bordered, SolverKind};
 
@@ -103,9 +105,10 @@ pub fn identify_shared(
     let problem = IdentificationProblem::through_instrument(mechanism, observations)?;
     let observability = check_rank(&problem, observations)?;
     let started = std::time::Instant::now();
-    let (problem, outcome) = if strategy == Strategy::Joint {
+    let noise = options.expected_noise(mechanism);
+    let (problem, outcome, registered) = if strategy == Strategy::Joint {
         let outcome = solve_bordered(&problem, problem.start()).map_err(solver_error)?;
-        (problem, outcome)
+        (problem, outcome, None)
     } else {
         let registration = problem.with_legs_fixed().with_rows(REGISTRATION_ROWS);
         let first = solve(
@@ -117,7 +120,19 @@ pub fn identify_shared(
         let frame = registration.shared_values(&first.x);
         let legs = problem.with_shared_fixed(&frame);
         let outcome = solve_bordered(&legs, legs.start()).map_err(solver_error)?;
-        (legs, outcome)
+        let rows = problem.first_rows(REGISTRATION_ROWS);
+        let departure = departure_sigmas(mechanism, &legs);
+        let covariance = TwoStage {
+            full: &problem,
+            registration: &registration,
+            rows: &rows,
+            frame: &first.x,
+            legs: &outcome.x,
+            departure: &departure,
+        }
+        .covariance(noise.as_ref())
+        .map_err(|e| solver_error(format!("{}: {}", e.location, e.source)))?;
+        (legs, outcome, Some(covariance))
     };
     let seconds = started.elapsed().as_secs_f64();
     let (r, jacobian) = dense(&problem, &outcome.x)?;
@@ -127,18 +142,31 @@ pub fn identify_shared(
     let (m, n) = jacobian.shape();
     // The degrees of freedom of the residuals' scale behind every σ.
     let dof = m.checked_sub(n).filter(|&d| d > 0);
-    let loadings = match options.expected_noise(mechanism) {
+    let loadings = match &noise {
         Some(noise) => Some(
             problem
-                .noise_loadings(&outcome.x, &noise)
+                .noise_loadings(&outcome.x, noise)
                 .map_err(solver_error)?,
         ),
         None => None,
     };
-    let covariance = covariance(&r, &jacobian, loadings.as_ref());
+    // The joint fit's sandwich; the two-stage one's propagates the registration's error.
+    let (covariance, registration) = match registered {
+        None => (covariance(&r, &jacobian, loadings.as_ref()), None),
+        Some(two_stage) => match two_stage {
+            Some(c) => (Some(c.legs), Some((c.registration, c.registration_dof))),
+            None => (None, None),
+        },
+    };
     let sigmas: Option<Vec<f64>> = covariance
         .as_ref()
         .map(|v| v.diagonal().iter().map(|v| v.max(0.0).sqrt()).collect());
+    let registration_sigmas: Option<(Vec<f64>, usize)> = registration.map(|(c, dof)| {
+        (
+            c.diagonal().iter().map(|v| v.max(0.0).sqrt()).collect(),
+            dof,
+        )
+    });
     let noise_test = loadings
         .as_ref()
         .and_then(|l| statistics::noise_test(r.as_slice(), &l.variances(), n, 0));
@@ -170,7 +198,10 @@ pub fn identify_shared(
         .collect();
     let names: Vec<String> = legs.iter().map(|l| l.leg.clone()).collect();
     let instrument = InstrumentEstimate {
-        parameters: instrument_parameters(&problem, &outcome.x, sigmas.as_deref().zip(dof)),
+        parameters: match &registration_sigmas {
+            Some((sigmas, dof)) => registered_parameters(&problem, sigmas, *dof),
+            None => instrument_parameters(&problem, &outcome.x, sigmas.as_deref().zip(dof)),
+        },
         rows: m,
         unknowns: n,
         rms: (r.norm_squared() / m.max(1) as f64).sqrt(),
@@ -196,8 +227,8 @@ pub fn identify_shared(
 }
 
 /// The instrument's parameters of `problem` at `x`: estimated (σ from `sigmas`, the
-/// problem's), or held, or registered by the two-stage strategy's first stage (no σ of its own
-/// then).
+/// problem's), or held (no σ; the two-stage strategy's registration takes its σ from
+/// [`registered_parameters`]).
 fn instrument_parameters(
     problem: &IdentificationProblem<'_>,
     x: &DVector<f64>,
@@ -227,6 +258,44 @@ fn instrument_parameters(
             }
         })
         .collect()
+}
+
+/// The instrument's parameters registered by the two-stage strategy's first stage (held in
+/// `problem`, its second stage), each identified one with its σ from `sigmas` (the
+/// registration's unknowns, in the instrument's order of identified parameters).
+fn registered_parameters(
+    problem: &IdentificationProblem<'_>,
+    sigmas: &[f64],
+    dof: usize,
+) -> Vec<ParameterEstimate> {
+    let mut identified = sigmas.iter();
+    let x = DVector::zeros(problem.parameter_count());
+    instrument_parameters(problem, &x, None)
+        .into_iter()
+        .map(|mut p| {
+            if p.identified {
+                p.std = identified.next().copied();
+                p.degrees_of_freedom = p.std.map(|_| dof);
+            }
+            p
+        })
+        .collect()
+}
+
+/// Per unknown of `problem` (the legs' identified parameters), the standard deviation of its
+/// departure from nominal the model's simulation block draws (0 where it draws none).
+fn departure_sigmas(mechanism: &Mechanism, problem: &IdentificationProblem<'_>) -> Vec<f64> {
+    let mut sigmas = vec![0.0; problem.parameter_count()];
+    let Some(simulation) = &mechanism.simulation else {
+        return sigmas;
+    };
+    for slot in problem.slots() {
+        let params = &mechanism.legs[slot.leg].params;
+        for (k, &c) in slot.columns.iter().enumerate() {
+            sigmas[slot.offset + k] = perturbation_sigma(&params[c], simulation).unwrap_or(0.0);
+        }
+    }
+    sigmas
 }
 
 fn solver_error(error: impl std::fmt::Display) -> Error {

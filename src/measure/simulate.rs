@@ -16,7 +16,7 @@ use super::{MeasuredPose, MeasurementSet};
 use crate::error::{Error, Result};
 use crate::kinematics::inverse::predict_reading;
 use crate::model::mechanism::Simulation;
-use crate::model::params::{ParamTarget, Unit};
+use crate::model::params::{ParamTarget, Parameter, Unit};
 use crate::model::Mechanism;
 
 /// Options that change a simulation without editing the model file.
@@ -62,7 +62,7 @@ pub fn setup(mechanism: &Mechanism) -> Result<&Simulation> {
 }
 
 /// Real parameter values per leg: `simulation.real`, else a seeded perturbation of identified
-/// parameters, else nominal.
+/// parameters ([`perturbation_sigma`]), else nominal.
 pub fn real_parameters(mechanism: &Mechanism, simulation: &Simulation, seed: u64) -> Vec<Vec<f64>> {
     let mut rng = ChaCha8Rng::seed_from_u64(seed ^ 0x005e_ed0f_2ea1);
     mechanism
@@ -75,21 +75,29 @@ pub fn real_parameters(mechanism: &Mechanism, simulation: &Simulation, seed: u64
                     if let Some(&value) = simulation.real.get(&p.name) {
                         return value;
                     }
-                    let Some((length, angle, gain)) =
-                        simulation.perturbation.filter(|_| p.identified)
-                    else {
-                        return p.nominal;
-                    };
-                    let sigma = match (p.target, p.unit) {
-                        (ParamTarget::Gain, _) => gain,
-                        (_, Unit::Radian) => angle,
-                        _ => length,
-                    };
-                    p.nominal + sigma * gaussian(&mut rng)
+                    match perturbation_sigma(p, simulation) {
+                        Some(sigma) => p.nominal + sigma * gaussian(&mut rng),
+                        None => p.nominal,
+                    }
                 })
                 .collect()
         })
         .collect()
+}
+
+/// The standard deviation of the simulation's perturbation of parameter `p` (by its kind:
+/// gain, angle or length), when the simulation draws it: identified, not given a real value,
+/// with a `perturbation` block. `None` for a parameter the simulation holds at a given value.
+pub fn perturbation_sigma(p: &Parameter, simulation: &Simulation) -> Option<f64> {
+    if simulation.real.contains_key(&p.name) || !p.identified {
+        return None;
+    }
+    let (length, angle, gain) = simulation.perturbation?;
+    Some(match (p.target, p.unit) {
+        (ParamTarget::Gain, _) => gain,
+        (_, Unit::Radian) => angle,
+        _ => length,
+    })
 }
 
 /// A standard normal draw.

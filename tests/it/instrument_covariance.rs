@@ -4,7 +4,8 @@
 //! residuals of both legs are correlated as the data make them), the pseudo-inverse by SVD,
 //! and `σ² = ŝ² diag(J⁺ V J⁺ᵀ)`, `ŝ² = ‖r‖²/tr((I − J J⁺) V)`. Over seeded Monte Carlo trials
 //! the predicted σ of the frame lies in the interval of the observed spread, and with shared
-//! rows the frame's errors over their σ have the second moment of Student's t.
+//! rows the frame's errors over their σ have the second moment of Student's t. The two-stage
+//! strategy's σ (the registration's error carried into the legs) follows its observed spread too.
 use argmin::core::Operator;
 use legwise::identify::problem::IdentificationProblem;
 use legwise::identify::result::{Strategy, StrategyResult};
@@ -178,7 +179,7 @@ fn a_shared_rows_legs_share_its_target_noise_and_the_sigma_accounts_for_it() {
 }
 
 #[test]
-fn over_seeded_trials_the_frames_predicted_sigma_lies_in_the_observed_spreads_interval() {
+fn over_seeded_trials_the_predicted_sigma_follows_the_observed_spread_in_both_strategies() {
     for model in ["models/5r-tracker.yaml", "models/3rpr-tracker.yaml"] {
         let args = [
             "montecarlo",
@@ -219,6 +220,36 @@ fn over_seeded_trials_the_frames_predicted_sigma_lies_in_the_observed_spreads_in
             );
         }
         assert_eq!(frame, 3, "{model}: x, y, yaw");
+        two_stage_sigma_follows_the_spread(model, &report);
+    }
+}
+
+/// The two-stage arm of a Monte Carlo `report` of `model`: every identified parameter's
+/// observed spread over its mean predicted σ within 15 % of 1 (the registration's error carried
+/// into the legs: without it the 3-RPR's ratios were 3 to 13; with the residuals' scale instead
+/// of the declared noise's the 5R's were 0.4 to 0.55). Over 300 trials a ratio is uncertain by
+/// about 4 %.
+fn two_stage_sigma_follows_the_spread(model: &str, report: &Value) {
+    let two_stage = report["arms"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .find(|a| a["arm"] == "two_stage")
+        .expect("the two-stage arm");
+    let parameters = two_stage["parameters"].as_array().unwrap();
+    assert!(parameters.len() >= 12, "{model}");
+    for parameter in parameters {
+        let name = parameter["name"].as_str().unwrap();
+        let predicted = parameter["predicted_std"]["value"]
+            .as_f64()
+            .unwrap_or_else(|| panic!("{model}, {name}: no predicted σ"));
+        let spread = parameter["std_error"]["value"].as_f64().unwrap();
+        let ratio = spread / predicted;
+        assert!(
+            (0.85..=1.15).contains(&ratio),
+            "{model}, two-stage {name}: observed spread {spread:e} over predicted σ \
+             {predicted:e} = {ratio:.3}"
+        );
     }
 }
 

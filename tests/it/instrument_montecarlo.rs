@@ -109,16 +109,13 @@ fn one_and_two_threads_agree_and_every_statistic_follows_from_the_trials() {
                 (low * low - lo.max(0.0)).abs() <= 1e-6 * ms,
                 "{what} RMS low"
             );
-            let predicted = per_trial(key, "predicted_std", p);
-            // The two-stage registration gives the frame no σ of its own; every other fit does.
-            if key == "two_stage" && names[p].starts_with("frame") {
-                assert!(predicted.iter().all(Option::is_none), "{what}");
-                assert!(stats["predicted_std"]["value"].is_null(), "{what}");
-            } else {
-                let predicted: Vec<f64> = predicted.into_iter().map(|s| s.unwrap()).collect();
-                assert!(predicted.iter().all(|s| *s > 0.0), "{what}");
-                assert_estimate(&stats["predicted_std"], t_interval(&predicted), &what);
-            }
+            // Every fit gives every identified parameter a σ, the two-stage registration too.
+            let predicted: Vec<f64> = per_trial(key, "predicted_std", p)
+                .into_iter()
+                .map(|s| s.unwrap())
+                .collect();
+            assert!(predicted.iter().all(|s| *s > 0.0), "{what}");
+            assert_estimate(&stats["predicted_std"], t_interval(&predicted), &what);
         }
         let map: Vec<f64> = trials
             .iter()

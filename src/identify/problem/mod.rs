@@ -297,18 +297,23 @@ impl<'a> IdentificationProblem<'a> {
         self.with_blocks(|i| !rows.contains(&i))
     }
 
-    /// The same problem on the first `count` rows of every leg only.
+    /// The same problem on the first `count` rows of every leg only ([`Self::first_rows`]).
     pub fn with_rows(&self, count: usize) -> Self {
+        let first = self.first_rows(count);
+        self.with_blocks(|i| first.binary_search(&i).is_ok())
+    }
+
+    /// The indices (ascending) of the first `count` rows of every leg: the rows of
+    /// [`Self::with_rows`], in its order.
+    pub fn first_rows(&self, count: usize) -> Vec<usize> {
         let mut seen = vec![0; self.mechanism.legs.len()];
-        let first: Vec<bool> = self
-            .blocks
-            .iter()
-            .map(|b| {
-                seen[b.leg] += 1;
-                seen[b.leg] <= count
+        (0..self.blocks.len())
+            .filter(|&i| {
+                let leg = self.blocks[i].leg;
+                seen[leg] += 1;
+                seen[leg] <= count
             })
-            .collect();
-        self.with_blocks(|i| first[i])
+            .collect()
     }
 
     /// The same problem with every shared parameter held at `values` (all of them, in the
