@@ -24,7 +24,6 @@
 
 use rand::{RngCore, SeedableRng};
 use rand_chacha::ChaCha8Rng;
-use rayon::prelude::*;
 
 use super::stats::{self, Estimate};
 use crate::error::{Error, Result};
@@ -38,7 +37,7 @@ use crate::measure::{MeasurementSet, Measurements};
 use crate::model::params::Unit;
 use crate::model::Mechanism;
 use crate::pipeline::{identify_one, measured};
-use crate::progress::Progress;
+use crate::progress::Work;
 use crate::report::RealValues;
 use crate::selection::candidates::candidate_pool;
 use crate::selection::design::{divide_and_conquer, traditional};
@@ -607,13 +606,13 @@ impl Study {
 
     /// Runs every trial in parallel (a progress bar on a terminal) and summarises them.
     pub fn run(&self) -> MonteCarlo {
-        let progress = Progress::new(self.options.trials as u64, "monte carlo");
-        let trials: Vec<Trial> = (0..self.options.trials)
-            .into_par_iter()
-            .map(|index| self.trial(index))
-            .inspect(|_| progress.advance(1))
-            .collect();
-        drop(progress);
+        let work = Work {
+            label: "monte carlo",
+            total: self.options.trials,
+            items: "trials",
+            passes: 1,
+        };
+        let trials = work.map(|index| self.trial(index));
         self.summarise(trials)
     }
 

@@ -12,7 +12,6 @@
 use argmin::core::{CostFunction, Error as ArgminError, Executor, State};
 use argmin::solver::neldermead::NelderMead;
 use nalgebra::Vector2;
-use rayon::prelude::*;
 
 use super::limits::check_limits;
 use super::region::geometry;
@@ -20,6 +19,7 @@ use crate::error::{Error, KinematicsError, Result};
 use crate::kinematics::inverse::{solve_leg, solve_leg_from, LegSolution};
 use crate::kinematics::singularity::ParallelMeasure;
 use crate::model::Mechanism;
+use crate::progress::Work;
 
 /// Options of the MIW computation.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -159,6 +159,9 @@ impl<'a> SingularityMargin<'a> {
     }
 }
 
+/// At most this many passes of rays, each from the last pass's best centre.
+const MIW_PASSES: usize = 4;
+
 /// Computes the MIW of a mechanism measured in x and y.
 ///
 /// # Errors
@@ -173,8 +176,8 @@ pub fn maximal_inscribed_workspace(mechanism: &Mechanism, options: MiwOptions) -
         )));
     }
     let mut result = None;
-    for _ in 0..4 {
-        let boundary = cast_rays(&margin, centre, options)?;
+    for pass in 0..MIW_PASSES {
+        let boundary = cast_rays(&margin, centre, options, MIW_PASSES - pass)?;
         let polyline = geometry::closed_polyline(&boundary);
         let radius_at = |c: [f64; 2]| {
             if margin.at(c) > 0.0 {
@@ -206,22 +209,24 @@ fn cast_rays(
     margin: &SingularityMargin<'_>,
     centre: [f64; 2],
     options: MiwOptions,
+    passes: usize,
 ) -> Result<Vec<[f64; 2]>> {
     let Ok((_, start)) = margin.measures_from(centre, None) else {
         return Err(Error::Invalid("MIW: a leg cannot reach the centre".into()));
     };
-    let progress = crate::progress::Progress::new(options.rays as u64, "workspace: casting rays");
-    Ok((0..options.rays)
-        .into_par_iter()
-        .map(|k| {
-            progress.advance(1);
-            let angle = std::f64::consts::TAU * k as f64 / options.rays as f64;
-            let direction = [angle.cos(), angle.sin()];
-            let at = |t: f64| [centre[0] + t * direction[0], centre[1] + t * direction[1]];
-            let march = (options.step, f64::INFINITY, 200_000);
-            crossing(margin, at, &start, march, 1e-12)
-        })
-        .collect())
+    let work = Work {
+        label: "workspace: casting rays",
+        total: options.rays,
+        items: "rays",
+        passes,
+    };
+    Ok(work.map(|k| {
+        let angle = std::f64::consts::TAU * k as f64 / options.rays as f64;
+        let direction = [angle.cos(), angle.sin()];
+        let at = |t: f64| [centre[0] + t * direction[0], centre[1] + t * direction[1]];
+        let march = (options.step, f64::INFINITY, 200_000);
+        crossing(margin, at, &start, march, 1e-12)
+    }))
 }
 
 /// The first boundary crossing along the ray `at(t)`, t ≥ 0, continuing the legs' solutions

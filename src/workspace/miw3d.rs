@@ -18,6 +18,7 @@ use super::miw::{crossing, SingularityMargin};
 use crate::error::{Error, Result};
 use crate::kinematics::inverse::LegSolution;
 use crate::model::Mechanism;
+use crate::progress::Work;
 
 /// How far a ray marches at most, in sizes of the usable region (its largest side).
 pub const REACH: f64 = 20.0;
@@ -80,10 +81,15 @@ pub fn sphere_directions(count: usize) -> Vec<[f64; 3]> {
 pub fn spatial_inscribed_workspace(mechanism: &Mechanism, options: Miw3dOptions) -> Result<Miw3d> {
     let (margin, centre, start) = home_start(mechanism)?;
     let limit = REACH * region_size(mechanism);
-    let boundary: Vec<[f64; 3]> = sphere_directions(options.rays)
-        .into_par_iter()
-        .map(|d| boundary_along_ray(&margin, centre, &start, d, options.step, limit))
-        .collect();
+    let directions = sphere_directions(options.rays);
+    let work = Work {
+        label: "workspace: casting rays",
+        total: directions.len(),
+        items: "rays",
+        passes: 1,
+    };
+    let boundary: Vec<[f64; 3]> = work
+        .map(|k| boundary_along_ray(&margin, centre, &start, directions[k], options.step, limit));
     let mut radius = boundary
         .iter()
         .map(|p| distance(p, &centre))
