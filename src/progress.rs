@@ -193,7 +193,10 @@ mod tests {
             ),
             "{notice}"
         );
-        assert!(notice.ends_with("timed on the first 64); Ctrl-C stops"), "{notice}");
+        assert!(
+            notice.ends_with("timed on the first 64); Ctrl-C stops"),
+            "{notice}"
+        );
         // 8000 of them: exactly one minute, not said; 8001: said.
         assert_eq!(cost_notice(&work(8000, 1), 64, elapsed), None);
         assert!(cost_notice(&work(8001, 1), 64, elapsed).is_some());
@@ -206,7 +209,10 @@ mod tests {
         );
         // Nothing timed, or everything already done in one pass: nothing to say.
         assert_eq!(cost_notice(&work(1_000_000, 1), 0, elapsed), None);
-        assert_eq!(cost_notice(&work(64, 1), 64, Duration::from_secs(600)), None);
+        assert_eq!(
+            cost_notice(&work(64, 1), 64, Duration::from_secs(600)),
+            None
+        );
         // Done once but to be repeated: the repeats are still to come.
         assert!(cost_notice(&work(64, 2), 64, Duration::from_secs(600)).is_some());
     }

@@ -29,6 +29,7 @@ use super::stats::{self, Estimate};
 use crate::error::{Error, Result};
 use crate::evaluate::accuracy::{map_grid, position_error, reached_poses_from, result_parameters};
 use crate::identify::estimate::{FitOptions, Strategy, StrategyResult};
+use crate::identify::statistics::NoiseTest;
 use crate::kinematics::inverse::Joints;
 use crate::kinematics::platform::ForwardKinematics;
 use crate::measure::observe_simulate::simulated_poses;
@@ -205,6 +206,64 @@ pub struct ArmTrial {
     /// RMS position error over the accuracy map, metres.
     #[serde(rename = "map_rms_m")]
     pub map_rms: f64,
+    /// The fit's checks of bad data, on data that have none: how often they fire.
+    pub alarms: Alarms,
+}
+
+/// How often one fit's checks of bad data fired: its leg fits tested for outliers and those
+/// that flagged a row, its noise tests (each leg's, the instrument's) and those that rejected
+/// the declared noise.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, serde::Serialize)]
+pub struct Alarms {
+    /// Leg fits whose rows were tested for outliers.
+    pub outlier_tests: usize,
+    /// Of those, the fits that flagged at least one row.
+    pub flagged: usize,
+    /// Noise tests run (one per leg with redundancy and a declared noise; one for the
+    /// instrument's fit as a whole).
+    pub noise_tests: usize,
+    /// Of those, the tests that rejected the declared noise.
+    pub rejected: usize,
+}
+
+impl Alarms {
+    /// The checks of `result` and how often they fired.
+    pub fn of(result: &StrategyResult) -> Self {
+        let mut alarms = Self::default();
+        for leg in &result.legs {
+            let statistics = &leg.statistics;
+            if statistics.outlier_threshold.is_some() {
+                alarms.outlier_tests += 1;
+                alarms.flagged += usize::from(!statistics.outliers.is_empty());
+            }
+            alarms.count_noise_test(statistics.noise_test.as_ref());
+        }
+        if let Some(instrument) = &result.instrument {
+            alarms.count_noise_test(instrument.noise_test.as_ref());
+        }
+        alarms
+    }
+
+    fn count_noise_test(&mut self, test: Option<&NoiseTest>) {
+        if let Some(test) = test {
+            self.noise_tests += 1;
+            self.rejected += usize::from(test.rejected);
+        }
+    }
+}
+
+impl std::ops::Add for Alarms {
+    type Output = Self;
+
+    /// The counts of both, summed.
+    fn add(self, other: Self) -> Self {
+        Self {
+            outlier_tests: self.outlier_tests + other.outlier_tests,
+            flagged: self.flagged + other.flagged,
+            noise_tests: self.noise_tests + other.noise_tests,
+            rejected: self.rejected + other.rejected,
+        }
+    }
 }
 
 /// The values of one successful trial.
@@ -241,6 +300,12 @@ pub struct ArmSummary {
     pub parameters: Vec<ParameterSummary>,
     /// Mean over the trials of the RMS position error over the map, metres.
     pub map_rms: Estimate,
+    /// The checks of bad data over every trial (counts summed).
+    pub alarms: Alarms,
+    /// The fraction of the leg fits tested for outliers that flagged a row (Wilson interval).
+    pub flagged: Estimate,
+    /// The fraction of the noise tests that rejected the declared noise (Wilson interval).
+    pub rejected: Estimate,
 }
 
 /// One parameter's error statistics under one arm.
@@ -573,6 +638,7 @@ impl Study {
             errors,
             predicted_std,
             map_rms: self.map_rms(&identified, real_kinematics, joints)?,
+            alarms: Alarms::of(result),
         })
     }
 
@@ -629,23 +695,32 @@ impl Study {
             .arms
             .iter()
             .enumerate()
-            .map(|(a, &arm)| ArmSummary {
-                arm,
-                poses: poses[a],
-                parameters: (0..self.parameters.len())
-                    .map(|p| {
-                        let errors: Vec<f64> = values.iter().map(|v| v.arms[a].errors[p]).collect();
-                        let predicted: Vec<f64> =
-                            values.iter().map(|v| v.arms[a].predicted_std[p]).collect();
-                        ParameterSummary {
-                            mean: stats::mean_interval(&errors),
-                            std: stats::std_interval(&errors),
-                            rms: stats::rms_interval(&errors),
-                            predicted_std: stats::mean_interval(&predicted),
-                        }
-                    })
-                    .collect(),
-                map_rms: stats::mean_interval(&map_of(a)),
+            .map(|(a, &arm)| {
+                let alarms = values
+                    .iter()
+                    .fold(Alarms::default(), |sum, v| sum + v.arms[a].alarms);
+                ArmSummary {
+                    arm,
+                    poses: poses[a],
+                    alarms,
+                    flagged: stats::proportion_interval(alarms.flagged, alarms.outlier_tests),
+                    rejected: stats::proportion_interval(alarms.rejected, alarms.noise_tests),
+                    parameters: (0..self.parameters.len())
+                        .map(|p| {
+                            let errors: Vec<f64> =
+                                values.iter().map(|v| v.arms[a].errors[p]).collect();
+                            let predicted: Vec<f64> =
+                                values.iter().map(|v| v.arms[a].predicted_std[p]).collect();
+                            ParameterSummary {
+                                mean: stats::mean_interval(&errors),
+                                std: stats::std_interval(&errors),
+                                rms: stats::rms_interval(&errors),
+                                predicted_std: stats::mean_interval(&predicted),
+                            }
+                        })
+                        .collect(),
+                    map_rms: stats::mean_interval(&map_of(a)),
+                }
             })
             .collect();
         let through = self.mechanism.instrument.is_some();

@@ -70,6 +70,14 @@ pub fn montecarlo_json(study: &MonteCarlo) -> Value {
                 "name": arm.arm.name(),
                 "poses": arm.poses,
                 "map_rms_m": estimate_json(&arm.map_rms),
+                "alarms": {
+                    "outlier_tests": arm.alarms.outlier_tests,
+                    "flagged": arm.alarms.flagged,
+                    "flagged_fraction": estimate_json(&arm.flagged),
+                    "noise_tests": arm.alarms.noise_tests,
+                    "rejected": arm.alarms.rejected,
+                    "rejected_fraction": estimate_json(&arm.rejected),
+                },
                 "parameters": parameters,
             })
         })
@@ -129,6 +137,28 @@ fn millimetres(estimate: &Estimate) -> String {
     format!("{} [{}, {}]", fixed(e.value), fixed(e.low), fixed(e.high))
 }
 
+/// The observed spread over the predicted σ, three decimals (`-` without a σ).
+fn ratio(value: f64) -> String {
+    if value.is_finite() {
+        format!("{value:.3}")
+    } else {
+        "-".into()
+    }
+}
+
+/// A proportion in per cent with its interval and counts: `0.75 % [0.61, 0.92] (90 of 12000)`,
+/// `-` without any test.
+fn percentage(fraction: &Estimate, count: usize, of: usize) -> String {
+    if of == 0 {
+        return "- (none run)".into();
+    }
+    let e = fraction.scaled(100.0);
+    format!(
+        "{:.2} % [{:.2}, {:.2}] ({count} of {of})",
+        e.value, e.low, e.high
+    )
+}
+
 fn short(value: f64) -> String {
     if !value.is_finite() {
         return "-".into();
@@ -167,12 +197,13 @@ pub fn montecarlo_text(study: &MonteCarlo) -> String {
         for arm in &study.arms {
             let s = &arm.parameters[p];
             text.push_str(&format!(
-                "    {:<26} mean {}  std {}  RMS {}  predicted σ {}\n",
+                "    {:<26} mean {}  std {}  RMS {}  predicted σ {}  std/σ {}\n",
                 arm.arm.name(),
                 interval(&s.mean, 1.0),
                 interval(&s.std, 1.0),
                 interval(&s.rms, 1.0),
-                interval(&s.predicted_std, 1.0)
+                interval(&s.predicted_std, 1.0),
+                ratio(s.std.value / s.predicted_std.value)
             ));
         }
     }
@@ -187,6 +218,17 @@ pub fn montecarlo_text(study: &MonteCarlo) -> String {
             "    {:<26} {}\n",
             arm.arm.name(),
             millimetres(&arm.map_rms)
+        ));
+    }
+    text.push_str(
+        "\nchecks of bad data on these clean data (false alarms; 95 % Wilson intervals):\n",
+    );
+    for arm in &study.arms {
+        text.push_str(&format!(
+            "    {:<26} leg fits flagging a row {}; noise tests rejecting the declared noise {}\n",
+            arm.arm.name(),
+            percentage(&arm.flagged, arm.alarms.flagged, arm.alarms.outlier_tests),
+            percentage(&arm.rejected, arm.alarms.rejected, arm.alarms.noise_tests),
         ));
     }
     text.push_str("\npaired comparisons (same draws in every arm):\n");

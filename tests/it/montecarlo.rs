@@ -85,6 +85,17 @@ pub(crate) fn t_interval(x: &[f64]) -> (f64, f64, f64) {
     (m, m - half, m + half)
 }
 
+/// The fraction `k / n` with its 95 % Wilson score interval, computed here with the printed
+/// normal quantile.
+fn wilson(k: u64, n: u64) -> (f64, f64, f64) {
+    let z: f64 = 1.959_963_984_540_054;
+    let (k, n) = (k as f64, n as f64);
+    let p = k / n;
+    let centre = (p + z * z / (2.0 * n)) / (1.0 + z * z / n);
+    let half = z / (1.0 + z * z / n) * (p * (1.0 - p) / n + z * z / (4.0 * n * n)).sqrt();
+    (p, centre - half, centre + half)
+}
+
 #[test]
 fn one_and_two_threads_give_identical_reports_and_every_statistic_follows_from_the_trials() {
     let one = montecarlo_json("models/5r.yaml", 1, &[]);
@@ -146,6 +157,37 @@ fn one_and_two_threads_give_identical_reports_and_every_statistic_follows_from_t
         }
         let map = per_trial(key, "map_rms_m", None);
         assert_estimate(&arm["map_rms_m"], t_interval(&map), &format!("{key} map"));
+        // The checks of bad data: every leg fit of every trial tested (two legs with
+        // redundancy), the counts summed over the trials, the fractions' Wilson intervals.
+        let count = |field: &str| -> Vec<u64> {
+            trials
+                .iter()
+                .map(|t| t["arms"][key]["alarms"][field].as_u64().expect("a count"))
+                .collect()
+        };
+        assert!(count("outlier_tests").iter().all(|&c| c == 2), "{key}");
+        assert!(count("noise_tests").iter().all(|&c| c == 2), "{key}");
+        let alarms = &arm["alarms"];
+        for (tests, fired, fraction) in [
+            ("outlier_tests", "flagged", "flagged_fraction"),
+            ("noise_tests", "rejected", "rejected_fraction"),
+        ] {
+            let (n, k) = (
+                count(tests).iter().sum::<u64>(),
+                count(fired).iter().sum::<u64>(),
+            );
+            assert_eq!(alarms[tests].as_u64(), Some(n), "{key} {tests}");
+            assert_eq!(alarms[fired].as_u64(), Some(k), "{key} {fired}");
+            // Fractions: to round-off (a bound at 0 may be computed as 3e-17).
+            let (v, l, h) = estimate(&alarms[fraction]);
+            let (rv, rl, rh) = wilson(k, n);
+            for (reported, recomputed) in [(v, rv), (l, rl), (h, rh)] {
+                assert!(
+                    (reported - recomputed).abs() <= 1e-12,
+                    "{key} {fraction}: {reported} against {recomputed}"
+                );
+            }
+        }
     }
     let dc = per_trial("divide_and_conquer", "map_rms_m", None);
     for comparison in report["comparisons"].as_array().unwrap() {
@@ -335,8 +377,10 @@ fn the_terminal_study_prints_the_numbers_of_its_json_report() {
     for arm in report["arms"].as_array().unwrap() {
         let name = arm["name"].as_str().unwrap();
         for parameter in arm["parameters"].as_array().unwrap() {
+            let ratio = parameter["std_error"]["value"].as_f64().unwrap()
+                / parameter["predicted_std"]["value"].as_f64().unwrap();
             let line = format!(
-                "    {name:<26} mean {}  std {}  RMS {}  predicted σ {}\n",
+                "    {name:<26} mean {}  std {}  RMS {}  predicted σ {}  std/σ {ratio:.3}\n",
                 printed(&parameter["mean_error"], 1.0),
                 printed(&parameter["std_error"], 1.0),
                 printed(&parameter["rms_error"], 1.0),
@@ -346,6 +390,28 @@ fn the_terminal_study_prints_the_numbers_of_its_json_report() {
         }
         let map = format!("    {name:<26} {}\n", printed_mm(&arm["map_rms_m"]));
         assert!(stdout.contains(&map), "`{map}` missing from\n{stdout}");
+        let alarms = &arm["alarms"];
+        let percent = |fired: &str, tests: &str, fraction: &str| {
+            let e = &alarms[fraction];
+            format!(
+                "{:.2} % [{:.2}, {:.2}] ({} of {})",
+                100.0 * e["value"].as_f64().unwrap(),
+                100.0 * e["ci95"][0].as_f64().unwrap(),
+                100.0 * e["ci95"][1].as_f64().unwrap(),
+                alarms[fired],
+                alarms[tests]
+            )
+        };
+        let checks = format!(
+            "    {name:<26} leg fits flagging a row {}; noise tests rejecting the declared noise \
+             {}\n",
+            percent("flagged", "outlier_tests", "flagged_fraction"),
+            percent("rejected", "noise_tests", "rejected_fraction")
+        );
+        assert!(
+            stdout.contains(&checks),
+            "`{checks}` missing from\n{stdout}"
+        );
     }
     let nominal = format!(
         "    {:<26} {}\n",
@@ -445,4 +511,51 @@ fn failed_trials_are_listed_five_at_most_then_counted() {
         stderr.contains("legwise: warning: 8 of 12 trials failed in all"),
         "{stderr}"
     );
+}
+
+/// What the study counts of a fit's checks of bad data, on the bundled 5R's fixtures read as
+/// `legwise identify` reads them: a clean file (nothing fires), a reading 0.1 rad off (leg1
+/// flags it and rejects the noise) and readings in degrees (both legs reject the noise, no row
+/// stands out).
+#[test]
+fn the_study_counts_the_fits_outlier_flags_and_noise_rejections() {
+    use legwise::study::montecarlo::Alarms;
+    use legwise::{identify, Measurements, Settings};
+    let mechanism = crate::support::bundled("5r.yaml");
+    for (file, flagged, rejected) in [("clean", 0, 0), ("outlier", 1, 1), ("degrees", 0, 2)] {
+        let path = crate::support::crate_path(&format!("tests/data/stats_5r_{file}.csv"));
+        let data = Measurements::read(&path, &mechanism).unwrap();
+        let report = identify(&mechanism, &data, &Settings::default()).unwrap();
+        let alarms = Alarms::of(&report.results[0]);
+        assert_eq!(
+            alarms,
+            Alarms {
+                outlier_tests: 2,
+                flagged,
+                noise_tests: 2,
+                rejected,
+            },
+            "{file}"
+        );
+    }
+    // Summed over trials field by field.
+    let one = Alarms {
+        outlier_tests: 2,
+        flagged: 1,
+        noise_tests: 3,
+        rejected: 1,
+    };
+    let other = Alarms {
+        outlier_tests: 5,
+        flagged: 2,
+        noise_tests: 7,
+        rejected: 3,
+    };
+    let sum = Alarms {
+        outlier_tests: 7,
+        flagged: 3,
+        noise_tests: 10,
+        rejected: 4,
+    };
+    assert_eq!(one + other, sum);
 }
