@@ -84,16 +84,9 @@ impl TwoStage<'_, '_> {
         if m <= n2 || rows.len() <= n1 || j1.nrows() != rows.len() {
             return Ok(None);
         }
-        let v = match noise {
-            Some(noise) => match self.full.noise_loadings(&x, noise) {
-                Ok(loadings) => loadings.dense(),
-                Err(_) => return Ok(None),
-            },
-            None => DMatrix::identity(m, m),
-        };
         let j2 = whole.columns(0, n2).into_owned();
         let k = whole.columns(n2, n1).into_owned();
-        let Some(g1) = pseudo_solve(&j1) else {
+        let (Some(g1), Some(g2)) = (pseudo_solve(&j1), pseudo_solve(&j2)) else {
             return Ok(None);
         };
         // E₁ = G₁ P_R over all the rows.
@@ -101,40 +94,44 @@ impl TwoStage<'_, '_> {
         for (column, &row) in rows.iter().enumerate() {
             e1.set_column(row, &g1.column(column));
         }
-        let v_r = DMatrix::from_fn(rows.len(), rows.len(), |a, b| v[(rows[a], rows[b])]);
-        let expected1 = v_r.trace() - (&g1 * &v_r * &j1).trace();
-        if !(expected1 > 0.0 && expected1.is_finite()) {
-            return Ok(None);
-        }
-        // J₂ Σ_L J₂ᵀ, the rows' misfit from the legs' departure (only with a declared noise).
-        let departure = if noise.is_some() && self.departure.len() == n2 {
-            let scaled = DMatrix::from_fn(m, n2, |i, j| j2[(i, j)] * self.departure[j]);
-            &scaled * scaled.transpose()
-        } else {
-            DMatrix::zeros(m, m)
-        };
-        let scale = |residuals: &DVector<f64>, expected: f64| {
-            if noise.is_some() {
-                1.0
-            } else {
-                residuals.norm_squared() / expected
+        // The legs move by −(G₂ M) ε with G₂ M = G₂ − (G₂ K) E₁, without the m × m matrix M.
+        let g2_k = &g2 * &k;
+        let legs_by_rows = &g2 - &g2_k * &e1;
+        let Some(noise) = noise else {
+            // V = I, each stage scaled by its residuals over their expectation:
+            // tr(I − H₁) = |R| − n₁, and ‖(I − H₂) M‖²_F = (m − n₂) − 2 tr(E₁ C) + tr(CᵀC E₁E₁ᵀ)
+            // with C = (I − H₂) K = K − J₂ G₂ K (so (I − H₂) M = (I − H₂) − C E₁).
+            let c = &k - &j2 * &g2_k;
+            let e1_e1 = &e1 * e1.transpose();
+            let expected1 = (rows.len() - n1) as f64;
+            let expected2 =
+                (m - n2) as f64 - 2.0 * (&e1 * &c).trace() + (c.tr_mul(&c) * &e1_e1).trace();
+            if !(expected2 > 0.0 && expected2.is_finite()) {
+                return Ok(None);
             }
+            return Ok(Some(TwoStageCovariance {
+                legs: &legs_by_rows * legs_by_rows.transpose() * (r2.norm_squared() / expected2),
+                registration: e1_e1 * (r1.norm_squared() / expected1),
+                registration_dof: rows.len() - n1,
+            }));
         };
-        let moved = &e1 * (&v + &departure) * e1.transpose();
-        let mixing = DMatrix::identity(m, m) - &k * &e1;
-        let e1_departure = &e1 * &departure * e1.transpose();
-        let omega = &mixing * &v * mixing.transpose() + &k * e1_departure * k.transpose();
-        let Some(g2) = pseudo_solve(&j2) else {
+        let Ok(loadings) = self.full.noise_loadings(&x, noise) else {
             return Ok(None);
         };
-        let free = DMatrix::identity(m, m) - &j2 * &g2;
-        let expected2 = (&free * &omega * free.transpose()).trace();
-        if !(expected2 > 0.0 && expected2.is_finite()) {
-            return Ok(None);
+        // The registration's move by the legs' departure: −E₁ J₂ Σ_L^½ per unit departure.
+        let mut by_departure = &e1 * &j2;
+        if self.departure.len() == n2 {
+            for (j, sigma) in self.departure.iter().enumerate() {
+                by_departure.column_mut(j).scale_mut(*sigma);
+            }
+        } else {
+            by_departure.fill(0.0);
         }
+        let legs_by_departure = &g2_k * &by_departure;
         Ok(Some(TwoStageCovariance {
-            legs: &g2 * omega * g2.transpose() * scale(&r2, expected2),
-            registration: moved * scale(&r1, expected1),
+            legs: loadings.meat(&legs_by_rows.transpose())
+                + &legs_by_departure * legs_by_departure.transpose(),
+            registration: loadings.meat(&e1.transpose()) + &by_departure * by_departure.transpose(),
             registration_dof: rows.len() - n1,
         }))
     }

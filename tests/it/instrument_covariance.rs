@@ -291,3 +291,98 @@ fn over_seeded_experiments_of_shared_rows_the_frames_errors_over_their_sigma_are
         );
     }
 }
+
+/// The two-stage strategy's reported σ, recomputed densely from central differences: the
+/// Jacobian of the whole problem at the estimate (`J₂` the legs' columns, `K` the frame's), the
+/// registration's Jacobian on its rows with the legs at nominal (`J₁`), the noise's covariance
+/// `V` from the residuals' response to every target coordinate, and the bundled 3-RPR tracker's
+/// perturbation (0.002 for every kind: `Σ_L = 0.002² I`). Then, with `E₁ = (J₁ᵀJ₁)⁻¹J₁ᵀP_R` and
+/// `M = I − K E₁`: the legs' covariance `G₂ (M V Mᵀ + K E₁ J₂ Σ_L J₂ᵀ E₁ᵀ Kᵀ) G₂ᵀ`, the
+/// registration's `E₁ (V + J₂ Σ_L J₂ᵀ) E₁ᵀ`. Without a declared noise `V = I`, `Σ_L` unused, each
+/// stage scaled by its residuals over `tr((I − H₁))` and `tr((I − H₂) M Mᵀ (I − H₂))`.
+#[test]
+fn the_two_stage_sigma_is_the_registrations_error_carried_into_the_legs() {
+    use legwise::identify::shared_estimate::REGISTRATION_ROWS;
+    let declared = bundled("3rpr-tracker.yaml");
+    let observations = simulate_observed(&declared, SimulationOptions::default())
+        .unwrap()
+        .observations;
+    for noise in [true, false] {
+        let mechanism = if noise {
+            declared.clone()
+        } else {
+            declared.edited(|parts| parts.noise = None)
+        };
+        let estimate = identify_shared(&mechanism, &observations, Strategy::TwoStage).unwrap();
+        let x = unknowns(&estimate);
+        let problem = IdentificationProblem::through_instrument(&mechanism, &observations).unwrap();
+        let n1 = problem.shared_columns().len();
+        let n2 = x.len() - n1;
+        let recomputed = Recomputed::new(&declared, &observations, &x);
+        let m = recomputed.r.len();
+        let v = if noise {
+            recomputed.v.clone()
+        } else {
+            DMatrix::identity(m, m)
+        };
+        let j2 = recomputed.jacobian.columns(0, n2).into_owned();
+        let k = recomputed.jacobian.columns(n2, n1).into_owned();
+        // The registration: the frame's columns at the legs' nominal values, on its rows.
+        let rows = problem.first_rows(REGISTRATION_ROWS);
+        let mut nominal = problem.start();
+        nominal.rows_mut(n2, n1).copy_from(&x.rows(n2, n1));
+        let on_rows = |x: &DVector<f64>| {
+            let r = residuals(&mechanism, &observations, x);
+            DVector::from_iterator(rows.len(), rows.iter().map(|&i| r[i]))
+        };
+        let r1 = on_rows(&nominal);
+        let mut j1 = DMatrix::zeros(rows.len(), n1);
+        for j in 0..n1 {
+            let h = 1e-6;
+            let moved = |d: f64| {
+                let mut y = nominal.clone();
+                y[n2 + j] += d;
+                on_rows(&y)
+            };
+            j1.set_column(j, &((moved(h) - moved(-h)) / (2.0 * h)));
+        }
+        let solve = |j: &DMatrix<f64>| (j.transpose() * j).try_inverse().unwrap() * j.transpose();
+        let mut e1 = DMatrix::zeros(n1, m);
+        for (column, &row) in rows.iter().enumerate() {
+            e1.set_column(row, &solve(&j1).column(column));
+        }
+        let g2 = solve(&j2);
+        let mixing = DMatrix::identity(m, m) - &k * &e1;
+        let departure = if noise {
+            &j2 * j2.transpose() * 0.002f64.powi(2)
+        } else {
+            DMatrix::zeros(m, m)
+        };
+        let mut omega = &mixing * &v * mixing.transpose()
+            + &k * &e1 * &departure * e1.transpose() * k.transpose();
+        let mut registration = &e1 * (&v + &departure) * e1.transpose();
+        if !noise {
+            let free1 = DMatrix::identity(rows.len(), rows.len()) - &j1 * solve(&j1);
+            registration *= r1.norm_squared() / free1.trace();
+            let free2 = DMatrix::identity(m, m) - &j2 * &g2;
+            let expected = (&free2 * &omega * free2.transpose()).trace();
+            omega *= recomputed.r.norm_squared() / expected;
+        }
+        let legs = &g2 * omega * g2.transpose();
+        let expected: Vec<f64> = legs
+            .diagonal()
+            .iter()
+            .chain(registration.diagonal().iter())
+            .map(|c| c.sqrt())
+            .collect();
+        let sigmas = reported(&estimate);
+        let names = problem.names();
+        assert_eq!(sigmas.len(), expected.len());
+        for ((name, s), e) in names.iter().zip(&sigmas).zip(&expected) {
+            assert!(
+                (s - e).abs() <= 1e-5 * e,
+                "noise declared {noise}, {name}: reported σ {s:e}, recomputed {e:e}"
+            );
+        }
+    }
+}
