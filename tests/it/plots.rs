@@ -16,7 +16,7 @@ use legwise::report::plots::error_map::{ErrorMapFigure, MapCell, MapPanel};
 use legwise::report::plots::parameter_errors::{BarSeries, ParameterErrors, ParameterLabel};
 use legwise::report::plots::slices::SlicesFigure;
 use legwise::report::plots::workspace::{PoseGroup, WorkspaceFigure};
-use legwise::report::plots::{render, Figure, Format};
+use legwise::report::plots::{render, style, Figure, Format};
 use legwise::report::{RealValues, Report};
 use legwise::solver::SolverKind;
 use legwise::study::plots::{HistogramPanel, Histograms};
@@ -224,13 +224,19 @@ fn rasterised(svg: &str) -> Pixmap {
     pixmap
 }
 
+/// The PNG of `figure`, decoded; checked to be the size the figure declares.
+fn png(figure: &impl Figure, what: &str) -> Pixmap {
+    let bytes = render(figure, Format::Png).expect("the PNG renders");
+    let png = Pixmap::decode_png(&bytes).expect("a valid PNG");
+    assert_eq!((png.width(), png.height()), figure.size(), "{what}: size");
+    png
+}
+
 /// The PNG of `figure`, decoded; checked to be the size the figure declares and its SVG has,
 /// and pixel for pixel the SVG rasterised with the embedded font alone.
 fn png_of_svg(figure: &impl Figure, what: &str) -> Pixmap {
-    let bytes = render(figure, Format::Png).expect("the PNG renders");
-    let png = Pixmap::decode_png(&bytes).expect("a valid PNG");
+    let png = png(figure, what);
     let (width, height) = figure.size();
-    assert_eq!((png.width(), png.height()), (width, height), "{what}: size");
     let svg = svg(figure);
     assert!(
         svg.starts_with(&format!("<svg width=\"{width}\" height=\"{height}\"")),
@@ -350,25 +356,29 @@ fn a_png_is_its_svg_rasterised_with_the_embedded_font() {
     png_of_svg(&small_workspace("test workspace", ["x", "y"]), "workspace");
     png_of_svg(&small_slices(), "slices");
     png_of_svg(&small_histograms(), "histograms");
-    png_of_svg(&Words("radius, gamma1, angle: 1.0957 m"), "words");
+    png_of_svg(&Words("radius, gamma1, angle: 1.0957 m", 20.0), "words");
 }
 
-/// A picture holding one line of text, 60 (plotters' size) high, and nothing else.
-struct Words(&'static str);
+/// A picture holding one line of text of a size (plotters' size) and nothing else.
+struct Words(&'static str, f64);
 
 impl Figure for Words {
     fn size(&self) -> (u32, u32) {
-        (900, 100)
+        (400, 60)
     }
 
     fn draw<DB: DrawingBackend>(&self, root: &DrawingArea<DB, Shift>) -> Drawn<DB> {
         root.fill(&WHITE)?;
-        root.draw(&Text::new(self.0.to_string(), (10, 10), ("sans-serif", 60)))
+        root.draw(&Text::new(
+            self.0.to_string(),
+            (10, 10),
+            ("sans-serif", self.1),
+        ))
     }
 }
 
-/// The glyphs of a one-line PNG text, left to right: each run of columns holding dark
-/// pixels, as (first row, last row) of its dark pixels.
+/// The glyphs of a one-line PNG text, left to right: each run of columns holding a dark
+/// pixel (darker than mid-grey), as (first row, last row) of its dark pixels.
 fn glyph_rows(png: &Pixmap) -> Vec<(u32, u32)> {
     let dark = |x: u32, y: u32| {
         let p = png.pixel(x, y).expect("inside");
@@ -390,38 +400,34 @@ fn glyph_rows(png: &Pixmap) -> Vec<(u32, u32)> {
     glyphs
 }
 
-/// A decimal point sits on the baseline and a comma hangs below it (the old renderer drew
-/// the point as a raised dot, `1·0957`, and the comma as a point).
+/// At the sizes of the tick labels, axis descriptions and titles, a decimal point ends on the
+/// baseline, as the foot of the `1` before it, and a comma hangs below it. The old renderer
+/// drew both one pixel higher at the two smaller sizes: the point a raised dot (`1·0957`),
+/// the comma a point.
 #[test]
 fn a_decimal_point_sits_on_the_baseline_and_a_comma_descends_below_it() {
-    for (text, mark) in [("1.0957", "point"), ("1,0957", "comma")] {
-        let glyphs = glyph_rows(&png_of_svg(&Words(text), text));
-        assert_eq!(
-            glyphs.len(),
-            6,
-            "{text}: one run of columns per glyph: {glyphs:?}"
-        );
-        let digits: Vec<(u32, u32)> = [0, 2, 3, 4, 5].iter().map(|&k| glyphs[k]).collect();
-        let top = digits.iter().map(|g| g.0).min().unwrap();
-        let baseline = digits.iter().map(|g| g.1).max().unwrap();
-        let height = f64::from(baseline - top);
-        assert!(height > 30.0, "{text}: digits {height} px high");
-        let (mark_top, mark_bottom) = glyphs[1];
-        // Wholly in the lowest quarter of the digits' height (a raised dot is at mid-height).
-        assert!(
-            f64::from(mark_top) > f64::from(top) + 0.75 * height,
-            "{text}: the {mark} starts at row {mark_top}, digits {top}..={baseline}"
-        );
-        if mark == "point" {
-            assert!(
-                mark_bottom.abs_diff(baseline) <= 1,
-                "{text}: the point ends at row {mark_bottom}, the baseline is {baseline}"
+    for size in [style::LABEL_SIZE, 15.0, 20.0] {
+        for (text, mark) in [("1.0957", "point"), ("1,0957", "comma")] {
+            let glyphs = glyph_rows(&png(&Words(text, size), text));
+            assert_eq!(
+                glyphs.len(),
+                6,
+                "{text} at {size}: one run of columns per glyph: {glyphs:?}"
             );
-        } else {
-            assert!(
-                mark_bottom >= baseline + 4,
-                "{text}: the comma ends at row {mark_bottom}, above the baseline {baseline} + 4"
-            );
+            let (one_top, baseline) = glyphs[0];
+            let (mark_top, mark_bottom) = glyphs[1];
+            assert!(mark_top > one_top + 3, "{text} at {size}: {glyphs:?}");
+            if mark == "point" {
+                assert_eq!(
+                    mark_bottom, baseline,
+                    "{text} at {size}: the point ends at row {mark_bottom}, the 1 at {baseline}"
+                );
+            } else {
+                assert!(
+                    mark_bottom > baseline,
+                    "{text} at {size}: the comma ends at row {mark_bottom}, the 1 at {baseline}"
+                );
+            }
         }
     }
 }
