@@ -2,7 +2,7 @@
 //! the SVG shows, text shaped and anti-aliased from the embedded DejaVu Sans.
 //!
 //! The font database holds only the embedded regular and bold faces (never a system font),
-//! and the generic family [`FONT`] — the only one the figures name — maps to them: the
+//! and the generic family [`super::canvas::FONT`] — the only one the figures name — maps to them: the
 //! pixels do not depend on the machine. Images referenced by the SVG are never loaded (the
 //! figures have none), so rendering reads no file.
 
@@ -11,14 +11,14 @@ use std::sync::{Arc, OnceLock};
 use resvg::tiny_skia::{Color, Pixmap, Transform};
 use resvg::usvg::{fontdb, ImageHrefResolver, Options, Tree};
 
-use super::canvas::FONT;
 use crate::error::{Error, Result};
 
 /// The family name inside the embedded font files.
 const DEJAVU_SANS: &str = "DejaVu Sans";
 
 /// The font database: the embedded DejaVu Sans regular and bold, the generic families mapped
-/// to it; built once.
+/// to it (`serif` too: usvg falls back to it for a family it does not find, so any text is
+/// drawn in DejaVu Sans); built once.
 ///
 /// # Errors
 /// The embedded fonts did not load as two faces of DejaVu Sans (a broken build).
@@ -46,7 +46,6 @@ fn fonts() -> Result<Arc<fontdb::Database>> {
 
 /// How the SVG is read: the embedded fonts only, DejaVu Sans by default, no image loaded.
 fn options() -> Result<Options<'static>> {
-    debug_assert_eq!(FONT, "sans-serif", "the family mapped to DejaVu Sans");
     Ok(Options {
         font_family: DEJAVU_SANS.into(),
         fontdb: fonts()?,
