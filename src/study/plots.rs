@@ -86,7 +86,11 @@ impl Figure for Histograms {
                 vec![(x, 50), (x + 24, 50)],
                 colour.stroke_width(2),
             ))?;
-            header.draw(&Text::new(name.to_string(), (x + 30, 43), style::label()))?;
+            header.draw(&style::legend_text(
+                name.to_string(),
+                (x + 30, 50),
+                style::LABEL_SIZE,
+            ))?;
         }
         let rows = self.panels.len().div_ceil(COLUMNS).max(1);
         let cells = body.split_evenly((rows, COLUMNS));

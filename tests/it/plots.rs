@@ -1,18 +1,29 @@
 //! The pictures: each figure's SVG holds its axis descriptions, units and legend entries (read
-//! from the text, not just `<svg`), its marks match the data counted independently, a PNG
-//! renders with the embedded font, and bad output paths give clear errors.
+//! from the text, not just `<svg`), its marks match the data counted independently, a PNG is
+//! its SVG rasterised with the embedded font (a decimal point on the baseline), and bad output
+//! paths give clear errors.
 use std::path::Path;
 use std::process::Command;
+use std::sync::Arc;
 
 use legwise::identify::estimate::{identify, Strategy};
 use legwise::measure::simulate::{simulate, SimulationOptions};
 use legwise::measure::Measurements;
+use legwise::model::params::Unit;
+use legwise::report::plots::canvas::Drawn;
 use legwise::report::plots::distribution::{ErrorDistribution, ErrorSample};
 use legwise::report::plots::error_map::{ErrorMapFigure, MapCell, MapPanel};
-use legwise::report::plots::parameter_errors::ParameterErrors;
-use legwise::report::plots::{render, Figure, Format};
+use legwise::report::plots::parameter_errors::{BarSeries, ParameterErrors, ParameterLabel};
+use legwise::report::plots::slices::SlicesFigure;
+use legwise::report::plots::workspace::{PoseGroup, WorkspaceFigure};
+use legwise::report::plots::{render, style, Figure, Format};
 use legwise::report::{RealValues, Report};
 use legwise::solver::SolverKind;
+use legwise::study::plots::{HistogramPanel, Histograms};
+use plotters::coord::Shift;
+use plotters::prelude::*;
+use resvg::tiny_skia::{Color, Pixmap, Transform};
+use resvg::usvg::{self, fontdb};
 
 use crate::support::{bundled, svg_texts};
 
@@ -194,23 +205,286 @@ fn the_error_distribution_names_each_model_with_its_statistics() {
     }
 }
 
+/// `svg` rasterised here, independently of legwise's renderer: resvg over white, with a font
+/// database of the embedded DejaVu Sans regular and bold only, `sans-serif` mapped to it.
+fn rasterised(svg: &str) -> Pixmap {
+    let mut fonts = fontdb::Database::new();
+    fonts.load_font_data(dejavu::sans::regular().to_vec());
+    fonts.load_font_data(dejavu::sans::bold().to_vec());
+    fonts.set_sans_serif_family("DejaVu Sans");
+    let options = usvg::Options {
+        fontdb: Arc::new(fonts),
+        ..usvg::Options::default()
+    };
+    let tree = usvg::Tree::from_str(svg, &options).expect("the SVG parses");
+    let size = tree.size().to_int_size();
+    let mut pixmap = Pixmap::new(size.width(), size.height()).expect("a non-empty picture");
+    pixmap.fill(Color::WHITE);
+    resvg::render(&tree, Transform::identity(), &mut pixmap.as_mut());
+    pixmap
+}
+
+/// The PNG of `figure`, decoded; checked to be the size the figure declares.
+fn png(figure: &impl Figure, what: &str) -> Pixmap {
+    let bytes = render(figure, Format::Png).expect("the PNG renders");
+    let png = Pixmap::decode_png(&bytes).expect("a valid PNG");
+    assert_eq!((png.width(), png.height()), figure.size(), "{what}: size");
+    png
+}
+
+/// The PNG of `figure`, decoded; checked to be the size the figure declares and its SVG has,
+/// and pixel for pixel the SVG rasterised with the embedded font alone.
+fn png_of_svg(figure: &impl Figure, what: &str) -> Pixmap {
+    let png = png(figure, what);
+    let (width, height) = figure.size();
+    let svg = svg(figure);
+    assert!(
+        svg.starts_with(&format!("<svg width=\"{width}\" height=\"{height}\"")),
+        "{what}: the SVG is as large"
+    );
+    let expected = rasterised(&svg);
+    let differing = png
+        .pixels()
+        .iter()
+        .zip(expected.pixels())
+        .filter(|(a, b)| a != b)
+        .count();
+    assert_eq!(
+        differing, 0,
+        "{what}: pixels differing from the rasterised SVG"
+    );
+    assert!(
+        png.pixels().iter().all(|p| p.alpha() == 255),
+        "{what}: opaque"
+    );
+    png
+}
+
+/// A small planar workspace picture: a square region, one serial curve, the MIW, two poses.
+fn small_workspace(title: &str, axes: [&str; 2]) -> WorkspaceFigure {
+    WorkspaceFigure {
+        title: title.into(),
+        region: vec![[-0.3, -0.3], [0.3, -0.3], [0.3, 0.3], [-0.3, 0.3]],
+        serial: vec![vec![[-0.4, 0.35], [0.0, 0.45], [0.4, 0.35]]],
+        parallel: vec![],
+        miw_centre: [0.0, 0.0],
+        miw_radius: 0.25,
+        poses: vec![PoseGroup {
+            name: "shared poses".into(),
+            points: vec![[0.1, 0.1], [-0.1, 0.2]],
+        }],
+        bounds: ([-0.5, -0.5], [0.5, 0.5]),
+        axes: axes.map(String::from),
+        region_label: "singularity-free region".into(),
+        serial_label: "serial (type I) singularity".into(),
+        miw_label: "MIW: centre (0, 0) m, radius 0.25 m".into(),
+    }
+}
+
+fn small_slices() -> SlicesFigure {
+    SlicesFigure {
+        title: "test slices".into(),
+        panels: vec![
+            small_workspace("slice z = 0.6 m", ["x", "y"]),
+            small_workspace("slice y = 0 m", ["x", "z"]),
+            small_workspace("slice x = 0 m", ["y", "z"]),
+        ],
+    }
+}
+
+fn small_histograms() -> Histograms {
+    let values = |shift: f64| (0..50).map(|k| shift + 0.01 * f64::from(k % 17)).collect();
+    Histograms {
+        title: "test histograms".into(),
+        panels: ["l1 error (mm)", "gamma1 error (mrad)"]
+            .into_iter()
+            .map(|caption| HistogramPanel {
+                caption: caption.into(),
+                series: vec![
+                    ("D&C".into(), values(0.0)),
+                    ("traditional".into(), values(0.05)),
+                ],
+            })
+            .collect(),
+    }
+}
+
+/// Every kind of figure: its PNG is the rasterisation of its SVG (text included, with the
+/// embedded font only), of the declared size. The old renderer (plotters' bitmap backend and
+/// its own glyph placement) fails the pixel comparison.
 #[test]
-fn a_png_renders_with_the_embedded_font() {
-    let figure = small_map();
-    let bytes = render(&figure, Format::Png).expect("PNG renders");
-    let decoder = png::Decoder::new(bytes.as_slice());
-    let mut reader = decoder.read_info().expect("a valid PNG");
-    let mut pixels = vec![0; reader.output_buffer_size()];
-    let info = reader.next_frame(&mut pixels).expect("one frame");
-    assert_eq!((info.width, info.height), figure.size());
-    assert_eq!(info.color_type, png::ColorType::Rgb);
+fn a_png_is_its_svg_rasterised_with_the_embedded_font() {
+    let map = png_of_svg(&small_map(), "error map");
     // The title strip (top 40 rows) is white except for the title's glyphs: text was drawn.
-    let stride = info.width as usize * 3;
-    let dark = pixels[..40 * stride]
-        .chunks(3)
-        .filter(|p| p.iter().all(|&c| c < 100))
+    let dark = map
+        .pixels()
+        .iter()
+        .take(40 * map.width() as usize)
+        .filter(|p| p.red() < 100 && p.green() < 100 && p.blue() < 100)
         .count();
     assert!(dark > 50, "{dark} dark pixels in the title strip");
+    let distribution = ErrorDistribution {
+        title: "position errors on held.csv".into(),
+        samples: vec![ErrorSample {
+            name: "nominal.yaml".into(),
+            errors_m: vec![0.003, 0.004, 0.012],
+        }],
+    };
+    png_of_svg(&distribution, "error distribution");
+    let bars = ParameterErrors {
+        title: "parameter errors (value − real)".into(),
+        parameters: vec![
+            ParameterLabel {
+                name: "l1".into(),
+                unit: Unit::Metre,
+            },
+            ParameterLabel {
+                name: "gamma1".into(),
+                unit: Unit::Radian,
+            },
+            ParameterLabel {
+                name: "k1".into(),
+                unit: Unit::One,
+            },
+        ],
+        series: vec![BarSeries {
+            name: "before (nominal values)".into(),
+            errors: vec![-7e-4, -4.8e-3, -4e-3],
+        }],
+    };
+    png_of_svg(&bars, "parameter errors");
+    png_of_svg(&small_workspace("test workspace", ["x", "y"]), "workspace");
+    png_of_svg(&small_slices(), "slices");
+    png_of_svg(&small_histograms(), "histograms");
+    png_of_svg(&Words("radius, gamma1, angle: 1.0957 m", 20.0), "words");
+}
+
+/// A picture holding one line of text of a size (plotters' size) and nothing else.
+struct Words(&'static str, f64);
+
+impl Figure for Words {
+    fn size(&self) -> (u32, u32) {
+        (400, 60)
+    }
+
+    fn draw<DB: DrawingBackend>(&self, root: &DrawingArea<DB, Shift>) -> Drawn<DB> {
+        root.fill(&WHITE)?;
+        root.draw(&Text::new(
+            self.0.to_string(),
+            (10, 10),
+            ("sans-serif", self.1),
+        ))
+    }
+}
+
+/// The glyphs of a one-line PNG text, left to right: each run of columns holding a dark
+/// pixel (darker than mid-grey), as (first row, last row) of its dark pixels.
+fn glyph_rows(png: &Pixmap) -> Vec<(u32, u32)> {
+    let dark = |x: u32, y: u32| {
+        let p = png.pixel(x, y).expect("inside");
+        u32::from(p.red()) + u32::from(p.green()) + u32::from(p.blue()) < 3 * 128
+    };
+    let mut glyphs = Vec::new();
+    let mut current: Option<(u32, u32)> = None;
+    for x in 0..png.width() {
+        let rows: Vec<u32> = (0..png.height()).filter(|&y| dark(x, y)).collect();
+        match (rows.first(), rows.last(), current) {
+            (Some(&top), Some(&bottom), Some((t, b))) => {
+                current = Some((t.min(top), b.max(bottom)))
+            }
+            (Some(&top), Some(&bottom), None) => current = Some((top, bottom)),
+            _ => glyphs.extend(current.take()),
+        }
+    }
+    glyphs.extend(current);
+    glyphs
+}
+
+/// At the sizes of the tick labels, axis descriptions and titles, a decimal point ends on the
+/// baseline, as the foot of the `1` before it, and a comma hangs below it. The old renderer
+/// drew both one pixel higher at the two smaller sizes: the point a raised dot (`1·0957`),
+/// the comma a point.
+#[test]
+fn a_decimal_point_sits_on_the_baseline_and_a_comma_descends_below_it() {
+    for size in [style::LABEL_SIZE, 15.0, 20.0] {
+        for (text, mark) in [("1.0957", "point"), ("1,0957", "comma")] {
+            let glyphs = glyph_rows(&png(&Words(text, size), text));
+            assert_eq!(
+                glyphs.len(),
+                6,
+                "{text} at {size}: one run of columns per glyph: {glyphs:?}"
+            );
+            let (one_top, baseline) = glyphs[0];
+            let (mark_top, mark_bottom) = glyphs[1];
+            assert!(mark_top > one_top + 3, "{text} at {size}: {glyphs:?}");
+            if mark == "point" {
+                assert_eq!(
+                    mark_bottom, baseline,
+                    "{text} at {size}: the point ends at row {mark_bottom}, the 1 at {baseline}"
+                );
+            } else {
+                assert!(
+                    mark_bottom > baseline,
+                    "{text} at {size}: the comma ends at row {mark_bottom}, the 1 at {baseline}"
+                );
+            }
+        }
+    }
+}
+
+/// The legend of the slices (the spatial workspace picture, three plots wide and shown
+/// shrunk) is in larger text than its tick labels, and at least 14 px (it was 10.5 px).
+#[test]
+fn the_slices_legend_is_larger_than_the_tick_labels() {
+    let svg = svg(&small_slices());
+    let font_size = |start: &str| -> f64 {
+        let chunk = svg
+            .split("<text")
+            .find(|c| {
+                c.split('>')
+                    .nth(1)
+                    .is_some_and(|t| t.trim_start().starts_with(start))
+            })
+            .unwrap_or_else(|| panic!("no text `{start}`"));
+        chunk
+            .split("font-size=\"")
+            .nth(1)
+            .unwrap()
+            .split('"')
+            .next()
+            .unwrap()
+            .parse()
+            .unwrap()
+    };
+    let tick = font_size("0.2");
+    for entry in [
+        "singularity-free region",
+        "serial (type I)",
+        "MIW: centre",
+        "shared poses (2)",
+    ] {
+        let size = font_size(entry);
+        assert!(
+            size >= 14.0 && size > 1.3 * tick,
+            "`{entry}`: {size} px, ticks {tick} px"
+        );
+    }
+}
+
+/// The Monte Carlo histograms say what their height is: each panel has the rotated y-axis
+/// description `fraction of trials`.
+#[test]
+fn each_monte_carlo_histogram_has_a_y_axis_description() {
+    let svg = svg(&small_histograms());
+    let descriptions = svg
+        .split("<text")
+        .filter(|c| {
+            let (attributes, text) = c.split_once('>').unwrap_or_default();
+            attributes.contains("transform=\"rotate(270")
+                && text.trim_start().starts_with("fraction of trials")
+        })
+        .count();
+    assert_eq!(descriptions, 2);
 }
 
 #[test]

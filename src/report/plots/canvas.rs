@@ -1,4 +1,5 @@
-//! Rendering a [`Figure`] to SVG or PNG bytes, with the embedded font.
+//! Rendering a [`Figure`] to SVG or PNG bytes, with the embedded font: plotters draws the SVG,
+//! and a PNG is that SVG rasterised.
 
 use std::path::Path;
 use std::sync::OnceLock;
@@ -6,6 +7,7 @@ use std::sync::OnceLock;
 use plotters::coord::Shift;
 use plotters::prelude::*;
 
+use super::raster::svg_to_png;
 use crate::error::{Error, Result};
 
 /// What drawing on a backend `DB` returns: nothing, or the backend's error.
@@ -29,7 +31,7 @@ pub trait Figure {
 pub enum Format {
     /// Scalable vector graphics (text stays text).
     Svg,
-    /// Portable network graphics, text rasterised with the embedded font.
+    /// Portable network graphics: the SVG rasterised, its text drawn with the embedded font.
     Png,
 }
 
@@ -64,7 +66,8 @@ impl Format {
 /// The font family every figure uses; registered from the embedded DejaVu Sans.
 pub const FONT: &str = "sans-serif";
 
-/// Registers the embedded fonts with plotters once (text layout needs them for SVG too).
+/// Registers the embedded fonts with plotters once: plotters lays text out (the widths that
+/// centre and align it) with them.
 ///
 /// # Errors
 /// The embedded font could not be parsed (a broken build).
@@ -83,52 +86,25 @@ pub fn register_fonts() -> Result<()> {
     }
 }
 
-/// Renders `figure` as the bytes of a file in `format`.
+/// Renders `figure` as the bytes of a file in `format`: its SVG, or that very SVG rasterised
+/// with resvg (the embedded fonts only, one pixel a user unit) so that both formats show the
+/// same picture.
 ///
 /// # Errors
-/// A drawing error of the backend, or the PNG encoder's error.
+/// A drawing error of the backend, or the rasteriser's or PNG encoder's error.
 pub fn render(figure: &impl Figure, format: Format) -> Result<Vec<u8>> {
     register_fonts()?;
     let (width, height) = figure.size();
-    let failed =
-        |e: &dyn std::fmt::Display| Error::Invalid(format!("cannot draw the picture: {e}"));
-    match format {
-        Format::Svg => {
-            let mut text = String::new();
-            {
-                let root = SVGBackend::with_string(&mut text, (width, height)).into_drawing_area();
-                figure.draw(&root).map_err(|e| failed(&e))?;
-                root.present().map_err(|e| failed(&e))?;
-            }
-            Ok(text.into_bytes())
-        }
-        Format::Png => {
-            let mut pixels = vec![0u8; width as usize * height as usize * 3];
-            {
-                let root =
-                    BitMapBackend::with_buffer(&mut pixels, (width, height)).into_drawing_area();
-                figure.draw(&root).map_err(|e| failed(&e))?;
-                root.present().map_err(|e| failed(&e))?;
-            }
-            encode_png(&pixels, width, height).map_err(|e| failed(&e))
-        }
-    }
-}
-
-fn encode_png(
-    rgb: &[u8],
-    width: u32,
-    height: u32,
-) -> std::result::Result<Vec<u8>, png::EncodingError> {
-    let mut bytes = Vec::new();
+    let mut text = String::new();
     {
-        let mut encoder = png::Encoder::new(&mut bytes, width, height);
-        encoder.set_color(png::ColorType::Rgb);
-        encoder.set_depth(png::BitDepth::Eight);
-        encoder.set_compression(png::Compression::Best);
-        encoder.set_adaptive_filter(png::AdaptiveFilterType::Adaptive);
-        let mut writer = encoder.write_header()?;
-        writer.write_image_data(rgb)?;
+        let failed =
+            |e: &dyn std::fmt::Display| Error::Invalid(format!("cannot draw the picture: {e}"));
+        let root = SVGBackend::with_string(&mut text, (width, height)).into_drawing_area();
+        figure.draw(&root).map_err(|e| failed(&e))?;
+        root.present().map_err(|e| failed(&e))?;
     }
-    Ok(bytes)
+    match format {
+        Format::Svg => Ok(text.into_bytes()),
+        Format::Png => svg_to_png(&text, width, height),
+    }
 }

@@ -99,10 +99,10 @@ impl Figure for ErrorDistribution {
             let mm = sorted_mm(&sample.errors_m);
             let y = 4 + (s as u32 * LEGEND_ROW) as i32;
             if mm.is_empty() {
-                legend_area.draw(&Text::new(
+                legend_area.draw(&style::legend_text(
                     format!("{}: no pose could be assembled", sample.name),
-                    (112, y),
-                    style::label(),
+                    (112, y + 7),
+                    style::LABEL_SIZE,
                 ))?;
                 continue;
             }
@@ -127,7 +127,7 @@ impl Figure for ErrorDistribution {
                 vec![(80, y + 7), (104, y + 7)],
                 colour.stroke_width(2),
             ))?;
-            legend_area.draw(&Text::new(
+            legend_area.draw(&style::legend_text(
                 format!(
                     "{}: RMS {} mm, p95 {} mm, max {} mm ({} poses)",
                     sample.name,
@@ -136,8 +136,8 @@ impl Figure for ErrorDistribution {
                     style::short_number(stats.max),
                     mm.len()
                 ),
-                (112, y),
-                style::label(),
+                (112, y + 7),
+                style::LABEL_SIZE,
             ))?;
         }
         Ok(())

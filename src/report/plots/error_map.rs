@@ -206,27 +206,27 @@ impl ErrorMapFigure {
     fn draw_footer<DB: DrawingBackend>(&self, area: &DrawingArea<DB, Shift>) -> Drawn<DB> {
         let y = 12;
         area.draw(&style::marker((80, y + 7), WHITE))?;
-        area.draw(&Text::new(
+        area.draw(&style::legend_text(
             format!("measured poses ({})", self.poses.len()),
-            (92, y),
-            style::label(),
+            (92, y + 7),
+            style::LABEL_SIZE,
         ))?;
         area.draw(&Rectangle::new(
             [(320, y), (334, y + 14)],
             NOT_ASSEMBLABLE.filled(),
         ))?;
-        area.draw(&Text::new(
+        area.draw(&style::legend_text(
             "cannot be assembled".to_string(),
-            (342, y),
-            style::label(),
+            (342, y + 7),
+            style::LABEL_SIZE,
         ))?;
-        area.draw(&Text::new(
+        area.draw(&style::legend_text(
             format!(
                 "grid {} mm; colour: position error of the real mechanism commanded by the model, saturating at the 99th percentile of each map",
                 style::short_number(self.grid_m * 1e3)
             ),
-            (520, y),
-            style::label(),
+            (520, y + 7),
+            style::LABEL_SIZE,
         ))?;
         Ok(())
     }

@@ -1,5 +1,6 @@
-//! Pictures drawn with the plotters crate: SVG by default, PNG on request, both with the
-//! embedded DejaVu Sans font so that no system font is needed.
+//! Pictures drawn with the plotters crate: SVG by default, PNG on request (the same SVG
+//! rasterised with resvg), both with the embedded DejaVu Sans font so that no system font is
+//! needed.
 //!
 //! Each figure is a plain data type (trivially filled from the reports) implementing
 //! [`Figure`]; [`render`] turns it into the bytes of an SVG or PNG file (the command line
@@ -16,6 +17,7 @@ pub mod distribution;
 pub mod error_map;
 pub mod files;
 pub mod parameter_errors;
+mod raster;
 pub mod slices;
 pub mod style;
 pub mod workspace;

@@ -147,10 +147,10 @@ impl ParameterErrors {
                 [(x, 18), (x + 14, 32)],
                 style::series_colour(s).filled(),
             ))?;
-            area.draw(&Text::new(
+            area.draw(&style::legend_text(
                 series.name.clone(),
-                (x + 20, 18),
-                style::label(),
+                (x + 20, 25),
+                style::LABEL_SIZE,
             ))?;
         }
         Ok(())

@@ -3,6 +3,7 @@
 
 use plotters::element::ComposedElement;
 use plotters::prelude::*;
+use plotters::style::text_anchor::{HPos, Pos, VPos};
 
 use super::canvas::FONT;
 
@@ -59,9 +60,24 @@ pub fn axis_description() -> TextStyle<'static> {
     (FONT, 15).into()
 }
 
+/// Size of [`label`] text (plotters' size: the SVG's font size is this over 1.24).
+pub const LABEL_SIZE: f64 = 13.0;
+
 /// Text of tick labels and legends.
 pub fn label() -> TextStyle<'static> {
-    (FONT, 13).into()
+    (FONT, LABEL_SIZE).into()
+}
+
+/// A legend entry's `text` in text of `size` (plotters' size; [`LABEL_SIZE`] for [`label`]
+/// text), starting at `x` and centred vertically on `centre`, the middle of the swatch or
+/// marker drawn beside it.
+pub fn legend_text(
+    text: String,
+    (x, centre): (i32, i32),
+    size: f64,
+) -> Text<'static, (i32, i32), String> {
+    let style = TextStyle::from((FONT, size)).pos(Pos::new(HPos::Left, VPos::Center));
+    Text::new(text, (x, centre), style)
 }
 
 /// A number with about three significant digits, without exponent for moderate values

@@ -70,7 +70,8 @@ const Y_LABELS: u32 = 72;
 const X_LABELS: u32 = 48;
 const MARGIN: u32 = 16;
 const CAPTION: u32 = 34;
-/// Height of the legend under the plot (pixels).
+/// Height of the legend under a planar figure's plot (pixels): room for its five rows at
+/// most.
 pub const LEGEND: u32 = 110;
 
 impl WorkspaceFigure {
@@ -98,7 +99,7 @@ impl Figure for WorkspaceFigure {
         let (_, height) = self.size();
         let (plot_area, legend_area) = root.split_vertically(height - LEGEND);
         self.draw_plot(&plot_area)?;
-        self.draw_legend(&legend_area, std::slice::from_ref(self))
+        self.draw_legend(&legend_area, std::slice::from_ref(self), style::LABEL_SIZE)
     }
 }
 
@@ -183,8 +184,27 @@ impl WorkspaceFigure {
         Ok(())
     }
 
-    /// The legend: the region, the serial and parallel curves where any of `panels` (this
-    /// figure, or the slices drawn beside it) has some, the MIW and the pose groups.
+    /// The legend's rows for `panels` (this figure, or the slices drawn beside it): the
+    /// region, the serial and parallel curves where any panel has some, the MIW, and one row
+    /// for the pose groups if there are any.
+    fn legend_rows(&self, panels: &[WorkspaceFigure]) -> u32 {
+        let serial = panels.iter().any(|p| !p.serial.is_empty());
+        let parallel = panels.iter().any(|p| !p.parallel.is_empty());
+        2 + u32::from(serial) + u32::from(parallel) + u32::from(!self.poses.is_empty())
+    }
+
+    /// Height (pixels) of the legend of `panels` (see [`WorkspaceFigure::draw_legend`]) in
+    /// text of `size` (plotters' size, as in [`style::label`]); a planar figure's legend fits
+    /// in [`LEGEND`] at [`style::LABEL_SIZE`].
+    pub fn legend_height(&self, panels: &[WorkspaceFigure], size: f64) -> u32 {
+        let unit = |v: f64| (v * size / style::LABEL_SIZE).round() as u32;
+        unit(4.0) + self.legend_rows(panels) * unit(20.0) + unit(8.0)
+    }
+
+    /// The legend in text of `size` (plotters' size, [`style::LABEL_SIZE`] under a planar figure;
+    /// swatches and rows scale with it): the region, the serial and parallel curves where any
+    /// of `panels` (this figure, or the slices drawn beside it) has some, the MIW and the pose
+    /// groups, each entry's text centred on its swatch.
     ///
     /// # Errors
     /// The backend fails to draw.
@@ -192,17 +212,28 @@ impl WorkspaceFigure {
         &self,
         area: &DrawingArea<DB, Shift>,
         panels: &[WorkspaceFigure],
+        size: f64,
     ) -> Drawn<DB> {
         let serial = panels.iter().any(|p| !p.serial.is_empty());
         let parallel = panels.iter().any(|p| !p.parallel.is_empty());
+        // Lengths drawn for text of style::LABEL_SIZE, scaled to `size`.
+        let unit = |v: f64| (v * size / style::LABEL_SIZE).round() as i32;
         let x0 = (MARGIN + Y_LABELS) as i32;
-        let row = |k: i32| 4 + 20 * k;
-        let text = |s: String, x: i32, y: i32| Text::new(s, (x + 26, y), style::label());
+        // The middle of row k.
+        let row = |k: i32| unit(4.0) + unit(20.0) * k + unit(7.0);
+        let text = |s: String, x: i32, y: i32| style::legend_text(s, (x + unit(26.0), y), size);
+        let stroke = unit(2.0).max(1) as u32;
         let line = |x: i32, y: i32, colour: RGBColor| {
-            PathElement::new(vec![(x, y + 7), (x + 20, y + 7)], colour.stroke_width(2))
+            PathElement::new(
+                vec![(x, y), (x + unit(20.0), y)],
+                colour.stroke_width(stroke),
+            )
         };
         area.draw(&Rectangle::new(
-            [(x0, row(0)), (x0 + 20, row(0) + 14)],
+            [
+                (x0, row(0) - unit(7.0)),
+                (x0 + unit(20.0), row(0) + unit(7.0)),
+            ],
             REGION.filled(),
         ))?;
         area.draw(&text(self.region_label.clone(), x0, row(0)))?;
@@ -223,18 +254,18 @@ impl WorkspaceFigure {
             next += 1;
         }
         // Two dashes, as the MIW's dashed circle.
-        for (a, b) in [(0, 8), (13, 20)] {
-            let dash = vec![(x0 + a, row(next) + 7), (x0 + b, row(next) + 7)];
-            area.draw(&PathElement::new(dash, BLACK.stroke_width(2)))?;
+        for (a, b) in [(0.0, 8.0), (13.0, 20.0)] {
+            let dash = vec![(x0 + unit(a), row(next)), (x0 + unit(b), row(next))];
+            area.draw(&PathElement::new(dash, BLACK.stroke_width(stroke)))?;
         }
         area.draw(&text(self.miw_label.clone(), x0, row(next)))?;
         next += 1;
         let mut x = x0;
         for (g, group) in self.poses.iter().enumerate() {
             let colour = style::AFTER[g % style::AFTER.len()];
-            area.draw(&style::marker((x + 10, row(next) + 7), colour))?;
+            area.draw(&style::marker((x + unit(10.0), row(next)), colour))?;
             let label = format!("{} ({})", group.name, group.points.len());
-            let width = 40 + 8 * label.chars().count() as i32;
+            let width = unit(40.0) + unit(8.0) * label.chars().count() as i32;
             area.draw(&text(label, x, row(next)))?;
             x += width;
         }
