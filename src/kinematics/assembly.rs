@@ -1,13 +1,13 @@
 //! The kinematic checks of a loaded mechanism (run by [`Mechanism::load`] and
 //! [`Mechanism::parse`] after the model file has been cross-checked against its URDF): each
 //! leg's home configuration must close at the home pose (this fixes its branch, the working
-//! mode), a planar model's joints must move in the plane, and the platform must not be
+//! mode) within the joints' URDF limits, a planar model's joints must move in the plane, and the platform must not be
 //! degenerate at home. Every error names the model file and the field.
 
 use super::chain::moving_axes;
 use super::inverse::newton;
 use super::singularity::ParallelMeasure;
-use crate::error::{Error, KinematicsError, Result};
+use crate::error::{Error, JointBeyondLimits, KinematicsError, Result};
 use crate::model::joint::JointKind;
 use crate::model::Mechanism;
 
@@ -71,6 +71,29 @@ fn home(mechanism: &mut Mechanism, index: usize) -> Result<()> {
             format!("the home configuration does not close at the home pose: {err}"),
         )
     })?;
+    // The home configuration is one the leg can take: within every joint's URDF <limit> (a
+    // home beyond a stroke was accepted, and only pose selection found no usable pose).
+    let limits = leg.moving.iter().zip(&solution.q).find_map(|(&j, &value)| {
+        let joint = &leg.joints[j];
+        let [lower, upper] = joint.limits?;
+        (!(lower..=upper).contains(&value)).then(|| JointBeyondLimits {
+            leg: leg.name.clone(),
+            joint: joint.name.clone(),
+            value,
+            lower,
+            upper,
+        })
+    });
+    if let Some(beyond) = limits {
+        return Err(model_error(
+            mechanism,
+            format!("legs[{index}].home"),
+            format!(
+                "the home configuration is outside the URDF joint limits: {beyond} (check the \
+                 home pose, the leg's home values and the <limit> in the URDF)"
+            ),
+        ));
+    }
     let leg = &mut mechanism.parts_mut().legs[index];
     leg.branch_sign = solution.normalised_determinant.signum();
     leg.home_joints = solution.q;

@@ -12,9 +12,11 @@
 //!   decisive evidence about units is the fit itself (the residuals' noise test makes a
 //!   wrong-unit result untrusted, exit 3). One warning per column, naming the first and the
 //!   largest offending line.
-//! * Two rows with the same leg label, pose and readings: a **warning** naming both lines (the
-//!   same measurement counted twice makes the standard deviations √2 too small).
+//! * Two rows or more with the same leg label, pose and readings: one **warning** naming the
+//!   first and its copies (the same measurement counted twice makes the standard deviations √2
+//!   too small).
 
+use std::collections::BTreeMap;
 use std::f64::consts::TAU;
 use std::hash::{DefaultHasher, Hasher};
 
@@ -50,7 +52,7 @@ pub fn mechanism_size(mechanism: &Mechanism) -> f64 {
 
 /// `value` as written, or in scientific notation when it is huge or tiny (1e308 is not 309
 /// digits).
-fn compact(value: f64) -> String {
+pub(super) fn compact(value: f64) -> String {
     if value == 0.0 || (1e-4..1e15).contains(&value.abs()) {
         value.to_string()
     } else {
@@ -226,19 +228,37 @@ fn duplicate_warnings(mechanism: &Mechanism, data: &MeasurementSet) -> Vec<Strin
             }
         }
     }
-    repeats.sort_unstable();
+    // One warning per repeated row, listing its copies (a file of one row pasted 100 000
+    // times gave 100 000 warnings).
+    let mut copies: BTreeMap<usize, Vec<usize>> = BTreeMap::new();
+    for (index, first) in repeats {
+        copies.entry(first).or_default().push(index);
+    }
+    let mut groups: Vec<(usize, Vec<usize>)> = copies.into_iter().collect();
+    for (_, indices) in &mut groups {
+        indices.sort_unstable();
+    }
+    groups.sort_unstable_by_key(|(_, indices)| indices[0]);
     let place = |i: usize| {
         poses[i]
             .line
             .map_or(format!("simulated row {}", i + 1), |l| format!("line {l}"))
     };
-    repeats
+    groups
         .into_iter()
-        .map(|(index, first)| {
+        .map(|(first, indices)| {
+            let shown: Vec<String> = indices.iter().take(3).map(|&i| place(i)).collect();
+            let (copies, verb) = match indices.len() {
+                1 => (shown[0].clone(), "repeats"),
+                n if n <= 3 => (shown.join(", "), "repeat"),
+                n => (
+                    format!("{} and {} more rows", shown.join(", "), n - 3),
+                    "repeat",
+                ),
+            };
             format!(
-                "{} repeats {} exactly (same leg, pose and readings): a measurement counted \
-                 twice makes the standard deviations too small; remove one of them",
-                place(index),
+                "{copies} {verb} {} exactly (same leg, pose and readings): a measurement counted \
+                 more than once makes the standard deviations too small; keep one of them",
                 place(first)
             )
         })

@@ -13,6 +13,7 @@
 
 use std::path::{Path, PathBuf};
 
+use super::checks::{mechanism_size, SIZE_FACTOR};
 use super::line_endings::Lines;
 use super::rows;
 use crate::error::{Error, Result};
@@ -89,7 +90,8 @@ fn expected_columns(mechanism: &Mechanism, instrument: &Instrument) -> Vec<Strin
 /// # Errors
 /// [`Error::Io`] if unreadable; [`Error::Model`] if the model has no instrument;
 /// [`Error::Measurement`] naming the line and column for a missing or unknown column, an
-/// unknown leg, a non-numeric or non-finite cell, a missing coordinate, or no rows.
+/// unknown leg, a non-numeric or non-finite cell, a missing coordinate, a target position
+/// farther from the instrument than the mechanism could put it (millimetres?), or no rows.
 pub fn read(path: &Path, mechanism: &Mechanism) -> Result<Observations> {
     let text = std::fs::read_to_string(path).map_err(rows::io_error(path))?;
     parse(&text, path, mechanism)
@@ -128,6 +130,17 @@ pub fn parse(text: &str, path: &Path, mechanism: &Mechanism) -> Result<Observati
         .iter()
         .map(|name| index(name))
         .collect();
+    // No target the mechanism carries is farther from the instrument than the mechanism's
+    // size (times the factor of the plain measurement checks) plus the frame's distance.
+    let size = mechanism_size(mechanism);
+    let frame: f64 = instrument
+        .parameters
+        .iter()
+        .filter(|p| ["frame_x", "frame_y", "frame_z"].contains(&p.name.as_str()))
+        .map(|p| p.nominal * p.nominal)
+        .sum::<f64>()
+        .sqrt();
+    let reach = SIZE_FACTOR * size + frame;
     let mut rows = Vec::new();
     let mut record = csv::StringRecord::new();
     loop {
@@ -160,6 +173,21 @@ pub fn parse(text: &str, path: &Path, mechanism: &Mechanism) -> Result<Observati
             })
         });
         let observed = observed.collect::<Result<Vec<f64>>>()?;
+        for (&column, &value) in target_columns.iter().zip(&observed) {
+            let position = ["x.", "y.", "z."]
+                .iter()
+                .any(|c| header[column].starts_with(c));
+            if position && value.abs() > reach {
+                return Err(fail(
+                    format!("line {line}, column `{}`", header[column]),
+                    format!(
+                        "{value} m is more than {SIZE_FACTOR} times the mechanism's size \
+                         ({size:.3} m) from the instrument: positions in millimetres instead \
+                         of metres?"
+                    ),
+                ));
+            }
+        }
         let readings = reading_columns.iter().map(|&column| number(column));
         let readings = readings.collect::<Result<Vec<_>>>()?;
         rows::require_leg_reading(path, line, mechanism, leg, &readings)?;

@@ -122,6 +122,7 @@ pub struct PoseSets {
 /// No simulation block, or no reachable pose found in the usable workspace.
 pub fn simulate(mechanism: &Mechanism, options: SimulationOptions) -> Result<SimulatedExperiment> {
     let simulation = setup(mechanism)?;
+    check_noise(mechanism, simulation, options.noise_scale)?;
     let seed = options.seed.unwrap_or(simulation.seed);
     let count = options.poses_per_leg.unwrap_or(simulation.poses_per_leg);
     let real = real_parameters(mechanism, simulation, seed);
@@ -152,6 +153,7 @@ pub fn simulate_at(
     options: SimulationOptions,
 ) -> Result<SimulatedExperiment> {
     let simulation = setup(mechanism)?;
+    check_noise(mechanism, simulation, options.noise_scale)?;
     let seed = options.seed.unwrap_or(simulation.seed);
     let real = real_parameters(mechanism, simulation, seed);
     let mut rng = ChaCha8Rng::seed_from_u64(seed);
@@ -174,6 +176,14 @@ pub fn simulate_at(
                 })
             });
             let readings = readings.collect::<Result<Vec<f64>>>()?;
+            if let Some(l) = readings.iter().position(|r| !r.is_finite()) {
+                return Err(Error::Invalid(format!(
+                    "simulation: with its real parameters, leg `{}`'s reading is not finite at \
+                     pose {}: check the real values of its gain and offset (simulation.real)",
+                    mechanism.legs[l].name,
+                    mechanism.pose_text(true_pose)
+                )));
+            }
             let mut measured = *true_pose;
             for &c in &mechanism.measured {
                 measured[c] += options.noise_scale * simulation.pose_noise[c] * gaussian(&mut rng);
@@ -198,24 +208,88 @@ pub fn simulate_at(
     })
 }
 
+/// Random poses drawn before a simulation gives up finding a reachable one.
+const DRAWS: usize = 10_000;
+
+/// Refuses a noise (declared σ times `scale`) that makes every simulated value meaningless:
+/// a position or prismatic reading σ beyond the mechanism's size, an angle or revolute reading
+/// σ beyond π rad. `--noise-scale 1e6` wrote poses scattered over 100 m without a word.
+///
+/// # Errors
+/// [`Error::Invalid`] naming the coordinate, the σ and the scale.
+pub fn check_noise(mechanism: &Mechanism, simulation: &Simulation, scale: f64) -> Result<()> {
+    let size = crate::measure::checks::mechanism_size(mechanism);
+    let bound = |metres: bool| if metres { size } else { std::f64::consts::PI };
+    let revolute = mechanism.legs.iter().any(|l| l.actuated_is_revolute());
+    let prismatic = mechanism.legs.iter().any(|l| !l.actuated_is_revolute());
+    let coordinates = mechanism.measured.iter().map(|&c| {
+        let name = crate::model::mechanism::COORDINATES[c];
+        (format!("`{name}`"), simulation.pose_noise[c], c < 3)
+    });
+    let readings = [(true, prismatic), (false, revolute)]
+        .into_iter()
+        .filter(|(_, present)| *present)
+        .map(|(metres, _)| ("the readings".to_string(), simulation.reading_noise, metres));
+    for (what, declared, metres) in coordinates.chain(readings) {
+        let sigma = scale * declared;
+        if sigma > bound(metres) {
+            let (unit, what_bound) = match metres {
+                true => ("m", format!("the mechanism's size ({size:.3} m)")),
+                false => ("rad", "π rad".to_string()),
+            };
+            return Err(Error::Invalid(format!(
+                "simulation: the noise of {what} would be σ = {sigma:.3e} {unit} ({declared:e} \
+                 {unit} declared, times the noise scale {}), more than {what_bound}: the \
+                 simulated measurements would mean nothing; lower the noise scale \
+                 (--noise-scale) or the model's noise",
+                super::checks::compact(scale)
+            )));
+        }
+    }
+    Ok(())
+}
+
 /// Draws poses until every leg reaches one with nominal and real parameters.
 fn reachable_pose(
     mechanism: &Mechanism,
-    real: &[Vec<f64>],
+    real_parameters: &[Vec<f64>],
     rng: &mut ChaCha8Rng,
 ) -> Result<[f64; 6]> {
     let home = &mechanism.home_pose;
-    for _ in 0..10_000 {
+    let (mut drawn, mut nominal) = (0, 0);
+    for _ in 0..DRAWS {
         let Some(pose) = mechanism.workspace.sample(home, rng) else {
             break;
         };
-        let reachable = mechanism.legs.iter().zip(real).all(|(leg, phi)| {
-            predict_reading(leg, &leg.nominal(), &pose, home).is_ok()
-                && predict_reading(leg, phi, &pose, home).is_ok()
-        });
-        if reachable {
-            return Ok(pose);
+        drawn += 1;
+        let reaches = |real: bool| {
+            mechanism
+                .legs
+                .iter()
+                .zip(real_parameters)
+                .all(|(leg, phi)| match real {
+                    true => predict_reading(leg, phi, &pose, home).is_ok(),
+                    false => predict_reading(leg, &leg.nominal(), &pose, home).is_ok(),
+                })
+        };
+        if reaches(false) {
+            nominal += 1;
+            if reaches(true) {
+                return Ok(pose);
+            }
         }
+    }
+    if nominal > 0 {
+        return Err(Error::Model {
+            path: mechanism.model_path.clone(),
+            field: "simulation".into(),
+            message: format!(
+                "no pose of the usable workspace is reachable by the real legs on their home \
+                 branch, though the nominal legs reach {nominal} of the {drawn} poses drawn: \
+                 the real parameters (simulation.real, simulation.perturbation) are too far \
+                 from the nominal ones (lengths in millimetres?)"
+            ),
+        });
     }
     Err(Error::Model {
         path: mechanism.model_path.clone(),

@@ -231,6 +231,12 @@ impl ModelFile {
     /// # Errors
     /// [`Error::Yaml`] if the text is not a valid model file.
     pub fn parse(text: &str, path: &Path) -> Result<Self> {
+        if super::yaml_errors::is_empty(text) {
+            return Err(Error::Yaml {
+                path: path.to_path_buf(),
+                message: super::yaml_errors::EMPTY.into(),
+            });
+        }
         // The field an error is in (`home.pose.x`), which the parser's message lacks.
         let mut field = String::new();
         let parsed = serde_saphyr::with_deserializer_from_str(text, |de| {
@@ -241,78 +247,11 @@ impl ModelFile {
         });
         parsed.map_err(|err| Error::Yaml {
             path: path.to_path_buf(),
-            message: located(
+            message: super::yaml_errors::located(
                 &crate::error::first_line(&err.to_string(), "error: ", "invalid YAML"),
                 &field,
                 text,
             ),
         })
     }
-}
-
-/// The parser's one-line message `line L column C: MESSAGE` with the field it is in and, for a
-/// value of the wrong type, what was expected in words and the value found at that place
-/// (`line 10 column 13: home.pose.x: expected a number, found `abc``).
-fn located(message: &str, field: &str, text: &str) -> String {
-    let Some((place, what)) = message
-        .split_once(": ")
-        .filter(|(p, _)| p.starts_with("line "))
-    else {
-        return message.to_string();
-    };
-    // The field, when the parser got into one (not for a syntax error: `legs[0].?`); an
-    // unknown field is named by the message, so its place is the field holding it.
-    let field = match what.starts_with("unknown field") {
-        true => field.rsplit_once('.').map_or("", |(parent, _)| parent),
-        false => field,
-    };
-    let field = match field {
-        "" | "." => String::new(),
-        field if field.contains('?') => String::new(),
-        field => format!("{field}: "),
-    };
-    let expected = [
-        ("floating point", "expected a number"),
-        ("integer", "expected a whole number"),
-        ("u64", "expected a whole number"),
-        ("usize", "expected a whole number"),
-        ("bool", "expected true or false"),
-        ("string scalar", "expected a single value"),
-    ]
-    .into_iter()
-    .find_map(|(said, meant)| what.contains(said).then_some(meant));
-    let Some(expected) = expected else {
-        return format!("{place}: {field}{what}");
-    };
-    let found = place
-        .strip_prefix("line ")
-        .and_then(|rest| rest.split_once(" column "))
-        .and_then(|(l, c)| Some((l.parse::<usize>().ok()?, c.parse::<usize>().ok()?)))
-        .and_then(|(line, column)| value_at(text, line, column));
-    match found {
-        Some(found) => format!("{place}: {field}{expected}, found {found}"),
-        None => format!("{place}: {field}{expected}"),
-    }
-}
-
-/// The YAML value starting at `line`, `column` (both from 1) of `text`, in words: `` `abc` ``,
-/// `a list`, `a mapping` or `nothing`.
-fn value_at(text: &str, line: usize, column: usize) -> Option<String> {
-    let rest: String = text
-        .lines()
-        .nth(line.checked_sub(1)?)?
-        .chars()
-        .skip(column.checked_sub(1)?)
-        .collect();
-    Some(match rest.trim_start().chars().next() {
-        Some('[') | Some('-') => "a list".to_string(),
-        Some('{') => "a mapping".to_string(),
-        _ => {
-            let end = rest.find([',', '}', ']', '#']).unwrap_or(rest.len());
-            match rest[..end].trim() {
-                "" => "nothing".to_string(),
-                value => format!("`{value}`"),
-            }
-        }
-    })
 }

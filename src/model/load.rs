@@ -17,15 +17,34 @@ impl Mechanism {
     /// Loads and validates a model file and the URDF it names.
     ///
     /// # Errors
-    /// [`Error::Io`] if the model file cannot be read or is not a regular file,
-    /// [`Error::Model`] on field `urdf` if the URDF cannot be (not found, not a regular file,
-    /// unreadable), then as [`Mechanism::parse`].
+    /// [`Error::Io`] if the model file cannot be read or is not a regular file (or is `-`,
+    /// standard input), [`Error::Model`] on field `urdf` if the URDF cannot be (empty name, not
+    /// found, not a regular file, unreadable), then as [`Mechanism::parse`].
     pub fn load(path: &Path) -> Result<Self> {
+        if path.as_os_str() == "-" {
+            return Err(Error::Io {
+                path: path.to_path_buf(),
+                error: std::io::Error::new(
+                    std::io::ErrorKind::InvalidInput,
+                    "standard input cannot hold the model (its URDF is found beside the model \
+                     file): give the model file's path; `-` is only for the measurements",
+                ),
+            });
+        }
         let text = read_text(path).map_err(|error| Error::Io {
             path: path.to_path_buf(),
             error,
         })?;
         let file = ModelFile::parse(&text, path)?;
+        if file.urdf.trim().is_empty() {
+            return Err(Error::Model {
+                path: path.to_path_buf(),
+                field: "urdf".into(),
+                message: "expected the URDF file's name (relative to the model file), found an \
+                          empty value"
+                    .into(),
+            });
+        }
         let urdf_path = path
             .parent()
             .unwrap_or_else(|| Path::new("."))
@@ -59,8 +78,46 @@ impl Mechanism {
     }
 }
 
-/// The geometric and kinematic checks of a cross-checked mechanism.
-fn checked(mechanism: Mechanism) -> Result<Mechanism> {
+/// The geometric and kinematic checks of a cross-checked mechanism. A home configuration that
+/// does not close names the leg's joints the URDF gives no `<axis>` (urdf-rs then takes x,
+/// silently): a forgotten or misplaced axis is the likely cause.
+fn checked((mechanism, implicit_axes): (Mechanism, Vec<String>)) -> Result<Mechanism> {
     check_usable(&mechanism.workspace, &mechanism.model_path)?;
-    assemble(mechanism)
+    let hints: Vec<(String, Vec<String>)> = mechanism
+        .legs
+        .iter()
+        .enumerate()
+        .map(|(l, leg)| {
+            let joints = leg.joints.iter().map(|j| &j.name);
+            let implicit = joints.filter(|j| implicit_axes.contains(j)).cloned();
+            (format!("legs[{l}].home"), implicit.collect())
+        })
+        .collect();
+    assemble(mechanism).map_err(|error| match error {
+        Error::Model {
+            path,
+            field,
+            message,
+        } if message.starts_with("the home configuration does not close") => {
+            let implicit = hints.iter().find(|(f, _)| *f == field).map(|(_, j)| j);
+            let message = match implicit {
+                Some(joints) if !joints.is_empty() => format!(
+                    "{message} (the URDF gives no <axis> to joint {}: it moves along or about \
+                     its frame's x axis, the URDF default; write the <axis> meant)",
+                    joints
+                        .iter()
+                        .map(|j| format!("`{j}`"))
+                        .collect::<Vec<_>>()
+                        .join(", ")
+                ),
+                _ => message,
+            };
+            Error::Model {
+                path,
+                field,
+                message,
+            }
+        }
+        other => other,
+    })
 }

@@ -9,6 +9,8 @@ pub mod params;
 pub mod region;
 pub mod source;
 pub mod urdf;
+mod urdf_scan;
 pub mod workspace;
+mod yaml_errors;
 
 pub use mechanism::Mechanism;

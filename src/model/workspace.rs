@@ -28,3 +28,6 @@ pub struct Workspace {
 pub const DEFAULT_SINGULARITY_THRESHOLD: f64 = 0.05;
 /// Default number of values of each ranged coordinate in the candidate grid.
 pub const DEFAULT_RANGE_LEVELS: usize = 9;
+/// Most values of a ranged coordinate in the candidate grid: each level multiplies the grid,
+/// which already holds thousands of positions, and a grid beyond a few million poses is refused.
+pub const MAX_RANGE_LEVELS: usize = 1000;

@@ -14,6 +14,7 @@ mod files;
 mod forward_kinematics;
 mod fuzz;
 mod golden;
+mod hostile_inputs;
 mod instrument_cli;
 mod instrument_commands;
 mod instrument_covariance;

@@ -33,6 +33,7 @@ impl Builder<'_> {
             (&PLANAR_FRAME, &PLANAR_OFFSET)
         };
         let mut parameters = self.frame(entry, frame_components)?;
+        self.frame_scale(&parameters, legs)?;
         let mut targets = Vec::new();
         let several = entry.targets.len() > 1;
         let mut offsets = Vec::new();

@@ -9,6 +9,27 @@ use crate::model::file::ModelFile;
 use crate::model::joint::JointModel;
 use crate::model::leg::LegModel;
 
+/// Smallest gain magnitude accepted: the reciprocal of the largest value a model file may hold
+/// (a gain of 1e-300 makes every reading 1e300 times the joint's motion, and the solvers
+/// never recover from it).
+pub(super) const MIN_GAIN: f64 = 1.0 / super::plausible::MAX_MAGNITUDE;
+
+/// Why a gain below [`MIN_GAIN`] in magnitude is refused.
+pub(super) fn tiny_gain(gain: f64) -> String {
+    format!(
+        "{gain:e} is not a plausible gain: legwise expects gains of magnitude {MIN_GAIN:e} to \
+         1e6 (about ±1 for readings converted to radians or metres)"
+    )
+}
+
+/// True when `name` can stand in a CSV cell as written and be read back: not empty, without
+/// commas, quotes or line breaks, and without spaces at either end (cells are trimmed).
+pub(super) fn is_cell_name(name: &str) -> bool {
+    !name.is_empty()
+        && name.trim() == name
+        && !name.contains(|c: char| c == ',' || c == '"' || c.is_control())
+}
+
 impl Builder<'_> {
     pub(super) fn legs(&self, file: &ModelFile, closure_dims: usize) -> Result<Vec<LegModel>> {
         if file.legs.is_empty() {
@@ -30,6 +51,17 @@ impl Builder<'_> {
         let mut used_joints: HashMap<&str, &str> = HashMap::new();
         let mut legs = Vec::new();
         for (l, entry) in file.legs.iter().enumerate() {
+            if !is_cell_name(&entry.name) {
+                return Err(self.error(
+                    format!("legs[{l}].name"),
+                    format!(
+                        "`{}` cannot label measurement rows (the `leg` column of a CSV): \
+                         expected a non-empty name without commas, quotes, line breaks or \
+                         spaces at either end",
+                        entry.name
+                    ),
+                ));
+            }
             if !seen_legs.insert(entry.name.as_str()) {
                 return Err(self.error(
                     format!("legs[{l}].name"),
@@ -87,6 +119,11 @@ impl Builder<'_> {
                     format!("legs[{l}].actuator.gain"),
                     "expected a finite non-zero number",
                 ));
+            }
+            if actuator.gain.abs() < MIN_GAIN {
+                return Err(
+                    self.error(format!("legs[{l}].actuator.gain"), tiny_gain(actuator.gain))
+                );
             }
             if !actuator.offset.is_finite() {
                 return Err(self.error(

@@ -13,6 +13,7 @@ mod legs;
 mod noise;
 mod parameters;
 mod plausible;
+mod polygon;
 mod scale;
 mod setup;
 mod workspace;
@@ -25,19 +26,22 @@ impl Mechanism {
     /// # Errors
     /// [`crate::error::Error::Urdf`] (with the line where there is one) or
     /// [`crate::error::Error::Model`] naming the field.
+    /// Also gives the names of the URDF's moving joints without an `<axis>` element, for the
+    /// messages of the kinematic checks.
     pub(crate) fn unassembled(
         path: &Path,
         file: ModelFile,
         urdf_path: &Path,
         urdf_text: &str,
-    ) -> Result<Self> {
-        let robot = crate::model::urdf::parse(urdf_text, urdf_path)?;
-        Builder {
+    ) -> Result<(Self, Vec<String>)> {
+        let (robot, implicit_axes) = crate::model::urdf::parse_noting_axes(urdf_text, urdf_path)?;
+        let mechanism = Builder {
             path,
             urdf_path,
             robot: &robot,
         }
-        .build(file)
+        .build(file)?;
+        Ok((mechanism, implicit_axes))
     }
 }
 
@@ -83,7 +87,8 @@ impl Builder<'_> {
         let instrument = self.instrument(file.instrument.as_ref(), &measured, &legs)?;
         let simulation = self.simulation(&file, &measured, &legs, noise, instrument.as_ref())?;
         let selection = self.selection(&file, simulation.as_ref())?;
-        let warnings = self.degree_warnings(&file, &legs);
+        let mut warnings = self.degree_warnings(&file, &legs);
+        warnings.extend(self.urdf_degree_warnings(&legs));
         let mechanism = Mechanism::from_parts(MechanismParts {
             name: file.name,
             model_path: self.path.to_path_buf(),

@@ -20,6 +20,16 @@ impl Builder<'_> {
         let mut targets = HashSet::new();
         for (p, entry) in entries.iter().enumerate() {
             let field = format!("parameters[{p}]");
+            let name = entry.name.as_str();
+            if name.is_empty() || name.trim() != name || name.contains(char::is_control) {
+                return Err(self.error(
+                    format!("{field}.name"),
+                    format!(
+                        "`{name}` cannot name a parameter in reports and in `simulation.real`: \
+                         expected a non-empty name without line breaks or spaces at either end"
+                    ),
+                ));
+            }
             if !names.insert(entry.name.as_str()) {
                 return Err(self.error(
                     format!("{field}.name"),

@@ -3,9 +3,9 @@
 //!   error naming the field, instead of a failure far away (a rank deficiency, an infinite
 //!   grid);
 //! * an angle beyond ±2π rad (a revolute joint's home value or actuator offset, an orientation
-//!   of the home pose, of a workspace range or of the instrument frame) is accepted with a
-//!   warning: degrees instead of radians? The measurement checks apply the same rule to
-//!   readings.
+//!   of the home pose, of a workspace range or of the instrument frame, and a URDF joint
+//!   origin's `rpy` in a leg's chain) is accepted with a warning: degrees instead of radians?
+//!   The measurement checks apply the same rule to readings.
 
 use std::f64::consts::TAU;
 
@@ -71,6 +71,29 @@ impl Builder<'_> {
             .into_iter()
             .map(|warning| format!("{}: {warning}", self.path.display()))
             .collect()
+    }
+}
+
+impl Builder<'_> {
+    /// The warnings for the origin angles (`rpy`) of the legs' URDF joints beyond ±2π rad,
+    /// each naming the URDF and the joint: `rpy="0 0 90"` turned a joint's frame by 90 rad
+    /// without a word.
+    pub(super) fn urdf_degree_warnings(&self, legs: &[LegModel]) -> Vec<String> {
+        let mut warnings = Vec::new();
+        for joint in legs.iter().flat_map(|leg| &leg.joints) {
+            for (k, angle) in ANGLES.iter().enumerate() {
+                let value = joint.origin[3 + k];
+                if value.abs() > TAU {
+                    warnings.push(format!(
+                        "{}: joint `{}`: <origin rpy> {angle} {value} rad is beyond ±2π: an angle \
+                         in degrees instead of radians? (every angle of a URDF is in radians)",
+                        self.urdf_path.display(),
+                        joint.name
+                    ));
+                }
+            }
+        }
+        warnings
     }
 }
 

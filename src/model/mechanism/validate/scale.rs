@@ -5,6 +5,7 @@
 use super::Builder;
 use crate::error::Result;
 use crate::model::file::ModelFile;
+use crate::model::instrument::SharedParameter;
 use crate::model::joint::JointKind;
 use crate::model::leg::LegModel;
 
@@ -70,6 +71,38 @@ impl Builder<'_> {
         }
         Ok(())
     }
+}
+
+impl Builder<'_> {
+    /// The instrument frame must stand within [`MAX_SCALE_RATIO`] times the mechanism's size of
+    /// the base origin: a frame pose written in millimetres (`x: 1200`) put the tracker a
+    /// kilometre away without a word.
+    pub(super) fn frame_scale(&self, frame: &[SharedParameter], legs: &[LegModel]) -> Result<()> {
+        let distance = frame
+            .iter()
+            .filter(|p| ["frame_x", "frame_y", "frame_z"].contains(&p.name.as_str()))
+            .map(|p| p.nominal * p.nominal)
+            .sum::<f64>()
+            .sqrt();
+        let size = mechanism_size(legs);
+        if size > 0.0 && distance > MAX_SCALE_RATIO * size {
+            return Err(self.error(
+                "instrument.frame.pose",
+                format!(
+                    "the instrument frame is {} m from the base origin, more than \
+                     {MAX_SCALE_RATIO} times the mechanism's size ({size:.3} m): millimetres \
+                     instead of metres?",
+                    length(distance)
+                ),
+            ));
+        }
+        Ok(())
+    }
+}
+
+/// The mechanism's size from its legs, metres: the longest leg's [`leg_size`].
+pub(super) fn mechanism_size(legs: &[LegModel]) -> f64 {
+    legs.iter().map(leg_size).fold(0.0, f64::max)
 }
 
 /// Sum of the translation lengths along the leg: joint origins, attachment and the actuator

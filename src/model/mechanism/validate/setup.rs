@@ -1,5 +1,7 @@
 //! The simulation and pose selection set-ups.
 
+use super::legs::{tiny_gain, MIN_GAIN};
+use super::scale::mechanism_size;
 use super::Builder;
 use crate::error::Result;
 use crate::model::file::ModelFile;
@@ -7,6 +9,7 @@ use crate::model::instrument::Instrument;
 use crate::model::leg::LegModel;
 use crate::model::mechanism::MAX_POSES_PER_LEG;
 use crate::model::mechanism::{MeasurementNoise, SelectionCriterion, SelectionSetup, Simulation};
+use crate::model::params::{ParamTarget, Unit};
 
 impl Builder<'_> {
     /// The simulation block; its noise defaults to the declared (top-level) noise.
@@ -38,6 +41,7 @@ impl Builder<'_> {
                     "expected a finite number",
                 ));
             }
+            self.real_value(name, *value, legs)?;
         }
         let noise = match &entry.noise {
             Some(entries) => self.noise("simulation.noise", entries, measured)?,
@@ -52,6 +56,17 @@ impl Builder<'_> {
                     return Err(self.error(
                         "simulation.perturbation",
                         "expected non-negative standard deviations",
+                    ));
+                }
+                let size = mechanism_size(legs);
+                if p.length > size {
+                    return Err(self.error(
+                        "simulation.perturbation.length",
+                        format!(
+                            "{} m is more than the mechanism's size ({size:.3} m): the real legs \
+                             would be other mechanisms (millimetres instead of metres?)",
+                            p.length
+                        ),
                     ));
                 }
                 Some((p.length, p.angle, p.gain))
@@ -72,6 +87,33 @@ impl Builder<'_> {
             poses_per_leg: entry.poses_per_leg,
             seed: entry.seed,
         }))
+    }
+
+    /// A real value of a leg parameter the simulation can use: a gain of plausible magnitude
+    /// (a real gain of 0 made every reading infinite), a length within the mechanism's size of
+    /// its nominal value (a real length in millimetres made every pose unreachable, reported
+    /// as a workspace without reachable poses).
+    fn real_value(&self, name: &str, value: f64, legs: &[LegModel]) -> Result<()> {
+        let field = format!("simulation.real.{name}");
+        let Some(param) = legs.iter().flat_map(|l| &l.params).find(|p| p.name == name) else {
+            return Ok(());
+        };
+        if param.target == ParamTarget::Gain && value.abs() < MIN_GAIN {
+            return Err(self.error(field, tiny_gain(value)));
+        }
+        let size = mechanism_size(legs);
+        if param.unit == Unit::Metre && (value - param.nominal).abs() > size {
+            return Err(self.error(
+                field,
+                format!(
+                    "{value} m is {} m from the nominal value {} m, more than the mechanism's \
+                     size ({size:.3} m): millimetres instead of metres?",
+                    (value - param.nominal).abs(),
+                    param.nominal
+                ),
+            ));
+        }
+        Ok(())
     }
 
     pub(super) fn selection(

@@ -5,7 +5,9 @@ use crate::error::Result;
 use crate::model::file::ModelFile;
 use crate::model::mechanism::COORDINATES;
 use crate::model::region::Region;
-use crate::model::workspace::{Workspace, DEFAULT_RANGE_LEVELS, DEFAULT_SINGULARITY_THRESHOLD};
+use crate::model::workspace::{
+    Workspace, DEFAULT_RANGE_LEVELS, DEFAULT_SINGULARITY_THRESHOLD, MAX_RANGE_LEVELS,
+};
 
 impl Builder<'_> {
     pub(super) fn workspace(&self, file: &ModelFile, measured: &[usize]) -> Result<Workspace> {
@@ -35,6 +37,9 @@ impl Builder<'_> {
                         "workspace.region.polygon",
                         "expected at least three finite vertices (metres)",
                     ));
+                }
+                if let Some(defect) = super::polygon::defect(vertices) {
+                    return Err(self.error("workspace.region.polygon", defect));
                 }
             }
             Region::Ball { centre, radius } => {
@@ -117,8 +122,11 @@ impl Builder<'_> {
             }
         }
         let levels = entry.range_levels.unwrap_or(DEFAULT_RANGE_LEVELS);
-        if levels == 0 {
-            return Err(self.error("workspace.range_levels", "expected at least 1"));
+        if !(1..=MAX_RANGE_LEVELS).contains(&levels) {
+            return Err(self.error(
+                "workspace.range_levels",
+                format!("expected between 1 and {MAX_RANGE_LEVELS}, found {levels}"),
+            ));
         }
         let thresholds = entry.singularity.as_ref();
         let threshold = |value: Option<f64>, name: &str| match value {
