@@ -36,11 +36,22 @@ fn main() -> ExitCode {
 /// `--help` and `--version` as clap prints them (exit 0); a usage error as one line
 /// `legwise: …` on standard error, exit 2.
 fn usage(err: &clap::Error) -> ExitCode {
+    if err.kind() == ErrorKind::DisplayHelpOnMissingArgumentOrSubcommand {
+        let commands: Vec<String> = Cli::command()
+            .get_subcommands()
+            .map(|c| c.get_name().to_string())
+            .collect();
+        let _ = writeln!(
+            std::io::stderr().lock(),
+            "legwise: a command is needed: {}; see `{} --help`",
+            commands.join(", "),
+            command_name()
+        );
+        return ExitCode::from(2);
+    }
     let informational = matches!(
         err.kind(),
-        ErrorKind::DisplayHelp
-            | ErrorKind::DisplayVersion
-            | ErrorKind::DisplayHelpOnMissingArgumentOrSubcommand
+        ErrorKind::DisplayHelp | ErrorKind::DisplayVersion
     );
     if informational {
         let _ = err.print();
@@ -53,6 +64,13 @@ fn usage(err: &clap::Error) -> ExitCode {
 /// clap's usage error on one line: its message, the possible values and its tip, then where
 /// the usage is shown (`legwise COMMAND --help`) in place of clap's usage block.
 fn one_line(err: &clap::Error) -> String {
+    if let Some(word) = single_dash_word().filter(|_| err.kind() == ErrorKind::UnknownArgument) {
+        return format!(
+            "unexpected argument `{word}`: long options take two dashes (`-{word}`); see `{} \
+             --help`",
+            command_name()
+        );
+    }
     let text = err.render().to_string();
     let mut lines = text.lines().map(str::trim).filter(|l| !l.is_empty());
     let first = lines.next().unwrap_or("invalid usage");
@@ -67,6 +85,18 @@ fn one_line(err: &clap::Error) -> String {
         }
     }
     format!("{line}; see `{} --help`", command_name())
+}
+
+/// The first argument that looks like a long option typed with one dash (`-model`), which
+/// clap reads as the short options `-m -o -d …`.
+fn single_dash_word() -> Option<String> {
+    std::env::args().skip(1).find(|word| {
+        word.strip_prefix('-').is_some_and(|rest| {
+            rest.len() > 1
+                && rest.starts_with(|c: char| c.is_ascii_lowercase())
+                && rest.chars().all(|c| c.is_ascii_lowercase() || c == '-')
+        })
+    })
 }
 
 /// `legwise` and the subcommand the command line names, if any.

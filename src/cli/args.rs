@@ -174,9 +174,10 @@ pub struct IdentifyArgs {
     /// of this spacing (metres), before and after identification.
     #[arg(long, value_name = "GRID_M", allow_negative_numbers = true)]
     pub map: Option<f64>,
-    /// Fraction of the workspace region the accuracy map covers (shrunk about its centre).
-    #[arg(long, default_value_t = 0.95, allow_negative_numbers = true)]
-    pub map_scale: f64,
+    /// Fraction of the workspace region the accuracy map covers (shrunk about its centre)
+    /// [default: 0.95].
+    #[arg(long, allow_negative_numbers = true)]
+    pub map_scale: Option<f64>,
     /// Simulation only: write the pictures to this directory (created if missing): the
     /// parameter errors before and after, and with `--map` the accuracy map.
     #[arg(long, value_name = "DIR")]
@@ -302,6 +303,22 @@ pub enum StrategyArg {
     Both,
 }
 
+/// The fraction of the region the accuracy map covers when `--map-scale` is not given.
+pub(super) const DEFAULT_MAP_SCALE: f64 = 0.95;
+
+impl IdentifyArgs {
+    /// `--map-scale`, or its default; refused without `--map`, which it would not change.
+    pub(super) fn map_scale(&self) -> anyhow::Result<f64> {
+        match (self.map, self.map_scale) {
+            (None, Some(_)) => anyhow::bail!(
+                "--map-scale: the fraction of the region the accuracy map covers, but no --map \
+                 asks for a map; add --map GRID_M or drop --map-scale"
+            ),
+            (_, scale) => Ok(scale.unwrap_or(DEFAULT_MAP_SCALE)),
+        }
+    }
+}
+
 impl SolverArg {
     pub(super) fn kind(self) -> SolverKind {
         match self {
@@ -312,9 +329,16 @@ impl SolverArg {
 }
 
 impl SimulationArgs {
-    /// The simulation settings, range-checked (`--grid` too, though only selected poses use it).
+    /// The simulation settings, range-checked (`--grid` refused with random poses, which do
+    /// not use it).
     pub(super) fn settings(&self) -> anyhow::Result<SimulationSettings> {
         checks::positive_metres("--grid", self.grid)?;
+        if self.grid.is_some() && self.poses == Some(PosesArg::Random) {
+            anyhow::bail!(
+                "--grid: the candidate grid of selected poses, but --poses random draws them \
+                 without one; drop --grid (or --poses random)"
+            );
+        }
         let options = crate::measure::simulate::SimulationOptions {
             seed: checks::seed("--seed", self.seed)?,
             noise_scale: checks::non_negative("--noise-scale", self.noise_scale.unwrap_or(1.0))?,

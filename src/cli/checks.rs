@@ -41,6 +41,17 @@ pub(super) fn non_negative(flag: &str, value: f64) -> anyhow::Result<f64> {
     Ok(value)
 }
 
+/// `--png` asks for the pictures of `--plots DIR` as PNG: refused without `--plots`.
+///
+/// # Errors
+/// `--png` without `--plots`.
+pub(super) fn png_needs_plots(png: bool, plots: Option<&std::path::Path>) -> anyhow::Result<()> {
+    if png && plots.is_none() {
+        bail!("--png: draws the pictures of --plots DIR as PNG, but no --plots is given; add --plots DIR or drop --png");
+    }
+    Ok(())
+}
+
 /// A seed: an integer from 0 to 2⁶⁴ − 1.
 ///
 /// # Errors

@@ -14,6 +14,7 @@ use crate::report::evaluation::{evaluation_json, evaluation_text};
 use crate::report::plots::files::{evaluate_picture, POSITION_ERRORS};
 
 pub(super) fn run(args: &EvaluateArgs) -> anyhow::Result<Verdict> {
+    super::checks::png_needs_plots(args.png, args.plots.as_deref())?;
     let mechanism = Mechanism::load(&args.model)?;
     let other = args.against.as_deref().map(Mechanism::load).transpose()?;
     let mut inputs = model_inputs(&args.model, &mechanism);
@@ -29,10 +30,17 @@ pub(super) fn run(args: &EvaluateArgs) -> anyhow::Result<Verdict> {
     let outputs = ReportFiles { json, pictures };
     let mut console = outputs.console();
     let evaluation = evaluate_file(&mechanism, &args.measurements)?;
-    let against = other
-        .as_ref()
-        .map(|other| evaluate_file(other, &args.measurements))
-        .transpose()?;
+    let against = match (&other, &args.against) {
+        (Some(other), Some(path)) => {
+            Some(evaluate_file(other, &args.measurements).map_err(|e| {
+                anyhow::anyhow!(
+                    "--against {}: the measurement file does not read as that model's: {e:#}",
+                    path.display()
+                )
+            })?)
+        }
+        _ => None,
+    };
     outputs.write_json("JSON evaluation", || {
         let value = evaluation_json(&evaluation, against.as_ref());
         Ok(serde_json::to_string_pretty(&value)? + "\n")

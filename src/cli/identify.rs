@@ -19,6 +19,8 @@ use crate::report::Report;
 
 pub(super) fn run(args: &IdentifyArgs) -> anyhow::Result<Verdict> {
     let simulation = args.simulation.settings()?;
+    let map_scale = args.map_scale()?;
+    super::checks::png_needs_plots(args.png, args.plots.as_deref())?;
     if let (Some(path), Some(flag)) = (&args.measurements, args.simulation.first_given()) {
         anyhow::bail!(
             "{flag}: a simulation option, but the measurements are read from {}; drop {flag} \
@@ -30,7 +32,7 @@ pub(super) fn run(args: &IdentifyArgs) -> anyhow::Result<Verdict> {
     if mechanism.instrument.is_some() {
         refuse_unsupported(args)?;
     }
-    let settings = settings(args, &mechanism, simulation);
+    let settings = settings(args, &mechanism, simulation, map_scale);
     let inputs = identify_inputs(args, &mechanism);
     let json_path = args.json.as_deref();
     let json = Output::prepare_optional("--json", json_path, &inputs)?;
@@ -39,7 +41,7 @@ pub(super) fn run(args: &IdentifyArgs) -> anyhow::Result<Verdict> {
         None => None,
     };
     let pictures = picture_outputs(args, &inputs)?;
-    check_map(args, &mechanism)?;
+    check_map(args, &mechanism, map_scale)?;
     let outputs = ReportFiles { json, pictures };
     let mut console = outputs.console();
     let report = match &args.measurements {
@@ -63,7 +65,12 @@ pub(super) fn run(args: &IdentifyArgs) -> anyhow::Result<Verdict> {
 
 /// The library's settings from the command line: the strategies asked for (through an
 /// instrument, the model's: joint and two-stage), the fit, the simulation and the map.
-fn settings(args: &IdentifyArgs, model: &Mechanism, simulation: SimulationSettings) -> Settings {
+fn settings(
+    args: &IdentifyArgs,
+    model: &Mechanism,
+    simulation: SimulationSettings,
+    map_scale: f64,
+) -> Settings {
     Settings {
         strategies: match (&model.instrument, args.strategy) {
             (Some(_), _) => Vec::new(),
@@ -88,7 +95,7 @@ fn settings(args: &IdentifyArgs, model: &Mechanism, simulation: SimulationSettin
         simulation,
         map: args.map.map(|grid_m| MapSettings {
             grid_m,
-            scale: args.map_scale,
+            scale: map_scale,
         }),
     }
 }
@@ -152,12 +159,12 @@ fn say_calibrated(
 }
 
 /// `--map`: simulation only, with a valid grid, refused before any work otherwise.
-fn check_map(args: &IdentifyArgs, mechanism: &Mechanism) -> anyhow::Result<()> {
+fn check_map(args: &IdentifyArgs, mechanism: &Mechanism, map_scale: f64) -> anyhow::Result<()> {
     if let Some(grid) = args.map {
         if args.measurements.is_some() {
             anyhow::bail!("--map: the accuracy map needs the real parameters, known only in simulation (drop --measurements)");
         }
-        map_grid(mechanism, grid, args.map_scale)?;
+        map_grid(mechanism, grid, map_scale)?;
     }
     Ok(())
 }

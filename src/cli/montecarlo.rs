@@ -19,6 +19,7 @@ const PICTURE: &str = "montecarlo-errors";
 
 pub(super) fn run(args: &MontecarloArgs) -> anyhow::Result<Verdict> {
     let trials = checks::count("--trials", args.trials, 2, MAX_TRIALS)?;
+    super::checks::png_needs_plots(args.png, args.plots.as_deref())?;
     let seed = checks::seed("--seed", args.seed)?;
     let noise_scale = checks::non_negative("--noise-scale", args.noise_scale)?;
     let grid = checks::positive_metres("--grid", args.grid)?;

@@ -23,7 +23,8 @@ pub(super) fn run(args: &WorkspaceArgs) -> anyhow::Result<Verdict> {
     let read_poses = |poses: &Path| file::read_poses(poses, &mechanism);
     let pose_set = args.poses.as_deref().map(read_poses).transpose()?;
     let mut console = Console::new(output.is_stdout());
-    let (text, picture) = workspace_report(&mechanism, rays, pose_set.as_ref(), format)?;
+    let (text, picture) = workspace_report(&mechanism, rays, pose_set.as_ref(), format)
+        .map_err(|e| anyhow::anyhow!("{}: {e}", args.model.display()))?;
     output.write("picture", &picture)?;
     console.print(&text)?;
     console.line(format_args!("picture written to {}", output.name()))?;
