@@ -1,4 +1,4 @@
-//! The URDF: a streaming pre-scan ([`super::urdf_scan`]: well-formed XML, bounded nesting, one
+//! The URDF: a streaming pre-scan (`urdf_scan.rs`: well-formed XML, bounded nesting, one
 //! `<robot>`, joints as urdf-rs reads them, where each `<link>` and `<joint>` is declared), then
 //! urdf-rs, then the structural checks urdf-rs leaves out (unique names, declared links). Every
 //! error names the file and, where one exists, the line.
