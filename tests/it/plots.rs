@@ -25,7 +25,7 @@ use plotters::prelude::*;
 use resvg::tiny_skia::{Color, Pixmap, Transform};
 use resvg::usvg::{self, fontdb};
 
-use crate::support::{bundled, svg_texts};
+use crate::support::{bundled, svg_text_attribute, svg_texts};
 
 /// The SVG of `figure` as text.
 fn svg(figure: &impl Figure) -> String {
@@ -437,25 +437,7 @@ fn a_decimal_point_sits_on_the_baseline_and_a_comma_descends_below_it() {
 #[test]
 fn the_slices_legend_is_larger_than_the_tick_labels() {
     let svg = svg(&small_slices());
-    let font_size = |start: &str| -> f64 {
-        let chunk = svg
-            .split("<text")
-            .find(|c| {
-                c.split('>')
-                    .nth(1)
-                    .is_some_and(|t| t.trim_start().starts_with(start))
-            })
-            .unwrap_or_else(|| panic!("no text `{start}`"));
-        chunk
-            .split("font-size=\"")
-            .nth(1)
-            .unwrap()
-            .split('"')
-            .next()
-            .unwrap()
-            .parse()
-            .unwrap()
-    };
+    let font_size = |start: &str| svg_text_attribute(&svg, start, "font-size");
     let tick = font_size("0.2");
     for entry in [
         "singularity-free region",

@@ -258,24 +258,7 @@ fn the_legend_has_no_empty_row_for_a_curve_not_drawn() {
         crate::cli::text(&result.stderr)
     );
     let svg = std::fs::read_to_string(&out).unwrap();
-    let row = |start: &str| -> f64 {
-        let chunk = svg
-            .split("<text")
-            .find(|c| {
-                c.split('>')
-                    .nth(1)
-                    .is_some_and(|t| t.trim_start().starts_with(start))
-            })
-            .unwrap_or_else(|| panic!("no legend entry `{start}`"));
-        let y = chunk
-            .split("y=\"")
-            .nth(1)
-            .unwrap()
-            .split('"')
-            .next()
-            .unwrap();
-        y.parse().unwrap()
-    };
+    let row = |start: &str| crate::support::svg_text_attribute(&svg, start, "y");
     let rows = [
         row("singularity-free region"),
         row("serial (type I)"),

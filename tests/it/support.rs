@@ -114,3 +114,22 @@ pub(crate) fn identify_unweighted(
 ) -> legwise::error::Result<legwise::identify::estimate::StrategyResult> {
     legwise::identify::estimate::identify_with(mechanism, data, strategy, solver, unweighted())
 }
+
+/// The numeric attribute `attribute` (`y`, `font-size`) of the first `<text>` element of `svg`
+/// whose text starts with `start`.
+pub(crate) fn svg_text_attribute(svg: &str, start: &str, attribute: &str) -> f64 {
+    let element = svg
+        .split("<text")
+        .find(|c| {
+            c.split('>')
+                .nth(1)
+                .is_some_and(|t| t.trim_start().starts_with(start))
+        })
+        .unwrap_or_else(|| panic!("no text `{start}`"));
+    element
+        .split(&format!(" {attribute}=\""))
+        .nth(1)
+        .and_then(|rest| rest.split('"').next())
+        .and_then(|value| value.parse().ok())
+        .unwrap_or_else(|| panic!("text `{start}`: no numeric {attribute}"))
+}
