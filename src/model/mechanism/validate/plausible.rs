@@ -142,3 +142,26 @@ fn degree_warnings(file: &ModelFile, legs: &[LegModel]) -> Vec<String> {
         })
         .collect()
 }
+
+#[cfg(test)]
+mod tests {
+    use serde_json::json;
+
+    use super::{beyond, MAX_MAGNITUDE};
+
+    #[test]
+    fn a_value_is_absurd_only_beyond_the_largest_magnitude_and_is_named_by_its_path() {
+        let at_limit = json!({"home": {"pose": {"x": MAX_MAGNITUDE, "y": -MAX_MAGNITUDE}}});
+        assert_eq!(beyond(&at_limit, String::new()), None);
+        let over = json!({"legs": [{"home": {"A1": 0.5}}, {"home": {"A2": -1.5e6}}]});
+        assert_eq!(
+            beyond(&over, String::new()),
+            Some(("legs[1].home.A2".to_string(), -1.5e6))
+        );
+        // Integers are counts and seeds, not measures: never absurd by size.
+        assert_eq!(
+            beyond(&json!({"seed": 9_000_000_000_u64}), String::new()),
+            None
+        );
+    }
+}
