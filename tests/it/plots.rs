@@ -665,3 +665,217 @@ fn evaluate_plots_draws_the_distribution_of_every_full_row() {
         .collect();
     assert_eq!(legends.len(), 2, "both models named: {texts:?}");
 }
+
+/// A shape or a text of an SVG, in document (drawing) order, with its bounding box
+/// `[left, top, right, bottom]` (a text: its anchor point) and, for a text, its content.
+#[derive(Debug)]
+struct Element {
+    text: Option<String>,
+    legend: bool,
+    size: f64,
+    bounds: [f64; 4],
+}
+
+/// The rectangles, polylines, circles and texts of `svg`, in order.
+fn drawn(svg: &str) -> Vec<Element> {
+    let number = |tag: &str, name: &str| -> f64 {
+        let key = format!(" {name}=\"");
+        tag.split(&key)
+            .nth(1)
+            .and_then(|rest| rest.split('"').next())
+            .and_then(|v| v.parse().ok())
+            .unwrap_or(f64::NAN)
+    };
+    let mut elements = Vec::new();
+    for chunk in svg.split('<').skip(1) {
+        let (tag, rest) = chunk.split_once('>').unwrap_or((chunk, ""));
+        let name = tag.split_whitespace().next().unwrap_or("");
+        let bounds = match name {
+            "rect" => {
+                let (x, y) = (number(tag, "x"), number(tag, "y"));
+                [x, y, x + number(tag, "width"), y + number(tag, "height")]
+            }
+            "circle" => {
+                let (x, y, r) = (number(tag, "cx"), number(tag, "cy"), number(tag, "r"));
+                [x - r, y - r, x + r, y + r]
+            }
+            "polyline" => {
+                let points = tag
+                    .split("points=\"")
+                    .nth(1)
+                    .unwrap()
+                    .split('"')
+                    .next()
+                    .unwrap();
+                let xy: Vec<[f64; 2]> = points
+                    .split_whitespace()
+                    .map(|p| {
+                        let (x, y) = p.split_once(',').unwrap();
+                        [x.parse().unwrap(), y.parse().unwrap()]
+                    })
+                    .collect();
+                let fold = |k: usize, f: fn(f64, f64) -> f64, start: f64| {
+                    xy.iter().map(|p| p[k]).fold(start, f)
+                };
+                [
+                    fold(0, f64::min, f64::INFINITY),
+                    fold(1, f64::min, f64::INFINITY),
+                    fold(0, f64::max, f64::NEG_INFINITY),
+                    fold(1, f64::max, f64::NEG_INFINITY),
+                ]
+            }
+            "text" => {
+                let (x, y) = (number(tag, "x"), number(tag, "y"));
+                elements.push(Element {
+                    text: Some(rest.trim().to_string()),
+                    legend: tag.contains("dy=\"0.5ex\"") && tag.contains("text-anchor=\"start\""),
+                    size: number(tag, "font-size"),
+                    bounds: [x, y, x, y],
+                });
+                continue;
+            }
+            _ => continue,
+        };
+        elements.push(Element {
+            text: None,
+            legend: false,
+            size: 0.0,
+            bounds,
+        });
+    }
+    elements
+}
+
+/// Every legend entry of `svg` (a text drawn at its vertical middle, left-aligned, after its
+/// swatch) sits just right of its swatch and on its middle, and entries do not overlap: side by
+/// side with room for the text before, or a text height apart. Returns the entries' count.
+fn assert_legend_laid_out(svg: &str, what: &str) -> usize {
+    let elements = drawn(svg);
+    let mut entries: Vec<(&str, f64, f64, f64)> = Vec::new();
+    for (k, element) in elements.iter().enumerate() {
+        let (Some(text), true) = (&element.text, element.legend) else {
+            continue;
+        };
+        let [x, y, ..] = element.bounds;
+        // The swatch: the small shapes drawn just before the text, ending within 40 px left of
+        // it.
+        let swatch: Vec<&Element> = elements[..k]
+            .iter()
+            .rev()
+            .take_while(|e| {
+                let [left, top, right, bottom] = e.bounds;
+                e.text.is_none()
+                    && bottom - top <= 3.0 * element.size
+                    && right - left <= 40.0
+                    && (0.0..=40.0).contains(&(x - right))
+            })
+            .collect();
+        assert!(
+            !swatch.is_empty(),
+            "{what}: `{text}` has no swatch before it"
+        );
+        let top = swatch
+            .iter()
+            .map(|e| e.bounds[1])
+            .fold(f64::INFINITY, f64::min);
+        let bottom = swatch
+            .iter()
+            .map(|e| e.bounds[3])
+            .fold(f64::NEG_INFINITY, f64::max);
+        let right = swatch
+            .iter()
+            .map(|e| e.bounds[2])
+            .fold(f64::NEG_INFINITY, f64::max);
+        assert!(
+            ((top + bottom) / 2.0 - y).abs() <= 1.0,
+            "{what}: `{text}` at y {y}, its swatch from {top} to {bottom}"
+        );
+        assert!(
+            right < x && x - right <= 16.0,
+            "{what}: `{text}` at x {x}, its swatch ends at {right}"
+        );
+        entries.push((text, x, y, element.size));
+    }
+    for (a, b) in entries.iter().zip(entries.iter().skip(1)) {
+        let same_row = (a.2 - b.2).abs() < 1.0;
+        let room = 0.45 * a.3 * a.0.chars().count() as f64;
+        assert!(
+            if same_row {
+                b.1 >= a.1 + room
+            } else {
+                (a.2 - b.2).abs() >= a.3
+            },
+            "{what}: `{}` at ({}, {}) overlaps `{}` at ({}, {})",
+            b.0,
+            b.1,
+            b.2,
+            a.0,
+            a.1,
+            a.2
+        );
+    }
+    entries.len()
+}
+
+/// The legends of the pictures the commands draw: the planar workspace with its pose groups, the
+/// parameter errors, the Monte Carlo histograms.
+#[test]
+fn every_legend_entry_sits_beside_its_swatch_without_overlapping_another() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = |name: &str| dir.path().join(name).to_str().unwrap().to_string();
+    let run = |args: &[&str]| {
+        let out = legwise(args);
+        assert_eq!(
+            out.status.code(),
+            Some(0),
+            "{args:?}: {}",
+            crate::cli::text(&out.stderr)
+        );
+    };
+    run(&[
+        "select",
+        "--model",
+        "models/5r.yaml",
+        "--out",
+        &path("poses.csv"),
+    ]);
+    let workspace = path("workspace.svg");
+    let poses = path("poses.csv");
+    run(&[
+        "workspace",
+        "--model",
+        "models/5r.yaml",
+        "--poses",
+        &poses,
+        "--rays",
+        "64",
+        "--out",
+        &workspace,
+    ]);
+    run(&[
+        "identify",
+        "--model",
+        "models/5r.yaml",
+        "--plots",
+        &path("identify"),
+    ]);
+    run(&[
+        "montecarlo",
+        "--model",
+        "models/5r.yaml",
+        "--trials",
+        "3",
+        "--map",
+        "0.2",
+        "--plots",
+        &path("mc"),
+    ]);
+    for (file, entries) in [
+        (workspace, 6),
+        (path("identify/parameter-errors.svg"), 2),
+        (path("mc/montecarlo-errors.svg"), 3),
+    ] {
+        let svg = std::fs::read_to_string(&file).unwrap();
+        assert_eq!(assert_legend_laid_out(&svg, &file), entries, "{file}");
+    }
+}
