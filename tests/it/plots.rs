@@ -747,8 +747,9 @@ fn drawn(svg: &str) -> Vec<Element> {
 }
 
 /// Every legend entry of `svg` (a text drawn at its vertical middle, left-aligned, after its
-/// swatch) sits just right of its swatch and on its middle, and entries do not overlap: side by
-/// side with room for the text before, or a text height apart. Returns the entries' count.
+/// swatch) sits just right of its swatch and on its middle, inside the picture, and entries do
+/// not overlap: side by side with room for the text before, or a text height apart. Returns the
+/// entries' count.
 fn assert_legend_laid_out(svg: &str, what: &str) -> usize {
     let elements = drawn(svg);
     let mut entries: Vec<(&str, f64, f64, f64)> = Vec::new();
@@ -795,6 +796,19 @@ fn assert_legend_laid_out(svg: &str, what: &str) -> usize {
             "{what}: `{text}` at x {x}, its swatch ends at {right}"
         );
         entries.push((text, x, y, element.size));
+    }
+    let width: f64 = svg
+        .split("width=\"")
+        .nth(1)
+        .and_then(|rest| rest.split('"').next())
+        .and_then(|w| w.parse().ok())
+        .expect("the picture's width");
+    for (text, x, _, size) in &entries {
+        let room = 0.45 * size * text.chars().count() as f64;
+        assert!(
+            x + room <= width,
+            "{what}: `{text}` at x {x} runs out of the picture ({width})"
+        );
     }
     for (a, b) in entries.iter().zip(entries.iter().skip(1)) {
         let same_row = (a.2 - b.2).abs() < 1.0;
