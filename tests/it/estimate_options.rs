@@ -308,22 +308,39 @@ fn an_outlier_on_a_high_leverage_row_is_the_only_row_flagged_and_dropped() {
 /// The weighted fit reports the work of every fit it made: the first one from the nominal
 /// parameters, which goes about as far as the unweighted fit from the same start (the same rows,
 /// reweighted by 1.4–2×), and each refit at the new weights. So on the bundled 5R's clean file
-/// its iterations are at least the unweighted fit's, leg by leg (8 against 4 and 14 against 6);
+/// its iterations, residual and Jacobian evaluations are at least the unweighted fit's, leg by
+/// leg (iterations 8 against 4 and 14 against 6);
 /// counting the last refit alone would give 0 (it starts where the previous fit converged).
 #[test]
-fn the_weighted_fit_counts_the_iterations_of_every_reweighting() {
+fn the_weighted_fit_counts_the_work_of_every_reweighting() {
     let mechanism = bundled("5r.yaml");
     let unweighted = FitOptions {
         weights: Weighting::Unweighted,
         ..WEIGHTED
     };
-    let runs = |options: FitOptions| -> Vec<u64> {
+    // Per leg: iterations, residual and Jacobian evaluations.
+    let runs = |options: FitOptions| -> Vec<[u64; 3]> {
         let result = fit(&mechanism, &clean_csv(), options).unwrap();
-        result.runs.iter().map(|run| run.iterations).collect()
+        result
+            .runs
+            .iter()
+            .map(|run| {
+                [
+                    run.iterations,
+                    run.residual_evaluations,
+                    run.jacobian_evaluations,
+                ]
+            })
+            .collect()
     };
     let (weighted, plain) = (runs(WEIGHTED), runs(unweighted));
     assert_eq!(weighted.len(), 2);
     for (w, p) in weighted.iter().zip(&plain) {
-        assert!(w >= p, "weighted {weighted:?} against unweighted {plain:?}");
+        for k in 0..3 {
+            assert!(
+                w[k] >= p[k],
+                "weighted {weighted:?} against unweighted {plain:?}"
+            );
+        }
     }
 }
