@@ -335,16 +335,7 @@ fn row_residuals_of_a_robust_fit_are_the_unweighted_reading_residuals() {
 fn held_out_data_simulated_from_a_calibrated_tracker_model_come_from_the_same_mechanism() {
     let dir = tempfile::tempdir().unwrap();
     let path = |name: &str| dir.path().join(name).to_str().unwrap().to_string();
-    let run = |args: &[&str]| {
-        let out = legwise(args);
-        assert_eq!(
-            out.status.code(),
-            Some(0),
-            "{args:?}: {}",
-            String::from_utf8_lossy(&out.stderr)
-        );
-        out
-    };
+    let run = crate::cli::legwise_succeeds;
     let model = "models/5r-tracker.yaml";
     run(&["simulate", "--model", model, "--out", &path("fit.csv")]);
     run(&[

@@ -14,6 +14,18 @@ pub(crate) fn legwise(args: &[&str]) -> Output {
         .expect("the legwise binary runs")
 }
 
+/// Runs `legwise` with `args` and checks it exits 0 (its standard error shown otherwise).
+pub(crate) fn legwise_succeeds(args: &[&str]) -> Output {
+    let out = legwise(args);
+    assert_eq!(
+        out.status.code(),
+        Some(0),
+        "{args:?}: {}",
+        text(&out.stderr)
+    );
+    out
+}
+
 /// Output bytes as text (legwise writes UTF-8).
 pub(crate) fn text(bytes: &[u8]) -> String {
     String::from_utf8(bytes.to_vec()).expect("UTF-8 output")

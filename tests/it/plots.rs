@@ -837,15 +837,7 @@ fn assert_legend_laid_out(svg: &str, what: &str) -> usize {
 fn every_legend_entry_sits_beside_its_swatch_without_overlapping_another() {
     let dir = tempfile::tempdir().unwrap();
     let path = |name: &str| dir.path().join(name).to_str().unwrap().to_string();
-    let run = |args: &[&str]| {
-        let out = legwise(args);
-        assert_eq!(
-            out.status.code(),
-            Some(0),
-            "{args:?}: {}",
-            crate::cli::text(&out.stderr)
-        );
-    };
+    let run = crate::cli::legwise_succeeds;
     run(&[
         "select",
         "--model",
