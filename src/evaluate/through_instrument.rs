@@ -8,7 +8,8 @@
 //! measures, the angle between the orientations). This is what a user checks: where the model
 //! says the target is, against where the instrument saw it. Each leg's reading residual is
 //! taken at the platform pose fitted from the row's targets with the model's instrument
-//! ([`platform_pose`]).
+//! ([`platform_pose`]); seen through the forward kinematics (`instrument.kinematics: forward`),
+//! whose targets do not give the pose, there are none.
 
 use super::accuracy::{orientation_error, position_error, ErrorStats};
 use super::held_out::{
@@ -86,9 +87,12 @@ pub fn evaluate_observed(mechanism: &Mechanism, data: &Observations) -> Result<E
         }
     }
     let home = &mechanism.home_pose;
+    // Seen through the forward kinematics, the targets do not give the pose: no reading
+    // residuals, the error in what the instrument saw is the evaluation.
     let fitted: Vec<ResidualRow<'_>> = data
         .rows
         .iter()
+        .filter(|_| !instrument.forward)
         .enumerate()
         .map(|(i, row)| ResidualRow {
             line: line(i),

@@ -102,6 +102,14 @@ pub fn identify_shared(
             strategy.name()
         )));
     }
+    if strategy == Strategy::TwoStage && mechanism.instrument.as_ref().is_some_and(|i| i.forward) {
+        return Err(Error::Invalid(format!(
+            "{}: the instrument is seen through the forward kinematics, whose rows couple \
+             every leg and the instrument: they are identified together (joint), not in two \
+             stages",
+            mechanism.model_path.display()
+        )));
+    }
     let problem = IdentificationProblem::through_instrument(mechanism, observations)?;
     let observability = check_rank(&problem, observations)?;
     let started = std::time::Instant::now();

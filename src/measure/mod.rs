@@ -2,6 +2,7 @@
 pub mod checks;
 mod data;
 pub mod file;
+pub mod forward_simulate;
 mod line_endings;
 pub mod observations;
 pub mod observe_simulate;

@@ -191,6 +191,9 @@ pub fn parse(text: &str, path: &Path, mechanism: &Mechanism) -> Result<Observati
         let readings = reading_columns.iter().map(|&column| number(column));
         let readings = readings.collect::<Result<Vec<_>>>()?;
         rows::require_leg_reading(path, line, mechanism, leg, &readings)?;
+        if instrument.forward {
+            forward_row(path, line, mechanism, leg, &readings)?;
+        }
         rows.push(ObservedRow {
             line: Some(line),
             leg,
@@ -205,6 +208,39 @@ pub fn parse(text: &str, path: &Path, mechanism: &Mechanism) -> Result<Observati
         source: Some(path.to_path_buf()),
         rows,
     })
+}
+
+/// A row of a model seen through the forward kinematics: every leg's reading, no leg label
+/// (the row is one configuration of the whole mechanism).
+fn forward_row(
+    path: &Path,
+    line: usize,
+    mechanism: &Mechanism,
+    leg: Option<usize>,
+    readings: &[Option<f64>],
+) -> Result<()> {
+    if let Some(l) = leg {
+        return Err(rows::fail(
+            path,
+            format!("line {line}, column `leg`"),
+            format!(
+                "`{}`: the model's instrument is seen through the forward kinematics \
+                 (`instrument.kinematics: forward`), where a row is every leg's reading at one \
+                 configuration: leave `leg` empty",
+                mechanism.legs[l].name
+            ),
+        ));
+    }
+    if let Some(l) = readings.iter().position(Option::is_none) {
+        return Err(rows::fail(
+            path,
+            format!("line {line}, column `{}`", mechanism.actuated_names()[l]),
+            "missing reading: the forward kinematics (`instrument.kinematics: forward`) needs \
+             every leg's reading at every row"
+                .into(),
+        ));
+    }
+    Ok(())
 }
 
 /// The CSV text of instrument measurements, in the layout [`read`] expects (exact round trip

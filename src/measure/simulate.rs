@@ -250,7 +250,7 @@ pub fn check_noise(mechanism: &Mechanism, simulation: &Simulation, scale: f64) -
 }
 
 /// Draws poses until every leg reaches one with nominal and real parameters.
-fn reachable_pose(
+pub(super) fn reachable_pose(
     mechanism: &Mechanism,
     real_parameters: &[Vec<f64>],
     rng: &mut ChaCha8Rng,

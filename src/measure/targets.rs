@@ -27,6 +27,12 @@ use crate::scalar::{lift, Scalar};
 /// The instrument's report of every target at platform pose `pose` with shared parameters
 /// `shared` (layout of [`Instrument`]), in measurement-row order.
 pub fn observe(instrument: &Instrument, shared: &[f64], pose: &[f64; 6]) -> Vec<f64> {
+    observe_in(instrument, shared, pose)
+}
+
+/// [`observe`] in any scalar type: run on dual numbers seeded in the pose and the shared
+/// parameters, it gives the derivatives of a forward row's prediction.
+pub fn observe_in<T: Scalar>(instrument: &Instrument, shared: &[T], pose: &[T; 6]) -> Vec<T> {
     if instrument.spatial {
         return spatial::observe(instrument, shared, pose);
     }
@@ -35,16 +41,21 @@ pub fn observe(instrument: &Instrument, shared: &[f64], pose: &[f64; 6]) -> Vec<
         shared[Instrument::FRAME + 1],
         shared[Instrument::FRAME + 2],
     );
-    let (s, c) = theta.sin_cos();
-    let (ps, pc) = pose[5].sin_cos();
+    let (s, c) = (theta.sin(), theta.cos());
+    let (ps, pc) = (pose[5].sin(), pose[5].cos());
     let mut observed = Vec::with_capacity(instrument.observed_len());
     for (k, target) in instrument.targets.iter().enumerate() {
         let o = instrument.offset_index(k);
         let (tx, ty) = (shared[o], shared[o + 1]);
         let qx = pose[0] + pc * tx - ps * ty - fx;
         let qy = pose[1] + ps * tx + pc * ty - fy;
-        observed.push(c * qx + s * qy);
-        observed.push(-s * qx + c * qy);
+        let m = [c * qx + s * qy, -s * qx + c * qy];
+        match target.measures {
+            Measures::Coordinates(_) => {
+                observed.extend(target.pose_indices().iter().map(|&i| m[i]));
+            }
+            _ => observed.extend(m),
+        }
         if target.measures == Measures::Pose {
             observed.push(pose[5] - theta);
         }

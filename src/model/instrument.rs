@@ -21,6 +21,13 @@ use super::params::Unit;
 #[derive(Debug, Clone, Deserialize, Serialize)]
 #[serde(deny_unknown_fields)]
 pub struct InstrumentEntry {
+    /// How a row's prediction goes: `inverse` (the default: the platform pose is fitted from
+    /// the targets, each leg predicts its reading) or `forward` (the platform pose is the
+    /// forward kinematics of every leg's reading, and the targets' coordinates are predicted
+    /// from it: for targets that do not give the whole pose, such as a bed probe's height or
+    /// one reflector on a rotating platform).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub kinematics: Option<String>,
     /// The instrument frame in the base frame.
     pub frame: FrameEntry,
     /// The targets on the platform the instrument measures.
@@ -65,15 +72,31 @@ pub struct TargetEntry {
     /// Nominal offset of the target from the platform's reference point, in the platform frame
     /// (`[x, y]` for a planar model, `[x, y, z]` for a spatial one), metres.
     pub offset: Vec<f64>,
-    /// What the instrument reports of the target: `position`, or `pose` (position and
-    /// orientation; the target's axes are the platform's).
-    pub measures: String,
+    /// What the instrument reports of the target: `position`, `pose` (position and
+    /// orientation; the target's axes are the platform's), or a list of some of its position
+    /// coordinates in the instrument frame (`[z]`: a height; forward kinematics only).
+    pub measures: MeasuresEntry,
     /// The identified offset components (default: all of them).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub identify: Option<Vec<String>>,
     /// Standard deviation of the simulation's perturbation of the identified components, metres.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub perturbation: Option<f64>,
+    /// For a target measuring one coordinate: every row is a touch, where that coordinate is
+    /// this value (a probe touching the bed: `0.0`). Simulation moves each pose along the
+    /// platform coordinate of the same name until it holds.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub touch: Option<f64>,
+}
+
+/// The `measures` field of a target as written: a word or a list of coordinates.
+#[derive(Debug, Clone, Deserialize, Serialize)]
+#[serde(untagged)]
+pub enum MeasuresEntry {
+    /// `position` or `pose`.
+    Word(String),
+    /// Some of the position's coordinates, `[z]` or `[x, y]`.
+    Coordinates(Vec<String>),
 }
 
 /// What the instrument reports of a target.
@@ -83,7 +106,23 @@ pub enum Measures {
     Position,
     /// The target's position and orientation (a camera's marker).
     Pose,
+    /// Some of the position's coordinates in the instrument frame: bit 0 `x`, bit 1 `y`,
+    /// bit 2 `z` (a probe's height is `z` alone). Forward kinematics only.
+    Coordinates(u8),
 }
+
+/// The position coordinates of each [`Measures::Coordinates`] mask (index = mask), and their
+/// indices in `[x, y, z]`.
+const COORDINATE_SUBSETS: [(&[&str], &[usize]); 8] = [
+    (&[], &[]),
+    (&["x"], &[0]),
+    (&["y"], &[1]),
+    (&["x", "y"], &[0, 1]),
+    (&["z"], &[2]),
+    (&["x", "z"], &[0, 2]),
+    (&["y", "z"], &[1, 2]),
+    (&["x", "y", "z"], &[0, 1, 2]),
+];
 
 /// Components of the planar instrument frame, in the shared vector's order.
 pub const PLANAR_FRAME: [&str; 3] = ["x", "y", "yaw"];
@@ -107,6 +146,8 @@ pub struct Target {
     pub measures: Measures,
     /// Of a spatial model (3-D coordinates) rather than a planar one.
     pub spatial: bool,
+    /// The value of its one coordinate at every row, if the rows are touches.
+    pub touch: Option<f64>,
 }
 
 impl Target {
@@ -119,6 +160,7 @@ impl Target {
             (false, Measures::Pose) => &["x", "y", "yaw"],
             (true, Measures::Position) => &["x", "y", "z"],
             (true, Measures::Pose) => &SPATIAL_FRAME,
+            (_, Measures::Coordinates(mask)) => COORDINATE_SUBSETS[usize::from(mask & 7)].0,
         }
     }
 
@@ -130,6 +172,7 @@ impl Target {
             (false, Measures::Pose) => &[0, 1, 5],
             (true, Measures::Position) => &[0, 1, 2],
             (true, Measures::Pose) => &[0, 1, 2, 3, 4, 5],
+            (_, Measures::Coordinates(mask)) => COORDINATE_SUBSETS[usize::from(mask & 7)].1,
         }
     }
 }
@@ -162,6 +205,9 @@ pub struct Instrument {
     pub rotates: bool,
     /// A spatial model (6-DoF frame, 3-D offsets) rather than a planar one.
     pub spatial: bool,
+    /// Rows are predicted through the forward kinematics (`kinematics: forward`): the platform
+    /// pose from every leg's reading, the targets' coordinates from the pose.
+    pub forward: bool,
 }
 
 impl Instrument {

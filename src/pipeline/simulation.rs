@@ -4,6 +4,7 @@
 
 use super::settings::{PoseSource, SimulationSettings};
 use crate::error::Result;
+use crate::measure::forward_simulate::forward_pose_sets;
 use crate::measure::observe_simulate::{observed_from, simulated_poses};
 use crate::measure::simulate::{self as simulator, setup, simulate_at};
 use crate::measure::simulate::{SimulatedExperiment, SimulationOptions};
@@ -34,28 +35,48 @@ pub fn simulate(mechanism: &Mechanism, settings: &SimulationSettings) -> Result<
     let seed = options.seed.unwrap_or(simulation.seed);
     let noise = format!("seed {seed}, noise scale {}", options.noise_scale);
     let simulated = simulated_poses(mechanism);
-    let (experiment, source) = match settings.poses {
-        PoseSource::Random => {
-            let count = options.poses_per_leg.unwrap_or(simulation.poses_per_leg);
-            let experiment = simulator::simulate(&simulated, options)?;
-            let text =
-                format!("simulated at random poses: {count} per leg and {count} shared, {noise}");
-            (experiment, text)
-        }
-        PoseSource::Selected => {
-            let count = options
-                .poses_per_leg
-                .unwrap_or(mechanism.selection.poses_per_leg);
-            let criterion = mechanism.selection.criterion;
-            let design =
-                ExperimentDesign::select(&simulated, settings.grid, count, criterion, true)?;
-            let experiment = simulate_at(&simulated, &design.pose_sets(), options)?;
+    let forward = mechanism.instrument.as_ref().filter(|i| i.forward);
+    let (experiment, source) = match (forward, settings.poses) {
+        (Some(instrument), _) => {
+            // Pose selection for forward rows is not built: random rows, and the text says so.
+            let sets = forward_pose_sets(&simulated, instrument, options)?;
+            let experiment = simulate_at(&simulated, &sets, options)?;
+            let touch = if instrument.targets.iter().any(|t| t.touch.is_some()) {
+                ", each moved to its touch"
+            } else {
+                ""
+            };
             let text = format!(
-                "simulated at selected poses ({criterion:?}-optimal from {} feasible candidates, grid {} m): {count} per leg and {count} shared, {noise}",
-                design.candidates, design.spacing
+                "simulated at random poses{touch}: {} rows of every leg's reading (forward \
+                 kinematics; no pose selection for forward rows), {noise}",
+                sets.shared.len()
             );
             (experiment, text)
         }
+        (None, poses) => match poses {
+            PoseSource::Random => {
+                let count = options.poses_per_leg.unwrap_or(simulation.poses_per_leg);
+                let experiment = simulator::simulate(&simulated, options)?;
+                let text = format!(
+                    "simulated at random poses: {count} per leg and {count} shared, {noise}"
+                );
+                (experiment, text)
+            }
+            PoseSource::Selected => {
+                let count = options
+                    .poses_per_leg
+                    .unwrap_or(mechanism.selection.poses_per_leg);
+                let criterion = mechanism.selection.criterion;
+                let design =
+                    ExperimentDesign::select(&simulated, settings.grid, count, criterion, true)?;
+                let experiment = simulate_at(&simulated, &design.pose_sets(), options)?;
+                let text = format!(
+                "simulated at selected poses ({criterion:?}-optimal from {} feasible candidates, grid {} m): {count} per leg and {count} shared, {noise}",
+                design.candidates, design.spacing
+            );
+                (experiment, text)
+            }
+        },
     };
     let (real, measurements) = measured(mechanism, experiment, options)?;
     Ok(Simulated {

@@ -32,6 +32,7 @@ use crate::identify::estimate::{FitOptions, Strategy, StrategyResult};
 use crate::identify::statistics::NoiseTest;
 use crate::kinematics::inverse::Joints;
 use crate::kinematics::platform::ForwardKinematics;
+use crate::measure::forward_simulate::forward_pose_sets;
 use crate::measure::observe_simulate::simulated_poses;
 use crate::measure::simulate::{real_parameters, simulate_at, PoseSets, SimulationOptions};
 use crate::measure::{MeasurementSet, Measurements};
@@ -406,7 +407,11 @@ impl Study {
             per_leg[design.leg] = design.poses;
         }
         let through = mechanism.instrument.is_some();
-        let (arms, shared_count, shared_poses) = if through {
+        let forward = mechanism.instrument.as_ref().is_some_and(|i| i.forward);
+        let (arms, shared_count, shared_poses) = if forward {
+            // Forward rows couple every leg: the joint fit alone, on rows drawn per trial.
+            (vec![Arm::Joint], 0, Vec::new())
+        } else if through {
             (INSTRUMENT_ARMS.to_vec(), 0, Vec::new())
         } else {
             let shared = traditional(&mechanism, &pool, count, criterion)?;
@@ -546,7 +551,14 @@ impl Study {
     /// through the instrument, what it reports at the per-leg poses, the same rows for every arm.
     fn trial_data(&self, options: SimulationOptions) -> Result<(RealValues, Vec<Measurements>)> {
         let simulated = simulated_poses(&self.mechanism);
-        let experiment = simulate_at(&simulated, &self.pose_sets, options)?;
+        let experiment = match self.mechanism.instrument.as_ref().filter(|i| i.forward) {
+            // Random rows of every leg's reading (touches on the trial's real bed).
+            Some(instrument) => {
+                let sets = forward_pose_sets(&simulated, instrument, options)?;
+                simulate_at(&simulated, &sets, options)?
+            }
+            None => simulate_at(&simulated, &self.pose_sets, options)?,
+        };
         let (real, data) = measured(&self.mechanism, experiment, options)?;
         let Measurements::Readings(measurements) = &data else {
             return Ok((real, vec![data; self.arms.len()]));
@@ -737,9 +749,17 @@ impl Study {
                 }
             })
             .collect();
-        let verdict = comparisons
-            .last()
-            .map_or_else(String::new, |c| c.sentence.clone());
+        let verdict =
+            comparisons.last().map_or_else(
+                || {
+                    format!(
+                    "one strategy ({}): nothing to compare; read its parameters' std/σ and its \
+                     map error above",
+                    self.arms.iter().map(|a| a.name()).collect::<Vec<_>>().join(", ")
+                )
+                },
+                |c| c.sentence.clone(),
+            );
         MonteCarlo {
             options: self.options,
             mechanism: self.mechanism.name.clone(),

@@ -12,6 +12,7 @@ mod evaluation_reuse;
 mod exit_codes;
 mod files;
 mod forward_kinematics;
+mod forward_observations;
 mod fuzz;
 mod golden;
 mod hostile_inputs;

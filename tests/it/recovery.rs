@@ -5,6 +5,24 @@ use legwise::solver::SolverKind;
 
 use crate::support::bundled_models;
 
+/// The bundled models whose held parameters are at their real values: every parameter can be
+/// recovered exactly. (models/delta-probe.yaml holds its rods and gains at nominal while the
+/// real ones differ: a printer's calibration with a misfit, tested in forward_observations.rs.)
+fn exact_models() -> Vec<legwise::model::Mechanism> {
+    bundled_models()
+        .into_iter()
+        .filter(|mech| {
+            let experiment = simulate(mech, NOISE_FREE).unwrap();
+            mech.legs.iter().zip(&experiment.real).all(|(leg, real)| {
+                leg.params
+                    .iter()
+                    .zip(real)
+                    .all(|(p, &value)| p.identified || (value - p.nominal).abs() <= 1e-12)
+            })
+        })
+        .collect()
+}
+
 const NOISE_FREE: SimulationOptions = SimulationOptions {
     seed: None,
     noise_scale: 0.0,
@@ -13,7 +31,7 @@ const NOISE_FREE: SimulationOptions = SimulationOptions {
 
 #[test]
 fn both_solvers_recover_every_real_parameter_at_zero_noise() {
-    for mech in bundled_models() {
+    for mech in exact_models() {
         let experiment = simulate(&mech, NOISE_FREE).unwrap();
         for solver in [SolverKind::LevenbergMarquardt, SolverKind::GaussNewton] {
             for strategy in [Strategy::DivideAndConquer, Strategy::Traditional] {
@@ -39,7 +57,7 @@ fn both_solvers_recover_every_real_parameter_at_zero_noise() {
 fn recovery_also_holds_through_the_measurement_csv() {
     use legwise::measure::file;
     let directory = tempfile::tempdir().unwrap();
-    for mech in bundled_models() {
+    for mech in exact_models() {
         let experiment = simulate(&mech, NOISE_FREE).unwrap();
         let path = directory.path().join("measurements.csv");
         file::write(&path, &mech, &experiment.measurements).unwrap();

@@ -29,10 +29,12 @@ use crate::model::Mechanism;
 use crate::solver::bordered::{BorderedBlock, BorderedLayout, BorderedLeastSquares};
 
 mod evaluation;
+mod forward;
 mod noise;
 mod sighted;
 mod state;
 
+use forward::{Forward, ForwardRow};
 use sighted::{Sighted, Sighting};
 use state::{Evaluation, Evaluations, KEPT_SOLUTION_ROWS};
 
@@ -82,6 +84,9 @@ pub struct IdentificationProblem<'a> {
     /// Through an instrument: the shared parameters and what it saw at each block (whose
     /// measured pose is then unused, NaN).
     sighted: Option<Sighted<'a>>,
+    /// Through an instrument seen by forward kinematics: the rows of every leg's reading and
+    /// what the instrument saw there (`problem/forward.rs`), after the blocks in row order.
+    forward: Option<Forward>,
     /// `√w_i` per block, if weighted.
     row_scales: Option<Vec<f64>>,
     /// Each block's platform transform (its pose's trigonometry done once), for problems of
@@ -145,6 +150,9 @@ impl<'a> IdentificationProblem<'a> {
     ) -> Result<Self> {
         let instrument = instrument_of(mechanism)?;
         let legs = mechanism.identified_legs();
+        if instrument.forward {
+            return Self::forward(mechanism, observations, &legs);
+        }
         let (mut blocks, mut rows) = (Vec::new(), Vec::new());
         for &leg in &legs {
             let leg_rows = observations.indexed_leg_rows(leg);
@@ -172,6 +180,50 @@ impl<'a> IdentificationProblem<'a> {
             rows: Arc::new(rows),
         };
         Ok(Self::assemble(mechanism, &legs, blocks, Some(sighted)))
+    }
+
+    /// The problem of forward rows: every row's readings of all legs predict what the
+    /// instrument saw (`problem/forward.rs`); the unknowns as [`Self::through_instrument`].
+    fn forward(
+        mechanism: &'a Mechanism,
+        observations: &Observations,
+        legs: &[usize],
+    ) -> Result<Self> {
+        let instrument = instrument_of(mechanism)?;
+        let rows = observations
+            .rows
+            .iter()
+            .enumerate()
+            .map(|(source, row)| {
+                let readings = row.readings.iter().enumerate().map(|(l, r)| {
+                    r.ok_or_else(|| {
+                        let at = row
+                            .line
+                            .map_or(format!("row {source}"), |l| format!("line {l}"));
+                        Error::Invalid(format!(
+                            "{at}: no reading of leg `{}`: the forward kinematics needs every \
+                             leg's reading at every row",
+                            mechanism.legs[l].name
+                        ))
+                    })
+                });
+                Ok(ForwardRow {
+                    source,
+                    line: row.line,
+                    readings: readings.collect::<Result<_>>()?,
+                    observed: row.observed.clone(),
+                })
+            })
+            .collect::<Result<Vec<_>>>()?;
+        let sighted = Sighted {
+            instrument,
+            shared: instrument.identified(),
+            held: instrument.nominal(),
+            rows: Arc::new(Vec::new()),
+        };
+        let mut problem = Self::assemble(mechanism, legs, Vec::new(), Some(sighted));
+        problem.forward = Some(Forward::new(rows));
+        Ok(problem)
     }
 
     /// The problem of the legs `legs` (their identified parameters unknown), the blocks of
@@ -242,6 +294,7 @@ impl<'a> IdentificationProblem<'a> {
             slots,
             slot_of_leg,
             sighted,
+            forward: None,
             row_scales: None,
             state: Arc::new(Mutex::new(state)),
         }
@@ -289,7 +342,9 @@ impl<'a> IdentificationProblem<'a> {
             ..s.clone()
         });
         let slots = self.slots.iter().map(|s| (s.leg, s.columns.clone()));
-        Self::with_slots(self.mechanism, slots.collect(), blocks, sighted)
+        let mut problem = Self::with_slots(self.mechanism, slots.collect(), blocks, sighted);
+        problem.forward = self.forward.as_ref().map(Forward::renewed);
+        problem
     }
 
     /// The same legs without the blocks at rows `rows` (and without weights).
@@ -333,7 +388,9 @@ impl<'a> IdentificationProblem<'a> {
     pub fn with_legs_fixed(&self) -> Self {
         let slots = self.slots.iter().map(|s| (s.leg, Vec::new())).collect();
         let blocks = self.blocks.to_vec();
-        Self::with_slots(self.mechanism, slots, blocks, self.sighted.clone())
+        let mut problem = Self::with_slots(self.mechanism, slots, blocks, self.sighted.clone());
+        problem.forward = self.forward.as_ref().map(Forward::renewed);
+        problem
     }
 
     /// The mechanism.
@@ -490,6 +547,10 @@ impl<'a> IdentificationProblem<'a> {
     /// # Errors
     /// The first block whose leg cannot reach its pose.
     pub fn residuals(&self, x: &DVector<f64>) -> Result<DVector<f64>, BlockError> {
+        if self.forward.is_some() {
+            let forward = self.evaluate_forward(x, false)?.residuals;
+            return Ok(DVector::from_vec(forward));
+        }
         let matches = self.turn_matches(x);
         self.evaluated(x, false, |evaluation| {
             DVector::from_iterator(
@@ -565,6 +626,11 @@ impl<'a> IdentificationProblem<'a> {
         &self,
         x: &DVector<f64>,
     ) -> Result<(DVector<f64>, DMatrix<f64>), BlockError> {
+        if self.forward.is_some() {
+            let forward = self.evaluate_forward(x, true)?;
+            let jacobian = forward.jacobian.unwrap_or_default();
+            return Ok((DVector::from_vec(forward.residuals), jacobian));
+        }
         let matches = self.turn_matches(x);
         let (m, p, first) = (
             self.blocks.len(),
@@ -604,19 +670,22 @@ impl<'a> IdentificationProblem<'a> {
             let leg = &self.mechanism.legs[self.blocks[block].leg].name;
             location = format!("leg `{leg}` at the pose fitted from the targets ({location})");
         }
-        let parameters = self
-            .names()
-            .iter()
-            .zip(x.iter())
-            .map(|(name, &value)| format!("{name} = {}", short(value)))
-            .collect::<Vec<_>>()
-            .join(", ");
         BlockError {
             block,
             source,
             location,
-            parameters,
+            parameters: self.trial_parameters(x),
         }
+    }
+
+    /// The unknowns `x` by name, `name = value, …`, for a message.
+    fn trial_parameters(&self, x: &DVector<f64>) -> String {
+        self.names()
+            .iter()
+            .zip(x.iter())
+            .map(|(name, &value)| format!("{name} = {}", short(value)))
+            .collect::<Vec<_>>()
+            .join(", ")
     }
 
     /// The rows and columns of the leg in `slot` of the problem's Jacobian `c`: borrowed
@@ -627,7 +696,11 @@ impl<'a> IdentificationProblem<'a> {
         if self.slots.len() == 1 && c.ncols() == n {
             return Cow::Borrowed(c);
         }
-        let rows = self.rows_of(slot);
+        // Forward rows are every leg's: all the rows.
+        let rows: Vec<usize> = match self.forward {
+            Some(_) => (0..c.nrows()).collect(),
+            None => self.rows_of(slot),
+        };
         Cow::Owned(DMatrix::from_fn(rows.len(), n, |i, j| {
             c[(rows[i], slot.offset + j)]
         }))
@@ -660,6 +733,13 @@ enum Column {
 
 impl BorderedLeastSquares for IdentificationProblem<'_> {
     fn layout(&self) -> BorderedLayout {
+        if self.forward.is_some() {
+            // Every forward row couples every leg: one group of all the legs' columns.
+            return BorderedLayout {
+                own: vec![self.own_columns()],
+                shared: self.shared_columns().len(),
+            };
+        }
         BorderedLayout {
             own: self.slots.iter().map(|s| s.columns.len()).collect(),
             shared: self.shared_columns().len(),
@@ -669,6 +749,15 @@ impl BorderedLeastSquares for IdentificationProblem<'_> {
     /// Each slot's rows: their residuals, their derivatives with respect to the slot's own
     /// columns and to the shared ones.
     fn bordered(&self, x: &DVector<f64>) -> std::result::Result<Vec<BorderedBlock>, ArgminError> {
+        if self.forward.is_some() {
+            let (r, jacobian) = self.residuals_and_jacobian(x)?;
+            let own = self.own_columns();
+            return Ok(vec![BorderedBlock {
+                own: jacobian.columns(0, own).into_owned(),
+                shared: jacobian.columns(own, jacobian.ncols() - own).into_owned(),
+                residuals: r,
+            }]);
+        }
         let matches = self.turn_matches(x);
         let s = self.shared_columns().len();
         let blocks = self.evaluated(x, true, |evaluation| {

@@ -28,6 +28,14 @@ impl IdentificationProblem<'_> {
             .sighted
             .as_ref()
             .ok_or_else(|| ArgminError::msg("the problem sees no instrument"))?;
+        if self.forward.is_some() {
+            // A forward row's readings reach all its coordinates: their noise is in the
+            // row's loadings, none left for each residual on its own.
+            return Ok(NoiseLoadings {
+                reading: 0.0,
+                rows: self.forward_loadings(x, noise)?,
+            });
+        }
         let shared = self.shared_values(x);
         let home = &self.mechanism.home_pose;
         let sigmas: Vec<f64> = sighted

@@ -33,8 +33,8 @@ fn vector<T: Scalar>(values: &[T]) -> Vector3<T> {
     Vector3::new(values[0], values[1], values[2])
 }
 
-/// The instrument's report of every target at `pose` (see [`super::observe`]).
-pub(super) fn observe(instrument: &Instrument, shared: &[f64], pose: &[f64; 6]) -> Vec<f64> {
+/// The instrument's report of every target at `pose` (see [`super::observe_in`]).
+pub(super) fn observe<T: Scalar>(instrument: &Instrument, shared: &[T], pose: &[T; 6]) -> Vec<T> {
     let f = vector(&shared[Instrument::FRAME..]);
     let frame = rotation(
         shared[Instrument::FRAME + 3],
@@ -47,7 +47,12 @@ pub(super) fn observe(instrument: &Instrument, shared: &[f64], pose: &[f64; 6]) 
     for (k, target) in instrument.targets.iter().enumerate() {
         let t = vector(&shared[instrument.offset_index(k)..]);
         let m = frame.transpose() * (p + platform * t - f);
-        observed.extend(m.iter());
+        match target.measures {
+            Measures::Coordinates(_) => {
+                observed.extend(target.pose_indices().iter().map(|&c| m[c]));
+            }
+            _ => observed.extend(m.iter()),
+        }
         if target.measures == Measures::Pose {
             observed.extend(angles(&(frame.transpose() * platform)));
         }

@@ -38,10 +38,12 @@ fn instrument(targets: &[(&str, Measures, [f64; 2])], rotates: bool) -> Instrume
                 name: name.to_string(),
                 measures: *measures,
                 spatial: false,
+                touch: None,
             })
             .collect(),
         rotates,
         spatial: false,
+        forward: false,
     }
 }
 

@@ -38,10 +38,12 @@ fn instrument(targets: &[(&str, Measures, [f64; 3])], rotates: bool) -> Instrume
                 name: name.to_string(),
                 measures: *measures,
                 spatial: true,
+                touch: None,
             })
             .collect(),
         rotates,
         spatial: true,
+        forward: false,
     }
 }
 

@@ -6,8 +6,8 @@ use std::collections::HashSet;
 use super::Builder;
 use crate::error::Result;
 use crate::model::instrument::{
-    Instrument, InstrumentEntry, Measures, SharedParameter, Target, PLANAR_FRAME, PLANAR_OFFSET,
-    SPATIAL_FRAME, SPATIAL_OFFSET,
+    Instrument, InstrumentEntry, Measures, MeasuresEntry, SharedParameter, Target, PLANAR_FRAME,
+    PLANAR_OFFSET, SPATIAL_FRAME, SPATIAL_OFFSET,
 };
 use crate::model::leg::LegModel;
 use crate::model::params::Unit;
@@ -31,6 +31,16 @@ impl Builder<'_> {
             (&SPATIAL_FRAME, &SPATIAL_OFFSET)
         } else {
             (&PLANAR_FRAME, &PLANAR_OFFSET)
+        };
+        let forward = match entry.kinematics.as_deref() {
+            None | Some("inverse") => false,
+            Some("forward") => true,
+            Some(other) => {
+                return Err(self.error(
+                    "instrument.kinematics",
+                    format!("`{other}` is not one of inverse, forward"),
+                ))
+            }
         };
         let mut parameters = self.frame(entry, frame_components)?;
         self.frame_scale(&parameters, legs)?;
@@ -56,16 +66,7 @@ impl Builder<'_> {
                     format!("target `{name}` is defined twice"),
                 ));
             }
-            let measures = match target.measures.as_str() {
-                "position" => Measures::Position,
-                "pose" => Measures::Pose,
-                other => {
-                    return Err(self.error(
-                        format!("{field}.measures"),
-                        format!("`{other}` is not one of position, pose"),
-                    ))
-                }
-            };
+            let measures = self.measures(&field, &target.measures, spatial, forward)?;
             if measures == Measures::Pose && !rotates {
                 let which = if spatial {
                     "none of roll, pitch, yaw is measured"
@@ -131,10 +132,26 @@ impl Builder<'_> {
                     target.offset.get(2).copied().unwrap_or(0.0),
                 ],
             ));
+            if let Some(touch) = target.touch {
+                let single =
+                    matches!(measures, Measures::Coordinates(mask) if mask.count_ones() == 1);
+                if !single || !touch.is_finite() {
+                    return Err(self.error(
+                        format!("{field}.touch"),
+                        format!(
+                            "expected a finite value (metres) of a target that measures one \
+                             coordinate (`measures: [z]`), found {touch} on a target measuring \
+                             {:?}",
+                            target.measures
+                        ),
+                    ));
+                }
+            }
             targets.push(Target {
                 name: name.to_string(),
                 measures,
                 spatial,
+                touch: target.touch,
             });
         }
         if targets.is_empty() {
@@ -143,7 +160,9 @@ impl Builder<'_> {
                 "expected at least one target the instrument measures",
             ));
         }
-        if spatial {
+        if forward {
+            // The pose comes from the readings: the targets need not give it.
+        } else if spatial {
             self.spatial_orientation_observable(rotates, &offsets, &targets)?;
         } else {
             self.orientation_observable(rotates, &offsets, &targets)?;
@@ -177,7 +196,73 @@ impl Builder<'_> {
             targets,
             rotates,
             spatial,
+            forward,
         }))
+    }
+
+    /// A target's `measures`: `position`, `pose`, or (forward kinematics only) a list of its
+    /// position coordinates.
+    fn measures(
+        &self,
+        field: &str,
+        entry: &MeasuresEntry,
+        spatial: bool,
+        forward: bool,
+    ) -> Result<Measures> {
+        let field = format!("{field}.measures");
+        let list = match entry {
+            MeasuresEntry::Word(word) => {
+                return match word.as_str() {
+                    "position" => Ok(Measures::Position),
+                    "pose" => Ok(Measures::Pose),
+                    other => Err(self.error(
+                        field,
+                        format!(
+                            "`{other}` is not one of position, pose, or a list of coordinates \
+                             such as [z]"
+                        ),
+                    )),
+                };
+            }
+            MeasuresEntry::Coordinates(list) => list,
+        };
+        let allowed: &[&str] = if spatial {
+            &["x", "y", "z"]
+        } else {
+            &["x", "y"]
+        };
+        let mut mask = 0u8;
+        for (i, name) in list.iter().enumerate() {
+            let Some(c) = allowed.iter().position(|a| a == name) else {
+                return Err(self.error(
+                    format!("{field}[{i}]"),
+                    format!(
+                        "`{name}` is not a position coordinate of a {} target; expected some of \
+                         {}",
+                        if spatial { "spatial" } else { "planar" },
+                        allowed.join(", ")
+                    ),
+                ));
+            };
+            if mask & (1 << c) != 0 {
+                return Err(
+                    self.error(format!("{field}[{i}]"), format!("`{name}` is listed twice"))
+                );
+            }
+            mask |= 1 << c;
+        }
+        if mask == 0 {
+            return Err(self.error(field, "expected at least one coordinate, such as [z]"));
+        }
+        if !forward {
+            return Err(self.error(
+                field,
+                "a list of coordinates does not give the platform's pose: set \
+                 `instrument.kinematics: forward` (the pose then comes from the readings), or \
+                 measure the target's `position`",
+            ));
+        }
+        Ok(Measures::Coordinates(mask))
     }
 
     /// The frame's shared parameters, one per component of `components` (planar or spatial).

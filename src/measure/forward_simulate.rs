@@ -1,0 +1,136 @@
+//! The poses of a simulated experiment seen through the forward kinematics
+//! (`instrument.kinematics: forward`): rows of every leg's reading at random poses of the usable
+//! workspace, and where a target declares a `touch`, each pose moved along the platform
+//! coordinate of the target's one coordinate until the real instrument reports the touch value
+//! there (a probe lowered onto the real, tilted bed).
+
+use num_dual::Dual64;
+use rand::SeedableRng;
+use rand_chacha::ChaCha8Rng;
+
+use super::observe_simulate::real_shared;
+use super::simulate::{reachable_pose, real_parameters, setup, PoseSets, SimulationOptions};
+use super::targets::observe_in;
+use crate::error::{Error, Result};
+use crate::kinematics::inverse::predict_reading;
+use crate::model::instrument::Instrument;
+use crate::model::Mechanism;
+
+/// Newton steps a touch may take.
+const TOUCH_STEPS: usize = 50;
+
+/// The true poses of a forward experiment: `rows` shared rows (every leg's reading), none of
+/// a leg's own.
+///
+/// # Errors
+/// No simulation block, no reachable pose, or a touch the real legs cannot reach (named).
+pub fn forward_pose_sets(
+    mechanism: &Mechanism,
+    instrument: &Instrument,
+    options: SimulationOptions,
+) -> Result<PoseSets> {
+    let simulation = setup(mechanism)?;
+    let seed = options.seed.unwrap_or(simulation.seed);
+    let rows = options.poses_per_leg.unwrap_or(simulation.poses_per_leg);
+    let real = real_parameters(mechanism, simulation, seed);
+    let shared = real_shared(instrument, simulation, seed);
+    let mut rng = ChaCha8Rng::seed_from_u64(seed.wrapping_add(1));
+    let mut poses = Vec::with_capacity(rows);
+    for _ in 0..rows {
+        let pose = reachable_pose(mechanism, &real, &mut rng)?;
+        let pose = touched(mechanism, instrument, &shared, pose)?;
+        let home = &mechanism.home_pose;
+        let reaches = mechanism
+            .legs
+            .iter()
+            .zip(&real)
+            .all(|(leg, phi)| predict_reading(leg, phi, &pose, home).is_ok());
+        if !reaches {
+            return Err(Error::Model {
+                path: mechanism.model_path.clone(),
+                field: "instrument.targets".into(),
+                message: format!(
+                    "simulation: the touch at pose {} is beyond the real legs' reach: check the \
+                     touch value, the target's offset and the frame's height",
+                    mechanism.pose_text(&pose)
+                ),
+            });
+        }
+        poses.push(pose);
+    }
+    Ok(PoseSets {
+        per_leg: vec![Vec::new(); mechanism.legs.len()],
+        shared: poses,
+    })
+}
+
+/// `pose` moved along the platform coordinate of the touching target's coordinate until the
+/// instrument (at the shared values `shared`) reports the touch value (`pose` itself when no
+/// target touches).
+///
+/// # Errors
+/// The coordinate is not one the model measures, or Newton's method does not reach the touch.
+fn touched(
+    mechanism: &Mechanism,
+    instrument: &Instrument,
+    shared: &[f64],
+    mut pose: [f64; 6],
+) -> Result<[f64; 6]> {
+    let mut at = 0;
+    for target in &instrument.targets {
+        let indices = target.pose_indices();
+        if let Some(touch) = target.touch {
+            let c = indices[0];
+            if !mechanism.measured.contains(&c) {
+                return Err(Error::Model {
+                    path: mechanism.model_path.clone(),
+                    field: "instrument.targets".into(),
+                    message: format!(
+                        "target `{}` touches along `{}`, a pose coordinate the model does not \
+                         measure",
+                        target.name,
+                        crate::model::mechanism::COORDINATES[c]
+                    ),
+                });
+            }
+            let lifted: Vec<Dual64> = shared.iter().map(|&v| Dual64::from(v)).collect();
+            let mut reached = false;
+            for _ in 0..TOUCH_STEPS {
+                let mut seeded = pose.map(Dual64::from);
+                seeded[c] = seeded[c].derivative();
+                let value = observe_in(instrument, &lifted, &seeded)[at];
+                let gap = value.re - touch;
+                if gap.abs() <= 1e-14 * (1.0 + touch.abs()) {
+                    reached = true;
+                    break;
+                }
+                if value.eps.abs() < 1e-9 {
+                    return Err(Error::Model {
+                        path: mechanism.model_path.clone(),
+                        field: "instrument.targets".into(),
+                        message: format!(
+                            "target `{}`: moving the platform along its coordinate does not \
+                             change what the instrument reports: no touch",
+                            target.name
+                        ),
+                    });
+                }
+                pose[c] -= gap / value.eps;
+            }
+            if !reached {
+                return Err(Error::Model {
+                    path: mechanism.model_path.clone(),
+                    field: "instrument.targets".into(),
+                    message: format!(
+                        "simulation: target `{}` does not reach its touch value {touch} m near \
+                         pose {}",
+                        target.name,
+                        mechanism.pose_text(&pose)
+                    ),
+                });
+            }
+        }
+        at += indices.len();
+    }
+    Ok(pose)
+}

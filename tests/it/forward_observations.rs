@@ -1,0 +1,271 @@
+//! Forward observations (`instrument.kinematics: forward`): what an instrument saw predicted
+//! from every leg's reading through the forward kinematics — a bed probe's heights on the delta
+//! (models/delta-probe.yaml), one reflector's position on the hexapod
+//! (models/hexapod-reflector.yaml). The Jacobian of the implicit-function derivatives against
+//! central differences of the residuals, exact recovery at zero noise, the rank check naming
+//! what heights cannot see, and bad input.
+
+use legwise::identify::problem::IdentificationProblem;
+use legwise::identify::result::{Strategy, StrategyResult};
+use legwise::measure::observations::{self, Observations};
+use legwise::measure::simulate::SimulationOptions;
+use legwise::measure::Measurements;
+use legwise::model::Mechanism;
+use legwise::pipeline::{simulate, PoseSource, SimulationSettings};
+use nalgebra::DVector;
+
+use crate::instrument_support::identify_shared;
+use crate::support::{bundled, crate_path};
+
+/// `text` loaded as a model file beside models/delta.urdf.
+fn parse_model(text: &str) -> legwise::error::Result<Mechanism> {
+    let urdf = std::fs::read_to_string(crate_path("models/delta.urdf")).unwrap();
+    Mechanism::parse(
+        text,
+        std::path::Path::new("probe.yaml"),
+        &urdf,
+        std::path::Path::new("delta.urdf"),
+    )
+}
+
+/// The model's simulated experiment (random rows; noise scaled by `noise_scale`).
+fn experiment(mechanism: &Mechanism, noise_scale: f64) -> (Observations, Vec<Vec<f64>>, Vec<f64>) {
+    let settings = SimulationSettings {
+        options: SimulationOptions {
+            noise_scale,
+            ..Default::default()
+        },
+        poses: PoseSource::Random,
+        grid: None,
+    };
+    let simulated = simulate(mechanism, &settings).expect("simulates");
+    let Measurements::Targets(observations) = simulated.measurements else {
+        panic!("a forward model is measured through its instrument");
+    };
+    let shared = simulated.real.instrument.expect("the real instrument");
+    (observations, simulated.real.legs, shared)
+}
+
+/// `mechanism` with every held leg parameter's real value at its nominal one: the model is
+/// exact, and every identified parameter can be recovered.
+fn exact(mechanism: &Mechanism) -> Mechanism {
+    mechanism.edited(|parts| {
+        let held: Vec<String> = parts
+            .legs
+            .iter()
+            .flat_map(|l| l.params.iter().filter(|p| !p.identified))
+            .map(|p| p.name.clone())
+            .collect();
+        if let Some(simulation) = parts.simulation.as_mut() {
+            for name in held {
+                simulation.real.remove(&name);
+            }
+        }
+    })
+}
+
+/// `mechanism` with the named leg and instrument parameters identified too.
+fn freed(mechanism: &Mechanism, names: &[&str]) -> Mechanism {
+    mechanism.edited(|parts| {
+        for leg in &mut parts.legs {
+            for p in &mut leg.params {
+                if names.contains(&p.name.as_str()) {
+                    p.identified = true;
+                }
+            }
+        }
+        if let Some(instrument) = parts.instrument.as_mut() {
+            for p in &mut instrument.parameters {
+                if names.contains(&p.name.as_str()) {
+                    p.identified = true;
+                }
+            }
+        }
+    })
+}
+
+/// The largest gap between the problem's Jacobian at `x` and central differences of its
+/// residuals, each column relative to its largest entry.
+fn jacobian_gap(problem: &IdentificationProblem<'_>, x: &DVector<f64>) -> f64 {
+    let (_, jacobian) = problem.residuals_and_jacobian(x).expect("evaluates");
+    let mut worst = 0.0f64;
+    for j in 0..x.len() {
+        // The forward kinematics closes to about 1e-13 of the mechanism's size: a step of 1e-5
+        // keeps its round-off, over the step, below the tolerance.
+        let h = 1e-5 * x[j].abs().max(1e-1);
+        let (mut up, mut down) = (x.clone(), x.clone());
+        up[j] += h;
+        down[j] -= h;
+        let difference =
+            (problem.residuals(&up).unwrap() - problem.residuals(&down).unwrap()) / (2.0 * h);
+        let column = jacobian.column(j);
+        let scale = column.amax().max(1e-12);
+        let gap = (column - difference).amax() / scale;
+        worst = worst.max(gap);
+    }
+    worst
+}
+
+#[test]
+fn forward_jacobians_match_central_differences_for_heights_and_positions() {
+    let probe = bundled("delta-probe.yaml");
+    let everything = freed(
+        &probe,
+        &[
+            "t1x", "t1y", "t2x", "L1", "L2", "L3", "k1", "k2", "k3", "frame_z",
+        ],
+    );
+    for mechanism in [probe, everything, bundled("hexapod-reflector.yaml")] {
+        let (observations, _, _) = experiment(&mechanism, 1.0);
+        let problem = IdentificationProblem::through_instrument(&mechanism, &observations)
+            .expect("a forward problem");
+        // Away from the nominal parameters too: every column moved a little.
+        let start = problem.start();
+        let moved = DVector::from_fn(start.len(), |j, _| start[j] + 1e-4 * ((j % 5) as f64 - 2.0));
+        for x in [start, moved] {
+            let gap = jacobian_gap(&problem, &x);
+            assert!(
+                gap <= 1e-6,
+                "{}: Jacobian against central differences {gap:.2e}",
+                mechanism.name
+            );
+        }
+    }
+}
+
+/// Every identified parameter of `result` (legs and instrument) within `tolerance` of its real
+/// value; returns how many.
+fn assert_recovered(
+    result: &StrategyResult,
+    (legs, shared): (&[Vec<f64>], &[f64]),
+    tolerance: f64,
+) -> usize {
+    let mut count = 0;
+    for (leg, estimate) in result.legs.iter().enumerate() {
+        for (p, param) in estimate.parameters.iter().enumerate() {
+            if param.identified {
+                let real = legs[leg][p];
+                assert!(
+                    (param.estimate - real).abs() <= tolerance,
+                    "{} = {} but real {real}",
+                    param.name,
+                    param.estimate
+                );
+                count += 1;
+            }
+        }
+    }
+    let instrument = result
+        .instrument
+        .as_ref()
+        .expect("the instrument's estimate");
+    for (k, param) in instrument.parameters.iter().enumerate() {
+        if param.identified {
+            assert!(
+                (param.estimate - shared[k]).abs() <= tolerance,
+                "{} = {} but real {}",
+                param.name,
+                param.estimate,
+                shared[k]
+            );
+            count += 1;
+        }
+    }
+    count
+}
+
+#[test]
+fn at_zero_noise_both_forward_models_recover_every_identified_parameter() {
+    for (model, identified) in [("delta-probe.yaml", 8), ("hexapod-reflector.yaml", 45)] {
+        let mechanism = exact(&bundled(model));
+        let (observations, legs, shared) = experiment(&mechanism, 0.0);
+        let result = identify_shared(&mechanism, &observations, Strategy::Joint)
+            .unwrap_or_else(|e| panic!("{model}: {e}"));
+        let count = assert_recovered(&result, (&legs, &shared), 1e-9);
+        assert_eq!(count, identified, "{model}: parameters identified");
+    }
+}
+
+#[test]
+fn with_rods_gains_and_every_tower_free_the_rank_check_names_what_heights_cannot_see() {
+    let probe = bundled("delta-probe.yaml");
+    let everything = freed(
+        &probe,
+        &[
+            "t1x", "t1y", "t2x", "L1", "L2", "L3", "k1", "k2", "k3", "frame_z",
+        ],
+    );
+    let (observations, _, _) = experiment(&everything, 1.0);
+    let error = identify_shared(&everything, &observations, Strategy::Joint)
+        .expect_err("heights alone cannot identify everything");
+    let message = error.to_string();
+    // 18 unknowns; heights cannot see x, y, the turn about z nor the z datum. A common scale
+    // of every length and gain is only nearly unseen: the held effector joints and nozzle
+    // offset are lengths too.
+    assert!(message.contains("rank 14 of 18"), "{message}");
+    for name in ["t1x", "t2y", "frame_z", "h0_1"] {
+        assert!(message.contains(name), "{name} named: {message}");
+    }
+}
+
+#[test]
+fn forward_rows_need_every_reading_and_no_leg_label() {
+    let mechanism = bundled("delta-probe.yaml");
+    let path = std::path::Path::new("probe.csv");
+    let header = "leg,z.nozzle,C1,C2,C3\n";
+    let missing = format!("{header},0.0,0.27,0.28,\n");
+    let message = observations::parse(&missing, path, &mechanism)
+        .expect_err("a missing reading")
+        .to_string();
+    assert!(
+        message.contains("probe.csv") && message.contains("line 2") && message.contains("`C3`"),
+        "{message}"
+    );
+    let labelled = format!("{header}leg1,0.0,0.27,0.28,0.29\n");
+    let message = observations::parse(&labelled, path, &mechanism)
+        .expect_err("a labelled row")
+        .to_string();
+    assert!(message.contains("line 2, column `leg`"), "{message}");
+}
+
+#[test]
+fn a_row_whose_forward_kinematics_does_not_close_is_named() {
+    let mechanism = bundled("delta-probe.yaml");
+    let text = "z.nozzle,C1,C2,C3\n0.0,0.29,0.29,0.29\n0.0,0.29,0.29,5.0\n";
+    let observations =
+        observations::parse(text, std::path::Path::new("probe.csv"), &mechanism).unwrap();
+    let message = identify_shared(&mechanism, &observations, Strategy::Joint)
+        .expect_err("a reading beyond reach")
+        .to_string();
+    assert!(message.contains("measurement line 3"), "{message}");
+}
+
+#[test]
+fn coordinates_and_touches_are_for_forward_models_only() {
+    let base = std::fs::read_to_string(crate_path("models/delta-probe.yaml")).unwrap();
+    let inverse = base.replace("  kinematics: forward\n", "");
+    let message = parse_model(&inverse)
+        .expect_err("[z] needs forward")
+        .to_string();
+    assert!(
+        message.contains("instrument.targets[0].measures")
+            && message.contains("kinematics: forward"),
+        "{message}"
+    );
+    let position = base.replace(
+        "measures: [z], touch: 0.0",
+        "measures: position, touch: 0.0",
+    );
+    let message = parse_model(&position)
+        .expect_err("a touch of three coordinates")
+        .to_string();
+    assert!(message.contains("instrument.targets[0].touch"), "{message}");
+    let unknown = base.replace("kinematics: forward", "kinematics: sideways");
+    let message = parse_model(&unknown)
+        .expect_err("an unknown kind")
+        .to_string();
+    assert!(
+        message.contains("instrument.kinematics") && message.contains("sideways"),
+        "{message}"
+    );
+}
