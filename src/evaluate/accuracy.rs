@@ -7,6 +7,7 @@
 use nalgebra::Rotation3;
 use serde::Serialize;
 
+use super::observed_frame::{observed_frame_error, ObservedFrameError};
 use crate::error::{Error, Result};
 use crate::identify::estimate::StrategyResult;
 use crate::kinematics::chain::{attachment_on, platform_transform, ChainFrames};
@@ -59,6 +60,10 @@ pub struct AccuracyMap {
     /// Orientation errors, when the model measures an orientation.
     #[serde(rename = "orientation_error_rad")]
     pub orientation_error: Option<ErrorStats>,
+    /// Seen through the forward kinematics: the error of the instrument's first target in the
+    /// frame the observations define.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub observed_frame: Option<ObservedFrameError>,
 }
 
 /// Map points solved between two advances of the progress bar (each chunk warm-starts its
@@ -343,6 +348,28 @@ pub fn accuracy_map(
     scale: f64,
     label: &str,
 ) -> Result<AccuracyMap> {
+    accuracy_map_seen(
+        mechanism,
+        (commanding, None),
+        (real, None),
+        (grid_m, scale),
+        label,
+    )
+}
+
+/// [`accuracy_map`], and for a model seen through the forward kinematics with the commanding
+/// and real instrument values (every shared parameter), the error in the frame the
+/// observations define ([`observed_frame_error`]).
+///
+/// # Errors
+/// As [`accuracy_map`].
+pub fn accuracy_map_seen(
+    mechanism: &Mechanism,
+    (commanding, commanding_shared): (&[Vec<f64>], Option<&[f64]>),
+    (real, real_shared): (&[Vec<f64>], Option<&[f64]>),
+    (grid_m, scale): (f64, f64),
+    label: &str,
+) -> Result<AccuracyMap> {
     let grid = map_grid(mechanism, grid_m, scale)?;
     let orientation = measures_orientation(mechanism);
     let progress = Progress::new(grid.len() as u64, label);
@@ -355,6 +382,13 @@ pub fn accuracy_map(
             reached
         })
         .collect();
+    let forward = mechanism.instrument.as_ref().filter(|i| i.forward);
+    let observed_frame = match (forward, commanding_shared, real_shared) {
+        (Some(instrument), Some(commanding), Some(real)) => {
+            observed_frame_error(instrument, (commanding, real), &grid, &reached)
+        }
+        _ => None,
+    };
     let points: Vec<MapPoint> = grid
         .iter()
         .zip(reached)
@@ -382,6 +416,7 @@ pub fn accuracy_map(
         orientation_error: ErrorStats::of(&errors(|p| p.orientation_error)),
         position_error,
         points,
+        observed_frame,
     })
 }
 

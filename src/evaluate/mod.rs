@@ -7,9 +7,11 @@
 //! * [`through_instrument`] — the same through an instrument: where the model puts each target
 //!   (forward kinematics from the readings, then the model's frame and offsets) against where
 //!   the instrument saw it;
+//! * [`observed_frame`] — a forward model's map error in the frame its observations define;
 //! * their terminal (mm, mrad) and JSON renderings are [`crate::report::evaluation`]'s.
 pub mod accuracy;
 pub mod held_out;
+pub mod observed_frame;
 pub mod through_instrument;
 
 use crate::error::Result;

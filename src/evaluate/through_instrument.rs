@@ -45,8 +45,10 @@ pub fn evaluate_observed(mechanism: &Mechanism, data: &Observations) -> Result<E
     let params = mechanism.nominal_parameters();
     let shared = instrument.nominal();
     let line = |index: usize| data.rows[index].line.unwrap_or(index + 2);
+    // Rows with every reading and the targets' coordinates (not a row only distances use).
     let full: Vec<usize> = (0..data.rows.len())
         .filter(|&i| data.rows[i].readings.iter().all(Option::is_some))
+        .filter(|&i| !data.rows[i].observed.is_empty())
         .collect();
     if full.is_empty() {
         return Err(no_full_row(mechanism, data.source.as_deref()));

@@ -31,6 +31,20 @@ pub struct ObservedRow {
     pub observed: Vec<f64>,
     /// Raw reading of each leg's actuated joint, `None` when not read.
     pub readings: Vec<Option<f64>>,
+    /// The row's label in the `id` column (forward models), which distances name.
+    pub id: Option<String>,
+}
+
+/// A measured distance between one target's positions at two rows (forward models: the
+/// model's `instrument.distances`).
+#[derive(Debug, Clone, PartialEq)]
+pub struct DistanceRow {
+    /// Line in the source file, if read from one.
+    pub line: Option<usize>,
+    /// The two rows (indices into [`Observations::rows`]).
+    pub rows: [usize; 2],
+    /// The measured distance, metres.
+    pub value: f64,
 }
 
 /// A set of instrument measurements.
@@ -40,6 +54,8 @@ pub struct Observations {
     pub source: Option<PathBuf>,
     /// The rows, in file order.
     pub rows: Vec<ObservedRow>,
+    /// Measured distances between rows, in file order (forward models).
+    pub distances: Vec<DistanceRow>,
 }
 
 impl Observations {
@@ -81,6 +97,19 @@ fn commanded_columns(mechanism: &Mechanism) -> Vec<String> {
         .collect()
 }
 
+/// The optional columns of a forward model: the rows' `id`, and with distances the distance
+/// rows' `from`, `to` and `distance`.
+fn forward_columns(instrument: &Instrument) -> Vec<String> {
+    let mut columns = Vec::new();
+    if instrument.forward {
+        columns.push("id".to_string());
+    }
+    if instrument.distances.is_some() {
+        columns.extend(["from", "to", "distance"].map(String::from));
+    }
+    columns
+}
+
 fn expected_columns(mechanism: &Mechanism, instrument: &Instrument) -> Vec<String> {
     rows::columns(mechanism, instrument.columns())
 }
@@ -106,11 +135,17 @@ pub fn parse(text: &str, path: &Path, mechanism: &Mechanism) -> Result<Observati
     let fail = |location: String, message: String| rows::fail(path, location, message);
     let expected = expected_columns(mechanism, instrument);
     let commanded = commanded_columns(mechanism);
-    let listing = format!(
+    let forward_optional = forward_columns(instrument);
+    let mut listing = format!(
         "{} (and optionally {}, ignored)",
         expected.join(", "),
         commanded.join(", ")
     );
+    if !forward_optional.is_empty() {
+        listing.push_str(&format!(", and {}", forward_optional.join(", ")));
+    }
+    let mut optional = commanded;
+    optional.extend(forward_optional);
     let mut reader = csv::ReaderBuilder::new()
         .trim(csv::Trim::All)
         .flexible(false)
@@ -121,9 +156,15 @@ pub fn parse(text: &str, path: &Path, mechanism: &Mechanism) -> Result<Observati
         .iter()
         .map(str::to_string)
         .collect();
-    rows::check_header(path, &header, &expected, &commanded, &listing)?;
+    rows::check_header(path, &header, &expected, &optional, &listing)?;
     let index = |name: &str| header.iter().position(|h| h == name).unwrap_or_default();
     let leg_column = header.iter().position(|h| h == "leg");
+    let column_of = |name: &str| header.iter().position(|h| h == name);
+    let (id_column, distance_columns) = (
+        column_of("id"),
+        [column_of("from"), column_of("to"), column_of("distance")],
+    );
+    let mut pending = Vec::new();
     let target_columns: Vec<usize> = instrument.columns().iter().map(|c| index(c)).collect();
     let reading_columns: Vec<usize> = mechanism
         .actuated_names()
@@ -164,14 +205,47 @@ pub fn parse(text: &str, path: &Path, mechanism: &Mechanism) -> Result<Observati
         let number =
             |column: usize| rows::number(path, line, &header[column], cell(column), "SI units");
         let leg = rows::leg_of(path, line, mechanism, leg_column.map_or("", cell))?;
-        let observed = target_columns.iter().map(|&column| {
-            number(column)?.ok_or_else(|| {
-                fail(
-                    format!("line {line}, column `{}`", header[column]),
-                    "missing value; expected the target's coordinate (metres or radians)".into(),
-                )
-            })
-        });
+        let id = id_column
+            .map(cell)
+            .filter(|c| !c.is_empty())
+            .map(str::to_string);
+        if let [Some(from), Some(to), Some(distance)] = distance_columns {
+            if !cell(distance).is_empty() {
+                let cells = (cell(from), cell(to), cell(distance));
+                let mut other = target_columns.iter().chain(&reading_columns).copied();
+                if let Some(column) = other.find(|&c| !cell(c).is_empty()) {
+                    return Err(fail(
+                        format!("line {line}, column `{}`", header[column]),
+                        "a distance row holds only `from`, `to` and `distance`: the readings \
+                         and coordinates are those of the rows it names"
+                            .into(),
+                    ));
+                }
+                pending.push(distance_row(
+                    path,
+                    line,
+                    &header,
+                    [from, to, distance],
+                    cells,
+                )?);
+                continue;
+            }
+        }
+        let target_cells = target_columns.iter().map(|&c| cell(c));
+        let readings_only =
+            instrument.distances.is_some() && target_cells.clone().all(str::is_empty);
+        let observed = target_columns
+            .iter()
+            .filter(|_| !readings_only)
+            .map(|&column| {
+                number(column)?.ok_or_else(|| {
+                    fail(
+                        format!("line {line}, column `{}`", header[column]),
+                        "missing value; expected the target's coordinate (metres or radians)"
+                            .into(),
+                    )
+                })
+            });
         let observed = observed.collect::<Result<Vec<f64>>>()?;
         for (&column, &value) in target_columns.iter().zip(&observed) {
             let position = ["x.", "y.", "z."]
@@ -199,15 +273,120 @@ pub fn parse(text: &str, path: &Path, mechanism: &Mechanism) -> Result<Observati
             leg,
             observed,
             readings,
+            id,
         });
     }
     if rows.is_empty() {
         return Err(rows::no_rows(path));
     }
+    let distances = resolve_distances(path, &rows, pending)?;
     Ok(Observations {
         source: Some(path.to_path_buf()),
         rows,
+        distances,
     })
+}
+
+/// A distance row as read, its rows still named by their ids.
+struct PendingDistance {
+    line: usize,
+    ids: [String; 2],
+    value: f64,
+}
+
+/// The cells of a distance row: two row ids and a positive distance in metres.
+fn distance_row(
+    path: &Path,
+    line: usize,
+    header: &[String],
+    columns: [usize; 3],
+    (from, to, distance): (&str, &str, &str),
+) -> Result<PendingDistance> {
+    for (column, text) in [(columns[0], from), (columns[1], to)] {
+        if text.is_empty() {
+            return Err(rows::fail(
+                path,
+                format!("line {line}, column `{}`", header[column]),
+                "missing value; expected the id of a row (its `id` cell)".into(),
+            ));
+        }
+    }
+    let value = rows::number(path, line, "distance", distance, "metres")?.unwrap_or_default();
+    if value <= 0.0 {
+        return Err(rows::fail(
+            path,
+            format!("line {line}, column `distance`"),
+            format!("expected a positive distance in metres, found {value}"),
+        ));
+    }
+    Ok(PendingDistance {
+        line,
+        ids: [from.to_string(), to.to_string()],
+        value,
+    })
+}
+
+/// The distances with their rows found by id; a row without coordinates must be named by one.
+fn resolve_distances(
+    path: &Path,
+    rows: &[ObservedRow],
+    pending: Vec<PendingDistance>,
+) -> Result<Vec<DistanceRow>> {
+    for (i, row) in rows.iter().enumerate() {
+        if let Some(id) = &row.id {
+            if rows[..i].iter().any(|r| r.id.as_ref() == Some(id)) {
+                return Err(rows::fail(
+                    path,
+                    format!("line {}, column `id`", row.line.unwrap_or(i + 2)),
+                    format!("`{id}` names an earlier row too: ids must be unique"),
+                ));
+            }
+        }
+    }
+    let distances = pending
+        .into_iter()
+        .map(|d| {
+            let find = |k: usize| {
+                rows.iter()
+                    .position(|r| r.id.as_ref() == Some(&d.ids[k]))
+                    .ok_or_else(|| {
+                        rows::fail(
+                            path,
+                            format!("line {}, column `{}`", d.line, ["from", "to"][k]),
+                            format!("no row has the id `{}`", d.ids[k]),
+                        )
+                    })
+            };
+            let pair = [find(0)?, find(1)?];
+            if pair[0] == pair[1] {
+                return Err(rows::fail(
+                    path,
+                    format!("line {}, column `to`", d.line),
+                    format!(
+                        "a distance joins two different rows, not `{}` to itself",
+                        d.ids[0]
+                    ),
+                ));
+            }
+            Ok(DistanceRow {
+                line: Some(d.line),
+                rows: pair,
+                value: d.value,
+            })
+        })
+        .collect::<Result<Vec<_>>>()?;
+    for (i, row) in rows.iter().enumerate() {
+        if row.observed.is_empty() && !distances.iter().any(|d| d.rows.contains(&i)) {
+            return Err(rows::fail(
+                path,
+                format!("line {}", row.line.unwrap_or(i + 2)),
+                "the row has readings but no target coordinates and no distance names it: \
+                 nothing to fit"
+                    .into(),
+            ));
+        }
+    }
+    Ok(distances)
 }
 
 /// A row of a model seen through the forward kinematics: every leg's reading, no leg label
@@ -250,18 +429,39 @@ fn forward_row(
 /// [`Error::Model`] if the model has no instrument.
 pub fn to_csv(mechanism: &Mechanism, set: &Observations) -> Result<String> {
     let instrument = instrument_of(mechanism)?;
-    let lines = set.rows.iter().map(|row| {
-        let mut cells = vec![row
-            .leg
-            .map_or(String::new(), |l| mechanism.legs[l].name.clone())];
-        cells.extend(row.observed.iter().map(|v| format!("{v}")));
-        cells.extend(row.readings.iter().map(rows::reading_cell));
-        cells
-    });
-    Ok(rows::csv_text(
-        &expected_columns(mechanism, instrument),
-        lines,
-    ))
+    let extra = forward_columns(instrument);
+    let targets = instrument.columns().len();
+    let readings = mechanism.actuated_names().len();
+    let mut lines: Vec<Vec<String>> = set
+        .rows
+        .iter()
+        .map(|row| {
+            let mut cells = vec![row
+                .leg
+                .map_or(String::new(), |l| mechanism.legs[l].name.clone())];
+            match row.observed.is_empty() {
+                true => cells.extend(std::iter::repeat_n(String::new(), targets)),
+                false => cells.extend(row.observed.iter().map(|v| format!("{v}"))),
+            }
+            cells.extend(row.readings.iter().map(rows::reading_cell));
+            if !extra.is_empty() {
+                cells.push(row.id.clone().unwrap_or_default());
+            }
+            if extra.len() > 1 {
+                cells.extend(std::iter::repeat_n(String::new(), 3));
+            }
+            cells
+        })
+        .collect();
+    for distance in &set.distances {
+        let id = |k: usize| set.rows[distance.rows[k]].id.clone().unwrap_or_default();
+        let mut cells = vec![String::new(); 1 + targets + readings + 1];
+        cells.extend([id(0), id(1), format!("{}", distance.value)]);
+        lines.push(cells);
+    }
+    let mut header = expected_columns(mechanism, instrument);
+    header.extend(extra);
+    Ok(rows::csv_text(&header, lines.into_iter()))
 }
 
 /// The CSV template of an experiment through the instrument at the platform poses of `set`

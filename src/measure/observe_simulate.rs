@@ -12,14 +12,15 @@ use std::borrow::Cow;
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 
-use super::observations::{instrument_of, Observations, ObservedRow};
+use super::observations::{instrument_of, DistanceRow, Observations, ObservedRow};
 use super::simulate::{gaussian, setup, simulate, SimulatedExperiment, SimulationOptions};
-use super::targets::observe;
+use super::targets::{observe, target_position};
 use super::MeasurementSet;
 use crate::error::Result;
 use crate::model::instrument::Instrument;
 use crate::model::mechanism::Simulation;
 use crate::model::Mechanism;
+use rand::Rng;
 
 /// A simulated experiment measured through the instrument.
 #[derive(Debug, Clone)]
@@ -104,10 +105,12 @@ pub fn observed_from(
         .flat_map(|t| t.pose_indices())
         .map(|&c| options.noise_scale * simulation.pose_noise[c])
         .collect();
-    let rows = experiment
+    let forward = instrument.forward;
+    let rows: Vec<ObservedRow> = experiment
         .measurements
         .rows()
-        .map(|(pose, readings)| {
+        .enumerate()
+        .map(|(i, (pose, readings))| {
             let observed = observe(instrument, &shared, &pose.pose)
                 .iter()
                 .zip(&sigma)
@@ -118,13 +121,65 @@ pub fn observed_from(
                 leg: pose.leg,
                 observed,
                 readings: readings.to_vec(),
+                id: forward.then(|| format!("t{}", i + 1)),
             }
         })
         .collect();
+    let poses: Vec<[f64; 6]> = experiment
+        .measurements
+        .poses()
+        .iter()
+        .map(|p| p.pose)
+        .collect();
+    let distances = simulated_distances(instrument, &shared, &poses, options, &mut rng);
     Ok(ObservedExperiment {
         real: experiment.real,
         real_shared: shared,
         poses: experiment.measurements,
-        observations: Observations { source: None, rows },
+        observations: Observations {
+            source: None,
+            rows,
+            distances,
+        },
     })
+}
+
+/// The model's simulated distances (`instrument.distances.simulate` of them, noise times the
+/// scale): between distinct random pairs of rows, the real distance between the target's
+/// positions at their true poses `poses`, plus Gaussian noise.
+fn simulated_distances(
+    instrument: &Instrument,
+    shared: &[f64],
+    poses: &[[f64; 6]],
+    options: SimulationOptions,
+    rng: &mut ChaCha8Rng,
+) -> Vec<DistanceRow> {
+    let Some(distances) = &instrument.distances else {
+        return Vec::new();
+    };
+    let mut pairs: Vec<[usize; 2]> = Vec::new();
+    let possible = poses.len() * poses.len().saturating_sub(1) / 2;
+    while pairs.len() < distances.simulate.min(possible) {
+        let pair = [
+            rng.random_range(0..poses.len()),
+            rng.random_range(0..poses.len()),
+        ];
+        let sorted = [pair[0].min(pair[1]), pair[0].max(pair[1])];
+        if sorted[0] != sorted[1] && !pairs.contains(&sorted) {
+            pairs.push(sorted);
+        }
+    }
+    pairs
+        .into_iter()
+        .map(|rows| {
+            let [a, b] =
+                rows.map(|r| target_position(instrument, shared, distances.target, &poses[r]));
+            let length = (0..3).map(|k| (a[k] - b[k]).powi(2)).sum::<f64>().sqrt();
+            DistanceRow {
+                line: None,
+                rows,
+                value: length + options.noise_scale * distances.noise * gaussian(rng),
+            }
+        })
+        .collect()
 }

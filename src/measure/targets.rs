@@ -63,6 +63,55 @@ pub fn observe_in<T: Scalar>(instrument: &Instrument, shared: &[T], pose: &[T; 6
     observed
 }
 
+/// Target `target`'s position in the base frame at platform pose `pose`, its offset from the
+/// shared parameters `shared`: `p + R(pose) t` (a planar target's offset lies in the plane).
+pub fn target_position<T: Scalar>(
+    instrument: &Instrument,
+    shared: &[T],
+    target: usize,
+    pose: &[T; 6],
+) -> [T; 3] {
+    let o = instrument.offset_index(target);
+    let zero = lift::<T>(0.0);
+    let offset = if instrument.spatial {
+        [shared[o], shared[o + 1], shared[o + 2]]
+    } else {
+        [shared[o], shared[o + 1], zero]
+    };
+    let moved = crate::kinematics::chain::attachment_world(pose, &offset);
+    [moved[0], moved[1], moved[2]]
+}
+
+/// Target `target`'s position in the instrument frame (all its coordinates, reported or not)
+/// at platform pose `pose`: `R_fᵀ (X − f)`, `X` its base-frame position ([`target_position`]).
+pub fn target_in_frame<T: Scalar>(
+    instrument: &Instrument,
+    shared: &[T],
+    target: usize,
+    pose: &[T; 6],
+) -> [T; 3] {
+    let x = target_position(instrument, shared, target, pose);
+    let f = Instrument::FRAME;
+    let zero = lift::<T>(0.0);
+    let (origin, angles) = if instrument.spatial {
+        (
+            [shared[f], shared[f + 1], shared[f + 2]],
+            [shared[f + 3], shared[f + 4], shared[f + 5]],
+        )
+    } else {
+        (
+            [shared[f], shared[f + 1], zero],
+            [zero, zero, shared[f + 2]],
+        )
+    };
+    let frame = [
+        origin[0], origin[1], origin[2], angles[0], angles[1], angles[2],
+    ];
+    let inverse = crate::kinematics::chain::platform_transform(&frame).inverse();
+    let local = inverse.transform_point(&nalgebra::Point3::new(x[0], x[1], x[2]));
+    [local.x, local.y, local.z]
+}
+
 /// The platform pose `[x, y, z, roll, pitch, yaw]` from one row's target coordinates
 /// `observed` (measurement-row order) at shared parameters `shared`; the coordinates the
 /// instrument does not give (z, roll, pitch of a planar model, and the orientation of a platform

@@ -32,6 +32,35 @@ pub struct InstrumentEntry {
     pub frame: FrameEntry,
     /// The targets on the platform the instrument measures.
     pub targets: Vec<TargetEntry>,
+    /// Forward kinematics only: measured distances between one target's positions at two rows
+    /// (a ballbar, calipers on a printed part), given as rows of their own in the CSV.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub distances: Option<DistancesEntry>,
+}
+
+/// The `instrument.distances` block: which target's positions the distances join, their
+/// noise, and how many the simulation measures.
+#[derive(Debug, Clone, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct DistancesEntry {
+    /// The target whose positions at two rows a distance joins.
+    pub target: String,
+    /// Standard deviation of a measured distance, metres.
+    pub noise: f64,
+    /// Simulation: how many distances between pairs of simulated rows are measured.
+    #[serde(default)]
+    pub simulate: usize,
+}
+
+/// Validated distance measurements of an instrument.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Distances {
+    /// Index of the target whose positions they join.
+    pub target: usize,
+    /// Standard deviation of a measured distance, metres.
+    pub noise: f64,
+    /// How many the simulation measures.
+    pub simulate: usize,
 }
 
 /// The instrument frame.
@@ -208,6 +237,8 @@ pub struct Instrument {
     /// Rows are predicted through the forward kinematics (`kinematics: forward`): the platform
     /// pose from every leg's reading, the targets' coordinates from the pose.
     pub forward: bool,
+    /// Measured distances between a target's positions at two rows (forward only).
+    pub distances: Option<Distances>,
 }
 
 impl Instrument {

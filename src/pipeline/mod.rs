@@ -22,14 +22,14 @@ pub(crate) use simulation::measured;
 pub use simulation::{simulate, Simulated};
 
 use crate::error::{Error, Result};
-use crate::evaluate::accuracy::{accuracy_map, result_parameters};
+use crate::evaluate::accuracy::{accuracy_map_seen, result_parameters};
 use crate::identify::estimate::identify_with;
 use crate::identify::held_test::held_frame_test;
 use crate::identify::result::{FitOptions, Strategy, StrategyResult};
 use crate::identify::shared_estimate::identify_shared;
 use crate::measure::Measurements;
 use crate::model::Mechanism;
-use crate::report::{AccuracyMaps, Report};
+use crate::report::{AccuracyMaps, RealValues, Report};
 use crate::solver::SolverKind;
 
 /// Simulates the model's experiment as `settings.simulation` says and identifies it: the
@@ -56,7 +56,7 @@ pub fn run<'m>(mechanism: &'m Mechanism, settings: &Settings) -> Result<Report<'
         fit,
     )?;
     if let Some(map) = settings.map {
-        report.maps = Some(maps(&report, &simulated.real.legs, map)?);
+        report.maps = Some(maps(&report, &simulated.real, map)?);
     }
     report.real = Some(simulated.real);
     Ok(report)
@@ -160,19 +160,39 @@ pub fn identify_one(
 }
 
 /// The accuracy map of the nominal model, then of each result, against the `real` legs (the
-/// instrument only measures: the maps compare the legs).
-fn maps(report: &Report<'_>, real: &[Vec<f64>], settings: MapSettings) -> Result<AccuracyMaps> {
+/// instrument only measures: the maps compare the legs; seen through the forward kinematics,
+/// each map also gives the error in the frame the observations define, against the real
+/// instrument).
+fn maps(report: &Report<'_>, real: &RealValues, settings: MapSettings) -> Result<AccuracyMaps> {
     let mechanism = report.mechanism;
-    let (grid, scale) = (settings.grid_m, settings.scale);
+    let range = (settings.grid_m, settings.scale);
     let nominal = mechanism.nominal_parameters();
-    let before = accuracy_map(mechanism, &nominal, real, grid, scale, "map before")?;
+    let nominal_shared = mechanism.instrument.as_ref().map(|i| i.nominal());
+    let real_seen = (real.legs.as_slice(), real.instrument.as_deref());
+    let before = accuracy_map_seen(
+        mechanism,
+        (&nominal, nominal_shared.as_deref()),
+        real_seen,
+        range,
+        "map before",
+    )?;
     let after = report
         .results
         .iter()
         .map(|result| {
             let label = format!("map after, {}", result.strategy.name());
             let parameters = result_parameters(mechanism, result);
-            accuracy_map(mechanism, &parameters, real, grid, scale, &label)
+            let shared: Option<Vec<f64>> = result
+                .instrument
+                .as_ref()
+                .map(|i| i.parameters.iter().map(|p| p.estimate).collect());
+            accuracy_map_seen(
+                mechanism,
+                (&parameters, shared.as_deref()),
+                real_seen,
+                range,
+                &label,
+            )
         })
         .collect::<Result<_>>()?;
     Ok(AccuracyMaps { before, after })

@@ -64,10 +64,37 @@ fn render_maps(out: &mut String, report: &Report<'_>, maps: &super::AccuracyMaps
         maps.before.grid_m,
         map_summary("  before (nominal model)", &maps.before)
     );
+    observed_frame_line(out, &maps.before);
     for (result, map) in report.results.iter().zip(&maps.after) {
         let label = format!("  after, {}", result.strategy.name());
         let _ = writeln!(out, "{}", map_summary(&label, map));
+        observed_frame_line(out, map);
     }
+}
+
+/// A forward model's map error in the frame its observations define, under the map's line.
+fn observed_frame_line(out: &mut String, map: &crate::evaluate::accuracy::AccuracyMap) {
+    let Some(seen) = &map.observed_frame else {
+        return;
+    };
+    let aligned = match seen.aligned.is_empty() {
+        true => "nothing aligned: the observations see every frame motion".to_string(),
+        false => format!(
+            "aligned over {}, which its reported coordinates cannot see",
+            seen.aligned.join(", ")
+        ),
+    };
+    let e = &seen.position_error;
+    let _ = writeln!(
+        out,
+        "    in the frame the observations define (target `{}` in the instrument frame; \
+         {aligned}): position error RMS {:.4} mm, median {:.4} mm, p95 {:.4} mm, max {:.4} mm",
+        seen.target,
+        e.rms * 1e3,
+        e.median * 1e3,
+        e.p95 * 1e3,
+        e.max * 1e3
+    );
 }
 
 /// The table header of a block of parameters (with the real values' columns in simulation).

@@ -399,6 +399,7 @@ fn instrument_rows_not_read_from_a_file_are_reported_at_the_lines_a_written_file
         leg,
         observed: vec![0.0, 1.0],
         readings,
+        id: None,
     };
     let data = Observations {
         source: None,
@@ -408,6 +409,7 @@ fn instrument_rows_not_read_from_a_file_are_reported_at_the_lines_a_written_file
             row(Some(1), vec![None, Some(r2)]),
             row(None, vec![Some(r1), Some(r2)]),
         ],
+        distances: Vec::new(),
     };
     let evaluation = evaluate_observed(&mechanism, &data).unwrap();
     assert_eq!(evaluation.rows, 4);

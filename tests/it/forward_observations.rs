@@ -115,7 +115,13 @@ fn forward_jacobians_match_central_differences_for_heights_and_positions() {
             "t1x", "t1y", "t2x", "L1", "L2", "L3", "k1", "k2", "k3", "frame_z",
         ],
     );
-    for mechanism in [probe, everything, bundled("hexapod-reflector.yaml")] {
+    let models = [
+        probe,
+        everything,
+        bundled("delta-probe-distances.yaml"),
+        bundled("hexapod-reflector.yaml"),
+    ];
+    for mechanism in models {
         let (observations, _, _) = experiment(&mechanism, 1.0);
         let problem = IdentificationProblem::through_instrument(&mechanism, &observations)
             .expect("a forward problem");
@@ -176,7 +182,11 @@ fn assert_recovered(
 
 #[test]
 fn at_zero_noise_both_forward_models_recover_every_identified_parameter() {
-    for (model, identified) in [("delta-probe.yaml", 8), ("hexapod-reflector.yaml", 45)] {
+    for (model, identified) in [
+        ("delta-probe.yaml", 8),
+        ("delta-probe-distances.yaml", 11),
+        ("hexapod-reflector.yaml", 45),
+    ] {
         let mechanism = exact(&bundled(model));
         let (observations, legs, shared) = experiment(&mechanism, 0.0);
         let result = identify_shared(&mechanism, &observations, Strategy::Joint)
@@ -268,4 +278,49 @@ fn coordinates_and_touches_are_for_forward_models_only() {
         message.contains("instrument.kinematics") && message.contains("sideways"),
         "{message}"
     );
+}
+
+#[test]
+fn distance_rows_round_trip_through_the_csv_and_name_missing_rows() {
+    let mechanism = bundled("delta-probe-distances.yaml");
+    let (observations, _, _) = experiment(&mechanism, 1.0);
+    assert_eq!(observations.distances.len(), 12);
+    let text = observations::to_csv(&mechanism, &observations).unwrap();
+    let path = std::path::Path::new("distances.csv");
+    let read = observations::parse(&text, path, &mechanism).unwrap();
+    assert_eq!(read.rows.len(), observations.rows.len());
+    for (a, b) in read.distances.iter().zip(&observations.distances) {
+        assert_eq!((a.rows, a.value), (b.rows, b.value));
+    }
+    let direct = identify_shared(&mechanism, &observations, Strategy::Joint).unwrap();
+    let through = identify_shared(&mechanism, &read, Strategy::Joint).unwrap();
+    let estimates = |r: &StrategyResult| -> Vec<f64> {
+        r.legs
+            .iter()
+            .flat_map(|l| l.parameters.iter().map(|p| p.estimate))
+            .collect()
+    };
+    assert_eq!(estimates(&direct), estimates(&through));
+    // A distance naming a row that is not there; one joining a row to itself.
+    let header = text.lines().next().unwrap();
+    let row = text.lines().nth(1).unwrap();
+    let cells = header.split(',').count();
+    let distance_row = |from: &str, to: &str| {
+        let mut line = vec![""; cells - 3];
+        line.extend([from, to, "0.05"]);
+        line.join(",")
+    };
+    let missing = format!("{header}\n{row}\n{}\n", distance_row("t1", "t99"));
+    let message = observations::parse(&missing, path, &mechanism)
+        .expect_err("no row t99")
+        .to_string();
+    assert!(
+        message.contains("line 3, column `to`") && message.contains("`t99`"),
+        "{message}"
+    );
+    let itself = format!("{header}\n{row}\n{}\n", distance_row("t1", "t1"));
+    let message = observations::parse(&itself, path, &mechanism)
+        .expect_err("a row to itself")
+        .to_string();
+    assert!(message.contains("line 3, column `to`"), "{message}");
 }

@@ -16,6 +16,12 @@
 //! ([`PreparedLeg::reading_and_gradient_of`]), `∂ψ_l/∂P` their pose gradient
 //! ([`PreparedLeg::pose_gradient_of`]), and `∂h/∂P`, `∂h/∂θ` one dual pass of [`observe_in`]
 //! per column. So `∂r/∂φ_l = −G e_l ∂ψ_l/∂φ_l` and `∂r/∂s = G` with `G = ∂h/∂P A⁻¹`.
+//!
+//! A distance row (`instrument.distances`) joins one target's base-frame positions `X_a`, `X_b`
+//! at two rows (each row's own pose): residual `|X_a − X_b| − d`, derivatives by the same chain
+//! through both rows' poses, `u·(∂X_a/∂P_a ∂P_a/∂x − ∂X_b/∂P_b ∂P_b/∂x)` with `u` the unit
+//! vector from `X_b` to `X_a` (and the target offset's own columns). A row may carry readings
+//! and no coordinates when only distances name it.
 
 use std::sync::{Arc, Mutex};
 
@@ -25,9 +31,9 @@ use num_dual::Dual64;
 use super::{BlockError, IdentificationProblem};
 use crate::error::KinematicsError;
 use crate::identify::jacobian::PreparedLeg;
-use crate::kinematics::inverse::joints;
+use crate::kinematics::inverse::{joints, Joints};
 use crate::kinematics::platform::{Configuration, ForwardKinematics};
-use crate::measure::targets::observe_in;
+use crate::measure::targets::{observe_in, target_position};
 use crate::model::mechanism::MeasurementNoise;
 
 /// One forward row: every leg's reading and what the instrument reported there.
@@ -39,8 +45,19 @@ pub(super) struct ForwardRow {
     pub(super) line: Option<usize>,
     /// One reading per leg of the mechanism.
     pub(super) readings: Vec<f64>,
-    /// The targets' coordinates, in measurement-row order.
+    /// The targets' coordinates, in measurement-row order (empty for a row only distances use).
     pub(super) observed: Vec<f64>,
+}
+
+/// A measured distance between the distance target's positions at two forward rows.
+#[derive(Debug, Clone)]
+pub(super) struct ForwardDistance {
+    /// A measurement index of its own (after the observations' rows).
+    pub(super) source: usize,
+    /// The two rows (indices into the forward rows).
+    pub(super) rows: [usize; 2],
+    /// The measured distance, metres.
+    pub(super) value: f64,
 }
 
 /// The forward rows of a problem and their warm starts.
@@ -48,41 +65,77 @@ pub(super) struct ForwardRow {
 pub(super) struct Forward {
     /// The rows (shared by the problem's clones).
     pub(super) rows: Arc<Vec<ForwardRow>>,
+    /// The distances between rows.
+    pub(super) distances: Arc<Vec<ForwardDistance>>,
     /// Each row's configuration at its last solve (the next one's start), shared by the
     /// problem's clones (evaluated one after the other, never at once).
     pub(super) starts: Arc<Mutex<Vec<Option<Configuration>>>>,
 }
 
 impl Forward {
-    /// The forward part of a problem over `rows`.
-    pub(super) fn new(rows: Vec<ForwardRow>) -> Self {
+    /// The forward part of a problem over `rows` and `distances`.
+    pub(super) fn new(rows: Vec<ForwardRow>, distances: Vec<ForwardDistance>) -> Self {
         let starts = vec![None; rows.len()];
         Self {
             rows: Arc::new(rows),
+            distances: Arc::new(distances),
             starts: Arc::new(Mutex::new(starts)),
         }
     }
 
     /// The same rows with fresh warm starts (a derived problem starts its own).
     pub(super) fn renewed(&self) -> Self {
-        Self::new(self.rows.to_vec())
+        Self::new(self.rows.to_vec(), self.distances.to_vec())
     }
 }
-
-/// One predicted coordinate's derivatives: with respect to the unknowns (in the order of `x`),
-/// then to each leg's reading.
-type CoordinateDerivatives = (Vec<f64>, Vec<f64>);
 
 /// What one evaluation of the forward rows gives: the residuals, and on request their
 /// derivatives with respect to the unknowns and to the readings.
 pub(super) struct ForwardEvaluation {
-    /// `h(P, θ) − y`, row after row, every coordinate of a row.
+    /// `h(P, θ) − y`: every coordinate of each row with coordinates, then every distance.
     pub(super) residuals: Vec<f64>,
     /// `∂r/∂x` (one row per residual), if asked for.
     pub(super) jacobian: Option<DMatrix<f64>>,
-    /// `∂r/∂s` per residual, over the row's readings (one per leg), if the Jacobian was asked
-    /// for.
+    /// Per residual, `∂r/∂s` over the readings it depends on (its row's, one per leg; a
+    /// distance's two rows', one after the other), if the Jacobian was asked for.
     pub(super) reading_gradients: Vec<Vec<f64>>,
+}
+
+/// A row's closed pose and, for the Jacobian, how it moves: `∂P/∂x` (6 × unknowns, zero rows
+/// for the coordinates the model does not measure) and `∂P/∂s = A⁻¹` (6 × legs).
+struct Closed {
+    pose: [f64; 6],
+    moves: Option<(DMatrix<f64>, DMatrix<f64>)>,
+}
+
+/// `∂f/∂P` (rows of `f`, 6 columns) and `∂f/∂θ` over the identified shared parameters of a
+/// function `f(P, θ)` evaluated by dual numbers, one pass per column.
+fn derivatives(
+    f: impl Fn(&[Dual64], &[Dual64; 6]) -> Vec<Dual64>,
+    (shared, identified): (&[f64], &[usize]),
+    pose: &[f64; 6],
+    measured: &[usize],
+) -> (Vec<f64>, DMatrix<f64>, DMatrix<f64>) {
+    let lifted: Vec<Dual64> = shared.iter().map(|&v| Dual64::from(v)).collect();
+    let plain = pose.map(Dual64::from);
+    let values: Vec<f64> = f(&lifted, &plain).iter().map(|v| v.re).collect();
+    let mut by_pose = DMatrix::zeros(values.len(), 6);
+    for &c in measured {
+        let mut seeded = plain;
+        seeded[c] = seeded[c].derivative();
+        for (o, value) in f(&lifted, &seeded).iter().enumerate() {
+            by_pose[(o, c)] = value.eps;
+        }
+    }
+    let mut by_shared = DMatrix::zeros(values.len(), identified.len());
+    for (j, &k) in identified.iter().enumerate() {
+        let mut seeded = lifted.clone();
+        seeded[k] = seeded[k].derivative();
+        for (o, value) in f(&seeded, &plain).iter().enumerate() {
+            by_shared[(o, j)] = value.eps;
+        }
+    }
+    (values, by_pose, by_shared)
 }
 
 impl IdentificationProblem<'_> {
@@ -105,23 +158,105 @@ impl IdentificationProblem<'_> {
         x: &DVector<f64>,
         jacobian: bool,
     ) -> Result<ForwardEvaluation, BlockError> {
-        let mechanism = self.mechanism;
-        let (Some(forward), Some(sighted)) = (&self.forward, &self.sighted) else {
-            return Ok(ForwardEvaluation {
-                residuals: Vec::new(),
-                jacobian: None,
-                reading_gradients: Vec::new(),
-            });
+        let mut evaluation = ForwardEvaluation {
+            residuals: Vec::new(),
+            jacobian: None,
+            reading_gradients: Vec::new(),
         };
+        let (Some(forward), Some(sighted)) = (&self.forward, &self.sighted) else {
+            return Ok(evaluation);
+        };
+        let instrument = sighted.instrument;
         let params = self.all_leg_parameters(x);
         let shared = sighted.values(x.as_slice());
-        let kinematics = ForwardKinematics::new(mechanism, &params);
-        let per_row = sighted.instrument.observed_len();
-        let m = forward.rows.len() * per_row;
-        let mut residuals = Vec::with_capacity(m);
-        let mut matrix = jacobian.then(|| DMatrix::zeros(m, self.parameter_count()));
-        let mut reading_gradients = Vec::new();
-        let prepared: Vec<PreparedLeg<'_>> = if jacobian {
+        let closed = self.close_rows(forward, (&params, x), jacobian)?;
+        let measured = &self.mechanism.measured;
+        let p = self.parameter_count();
+        let first_shared = p - sighted.shared.len();
+        let mut rows: Vec<DVector<f64>> = Vec::new();
+        // One residual: its value, ∂r/∂P of each of its rows and its direct ∂r/∂θ.
+        let mut push = |value: f64,
+                        parts: &[(usize, nalgebra::RowDVector<f64>)],
+                        direct: nalgebra::RowDVector<f64>| {
+            evaluation.residuals.push(value);
+            if !jacobian {
+                return;
+            }
+            let mut row = DVector::zeros(p);
+            let mut readings = Vec::new();
+            for (r, by_pose) in parts {
+                let (dx, ds) = closed[*r].moves.as_ref().expect("derivatives asked for");
+                row += (by_pose * dx).transpose();
+                readings.extend((by_pose * ds).iter().copied());
+            }
+            for (j, &value) in direct.iter().enumerate() {
+                row[first_shared + j] += value;
+            }
+            rows.push(row);
+            evaluation.reading_gradients.push(readings);
+        };
+        for (r, row) in forward.rows.iter().enumerate() {
+            if row.observed.is_empty() {
+                continue;
+            }
+            let report = |s: &[Dual64], pose: &[Dual64; 6]| observe_in(instrument, s, pose);
+            let (values, by_pose, by_shared) = derivatives(
+                report,
+                (&shared, &sighted.shared),
+                &closed[r].pose,
+                measured,
+            );
+            for (o, (value, seen)) in values.iter().zip(&row.observed).enumerate() {
+                push(
+                    value - seen,
+                    &[(r, by_pose.row(o).into_owned())],
+                    by_shared.row(o).into_owned(),
+                );
+            }
+        }
+        if let Some(target) = instrument.distances.as_ref().map(|d| d.target) {
+            let position = |s: &[Dual64], pose: &[Dual64; 6]| {
+                target_position(instrument, s, target, pose).to_vec()
+            };
+            for distance in forward.distances.iter() {
+                let [a, b] = distance.rows.map(|r| {
+                    derivatives(
+                        position,
+                        (&shared, &sighted.shared),
+                        &closed[r].pose,
+                        measured,
+                    )
+                });
+                let gap: Vec<f64> = (0..3).map(|k| a.0[k] - b.0[k]).collect();
+                let length = gap.iter().map(|g| g * g).sum::<f64>().sqrt();
+                let u = nalgebra::RowDVector::from_iterator(
+                    3,
+                    gap.iter().map(|g| g / length.max(f64::MIN_POSITIVE)),
+                );
+                let parts = [
+                    (distance.rows[0], &u * &a.1),
+                    (distance.rows[1], -(&u * &b.1)),
+                ];
+                push(length - distance.value, &parts, &u * (&a.2 - &b.2));
+            }
+        }
+        if jacobian {
+            evaluation.jacobian = Some(DMatrix::from_fn(rows.len(), p, |i, j| rows[i][j]));
+        }
+        Ok(evaluation)
+    }
+
+    /// Every row's closed pose at the leg parameters `params` (the unknowns `x`), warm-started
+    /// from its last configuration, with its movements when `moves`.
+    fn close_rows(
+        &self,
+        forward: &Forward,
+        (params, x): (&[Vec<f64>], &DVector<f64>),
+        moves: bool,
+    ) -> Result<Vec<Closed>, BlockError> {
+        let mechanism = self.mechanism;
+        let kinematics = ForwardKinematics::new(mechanism, params);
+        let prepared: Vec<PreparedLeg<'_>> = if moves {
             mechanism
                 .legs
                 .iter()
@@ -134,56 +269,29 @@ impl IdentificationProblem<'_> {
         } else {
             Vec::new()
         };
-        let mut starts = self.forward_starts(forward);
-        for (index, row) in forward.rows.iter().enumerate() {
-            let fail = |source: KinematicsError| self.forward_error(index, source, x);
-            let start = &mut starts[index];
-            let pose = match start {
-                Some(configuration) => kinematics.solve_near(&row.readings, configuration),
-                None => {
-                    let mut configuration = self.home_configuration();
-                    let pose = kinematics.solve_near(&row.readings, &mut configuration);
-                    *start = Some(configuration);
-                    pose
-                }
-            }
-            .map_err(fail)?;
-            // solve_near falls back to a continuation from home: keep what it closed at.
-            if let Some(configuration) = start.as_mut() {
-                configuration.pose = pose;
-            }
-            let predicted = observe_in::<f64>(sighted.instrument, &shared, &pose);
-            residuals.extend(predicted.iter().zip(&row.observed).map(|(p, y)| p - y));
-            if let Some(matrix) = matrix.as_mut() {
-                let configuration = start.as_ref().map(|c| c.joints.clone());
-                let derivatives = self
-                    .row_derivatives_forward((&prepared, &shared), &pose, configuration.as_deref())
-                    .map_err(fail)?;
-                let first = index * per_row;
-                for (o, (columns, readings)) in derivatives.into_iter().enumerate() {
-                    for (j, value) in columns.into_iter().enumerate() {
-                        matrix[(first + o, j)] = value;
-                    }
-                    reading_gradients.push(readings);
-                }
-            }
-        }
-        Ok(ForwardEvaluation {
-            residuals,
-            jacobian: matrix,
-            reading_gradients,
-        })
-    }
-
-    /// The rows' warm starts (a poisoned lock only loses them).
-    fn forward_starts<'f>(
-        &self,
-        forward: &'f Forward,
-    ) -> std::sync::MutexGuard<'f, Vec<Option<Configuration>>> {
-        forward
+        let mut starts = forward
             .starts
             .lock()
-            .unwrap_or_else(std::sync::PoisonError::into_inner)
+            .unwrap_or_else(std::sync::PoisonError::into_inner);
+        let mut closed = Vec::with_capacity(forward.rows.len());
+        for (index, row) in forward.rows.iter().enumerate() {
+            let fail = |source: KinematicsError| self.forward_error(index, source, x);
+            let configuration = starts[index].get_or_insert_with(|| self.home_configuration());
+            let pose = kinematics
+                .solve_near(&row.readings, configuration)
+                .map_err(fail)?;
+            // solve_near may fall back to a continuation from home: keep where it closed.
+            configuration.pose = pose;
+            let moves = match moves {
+                true => Some(
+                    self.pose_moves(&prepared, &pose, &configuration.joints)
+                        .map_err(fail)?,
+                ),
+                false => None,
+            };
+            closed.push(Closed { pose, moves });
+        }
+        Ok(closed)
     }
 
     /// The mechanism at home: the start of a row's first forward solve.
@@ -199,23 +307,17 @@ impl IdentificationProblem<'_> {
         }
     }
 
-    /// Per coordinate of one row at its closed pose `pose`: its derivatives with respect to
-    /// the unknowns (in the order of `x`) and to each leg's reading (see the module's
-    /// documentation).
-    fn row_derivatives_forward(
+    /// How a closed pose `pose` moves with the unknowns and the readings (see the module's
+    /// documentation): `(∂P/∂x, ∂P/∂s)`, 6 rows each, zero for unmeasured coordinates.
+    fn pose_moves(
         &self,
-        (prepared, shared): (&[PreparedLeg<'_>], &[f64]),
+        prepared: &[PreparedLeg<'_>],
         pose: &[f64; 6],
-        configuration: Option<&[crate::kinematics::inverse::Joints]>,
-    ) -> Result<Vec<CoordinateDerivatives>, KinematicsError> {
+        seeds: &[Joints],
+    ) -> Result<(DMatrix<f64>, DMatrix<f64>), KinematicsError> {
         let mechanism = self.mechanism;
-        let sighted = self
-            .sighted
-            .as_ref()
-            .expect("forward rows see an instrument");
         let measured = &mechanism.measured;
-        let n = measured.len();
-        let legs = mechanism.legs.len();
+        let (n, legs) = (measured.len(), mechanism.legs.len());
         if legs != n {
             return Err(KinematicsError::NotAssemblable {
                 residual: f64::INFINITY,
@@ -226,8 +328,7 @@ impl IdentificationProblem<'_> {
         let mut own: Vec<Vec<f64>> = Vec::with_capacity(legs);
         let home = &mechanism.home_pose;
         for (l, leg) in prepared.iter().enumerate() {
-            let seed = configuration.map(|c| &c[l]);
-            let solution = leg.solve_warm(pose, home, seed)?;
+            let solution = leg.solve_warm(pose, home, seeds.get(l))?;
             let mut gradient = vec![0.0; leg.columns()];
             leg.reading_and_gradient_of(pose, &solution, &mut gradient);
             let d = leg.pose_gradient_of(pose, &solution, measured);
@@ -236,51 +337,23 @@ impl IdentificationProblem<'_> {
             }
             own.push(gradient);
         }
-        let lu = a.lu();
-        // ∂h/∂P over the measured coordinates and ∂h/∂θ over the identified shared ones.
-        let instrument = sighted.instrument;
-        let lifted = |values: &[f64]| values.iter().map(|&v| Dual64::from(v)).collect::<Vec<_>>();
-        let coordinates = instrument.observed_len();
-        let mut h_pose = DMatrix::zeros(coordinates, n);
-        for (j, &c) in measured.iter().enumerate() {
-            let mut seeded = pose.map(Dual64::from);
-            seeded[c] = seeded[c].derivative();
-            let report = observe_in(instrument, &lifted(shared), &seeded);
-            for (o, value) in report.iter().enumerate() {
-                h_pose[(o, j)] = value.eps;
-            }
-        }
-        let mut h_shared = DMatrix::zeros(coordinates, sighted.shared.len());
-        for (j, &k) in sighted.shared.iter().enumerate() {
-            let mut seeded = lifted(shared);
-            seeded[k] = seeded[k].derivative();
-            let report = observe_in(instrument, &seeded, &pose.map(Dual64::from));
-            for (o, value) in report.iter().enumerate() {
-                h_shared[(o, j)] = value.eps;
-            }
-        }
-        // G = ∂h/∂P A⁻¹: Gᵀ = A⁻ᵀ (∂h/∂P)ᵀ.
-        let g = lu
-            .solve(&DMatrix::identity(n, n))
-            .map(|inverse| &h_pose * inverse)
-            .filter(|g| g.iter().all(|v| v.is_finite()))
+        let inverse = a
+            .try_inverse()
+            .filter(|i| i.iter().all(|v| v.is_finite()))
             .ok_or(KinematicsError::AssemblyModeChange)?;
-        let first_shared = self.parameter_count() - sighted.shared.len();
-        Ok((0..coordinates)
-            .map(|o| {
-                let mut columns = vec![0.0; self.parameter_count()];
-                for slot in &self.slots {
-                    for (k, &value) in own[slot.leg].iter().enumerate() {
-                        columns[slot.offset + k] = -g[(o, slot.leg)] * value;
-                    }
+        let mut by_readings = DMatrix::zeros(6, legs);
+        let mut by_unknowns = DMatrix::zeros(6, self.parameter_count());
+        for (j, &c) in measured.iter().enumerate() {
+            for l in 0..legs {
+                by_readings[(c, l)] = inverse[(j, l)];
+            }
+            for slot in &self.slots {
+                for (k, &value) in own[slot.leg].iter().enumerate() {
+                    by_unknowns[(c, slot.offset + k)] = -inverse[(j, slot.leg)] * value;
                 }
-                for j in 0..sighted.shared.len() {
-                    columns[first_shared + j] = h_shared[(o, j)];
-                }
-                let readings = (0..legs).map(|l| g[(o, l)]).collect();
-                (columns, readings)
-            })
-            .collect())
+            }
+        }
+        Ok((by_unknowns, by_readings))
     }
 
     /// The error of forward row `index` at the unknowns `x`, located.
@@ -305,8 +378,10 @@ impl IdentificationProblem<'_> {
     }
 
     /// The loadings of the declared `noise` on the forward residuals at `x`: per residual, its
-    /// row (one measurement) and, over the row's target coordinates then its readings,
-    /// `σ ∂r/∂·` (a coordinate's own residual `σ_i`, the readings' `σ_q G`).
+    /// measurement (a row, or a distance) and, over its own noise sources then the readings it
+    /// depends on, `σ ∂r/∂·`: a coordinate's `σ_i` on its own residual, a distance's declared
+    /// σ, the readings' `σ_q ∂r/∂s`. (A distance's readings are its rows' too; that
+    /// correlation is not carried.)
     ///
     /// # Errors
     /// As [`Self::evaluate_forward`].
@@ -327,16 +402,31 @@ impl IdentificationProblem<'_> {
             .map(|&c| noise.pose[c])
             .collect();
         let per_row = sigmas.len();
-        let mut rows = Vec::with_capacity(evaluation.residuals.len());
-        for (i, readings) in evaluation.reading_gradients.iter().enumerate() {
-            let (row, o) = (i / per_row, i % per_row);
-            let mut loading = vec![0.0; per_row + readings.len()];
-            loading[o] = sigmas[o];
-            for (l, g) in readings.iter().enumerate() {
-                loading[per_row + l] = noise.reading * g;
-            }
-            rows.push((forward.rows[row].source, loading));
-        }
-        Ok(rows)
+        let distance_sigma = sighted
+            .instrument
+            .distances
+            .as_ref()
+            .map_or(0.0, |d| d.noise);
+        // Each residual's measurement and own σ, in the residuals' order.
+        let own = forward
+            .rows
+            .iter()
+            .filter(|row| !row.observed.is_empty())
+            .flat_map(|row| (0..per_row).map(move |o| (row.source, Some(o))))
+            .chain(forward.distances.iter().map(|d| (d.source, None)));
+        Ok(own
+            .zip(&evaluation.reading_gradients)
+            .map(|((source, coordinate), readings)| {
+                let mut loading = vec![0.0; per_row + 1 + readings.len()];
+                match coordinate {
+                    Some(o) => loading[o] = sigmas[o],
+                    None => loading[per_row] = distance_sigma,
+                }
+                for (l, g) in readings.iter().enumerate() {
+                    loading[per_row + 1 + l] = noise.reading * g;
+                }
+                (source, loading)
+            })
+            .collect())
     }
 }

@@ -34,7 +34,7 @@ mod noise;
 mod sighted;
 mod state;
 
-use forward::{Forward, ForwardRow};
+use forward::{Forward, ForwardDistance, ForwardRow};
 use sighted::{Sighted, Sighting};
 use state::{Evaluation, Evaluations, KEPT_SOLUTION_ROWS};
 
@@ -221,8 +221,18 @@ impl<'a> IdentificationProblem<'a> {
             held: instrument.nominal(),
             rows: Arc::new(Vec::new()),
         };
+        let distances = observations
+            .distances
+            .iter()
+            .enumerate()
+            .map(|(k, d)| ForwardDistance {
+                source: observations.rows.len() + k,
+                rows: d.rows,
+                value: d.value,
+            })
+            .collect();
         let mut problem = Self::assemble(mechanism, legs, Vec::new(), Some(sighted));
-        problem.forward = Some(Forward::new(rows));
+        problem.forward = Some(Forward::new(rows, distances));
         Ok(problem)
     }
 

@@ -44,6 +44,7 @@ fn instrument(targets: &[(&str, Measures, [f64; 2])], rotates: bool) -> Instrume
         rotates,
         spatial: false,
         forward: false,
+        distances: None,
     }
 }
 

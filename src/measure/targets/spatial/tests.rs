@@ -44,6 +44,7 @@ fn instrument(targets: &[(&str, Measures, [f64; 3])], rotates: bool) -> Instrume
         rotates,
         spatial: true,
         forward: false,
+        distances: None,
     }
 }
 

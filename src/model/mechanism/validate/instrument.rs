@@ -6,8 +6,8 @@ use std::collections::HashSet;
 use super::Builder;
 use crate::error::Result;
 use crate::model::instrument::{
-    Instrument, InstrumentEntry, Measures, MeasuresEntry, SharedParameter, Target, PLANAR_FRAME,
-    PLANAR_OFFSET, SPATIAL_FRAME, SPATIAL_OFFSET,
+    Distances, Instrument, InstrumentEntry, Measures, MeasuresEntry, SharedParameter, Target,
+    PLANAR_FRAME, PLANAR_OFFSET, SPATIAL_FRAME, SPATIAL_OFFSET,
 };
 use crate::model::leg::LegModel;
 use crate::model::params::Unit;
@@ -191,12 +191,58 @@ impl Builder<'_> {
                 ));
             }
         }
+        let distances = self.distances(entry, forward, &targets)?;
         Ok(Some(Instrument {
             parameters,
             targets,
             rotates,
             spatial,
             forward,
+            distances,
+        }))
+    }
+
+    /// The `distances` block: forward only, a known target, a positive noise.
+    fn distances(
+        &self,
+        entry: &InstrumentEntry,
+        forward: bool,
+        targets: &[Target],
+    ) -> Result<Option<Distances>> {
+        let Some(distances) = &entry.distances else {
+            return Ok(None);
+        };
+        if !forward {
+            return Err(self.error(
+                "instrument.distances",
+                "distances between rows are predicted through the forward kinematics: set \
+                 `instrument.kinematics: forward`",
+            ));
+        }
+        let Some(target) = targets.iter().position(|t| t.name == distances.target) else {
+            let names: Vec<&str> = targets.iter().map(|t| t.name.as_str()).collect();
+            return Err(self.error(
+                "instrument.distances.target",
+                format!(
+                    "`{}` is not a target; expected one of {}",
+                    distances.target,
+                    names.join(", ")
+                ),
+            ));
+        };
+        if !(distances.noise.is_finite() && distances.noise > 0.0) {
+            return Err(self.error(
+                "instrument.distances.noise",
+                format!(
+                    "expected a positive standard deviation (metres), found {}",
+                    distances.noise
+                ),
+            ));
+        }
+        Ok(Some(Distances {
+            target,
+            noise: distances.noise,
+            simulate: distances.simulate,
         }))
     }
 
