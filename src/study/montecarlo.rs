@@ -28,6 +28,7 @@ use rand_chacha::ChaCha8Rng;
 use super::stats::{self, Estimate};
 use crate::error::{Error, Result};
 use crate::evaluate::accuracy::{map_grid, position_error, reached_poses_from, result_parameters};
+use crate::evaluate::observed_frame::observed_frame_error;
 use crate::identify::estimate::{FitOptions, Strategy, StrategyResult};
 use crate::identify::statistics::NoiseTest;
 use crate::kinematics::inverse::Joints;
@@ -346,6 +347,10 @@ pub struct MonteCarlo {
     pub parameters: Vec<StudyParameter>,
     /// Points of the accuracy map.
     pub map_points: usize,
+    /// Seen through the forward kinematics: the frame the map errors are taken in (the
+    /// instrument's first target, aligned over what its observations cannot see); `None` for
+    /// the platform's position in the base frame.
+    pub map_frame: Option<String>,
     /// Every trial, in index order.
     pub trials: Vec<Trial>,
     /// Trials whose values enter the summary.
@@ -468,6 +473,10 @@ impl Study {
     /// The real parameters and the nominal map's RMS error, if the real parameters do not
     /// depend on the trial (the same for two different trial seeds: declared, not drawn).
     fn fixed_real_parameters(&self) -> Option<(Vec<Vec<f64>>, f64)> {
+        if self.map_frame().is_some() {
+            // Its map depends on the trial's real instrument too: computed in every trial.
+            return None;
+        }
         let simulation = self.mechanism.simulation.as_ref()?;
         let [first, second] = [0, 1].map(|i| {
             real_parameters(
@@ -481,8 +490,18 @@ impl Study {
         }
         let kinematics = ForwardKinematics::new(&self.mechanism, &first);
         // Not fixed yet: computed.
-        let rms = self.nominal_map_rms(&first, &kinematics).ok()?;
+        let rms = self.nominal_map_rms((&first, None), &kinematics).ok()?;
         Some((first, rms))
+    }
+
+    /// Seen through the forward kinematics, the frame the map errors are taken in.
+    fn map_frame(&self) -> Option<String> {
+        let instrument = self.mechanism.instrument.as_ref().filter(|i| i.forward)?;
+        Some(format!(
+            "target `{}` in the frame the observations define (the instrument frame, aligned \
+             over the held frame components its reported coordinates cannot see)",
+            instrument.targets[0].name
+        ))
     }
 
     /// The mechanism the study identifies (its declared noise unscaled: [`Study::fit_options`]
@@ -524,7 +543,9 @@ impl Study {
         };
         let (real, sets) = self.trial_data(options)?;
         let real_kinematics = ForwardKinematics::new(&self.mechanism, &real.legs);
-        let nominal_map_rms = self.nominal_map_rms(&real.legs, &real_kinematics)?;
+        let real_shared = real.instrument.as_deref();
+        let nominal_map_rms =
+            self.nominal_map_rms((&real.legs, real_shared), &real_kinematics)?;
         // The commanding joints of the last map, the warm starts of the next one.
         let mut joints = self.nominal_joints.clone();
         let mut arms = Vec::with_capacity(self.arms.len());
@@ -602,16 +623,20 @@ impl Study {
     /// forward kinematics `real_kinematics`), computed once for the study when they are fixed.
     fn nominal_map_rms(
         &self,
-        real: &[Vec<f64>],
+        (real, real_shared): (&[Vec<f64>], Option<&[f64]>),
         real_kinematics: &ForwardKinematics<'_>,
     ) -> Result<f64> {
         match &self.fixed_real {
             Some((fixed, rms)) if fixed == real => Ok(*rms),
-            _ => self.map_rms(
-                &self.mechanism.nominal_parameters(),
-                real_kinematics,
-                &mut self.nominal_joints.clone(),
-            ),
+            _ => {
+                let nominal = self.mechanism.instrument.as_ref().map(|i| i.nominal());
+                self.map_rms(
+                    &self.mechanism.nominal_parameters(),
+                    real_kinematics,
+                    &mut self.nominal_joints.clone(),
+                    nominal.as_deref().zip(real_shared),
+                )
+            }
         }
     }
 
@@ -646,10 +671,15 @@ impl Study {
             predicted_std.push(estimate.std.unwrap_or(f64::NAN));
         }
         let identified = result_parameters(&self.mechanism, result);
+        let shared: Option<Vec<f64>> = result
+            .instrument
+            .as_ref()
+            .map(|i| i.parameters.iter().map(|p| p.estimate).collect());
+        let frames = shared.as_deref().zip(real.instrument.as_deref());
         Ok(ArmTrial {
             errors,
             predicted_std,
-            map_rms: self.map_rms(&identified, real_kinematics, joints)?,
+            map_rms: self.map_rms(&identified, real_kinematics, joints, frames)?,
             alarms: Alarms::of(result),
         })
     }
@@ -663,10 +693,23 @@ impl Study {
         commanding: &[Vec<f64>],
         real: &ForwardKinematics<'_>,
         joints: &mut Vec<Option<Joints>>,
+        shared: Option<(&[f64], &[f64])>,
     ) -> Result<f64> {
         let mut sum = 0.0;
         let mut count = 0usize;
         let reached = reached_poses_from(&self.mechanism, commanding, real, &self.map, joints);
+        let forward = self.mechanism.instrument.as_ref().filter(|i| i.forward);
+        if let (Some(instrument), Some(shared)) = (forward, shared) {
+            // In the frame the observations define.
+            return observed_frame_error(instrument, shared, &self.map, &reached)
+                .map(|e| e.position_error.rms)
+                .ok_or_else(|| {
+                    Error::Invalid(format!(
+                        "accuracy map: the real mechanism reaches none of the {} map points",
+                        self.map.len()
+                    ))
+                });
+        }
         for (target, reached) in self.map.iter().zip(reached) {
             if let Some(reached) = reached {
                 sum += position_error(&reached, target).powi(2);
@@ -765,6 +808,7 @@ impl Study {
             mechanism: self.mechanism.name.clone(),
             parameters: self.parameters.clone(),
             map_points: self.map.len(),
+            map_frame: self.map_frame(),
             succeeded: values.len(),
             nominal_map_rms: stats::mean_interval(&nominal),
             arms,

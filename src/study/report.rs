@@ -94,7 +94,7 @@ pub fn montecarlo_json(study: &MonteCarlo) -> Value {
             })
         })
         .collect();
-    let body = json!({
+    let mut body = json!({
         "mechanism": study.mechanism,
         "trials": options.trials,
         "succeeded": study.succeeded,
@@ -114,6 +114,9 @@ pub fn montecarlo_json(study: &MonteCarlo) -> Value {
         "verdict": study.verdict,
         "per_trial": study.trials.iter().map(|t| trial_json(t, &arm_order)).collect::<Vec<_>>(),
     });
+    if let Some(frame) = &study.map_frame {
+        body["map"]["frame"] = json!(frame);
+    }
     json!(Document::new(body))
 }
 
@@ -208,6 +211,9 @@ pub fn montecarlo_text(study: &MonteCarlo) -> String {
         }
     }
     text.push_str("\nRMS position error over the map (mm), mean over the trials:\n");
+    if let Some(frame) = &study.map_frame {
+        text.push_str(&format!("  ({frame})\n"));
+    }
     text.push_str(&format!(
         "    {:<26} {}\n",
         "nominal model",
