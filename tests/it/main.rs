@@ -11,6 +11,7 @@ mod evaluate_values;
 mod evaluation_reuse;
 mod exit_codes;
 mod files;
+mod firmware_delta;
 mod forward_kinematics;
 mod forward_observations;
 mod fuzz;
