@@ -8,10 +8,13 @@
 //!   (forward kinematics from the readings, then the model's frame and offsets) against where
 //!   the instrument saw it;
 //! * [`observed_frame`] — a forward model's map error in the frame its observations define;
+//! * [`predicted_position`] — a forward fit's covariance carried to its target over the
+//!   workspace;
 //! * their terminal (mm, mrad) and JSON renderings are [`crate::report::evaluation`]'s.
 pub mod accuracy;
 pub mod held_out;
 pub mod observed_frame;
+pub mod predicted_position;
 pub mod through_instrument;
 
 use crate::error::Result;

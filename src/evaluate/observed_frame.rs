@@ -38,7 +38,7 @@ pub struct ObservedFrameError {
 
 /// The held frame components whose motion the first target's reported coordinates cannot see
 /// at the nominal frame and the poses `poses`.
-fn unseen_components(instrument: &Instrument, poses: &[[f64; 6]]) -> Vec<usize> {
+pub(crate) fn unseen_components(instrument: &Instrument, poses: &[[f64; 6]]) -> Vec<usize> {
     let nominal = instrument.nominal();
     let reported = instrument.targets[0].coordinates().len();
     (0..instrument.frame_components().len())
@@ -60,7 +60,7 @@ fn unseen_components(instrument: &Instrument, poses: &[[f64; 6]]) -> Vec<usize> 
 }
 
 /// How the target moves in the nominal frame when frame component `k` moves, at `pose`.
-fn generator(instrument: &Instrument, k: usize, pose: &[f64; 6]) -> [f64; 3] {
+pub(crate) fn generator(instrument: &Instrument, k: usize, pose: &[f64; 6]) -> [f64; 3] {
     let mut shared: Vec<Dual64> = instrument
         .nominal()
         .iter()

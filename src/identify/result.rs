@@ -308,6 +308,31 @@ pub struct InstrumentEstimate {
     /// The likelihood-ratio test of the frame components the model holds (joint strategy,
     /// when they can be freed and a noise is declared).
     pub held_frame: Option<HeldFrameTest>,
+    /// The covariance of every unknown of the fit (the legs' identified parameters in model
+    /// order, then the instrument's identified ones), when it has one (the joint strategy).
+    pub covariance: Option<nalgebra::DMatrix<f64>>,
+    /// Seen through the forward kinematics: the predicted σ of the first target's position over
+    /// the workspace, propagated from [`Self::covariance`].
+    pub predicted_position: Option<PredictedPosition>,
+}
+
+/// The predicted standard deviation of a target's position over the workspace grid (the
+/// square root of the trace of its 3 × 3 covariance at each point), metres.
+#[derive(Debug, Clone, PartialEq, serde::Serialize)]
+pub struct PredictedPosition {
+    /// The target.
+    pub target: String,
+    /// Grid points it was predicted at.
+    pub points: usize,
+    /// RMS over the points.
+    #[serde(rename = "rms_m")]
+    pub rms: f64,
+    /// Largest.
+    #[serde(rename = "max_m")]
+    pub max: f64,
+    /// The model's tolerance, if it declares one.
+    #[serde(rename = "tolerance_m")]
+    pub tolerance: Option<f64>,
 }
 
 /// The outcome of the held-frame test ([`super::held_test`]).

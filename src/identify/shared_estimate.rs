@@ -216,6 +216,9 @@ pub fn identify_shared(
         observability,
         noise_test,
         held_frame: None,
+        // The two-stage covariance is the legs' alone.
+        covariance: covariance.clone().filter(|_| strategy == Strategy::Joint),
+        predicted_position: None,
     };
     let run = SolverRun::new(names, &outcome, (&r0, &r), seconds);
     Ok(StrategyResult {

@@ -36,6 +36,11 @@ pub struct InstrumentEntry {
     /// (a ballbar, calipers on a printed part), given as rows of their own in the CSV.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub distances: Option<DistancesEntry>,
+    /// Forward kinematics only: the largest predicted standard deviation of the first target's
+    /// position over the workspace a calibration may leave, metres (above it the result is
+    /// not trusted).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub tolerance: Option<f64>,
 }
 
 /// The `instrument.distances` block: which target's positions the distances join, their
@@ -239,6 +244,9 @@ pub struct Instrument {
     pub forward: bool,
     /// Measured distances between a target's positions at two rows (forward only).
     pub distances: Option<Distances>,
+    /// The largest predicted σ of the first target's position over the workspace a
+    /// calibration may leave, metres (forward only).
+    pub tolerance: Option<f64>,
 }
 
 impl Instrument {

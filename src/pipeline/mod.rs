@@ -23,6 +23,7 @@ pub use simulation::{simulate, Simulated};
 
 use crate::error::{Error, Result};
 use crate::evaluate::accuracy::{accuracy_map_seen, result_parameters};
+use crate::evaluate::predicted_position::predicted_position;
 use crate::identify::estimate::identify_with;
 use crate::identify::held_test::held_frame_test;
 use crate::identify::result::{FitOptions, Strategy, StrategyResult};
@@ -150,8 +151,10 @@ pub fn identify_one(
             let mut result = identify_shared(mechanism, observations, strategy, fit)?;
             if strategy == Strategy::Joint {
                 let test = held_frame_test(mechanism, observations, &result);
+                let predicted = predicted_position(mechanism, &result);
                 if let Some(instrument) = result.instrument.as_mut() {
                     instrument.held_frame = test;
+                    instrument.predicted_position = predicted;
                 }
             }
             Ok(result)

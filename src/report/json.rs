@@ -13,7 +13,7 @@ use crate::evaluate::accuracy::AccuracyMap;
 use crate::identify::estimate::{
     LegEstimate, ParameterEstimate, SolverRun, StrategyResult, Weighting,
 };
-use crate::identify::result::{HeldFrameTest, InstrumentEstimate};
+use crate::identify::result::{HeldFrameTest, InstrumentEstimate, PredictedPosition};
 use crate::identify::statistics::{NoiseTest, Outlier};
 
 /// Version of the JSON layout documented in `docs/report.md`; raised when a key changes meaning or
@@ -200,6 +200,8 @@ struct InstrumentJson<'a> {
     rms_residual: f64,
     noise_test: Option<&'a NoiseTest>,
     held_frame_test: Option<&'a HeldFrameTest>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    predicted_position: Option<&'a PredictedPosition>,
     observability: InstrumentObservabilityJson<'a>,
 }
 
@@ -217,6 +219,7 @@ impl<'a> InstrumentJson<'a> {
             rms_residual: instrument.rms,
             noise_test: instrument.noise_test.as_ref(),
             held_frame_test: instrument.held_frame.as_ref(),
+            predicted_position: instrument.predicted_position.as_ref(),
             observability: InstrumentObservabilityJson {
                 rank: instrument.observability.rank,
                 scaled_condition: instrument.observability.scaled_condition,

@@ -166,6 +166,21 @@ fn render_instrument(out: &mut String, report: &Report<'_>, instrument: &Instrum
             if test.rejected { " (REJECTED)" } else { "" }
         );
     }
+    if let Some(predicted) = &instrument.predicted_position {
+        let tolerance = predicted.tolerance.map_or(String::new(), |t| {
+            let verdict = if predicted.max > t { "ABOVE" } else { "within" };
+            format!("; {verdict} the model's tolerance {:.4} mm", t * 1e3)
+        });
+        let _ = writeln!(
+            out,
+            "  predicted σ of target `{}`'s position over the workspace ({} points): RMS {:.4} \
+             mm, max {:.4} mm{tolerance}",
+            predicted.target,
+            predicted.points,
+            predicted.rms * 1e3,
+            predicted.max * 1e3
+        );
+    }
     let _ = writeln!(out, "{}", table_header(report.real.is_some()));
     for (k, p) in instrument.parameters.iter().enumerate() {
         let _ = writeln!(out, "{}", table_row(p, report.real_instrument_value(k)));

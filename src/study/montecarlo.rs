@@ -544,8 +544,7 @@ impl Study {
         let (real, sets) = self.trial_data(options)?;
         let real_kinematics = ForwardKinematics::new(&self.mechanism, &real.legs);
         let real_shared = real.instrument.as_deref();
-        let nominal_map_rms =
-            self.nominal_map_rms((&real.legs, real_shared), &real_kinematics)?;
+        let nominal_map_rms = self.nominal_map_rms((&real.legs, real_shared), &real_kinematics)?;
         // The commanding joints of the last map, the warm starts of the next one.
         let mut joints = self.nominal_joints.clone();
         let mut arms = Vec::with_capacity(self.arms.len());

@@ -192,6 +192,19 @@ impl Builder<'_> {
             }
         }
         let distances = self.distances(entry, forward, &targets)?;
+        let tolerance = match entry.tolerance {
+            None => None,
+            Some(t) if forward && t.is_finite() && t > 0.0 => Some(t),
+            Some(t) => {
+                return Err(self.error(
+                    "instrument.tolerance",
+                    format!(
+                        "expected a positive length (metres) of a model seen through the \
+                         forward kinematics (`kinematics: forward`), found {t}"
+                    ),
+                ))
+            }
+        };
         Ok(Some(Instrument {
             parameters,
             targets,
@@ -199,6 +212,7 @@ impl Builder<'_> {
             spatial,
             forward,
             distances,
+            tolerance,
         }))
     }
 

@@ -1,0 +1,138 @@
+//! How well a calibration seen through the forward kinematics knows where its target goes:
+//! the fit's covariance propagated to the first target's position over the workspace.
+//!
+//! At a grid pose the calibrated model's inverse kinematics gives the readings a controller
+//! would command; the target's position in the instrument frame at those readings moves with
+//! the unknowns as the forward rows' prediction does (the implicit-function derivatives of
+//! `problem/forward.rs`, here for all its coordinates, reported or not), so its covariance is
+//! `J_i C J_iᵀ` (`C` the fit's covariance) and its σ the square root of the trace. As the
+//! map's error in the frame the observations define ([`super::observed_frame`]), the motions
+//! of the held frame components the observations cannot see are projected out first (over
+//! the whole grid at once): the prediction is of that error.
+
+use nalgebra::{DMatrix, DVector};
+
+use super::accuracy::map_grid;
+use super::observed_frame::{generator, unseen_components};
+use crate::identify::problem::IdentificationProblem;
+use crate::identify::result::{PredictedPosition, StrategyResult};
+use crate::kinematics::inverse::predict_reading;
+use crate::measure::observations::{Observations, ObservedRow};
+use crate::model::instrument::Measures;
+use crate::model::Mechanism;
+
+/// Fraction of the workspace region the prediction covers (as the accuracy map's default).
+const SCALE: f64 = 0.95;
+
+/// The predicted σ of the first target's position over the model's workspace grid
+/// (`workspace.grid`) for `result`, a joint fit through a forward instrument with its
+/// covariance; `None` otherwise, without a `workspace.grid`, or when no grid point is
+/// reachable.
+pub fn predicted_position(
+    mechanism: &Mechanism,
+    result: &StrategyResult,
+) -> Option<PredictedPosition> {
+    let instrument = mechanism.instrument.as_ref().filter(|i| i.forward)?;
+    let estimate = result.instrument.as_ref()?;
+    let covariance = estimate.covariance.as_ref()?;
+    // Every target reports its whole position: the first one's rows are the first three.
+    let every = if instrument.spatial { 0b111 } else { 0b011 };
+    let seen = mechanism.edited(|parts| {
+        if let Some(instrument) = parts.instrument.as_mut() {
+            for target in &mut instrument.targets {
+                target.measures = Measures::Coordinates(every);
+            }
+            instrument.distances = None;
+        }
+    });
+    let params = crate::evaluate::accuracy::result_parameters(mechanism, result);
+    let home = &mechanism.home_pose;
+    let grid = map_grid(mechanism, mechanism.workspace.grid?, SCALE).ok()?;
+    let width = seen.instrument.as_ref()?.observed_len();
+    let rows: Vec<ObservedRow> = grid
+        .iter()
+        .filter_map(|pose| {
+            let readings = mechanism
+                .legs
+                .iter()
+                .zip(&params)
+                .map(|(leg, phi)| predict_reading(leg, phi, pose, home).ok().map(Some))
+                .collect::<Option<Vec<_>>>()?;
+            Some(ObservedRow {
+                line: None,
+                leg: None,
+                observed: vec![0.0; width],
+                readings,
+                id: None,
+            })
+        })
+        .collect();
+    if rows.is_empty() {
+        return None;
+    }
+    let observations = Observations {
+        source: None,
+        rows,
+        distances: Vec::new(),
+    };
+    let problem = IdentificationProblem::through_instrument(&seen, &observations).ok()?;
+    let x = unknowns(&problem, result)?;
+    if covariance.nrows() != x.len() {
+        return None;
+    }
+    let (_, jacobian) = problem.residuals_and_jacobian(&x).ok()?;
+    let poses: Vec<[f64; 6]> = grid
+        .iter()
+        .copied()
+        .filter(|pose| {
+            let reached = |(leg, phi): (&crate::model::leg::LegModel, &Vec<f64>)| {
+                predict_reading(leg, phi, pose, home).is_ok()
+            };
+            mechanism.legs.iter().zip(&params).all(reached)
+        })
+        .collect();
+    let points = poses.len();
+    // The first target's rows, with the motions its observations cannot see projected out.
+    let mut target = DMatrix::from_fn(3 * points, x.len(), |r, j| {
+        jacobian[((r / 3) * width + r % 3, j)]
+    });
+    let unseen = unseen_components(instrument, &poses);
+    if !unseen.is_empty() {
+        let motions = DMatrix::from_fn(3 * points, unseen.len(), |r, k| {
+            generator(instrument, unseen[k], &poses[r / 3])[r % 3]
+        });
+        let along = motions.clone().svd(true, true).solve(&target, 1e-12).ok()?;
+        target -= motions * along;
+    }
+    let sigmas: Vec<f64> = (0..points)
+        .map(|i| {
+            let block = target.rows(3 * i, 3).into_owned();
+            (&block * covariance * block.transpose())
+                .trace()
+                .max(0.0)
+                .sqrt()
+        })
+        .collect();
+    let rms = (sigmas.iter().map(|s| s * s).sum::<f64>() / points as f64).sqrt();
+    Some(PredictedPosition {
+        target: instrument.targets[0].name.clone(),
+        points,
+        rms,
+        max: sigmas.iter().copied().fold(0.0, f64::max),
+        tolerance: instrument.tolerance,
+    })
+}
+
+/// The result's estimate as the problem's unknowns (by name).
+fn unknowns(problem: &IdentificationProblem<'_>, result: &StrategyResult) -> Option<DVector<f64>> {
+    let estimates: Vec<(&str, f64)> = result
+        .parameters()
+        .map(|p| (p.name.as_str(), p.estimate))
+        .collect();
+    let values = problem
+        .names()
+        .iter()
+        .map(|name| estimates.iter().find(|(n, _)| n == name).map(|(_, v)| *v))
+        .collect::<Option<Vec<f64>>>()?;
+    Some(DVector::from_vec(values))
+}
