@@ -8,7 +8,11 @@
 //! even for a single target: a file of platform poses (`x, y, …`) is never read as target
 //! coordinates by mistake. Optional columns `pose.<coordinate>` (`pose.x, pose.y, …`, the
 //! model's measured coordinates) hold the platform pose commanded at the row, as
-//! [`template_csv`] writes them for `legwise select`; they are read past and never used.
+//! [`template_csv`] writes them for `legwise select`; they are read past and never used, but
+//! for a model seen through the forward kinematics whose row has no reading: its readings are
+//! then the nominal model's inverse kinematics of the commanded pose (what a controller
+//! running the nominal model logs). A forward model's rows may carry an `id`, and distance
+//! rows `from`, `to` and `distance` (docs/models.md §10).
 //! Errors name the file, the line and the column.
 
 use std::path::{Path, PathBuf};
@@ -17,6 +21,7 @@ use super::checks::{mechanism_size, SIZE_FACTOR};
 use super::line_endings::Lines;
 use super::rows;
 use crate::error::{Error, Result};
+use crate::kinematics::inverse::predict_reading;
 use crate::model::instrument::Instrument;
 use crate::model::Mechanism;
 
@@ -165,6 +170,16 @@ pub fn parse(text: &str, path: &Path, mechanism: &Mechanism) -> Result<Observati
         [column_of("from"), column_of("to"), column_of("distance")],
     );
     let mut pending = Vec::new();
+    // The commanded pose's columns present (forward models read them when a row has no
+    // reading).
+    let commanded_at: Vec<usize> = commanded_columns(mechanism)
+        .iter()
+        .filter_map(|name| column_of(name))
+        .collect();
+    let commanded_at = match commanded_at.len() == mechanism.measured.len() {
+        true => commanded_at,
+        false => Vec::new(),
+    };
     let target_columns: Vec<usize> = instrument.columns().iter().map(|c| index(c)).collect();
     let reading_columns: Vec<usize> = mechanism
         .actuated_names()
@@ -263,7 +278,30 @@ pub fn parse(text: &str, path: &Path, mechanism: &Mechanism) -> Result<Observati
             }
         }
         let readings = reading_columns.iter().map(|&column| number(column));
-        let readings = readings.collect::<Result<Vec<_>>>()?;
+        let mut readings = readings.collect::<Result<Vec<_>>>()?;
+        let commanded = commanded_at.iter().any(|&c| !cell(c).is_empty());
+        if instrument.forward && commanded && readings.iter().all(Option::is_none) {
+            // Logged as the commanded pose: the nominal model's inverse kinematics of it.
+            let values = commanded_at.iter().map(|&column| {
+                number(column)?.ok_or_else(|| {
+                    fail(
+                        format!("line {line}, column `{}`", header[column]),
+                        "missing value; expected the commanded pose's coordinate (metres or \
+                         radians), or every leg's reading"
+                            .into(),
+                    )
+                })
+            });
+            let values = values.collect::<Result<Vec<f64>>>()?;
+            readings = commanded_readings(mechanism, &values)
+                .map_err(|message| {
+                    let column = &header[commanded_at[0]];
+                    fail(format!("line {line}, column `{column}`"), message)
+                })?
+                .into_iter()
+                .map(Some)
+                .collect();
+        }
         rows::require_leg_reading(path, line, mechanism, leg, &readings)?;
         if instrument.forward {
             forward_row(path, line, mechanism, leg, &readings)?;
@@ -387,6 +425,37 @@ fn resolve_distances(
         }
     }
     Ok(distances)
+}
+
+/// The readings the nominal model commands for the platform pose of measured coordinates
+/// `values` (the model's `measured` order, the others at home): each leg's inverse kinematics,
+/// as a controller running the nominal model logs them.
+///
+/// # Errors
+/// A leg of the nominal model that cannot reach the pose, named.
+fn commanded_readings(
+    mechanism: &Mechanism,
+    values: &[f64],
+) -> std::result::Result<Vec<f64>, String> {
+    let home = mechanism.home_pose;
+    let mut pose = home;
+    for (&c, &value) in mechanism.measured.iter().zip(values) {
+        pose[c] = value;
+    }
+    mechanism
+        .legs
+        .iter()
+        .map(|leg| {
+            predict_reading(leg, &leg.nominal(), &pose, &home).map_err(|error| {
+                format!(
+                    "the nominal model cannot reach the commanded pose {} (leg `{}`: {error}): \
+                     check the pose's units and that it is inside the workspace",
+                    mechanism.pose_text(&pose),
+                    leg.name
+                )
+            })
+        })
+        .collect()
 }
 
 /// A row of a model seen through the forward kinematics: every leg's reading, no leg label

@@ -350,3 +350,59 @@ fn distance_rows_round_trip_through_the_csv_and_name_missing_rows() {
         .to_string();
     assert!(message.contains("line 3, column `to`"), "{message}");
 }
+
+#[test]
+fn readings_may_be_logged_as_the_commanded_pose_of_the_nominal_model() {
+    use legwise::kinematics::platform::forward;
+    let mechanism = bundled("delta-probe.yaml");
+    let (observations, _, _) = experiment(&mechanism, 1.0);
+    let nominal = mechanism.nominal_parameters();
+    // Each row as a controller running the nominal model logs it: the pose it commanded (the
+    // nominal forward kinematics of the readings), no reading.
+    let mut text = String::from("z.nozzle,C1,C2,C3,pose.x,pose.y,pose.z\n");
+    for row in &observations.rows {
+        let readings: Vec<f64> = row.readings.iter().map(|r| r.unwrap()).collect();
+        let pose = forward(&mechanism, &nominal, &readings).unwrap();
+        text.push_str(&format!(
+            "{},,,,{},{},{}\n",
+            row.observed[0], pose[0], pose[1], pose[2]
+        ));
+    }
+    let path = std::path::Path::new("commanded.csv");
+    let read = observations::parse(&text, path, &mechanism).unwrap();
+    for (a, b) in read.rows.iter().zip(&observations.rows) {
+        for (x, y) in a.readings.iter().zip(&b.readings) {
+            let (x, y) = (x.unwrap(), y.unwrap());
+            assert!((x - y).abs() <= 1e-12, "reading {x} against {y}");
+        }
+    }
+    let direct = identify_shared(&mechanism, &observations, Strategy::Joint).unwrap();
+    let commanded = identify_shared(&mechanism, &read, Strategy::Joint).unwrap();
+    for (a, b) in commanded.parameters().zip(direct.parameters()) {
+        assert!(
+            (a.estimate - b.estimate).abs() <= 1e-9,
+            "{}: {} against {}",
+            a.name,
+            a.estimate,
+            b.estimate
+        );
+    }
+    // A commanded pose the nominal model cannot reach: named by its line and column.
+    let beyond =
+        "z.nozzle,C1,C2,C3,pose.x,pose.y,pose.z\n0.0,,,,0.0,0.0,0.03\n0.0,,,,0.5,0.0,0.03\n";
+    let message = observations::parse(beyond, path, &mechanism)
+        .expect_err("beyond reach")
+        .to_string();
+    assert!(
+        message.contains("commanded.csv")
+            && message.contains("line 3, column `pose.x`")
+            && message.contains("cannot reach the commanded pose"),
+        "{message}"
+    );
+    // A commanded pose with a coordinate missing.
+    let partial = "z.nozzle,C1,C2,C3,pose.x,pose.y,pose.z\n0.0,,,,0.01,,0.03\n";
+    let message = observations::parse(partial, path, &mechanism)
+        .expect_err("pose.y missing")
+        .to_string();
+    assert!(message.contains("line 2, column `pose.y`"), "{message}");
+}
