@@ -12,7 +12,7 @@ use legwise::measure::simulate::SimulationOptions;
 use legwise::measure::Measurements;
 use legwise::model::Mechanism;
 use legwise::pipeline::{simulate, PoseSource, SimulationSettings};
-use nalgebra::DVector;
+use nalgebra::{DMatrix, DVector};
 
 use crate::instrument_support::identify_shared;
 use crate::support::{bundled, crate_path};
@@ -405,4 +405,88 @@ fn readings_may_be_logged_as_the_commanded_pose_of_the_nominal_model() {
         .expect_err("pose.y missing")
         .to_string();
     assert!(message.contains("line 2, column `pose.y`"), "{message}");
+}
+
+/// The nozzle's position at `readings` with every leg's parameters `params` (the bed frame is
+/// the base frame: the probe models hold it at zero), by legwise's forward kinematics.
+fn nozzle(mechanism: &Mechanism, params: &[Vec<f64>], readings: &[f64]) -> [f64; 3] {
+    let pose = legwise::kinematics::platform::forward(mechanism, params, readings).unwrap();
+    [pose[0], pose[1], pose[2] - 0.02]
+}
+
+#[test]
+fn the_predicted_position_sigma_is_the_covariance_carried_by_central_differences() {
+    use legwise::evaluate::accuracy::{map_grid, result_parameters};
+    use legwise::kinematics::inverse::predict_reading;
+    for model in ["delta-probe.yaml", "delta-probe-distances.yaml"] {
+        let mechanism = bundled(model);
+        let (observations, _, _) = experiment(&mechanism, 1.0);
+        let result = identify_shared(&mechanism, &observations, Strategy::Joint).unwrap();
+        let instrument = result.instrument.as_ref().unwrap();
+        let reported = instrument.predicted_position.as_ref().expect("predicted");
+        let covariance = instrument.covariance.as_ref().expect("a covariance");
+        // The unknowns: every identified leg parameter (the bed is held).
+        let params = result_parameters(&mechanism, &result);
+        let unknowns: Vec<(usize, usize)> = mechanism
+            .legs
+            .iter()
+            .enumerate()
+            .flat_map(|(l, leg)| leg.identified().into_iter().map(move |c| (l, c)))
+            .collect();
+        assert_eq!(unknowns.len(), covariance.nrows(), "{model}");
+        let home = mechanism.home_pose;
+        let grid = map_grid(&mechanism, mechanism.workspace.grid.unwrap(), 0.95).unwrap();
+        let mut jacobian = DMatrix::zeros(3 * grid.len(), unknowns.len());
+        let mut motions = DMatrix::zeros(3 * grid.len(), 3);
+        for (i, pose) in grid.iter().enumerate() {
+            let readings: Vec<f64> = mechanism
+                .legs
+                .iter()
+                .zip(&params)
+                .map(|(leg, phi)| predict_reading(leg, phi, pose, &home).unwrap())
+                .collect();
+            for (j, &(l, c)) in unknowns.iter().enumerate() {
+                let h = 1e-6;
+                let (mut up, mut down) = (params.clone(), params.clone());
+                up[l][c] += h;
+                down[l][c] -= h;
+                let (a, b) = (
+                    nozzle(&mechanism, &up, &readings),
+                    nozzle(&mechanism, &down, &readings),
+                );
+                for k in 0..3 {
+                    jacobian[(3 * i + k, j)] = (a[k] - b[k]) / (2.0 * h);
+                }
+            }
+            // What a probe cannot see: the bed frame moved along x, y and turned about z moves
+            // the nozzle, seen from it, by -e_x, -e_y and -(e_z × m).
+            let m = nozzle(&mechanism, &params, &readings);
+            motions[(3 * i, 0)] = -1.0;
+            motions[(3 * i + 1, 1)] = -1.0;
+            motions[(3 * i, 2)] = m[1];
+            motions[(3 * i + 1, 2)] = -m[0];
+        }
+        let along = motions
+            .clone()
+            .svd(true, true)
+            .solve(&jacobian, 1e-12)
+            .unwrap();
+        let seen = &jacobian - &motions * along;
+        let sigmas: Vec<f64> = (0..grid.len())
+            .map(|i| {
+                let block = seen.rows(3 * i, 3).into_owned();
+                (&block * covariance * block.transpose()).trace().sqrt()
+            })
+            .collect();
+        let rms = (sigmas.iter().map(|s| s * s).sum::<f64>() / sigmas.len() as f64).sqrt();
+        let max = sigmas.iter().copied().fold(0.0, f64::max);
+        assert_eq!(reported.points, grid.len(), "{model}");
+        for (what, ours, theirs) in [("RMS", rms, reported.rms), ("max", max, reported.max)] {
+            assert!(
+                (ours - theirs).abs() <= 1e-6 * theirs,
+                "{model}: predicted σ {what} {theirs} against {ours} by central differences"
+            );
+        }
+        assert_eq!(reported.tolerance, Some(1e-4));
+    }
 }
