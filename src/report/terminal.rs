@@ -205,8 +205,26 @@ fn render_result(out: &mut String, report: &Report<'_>, result: &StrategyResult)
             "\nleg {name}: every parameter is held fixed (identify: false); not identified"
         );
     }
+    // Seen through the forward kinematics, every row holds every leg's reading: no leg has
+    // rows, costs or a σ̂ of its own (the instrument block has them).
+    let forward = report
+        .mechanism
+        .instrument
+        .as_ref()
+        .is_some_and(|i| i.forward);
     for leg in &result.legs {
-        let _ = writeln!(out, "\nleg {} ({} readings)", leg.leg, leg.measurements);
+        match forward {
+            true => {
+                let _ = writeln!(
+                    out,
+                    "\nleg {} (its reading in every row: the rows are the instrument's above)",
+                    leg.leg
+                );
+            }
+            false => {
+                let _ = writeln!(out, "\nleg {} ({} readings)", leg.leg, leg.measurements);
+            }
+        }
         let _ = writeln!(out, "{}", table_header(known));
         for (i, p) in leg.parameters.iter().enumerate() {
             let _ = writeln!(out, "{}", table_row(p, report.real_value(&leg.leg, i)));
@@ -249,11 +267,13 @@ fn render_result(out: &mut String, report: &Report<'_>, result: &StrategyResult)
         let sigma = leg
             .residual_sigma
             .map_or("-".to_string(), |s| format!("{s:.3e}"));
-        let _ = writeln!(
-            out,
-            "  cost ½‖r‖²: {:.6e} before, {:.6e} after; residual σ̂ {sigma}",
-            leg.initial_cost, leg.final_cost
-        );
+        if !forward {
+            let _ = writeln!(
+                out,
+                "  cost ½‖r‖²: {:.6e} before, {:.6e} after; residual σ̂ {sigma}",
+                leg.initial_cost, leg.final_cost
+            );
+        }
         let values: Vec<String> = leg
             .observability
             .singular_values
