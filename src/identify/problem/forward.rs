@@ -70,6 +70,20 @@ pub(super) struct Forward {
     /// Each row's configuration at its last solve (the next one's start), shared by the
     /// problem's clones (evaluated one after the other, never at once).
     pub(super) starts: Arc<Mutex<Vec<Option<Configuration>>>>,
+    /// The latest evaluation, keyed by the unknowns' bits: a solver asks for the Jacobian where
+    /// it has just evaluated the residuals, and the statistics again at the estimate.
+    latest: Arc<Mutex<Option<Latest>>>,
+}
+
+/// The latest evaluation of a problem's forward rows.
+#[derive(Debug)]
+struct Latest {
+    /// The unknowns' bits.
+    key: Vec<u64>,
+    /// Every row's closed pose there.
+    poses: Vec<[f64; 6]>,
+    /// The evaluation (with its derivatives if they were asked for).
+    evaluation: ForwardEvaluation,
 }
 
 impl Forward {
@@ -80,6 +94,7 @@ impl Forward {
             rows: Arc::new(rows),
             distances: Arc::new(distances),
             starts: Arc::new(Mutex::new(starts)),
+            latest: Arc::new(Mutex::new(None)),
         }
     }
 
@@ -91,6 +106,7 @@ impl Forward {
 
 /// What one evaluation of the forward rows gives: the residuals, and on request their
 /// derivatives with respect to the unknowns and to the readings.
+#[derive(Debug, Clone)]
 pub(super) struct ForwardEvaluation {
     /// `h(P, θ) − y`: every coordinate of each row with coordinates, then every distance.
     pub(super) residuals: Vec<f64>,
@@ -166,10 +182,20 @@ impl IdentificationProblem<'_> {
         let (Some(forward), Some(sighted)) = (&self.forward, &self.sighted) else {
             return Ok(evaluation);
         };
+        let key: Vec<u64> = x.iter().map(|v| v.to_bits()).collect();
+        let mut latest = forward
+            .latest
+            .lock()
+            .unwrap_or_else(std::sync::PoisonError::into_inner);
+        let known = latest.as_ref().filter(|l| l.key == key);
+        if let Some(known) = known.filter(|l| !jacobian || l.evaluation.jacobian.is_some()) {
+            return Ok(known.evaluation.clone());
+        }
+        let known_poses = known.map(|l| l.poses.clone());
         let instrument = sighted.instrument;
         let params = self.all_leg_parameters(x);
         let shared = sighted.values(x.as_slice());
-        let closed = self.close_rows(forward, (&params, x), jacobian)?;
+        let closed = self.close_rows(forward, (&params, x), (jacobian, known_poses.as_deref()))?;
         let measured = &self.mechanism.measured;
         let p = self.parameter_count();
         let first_shared = p - sighted.shared.len();
@@ -243,19 +269,30 @@ impl IdentificationProblem<'_> {
         if jacobian {
             evaluation.jacobian = Some(DMatrix::from_fn(rows.len(), p, |i, j| rows[i][j]));
         }
+        *latest = Some(Latest {
+            key,
+            poses: closed.iter().map(|c| c.pose).collect(),
+            evaluation: evaluation.clone(),
+        });
         Ok(evaluation)
     }
 
     /// Every row's closed pose at the leg parameters `params` (the unknowns `x`), warm-started
-    /// from its last configuration, with its movements when `moves`.
+    /// from its last configuration (or `known`, closed there by the latest evaluation), with
+    /// its movements when `moves`.
     fn close_rows(
         &self,
         forward: &Forward,
         (params, x): (&[Vec<f64>], &DVector<f64>),
-        moves: bool,
+        (moves, known): (bool, Option<&[[f64; 6]]>),
     ) -> Result<Vec<Closed>, BlockError> {
         let mechanism = self.mechanism;
-        let kinematics = ForwardKinematics::new(mechanism, params);
+        // Poses already closed at these unknowns need no solve (their configurations are the
+        // rows' starts).
+        let kinematics = match known {
+            Some(_) => None,
+            None => Some(ForwardKinematics::new(mechanism, params)),
+        };
         let prepared: Vec<PreparedLeg<'_>> = if moves {
             mechanism
                 .legs
@@ -277,9 +314,17 @@ impl IdentificationProblem<'_> {
         for (index, row) in forward.rows.iter().enumerate() {
             let fail = |source: KinematicsError| self.forward_error(index, source, x);
             let configuration = starts[index].get_or_insert_with(|| self.home_configuration());
-            let pose = kinematics
-                .solve_near(&row.readings, configuration)
-                .map_err(fail)?;
+            let pose = match (known, &kinematics) {
+                (Some(poses), _) => poses[index],
+                (None, Some(kinematics)) => kinematics
+                    .solve_near(&row.readings, configuration)
+                    .map_err(fail)?,
+                (None, None) => {
+                    return Err(fail(KinematicsError::NotAssemblable {
+                        residual: f64::INFINITY,
+                    }))
+                }
+            };
             // solve_near may fall back to a continuation from home: keep where it closed.
             configuration.pose = pose;
             let moves = match moves {
