@@ -49,7 +49,8 @@ pub fn predicted_position(
     let home = &mechanism.home_pose;
     let grid = map_grid(mechanism, mechanism.workspace.grid?, SCALE).ok()?;
     let width = seen.instrument.as_ref()?.observed_len();
-    let rows: Vec<ObservedRow> = grid
+    // The grid poses every leg reaches, and the readings the model commands there.
+    let (poses, rows): (Vec<[f64; 6]>, Vec<ObservedRow>) = grid
         .iter()
         .filter_map(|pose| {
             let readings = mechanism
@@ -58,15 +59,16 @@ pub fn predicted_position(
                 .zip(&params)
                 .map(|(leg, phi)| predict_reading(leg, phi, pose, home).ok().map(Some))
                 .collect::<Option<Vec<_>>>()?;
-            Some(ObservedRow {
+            let row = ObservedRow {
                 line: None,
                 leg: None,
                 observed: vec![0.0; width],
                 readings,
                 id: None,
-            })
+            };
+            Some((*pose, row))
         })
-        .collect();
+        .unzip();
     if rows.is_empty() {
         return None;
     }
@@ -81,16 +83,6 @@ pub fn predicted_position(
         return None;
     }
     let (_, jacobian) = problem.residuals_and_jacobian(&x).ok()?;
-    let poses: Vec<[f64; 6]> = grid
-        .iter()
-        .copied()
-        .filter(|pose| {
-            let reached = |(leg, phi): (&crate::model::leg::LegModel, &Vec<f64>)| {
-                predict_reading(leg, phi, pose, home).is_ok()
-            };
-            mechanism.legs.iter().zip(&params).all(reached)
-        })
-        .collect();
     let points = poses.len();
     // The first target's rows, with the motions its observations cannot see projected out.
     let mut target = DMatrix::from_fn(3 * points, x.len(), |r, j| {

@@ -124,18 +124,23 @@ struct Closed {
     moves: Option<(DMatrix<f64>, DMatrix<f64>)>,
 }
 
-/// `∂f/∂P` (rows of `f`, 6 columns) and `∂f/∂θ` over the identified shared parameters of a
-/// function `f(P, θ)` evaluated by dual numbers, one pass per column.
+/// The values of a function `f(P, θ)` evaluated by dual numbers and, when `columns`, `∂f/∂P`
+/// (rows of `f`, 6 columns) and `∂f/∂θ` over the identified shared parameters, one pass per
+/// column (zero without `columns`: a residual-only evaluation needs none).
 fn derivatives(
     f: impl Fn(&[Dual64], &[Dual64; 6]) -> Vec<Dual64>,
     (shared, identified): (&[f64], &[usize]),
     pose: &[f64; 6],
-    measured: &[usize],
+    (measured, columns): (&[usize], bool),
 ) -> (Vec<f64>, DMatrix<f64>, DMatrix<f64>) {
     let lifted: Vec<Dual64> = shared.iter().map(|&v| Dual64::from(v)).collect();
     let plain = pose.map(Dual64::from);
     let values: Vec<f64> = f(&lifted, &plain).iter().map(|v| v.re).collect();
     let mut by_pose = DMatrix::zeros(values.len(), 6);
+    let mut by_shared = DMatrix::zeros(values.len(), identified.len());
+    if !columns {
+        return (values, by_pose, by_shared);
+    }
     for &c in measured {
         let mut seeded = plain;
         seeded[c] = seeded[c].derivative();
@@ -143,7 +148,6 @@ fn derivatives(
             by_pose[(o, c)] = value.eps;
         }
     }
-    let mut by_shared = DMatrix::zeros(values.len(), identified.len());
     for (j, &k) in identified.iter().enumerate() {
         let mut seeded = lifted.clone();
         seeded[k] = seeded[k].derivative();
@@ -230,7 +234,7 @@ impl IdentificationProblem<'_> {
                 report,
                 (&shared, &sighted.shared),
                 &closed[r].pose,
-                measured,
+                (measured, jacobian),
             );
             for (o, (value, seen)) in values.iter().zip(&row.observed).enumerate() {
                 push(
@@ -250,7 +254,7 @@ impl IdentificationProblem<'_> {
                         position,
                         (&shared, &sighted.shared),
                         &closed[r].pose,
-                        measured,
+                        (measured, jacobian),
                     )
                 });
                 let gap: Vec<f64> = (0..3).map(|k| a.0[k] - b.0[k]).collect();
