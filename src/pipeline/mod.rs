@@ -150,7 +150,12 @@ pub fn identify_one(
             }
             let mut result = identify_shared(mechanism, observations, strategy, fit)?;
             if strategy == Strategy::Joint {
-                let test = held_frame_test(mechanism, observations, &result);
+                let test = match unseen_frame(mechanism) {
+                    // Freed, a frame component the observations cannot see leaves the problem
+                    // rank-deficient: there is nothing to test.
+                    true => None,
+                    false => held_frame_test(mechanism, observations, &result),
+                };
                 let predicted = predicted_position(mechanism, &result);
                 if let Some(instrument) = result.instrument.as_mut() {
                     instrument.held_frame = test;
@@ -160,6 +165,17 @@ pub fn identify_one(
             Ok(result)
         }
     }
+}
+
+/// Seen through the forward kinematics, does the model hold a frame component its first
+/// target's reported coordinates cannot see (a bed's x, y, yaw under a height probe; tested at
+/// the home pose)?
+fn unseen_frame(mechanism: &Mechanism) -> bool {
+    let Some(instrument) = mechanism.instrument.as_ref().filter(|i| i.forward) else {
+        return false;
+    };
+    !crate::evaluate::observed_frame::unseen_components(instrument, &[mechanism.home_pose])
+        .is_empty()
 }
 
 /// The accuracy map of the nominal model, then of each result, against the `real` legs (the
