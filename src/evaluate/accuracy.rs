@@ -7,6 +7,7 @@
 use nalgebra::Rotation3;
 use serde::Serialize;
 
+pub use super::error_stats::ErrorStats;
 use super::observed_frame::{observed_frame_error, ObservedFrameError};
 use crate::error::{Error, Result};
 use crate::identify::estimate::StrategyResult;
@@ -16,19 +17,6 @@ use crate::kinematics::platform::{forward, Configuration, ForwardKinematics};
 use crate::model::leg::LegGeometry;
 use crate::model::Mechanism;
 use crate::progress::Progress;
-
-/// Summary of a set of non-negative errors (metres or radians).
-#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
-pub struct ErrorStats {
-    /// Root mean square.
-    pub rms: f64,
-    /// Median (mean of the two middle values for an even count).
-    pub median: f64,
-    /// 95th percentile (linear interpolation between order statistics).
-    pub p95: f64,
-    /// Largest error.
-    pub max: f64,
-}
 
 /// One commanded pose of an accuracy map.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]
@@ -72,31 +60,6 @@ const PROGRESS_CHUNK: usize = 4096;
 
 /// Largest accuracy map (grid points inside the region).
 pub const MAX_MAP_POINTS: usize = 2_000_000;
-
-impl ErrorStats {
-    /// Statistics of `errors`; `None` for an empty set or a non-finite error.
-    pub fn of(errors: &[f64]) -> Option<Self> {
-        if errors.is_empty() || errors.iter().any(|e| !e.is_finite()) {
-            return None;
-        }
-        let mut sorted = errors.to_vec();
-        sorted.sort_by(f64::total_cmp);
-        let n = sorted.len();
-        let quantile = |q: f64| {
-            let position = q * (n - 1) as f64;
-            let below = position.floor() as usize;
-            let above = (below + 1).min(n - 1);
-            let weight = position - below as f64;
-            sorted[below] + weight * (sorted[above] - sorted[below])
-        };
-        Some(Self {
-            rms: (sorted.iter().map(|e| e * e).sum::<f64>() / n as f64).sqrt(),
-            median: quantile(0.5),
-            p95: quantile(0.95),
-            max: sorted[n - 1],
-        })
-    }
-}
 
 /// Does the mechanism measure an orientation (roll, pitch or yaw)?
 pub fn measures_orientation(mechanism: &Mechanism) -> bool {

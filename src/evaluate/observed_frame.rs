@@ -15,7 +15,7 @@ use nalgebra::{DMatrix, DVector};
 use num_dual::Dual64;
 use serde::Serialize;
 
-use super::accuracy::ErrorStats;
+use super::error_stats::ErrorStats;
 use crate::measure::targets::{observe_in, target_in_frame};
 use crate::model::instrument::Instrument;
 

@@ -23,11 +23,10 @@
 //! vector from `X_b` to `X_a` (and the target offset's own columns). A row may carry readings
 //! and no coordinates when only distances name it.
 
-use std::sync::{Arc, Mutex};
-
 use nalgebra::{DMatrix, DVector};
 use num_dual::Dual64;
 
+use super::forward_rows::{Forward, ForwardEvaluation, Latest};
 use super::{BlockError, IdentificationProblem};
 use crate::error::KinematicsError;
 use crate::identify::jacobian::PreparedLeg;
@@ -35,87 +34,6 @@ use crate::kinematics::inverse::{joints, Joints};
 use crate::kinematics::platform::{Configuration, ForwardKinematics};
 use crate::measure::targets::{observe_in, target_position};
 use crate::model::mechanism::MeasurementNoise;
-
-/// One forward row: every leg's reading and what the instrument reported there.
-#[derive(Debug, Clone)]
-pub(super) struct ForwardRow {
-    /// The row's index in the observations.
-    pub(super) source: usize,
-    /// Line in the measurement file, if read from one.
-    pub(super) line: Option<usize>,
-    /// One reading per leg of the mechanism.
-    pub(super) readings: Vec<f64>,
-    /// The targets' coordinates, in measurement-row order (empty for a row only distances use).
-    pub(super) observed: Vec<f64>,
-}
-
-/// A measured distance between the distance target's positions at two forward rows.
-#[derive(Debug, Clone)]
-pub(super) struct ForwardDistance {
-    /// A measurement index of its own (after the observations' rows).
-    pub(super) source: usize,
-    /// The two rows (indices into the forward rows).
-    pub(super) rows: [usize; 2],
-    /// The measured distance, metres.
-    pub(super) value: f64,
-}
-
-/// The forward rows of a problem and their warm starts.
-#[derive(Debug, Clone)]
-pub(super) struct Forward {
-    /// The rows (shared by the problem's clones).
-    pub(super) rows: Arc<Vec<ForwardRow>>,
-    /// The distances between rows.
-    pub(super) distances: Arc<Vec<ForwardDistance>>,
-    /// Each row's configuration at its last solve (the next one's start), shared by the
-    /// problem's clones (evaluated one after the other, never at once).
-    pub(super) starts: Arc<Mutex<Vec<Option<Configuration>>>>,
-    /// The latest evaluation, keyed by the unknowns' bits: a solver asks for the Jacobian where
-    /// it has just evaluated the residuals, and the statistics again at the estimate.
-    latest: Arc<Mutex<Option<Latest>>>,
-}
-
-/// The latest evaluation of a problem's forward rows.
-#[derive(Debug)]
-struct Latest {
-    /// The unknowns' bits.
-    key: Vec<u64>,
-    /// Every row's closed pose there.
-    poses: Vec<[f64; 6]>,
-    /// The evaluation (with its derivatives if they were asked for).
-    evaluation: ForwardEvaluation,
-}
-
-impl Forward {
-    /// The forward part of a problem over `rows` and `distances`.
-    pub(super) fn new(rows: Vec<ForwardRow>, distances: Vec<ForwardDistance>) -> Self {
-        let starts = vec![None; rows.len()];
-        Self {
-            rows: Arc::new(rows),
-            distances: Arc::new(distances),
-            starts: Arc::new(Mutex::new(starts)),
-            latest: Arc::new(Mutex::new(None)),
-        }
-    }
-
-    /// The same rows with fresh warm starts (a derived problem starts its own).
-    pub(super) fn renewed(&self) -> Self {
-        Self::new(self.rows.to_vec(), self.distances.to_vec())
-    }
-}
-
-/// What one evaluation of the forward rows gives: the residuals, and on request their
-/// derivatives with respect to the unknowns and to the readings.
-#[derive(Debug, Clone)]
-pub(super) struct ForwardEvaluation {
-    /// `h(P, θ) − y`: every coordinate of each row with coordinates, then every distance.
-    pub(super) residuals: Vec<f64>,
-    /// `∂r/∂x` (one row per residual), if asked for.
-    pub(super) jacobian: Option<DMatrix<f64>>,
-    /// Per residual, `∂r/∂s` over the readings it depends on (its row's, one per leg; a
-    /// distance's two rows', one after the other), if the Jacobian was asked for.
-    pub(super) reading_gradients: Vec<Vec<f64>>,
-}
 
 /// A row's closed pose and, for the Jacobian, how it moves: `∂P/∂x` (6 × unknowns, zero rows
 /// for the coordinates the model does not measure) and `∂P/∂s = A⁻¹` (6 × legs).

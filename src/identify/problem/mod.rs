@@ -30,11 +30,12 @@ use crate::solver::bordered::{BorderedBlock, BorderedLayout, BorderedLeastSquare
 
 mod evaluation;
 mod forward;
+mod forward_rows;
 mod noise;
 mod sighted;
 mod state;
 
-use forward::{Forward, ForwardDistance, ForwardRow};
+use forward_rows::{Forward, ForwardDistance, ForwardRow};
 use sighted::{Sighted, Sighting};
 use state::{Evaluation, Evaluations, KEPT_SOLUTION_ROWS};
 

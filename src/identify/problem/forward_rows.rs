@@ -1,0 +1,91 @@
+//! The forward rows of an [`IdentificationProblem`](super::IdentificationProblem) as data:
+//! every leg's reading and what the instrument saw at each row, the distances between rows, and
+//! what the problem keeps between evaluations (each row's configuration, the latest
+//! evaluation). Their evaluation is `problem/forward.rs`'s.
+
+use std::sync::{Arc, Mutex};
+
+use nalgebra::DMatrix;
+
+use crate::kinematics::platform::Configuration;
+
+/// One forward row: every leg's reading and what the instrument reported there.
+#[derive(Debug, Clone)]
+pub(super) struct ForwardRow {
+    /// The row's index in the observations.
+    pub(super) source: usize,
+    /// Line in the measurement file, if read from one.
+    pub(super) line: Option<usize>,
+    /// One reading per leg of the mechanism.
+    pub(super) readings: Vec<f64>,
+    /// The targets' coordinates, in measurement-row order (empty for a row only distances use).
+    pub(super) observed: Vec<f64>,
+}
+
+/// A measured distance between the distance target's positions at two forward rows.
+#[derive(Debug, Clone)]
+pub(super) struct ForwardDistance {
+    /// A measurement index of its own (after the observations' rows).
+    pub(super) source: usize,
+    /// The two rows (indices into the forward rows).
+    pub(super) rows: [usize; 2],
+    /// The measured distance, metres.
+    pub(super) value: f64,
+}
+
+/// The forward rows of a problem and their warm starts.
+#[derive(Debug, Clone)]
+pub(super) struct Forward {
+    /// The rows (shared by the problem's clones).
+    pub(super) rows: Arc<Vec<ForwardRow>>,
+    /// The distances between rows.
+    pub(super) distances: Arc<Vec<ForwardDistance>>,
+    /// Each row's configuration at its last solve (the next one's start), shared by the
+    /// problem's clones (evaluated one after the other, never at once).
+    pub(super) starts: Arc<Mutex<Vec<Option<Configuration>>>>,
+    /// The latest evaluation, keyed by the unknowns' bits: a solver asks for the Jacobian where
+    /// it has just evaluated the residuals, and the statistics again at the estimate.
+    pub(super) latest: Arc<Mutex<Option<Latest>>>,
+}
+
+/// The latest evaluation of a problem's forward rows.
+#[derive(Debug)]
+pub(super) struct Latest {
+    /// The unknowns' bits.
+    pub(super) key: Vec<u64>,
+    /// Every row's closed pose there.
+    pub(super) poses: Vec<[f64; 6]>,
+    /// The evaluation (with its derivatives if they were asked for).
+    pub(super) evaluation: ForwardEvaluation,
+}
+
+impl Forward {
+    /// The forward part of a problem over `rows` and `distances`.
+    pub(super) fn new(rows: Vec<ForwardRow>, distances: Vec<ForwardDistance>) -> Self {
+        let starts = vec![None; rows.len()];
+        Self {
+            rows: Arc::new(rows),
+            distances: Arc::new(distances),
+            starts: Arc::new(Mutex::new(starts)),
+            latest: Arc::new(Mutex::new(None)),
+        }
+    }
+
+    /// The same rows with fresh warm starts (a derived problem starts its own).
+    pub(super) fn renewed(&self) -> Self {
+        Self::new(self.rows.to_vec(), self.distances.to_vec())
+    }
+}
+
+/// What one evaluation of the forward rows gives: the residuals, and on request their
+/// derivatives with respect to the unknowns and to the readings.
+#[derive(Debug, Clone)]
+pub(super) struct ForwardEvaluation {
+    /// `h(P, θ) − y`: every coordinate of each row with coordinates, then every distance.
+    pub(super) residuals: Vec<f64>,
+    /// `∂r/∂x` (one row per residual), if asked for.
+    pub(super) jacobian: Option<DMatrix<f64>>,
+    /// Per residual, `∂r/∂s` over the readings it depends on (its row's, one per leg; a
+    /// distance's two rows', one after the other), if the Jacobian was asked for.
+    pub(super) reading_gradients: Vec<Vec<f64>>,
+}
