@@ -73,6 +73,20 @@ pub struct Configuration {
     pub joints: Vec<Joints>,
 }
 
+impl Configuration {
+    /// `mechanism` at home: its home pose with every leg's home joints.
+    pub fn home(mechanism: &Mechanism) -> Self {
+        Self {
+            pose: mechanism.home_pose,
+            joints: mechanism
+                .legs
+                .iter()
+                .map(|l| joints(&l.home_joints))
+                .collect(),
+        }
+    }
+}
+
 /// The forward kinematics of a mechanism at one parameter vector, prepared for many readings:
 /// the legs' geometries and chain frames, the home readings and the home assembly mode are
 /// computed once. Newton's method works in preallocated fixed storage.
@@ -142,15 +156,7 @@ impl<'m> ForwardKinematics<'m> {
 
     /// The home pose with every leg's home joints.
     fn home_configuration(&self) -> Configuration {
-        Configuration {
-            pose: self.mechanism.home_pose,
-            joints: self
-                .mechanism
-                .legs
-                .iter()
-                .map(|l| joints(&l.home_joints))
-                .collect(),
-        }
+        Configuration::home(self.mechanism)
     }
 
     /// The pose reached for `readings` (one per leg), continued from the home readings to stay

@@ -68,6 +68,22 @@ fn exact(mechanism: &Mechanism) -> Mechanism {
     })
 }
 
+/// The probe model's held parameters: tower 1, t2x, rods, gains, the bed's height and tilts.
+const EVERYTHING_HELD: &[&str] = &[
+    "t1x",
+    "t1y",
+    "t2x",
+    "L1",
+    "L2",
+    "L3",
+    "k1",
+    "k2",
+    "k3",
+    "frame_z",
+    "frame_roll",
+    "frame_pitch",
+];
+
 /// `mechanism` with the named leg and instrument parameters identified too.
 fn freed(mechanism: &Mechanism, names: &[&str]) -> Mechanism {
     mechanism.edited(|parts| {
@@ -113,23 +129,7 @@ fn jacobian_gap(problem: &IdentificationProblem<'_>, x: &DVector<f64>) -> f64 {
 #[test]
 fn forward_jacobians_match_central_differences_for_heights_and_positions() {
     let probe = bundled("delta-probe.yaml");
-    let everything = freed(
-        &probe,
-        &[
-            "t1x",
-            "t1y",
-            "t2x",
-            "L1",
-            "L2",
-            "L3",
-            "k1",
-            "k2",
-            "k3",
-            "frame_z",
-            "frame_roll",
-            "frame_pitch",
-        ],
-    );
+    let everything = freed(&probe, EVERYTHING_HELD);
     let models = [
         probe,
         everything,
@@ -214,23 +214,7 @@ fn at_zero_noise_both_forward_models_recover_every_identified_parameter() {
 #[test]
 fn with_rods_gains_and_every_tower_free_the_rank_check_names_what_heights_cannot_see() {
     let probe = bundled("delta-probe.yaml");
-    let everything = freed(
-        &probe,
-        &[
-            "t1x",
-            "t1y",
-            "t2x",
-            "L1",
-            "L2",
-            "L3",
-            "k1",
-            "k2",
-            "k3",
-            "frame_z",
-            "frame_roll",
-            "frame_pitch",
-        ],
-    );
+    let everything = freed(&probe, EVERYTHING_HELD);
     let (observations, _, _) = experiment(&everything, 1.0);
     let error = identify_shared(&everything, &observations, Strategy::Joint)
         .expect_err("heights alone cannot identify everything");

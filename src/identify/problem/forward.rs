@@ -27,10 +27,11 @@ use nalgebra::{DMatrix, DVector};
 use num_dual::Dual64;
 
 use super::forward_rows::{Forward, ForwardEvaluation, Latest};
+use super::noise::coordinate_sigmas;
 use super::{BlockError, IdentificationProblem};
 use crate::error::KinematicsError;
 use crate::identify::jacobian::PreparedLeg;
-use crate::kinematics::inverse::{joints, Joints};
+use crate::kinematics::inverse::Joints;
 use crate::kinematics::platform::{Configuration, ForwardKinematics};
 use crate::measure::targets::{observe_in, target_position};
 use crate::model::mechanism::MeasurementNoise;
@@ -235,7 +236,7 @@ impl IdentificationProblem<'_> {
         let mut closed = Vec::with_capacity(forward.rows.len());
         for (index, row) in forward.rows.iter().enumerate() {
             let fail = |source: KinematicsError| self.forward_error(index, source, x);
-            let configuration = starts[index].get_or_insert_with(|| self.home_configuration());
+            let configuration = starts[index].get_or_insert_with(|| Configuration::home(mechanism));
             let pose = match (known, &kinematics) {
                 (Some(poses), _) => poses[index],
                 (None, Some(kinematics)) => kinematics
@@ -259,19 +260,6 @@ impl IdentificationProblem<'_> {
             closed.push(Closed { pose, moves });
         }
         Ok(closed)
-    }
-
-    /// The mechanism at home: the start of a row's first forward solve.
-    fn home_configuration(&self) -> Configuration {
-        Configuration {
-            pose: self.mechanism.home_pose,
-            joints: self
-                .mechanism
-                .legs
-                .iter()
-                .map(|l| joints(&l.home_joints))
-                .collect(),
-        }
     }
 
     /// How a closed pose `pose` moves with the unknowns and the readings (see the module's
@@ -361,13 +349,7 @@ impl IdentificationProblem<'_> {
             return Ok(Vec::new());
         };
         let evaluation = self.evaluate_forward(x, true)?;
-        let sigmas: Vec<f64> = sighted
-            .instrument
-            .targets
-            .iter()
-            .flat_map(|t| t.pose_indices())
-            .map(|&c| noise.pose[c])
-            .collect();
+        let sigmas = coordinate_sigmas(sighted.instrument, noise);
         let per_row = sigmas.len();
         let distance_sigma = sighted
             .instrument

@@ -7,6 +7,7 @@ use nalgebra::DVector;
 use super::sighted::reading_pose_gradient;
 use super::IdentificationProblem;
 use crate::identify::sandwich::NoiseLoadings;
+use crate::model::instrument::Instrument;
 use crate::model::mechanism::MeasurementNoise;
 
 impl IdentificationProblem<'_> {
@@ -38,13 +39,7 @@ impl IdentificationProblem<'_> {
         }
         let shared = self.shared_values(x);
         let home = &self.mechanism.home_pose;
-        let sigmas: Vec<f64> = sighted
-            .instrument
-            .targets
-            .iter()
-            .flat_map(|t| t.pose_indices())
-            .map(|&c| noise.pose[c])
-            .collect();
+        let sigmas = coordinate_sigmas(sighted.instrument, noise);
         let rows = self.map_solved(x, |index, leg, placed, solution| {
             let row = &sighted.rows[index];
             let d = reading_pose_gradient(leg, &placed.pose, solution);
@@ -75,4 +70,15 @@ impl IdentificationProblem<'_> {
     ) -> Result<Vec<f64>, ArgminError> {
         Ok(self.noise_loadings(x, noise)?.variances())
     }
+}
+
+/// The declared σ of every target coordinate of a measurement row, in row order (the noise of
+/// the pose coordinate of the same name).
+pub(super) fn coordinate_sigmas(instrument: &Instrument, noise: &MeasurementNoise) -> Vec<f64> {
+    instrument
+        .targets
+        .iter()
+        .flat_map(|t| t.pose_indices())
+        .map(|&c| noise.pose[c])
+        .collect()
 }
