@@ -141,13 +141,23 @@ pub fn parse(text: &str, path: &Path, mechanism: &Mechanism) -> Result<Observati
     let expected = expected_columns(mechanism, instrument);
     let commanded = commanded_columns(mechanism);
     let forward_optional = forward_columns(instrument);
-    let mut listing = format!(
-        "{} (and optionally {}, ignored)",
-        expected.join(", "),
-        commanded.join(", ")
-    );
-    if !forward_optional.is_empty() {
-        listing.push_str(&format!(", and {}", forward_optional.join(", ")));
+    let mut listing = match instrument.forward {
+        false => format!(
+            "{} (and optionally {}, ignored)",
+            expected.join(", "),
+            commanded.join(", ")
+        ),
+        true => format!(
+            "{} (and optionally {}: the commanded pose of a row without readings; {})",
+            expected.join(", "),
+            commanded.join(", "),
+            forward_optional.join(", ")
+        ),
+    };
+    if instrument.forward && instrument.distances.is_none() {
+        listing.push_str(
+            "; distance rows (from, to, distance) need the model's `instrument.distances`",
+        );
     }
     let mut optional = commanded;
     optional.extend(forward_optional);
