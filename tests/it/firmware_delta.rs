@@ -809,3 +809,64 @@ fn firmware_factors_and_legwise_fits_side_by_side_over_the_workspace() {
     let seven = f7.workspace();
     assert!(seven > 2.0 * six, "7 factors: {seven} against {six}");
 }
+
+/// legwise's own error in the frame the observations define (the map's `observed_frame`) is
+/// this test's gauge-free error, computed independently (exact in-plane Procrustes here, the
+/// linearised motion of the held frame components there), on one experiment's default fit.
+#[test]
+fn the_observed_frame_error_of_the_map_is_the_gauge_free_error() {
+    use legwise::evaluate::observed_frame::observed_frame_error;
+    let probe = bundled("delta-probe.yaml");
+    let settings = SimulationSettings {
+        options: SimulationOptions {
+            seed: Some(1),
+            noise_scale: 1.0,
+            poses_per_leg: None,
+        },
+        poses: PoseSource::Random,
+        grid: None,
+    };
+    let simulated = simulate(&probe, &settings).expect("simulates");
+    let real_shared = simulated.real.instrument.clone().expect("the real bed");
+    let real = RealPrinter {
+        kinematics: ForwardKinematics::new(&probe, &simulated.real.legs),
+        bed: Bed::of(&real_shared),
+    };
+    let result = identify_one(
+        &probe,
+        &simulated.measurements,
+        Strategy::Joint,
+        SolverKind::LevenbergMarquardt,
+        FitOptions::default(),
+    )
+    .expect("legwise identifies");
+    let params = result_parameters(&probe, &result);
+    let shared = estimated_shared(&result);
+    let bed = Bed::of(&shared);
+    let commanded = commanded_grid();
+    let readings = legwise_readings(&probe, &params, &bed);
+    let ours = workspace_error(&real, &commanded, &readings);
+    // The same commanded points as the map's targets (effector poses in the base frame) and
+    // the poses the real delta reaches there.
+    let targets: Vec<[f64; 6]> = commanded
+        .iter()
+        .map(|c| {
+            let centre = bed.origin + bed.rotation * c - bed.nozzle;
+            [centre.x, centre.y, centre.z, 0.0, 0.0, 0.0]
+        })
+        .collect();
+    let reached: Vec<Option<[f64; 6]>> = commanded
+        .iter()
+        .map(|c| real.kinematics.solve(&readings(c)).ok())
+        .collect();
+    let instrument = probe.instrument.as_ref().expect("a bed");
+    let theirs = observed_frame_error(instrument, (&shared, &real_shared), &targets, &reached)
+        .expect("reached");
+    assert_eq!(theirs.target, "nozzle");
+    assert_eq!(theirs.aligned, ["frame_x", "frame_y", "frame_yaw"]);
+    let rms = theirs.position_error.rms;
+    assert!(
+        (rms - ours).abs() <= 1e-3 * ours,
+        "observed-frame RMS {rms} against the gauge-free {ours}"
+    );
+}
