@@ -39,7 +39,7 @@ use legwise::pipeline::{identify_one, simulate, PoseSource, SimulationSettings};
 use legwise::solver::SolverKind;
 use nalgebra::{DMatrix, DVector, Matrix3, Vector3};
 
-use crate::support::bundled;
+use crate::support::{bundled, with_identified};
 
 /// The nozzle's offset under the effector centre (the model's target), m.
 const NOZZLE: f64 = -0.02;
@@ -551,26 +551,6 @@ impl Table {
             self.iterations, self.rods[0], self.rods[1]
         );
     }
-}
-
-/// `mechanism` with the named leg and instrument parameters identified or held.
-fn with_identified(mechanism: &Mechanism, names: &[&str], identified: bool) -> Mechanism {
-    mechanism.edited(|parts| {
-        for leg in &mut parts.legs {
-            for p in &mut leg.params {
-                if names.contains(&p.name.as_str()) {
-                    p.identified = identified;
-                }
-            }
-        }
-        if let Some(instrument) = parts.instrument.as_mut() {
-            for p in &mut instrument.parameters {
-                if names.contains(&p.name.as_str()) {
-                    p.identified = identified;
-                }
-            }
-        }
-    })
 }
 
 /// Every fit over the [`EXPERIMENTS`] seeded experiments of models/delta-probe.yaml at

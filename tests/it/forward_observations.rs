@@ -15,7 +15,7 @@ use legwise::pipeline::{simulate, PoseSource, SimulationSettings};
 use nalgebra::{DMatrix, DVector};
 
 use crate::instrument_support::identify_shared;
-use crate::support::{bundled, crate_path};
+use crate::support::{bundled, crate_path, with_identified};
 
 /// `text` loaded as a model file beside models/delta.urdf.
 fn parse_model(text: &str) -> legwise::error::Result<Mechanism> {
@@ -86,22 +86,7 @@ const EVERYTHING_HELD: &[&str] = &[
 
 /// `mechanism` with the named leg and instrument parameters identified too.
 fn freed(mechanism: &Mechanism, names: &[&str]) -> Mechanism {
-    mechanism.edited(|parts| {
-        for leg in &mut parts.legs {
-            for p in &mut leg.params {
-                if names.contains(&p.name.as_str()) {
-                    p.identified = true;
-                }
-            }
-        }
-        if let Some(instrument) = parts.instrument.as_mut() {
-            for p in &mut instrument.parameters {
-                if names.contains(&p.name.as_str()) {
-                    p.identified = true;
-                }
-            }
-        }
-    })
+    with_identified(mechanism, names, true)
 }
 
 /// The largest gap between the problem's Jacobian at `x` and central differences of its

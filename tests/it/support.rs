@@ -133,3 +133,27 @@ pub(crate) fn svg_text_attribute(svg: &str, start: &str, attribute: &str) -> f64
         .and_then(|value| value.parse().ok())
         .unwrap_or_else(|| panic!("text `{start}`: no numeric {attribute}"))
 }
+
+/// `mechanism` with the named leg and instrument parameters identified (`identified`) or held.
+pub(crate) fn with_identified(
+    mechanism: &Mechanism,
+    names: &[&str],
+    identified: bool,
+) -> Mechanism {
+    mechanism.edited(|parts| {
+        for leg in &mut parts.legs {
+            for p in &mut leg.params {
+                if names.contains(&p.name.as_str()) {
+                    p.identified = identified;
+                }
+            }
+        }
+        if let Some(instrument) = parts.instrument.as_mut() {
+            for p in &mut instrument.parameters {
+                if names.contains(&p.name.as_str()) {
+                    p.identified = identified;
+                }
+            }
+        }
+    })
+}
