@@ -122,26 +122,30 @@ impl IdentificationProblem<'_> {
         let measured = &self.mechanism.measured;
         let p = self.parameter_count();
         let first_shared = p - sighted.shared.len();
-        let mut rows: Vec<DVector<f64>> = Vec::new();
+        // Every residual's row of the Jacobian, written in place (one allocation).
+        let count = forward.rows.iter().filter(|r| !r.observed.is_empty()).count()
+            * instrument.observed_len()
+            + forward.distances.len();
+        let mut matrix = jacobian.then(|| DMatrix::zeros(count, p));
         // One residual: its value, ∂r/∂P of each of its rows and its direct ∂r/∂θ.
         let mut push = |value: f64,
                         parts: &[(usize, nalgebra::RowDVector<f64>)],
                         direct: nalgebra::RowDVector<f64>| {
+            let i = evaluation.residuals.len();
             evaluation.residuals.push(value);
-            if !jacobian {
+            let Some(matrix) = matrix.as_mut() else {
                 return;
-            }
-            let mut row = DVector::zeros(p);
+            };
+            let mut row = matrix.row_mut(i);
             let mut readings = Vec::new();
             for (r, by_pose) in parts {
                 let (dx, ds) = closed[*r].moves.as_ref().expect("derivatives asked for");
-                row += (by_pose * dx).transpose();
+                row += by_pose * dx;
                 readings.extend((by_pose * ds).iter().copied());
             }
             for (j, &value) in direct.iter().enumerate() {
                 row[first_shared + j] += value;
             }
-            rows.push(row);
             evaluation.reading_gradients.push(readings);
         };
         for (r, row) in forward.rows.iter().enumerate() {
@@ -189,9 +193,7 @@ impl IdentificationProblem<'_> {
                 push(length - distance.value, &parts, &u * (&a.2 - &b.2));
             }
         }
-        if jacobian {
-            evaluation.jacobian = Some(DMatrix::from_fn(rows.len(), p, |i, j| rows[i][j]));
-        }
+        evaluation.jacobian = matrix;
         *latest = Some(Latest {
             key,
             poses: closed.iter().map(|c| c.pose).collect(),
