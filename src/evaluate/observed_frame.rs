@@ -59,15 +59,30 @@ pub(crate) fn unseen_components(instrument: &Instrument, poses: &[[f64; 6]]) -> 
         .collect()
 }
 
-/// How the target moves in the nominal frame when frame component `k` moves, at `pose`.
-pub(crate) fn generator(instrument: &Instrument, k: usize, pose: &[f64; 6]) -> [f64; 3] {
-    let mut shared: Vec<Dual64> = instrument
+/// How the first target moves in the nominal frame when each unseen frame component moves, at
+/// every pose of `poses`: `3 × poses` rows (x, y, z of each pose), one column per component.
+pub(crate) fn unseen_motions(
+    instrument: &Instrument,
+    unseen: &[usize],
+    poses: &[[f64; 6]],
+) -> DMatrix<f64> {
+    let nominal: Vec<Dual64> = instrument
         .nominal()
         .iter()
         .map(|&v| Dual64::from(v))
         .collect();
-    shared[k] = shared[k].derivative();
-    target_in_frame(instrument, &shared, 0, &pose.map(Dual64::from)).map(|v| v.eps)
+    let mut motions = DMatrix::zeros(3 * poses.len(), unseen.len());
+    for (j, &k) in unseen.iter().enumerate() {
+        let mut shared = nominal.clone();
+        shared[k] = shared[k].derivative();
+        for (i, pose) in poses.iter().enumerate() {
+            let moved = target_in_frame(instrument, &shared, 0, &pose.map(Dual64::from));
+            for c in 0..3 {
+                motions[(3 * i + c, j)] = moved[c].eps;
+            }
+        }
+    }
+    motions
 }
 
 /// The first target's error in the frame the observations define over the grid `targets`
@@ -92,20 +107,14 @@ pub fn observed_frame_error(
     let commanded_poses: Vec<[f64; 6]> = pairs.iter().map(|p| p.0).collect();
     let unseen = unseen_components(instrument, &commanded_poses);
     let mut error = DVector::zeros(3 * pairs.len());
-    let mut motions = DMatrix::zeros(3 * pairs.len(), unseen.len());
     for (i, (target, reached)) in pairs.iter().enumerate() {
         let commanded = target_in_frame(instrument, commanding, 0, target);
         let seen = target_in_frame(instrument, real, 0, reached);
         for c in 0..3 {
             error[3 * i + c] = seen[c] - commanded[c];
         }
-        for (j, &k) in unseen.iter().enumerate() {
-            let g = generator(instrument, k, target);
-            for c in 0..3 {
-                motions[(3 * i + c, j)] = g[c];
-            }
-        }
     }
+    let motions = unseen_motions(instrument, &unseen, &commanded_poses);
     if !unseen.is_empty() {
         let fit = motions.clone().svd(true, true).solve(&error, 1e-12).ok()?;
         error -= motions * fit;

@@ -13,7 +13,7 @@
 use nalgebra::{DMatrix, DVector};
 
 use super::accuracy::map_grid;
-use super::observed_frame::{generator, unseen_components};
+use super::observed_frame::{unseen_components, unseen_motions};
 use crate::identify::problem::IdentificationProblem;
 use crate::identify::result::{PredictedPosition, StrategyResult};
 use crate::kinematics::inverse::predict_reading;
@@ -90,9 +90,7 @@ pub fn predicted_position(
     });
     let unseen = unseen_components(instrument, &poses);
     if !unseen.is_empty() {
-        let motions = DMatrix::from_fn(3 * points, unseen.len(), |r, k| {
-            generator(instrument, unseen[k], &poses[r / 3])[r % 3]
-        });
+        let motions = unseen_motions(instrument, &unseen, &poses);
         let along = motions.clone().svd(true, true).solve(&target, 1e-12).ok()?;
         target -= motions * along;
     }

@@ -123,7 +123,11 @@ impl IdentificationProblem<'_> {
         let p = self.parameter_count();
         let first_shared = p - sighted.shared.len();
         // Every residual's row of the Jacobian, written in place (one allocation).
-        let count = forward.rows.iter().filter(|r| !r.observed.is_empty()).count()
+        let count = forward
+            .rows
+            .iter()
+            .filter(|r| !r.observed.is_empty())
+            .count()
             * instrument.observed_len()
             + forward.distances.len();
         let mut matrix = jacobian.then(|| DMatrix::zeros(count, p));
