@@ -466,3 +466,26 @@ fn the_predicted_position_sigma_is_the_covariance_carried_by_central_differences
         assert_eq!(reported.tolerance, Some(1e-4));
     }
 }
+
+#[test]
+fn observations_made_in_memory_with_a_distance_to_a_missing_row_are_refused() {
+    let mechanism = bundled("delta-probe-distances.yaml");
+    let (mut observations, _, _) = experiment(&mechanism, 1.0);
+    observations.distances[0].rows = [0, observations.rows.len() + 5];
+    let message = identify_shared(&mechanism, &observations, Strategy::Joint)
+        .expect_err("a distance to a missing row")
+        .to_string();
+    assert!(
+        message.contains("a distance joins two different rows"),
+        "{message}"
+    );
+    let (mut observations, _, _) = experiment(&mechanism, 1.0);
+    observations.rows[3].readings.pop();
+    let message = identify_shared(&mechanism, &observations, Strategy::Joint)
+        .expect_err("a row with two readings")
+        .to_string();
+    assert!(
+        message.contains("row 3: 2 readings for the 3 legs"),
+        "{message}"
+    );
+}

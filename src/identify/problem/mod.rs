@@ -208,6 +208,19 @@ impl<'a> IdentificationProblem<'a> {
                         ))
                     })
                 });
+                let coordinates = instrument.observed_len();
+                let observed = row.observed.len();
+                if row.readings.len() != mechanism.legs.len()
+                    || (observed != 0 && observed != coordinates)
+                {
+                    return Err(Error::Invalid(format!(
+                        "row {source}: {} readings for the {} legs and {observed} target \
+                         coordinates (expected {coordinates}, or none for a row only distances \
+                         use)",
+                        row.readings.len(),
+                        mechanism.legs.len()
+                    )));
+                }
                 Ok(ForwardRow {
                     source,
                     line: row.line,
@@ -222,16 +235,30 @@ impl<'a> IdentificationProblem<'a> {
             held: instrument.nominal(),
             rows: Arc::new(Vec::new()),
         };
+        let rows_count = observations.rows.len();
         let distances = observations
             .distances
             .iter()
             .enumerate()
-            .map(|(k, d)| ForwardDistance {
-                source: observations.rows.len() + k,
-                rows: d.rows,
-                value: d.value,
+            .map(|(k, d)| {
+                let [a, b] = d.rows;
+                if a >= rows_count || b >= rows_count || a == b || !(d.value.is_finite()) {
+                    let at = d
+                        .line
+                        .map_or(format!("distance {k}"), |l| format!("line {l}"));
+                    return Err(Error::Invalid(format!(
+                        "{at}: a distance joins two different rows of the {rows_count} and \
+                         measures a finite length; found rows {a} and {b}, {} m",
+                        d.value
+                    )));
+                }
+                Ok(ForwardDistance {
+                    source: rows_count + k,
+                    rows: d.rows,
+                    value: d.value,
+                })
             })
-            .collect();
+            .collect::<Result<Vec<_>>>()?;
         let mut problem = Self::assemble(mechanism, legs, Vec::new(), Some(sighted));
         problem.forward = Some(Forward::new(rows, distances));
         Ok(problem)
