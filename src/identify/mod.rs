@@ -2,6 +2,7 @@
 //! the statistics of each fit, robust losses and the trust verdict.
 pub mod estimate;
 mod fit;
+pub mod gauges;
 pub mod held_test;
 pub mod jacobian;
 pub mod observability;

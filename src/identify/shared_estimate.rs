@@ -15,6 +15,7 @@
 use nalgebra::{DMatrix, DVector};
 
 use super::estimate::{leg_estimate, Fit};
+use super::gauges::unseen_motions;
 use super::observability::{analyse, Observability};
 use super::problem::IdentificationProblem;
 use super::result::{
@@ -59,23 +60,50 @@ pub fn check_rank(
     let x0 = problem.start();
     let (_, jacobian) = dense(problem, &x0)?;
     let names = problem.names();
-    let observability = analyse(&jacobian, &names);
+    let mut observability = analyse(&jacobian, &names);
+    // Through the forward kinematics: what the observations cannot see, as motions.
+    let motions = unseen_motions(problem, &x0, &jacobian);
     if observability.rank < names.len() {
         let file = source
             .source
             .as_ref()
             .map_or(String::new(), |p| format!("{}: ", p.display()));
+        let (seen, hint) = match &motions {
+            Some(m) => (
+                format!(
+                    "; the observations cannot see these motions of the reached points: {}; \
+                     the least seen after them: {} (column-scaled singular value {:.1e} of \
+                     the largest)",
+                    m.unseen.join(", "),
+                    m.weakest,
+                    m.weakest_ratio
+                ),
+                "hold one parameter for each unseen motion, one that moves the points that \
+                 way (a base joint's coordinate, a carriage offset or the instrument's height), \
+                 or measure what sees it (docs/models.md, \"Forward observations\")",
+            ),
+            None => (
+                String::new(),
+                "hold at their nominal values the base joints that define the base frame, the \
+                 attachments or target offsets that define the platform frame (docs/models.md, \
+                 \"What to hold\")",
+            ),
+        };
         return Err(Error::Invalid(format!(
             "{file}legs and instrument: rank-deficient identification: rank {} of {} \
-             parameters; cannot be identified: {} (null-space directions, column-scaled: {}); \
-             hold at their nominal values the base joints that define the base frame, the \
-             attachments or target offsets that define the platform frame (docs/models.md, \
-             \"What to hold\")",
+             parameters; cannot be identified: {} (null-space directions, column-scaled: {}){seen}; \
+             {hint}",
             observability.rank,
             names.len(),
             observability.unidentifiable.join(", "),
             observability.null_directions.join("; ")
         )));
+    }
+    if let Some(m) = motions.filter(|m| !m.weakest.is_empty()) {
+        observability.weakest_direction = format!(
+            "{} (moving the reached points by {})",
+            observability.weakest_direction, m.weakest
+        );
     }
     Ok(observability)
 }

@@ -203,21 +203,61 @@ fn at_zero_noise_both_forward_models_recover_every_identified_parameter() {
     }
 }
 
+/// The rank check's message on `model` with every tower position, rod, gain, carriage
+/// offset and the bed's height and tilts free (18 unknowns).
+fn everything_free_message(model: &str) -> String {
+    let everything = freed(&bundled(model), EVERYTHING_HELD);
+    let (observations, _, _) = experiment(&everything, 1.0);
+    identify_shared(&everything, &observations, Strategy::Joint)
+        .expect_err("the printer's place cannot be identified")
+        .to_string()
+}
+
+/// The motions a rank check's message names as unseen, and the least seen one after them.
+fn motions_named(message: &str) -> (String, String) {
+    let unseen = message
+        .split("the observations cannot see these motions of the reached points: ")
+        .nth(1)
+        .and_then(|rest| rest.split(';').next())
+        .unwrap_or_else(|| panic!("no unseen motions: {message}"));
+    let least = message
+        .split("the least seen after them: ")
+        .nth(1)
+        .and_then(|rest| rest.split(" (column-scaled").next())
+        .unwrap_or_else(|| panic!("no least seen motion: {message}"));
+    (unseen.to_string(), least.to_string())
+}
+
 #[test]
 fn with_rods_gains_and_every_tower_free_the_rank_check_names_what_heights_cannot_see() {
-    let probe = bundled("delta-probe.yaml");
-    let everything = freed(&probe, EVERYTHING_HELD);
-    let (observations, _, _) = experiment(&everything, 1.0);
-    let error = identify_shared(&everything, &observations, Strategy::Joint)
-        .expect_err("heights alone cannot identify everything");
-    let message = error.to_string();
-    // 18 unknowns; heights cannot see x, y, the turn about z nor the z datum. A common scale
-    // of every length and gain is only nearly unseen: the held effector joints and nozzle
-    // offset are lengths too.
+    let message = everything_free_message("delta-probe.yaml");
+    // 18 unknowns; heights cannot see where the printer stands in x and y, how it is turned
+    // about z, nor the z datum; a common scale of every length and gain only nearly (the held
+    // effector joints and nozzle offset are lengths too).
     assert!(message.contains("rank 14 of 18"), "{message}");
     for name in ["t1x", "t2y", "frame_z", "h0_1"] {
         assert!(message.contains(name), "{name} named: {message}");
     }
+    let (unseen, least) = motions_named(&message);
+    assert_eq!(
+        unseen,
+        "translation along x, translation along y, translation along z, rotation about z"
+    );
+    assert!(least.starts_with("≈ scale ("), "{least}");
+}
+
+#[test]
+fn with_distances_the_rank_check_finds_scale_seen() {
+    let message = everything_free_message("delta-probe-distances.yaml");
+    // Distances see the printer's size: the same four rigid motions stay unseen, scale is no
+    // longer what is least seen.
+    assert!(message.contains("rank 14 of 18"), "{message}");
+    let (unseen, least) = motions_named(&message);
+    assert_eq!(
+        unseen,
+        "translation along x, translation along y, translation along z, rotation about z"
+    );
+    assert!(!least.contains("scale"), "{least}");
 }
 
 #[test]

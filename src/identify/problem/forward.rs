@@ -38,15 +38,15 @@ use crate::model::mechanism::MeasurementNoise;
 
 /// A row's closed pose and, for the Jacobian, how it moves: `∂P/∂x` (6 × unknowns, zero rows
 /// for the coordinates the model does not measure) and `∂P/∂s = A⁻¹` (6 × legs).
-struct Closed {
-    pose: [f64; 6],
-    moves: Option<(DMatrix<f64>, DMatrix<f64>)>,
+pub(super) struct Closed {
+    pub(super) pose: [f64; 6],
+    pub(super) moves: Option<(DMatrix<f64>, DMatrix<f64>)>,
 }
 
 /// The values of a function `f(P, θ)` evaluated by dual numbers and, when `columns`, `∂f/∂P`
 /// (rows of `f`, 6 columns) and `∂f/∂θ` over the identified shared parameters, one pass per
 /// column (zero without `columns`: a residual-only evaluation needs none).
-fn derivatives(
+pub(super) fn derivatives(
     f: impl Fn(&[Dual64], &[Dual64; 6]) -> Vec<Dual64>,
     (shared, identified): (&[f64], &[usize]),
     pose: &[f64; 6],
@@ -79,7 +79,7 @@ fn derivatives(
 
 impl IdentificationProblem<'_> {
     /// Every leg's full parameter vector at the unknowns `x` (legs without a slot nominal).
-    fn all_leg_parameters(&self, x: &DVector<f64>) -> Vec<Vec<f64>> {
+    pub(super) fn all_leg_parameters(&self, x: &DVector<f64>) -> Vec<Vec<f64>> {
         let mut params = self.mechanism.nominal_parameters();
         for slot in &self.slots {
             params[slot.leg] = self.leg_parameters(slot, x);
@@ -209,7 +209,7 @@ impl IdentificationProblem<'_> {
     /// Every row's closed pose at the leg parameters `params` (the unknowns `x`), warm-started
     /// from its last configuration (or `known`, closed there by the latest evaluation), with
     /// its movements when `moves`.
-    fn close_rows(
+    pub(super) fn close_rows(
         &self,
         forward: &Forward,
         (params, x): (&[Vec<f64>], &DVector<f64>),

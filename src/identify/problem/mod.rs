@@ -32,10 +32,12 @@ mod evaluation;
 mod forward;
 mod forward_rows;
 mod noise;
+mod reached_points;
 mod sighted;
 mod state;
 
 use forward_rows::{Forward, ForwardDistance, ForwardRow};
+pub use reached_points::ReachedPoint;
 use sighted::{Sighted, Sighting};
 use state::{Evaluation, Evaluations, KEPT_SOLUTION_ROWS};
 

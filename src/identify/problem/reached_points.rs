@@ -1,0 +1,73 @@
+//! Where a forward model's rows take the instrument's target, and how those points move with
+//! the unknowns: the raw material of naming what the observations cannot see as motions of
+//! the mechanism ([`crate::identify::gauges`]).
+
+use nalgebra::{DMatrix, DVector};
+
+use super::forward::derivatives;
+use super::{BlockError, IdentificationProblem};
+use crate::measure::targets::target_position;
+
+/// One forward row's target point in the base frame and its derivative.
+#[derive(Debug, Clone)]
+pub struct ReachedPoint {
+    /// The target's position in the base frame at the row's closed pose, metres.
+    pub position: [f64; 3],
+    /// Its derivative with respect to the problem's unknowns (3 × unknowns): through the
+    /// closed pose (the implicit function theorem of the forward rows) and the target's offset.
+    pub moves: DMatrix<f64>,
+}
+
+impl IdentificationProblem<'_> {
+    /// Per forward row, the instrument's distance target (its first target without distances)
+    /// in the base frame where the row's readings take it at the unknowns `x`, with its
+    /// derivative. Empty without forward rows.
+    ///
+    /// # Errors
+    /// As the forward rows' evaluation: a row whose forward kinematics does not close.
+    pub fn reached_points(&self, x: &DVector<f64>) -> Result<Vec<ReachedPoint>, BlockError> {
+        let (Some(forward), Some(sighted)) = (&self.forward, &self.sighted) else {
+            return Ok(Vec::new());
+        };
+        let instrument = sighted.instrument;
+        let target = instrument.distances.as_ref().map_or(0, |d| d.target);
+        // The poses the latest evaluation closed at `x`, if it was there: no solve again.
+        let key: Vec<u64> = x.iter().map(|v| v.to_bits()).collect();
+        let known = forward
+            .latest
+            .lock()
+            .unwrap_or_else(std::sync::PoisonError::into_inner)
+            .as_ref()
+            .filter(|l| l.key == key)
+            .map(|l| l.poses.clone());
+        let params = self.all_leg_parameters(x);
+        let shared = sighted.values(x.as_slice());
+        let closed = self.close_rows(forward, (&params, x), (true, known.as_deref()))?;
+        let p = self.parameter_count();
+        let first_shared = p - sighted.shared.len();
+        let position = |s: &[num_dual::Dual64], pose: &[num_dual::Dual64; 6]| {
+            target_position(instrument, s, target, pose).to_vec()
+        };
+        Ok(closed
+            .iter()
+            .map(|row| {
+                let (values, by_pose, by_shared) = derivatives(
+                    position,
+                    (&shared, &sighted.shared),
+                    &row.pose,
+                    (&self.mechanism.measured, true),
+                );
+                let (dx, _) = row.moves.as_ref().expect("moves asked for");
+                let mut moves = by_pose * dx;
+                for (j, column) in by_shared.column_iter().enumerate() {
+                    let mut target = moves.column_mut(first_shared + j);
+                    target += column;
+                }
+                ReachedPoint {
+                    position: [values[0], values[1], values[2]],
+                    moves,
+                }
+            })
+            .collect())
+    }
+}
