@@ -204,6 +204,25 @@ pub fn reached_poses_from(
     targets: &[[f64; 6]],
     joints: &mut Vec<Option<Joints>>,
 ) -> Vec<Option<[f64; 6]>> {
+    commanded(mechanism, commanding, targets, joints)
+        .into_iter()
+        .map(|command| {
+            let (readings, mut start) = command?;
+            real.solve_near(&readings, &mut start).ok()
+        })
+        .collect()
+}
+
+/// What the model of parameters `commanding` commands at each target of `targets`: every
+/// leg's reading there and the configuration it reaches (the target pose with every leg's
+/// joints); `None` where a leg cannot reach the target. Each leg's inverse kinematics is
+/// warm-started from `joints` as in [`reached_poses_from`] (which then holds this call's).
+pub fn commanded(
+    mechanism: &Mechanism,
+    commanding: &[Vec<f64>],
+    targets: &[[f64; 6]],
+    joints: &mut Vec<Option<Joints>>,
+) -> Vec<Option<(Vec<f64>, Configuration)>> {
     let home = &mechanism.home_pose;
     let geometries: Vec<LegGeometry<f64>> = mechanism
         .legs
@@ -218,11 +237,6 @@ pub fn reached_poses_from(
     }
     // Every target's joints, leg after leg (`None` where a leg could not reach it).
     let solutions = joints;
-    let mut readings = vec![0.0; legs];
-    let mut start = Configuration {
-        pose: mechanism.home_pose,
-        joints: vec![[0.0; MAX_JOINTS]; legs],
-    };
     let seeds = warm_start_order(targets);
     targets
         .iter()
@@ -230,7 +244,11 @@ pub fn reached_poses_from(
         .enumerate()
         .map(|(i, (target, seed))| {
             let platform = platform_transform(target);
-            let mut solved = true;
+            let mut readings = vec![0.0; legs];
+            let mut configuration = Configuration {
+                pose: *target,
+                joints: vec![[0.0; MAX_JOINTS]; legs],
+            };
             for (l, leg) in mechanism.legs.iter().enumerate() {
                 let attachment = attachment_on(&platform, &geometries[l].attachment);
                 let solution = solve_warm(
@@ -246,21 +264,16 @@ pub fn reached_poses_from(
                 match solution {
                     Ok(solution) => {
                         readings[l] = reading_value(leg, &geometries[l], &solution);
-                        start.joints[l] = solution.q;
+                        configuration.joints[l] = solution.q;
                         solutions[i * legs + l] = Some(solution.q);
                     }
                     Err(_) => {
                         solutions[i * legs + l] = None;
-                        solved = false;
-                        break;
+                        return None;
                     }
                 }
             }
-            if !solved {
-                return None;
-            }
-            start.pose = *target;
-            real.solve_near(&readings, &mut start).ok()
+            Some((readings, configuration))
         })
         .collect()
 }

@@ -12,11 +12,10 @@
 
 use nalgebra::{DMatrix, DVector};
 
-use super::accuracy::map_grid;
+use super::accuracy::{commanded, map_grid};
 use super::observed_frame::{unseen_components, unseen_motions};
 use crate::identify::problem::IdentificationProblem;
 use crate::identify::result::{PredictedPosition, StrategyResult};
-use crate::kinematics::inverse::predict_reading;
 use crate::measure::observations::{Observations, ObservedRow};
 use crate::model::instrument::Measures;
 use crate::model::Mechanism;
@@ -46,29 +45,30 @@ pub fn predicted_position(
         }
     });
     let params = crate::evaluate::accuracy::result_parameters(mechanism, result);
-    let home = &mechanism.home_pose;
     let grid = map_grid(mechanism, mechanism.workspace.grid?, SCALE).ok()?;
     let width = seen.instrument.as_ref()?.observed_len();
-    // The grid poses every leg reaches, and the readings the model commands there.
-    let (poses, rows): (Vec<[f64; 6]>, Vec<ObservedRow>) = grid
+    // The grid poses every leg reaches, the readings the model commands there and the
+    // configuration it reaches (where each row's forward kinematics then closes at once).
+    let mut poses = Vec::new();
+    let mut rows = Vec::new();
+    let mut configurations = Vec::new();
+    for (pose, command) in grid
         .iter()
-        .filter_map(|pose| {
-            let readings = mechanism
-                .legs
-                .iter()
-                .zip(&params)
-                .map(|(leg, phi)| predict_reading(leg, phi, pose, home).ok().map(Some))
-                .collect::<Option<Vec<_>>>()?;
-            let row = ObservedRow {
-                line: None,
-                leg: None,
-                observed: vec![0.0; width],
-                readings,
-                id: None,
-            };
-            Some((*pose, row))
-        })
-        .unzip();
+        .zip(commanded(mechanism, &params, &grid, &mut Vec::new()))
+    {
+        let Some((readings, configuration)) = command else {
+            continue;
+        };
+        poses.push(*pose);
+        rows.push(ObservedRow {
+            line: None,
+            leg: None,
+            observed: vec![0.0; width],
+            readings: readings.into_iter().map(Some).collect(),
+            id: None,
+        });
+        configurations.push(configuration);
+    }
     if rows.is_empty() {
         return None;
     }
@@ -79,6 +79,7 @@ pub fn predicted_position(
     };
     let problem = IdentificationProblem::through_instrument(&seen, &observations).ok()?;
     let x = unknowns(&problem, result)?;
+    problem.close_forward_rows_at(&x, configurations);
     if covariance.nrows() != x.len() {
         return None;
     }

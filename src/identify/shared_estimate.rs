@@ -39,12 +39,15 @@ fn dense(
     problem: &IdentificationProblem<'_>,
     x: &DVector<f64>,
 ) -> Result<(DVector<f64>, DMatrix<f64>)> {
-    problem.residuals_and_jacobian(x).map_err(|e| {
-        Error::Invalid(format!(
-            "the legs and the instrument: {}: {}",
-            e.location, e.source
-        ))
-    })
+    problem.residuals_and_jacobian(x).map_err(located)
+}
+
+/// A block's failure at the start or the estimate, located.
+fn located(e: super::problem::BlockError) -> Error {
+    Error::Invalid(format!(
+        "the legs and the instrument: {}: {}",
+        e.location, e.source
+    ))
 }
 
 /// The rank check of `problem` at its start: an error naming the parameters and the null
@@ -208,7 +211,7 @@ pub fn identify_shared(
         .and_then(|l| statistics::noise_test(r.as_slice(), &l.variances(), n, 0));
     // The residuals at the start, for each leg's cost before (evaluated last: the warm starts
     // of the estimate's evaluations are untouched).
-    let r0 = dense(&problem, &problem.start())?.0;
+    let r0 = problem.residuals(&problem.start()).map_err(located)?;
     let fit = Fit {
         x: &outcome.x,
         r0: &r0,

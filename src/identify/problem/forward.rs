@@ -25,8 +25,9 @@
 
 use nalgebra::{DMatrix, DVector};
 use num_dual::Dual64;
+use rayon::prelude::*;
 
-use super::forward_rows::{Forward, ForwardEvaluation, Latest};
+use super::forward_rows::{Forward, ForwardEvaluation, ForwardRow, Latest};
 use super::noise::coordinate_sigmas;
 use super::{BlockError, IdentificationProblem};
 use crate::error::KinematicsError;
@@ -35,6 +36,14 @@ use crate::kinematics::inverse::Joints;
 use crate::kinematics::platform::{Configuration, ForwardKinematics};
 use crate::measure::targets::{observe_in, target_position};
 use crate::model::mechanism::MeasurementNoise;
+
+/// Forward rows closed by one task at least (a row is a few microseconds: fewer would spend
+/// more on scheduling than on the rows).
+const ROWS_PER_TASK: usize = 4;
+
+/// Forward rows from which they are closed on every core: waking the threads costs about
+/// what a few dozen rows do (docs/benchmarks.md, the forward benches).
+const PARALLEL_ROWS: usize = 64;
 
 /// A row's closed pose and, for the Jacobian, how it moves: `∂P/∂x` (6 × unknowns, zero rows
 /// for the coordinates the model does not measure) and `∂P/∂s = A⁻¹` (6 × legs).
@@ -87,6 +96,40 @@ impl IdentificationProblem<'_> {
         params
     }
 
+    /// Takes each forward row (in row order) as closed at `configurations` for the unknowns
+    /// `x`: rows whose readings the model of `x` commanded at known poses (a predicted σ over a
+    /// grid) are closed there already, and their evaluation at `x` solves no forward
+    /// kinematics (each leg's inverse kinematics for the derivatives starts from its joints).
+    pub(crate) fn close_forward_rows_at(
+        &self,
+        x: &DVector<f64>,
+        configurations: Vec<Configuration>,
+    ) {
+        let Some(forward) = &self.forward else {
+            return;
+        };
+        let poses: Vec<[f64; 6]> = configurations.iter().map(|c| c.pose).collect();
+        if poses.len() != forward.rows.len() {
+            return;
+        }
+        let mut starts = forward
+            .starts
+            .lock()
+            .unwrap_or_else(std::sync::PoisonError::into_inner);
+        for (start, configuration) in starts.iter_mut().zip(configurations) {
+            *start = Some(configuration);
+        }
+        *forward
+            .latest
+            .lock()
+            .unwrap_or_else(std::sync::PoisonError::into_inner) = Some(Latest {
+            key: x.iter().map(|v| v.to_bits()).collect(),
+            poses,
+            moves: None,
+            evaluation: None,
+        });
+    }
+
     /// The forward rows evaluated at `x`: residuals, and with `jacobian` their derivatives.
     ///
     /// # Errors
@@ -111,8 +154,11 @@ impl IdentificationProblem<'_> {
             .lock()
             .unwrap_or_else(std::sync::PoisonError::into_inner);
         let known = latest.as_ref().filter(|l| l.key == key);
-        if let Some(known) = known.filter(|l| !jacobian || l.evaluation.jacobian.is_some()) {
-            return Ok(known.evaluation.clone());
+        let complete = known
+            .and_then(|l| l.evaluation.as_ref())
+            .filter(|e| !jacobian || e.jacobian.is_some());
+        if let Some(evaluation) = complete {
+            return Ok(evaluation.clone());
         }
         let known_poses = known.map(|l| l.poses.clone());
         let instrument = sighted.instrument;
@@ -201,7 +247,8 @@ impl IdentificationProblem<'_> {
         *latest = Some(Latest {
             key,
             poses: closed.iter().map(|c| c.pose).collect(),
-            evaluation: evaluation.clone(),
+            moves: closed.into_iter().map(|c| c.moves).collect(),
+            evaluation: Some(evaluation.clone()),
         });
         Ok(evaluation)
     }
@@ -239,10 +286,12 @@ impl IdentificationProblem<'_> {
             .starts
             .lock()
             .unwrap_or_else(std::sync::PoisonError::into_inner);
-        let mut closed = Vec::with_capacity(forward.rows.len());
-        for (index, row) in forward.rows.iter().enumerate() {
+        // Rows are independent: each closed from its own start (the same poses whatever the
+        // order), the first failing row in row order reported; many rows are closed on every
+        // core.
+        let close = |(index, (row, start)): (usize, (&ForwardRow, &mut Option<Configuration>))| {
             let fail = |source: KinematicsError| self.forward_error(index, source, x);
-            let configuration = starts[index].get_or_insert_with(|| Configuration::home(mechanism));
+            let configuration = start.get_or_insert_with(|| Configuration::home(mechanism));
             let pose = match (known, &kinematics) {
                 (Some(poses), _) => poses[index],
                 (None, Some(kinematics)) => kinematics
@@ -263,9 +312,27 @@ impl IdentificationProblem<'_> {
                 ),
                 false => None,
             };
-            closed.push(Closed { pose, moves });
-        }
-        Ok(closed)
+            Ok(Closed { pose, moves })
+        };
+        let closed: Vec<Result<Closed, BlockError>> = if forward.rows.len() >= PARALLEL_ROWS {
+            forward
+                .rows
+                .par_iter()
+                .zip(starts.par_iter_mut())
+                .enumerate()
+                .with_min_len(ROWS_PER_TASK)
+                .map(close)
+                .collect()
+        } else {
+            forward
+                .rows
+                .iter()
+                .zip(starts.iter_mut())
+                .enumerate()
+                .map(close)
+                .collect()
+        };
+        closed.into_iter().collect()
     }
 
     /// How a closed pose `pose` moves with the unknowns and the readings (see the module's

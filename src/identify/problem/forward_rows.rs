@@ -55,8 +55,11 @@ pub(super) struct Latest {
     pub(super) key: Vec<u64>,
     /// Every row's closed pose there.
     pub(super) poses: Vec<[f64; 6]>,
-    /// The evaluation (with its derivatives if they were asked for).
-    pub(super) evaluation: ForwardEvaluation,
+    /// Every row's `(∂P/∂x, ∂P/∂s)` there, if the Jacobian was asked for.
+    pub(super) moves: Option<Vec<(DMatrix<f64>, DMatrix<f64>)>>,
+    /// The evaluation (with its derivatives if they were asked for); `None` for poses closed
+    /// elsewhere (known poses).
+    pub(super) evaluation: Option<ForwardEvaluation>,
 }
 
 impl Forward {

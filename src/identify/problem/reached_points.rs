@@ -4,7 +4,7 @@
 
 use nalgebra::{DMatrix, DVector};
 
-use super::forward::derivatives;
+use super::forward::{derivatives, Closed};
 use super::{BlockError, IdentificationProblem};
 use crate::measure::targets::target_position;
 
@@ -31,7 +31,8 @@ impl IdentificationProblem<'_> {
         };
         let instrument = sighted.instrument;
         let target = instrument.distances.as_ref().map_or(0, |d| d.target);
-        // The poses the latest evaluation closed at `x`, if it was there: no solve again.
+        // The poses the latest evaluation closed at `x`, if it was there, and their moves if
+        // it took the Jacobian: no solve again.
         let key: Vec<u64> = x.iter().map(|v| v.to_bits()).collect();
         let known = forward
             .latest
@@ -39,10 +40,23 @@ impl IdentificationProblem<'_> {
             .unwrap_or_else(std::sync::PoisonError::into_inner)
             .as_ref()
             .filter(|l| l.key == key)
-            .map(|l| l.poses.clone());
-        let params = self.all_leg_parameters(x);
+            .map(|l| (l.poses.clone(), l.moves.clone()));
+        let closed = match known {
+            Some((poses, Some(moves))) => poses
+                .into_iter()
+                .zip(moves)
+                .map(|(pose, moves)| Closed {
+                    pose,
+                    moves: Some(moves),
+                })
+                .collect(),
+            known => {
+                let params = self.all_leg_parameters(x);
+                let poses = known.map(|(poses, _)| poses);
+                self.close_rows(forward, (&params, x), (true, poses.as_deref()))?
+            }
+        };
         let shared = sighted.values(x.as_slice());
-        let closed = self.close_rows(forward, (&params, x), (true, known.as_deref()))?;
         let p = self.parameter_count();
         let first_shared = p - sighted.shared.len();
         let position = |s: &[num_dual::Dual64], pose: &[num_dual::Dual64; 6]| {
