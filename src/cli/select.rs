@@ -8,8 +8,11 @@ use super::verdict::Verdict;
 use crate::files::Output;
 use crate::model::mechanism::SelectionCriterion;
 use crate::model::Mechanism;
-use crate::report::selection::{pose_file, selection_text, Sets};
+use crate::report::selection::{
+    forward_pose_file, forward_selection_text, pose_file, selection_text, Sets,
+};
 use crate::selection::design::ExperimentDesign;
+use crate::selection::forward_design::select_forward;
 
 pub(super) fn run(args: &SelectArgs) -> anyhow::Result<Verdict> {
     let poses_per_leg = checks::poses_per_leg(args.poses_per_leg)?;
@@ -26,6 +29,23 @@ pub(super) fn run(args: &SelectArgs) -> anyhow::Result<Verdict> {
         Some(CriterionArg::E) => SelectionCriterion::E,
         None => mechanism.selection.criterion,
     };
+    if mechanism.instrument.as_ref().is_some_and(|i| i.forward) {
+        // Forward rows: every leg's reading at each, selected for the joint problem.
+        let design = select_forward(&mechanism, args.grid, count, criterion)?;
+        let text = forward_selection_text(&mechanism, &design, criterion);
+        output.write(
+            "pose CSV",
+            forward_pose_file(&mechanism, &design)?.as_bytes(),
+        )?;
+        console.print(&text)?;
+        console.line(format_args!(
+            "poses written to {} (command the pose.* columns and fill in what the instrument \
+             reports; leave the readings empty to take the nominal model's at the commanded \
+             pose, or log them; then `legwise identify --measurements`)",
+            output.name()
+        ))?;
+        return Ok(Verdict::from_reasons(mechanism.warnings.clone()));
+    }
     let design = ExperimentDesign::select(&mechanism, args.grid, count, criterion, shared)?;
     let sets = Sets {
         per_leg: args.strategy != StrategyArg::Traditional,

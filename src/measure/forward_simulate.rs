@@ -19,8 +19,9 @@ use crate::model::Mechanism;
 /// Newton steps a touch may take.
 const TOUCH_STEPS: usize = 50;
 
-/// The true poses of a forward experiment: `rows` shared rows (every leg's reading), none of
-/// a leg's own.
+/// The true poses of a forward experiment: shared rows (every leg's reading), none of a leg's
+/// own: at the commanded poses `commanded` (a forward design's) or, without them, at
+/// `poses_per_leg` random poses; each moved to its touch on the real surface.
 ///
 /// # Errors
 /// No simulation block, no reachable pose, or a touch the real legs cannot reach (named).
@@ -28,16 +29,23 @@ pub fn forward_pose_sets(
     mechanism: &Mechanism,
     instrument: &Instrument,
     options: SimulationOptions,
+    commanded: Option<&[[f64; 6]]>,
 ) -> Result<PoseSets> {
     let simulation = setup(mechanism)?;
     let seed = options.seed.unwrap_or(simulation.seed);
-    let rows = options.poses_per_leg.unwrap_or(simulation.poses_per_leg);
+    let rows = match commanded {
+        Some(poses) => poses.len(),
+        None => options.poses_per_leg.unwrap_or(simulation.poses_per_leg),
+    };
     let real = real_parameters(mechanism, simulation, seed);
     let shared = real_shared(instrument, simulation, seed);
     let mut rng = ChaCha8Rng::seed_from_u64(seed.wrapping_add(1));
     let mut poses = Vec::with_capacity(rows);
-    for _ in 0..rows {
-        let pose = reachable_pose(mechanism, &real, &mut rng)?;
+    for row in 0..rows {
+        let pose = match commanded {
+            Some(poses) => poses[row],
+            None => reachable_pose(mechanism, &real, &mut rng)?,
+        };
         let pose = touched(mechanism, instrument, &shared, pose)?;
         let home = &mechanism.home_pose;
         let reaches = mechanism
@@ -70,7 +78,7 @@ pub fn forward_pose_sets(
 ///
 /// # Errors
 /// The coordinate is not one the model measures, or Newton's method does not reach the touch.
-fn touched(
+pub(crate) fn touched(
     mechanism: &Mechanism,
     instrument: &Instrument,
     shared: &[f64],

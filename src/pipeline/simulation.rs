@@ -12,6 +12,7 @@ use crate::measure::Measurements;
 use crate::model::Mechanism;
 use crate::report::RealValues;
 use crate::selection::design::ExperimentDesign;
+use crate::selection::forward_design::select_forward;
 
 /// A simulated experiment.
 #[derive(Debug, Clone)]
@@ -37,9 +38,25 @@ pub fn simulate(mechanism: &Mechanism, settings: &SimulationSettings) -> Result<
     let simulated = simulated_poses(mechanism);
     let forward = mechanism.instrument.as_ref().filter(|i| i.forward);
     let (experiment, source) = match (forward, settings.poses) {
-        (Some(instrument), _) => {
-            // Pose selection for forward rows is not built: random rows, and the text says so.
-            let sets = forward_pose_sets(&simulated, instrument, options)?;
+        (Some(instrument), poses) => {
+            // Commanded poses selected for the joint problem's observability, or random.
+            let (commanded, chosen) = match poses {
+                PoseSource::Random => (None, "at random poses".to_string()),
+                PoseSource::Selected => {
+                    let count = options
+                        .poses_per_leg
+                        .unwrap_or(mechanism.selection.poses_per_leg);
+                    let criterion = mechanism.selection.criterion;
+                    let design = select_forward(&simulated, settings.grid, count, criterion)?;
+                    let text = format!(
+                        "at selected poses ({criterion:?}-optimal from {} distinct candidate \
+                         rows, grid {} m)",
+                        design.candidates, design.spacing
+                    );
+                    (Some(design.poses), text)
+                }
+            };
+            let sets = forward_pose_sets(&simulated, instrument, options, commanded.as_deref())?;
             let experiment = simulate_at(&simulated, &sets, options)?;
             let touch = if instrument.targets.iter().any(|t| t.touch.is_some()) {
                 ", each moved to its touch"
@@ -47,8 +64,8 @@ pub fn simulate(mechanism: &Mechanism, settings: &SimulationSettings) -> Result<
                 ""
             };
             let text = format!(
-                "simulated at random poses{touch}: {} rows of every leg's reading (forward \
-                 kinematics; no pose selection for forward rows), {noise}",
+                "simulated {chosen}{touch}: {} rows of every leg's reading (forward \
+                 kinematics), {noise}",
                 sets.shared.len()
             );
             (experiment, text)

@@ -8,6 +8,7 @@ use crate::measure::{file, observations, MeasuredPose, MeasurementSet};
 use crate::model::mechanism::SelectionCriterion;
 use crate::model::Mechanism;
 use crate::selection::design::ExperimentDesign;
+use crate::selection::forward_design::ForwardDesign;
 
 /// Which of a design's pose sets go into the pose file.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -90,4 +91,56 @@ pub fn pose_file(
     } else {
         (file::to_csv(mechanism, &set), "fill in the readings")
     })
+}
+
+/// The report of a forward model's selected rows ([`ForwardDesign`]).
+pub fn forward_selection_text(
+    mechanism: &Mechanism,
+    design: &ForwardDesign,
+    criterion: SelectionCriterion,
+) -> String {
+    let mut text = super::title("select", mechanism);
+    let o = &design.observability;
+    let _ = writeln!(
+        text,
+        "{} distinct candidate rows (grid {} m, each at its touch on the nominal surface); \
+         criterion {:?}; {} rows of every leg's reading (forward kinematics: the legs and the \
+         instrument identified together)",
+        design.candidates,
+        design.spacing,
+        criterion,
+        design.poses.len()
+    );
+    let _ = writeln!(
+        text,
+        "  joint problem ({} unknowns): O1 {:.4}, O3 {:.4e}; condition {:.1}, column-scaled {:.1}; \
+         Kiefer-Wolfowitz {:.2}",
+        o.singular_values.len(),
+        o.indices[0],
+        o.indices[2],
+        o.condition,
+        o.scaled_condition,
+        design.selection.certificate
+    );
+    text
+}
+
+/// The pose file of a forward design: one row per selected pose, the commanded `pose.*`
+/// columns filled, the instrument's coordinates and the readings to fill in (left empty, the
+/// readings are the nominal model's inverse kinematics of the commanded pose).
+///
+/// # Errors
+/// A model without an instrument.
+pub fn forward_pose_file(mechanism: &Mechanism, design: &ForwardDesign) -> Result<String> {
+    let legs = mechanism.legs.len();
+    let mut set = MeasurementSet::new(None, legs);
+    for &pose in &design.poses {
+        let row = MeasuredPose {
+            line: None,
+            leg: None,
+            pose,
+        };
+        set.push(row, &vec![None; legs]);
+    }
+    observations::template_csv(mechanism, &set)
 }

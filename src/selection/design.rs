@@ -45,7 +45,8 @@ pub struct SharedDesign {
     pub selection: Selection,
 }
 
-fn options(count: usize, criterion: SelectionCriterion) -> SelectionOptions {
+/// The selection options of a design of `count` poses by `criterion`.
+pub(super) fn selection_options(count: usize, criterion: SelectionCriterion) -> SelectionOptions {
     SelectionOptions {
         count,
         criterion: match criterion {
@@ -128,7 +129,9 @@ pub fn divide_and_conquer(
         .map(|leg| {
             let names = names(mechanism, leg);
             let selection = leg_columns(pool, leg)
-                .and_then(|columns| select_columns(columns, 1, &options(count, criterion)))
+                .and_then(|columns| {
+                    select_columns(columns, 1, &selection_options(count, criterion))
+                })
                 .map_err(|err| {
                     selection_error(
                         mechanism,
@@ -181,22 +184,23 @@ pub fn traditional(
     };
     let columns = shared_columns(mechanism, pool);
     let all: Vec<usize> = (0..pool.candidates.len()).collect();
-    let selection = select_columns(columns, legs, &options(count, criterion)).map_err(|err| {
-        let leg = included.iter().zip(&widths).find_map(|(&l, &width)| {
-            (analyse(&leg_rows(pool, l, &all), &names(mechanism, l)).rank < width).then_some(l)
-        });
-        match leg {
-            Some(l) => selection_error(
-                mechanism,
-                pool,
-                l,
-                err,
-                || leg_rows(pool, l, &all),
-                &names(mechanism, l),
-            ),
-            None => selection_error(mechanism, pool, first, err, || stack(&all), &all_names),
-        }
-    })?;
+    let selection =
+        select_columns(columns, legs, &selection_options(count, criterion)).map_err(|err| {
+            let leg = included.iter().zip(&widths).find_map(|(&l, &width)| {
+                (analyse(&leg_rows(pool, l, &all), &names(mechanism, l)).rank < width).then_some(l)
+            });
+            match leg {
+                Some(l) => selection_error(
+                    mechanism,
+                    pool,
+                    l,
+                    err,
+                    || leg_rows(pool, l, &all),
+                    &names(mechanism, l),
+                ),
+                None => selection_error(mechanism, pool, first, err, || stack(&all), &all_names),
+            }
+        })?;
     Ok(SharedDesign {
         poses: poses_of(pool, &selection.indices),
         indices: selection.indices.clone(),

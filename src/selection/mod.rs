@@ -39,6 +39,7 @@ pub mod candidates;
 pub mod design;
 mod driver;
 mod e_optimal;
+pub mod forward_design;
 mod gains;
 mod linalg;
 mod naive;

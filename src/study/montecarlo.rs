@@ -44,6 +44,7 @@ use crate::progress::Work;
 use crate::report::RealValues;
 use crate::selection::candidates::candidate_pool;
 use crate::selection::design::{divide_and_conquer, traditional};
+use crate::selection::forward_design::select_forward;
 use crate::solver::SolverKind;
 
 /// The strategies a study compares, in report order.
@@ -404,27 +405,31 @@ impl Study {
             .poses_per_leg
             .unwrap_or(mechanism.selection.poses_per_leg);
         let criterion = mechanism.selection.criterion;
-        let pool = candidate_pool(&mechanism, options.grid)?;
-        let legs = divide_and_conquer(&mechanism, &pool, count, criterion)?;
-        let total: usize = legs.iter().map(|l| l.poses.len()).sum();
-        let mut per_leg = vec![Vec::new(); mechanism.legs.len()];
-        for design in legs {
-            per_leg[design.leg] = design.poses;
-        }
         let through = mechanism.instrument.is_some();
         let forward = mechanism.instrument.as_ref().is_some_and(|i| i.forward);
+        let mut per_leg = vec![Vec::new(); mechanism.legs.len()];
         let (arms, shared_count, shared_poses) = if forward {
-            // Forward rows couple every leg: the joint fit alone, on rows drawn per trial.
-            (vec![Arm::Joint], 0, Vec::new())
-        } else if through {
-            (INSTRUMENT_ARMS.to_vec(), 0, Vec::new())
+            // Forward rows couple every leg: the joint fit alone, at the commanded poses
+            // selected for it (each trial's touches on its own real surface).
+            let design = select_forward(&mechanism, options.grid, count, criterion)?;
+            (vec![Arm::Joint], 0, design.poses)
         } else {
-            let shared = traditional(&mechanism, &pool, count, criterion)?;
-            let equal = traditional(&mechanism, &pool, total, criterion)?;
-            let shared_count = shared.poses.len();
-            let mut shared_poses = shared.poses;
-            shared_poses.extend(equal.poses);
-            (ARMS.to_vec(), shared_count, shared_poses)
+            let pool = candidate_pool(&mechanism, options.grid)?;
+            let legs = divide_and_conquer(&mechanism, &pool, count, criterion)?;
+            let total: usize = legs.iter().map(|l| l.poses.len()).sum();
+            for design in legs {
+                per_leg[design.leg] = design.poses;
+            }
+            if through {
+                (INSTRUMENT_ARMS.to_vec(), 0, Vec::new())
+            } else {
+                let shared = traditional(&mechanism, &pool, count, criterion)?;
+                let equal = traditional(&mechanism, &pool, total, criterion)?;
+                let shared_count = shared.poses.len();
+                let mut shared_poses = shared.poses;
+                shared_poses.extend(equal.poses);
+                (ARMS.to_vec(), shared_count, shared_poses)
+            }
         };
         let mut parameters: Vec<StudyParameter> = mechanism
             .instrument
@@ -518,6 +523,15 @@ impl Study {
     /// Poses each arm measures, in the order of [`Self::arms`].
     pub fn poses(&self) -> Vec<usize> {
         let dc = self.pose_sets.per_leg.iter().map(Vec::len).sum();
+        if self
+            .mechanism
+            .instrument
+            .as_ref()
+            .is_some_and(|i| i.forward)
+        {
+            // The forward rows (every leg's reading at each), the joint fit's.
+            return vec![self.pose_sets.shared.len(); self.arms.len()];
+        }
         if self.mechanism.instrument.is_some() {
             return vec![dc; self.arms.len()];
         }
@@ -572,9 +586,10 @@ impl Study {
     fn trial_data(&self, options: SimulationOptions) -> Result<(RealValues, Vec<Measurements>)> {
         let simulated = simulated_poses(&self.mechanism);
         let experiment = match self.mechanism.instrument.as_ref().filter(|i| i.forward) {
-            // Random rows of every leg's reading (touches on the trial's real bed).
+            // The selected rows of every leg's reading (touches on the trial's real bed).
             Some(instrument) => {
-                let sets = forward_pose_sets(&simulated, instrument, options)?;
+                let commanded = Some(self.pose_sets.shared.as_slice());
+                let sets = forward_pose_sets(&simulated, instrument, options, commanded)?;
                 simulate_at(&simulated, &sets, options)?
             }
             None => simulate_at(&simulated, &self.pose_sets, options)?,

@@ -10,8 +10,10 @@ use legwise::identify::result::{Strategy, StrategyResult};
 use legwise::measure::observations::{self, Observations};
 use legwise::measure::simulate::SimulationOptions;
 use legwise::measure::Measurements;
+use legwise::model::mechanism::SelectionCriterion;
 use legwise::model::Mechanism;
 use legwise::pipeline::{simulate, PoseSource, SimulationSettings};
+use legwise::selection::forward_design::select_forward;
 use nalgebra::{DMatrix, DVector};
 
 use crate::instrument_support::identify_shared;
@@ -30,12 +32,24 @@ fn parse_model(text: &str) -> legwise::error::Result<Mechanism> {
 
 /// The model's simulated experiment (random rows; noise scaled by `noise_scale`).
 fn experiment(mechanism: &Mechanism, noise_scale: f64) -> (Observations, Vec<Vec<f64>>, Vec<f64>) {
+    experiment_at(mechanism, noise_scale, PoseSource::Random, None)
+}
+
+/// The model's simulated experiment at `poses` (random rows of simulation seed `seed`, or the
+/// selected ones), noise scaled by `noise_scale`.
+fn experiment_at(
+    mechanism: &Mechanism,
+    noise_scale: f64,
+    poses: PoseSource,
+    seed: Option<u64>,
+) -> (Observations, Vec<Vec<f64>>, Vec<f64>) {
     let settings = SimulationSettings {
         options: SimulationOptions {
             noise_scale,
+            seed,
             ..Default::default()
         },
-        poses: PoseSource::Random,
+        poses,
         grid: None,
     };
     let simulated = simulate(mechanism, &settings).expect("simulates");
@@ -196,6 +210,81 @@ fn at_zero_noise_both_forward_models_recover_every_identified_parameter() {
     ] {
         let mechanism = exact(&bundled(model));
         let (observations, legs, shared) = experiment(&mechanism, 0.0);
+        let result = identify_shared(&mechanism, &observations, Strategy::Joint)
+            .unwrap_or_else(|e| panic!("{model}: {e}"));
+        let count = assert_recovered(&result, (&legs, &shared), 1e-9);
+        assert_eq!(count, identified, "{model}: parameters identified");
+    }
+}
+
+/// log det(JᵀJ) of `problem`'s Jacobian at its start (nominal parameters).
+fn log_det_at_start(problem: &IdentificationProblem<'_>) -> f64 {
+    let (_, jacobian) = problem.residuals_and_jacobian(&problem.start()).unwrap();
+    let information = jacobian.tr_mul(&jacobian);
+    2.0 * information
+        .cholesky()
+        .expect("a full-rank design")
+        .l()
+        .diagonal()
+        .iter()
+        .map(|v| v.ln())
+        .sum::<f64>()
+}
+
+#[test]
+fn selected_probe_points_see_more_than_random_ones_and_the_design_is_what_the_csv_gives() {
+    let probe = bundled("delta-probe.yaml");
+    let design = select_forward(&probe, None, 37, SelectionCriterion::D).unwrap();
+    assert_eq!(design.poses.len(), 37);
+    // Every selected touch is on the nominal bed (the nozzle 0.02 m under the effector).
+    for pose in &design.poses {
+        assert!((pose[2] - 0.02).abs() < 1e-12, "{pose:?}");
+    }
+    // The design's pose file, its heights filled in (0: the nominal bed), read back: readings
+    // from the commanded poses by the nominal model, every row's forward kinematics from home.
+    let csv = legwise::report::selection::forward_pose_file(&probe, &design).unwrap();
+    let filled: String = csv
+        .lines()
+        .enumerate()
+        .map(|(i, line)| match i {
+            0 => format!("{line}\n"),
+            _ => {
+                let mut cells: Vec<&str> = line.split(',').collect();
+                cells[4] = "0";
+                format!("{}\n", cells.join(","))
+            }
+        })
+        .collect();
+    let directory = tempfile::tempdir().unwrap();
+    let path = directory.path().join("selected.csv");
+    std::fs::write(&path, filled).unwrap();
+    let read = observations::read(&path, &probe).unwrap();
+    let selected =
+        log_det_at_start(&IdentificationProblem::through_instrument(&probe, &read).unwrap());
+    assert!(
+        (selected - design.selection.log_det).abs() <= 1e-8 * selected.abs().max(1.0),
+        "the design's log det {} against the CSV's {selected}",
+        design.selection.log_det
+    );
+    // Random touches (the simulation's, five seeds) see less: a smaller det(JᵀJ).
+    for seed in 1..=5 {
+        let (random, _, _) = experiment_at(&probe, 0.0, PoseSource::Random, Some(seed));
+        let random =
+            log_det_at_start(&IdentificationProblem::through_instrument(&probe, &random).unwrap());
+        assert!(
+            selected > random + 0.1,
+            "seed {seed}: selected log det {selected}, random {random}"
+        );
+    }
+}
+
+#[test]
+fn at_zero_noise_selected_rows_recover_every_identified_parameter() {
+    for (model, identified) in [("delta-probe.yaml", 6), ("delta-probe-distances.yaml", 9)] {
+        let mechanism = exact(&bundled(model));
+        let (observations, legs, shared) =
+            experiment_at(&mechanism, 0.0, PoseSource::Selected, None);
+        assert_eq!(observations.rows.len(), 37, "{model}");
         let result = identify_shared(&mechanism, &observations, Strategy::Joint)
             .unwrap_or_else(|e| panic!("{model}: {e}"));
         let count = assert_recovered(&result, (&legs, &shared), 1e-9);

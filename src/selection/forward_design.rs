@@ -1,0 +1,151 @@
+//! Experiment design for a model seen through the forward kinematics
+//! (`instrument.kinematics: forward`): the commanded poses of its rows (probe points for a
+//! delta's bed probe, reflector positions for a hexapod), selected for observability with the
+//! same engines as the inverse designs.
+//!
+//! Every feasible pose of the workspace's candidate grid is moved to its touch on the nominal
+//! surface (a target declaring `touch`: a probe lowered onto the nominal bed), distinct touches
+//! kept; at each, the nominal model's inverse kinematics gives the row's readings, and the
+//! joint problem's Jacobian at the nominal parameters gives the candidate's block: one row per
+//! coordinate the instrument reports, over every unknown the model identifies (legs and
+//! instrument together: forward rows couple them all). The selection picks the model's
+//! `selection.poses_per_leg` of them by its criterion (D by default). Distances between rows
+//! are not designed (the simulation draws their pairs among the selected rows).
+
+use nalgebra::DMatrix;
+
+use super::design::selection_options;
+use super::{select_columns, Selection, SelectionError};
+use crate::error::{Error, Result};
+use crate::evaluate::accuracy::commanded;
+use crate::identify::observability::{analyse, Observability};
+use crate::identify::problem::IdentificationProblem;
+use crate::measure::forward_simulate::touched;
+use crate::measure::observations::{Observations, ObservedRow};
+use crate::model::mechanism::SelectionCriterion;
+use crate::model::Mechanism;
+use crate::workspace::candidates::feasible_poses;
+
+/// Touches closer than this (metres, radians) are one candidate.
+const SAME_TOUCH: f64 = 1e-9;
+
+/// The selected commanded poses of a forward model's rows.
+#[derive(Debug, Clone)]
+pub struct ForwardDesign {
+    /// Distinct candidate poses (after the touch) the rows were selected from.
+    pub candidates: usize,
+    /// Grid spacing of the candidate pool, metres.
+    pub spacing: f64,
+    /// The selected commanded poses (each at its nominal touch), in pool order.
+    pub poses: Vec<[f64; 6]>,
+    /// Observability of the joint problem's Jacobian (nominal parameters) on the rows.
+    pub observability: Observability,
+    /// What the selection algorithm reports.
+    pub selection: Selection,
+}
+
+/// Selects `count` commanded poses of `mechanism`'s forward rows from its candidate grid of
+/// spacing `spacing` (default: the model's `workspace.grid`) by `criterion`.
+///
+/// # Errors
+/// Not a forward model, an empty candidate pool, a touch that cannot be reached, a pool that
+/// cannot identify the model's unknowns (the rank check's message, naming them), or a
+/// selection failure.
+pub fn select_forward(
+    mechanism: &Mechanism,
+    spacing: Option<f64>,
+    count: usize,
+    criterion: SelectionCriterion,
+) -> Result<ForwardDesign> {
+    let Some(instrument) = mechanism.instrument.as_ref().filter(|i| i.forward) else {
+        return Err(Error::Invalid(format!(
+            "{}: forward pose selection needs an instrument seen through the forward \
+             kinematics (`instrument.kinematics: forward`)",
+            mechanism.model_path.display()
+        )));
+    };
+    let feasible = feasible_poses(mechanism, spacing)?;
+    let nominal_shared = instrument.nominal();
+    let mut touches: Vec<[f64; 6]> = Vec::new();
+    for candidate in &feasible.candidates {
+        let pose = touched(mechanism, instrument, &nominal_shared, candidate.pose)?;
+        let seen = touches.iter().any(|t| {
+            t.iter()
+                .zip(&pose)
+                .all(|(a, b)| (a - b).abs() <= SAME_TOUCH)
+        });
+        if !seen {
+            touches.push(pose);
+        }
+    }
+    // The nominal model's readings at each touch it reaches, and where it closes there.
+    let nominal = mechanism.nominal_parameters();
+    let mut poses = Vec::new();
+    let mut rows = Vec::new();
+    let mut configurations = Vec::new();
+    let width = instrument.observed_len();
+    for (pose, command) in
+        touches
+            .iter()
+            .zip(commanded(mechanism, &nominal, &touches, &mut Vec::new()))
+    {
+        let Some((readings, configuration)) = command else {
+            continue;
+        };
+        poses.push(*pose);
+        rows.push(ObservedRow {
+            line: None,
+            leg: None,
+            observed: vec![0.0; width],
+            readings: readings.into_iter().map(Some).collect(),
+            id: None,
+        });
+        configurations.push(configuration);
+    }
+    let observations = Observations {
+        source: None,
+        rows,
+        distances: Vec::new(),
+    };
+    let problem = IdentificationProblem::through_instrument(mechanism, &observations)?;
+    let x = problem.start();
+    problem.close_forward_rows_at(&x, configurations);
+    let (_, jacobian) = problem.residuals_and_jacobian(&x).map_err(|e| {
+        Error::Invalid(format!(
+            "forward pose selection: {}: {}",
+            e.location, e.source
+        ))
+    })?;
+    let names = problem.names();
+    let options = selection_options(count, criterion);
+    let selection =
+        select_columns(jacobian.transpose(), width, &options).map_err(|error| match error {
+            SelectionError::RankDeficient { .. } => {
+                let pool = analyse(&jacobian, &names);
+                Error::Invalid(format!(
+                    "{}: forward pose selection: the candidate pool cannot identify {} (rank \
+                     {} of {}; null-space directions, column-scaled: {}); hold them or add \
+                     observations that see them",
+                    mechanism.model_path.display(),
+                    pool.unidentifiable.join(", "),
+                    pool.rank,
+                    names.len(),
+                    pool.null_directions.join("; ")
+                ))
+            }
+            other => Error::Invalid(format!(
+                "{}: forward pose selection: {other}",
+                mechanism.model_path.display()
+            )),
+        })?;
+    let chosen = DMatrix::from_fn(selection.indices.len() * width, jacobian.ncols(), |r, c| {
+        jacobian[(selection.indices[r / width] * width + r % width, c)]
+    });
+    Ok(ForwardDesign {
+        candidates: poses.len(),
+        spacing: feasible.spacing,
+        poses: selection.indices.iter().map(|&i| poses[i]).collect(),
+        observability: analyse(&chosen, &names),
+        selection,
+    })
+}
