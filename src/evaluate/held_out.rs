@@ -84,6 +84,12 @@ pub struct Evaluation {
     pub orientation_error: Option<ErrorStats>,
     /// Reading residuals per leg.
     pub reading_residual: Vec<LegResidualStats>,
+    /// Seen through the forward kinematics with measured distances: the model's distance
+    /// between its distance target's positions at the two rows minus the measured one, over
+    /// the distances whose rows both assemble (m; the statistics of the absolute values).
+    pub distance_error: Option<ErrorStats>,
+    /// Distances measured (their rows may not assemble).
+    pub distances: usize,
     /// Through an instrument, each target's errors (the instrument's order); empty for
     /// measured platform poses. `position_error` and `orientation_error` then cover every
     /// target at every assembled row.
@@ -261,6 +267,8 @@ pub(super) fn summarised(
         row_errors,
         reading_residual,
         targets,
+        distance_error: None,
+        distances: 0,
         warnings: Vec::new(),
     }
 }

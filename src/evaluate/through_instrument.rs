@@ -18,7 +18,7 @@ use super::held_out::{
 use crate::error::Result;
 use crate::kinematics::platform::ForwardKinematics;
 use crate::measure::observations::{instrument_of, Observations};
-use crate::measure::targets::{observe, platform_pose};
+use crate::measure::targets::{observe, platform_pose, target_position};
 use crate::model::mechanism::COORDINATES;
 use crate::model::Mechanism;
 
@@ -54,18 +54,25 @@ pub fn evaluate_observed(mechanism: &Mechanism, data: &Observations) -> Result<E
         return Err(no_full_row(mechanism, data.source.as_deref()));
     }
     let kinematics = ForwardKinematics::new(mechanism, &params);
+    // Every row with all its readings closed once (distances join rows without coordinates).
+    let reached: Vec<Option<[f64; 6]>> = data
+        .rows
+        .iter()
+        .map(|row| {
+            let readings: Option<Vec<f64>> = row.readings.iter().copied().collect();
+            readings.and_then(|r| kinematics.solve(&r).ok())
+        })
+        .collect();
     let mut row_errors = Vec::new();
     let mut non_assemblable = Vec::new();
     let mut per_target: Vec<(Vec<f64>, Vec<f64>)> =
         vec![(Vec::new(), Vec::new()); instrument.targets.len()];
     for &i in &full {
         let row = &data.rows[i];
-        let readings: Vec<f64> = row.readings.iter().flatten().copied().collect();
-        let reached = kinematics.solve(&readings).ok();
-        if reached.is_none() {
+        if reached[i].is_none() {
             non_assemblable.push(line(i));
         }
-        let predicted = reached.map(|pose| observe(instrument, &shared, &pose));
+        let predicted = reached[i].map(|pose| observe(instrument, &shared, &pose));
         let mut at = 0;
         for (k, target) in instrument.targets.iter().enumerate() {
             let names = target.coordinates();
@@ -113,12 +120,30 @@ pub fn evaluate_observed(mechanism: &Mechanism, data: &Observations) -> Result<E
             orientation_error: ErrorStats::of(&orientation),
         })
         .collect();
-    Ok(summarised(
+    let mut evaluation = summarised(
         mechanism,
         data.source.as_deref(),
         data.rows.len(),
         (row_errors, non_assemblable),
         reading_residual,
         targets,
-    ))
+    );
+    if let Some(distances) = &instrument.distances {
+        let errors: Vec<f64> = data
+            .distances
+            .iter()
+            .filter_map(|d| {
+                let [a, b] = d.rows.map(|r| {
+                    reached[r]
+                        .map(|pose| target_position(instrument, &shared, distances.target, &pose))
+                });
+                let (a, b) = (a?, b?);
+                let length = (0..3).map(|k| (a[k] - b[k]).powi(2)).sum::<f64>().sqrt();
+                Some((length - d.value).abs())
+            })
+            .collect();
+        evaluation.distance_error = ErrorStats::of(&errors);
+        evaluation.distances = data.distances.len();
+    }
+    Ok(evaluation)
 }

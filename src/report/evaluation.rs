@@ -26,6 +26,10 @@ struct EvaluationJson<'a> {
     row_errors: Vec<RowJson<'a>>,
     #[serde(skip_serializing_if = "<[_]>::is_empty")]
     targets: &'a [TargetErrors],
+    #[serde(skip_serializing_if = "Option::is_none")]
+    distance_error_m: Option<ErrorStats>,
+    #[serde(skip_serializing_if = "is_zero")]
+    distances: usize,
     warnings: &'a [String],
     #[serde(skip_serializing_if = "Option::is_none")]
     against: Option<Box<EvaluationJson<'a>>>,
@@ -58,10 +62,17 @@ impl<'a> EvaluationJson<'a> {
                 })
                 .collect(),
             targets: &evaluation.targets,
+            distance_error_m: evaluation.distance_error,
+            distances: evaluation.distances,
             warnings: &evaluation.warnings,
             against: against.map(|other| Box::new(EvaluationJson::new(other, None))),
         }
     }
+}
+
+/// No distances measured: the key is left out.
+fn is_zero(count: &usize) -> bool {
+    *count == 0
 }
 
 /// One row's errors, with the name of the target they are of.
@@ -212,6 +223,55 @@ pub fn evaluation_text(
             }
         }
     }
+    if evaluations.iter().any(|e| e.distance_error.is_some()) {
+        let distance: Vec<_> = evaluations
+            .iter()
+            .map(|e| e.distance_error.as_ref())
+            .collect();
+        let title = format!(
+            "distance error, |the model's distance between its target at the two rows - the \
+             measured one| ({} distances)",
+            evaluation.distances
+        );
+        stats_rows(&mut text, &title, "mm", &distance, improvement);
+    }
+    // Seen through the forward kinematics the targets give no pose: no reading residuals.
+    if !mechanism.instrument.as_ref().is_some_and(|i| i.forward) {
+        residual_rows(&mut text, mechanism, &evaluations, through);
+    }
+    for e in &evaluations {
+        if !e.non_assemblable.is_empty() {
+            let _ = writeln!(
+                text,
+                "{}: cannot be assembled at the readings of {} row(s), CSV lines {}",
+                e.model,
+                e.non_assemblable.len(),
+                lines_text(&e.non_assemblable)
+            );
+        }
+        for leg in &e.reading_residual {
+            if !leg.unreachable.is_empty() {
+                let _ = writeln!(
+                    text,
+                    "{}: leg `{}` cannot reach the measured pose of CSV lines {}",
+                    e.model,
+                    leg.leg,
+                    lines_text(&leg.unreachable)
+                );
+            }
+        }
+    }
+    text
+}
+
+/// The reading residual rows of each leg, side by side over `evaluations`.
+fn residual_rows(
+    text: &mut String,
+    mechanism: &Mechanism,
+    evaluations: &[&Evaluation],
+    through: bool,
+) {
+    let improvement = evaluations.len() > 1;
     let residual_title = if through {
         "reading residual, measured - predicted by the leg's IK at the pose fitted from the targets"
     } else {
@@ -243,29 +303,6 @@ pub fn evaluation_text(
             let _ = writeln!(text, "{line}");
         }
     }
-    for e in &evaluations {
-        if !e.non_assemblable.is_empty() {
-            let _ = writeln!(
-                text,
-                "{}: cannot be assembled at the readings of {} row(s), CSV lines {}",
-                e.model,
-                e.non_assemblable.len(),
-                lines_text(&e.non_assemblable)
-            );
-        }
-        for leg in &e.reading_residual {
-            if !leg.unreachable.is_empty() {
-                let _ = writeln!(
-                    text,
-                    "{}: leg `{}` cannot reach the measured pose of CSV lines {}",
-                    e.model,
-                    leg.leg,
-                    lines_text(&leg.unreachable)
-                );
-            }
-        }
-    }
-    text
 }
 
 /// One line summarising an accuracy map in millimetres (and milliradians).

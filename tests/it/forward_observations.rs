@@ -618,3 +618,42 @@ fn observations_made_in_memory_with_a_distance_to_a_missing_row_are_refused() {
         "{message}"
     );
 }
+
+#[test]
+fn evaluate_reports_the_error_of_held_out_distances() {
+    use legwise::evaluate::through_instrument::evaluate_observed;
+    let model = bundled("delta-probe-distances.yaml");
+    // Held-out rows of the real printer without noise: the real model explains every distance.
+    let (held_out, legs, _) = experiment_at(&exact(&model), 0.0, PoseSource::Random, Some(42));
+    assert_eq!(held_out.distances.len(), 12);
+    let real = exact(&model).edited(|parts| {
+        for (leg, values) in parts.legs.iter_mut().zip(&legs) {
+            for (p, &value) in leg.params.iter_mut().zip(values) {
+                p.nominal = value;
+            }
+        }
+    });
+    let exact_fit = evaluate_observed(&real, &held_out).unwrap();
+    assert_eq!(exact_fit.distances, 12);
+    assert!(exact_fit.distance_error.unwrap().max <= 1e-12);
+    // The nominal printer misjudges them: |its distance − the measured one|, recomputed from
+    // its forward kinematics and the nozzle's offset.
+    let nominal = evaluate_observed(&model, &held_out).unwrap();
+    let params = model.nominal_parameters();
+    let readings = |r: usize| -> Vec<f64> {
+        held_out.rows[r].readings.iter().map(|v| v.unwrap()).collect()
+    };
+    let errors: Vec<f64> = held_out
+        .distances
+        .iter()
+        .map(|d| {
+            let [a, b] = d.rows.map(|r| nozzle(&model, &params, &readings(r)));
+            let length = (0..3).map(|k| (a[k] - b[k]).powi(2)).sum::<f64>().sqrt();
+            (length - d.value).abs()
+        })
+        .collect();
+    let rms = (errors.iter().map(|e| e * e).sum::<f64>() / errors.len() as f64).sqrt();
+    let stats = nominal.distance_error.unwrap();
+    assert!((stats.rms - rms).abs() <= 1e-12 * rms, "{} vs {rms}", stats.rms);
+    assert!(rms > 1e-4, "the nominal printer is a fraction of a millimetre off: {rms}");
+}
