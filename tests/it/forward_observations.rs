@@ -641,7 +641,11 @@ fn evaluate_reports_the_error_of_held_out_distances() {
     let nominal = evaluate_observed(&model, &held_out).unwrap();
     let params = model.nominal_parameters();
     let readings = |r: usize| -> Vec<f64> {
-        held_out.rows[r].readings.iter().map(|v| v.unwrap()).collect()
+        held_out.rows[r]
+            .readings
+            .iter()
+            .map(|v| v.unwrap())
+            .collect()
     };
     let errors: Vec<f64> = held_out
         .distances
@@ -654,6 +658,13 @@ fn evaluate_reports_the_error_of_held_out_distances() {
         .collect();
     let rms = (errors.iter().map(|e| e * e).sum::<f64>() / errors.len() as f64).sqrt();
     let stats = nominal.distance_error.unwrap();
-    assert!((stats.rms - rms).abs() <= 1e-12 * rms, "{} vs {rms}", stats.rms);
-    assert!(rms > 1e-4, "the nominal printer is a fraction of a millimetre off: {rms}");
+    assert!(
+        (stats.rms - rms).abs() <= 1e-12 * rms,
+        "{} vs {rms}",
+        stats.rms
+    );
+    assert!(
+        rms > 1e-4,
+        "the nominal printer is a fraction of a millimetre off: {rms}"
+    );
 }
