@@ -18,6 +18,10 @@ use crate::model::Mechanism;
 
 const MAX_ITERATIONS: usize = 50;
 
+/// A Newton step from a closure residual at most this fraction of the mechanism's size lands
+/// at round-off (quadratic convergence): the next iteration checks the residual alone.
+const LANDING: f64 = 1e-7;
+
 /// The unknowns' layout and the home assembly sign.
 struct Layout {
     /// Columns of the pose coordinates (indices into the 6-pose).
@@ -245,9 +249,27 @@ impl<'m> ForwardKinematics<'m> {
         }
         let mut f = DVector::zeros(n);
         let mut residual = f64::INFINITY;
+        // The normalised determinant of the last step's Jacobian, when that step started from
+        // a residual small enough for Newton's quadratic convergence to land at round-off.
+        let mut landed: Option<f64> = None;
         for _ in 0..=MAX_ITERATIONS {
-            let mut jacobian = DMatrix::zeros(n, n);
             let platform = platform_transform(pose);
+            // After such a step the closure residual alone decides (the same tips as the full
+            // iteration's, so the same decision); the assembly mode is the step's Jacobian's,
+            // a round-off step away.
+            if let Some(determinant) = landed.take() {
+                let (check, size) = self.closure_residual(&platform, joints, &mut f);
+                if !check.is_finite() {
+                    return Err(KinematicsError::NotAssemblable { residual: check });
+                }
+                if converged(check, residual, 1e-13 * size) {
+                    if determinant.abs() < 1e-10 {
+                        return Err(KinematicsError::AssemblyModeChange);
+                    }
+                    return Ok(determinant);
+                }
+            }
+            let mut jacobian = DMatrix::zeros(n, n);
             let pose_derivatives = pose_derivatives(pose, &layout.pose);
             let mut size = self.smallest_size;
             let mut row = 0;
@@ -290,10 +312,18 @@ impl<'m> ForwardKinematics<'m> {
                 }
                 return Ok(determinant);
             }
-            let step = match jacobian.lu().solve(&f) {
+            let scales: f64 = jacobian
+                .column_iter()
+                .map(|c| c.norm().max(f64::MIN_POSITIVE))
+                .product();
+            let lu = jacobian.lu();
+            let step = match lu.solve(&f) {
                 Some(step) if step.iter().all(|v| v.is_finite()) => -step,
                 _ => return Err(KinematicsError::NotAssemblable { residual }),
             };
+            if residual <= LANDING * size {
+                landed = Some(lu.determinant() / scales);
+            }
             let scale = self.step_scale(&step, size);
             for (k, &c) in layout.pose.iter().enumerate() {
                 pose[c] += scale * step[k];
@@ -311,6 +341,30 @@ impl<'m> ForwardKinematics<'m> {
             }
         }
         Err(KinematicsError::NotAssemblable { residual })
+    }
+
+    /// The stacked closure residual `f` (every leg's chain tip minus its platform joint) at
+    /// `joints` and the platform `platform`, its norm and the mechanism's size there (as a
+    /// Newton iteration computes them, without the Jacobian).
+    fn closure_residual(
+        &self,
+        platform: &crate::kinematics::chain::Transform<f64>,
+        joints: &[Joints],
+        f: &mut DVector<f64>,
+    ) -> (f64, f64) {
+        let mut size = self.smallest_size;
+        let mut row = 0;
+        for (l, leg) in self.mechanism.legs.iter().enumerate() {
+            let geometry = &self.geometries[l];
+            let tip = self.frames[l].tip(leg, &joints[l][..leg.moving.len()]);
+            let target = attachment_on(platform, &geometry.attachment);
+            size = size.max(target.norm());
+            for d in 0..leg.closure_dims {
+                f[row + d] = tip[d] - target[d];
+            }
+            row += leg.closure_dims;
+        }
+        (f.norm(), size)
     }
 
     /// Is passive joint `p` (an index into the moving joints) of leg `l` revolute?
