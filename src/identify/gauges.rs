@@ -378,9 +378,10 @@ mod tests {
             [0.3, 0.1, 0.2, -0.9],
             [0.7, 0.0, 0.7, 0.1],
         ];
+        // At the size a unit change of the scaled parameters moves the points (micrometres).
         let columns: Vec<DVector<f64>> = mix
             .iter()
-            .map(|w| w.iter().zip(&pure).map(|(c, m)| m * *c).sum())
+            .map(|w| w.iter().zip(&pure).map(|(c, m)| m * (1e-6 * c)).sum())
             .collect();
         let mut named = describe_span(&p, &DMatrix::from_columns(&columns));
         named.sort();
@@ -393,6 +394,22 @@ mod tests {
                 "translation along z"
             ]
         );
+    }
+
+    #[test]
+    fn motions_that_are_not_orthogonal_are_each_named() {
+        let p = points();
+        // On the tilted grid the rotations about x and z move the points alike in part (the
+        // grid's z follows its x): the second is named once the first is taken out of it.
+        let basis = motion_basis(&p);
+        let overlap = basis.column(3).dot(&basis.column(5)).abs();
+        assert!(overlap > 0.05, "overlap {overlap}");
+        let columns = [
+            motion(&p, 3, 0.8) + motion(&p, 5, 0.6),
+            motion(&p, 3, -0.6) + motion(&p, 5, 0.8),
+        ];
+        let named = describe_span(&p, &DMatrix::from_columns(&columns));
+        assert_eq!(named, ["rotation about x", "rotation about z"]);
     }
 
     #[test]

@@ -149,3 +149,80 @@ pub fn select_forward(
         selection,
     })
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::kinematics::platform::Configuration;
+
+    /// The bundled bed-probe model.
+    fn probe() -> Mechanism {
+        let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("models/delta-probe.yaml");
+        Mechanism::load(&path).expect("bundled model")
+    }
+
+    /// Rows whose readings the nominal model commands at two touches, and the configurations
+    /// it reaches there.
+    fn commanded_rows(mechanism: &Mechanism) -> (Observations, Vec<Configuration>) {
+        let poses = [
+            [0.01, -0.02, 0.02, 0.0, 0.0, 0.0],
+            [-0.03, 0.01, 0.02, 0.0, 0.0, 0.0],
+        ];
+        let nominal = mechanism.nominal_parameters();
+        let (readings, configurations): (Vec<Vec<f64>>, Vec<Configuration>) =
+            commanded(mechanism, &nominal, &poses, &mut Vec::new())
+                .into_iter()
+                .map(|command| command.expect("reachable"))
+                .unzip();
+        let rows = readings
+            .into_iter()
+            .map(|r| ObservedRow {
+                line: None,
+                leg: None,
+                observed: vec![0.0],
+                readings: r.into_iter().map(Some).collect(),
+                id: None,
+            })
+            .collect();
+        let observations = Observations {
+            source: None,
+            rows,
+            distances: Vec::new(),
+        };
+        (observations, configurations)
+    }
+
+    #[test]
+    fn rows_closed_at_given_configurations_are_evaluated_there_without_a_solve() {
+        let mechanism = probe();
+        let (observations, configurations) = commanded_rows(&mechanism);
+        let problem =
+            || IdentificationProblem::through_instrument(&mechanism, &observations).unwrap();
+        let cold = problem();
+        let x = cold.start();
+        let from_home = cold.residuals(&x).unwrap();
+        // At the configurations the model commands: what its forward kinematics finds from home.
+        let seeded = problem();
+        seeded.close_forward_rows_at(&x, configurations.clone());
+        let given = seeded.residuals(&x).unwrap();
+        assert!(
+            (&given - &from_home).amax() <= 1e-12,
+            "{given} vs {from_home}"
+        );
+        // Moved 1 mm up, they are taken as given: the nozzle's height is 1 mm more.
+        let moved = problem();
+        let up = configurations
+            .iter()
+            .map(|c| {
+                let mut c = c.clone();
+                c.pose[2] += 1e-3;
+                c
+            })
+            .collect();
+        moved.close_forward_rows_at(&x, up);
+        let off = moved.residuals(&x).unwrap();
+        for (a, b) in off.iter().zip(from_home.iter()) {
+            assert!((a - b - 1e-3).abs() <= 1e-12, "{a} vs {b}");
+        }
+    }
+}

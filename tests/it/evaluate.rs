@@ -162,4 +162,19 @@ fn the_json_holds_the_documented_keys_for_both_models() {
         }
         assert_eq!(object["rows"], experiment.measurements.len());
     }
+    // The terminal's reading residuals are the JSON's, in millimetres (the 3-RPR's legs are
+    // prismatic), one line per leg and statistic.
+    for leg in ["leg1", "leg2", "leg3"] {
+        for (label, key) in [("RMS", "rms"), ("max", "max")] {
+            let value = value["reading_residual"][leg][key].as_f64().unwrap();
+            let line = stdout
+                .lines()
+                .find(|l| l.trim_start().starts_with(&format!("{leg} {label}")))
+                .unwrap_or_else(|| panic!("no {leg} {label} line:\n{stdout}"));
+            assert!(
+                line.contains(&format!("{:.4} mm", 1e3 * value)),
+                "{line} against {value}"
+            );
+        }
+    }
 }

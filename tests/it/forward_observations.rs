@@ -667,4 +667,13 @@ fn evaluate_reports_the_error_of_held_out_distances() {
         rms > 1e-4,
         "the nominal printer is a fraction of a millimetre off: {rms}"
     );
+    // The JSON report carries them (docs/report.md); an evaluation without distances does not.
+    let json = legwise::report::evaluation::evaluation_json(&nominal, None);
+    assert_eq!(json["distances"], 12);
+    assert_eq!(json["distance_error_m"]["rms"].as_f64(), Some(stats.rms));
+    let probe = bundled("delta-probe.yaml");
+    let (heights, _, _) = experiment_at(&probe, 0.0, PoseSource::Random, None);
+    let no_distances = evaluate_observed(&probe, &heights).unwrap();
+    let json = legwise::report::evaluation::evaluation_json(&no_distances, None);
+    assert!(json.get("distances").is_none() && json.get("distance_error_m").is_none());
 }
