@@ -12,6 +12,7 @@
 //!   workspace;
 //! * their terminal (mm, mrad) and JSON renderings are [`crate::report::evaluation`]'s.
 pub mod accuracy;
+pub(crate) mod commanded_rows;
 mod error_stats;
 pub mod held_out;
 pub mod observed_frame;

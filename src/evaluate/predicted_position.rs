@@ -12,11 +12,11 @@
 
 use nalgebra::{DMatrix, DVector};
 
-use super::accuracy::{commanded, map_grid};
+use super::accuracy::map_grid;
+use super::commanded_rows::commanded_rows;
 use super::observed_frame::{unseen_components, unseen_motions};
 use crate::identify::problem::IdentificationProblem;
 use crate::identify::result::{PredictedPosition, StrategyResult};
-use crate::measure::observations::{Observations, ObservedRow};
 use crate::model::instrument::Measures;
 use crate::model::Mechanism;
 
@@ -49,34 +49,10 @@ pub fn predicted_position(
     let width = seen.instrument.as_ref()?.observed_len();
     // The grid poses every leg reaches, the readings the model commands there and the
     // configuration it reaches (where each row's forward kinematics then closes at once).
-    let mut poses = Vec::new();
-    let mut rows = Vec::new();
-    let mut configurations = Vec::new();
-    for (pose, command) in grid
-        .iter()
-        .zip(commanded(mechanism, &params, &grid, &mut Vec::new()))
-    {
-        let Some((readings, configuration)) = command else {
-            continue;
-        };
-        poses.push(*pose);
-        rows.push(ObservedRow {
-            line: None,
-            leg: None,
-            observed: vec![0.0; width],
-            readings: readings.into_iter().map(Some).collect(),
-            id: None,
-        });
-        configurations.push(configuration);
-    }
-    if rows.is_empty() {
+    let (poses, observations, configurations) = commanded_rows(mechanism, &params, &grid, width);
+    if poses.is_empty() {
         return None;
     }
-    let observations = Observations {
-        source: None,
-        rows,
-        distances: Vec::new(),
-    };
     let problem = IdentificationProblem::through_instrument(&seen, &observations).ok()?;
     let x = unknowns(&problem, result)?;
     problem.close_forward_rows_at(&x, configurations);

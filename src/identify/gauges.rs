@@ -179,7 +179,7 @@ pub fn motion_basis(points: &[[f64; 3]]) -> DMatrix<f64> {
 
 /// One motion of the points, `effect` (3 per point), described: `≈ scale (0.98)` when one of
 /// the seven motions is within [`CONTAINED`] of it, else the least-squares combination of
-/// them (terms of at least [`NEGLIGIBLE`]) and the share no motion explains, a deformation.
+/// them (terms of at least 0.1) and the share no motion explains, a deformation.
 pub fn describe_effect(points: &[[f64; 3]], effect: &DVector<f64>) -> String {
     let norm = effect.norm();
     if norm == 0.0 || !norm.is_finite() {

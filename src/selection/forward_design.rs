@@ -17,11 +17,10 @@ use nalgebra::DMatrix;
 use super::design::selection_options;
 use super::{select_columns, Selection, SelectionError};
 use crate::error::{Error, Result};
-use crate::evaluate::accuracy::commanded;
+use crate::evaluate::commanded_rows::commanded_rows;
 use crate::identify::observability::{analyse, Observability};
 use crate::identify::problem::IdentificationProblem;
 use crate::measure::forward_simulate::touched;
-use crate::measure::observations::{Observations, ObservedRow};
 use crate::model::mechanism::SelectionCriterion;
 use crate::model::Mechanism;
 use crate::workspace::candidates::feasible_poses;
@@ -80,33 +79,9 @@ pub fn select_forward(
     }
     // The nominal model's readings at each touch it reaches, and where it closes there.
     let nominal = mechanism.nominal_parameters();
-    let mut poses = Vec::new();
-    let mut rows = Vec::new();
-    let mut configurations = Vec::new();
     let width = instrument.observed_len();
-    for (pose, command) in
-        touches
-            .iter()
-            .zip(commanded(mechanism, &nominal, &touches, &mut Vec::new()))
-    {
-        let Some((readings, configuration)) = command else {
-            continue;
-        };
-        poses.push(*pose);
-        rows.push(ObservedRow {
-            line: None,
-            leg: None,
-            observed: vec![0.0; width],
-            readings: readings.into_iter().map(Some).collect(),
-            id: None,
-        });
-        configurations.push(configuration);
-    }
-    let observations = Observations {
-        source: None,
-        rows,
-        distances: Vec::new(),
-    };
+    let (poses, observations, configurations) =
+        commanded_rows(mechanism, &nominal, &touches, width);
     let problem = IdentificationProblem::through_instrument(mechanism, &observations)?;
     let x = problem.start();
     problem.close_forward_rows_at(&x, configurations);
@@ -163,39 +138,26 @@ mod tests {
 
     /// Rows whose readings the nominal model commands at two touches, and the configurations
     /// it reaches there.
-    fn commanded_rows(mechanism: &Mechanism) -> (Observations, Vec<Configuration>) {
+    fn commanded_touches(
+        mechanism: &Mechanism,
+    ) -> (
+        crate::measure::observations::Observations,
+        Vec<Configuration>,
+    ) {
         let poses = [
             [0.01, -0.02, 0.02, 0.0, 0.0, 0.0],
             [-0.03, 0.01, 0.02, 0.0, 0.0, 0.0],
         ];
         let nominal = mechanism.nominal_parameters();
-        let (readings, configurations): (Vec<Vec<f64>>, Vec<Configuration>) =
-            commanded(mechanism, &nominal, &poses, &mut Vec::new())
-                .into_iter()
-                .map(|command| command.expect("reachable"))
-                .unzip();
-        let rows = readings
-            .into_iter()
-            .map(|r| ObservedRow {
-                line: None,
-                leg: None,
-                observed: vec![0.0],
-                readings: r.into_iter().map(Some).collect(),
-                id: None,
-            })
-            .collect();
-        let observations = Observations {
-            source: None,
-            rows,
-            distances: Vec::new(),
-        };
+        let (kept, observations, configurations) = commanded_rows(mechanism, &nominal, &poses, 1);
+        assert_eq!(kept.len(), 2, "both touches reachable");
         (observations, configurations)
     }
 
     #[test]
     fn rows_closed_at_given_configurations_are_evaluated_there_without_a_solve() {
         let mechanism = probe();
-        let (observations, configurations) = commanded_rows(&mechanism);
+        let (observations, configurations) = commanded_touches(&mechanism);
         let problem =
             || IdentificationProblem::through_instrument(&mechanism, &observations).unwrap();
         let cold = problem();
