@@ -29,7 +29,7 @@ pub(super) fn run(args: &SelectArgs) -> anyhow::Result<Verdict> {
         Some(CriterionArg::E) => SelectionCriterion::E,
         None => mechanism.selection.criterion,
     };
-    if mechanism.instrument.as_ref().is_some_and(|i| i.forward) {
+    if mechanism.forward_instrument().is_some() {
         // Forward rows: every leg's reading at each, selected for the joint problem.
         let design = select_forward(&mechanism, args.grid, count, criterion)?;
         let text = forward_selection_text(&mechanism, &design, criterion);

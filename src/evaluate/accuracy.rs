@@ -358,7 +358,7 @@ pub fn accuracy_map_seen(
             reached
         })
         .collect();
-    let forward = mechanism.instrument.as_ref().filter(|i| i.forward);
+    let forward = mechanism.forward_instrument();
     let observed_frame = match (forward, commanding_shared, real_shared) {
         (Some(instrument), Some(commanding), Some(real)) => {
             observed_frame_error(instrument, (commanding, real), &grid, &reached)

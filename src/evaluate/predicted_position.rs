@@ -31,7 +31,7 @@ pub fn predicted_position(
     mechanism: &Mechanism,
     result: &StrategyResult,
 ) -> Option<PredictedPosition> {
-    let instrument = mechanism.instrument.as_ref().filter(|i| i.forward)?;
+    let instrument = mechanism.forward_instrument()?;
     let estimate = result.instrument.as_ref()?;
     let covariance = estimate.covariance.as_ref()?;
     // Every target reports its whole position: the first one's rows are the first three.

@@ -133,7 +133,7 @@ pub fn identify_shared(
             strategy.name()
         )));
     }
-    if strategy == Strategy::TwoStage && mechanism.instrument.as_ref().is_some_and(|i| i.forward) {
+    if strategy == Strategy::TwoStage && mechanism.forward_instrument().is_some() {
         return Err(Error::Invalid(format!(
             "{}: the instrument is seen through the forward kinematics, whose rows couple \
              every leg and the instrument: they are identified together (joint), not in two \

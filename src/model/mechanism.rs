@@ -147,6 +147,12 @@ impl Mechanism {
         self.measured.iter().all(|&c| matches!(c, 0 | 1 | 5)) && !self.workspace.region.is_spatial()
     }
 
+    /// The instrument, when it is seen through the forward kinematics
+    /// (`instrument.kinematics: forward`): rows of every leg's reading predict what it saw.
+    pub fn forward_instrument(&self) -> Option<&Instrument> {
+        self.instrument.as_ref().filter(|i| i.forward)
+    }
+
     /// Names of the measured coordinates, in file order.
     pub fn measured_names(&self) -> Vec<&'static str> {
         self.measured.iter().map(|&i| COORDINATES[i]).collect()

@@ -171,7 +171,7 @@ pub fn identify_one(
 /// target's reported coordinates cannot see (a bed's x, y, yaw under a height probe; tested at
 /// the home pose)?
 fn unseen_frame(mechanism: &Mechanism) -> bool {
-    let Some(instrument) = mechanism.instrument.as_ref().filter(|i| i.forward) else {
+    let Some(instrument) = mechanism.forward_instrument() else {
         return false;
     };
     !crate::evaluate::observed_frame::unseen_components(instrument, &[mechanism.home_pose])

@@ -69,7 +69,7 @@ impl Settings {
     pub fn strategies_for(&self, mechanism: &crate::model::Mechanism) -> Vec<Strategy> {
         if !self.strategies.is_empty() {
             self.strategies.clone()
-        } else if mechanism.instrument.as_ref().is_some_and(|i| i.forward) {
+        } else if mechanism.forward_instrument().is_some() {
             // Forward rows couple every leg: identified together, or not at all.
             vec![Strategy::Joint]
         } else if mechanism.instrument.is_some() {

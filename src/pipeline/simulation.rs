@@ -36,7 +36,7 @@ pub fn simulate(mechanism: &Mechanism, settings: &SimulationSettings) -> Result<
     let seed = options.seed.unwrap_or(simulation.seed);
     let noise = format!("seed {seed}, noise scale {}", options.noise_scale);
     let simulated = simulated_poses(mechanism);
-    let forward = mechanism.instrument.as_ref().filter(|i| i.forward);
+    let forward = mechanism.forward_instrument();
     let (experiment, source) = match (forward, settings.poses) {
         (Some(instrument), poses) => {
             // Commanded poses selected for the joint problem's observability, or random.

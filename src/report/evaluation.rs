@@ -236,7 +236,7 @@ pub fn evaluation_text(
         stats_rows(&mut text, &title, "mm", &distance, improvement);
     }
     // Seen through the forward kinematics the targets give no pose: no reading residuals.
-    if !mechanism.instrument.as_ref().is_some_and(|i| i.forward) {
+    if mechanism.forward_instrument().is_none() {
         residual_rows(&mut text, mechanism, &evaluations, through);
     }
     for e in &evaluations {

@@ -207,11 +207,7 @@ fn render_result(out: &mut String, report: &Report<'_>, result: &StrategyResult)
     }
     // Seen through the forward kinematics, every row holds every leg's reading: no leg has
     // rows, costs or a σ̂ of its own (the instrument block has them).
-    let forward = report
-        .mechanism
-        .instrument
-        .as_ref()
-        .is_some_and(|i| i.forward);
+    let forward = report.mechanism.forward_instrument().is_some();
     for leg in &result.legs {
         match forward {
             true => {

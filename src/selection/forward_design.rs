@@ -56,7 +56,7 @@ pub fn select_forward(
     count: usize,
     criterion: SelectionCriterion,
 ) -> Result<ForwardDesign> {
-    let Some(instrument) = mechanism.instrument.as_ref().filter(|i| i.forward) else {
+    let Some(instrument) = mechanism.forward_instrument() else {
         return Err(Error::Invalid(format!(
             "{}: forward pose selection needs an instrument seen through the forward \
              kinematics (`instrument.kinematics: forward`)",

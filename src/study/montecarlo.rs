@@ -406,7 +406,7 @@ impl Study {
             .unwrap_or(mechanism.selection.poses_per_leg);
         let criterion = mechanism.selection.criterion;
         let through = mechanism.instrument.is_some();
-        let forward = mechanism.instrument.as_ref().is_some_and(|i| i.forward);
+        let forward = mechanism.forward_instrument().is_some();
         let mut per_leg = vec![Vec::new(); mechanism.legs.len()];
         let (arms, shared_count, shared_poses) = if forward {
             // Forward rows couple every leg: the joint fit alone, at the commanded poses
@@ -501,7 +501,7 @@ impl Study {
 
     /// Seen through the forward kinematics, the frame the map errors are taken in.
     fn map_frame(&self) -> Option<String> {
-        let instrument = self.mechanism.instrument.as_ref().filter(|i| i.forward)?;
+        let instrument = self.mechanism.forward_instrument()?;
         Some(format!(
             "target `{}` in the frame the observations define (the instrument frame, aligned \
              over the held frame components its reported coordinates cannot see)",
@@ -523,12 +523,7 @@ impl Study {
     /// Poses each arm measures, in the order of [`Self::arms`].
     pub fn poses(&self) -> Vec<usize> {
         let dc = self.pose_sets.per_leg.iter().map(Vec::len).sum();
-        if self
-            .mechanism
-            .instrument
-            .as_ref()
-            .is_some_and(|i| i.forward)
-        {
+        if self.mechanism.forward_instrument().is_some() {
             // The forward rows (every leg's reading at each), the joint fit's.
             return vec![self.pose_sets.shared.len(); self.arms.len()];
         }
@@ -585,7 +580,7 @@ impl Study {
     /// through the instrument, what it reports at the per-leg poses, the same rows for every arm.
     fn trial_data(&self, options: SimulationOptions) -> Result<(RealValues, Vec<Measurements>)> {
         let simulated = simulated_poses(&self.mechanism);
-        let experiment = match self.mechanism.instrument.as_ref().filter(|i| i.forward) {
+        let experiment = match self.mechanism.forward_instrument() {
             // The selected rows of every leg's reading (touches on the trial's real bed).
             Some(instrument) => {
                 let commanded = Some(self.pose_sets.shared.as_slice());
@@ -712,7 +707,7 @@ impl Study {
         let mut sum = 0.0;
         let mut count = 0usize;
         let reached = reached_poses_from(&self.mechanism, commanding, real, &self.map, joints);
-        let forward = self.mechanism.instrument.as_ref().filter(|i| i.forward);
+        let forward = self.mechanism.forward_instrument();
         if let (Some(instrument), Some(shared)) = (forward, shared) {
             // In the frame the observations define.
             return observed_frame_error(instrument, shared, &self.map, &reached)
