@@ -25,7 +25,7 @@ use crate::model::mechanism::SelectionCriterion;
 use crate::model::Mechanism;
 use crate::workspace::candidates::feasible_poses;
 
-/// Touches closer than this (metres, radians) are one candidate.
+/// Touches that agree to this (metres, radians) in every coordinate are one candidate.
 const SAME_TOUCH: f64 = 1e-9;
 
 /// The selected commanded poses of a forward model's rows.
@@ -65,15 +65,13 @@ pub fn select_forward(
     };
     let feasible = feasible_poses(mechanism, spacing)?;
     let nominal_shared = instrument.nominal();
+    // Distinct touches, each found once by its pose rounded to `SAME_TOUCH` (a grid's columns
+    // lowered onto one surface coincide).
     let mut touches: Vec<[f64; 6]> = Vec::new();
+    let mut seen = std::collections::HashSet::new();
     for candidate in &feasible.candidates {
         let pose = touched(mechanism, instrument, &nominal_shared, candidate.pose)?;
-        let seen = touches.iter().any(|t| {
-            t.iter()
-                .zip(&pose)
-                .all(|(a, b)| (a - b).abs() <= SAME_TOUCH)
-        });
-        if !seen {
+        if seen.insert(pose.map(|v| (v / SAME_TOUCH).round() as i64)) {
             touches.push(pose);
         }
     }
@@ -87,8 +85,10 @@ pub fn select_forward(
     problem.close_forward_rows_at(&x, configurations);
     let (_, jacobian) = problem.residuals_and_jacobian(&x).map_err(|e| {
         Error::Invalid(format!(
-            "forward pose selection: {}: {}",
-            e.location, e.source
+            "{}: forward pose selection: {}: {}",
+            mechanism.model_path.display(),
+            e.location,
+            e.source
         ))
     })?;
     let names = problem.names();
