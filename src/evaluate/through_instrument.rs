@@ -42,6 +42,7 @@ fn as_pose(names: &[&str], values: &[f64]) -> [f64; 6] {
 /// [`crate::error::Error::Measurement`] if no row holds every actuator reading.
 pub fn evaluate_observed(mechanism: &Mechanism, data: &Observations) -> Result<Evaluation> {
     let instrument = instrument_of(mechanism)?;
+    data.check_distances()?;
     let params = mechanism.nominal_parameters();
     let shared = instrument.nominal();
     let line = |index: usize| data.rows[index].line.unwrap_or(index + 2);

@@ -64,6 +64,31 @@ pub struct Observations {
 }
 
 impl Observations {
+    /// Checks every distance row: it joins two different rows of these observations and
+    /// measures a finite length (the reader checks a file's; observations made in memory are
+    /// checked here before use).
+    ///
+    /// # Errors
+    /// [`Error::Invalid`] naming the first bad distance (its line, or its index) and what it
+    /// holds.
+    pub fn check_distances(&self) -> Result<()> {
+        let count = self.rows.len();
+        for (k, d) in self.distances.iter().enumerate() {
+            let [a, b] = d.rows;
+            if a >= count || b >= count || a == b || !d.value.is_finite() {
+                let at = d
+                    .line
+                    .map_or(format!("distance {k}"), |l| format!("line {l}"));
+                return Err(Error::Invalid(format!(
+                    "{at}: a distance joins two different rows of the {count} and measures a \
+                     finite length; found rows {a} and {b}, {} m",
+                    d.value
+                )));
+            }
+        }
+        Ok(())
+    }
+
     /// The rows of leg `leg` with its reading: the rows labelled with the leg, or, if no row
     /// is, the shared rows where its reading is present (as [`super::MeasurementSet::leg_blocks`]).
     /// Each item is the row's index in [`Self::rows`] (the rows of several legs with the same

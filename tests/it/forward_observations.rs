@@ -608,6 +608,25 @@ fn observations_made_in_memory_with_a_distance_to_a_missing_row_are_refused() {
         message.contains("a distance joins two different rows"),
         "{message}"
     );
+    // Evaluating them is refused alike (not an index out of range), and so is a distance of
+    // no finite length.
+    let evaluate = legwise::evaluate::through_instrument::evaluate_observed;
+    let message = evaluate(&mechanism, &observations)
+        .expect_err("a distance to a missing row")
+        .to_string();
+    assert!(
+        message.contains("distance 0: a distance joins"),
+        "{message}"
+    );
+    let (mut observations, _, _) = experiment(&mechanism, 1.0);
+    observations.distances[1].value = f64::NAN;
+    let message = evaluate(&mechanism, &observations)
+        .expect_err("a NaN distance")
+        .to_string();
+    assert!(
+        message.contains("distance 1: a distance joins"),
+        "{message}"
+    );
     let (mut observations, _, _) = experiment(&mechanism, 1.0);
     observations.rows[3].readings.pop();
     let message = identify_shared(&mechanism, &observations, Strategy::Joint)

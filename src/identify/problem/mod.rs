@@ -237,30 +237,18 @@ impl<'a> IdentificationProblem<'a> {
             held: instrument.nominal(),
             rows: Arc::new(Vec::new()),
         };
+        observations.check_distances()?;
         let rows_count = observations.rows.len();
         let distances = observations
             .distances
             .iter()
             .enumerate()
-            .map(|(k, d)| {
-                let [a, b] = d.rows;
-                if a >= rows_count || b >= rows_count || a == b || !(d.value.is_finite()) {
-                    let at = d
-                        .line
-                        .map_or(format!("distance {k}"), |l| format!("line {l}"));
-                    return Err(Error::Invalid(format!(
-                        "{at}: a distance joins two different rows of the {rows_count} and \
-                         measures a finite length; found rows {a} and {b}, {} m",
-                        d.value
-                    )));
-                }
-                Ok(ForwardDistance {
-                    source: rows_count + k,
-                    rows: d.rows,
-                    value: d.value,
-                })
+            .map(|(k, d)| ForwardDistance {
+                source: rows_count + k,
+                rows: d.rows,
+                value: d.value,
             })
-            .collect::<Result<Vec<_>>>()?;
+            .collect();
         let mut problem = Self::assemble(mechanism, legs, Vec::new(), Some(sighted));
         problem.forward = Some(Forward::new(rows, distances));
         Ok(problem)
