@@ -16,7 +16,7 @@
 
 use nalgebra::{DMatrix, DVector};
 
-use super::observability::RANK_TOLERANCE;
+use super::observability::{unit_columns, with_a_row_per_column, RANK_TOLERANCE};
 use super::problem::{IdentificationProblem, ReachedPoint};
 
 /// The seven motions of a point set, in the order of [`motion_basis`]'s columns.
@@ -97,16 +97,8 @@ pub fn unseen_motions(
 fn scaled_directions(jacobian: &DMatrix<f64>) -> (DMatrix<f64>, Option<DVector<f64>>, f64) {
     let n = jacobian.ncols();
     let norms: Vec<f64> = jacobian.column_iter().map(|c| c.norm()).collect();
-    let mut scaled = jacobian.clone();
-    for (mut column, &norm) in scaled.column_iter_mut().zip(&norms) {
-        if norm > 0.0 {
-            column /= norm;
-        }
-    }
-    if scaled.nrows() < n {
-        scaled = scaled.resize_vertically(n, 0.0);
-    }
-    let svd = scaled.svd(false, true);
+    // The rank check's scaling and padding (observability.rs), so the same null space.
+    let svd = with_a_row_per_column(unit_columns(jacobian)).svd(false, true);
     let v_t = svd.v_t.expect("asked for V");
     let mut order: Vec<usize> = (0..svd.singular_values.len()).collect();
     order.sort_by(|&a, &b| svd.singular_values[b].total_cmp(&svd.singular_values[a]));
@@ -137,15 +129,13 @@ fn columns(rows: usize, vectors: &[DVector<f64>]) -> DMatrix<f64> {
 
 /// The reached points' motion (3 per row) under the change `direction` of the unknowns.
 fn effect(points: &[ReachedPoint], direction: &DVector<f64>) -> DVector<f64> {
-    DVector::from_iterator(
-        3 * points.len(),
-        points.iter().flat_map(|p| {
-            (&p.moves * direction)
-                .into_iter()
-                .copied()
-                .collect::<Vec<_>>()
-        }),
-    )
+    let mut moved = DVector::zeros(3 * points.len());
+    for (r, point) in points.iter().enumerate() {
+        moved
+            .rows_mut(3 * r, 3)
+            .gemv(1.0, &point.moves, direction, 0.0);
+    }
+    moved
 }
 
 /// The seven motions' effects on `points` (3 per point), each column of unit norm (zero when

@@ -99,7 +99,7 @@ pub fn analyse(c: &DMatrix<f64>, names: &[String]) -> Observability {
 /// columns has a right singular vector per row only: the directions it leaves out (singular
 /// value 0, the null space's completion) would be missing from the null directions and the
 /// weakest one. Zero rows change no singular value but add those zeros and their vectors.
-fn with_a_row_per_column(c: DMatrix<f64>) -> DMatrix<f64> {
+pub(crate) fn with_a_row_per_column(c: DMatrix<f64>) -> DMatrix<f64> {
     let n = c.ncols();
     match c.nrows().cmp(&n) {
         std::cmp::Ordering::Less => c.resize_vertically(n, 0.0),
