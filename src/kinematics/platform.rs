@@ -18,6 +18,10 @@ use crate::model::Mechanism;
 
 const MAX_ITERATIONS: usize = 50;
 
+/// A converged configuration whose column-normalised closure Jacobian has a determinant
+/// below this in magnitude is at a parallel singularity: no assembly mode to tell.
+const SINGULAR_MODE: f64 = 1e-10;
+
 /// A Newton step from a closure residual at most this fraction of the mechanism's size lands
 /// at round-off (quadratic convergence): the next iteration checks the residual alone.
 const LANDING: f64 = 1e-7;
@@ -263,7 +267,7 @@ impl<'m> ForwardKinematics<'m> {
                     return Err(KinematicsError::NotAssemblable { residual: check });
                 }
                 if converged(check, residual, 1e-13 * size) {
-                    if determinant.abs() < 1e-10 {
+                    if determinant.abs() < SINGULAR_MODE {
                         return Err(KinematicsError::AssemblyModeChange);
                     }
                     return Ok(determinant);
@@ -307,7 +311,7 @@ impl<'m> ForwardKinematics<'m> {
             let tolerance = 1e-13 * size;
             if converged(residual, previous, tolerance) {
                 let determinant = normalised_determinant(jacobian);
-                if determinant.abs() < 1e-10 {
+                if determinant.abs() < SINGULAR_MODE {
                     return Err(KinematicsError::AssemblyModeChange);
                 }
                 return Ok(determinant);
