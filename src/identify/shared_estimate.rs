@@ -82,7 +82,7 @@ pub fn check_rank(
                     m.weakest_ratio
                 ),
                 "hold one parameter for each unseen motion, one that moves the points that \
-                 way (a base joint's coordinate, a carriage offset or the instrument's height), \
+                 way (a base joint's coordinate, an actuator offset, the instrument frame's position), \
                  or measure what sees it (docs/models.md, \"Forward observations\")",
             ),
             None => (
