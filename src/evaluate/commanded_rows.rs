@@ -37,6 +37,7 @@ pub(crate) fn commanded_rows(
             observed: vec![0.0; width],
             readings: readings.into_iter().map(Some).collect(),
             id: None,
+            pose: None,
         });
         configurations.push(configuration);
     }

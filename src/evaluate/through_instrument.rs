@@ -9,7 +9,7 @@
 //! says the target is, against where the instrument saw it. Each leg's reading residual is
 //! taken at the platform pose fitted from the row's targets with the model's instrument
 //! ([`platform_pose`]); seen through the forward kinematics (`instrument.kinematics: forward`),
-//! whose targets do not give the pose, there are none.
+//! whose targets do not give the pose, at the rows of a measured pose only (`instrument.poses`).
 
 use super::accuracy::{orientation_error, position_error, ErrorStats};
 use super::held_out::{
@@ -97,17 +97,23 @@ pub fn evaluate_observed(mechanism: &Mechanism, data: &Observations) -> Result<E
         }
     }
     let home = &mechanism.home_pose;
-    // Seen through the forward kinematics, the targets do not give the pose: no reading
-    // residuals, the error in what the instrument saw is the evaluation.
+    // Seen through the forward kinematics, the targets do not give the pose: the reading
+    // residuals are those of the rows of a measured pose only.
     let fitted: Vec<ResidualRow<'_>> = data
         .rows
         .iter()
-        .filter(|_| !instrument.forward)
         .enumerate()
-        .map(|(i, row)| ResidualRow {
-            line: line(i),
-            readings: &row.readings,
-            pose: platform_pose::<f64>(instrument, &shared, &row.observed, home),
+        .filter_map(|(i, row)| {
+            let pose = match (instrument.forward, row.pose) {
+                (false, _) => platform_pose::<f64>(instrument, &shared, &row.observed, home),
+                (true, Some(pose)) => pose,
+                (true, None) => return None,
+            };
+            Some(ResidualRow {
+                line: line(i),
+                readings: &row.readings,
+                pose,
+            })
         })
         .collect();
     let reading_residual = reading_residuals(mechanism, &params, &fitted);

@@ -10,7 +10,7 @@ use rand_chacha::ChaCha8Rng;
 
 use super::observe_simulate::real_shared;
 use super::simulate::{reachable_pose, real_parameters, setup, PoseSets, SimulationOptions};
-use super::targets::observe_in;
+use super::targets::{observe, observe_in};
 use crate::error::{Error, Result};
 use crate::kinematics::inverse::predict_reading;
 use crate::model::instrument::Instrument;
@@ -21,7 +21,9 @@ const TOUCH_STEPS: usize = 50;
 
 /// The true poses of a forward experiment: shared rows (every leg's reading), none of a leg's
 /// own: at the commanded poses `commanded` (a forward design's) or, without them, at
-/// `poses_per_leg` random poses; each moved to its touch on the real surface.
+/// `poses_per_leg` random poses; each moved to its touch on the real surface. Then, with
+/// `instrument.poses`, its `simulate` rows at random poses whose platform pose is measured
+/// (the last rows: [`super::observe_simulate::observed_from`] measures their pose).
 ///
 /// # Errors
 /// No simulation block, no reachable pose, or a touch the real legs cannot reach (named).
@@ -65,6 +67,38 @@ pub fn forward_pose_sets(
             });
         }
         poses.push(pose);
+    }
+    // Then the rows of a measured pose (`instrument.poses`), at random poses on the side of
+    // every touch surface where the platform starts (a probe above its bed).
+    let measured = instrument.poses.as_ref().map_or(0, |p| p.simulate);
+    let home = observe(instrument, &shared, &mechanism.home_pose);
+    let clear = |pose: &[f64; 6]| {
+        let seen = observe(instrument, &shared, pose);
+        let mut at = 0;
+        instrument.targets.iter().all(|target| {
+            let first = at;
+            at += target.pose_indices().len();
+            target
+                .touch
+                .is_none_or(|t| (seen[first] - t) * (home[first] - t) > 0.0)
+        })
+    };
+    let mut drawn = 0;
+    while poses.len() < rows + measured {
+        let pose = reachable_pose(mechanism, &real, &mut rng)?;
+        drawn += 1;
+        if clear(&pose) {
+            poses.push(pose);
+        } else if drawn > 1000 * (measured + 1) {
+            return Err(Error::Model {
+                path: mechanism.model_path.clone(),
+                field: "instrument.poses.simulate".into(),
+                message: "simulation: hardly a pose of the workspace keeps the targets on the \
+                          side of their touch surface where home is: check the workspace and \
+                          the touch values"
+                    .into(),
+            });
+        }
     }
     Ok(PoseSets {
         per_leg: vec![Vec::new(); mechanism.legs.len()],

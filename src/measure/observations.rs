@@ -12,7 +12,9 @@
 //! for a model seen through the forward kinematics whose row has no reading: its readings are
 //! then the nominal model's inverse kinematics of the commanded pose (what a controller
 //! running the nominal model logs). A forward model's rows may carry an `id`, and distance
-//! rows `from`, `to` and `distance` (docs/models.md §10).
+//! rows `from`, `to` and `distance`; with `instrument.poses`, a row may carry a platform pose
+//! measured in the base frame in the model's pose columns, unprefixed (`x, y, z`, as in a file
+//! of platform poses), with or without target coordinates (docs/models.md §10).
 //! Errors name the file, the line and the column.
 
 use std::path::{Path, PathBuf};
@@ -23,6 +25,7 @@ use super::rows;
 use crate::error::{Error, Result};
 use crate::kinematics::inverse::predict_reading;
 use crate::model::instrument::Instrument;
+use crate::model::mechanism::COORDINATES;
 use crate::model::Mechanism;
 
 /// One row: the targets as the instrument reports them, and the readings taken there.
@@ -38,6 +41,10 @@ pub struct ObservedRow {
     pub readings: Vec<Option<f64>>,
     /// The row's label in the `id` column (forward models), which distances name.
     pub id: Option<String>,
+    /// The platform pose measured at the row in the base frame `[x, y, z, roll, pitch, yaw]`
+    /// (the coordinates the model does not measure at home), if the model's `instrument.poses`
+    /// lets rows carry one: each leg's reading is then predicted from it too.
+    pub pose: Option<[f64; 6]>,
 }
 
 /// A measured distance between one target's positions at two rows (forward models: the
@@ -127,9 +134,9 @@ fn commanded_columns(mechanism: &Mechanism) -> Vec<String> {
         .collect()
 }
 
-/// The optional columns of a forward model: the rows' `id`, and with distances the distance
-/// rows' `from`, `to` and `distance`.
-fn forward_columns(instrument: &Instrument) -> Vec<String> {
+/// The optional columns of a forward model: the rows' `id`, with distances the distance
+/// rows' `from`, `to` and `distance`, and with measured poses the model's pose coordinates.
+fn forward_columns(mechanism: &Mechanism, instrument: &Instrument) -> Vec<String> {
     let mut columns = Vec::new();
     if instrument.forward {
         columns.push("id".to_string());
@@ -137,7 +144,21 @@ fn forward_columns(instrument: &Instrument) -> Vec<String> {
     if instrument.distances.is_some() {
         columns.extend(["from", "to", "distance"].map(String::from));
     }
+    columns.extend(measured_pose_columns(mechanism, instrument));
     columns
+}
+
+/// The columns of a row's measured platform pose (the model's coordinates, unprefixed), with
+/// `instrument.poses`; none without.
+fn measured_pose_columns(mechanism: &Mechanism, instrument: &Instrument) -> Vec<String> {
+    match instrument.poses {
+        Some(_) => mechanism
+            .measured_names()
+            .iter()
+            .map(|c| c.to_string())
+            .collect(),
+        None => Vec::new(),
+    }
 }
 
 fn expected_columns(mechanism: &Mechanism, instrument: &Instrument) -> Vec<String> {
@@ -165,7 +186,7 @@ pub fn parse(text: &str, path: &Path, mechanism: &Mechanism) -> Result<Observati
     let fail = |location: String, message: String| rows::fail(path, location, message);
     let expected = expected_columns(mechanism, instrument);
     let commanded = commanded_columns(mechanism);
-    let forward_optional = forward_columns(instrument);
+    let forward_optional = forward_columns(mechanism, instrument);
     let mut listing = match instrument.forward {
         false => format!(
             "{} (and optionally {}, ignored)",
@@ -216,6 +237,21 @@ pub fn parse(text: &str, path: &Path, mechanism: &Mechanism) -> Result<Observati
         false => Vec::new(),
     };
     let target_columns: Vec<usize> = instrument.columns().iter().map(|c| index(c)).collect();
+    // The measured pose's columns present (all of them, or none).
+    let pose_names = measured_pose_columns(mechanism, instrument);
+    let pose_at: Vec<usize> = pose_names.iter().filter_map(|n| column_of(n)).collect();
+    if !pose_at.is_empty() && pose_at.len() != pose_names.len() {
+        let missing = pose_names.iter().find(|n| column_of(n).is_none());
+        return Err(fail(
+            "header".into(),
+            format!(
+                "a measured pose needs every coordinate the model measures ({}); column `{}` \
+                 is missing",
+                pose_names.join(", "),
+                missing.map_or("", String::as_str)
+            ),
+        ));
+    }
     let reading_columns: Vec<usize> = mechanism
         .actuated_names()
         .iter()
@@ -281,9 +317,27 @@ pub fn parse(text: &str, path: &Path, mechanism: &Mechanism) -> Result<Observati
                 continue;
             }
         }
+        // A measured pose: every coordinate, or none (a row without one).
+        let pose = match pose_at.iter().any(|&c| !cell(c).is_empty()) {
+            false => None,
+            true => {
+                let mut pose = mechanism.home_pose;
+                for (&c, &column) in mechanism.measured.iter().zip(&pose_at) {
+                    pose[c] = number(column)?.ok_or_else(|| {
+                        fail(
+                            format!("line {line}, column `{}`", header[column]),
+                            "missing value; expected the measured pose's coordinate (metres \
+                             or radians), or none of them for a row without a measured pose"
+                                .into(),
+                        )
+                    })?;
+                }
+                Some(pose)
+            }
+        };
         let target_cells = target_columns.iter().map(|&c| cell(c));
-        let readings_only =
-            instrument.distances.is_some() && target_cells.clone().all(str::is_empty);
+        let readings_only = (instrument.distances.is_some() || pose.is_some())
+            && target_cells.clone().all(str::is_empty);
         let observed = target_columns
             .iter()
             .filter(|_| !readings_only)
@@ -339,7 +393,9 @@ pub fn parse(text: &str, path: &Path, mechanism: &Mechanism) -> Result<Observati
         }
         rows::require_leg_reading(path, line, mechanism, leg, &readings)?;
         if instrument.forward {
-            forward_row(path, line, mechanism, leg, &readings)?;
+            // A row of a measured pose alone predicts the readings it has.
+            let every_reading = pose.is_none() || !observed.is_empty();
+            forward_row(path, line, mechanism, (leg, every_reading), &readings)?;
         }
         rows.push(ObservedRow {
             line: Some(line),
@@ -347,6 +403,7 @@ pub fn parse(text: &str, path: &Path, mechanism: &Mechanism) -> Result<Observati
             observed,
             readings,
             id,
+            pose,
         });
     }
     if rows.is_empty() {
@@ -431,6 +488,20 @@ fn resolve_distances(
                     })
             };
             let pair = [find(0)?, find(1)?];
+            for (k, &r) in pair.iter().enumerate() {
+                if rows[r].readings.iter().any(Option::is_none) {
+                    return Err(rows::fail(
+                        path,
+                        format!("line {}, column `{}`", d.line, ["from", "to"][k]),
+                        format!(
+                            "row `{}` (line {}) lacks a reading: a distance's rows need every \
+                             leg's reading (their forward kinematics)",
+                            d.ids[k],
+                            rows[r].line.unwrap_or(r + 2)
+                        ),
+                    ));
+                }
+            }
             if pair[0] == pair[1] {
                 return Err(rows::fail(
                     path,
@@ -449,7 +520,8 @@ fn resolve_distances(
         })
         .collect::<Result<Vec<_>>>()?;
     for (i, row) in rows.iter().enumerate() {
-        if row.observed.is_empty() && !distances.iter().any(|d| d.rows.contains(&i)) {
+        let named = distances.iter().any(|d| d.rows.contains(&i));
+        if row.observed.is_empty() && row.pose.is_none() && !named {
             return Err(rows::fail(
                 path,
                 format!("line {}", row.line.unwrap_or(i + 2)),
@@ -499,7 +571,7 @@ fn forward_row(
     path: &Path,
     line: usize,
     mechanism: &Mechanism,
-    leg: Option<usize>,
+    (leg, every_reading): (Option<usize>, bool),
     readings: &[Option<f64>],
 ) -> Result<()> {
     if let Some(l) = leg {
@@ -514,13 +586,21 @@ fn forward_row(
             ),
         ));
     }
-    if let Some(l) = readings.iter().position(Option::is_none) {
+    let missing = readings.iter().position(Option::is_none);
+    if let Some(l) = missing.filter(|_| every_reading) {
         return Err(rows::fail(
             path,
             format!("line {line}, column `{}`", mechanism.actuated_names()[l]),
             "missing reading: the forward kinematics (`instrument.kinematics: forward`) needs \
              every leg's reading at every row"
                 .into(),
+        ));
+    }
+    if readings.iter().all(Option::is_none) {
+        return Err(rows::fail(
+            path,
+            format!("line {line}"),
+            "no reading: a row of a measured pose predicts the readings it holds".into(),
         ));
     }
     Ok(())
@@ -533,9 +613,10 @@ fn forward_row(
 /// [`Error::Model`] if the model has no instrument.
 pub fn to_csv(mechanism: &Mechanism, set: &Observations) -> Result<String> {
     let instrument = instrument_of(mechanism)?;
-    let extra = forward_columns(instrument);
+    let extra = forward_columns(mechanism, instrument);
     let targets = instrument.columns().len();
     let readings = mechanism.actuated_names().len();
+    let pose_columns = measured_pose_columns(mechanism, instrument);
     let mut lines: Vec<Vec<String>> = set
         .rows
         .iter()
@@ -548,11 +629,15 @@ pub fn to_csv(mechanism: &Mechanism, set: &Observations) -> Result<String> {
                 false => cells.extend(row.observed.iter().map(|v| format!("{v}"))),
             }
             cells.extend(row.readings.iter().map(rows::reading_cell));
-            if !extra.is_empty() {
-                cells.push(row.id.clone().unwrap_or_default());
-            }
-            if extra.len() > 1 {
-                cells.extend(std::iter::repeat_n(String::new(), 3));
+            for column in &extra {
+                cells.push(match column.as_str() {
+                    "id" => row.id.clone().unwrap_or_default(),
+                    "from" | "to" | "distance" => String::new(),
+                    coordinate => row.pose.map_or(String::new(), |pose| {
+                        let c = COORDINATES.iter().position(|n| *n == coordinate);
+                        format!("{}", pose[c.unwrap_or_default()])
+                    }),
+                });
             }
             cells
         })
@@ -561,6 +646,7 @@ pub fn to_csv(mechanism: &Mechanism, set: &Observations) -> Result<String> {
         let id = |k: usize| set.rows[distance.rows[k]].id.clone().unwrap_or_default();
         let mut cells = vec![String::new(); 1 + targets + readings + 1];
         cells.extend([id(0), id(1), format!("{}", distance.value)]);
+        cells.extend(std::iter::repeat_n(String::new(), pose_columns.len()));
         lines.push(cells);
     }
     let mut header = expected_columns(mechanism, instrument);

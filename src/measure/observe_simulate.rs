@@ -106,22 +106,41 @@ pub fn observed_from(
         .map(|&c| options.noise_scale * simulation.pose_noise[c])
         .collect();
     let forward = instrument.forward;
+    // A forward experiment's last rows are those of a measured pose (`instrument.poses`):
+    // their pose measured with its own noise (its own random stream), no target coordinates.
+    let total = experiment.measurements.poses().len();
+    let measured = instrument.poses.as_ref().filter(|_| forward);
+    let seen_rows = total - measured.map_or(0, |p| p.simulate.min(total));
+    let mut pose_rng = ChaCha8Rng::seed_from_u64(seed ^ 0x0b5e_7ed0_9053);
     let rows: Vec<ObservedRow> = experiment
         .measurements
         .rows()
         .enumerate()
         .map(|(i, (pose, readings))| {
-            let observed = observe(instrument, &shared, &pose.pose)
-                .iter()
-                .zip(&sigma)
-                .map(|(v, s)| v + s * gaussian(&mut rng))
-                .collect();
+            let (observed, measured_pose) = match (i < seen_rows, measured) {
+                (false, Some(poses)) => {
+                    let noisy = std::array::from_fn(|c| {
+                        let sigma = options.noise_scale * poses.noise[c];
+                        pose.pose[c] + sigma * gaussian(&mut pose_rng)
+                    });
+                    (Vec::new(), Some(noisy))
+                }
+                _ => {
+                    let observed = observe(instrument, &shared, &pose.pose)
+                        .iter()
+                        .zip(&sigma)
+                        .map(|(v, s)| v + s * gaussian(&mut rng))
+                        .collect();
+                    (observed, None)
+                }
+            };
             ObservedRow {
                 line: pose.line,
                 leg: pose.leg,
                 observed,
                 readings: readings.to_vec(),
                 id: forward.then(|| format!("t{}", i + 1)),
+                pose: measured_pose,
             }
         })
         .collect();
@@ -129,6 +148,7 @@ pub fn observed_from(
         .measurements
         .poses()
         .iter()
+        .take(seen_rows)
         .map(|p| p.pose)
         .collect();
     let distances = simulated_distances(instrument, &shared, &poses, options, &mut rng);

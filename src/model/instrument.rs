@@ -36,6 +36,11 @@ pub struct InstrumentEntry {
     /// (a ballbar, calipers on a printed part), given as rows of their own in the CSV.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub distances: Option<DistancesEntry>,
+    /// Forward kinematics only: rows may also carry a platform pose measured in the base frame
+    /// (a few tracker poses beside many probe touches), each leg's reading predicted from it by
+    /// its inverse kinematics.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub poses: Option<PosesEntry>,
     /// Forward kinematics only: the largest predicted standard deviation of the first target's
     /// position over the workspace a calibration may leave, metres (above it the result is
     /// not trusted).
@@ -54,6 +59,29 @@ pub struct DistancesEntry {
     pub noise: f64,
     /// Simulation: how many distances between pairs of simulated rows are measured.
     #[serde(default)]
+    pub simulate: usize,
+}
+
+/// The `instrument.poses` block: the noise of the platform poses measured at some rows, and how
+/// many the simulation measures.
+#[derive(Debug, Clone, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct PosesEntry {
+    /// Standard deviation of each measured pose coordinate, by the model's coordinate names
+    /// (metres, radians).
+    pub noise: BTreeMap<String, f64>,
+    /// Simulation: how many rows at random poses of the workspace carry their measured pose.
+    #[serde(default)]
+    pub simulate: usize,
+}
+
+/// Validated measured platform poses of a forward model's rows.
+#[derive(Debug, Clone, PartialEq)]
+pub struct MeasuredPoses {
+    /// Standard deviation of each pose coordinate `[x, y, z, roll, pitch, yaw]` (zero for the
+    /// coordinates the model does not measure).
+    pub noise: [f64; 6],
+    /// How many the simulation measures.
     pub simulate: usize,
 }
 
@@ -244,6 +272,8 @@ pub struct Instrument {
     pub forward: bool,
     /// Measured distances between a target's positions at two rows (forward only).
     pub distances: Option<Distances>,
+    /// Platform poses measured in the base frame at some rows (forward only).
+    pub poses: Option<MeasuredPoses>,
     /// The largest predicted σ of the first target's position over the workspace a
     /// calibration may leave, metres (forward only).
     pub tolerance: Option<f64>,

@@ -63,10 +63,18 @@ pub fn simulate(mechanism: &Mechanism, settings: &SimulationSettings) -> Result<
             } else {
                 ""
             };
+            let measured = instrument.poses.as_ref().map_or(0, |p| p.simulate);
+            let poses = match measured {
+                0 => String::new(),
+                n => format!(
+                    ", then {n} rows at random poses with their platform pose measured (inverse \
+                     kinematics)"
+                ),
+            };
             let text = format!(
                 "simulated {chosen}{touch}: {} rows of every leg's reading (forward \
-                 kinematics), {noise}",
-                sets.shared.len()
+                 kinematics){poses}, {noise}",
+                sets.shared.len() - measured
             );
             (experiment, text)
         }

@@ -153,9 +153,14 @@ pub fn evaluation_text(
     against: Option<&Evaluation>,
 ) -> String {
     let mut text = String::new();
+    // Seen through the forward kinematics, a row of a measured pose has every reading too.
+    let full = match mechanism.forward_instrument() {
+        Some(_) => "with target coordinates and every actuator reading",
+        None => "with every actuator reading",
+    };
     let _ = writeln!(
         text,
-        "legwise evaluate: {} on {} ({} rows, {} with every actuator reading)",
+        "legwise evaluate: {} on {} ({} rows, {} {full})",
         evaluation.model,
         evaluation.measurements,
         evaluation.rows,
@@ -235,9 +240,16 @@ pub fn evaluation_text(
         );
         stats_rows(&mut text, &title, "mm", &distance, improvement);
     }
-    // Seen through the forward kinematics the targets give no pose: no reading residuals.
-    if mechanism.forward_instrument().is_none() {
-        residual_rows(&mut text, mechanism, &evaluations, through);
+    // Seen through the forward kinematics the targets give no pose: reading residuals only at
+    // the rows of a measured pose (`instrument.poses`), if there are any.
+    match mechanism.forward_instrument() {
+        None => residual_rows(&mut text, mechanism, &evaluations, through),
+        Some(_) => {
+            let measured = |e: &&Evaluation| e.reading_residual.iter().any(|r| r.rms.is_some());
+            if evaluations.iter().any(measured) {
+                residual_rows(&mut text, mechanism, &evaluations, false);
+            }
+        }
     }
     for e in &evaluations {
         if !e.non_assemblable.is_empty() {

@@ -18,7 +18,9 @@ use super::design::selection_options;
 use super::{select_columns, Selection, SelectionError};
 use crate::error::{Error, Result};
 use crate::evaluate::commanded_rows::commanded_rows;
-use crate::identify::observability::{analyse, Observability};
+use crate::identify::observability::{
+    analyse, unit_columns, with_a_row_per_column, Observability, RANK_TOLERANCE,
+};
 use crate::identify::problem::IdentificationProblem;
 use crate::measure::forward_simulate::touched;
 use crate::model::mechanism::SelectionCriterion;
@@ -93,8 +95,14 @@ pub fn select_forward(
     })?;
     let names = problem.names();
     let options = selection_options(count, criterion);
+    // With measured poses beside the rows, the rows need only see what they can: selected on
+    // the combinations of the (column-scaled) unknowns the pool identifies.
+    let pool = match instrument.poses {
+        Some(_) => seen_combinations(&jacobian),
+        None => jacobian.clone(),
+    };
     let selection =
-        select_columns(jacobian.transpose(), width, &options).map_err(|error| match error {
+        select_columns(pool.transpose(), width, &options).map_err(|error| match error {
             SelectionError::RankDeficient { .. } => {
                 let pool = analyse(&jacobian, &names);
                 Error::Invalid(format!(
@@ -123,6 +131,25 @@ pub fn select_forward(
         observability: analyse(&chosen, &names),
         selection,
     })
+}
+
+/// The rows of `jacobian` over the combinations of its column-scaled unknowns it identifies:
+/// `J D V_r`, `D` the column scaling of the rank check ([`unit_columns`]) and `V_r` the right
+/// singular vectors of `J D` whose singular values exceed 1e-8 of the largest (the rank
+/// check's threshold). A D-optimal selection on it maximises the product of the selected
+/// rows' information over what the pool can see.
+fn seen_combinations(jacobian: &DMatrix<f64>) -> DMatrix<f64> {
+    let scaled = unit_columns(jacobian);
+    let svd = with_a_row_per_column(scaled.clone()).svd(false, true);
+    let Some(v_t) = svd.v_t else {
+        return scaled;
+    };
+    let largest = svd.singular_values.max();
+    let kept: Vec<usize> = (0..svd.singular_values.len())
+        .filter(|&k| svd.singular_values[k] > RANK_TOLERANCE * largest)
+        .collect();
+    let basis = DMatrix::from_fn(scaled.ncols(), kept.len(), |j, k| v_t[(kept[k], j)]);
+    scaled * basis
 }
 
 #[cfg(test)]

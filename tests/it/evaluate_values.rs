@@ -400,6 +400,7 @@ fn instrument_rows_not_read_from_a_file_are_reported_at_the_lines_a_written_file
         observed: vec![0.0, 1.0],
         readings,
         id: None,
+        pose: None,
     };
     let data = Observations {
         source: None,

@@ -77,7 +77,7 @@ impl<'a> IdentificationProblem<'a> {
         let own = self.own_width();
         let reading =
             leg.reading_and_gradient_on(&placed.platform, solution, &mut gradient[..leg.columns()]);
-        if let Some(sighted) = self.sighted.as_ref().filter(|s| !s.shared.is_empty()) {
+        if let Some(sighted) = self.sighting().filter(|s| !s.shared.is_empty()) {
             let row = (sighted.rows[index].observed.as_slice(), &placed.pose);
             let home = &self.mechanism.home_pose;
             sighted.shared_gradient(leg, row, solution, (shared, home), &mut gradient[own..]);
@@ -85,7 +85,7 @@ impl<'a> IdentificationProblem<'a> {
         // Through an instrument the reading is the solution's own, the value a residual-only
         // evaluation gives (its fitted poses' results are those recorded with it); with
         // measured poses, the dual pass's (the same to round-off).
-        if self.sighted.is_some() {
+        if self.sighting().is_some() {
             return leg.reading_of(solution);
         }
         reading
@@ -178,7 +178,7 @@ impl<'a> IdentificationProblem<'a> {
         let shared = self.shared_values(x);
         let home = &self.mechanism.home_pose;
         let keep = m <= KEPT_SOLUTION_ROWS;
-        let keep_poses = keep && self.sighted.is_some();
+        let keep_poses = keep && self.sighting().is_some();
         let mut predicted = vec![0.0; m];
         // Without derivatives, a placeholder column (the chunks of all three slices must pair).
         let stride = width.max(1);

@@ -43,6 +43,9 @@ pub(super) struct Forward {
     /// Each row's configuration at its last solve (the next one's start), shared by the
     /// problem's clones (evaluated one after the other, never at once).
     pub(super) starts: Arc<Mutex<Vec<Option<Configuration>>>>,
+    /// Per residual block of a measured pose (the problem's blocks, before the forward rows'
+    /// residuals), the index of its row in the observations: its measurement.
+    pub(super) block_sources: Arc<Vec<usize>>,
     /// The latest evaluation, keyed by the unknowns' bits: a solver asks for the Jacobian where
     /// it has just evaluated the residuals, and the statistics again at the estimate.
     pub(super) latest: Arc<Mutex<Option<Latest>>>,
@@ -63,20 +66,29 @@ pub(super) struct Latest {
 }
 
 impl Forward {
-    /// The forward part of a problem over `rows` and `distances`.
-    pub(super) fn new(rows: Vec<ForwardRow>, distances: Vec<ForwardDistance>) -> Self {
+    /// The forward part of a problem over `rows` and `distances`, beside blocks of measured
+    /// poses from the rows `block_sources`.
+    pub(super) fn new(
+        rows: Vec<ForwardRow>,
+        distances: Vec<ForwardDistance>,
+        block_sources: Vec<usize>,
+    ) -> Self {
         let starts = vec![None; rows.len()];
         Self {
             rows: Arc::new(rows),
             distances: Arc::new(distances),
             starts: Arc::new(Mutex::new(starts)),
+            block_sources: Arc::new(block_sources),
             latest: Arc::new(Mutex::new(None)),
         }
     }
 
-    /// The same rows with fresh warm starts (a derived problem starts its own).
-    pub(super) fn renewed(&self) -> Self {
-        Self::new(self.rows.to_vec(), self.distances.to_vec())
+    /// The same rows with fresh warm starts (a derived problem starts its own), beside the
+    /// blocks `keep` picks (by block index).
+    pub(super) fn renewed(&self, keep: impl Fn(usize) -> bool) -> Self {
+        let sources = (0..self.block_sources.len()).filter(|&i| keep(i));
+        let sources = sources.map(|i| self.block_sources[i]).collect();
+        Self::new(self.rows.to_vec(), self.distances.to_vec(), sources)
     }
 }
 

@@ -193,11 +193,36 @@ impl<'a> IdentificationProblem<'a> {
         legs: &[usize],
     ) -> Result<Self> {
         let instrument = instrument_of(mechanism)?;
-        let rows = observations
-            .rows
+        observations.check_distances()?;
+        // The rows the forward kinematics closes: those with target coordinates, and those a
+        // distance names (a row of a measured pose alone is not closed).
+        let named = |source: usize| {
+            let mut pairs = observations.distances.iter().flat_map(|d| d.rows);
+            pairs.any(|r| r == source)
+        };
+        let closed: Vec<usize> = (0..observations.rows.len())
+            .filter(|&i| !observations.rows[i].observed.is_empty() || named(i))
+            .collect();
+        // Each measured pose's legs with a reading (and a slot): ordinary residual blocks.
+        let (mut blocks, mut block_sources) = (Vec::new(), Vec::new());
+        for (source, row) in observations.rows.iter().enumerate() {
+            let Some(pose) = row.pose else { continue };
+            for (leg, reading) in row.readings.iter().enumerate() {
+                if let (Some(reading), true) = (reading, legs.contains(&leg)) {
+                    blocks.push(ResidualBlock {
+                        leg,
+                        pose,
+                        reading: *reading,
+                        line: row.line,
+                    });
+                    block_sources.push(source);
+                }
+            }
+        }
+        let rows = closed
             .iter()
-            .enumerate()
-            .map(|(source, row)| {
+            .map(|&source| {
+                let row = &observations.rows[source];
                 let readings = row.readings.iter().enumerate().map(|(l, r)| {
                     r.ok_or_else(|| {
                         let at = row
@@ -237,20 +262,20 @@ impl<'a> IdentificationProblem<'a> {
             held: instrument.nominal(),
             rows: Arc::new(Vec::new()),
         };
-        observations.check_distances()?;
         let rows_count = observations.rows.len();
+        let forward_row = |r: usize| closed.binary_search(&r).unwrap_or_default();
         let distances = observations
             .distances
             .iter()
             .enumerate()
             .map(|(k, d)| ForwardDistance {
                 source: rows_count + k,
-                rows: d.rows,
+                rows: d.rows.map(forward_row),
                 value: d.value,
             })
             .collect();
-        let mut problem = Self::assemble(mechanism, legs, Vec::new(), Some(sighted));
-        problem.forward = Some(Forward::new(rows, distances));
+        let mut problem = Self::assemble(mechanism, legs, blocks, Some(sighted));
+        problem.forward = Some(Forward::new(rows, distances, block_sources));
         Ok(problem)
     }
 
@@ -360,18 +385,21 @@ impl<'a> IdentificationProblem<'a> {
             .filter(|&i| keep(i))
             .map(|i| self.blocks[i].clone())
             .collect();
-        let sighted = self.sighted.as_ref().map(|s| Sighted {
-            rows: Arc::new(
-                (0..self.blocks.len())
-                    .filter(|&i| keep(i))
-                    .map(|i| s.rows[i].clone())
-                    .collect(),
-            ),
-            ..s.clone()
-        });
+        let sighted = match self.sighting() {
+            Some(s) => Some(Sighted {
+                rows: Arc::new(
+                    (0..self.blocks.len())
+                        .filter(|&i| keep(i))
+                        .map(|i| s.rows[i].clone())
+                        .collect(),
+                ),
+                ..s.clone()
+            }),
+            None => self.sighted.clone(),
+        };
         let slots = self.slots.iter().map(|s| (s.leg, s.columns.clone()));
         let mut problem = Self::with_slots(self.mechanism, slots.collect(), blocks, sighted);
-        problem.forward = self.forward.as_ref().map(Forward::renewed);
+        problem.forward = self.forward.as_ref().map(|f| f.renewed(&keep));
         problem
     }
 
@@ -417,7 +445,7 @@ impl<'a> IdentificationProblem<'a> {
         let slots = self.slots.iter().map(|s| (s.leg, Vec::new())).collect();
         let blocks = self.blocks.to_vec();
         let mut problem = Self::with_slots(self.mechanism, slots, blocks, self.sighted.clone());
-        problem.forward = self.forward.as_ref().map(Forward::renewed);
+        problem.forward = self.forward.as_ref().map(|f| f.renewed(|_| true));
         problem
     }
 
@@ -429,6 +457,13 @@ impl<'a> IdentificationProblem<'a> {
     /// The instrument the problem sees the platform through, if any.
     pub fn instrument(&self) -> Option<&'a Instrument> {
         self.sighted.as_ref().map(|s| s.instrument)
+    }
+
+    /// What the instrument saw at each block, when the blocks' poses are fitted from its
+    /// targets; `None` when they are measured (no instrument, or a forward problem's blocks of
+    /// measured poses).
+    fn sighting(&self) -> Option<&Sighted<'a>> {
+        self.sighted.as_ref().filter(|_| self.forward.is_none())
     }
 
     /// The legs and where their parameters sit.
@@ -525,7 +560,7 @@ impl<'a> IdentificationProblem<'a> {
     /// Block `index`'s platform: its measured pose (its transform kept), or the pose fitted
     /// from its targets at the shared values `shared`.
     fn placed(&self, index: usize, shared: &[f64]) -> Placed {
-        match &self.sighted {
+        match self.sighting() {
             Some(sighted) => {
                 let observed = &sighted.rows[index].observed;
                 let home = &self.mechanism.home_pose;
@@ -575,9 +610,23 @@ impl<'a> IdentificationProblem<'a> {
     /// # Errors
     /// The first block whose leg cannot reach its pose.
     pub fn residuals(&self, x: &DVector<f64>) -> Result<DVector<f64>, BlockError> {
-        if self.forward.is_some() {
-            let forward = self.evaluate_forward(x, false)?.residuals;
-            return Ok(DVector::from_vec(forward));
+        let blocks = self.block_residuals(x)?;
+        if self.forward.is_none() {
+            return Ok(blocks);
+        }
+        // The blocks' rows, then the forward rows'.
+        let forward = self.evaluate_forward(x, false)?.residuals;
+        let count = blocks.len() + forward.len();
+        Ok(DVector::from_iterator(
+            count,
+            blocks.iter().copied().chain(forward),
+        ))
+    }
+
+    /// The blocks' residuals (of [`Self::residuals`]).
+    fn block_residuals(&self, x: &DVector<f64>) -> Result<DVector<f64>, BlockError> {
+        if self.blocks.is_empty() {
+            return Ok(DVector::zeros(0));
         }
         let matches = self.turn_matches(x);
         self.evaluated(x, false, |evaluation| {
@@ -654,10 +703,30 @@ impl<'a> IdentificationProblem<'a> {
         &self,
         x: &DVector<f64>,
     ) -> Result<(DVector<f64>, DMatrix<f64>), BlockError> {
-        if self.forward.is_some() {
-            let forward = self.evaluate_forward(x, true)?;
-            let jacobian = forward.jacobian.unwrap_or_default();
-            return Ok((DVector::from_vec(forward.residuals), jacobian));
+        let (r, jacobian) = self.block_residuals_and_jacobian(x)?;
+        if self.forward.is_none() {
+            return Ok((r, jacobian));
+        }
+        // The blocks' rows, then the forward rows'.
+        let forward = self.evaluate_forward(x, true)?;
+        let below = forward
+            .jacobian
+            .unwrap_or_else(|| DMatrix::zeros(0, self.parameter_count()));
+        let (m, count) = (r.len(), forward.residuals.len());
+        let mut stacked = DMatrix::zeros(m + count, self.parameter_count());
+        stacked.rows_mut(0, m).copy_from(&jacobian);
+        stacked.rows_mut(m, count).copy_from(&below);
+        let all = r.iter().copied().chain(forward.residuals);
+        Ok((DVector::from_iterator(m + count, all), stacked))
+    }
+
+    /// The blocks' residuals and Jacobian (of [`Self::residuals_and_jacobian`]).
+    fn block_residuals_and_jacobian(
+        &self,
+        x: &DVector<f64>,
+    ) -> Result<(DVector<f64>, DMatrix<f64>), BlockError> {
+        if self.blocks.is_empty() {
+            return Ok((DVector::zeros(0), DMatrix::zeros(0, self.parameter_count())));
         }
         let matches = self.turn_matches(x);
         let (m, p, first) = (
@@ -694,7 +763,7 @@ impl<'a> IdentificationProblem<'a> {
             Some(line) => format!("measurement line {line}"),
             None => format!("residual block {block}"),
         };
-        if self.sighted.is_some() {
+        if self.sighting().is_some() {
             let leg = &self.mechanism.legs[self.blocks[block].leg].name;
             location = format!("leg `{leg}` at the pose fitted from the targets ({location})");
         }

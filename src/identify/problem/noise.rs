@@ -5,7 +5,7 @@ use argmin::core::Error as ArgminError;
 use nalgebra::DVector;
 
 use super::sighted::reading_pose_gradient;
-use super::IdentificationProblem;
+use super::{BlockError, IdentificationProblem};
 use crate::identify::sandwich::NoiseLoadings;
 use crate::model::instrument::Instrument;
 use crate::model::mechanism::MeasurementNoise;
@@ -31,11 +31,11 @@ impl IdentificationProblem<'_> {
             .ok_or_else(|| ArgminError::msg("the problem sees no instrument"))?;
         if self.forward.is_some() {
             // A forward row's readings reach all its coordinates: their noise is in the
-            // row's loadings, none left for each residual on its own.
-            return Ok(NoiseLoadings {
-                reading: 0.0,
-                rows: self.forward_loadings(x, noise)?,
-            });
+            // row's loadings, none left for each residual on its own. The blocks of measured
+            // poses first, as the residuals.
+            let mut rows = self.measured_pose_loadings(x, noise)?;
+            rows.extend(self.forward_loadings(x, noise)?);
+            return Ok(NoiseLoadings { reading: 0.0, rows });
         }
         let shared = self.shared_values(x);
         let home = &self.mechanism.home_pose;
@@ -69,6 +69,44 @@ impl IdentificationProblem<'_> {
         noise: &MeasurementNoise,
     ) -> Result<Vec<f64>, ArgminError> {
         Ok(self.noise_loadings(x, noise)?.variances())
+    }
+}
+
+impl IdentificationProblem<'_> {
+    /// The loadings of a forward problem's blocks of measured poses at `x`, laid out as the
+    /// forward rows' ([`Self::forward_loadings`]: the row's target coordinates, a distance's
+    /// σ, then one reading per leg) and then the pose coordinates: a block of leg `l` reads
+    /// `−σ_q` at its reading (the residual is `ψ_l(P) − s_l`, the row's forward residuals
+    /// share that reading) and `σ_c ∂ψ_l/∂P_c` at each pose coordinate `c` (the
+    /// `instrument.poses` noise; the legs of one row share its pose). Empty without blocks.
+    ///
+    /// # Errors
+    /// A leg cannot reach its measured pose.
+    fn measured_pose_loadings(
+        &self,
+        x: &DVector<f64>,
+        noise: &MeasurementNoise,
+    ) -> Result<Vec<(usize, Vec<f64>)>, BlockError> {
+        let (Some(forward), Some(sighted)) = (&self.forward, &self.sighted) else {
+            return Ok(Vec::new());
+        };
+        if self.blocks.is_empty() {
+            return Ok(Vec::new());
+        }
+        let instrument = sighted.instrument;
+        let pose_sigmas = instrument.poses.as_ref().map_or([0.0; 6], |p| p.noise);
+        let before = coordinate_sigmas(instrument, noise).len() + 1;
+        let legs = self.mechanism.legs.len();
+        let measured = &self.mechanism.measured;
+        self.map_solved(x, |index, leg, placed, solution| {
+            let mut loading = vec![0.0; before + legs + 6];
+            loading[before + self.blocks[index].leg] = -noise.reading;
+            let gradient = leg.pose_gradient_of(&placed.pose, solution, measured);
+            for c in 0..6 {
+                loading[before + legs + c] = gradient[c] * pose_sigmas[c];
+            }
+            (forward.block_sources[index], loading)
+        })
     }
 }
 

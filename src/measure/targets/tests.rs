@@ -45,6 +45,7 @@ fn instrument(targets: &[(&str, Measures, [f64; 2])], rotates: bool) -> Instrume
         spatial: false,
         forward: false,
         distances: None,
+        poses: None,
         tolerance: None,
     }
 }

@@ -45,6 +45,7 @@ fn instrument(targets: &[(&str, Measures, [f64; 3])], rotates: bool) -> Instrume
         spatial: true,
         forward: false,
         distances: None,
+        poses: None,
         tolerance: None,
     }
 }

@@ -192,6 +192,7 @@ impl Builder<'_> {
             }
         }
         let distances = self.distances(entry, forward, &targets)?;
+        let poses = self.measured_poses(entry, forward, measured)?;
         let tolerance = match entry.tolerance {
             None => None,
             Some(t) if forward && t.is_finite() && t > 0.0 => Some(t),
@@ -212,6 +213,7 @@ impl Builder<'_> {
             spatial,
             forward,
             distances,
+            poses,
             tolerance,
         }))
     }

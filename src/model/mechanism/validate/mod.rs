@@ -10,6 +10,7 @@ use crate::model::mechanism::{Mechanism, MechanismParts, COORDINATES};
 mod home;
 mod instrument;
 mod legs;
+mod measured_poses;
 mod noise;
 mod parameters;
 mod plausible;
