@@ -179,6 +179,7 @@ impl FitOptions {
             .map(|noise| MeasurementNoise {
                 pose: noise.pose.map(|s| s * scale),
                 reading: noise.reading * scale,
+                scale: noise.scale * scale,
             })
             .filter(|n| n.reading > 0.0 || n.pose.iter().any(|&s| s > 0.0))
     }

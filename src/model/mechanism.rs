@@ -90,12 +90,26 @@ pub struct MechanismParts {
 }
 
 /// Measurement noise standard deviations (SI units).
-#[derive(Debug, Clone, Copy, Default, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq)]
 pub struct MeasurementNoise {
     /// Per pose coordinate `[x, y, z, roll, pitch, yaw]` (zero for unmeasured ones).
     pub pose: [f64; 6],
     /// Of the actuator readings.
     pub reading: f64,
+    /// The factor the declared σ were scaled by (a run's noise scale, 1 as declared): the σ
+    /// the instrument block declares itself (its distances', its measured poses') take it too.
+    pub scale: f64,
+}
+
+impl Default for MeasurementNoise {
+    /// No noise, scale 1.
+    fn default() -> Self {
+        Self {
+            pose: [0.0; 6],
+            reading: 0.0,
+            scale: 1.0,
+        }
+    }
 }
 
 /// Pose selection set-up (validated).

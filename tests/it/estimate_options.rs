@@ -42,6 +42,7 @@ fn with_noise(pose_sigma: f64, reading_sigma: f64) -> Mechanism {
         parts.noise = Some(MeasurementNoise {
             pose: [pose_sigma, pose_sigma, 0.0, 0.0, 0.0, 0.0],
             reading: reading_sigma,
+            scale: 1.0,
         });
     })
 }

@@ -20,7 +20,7 @@ use crate::instrument_support::identify_shared;
 use crate::support::{bundled, crate_path, with_identified};
 
 /// `text` loaded as a model file beside models/delta.urdf.
-fn parse_model(text: &str) -> legwise::error::Result<Mechanism> {
+pub(crate) fn parse_model(text: &str) -> legwise::error::Result<Mechanism> {
     let urdf = std::fs::read_to_string(crate_path("models/delta.urdf")).unwrap();
     Mechanism::parse(
         text,
@@ -37,7 +37,7 @@ fn experiment(mechanism: &Mechanism, noise_scale: f64) -> (Observations, Vec<Vec
 
 /// The model's simulated experiment at `poses` (random rows of simulation seed `seed`, or the
 /// selected ones), noise scaled by `noise_scale`.
-fn experiment_at(
+pub(crate) fn experiment_at(
     mechanism: &Mechanism,
     noise_scale: f64,
     poses: PoseSource,
@@ -62,7 +62,7 @@ fn experiment_at(
 
 /// `mechanism` with every held parameter's real value (legs and instrument) at its nominal
 /// one: the model is exact, and every identified parameter can be recovered.
-fn exact(mechanism: &Mechanism) -> Mechanism {
+pub(crate) fn exact(mechanism: &Mechanism) -> Mechanism {
     mechanism.edited(|parts| {
         let mut held: Vec<String> = parts
             .legs
@@ -105,7 +105,7 @@ fn freed(mechanism: &Mechanism, names: &[&str]) -> Mechanism {
 
 /// The largest gap between the problem's Jacobian at `x` and central differences of its
 /// residuals, each column relative to its largest entry.
-fn jacobian_gap(problem: &IdentificationProblem<'_>, x: &DVector<f64>) -> f64 {
+pub(crate) fn jacobian_gap(problem: &IdentificationProblem<'_>, x: &DVector<f64>) -> f64 {
     let (_, jacobian) = problem.residuals_and_jacobian(x).expect("evaluates");
     let mut worst = 0.0f64;
     for j in 0..x.len() {
@@ -162,7 +162,7 @@ fn forward_jacobians_match_central_differences_for_heights_and_positions() {
 
 /// Every identified parameter of `result` (legs and instrument) within `tolerance` of its real
 /// value; returns how many.
-fn assert_recovered(
+pub(crate) fn assert_recovered(
     result: &StrategyResult,
     (legs, shared): (&[Vec<f64>], &[f64]),
     tolerance: f64,

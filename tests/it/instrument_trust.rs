@@ -69,6 +69,7 @@ fn a_declared_noise_of_zeros_is_no_noise_and_readings_or_pose_alone_are_one() {
     let zeros = with(Some(MeasurementNoise {
         pose: [0.0; 6],
         reading: 0.0,
+        scale: 1.0,
     }));
     assert!(instrument(&zeros).noise_test.is_none());
     assert_eq!(sigmas(&zeros), sigmas(&none), "zeros are no noise");

@@ -36,6 +36,7 @@ mod jacobian;
 mod kinematics;
 mod lm_behaviour;
 mod mgh;
+mod mixed_observations;
 mod montecarlo;
 mod nist;
 mod observability_values;

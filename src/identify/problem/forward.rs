@@ -428,7 +428,7 @@ impl IdentificationProblem<'_> {
             .instrument
             .distances
             .as_ref()
-            .map_or(0.0, |d| d.noise);
+            .map_or(0.0, |d| d.noise * noise.scale);
         // Each residual's measurement and own σ, in the residuals' order.
         let own = forward
             .rows

@@ -78,7 +78,8 @@ impl IdentificationProblem<'_> {
     /// σ, then one reading per leg) and then the pose coordinates: a block of leg `l` reads
     /// `−σ_q` at its reading (the residual is `ψ_l(P) − s_l`, the row's forward residuals
     /// share that reading) and `σ_c ∂ψ_l/∂P_c` at each pose coordinate `c` (the
-    /// `instrument.poses` noise; the legs of one row share its pose). Empty without blocks.
+    /// `instrument.poses` noise times the noise's scale; the legs of one row share its pose).
+    /// Empty without blocks.
     ///
     /// # Errors
     /// A leg cannot reach its measured pose.
@@ -94,7 +95,10 @@ impl IdentificationProblem<'_> {
             return Ok(Vec::new());
         }
         let instrument = sighted.instrument;
-        let pose_sigmas = instrument.poses.as_ref().map_or([0.0; 6], |p| p.noise);
+        let pose_sigmas = instrument
+            .poses
+            .as_ref()
+            .map_or([0.0; 6], |p| p.noise.map(|s| s * noise.scale));
         let before = coordinate_sigmas(instrument, noise).len() + 1;
         let legs = self.mechanism.legs.len();
         let measured = &self.mechanism.measured;

@@ -170,6 +170,18 @@ fn the_traditional_designs_of_the_bundled_models_are_the_dense_block_selections(
         let pool = Pool::from_columns(columns, legs, &o).unwrap();
         assert!(SeparableD::new(&pool).is_some(), "{}", path.display());
         let dense = run(&pool, &o, &mut BlockD::new(&pool)).unwrap();
-        assert_eq!(shared.indices, dense.indices, "{}", path.display());
+        // The same design, or one of the same criterion to round-off: a symmetric mechanism's
+        // grid holds candidates whose exchange gains tie exactly (models/delta-probe-poses.yaml,
+        // every tower parameter free: log det agreeing to 5e-13), where round-off picks.
+        let tie = (shared.selection.log_det - dense.log_det).abs() <= 1e-10;
+        assert!(
+            shared.indices == dense.indices || tie,
+            "{}: {:?} (log det {}) vs {:?} (log det {})",
+            path.display(),
+            shared.indices,
+            shared.selection.log_det,
+            dense.indices,
+            dense.log_det
+        );
     }
 }
