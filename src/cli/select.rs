@@ -38,10 +38,17 @@ pub(super) fn run(args: &SelectArgs) -> anyhow::Result<Verdict> {
             forward_pose_file(&mechanism, &design)?.as_bytes(),
         )?;
         console.print(&text)?;
+        let measured = match design.measured_poses.is_empty() {
+            true => String::new(),
+            false => format!(
+                " (at the rows m1…, the measured platform pose in the columns {} instead)",
+                mechanism.measured_names().join(", ")
+            ),
+        };
         console.line(format_args!(
             "poses written to {} (command the pose.* columns and fill in what the instrument \
-             reports; leave the readings empty to take the nominal model's at the commanded \
-             pose, or log them; then `legwise identify --measurements`)",
+             reports{measured}; leave the readings empty to take the nominal model's at the \
+             commanded pose, or log them; then `legwise identify --measurements`)",
             output.name()
         ))?;
         return Ok(Verdict::from_reasons(mechanism.warnings.clone()));

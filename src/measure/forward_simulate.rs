@@ -22,8 +22,10 @@ const TOUCH_STEPS: usize = 50;
 /// The true poses of a forward experiment: shared rows (every leg's reading), none of a leg's
 /// own: at the commanded poses `commanded` (a forward design's) or, without them, at
 /// `poses_per_leg` random poses; each moved to its touch on the real surface. Then, with
-/// `instrument.poses`, its `simulate` rows at random poses whose platform pose is measured
-/// (the last rows: [`super::observe_simulate::observed_from`] measures their pose).
+/// `instrument.poses`, its `simulate` rows whose platform pose is measured (the last rows:
+/// [`super::observe_simulate::observed_from`] measures their pose): the last `simulate` of
+/// `commanded` (a design's, after its touches), or random poses on home's side of every
+/// touch surface.
 ///
 /// # Errors
 /// No simulation block, no reachable pose, or a touch the real legs cannot reach (named).
@@ -35,8 +37,9 @@ pub fn forward_pose_sets(
 ) -> Result<PoseSets> {
     let simulation = setup(mechanism)?;
     let seed = options.seed.unwrap_or(simulation.seed);
+    let measured = instrument.poses.as_ref().map_or(0, |p| p.simulate);
     let rows = match commanded {
-        Some(poses) => poses.len(),
+        Some(poses) => poses.len().saturating_sub(measured),
         None => options.poses_per_leg.unwrap_or(simulation.poses_per_leg),
     };
     let real = real_parameters(mechanism, simulation, seed);
@@ -49,45 +52,31 @@ pub fn forward_pose_sets(
             None => reachable_pose(mechanism, &real, &mut rng)?,
         };
         let pose = touched(mechanism, instrument, &shared, pose)?;
-        let home = &mechanism.home_pose;
-        let reaches = mechanism
-            .legs
-            .iter()
-            .zip(&real)
-            .all(|(leg, phi)| predict_reading(leg, phi, &pose, home).is_ok());
-        if !reaches {
-            return Err(Error::Model {
-                path: mechanism.model_path.clone(),
-                field: "instrument.targets".into(),
-                message: format!(
-                    "simulation: the touch at pose {} is beyond the real legs' reach: check the \
-                     touch value, the target's offset and the frame's height",
-                    mechanism.pose_text(&pose)
-                ),
-            });
-        }
+        reaches_real(mechanism, &real, &pose).map_err(|_| Error::Model {
+            path: mechanism.model_path.clone(),
+            field: "instrument.targets".into(),
+            message: format!(
+                "simulation: the touch at pose {} is beyond the real legs' reach: check the \
+                 touch value, the target's offset and the frame's height",
+                mechanism.pose_text(&pose)
+            ),
+        })?;
         poses.push(pose);
     }
     // Then the rows of a measured pose (`instrument.poses`), at random poses on the side of
     // every touch surface where the platform starts (a probe above its bed).
     let measured = instrument.poses.as_ref().map_or(0, |p| p.simulate);
-    let home = observe(instrument, &shared, &mechanism.home_pose);
-    let clear = |pose: &[f64; 6]| {
-        let seen = observe(instrument, &shared, pose);
-        let mut at = 0;
-        instrument.targets.iter().all(|target| {
-            let first = at;
-            at += target.pose_indices().len();
-            target
-                .touch
-                .is_none_or(|t| (seen[first] - t) * (home[first] - t) > 0.0)
-        })
-    };
+    if let Some(poses_measured) = commanded.map(|c| &c[rows..]) {
+        for &pose in poses_measured {
+            reaches_real(mechanism, &real, &pose)?;
+            poses.push(pose);
+        }
+    }
     let mut drawn = 0;
     while poses.len() < rows + measured {
         let pose = reachable_pose(mechanism, &real, &mut rng)?;
         drawn += 1;
-        if clear(&pose) {
+        if on_home_side(mechanism, instrument, &shared, &pose) {
             poses.push(pose);
         } else if drawn > 1000 * (measured + 1) {
             return Err(Error::Model {
@@ -103,6 +92,49 @@ pub fn forward_pose_sets(
     Ok(PoseSets {
         per_leg: vec![Vec::new(); mechanism.legs.len()],
         shared: poses,
+    })
+}
+
+/// Whether every real leg (parameters `real`) reaches `pose`.
+///
+/// # Errors
+/// A leg that does not, named.
+fn reaches_real(mechanism: &Mechanism, real: &[Vec<f64>], pose: &[f64; 6]) -> Result<()> {
+    let home = &mechanism.home_pose;
+    for (leg, phi) in mechanism.legs.iter().zip(real) {
+        if let Err(error) = predict_reading(leg, phi, pose, home) {
+            return Err(Error::Model {
+                path: mechanism.model_path.clone(),
+                field: "instrument.poses".into(),
+                message: format!(
+                    "simulation: the real leg `{}` cannot reach the measured pose {} ({error})",
+                    leg.name,
+                    mechanism.pose_text(pose)
+                ),
+            });
+        }
+    }
+    Ok(())
+}
+
+/// Whether at `pose` every touching target of `instrument` (at the shared values `shared`)
+/// is on the side of its touch surface where it is at home (a probe above its bed): where the
+/// platform can be without passing through the surface.
+pub(crate) fn on_home_side(
+    mechanism: &Mechanism,
+    instrument: &Instrument,
+    shared: &[f64],
+    pose: &[f64; 6],
+) -> bool {
+    let home = observe(instrument, shared, &mechanism.home_pose);
+    let seen = observe(instrument, shared, pose);
+    let mut at = 0;
+    instrument.targets.iter().all(|target| {
+        let first = at;
+        at += target.pose_indices().len();
+        target
+            .touch
+            .is_none_or(|t| (seen[first] - t) * (home[first] - t) > 0.0)
     })
 }
 

@@ -657,20 +657,42 @@ pub fn to_csv(mechanism: &Mechanism, set: &Observations) -> Result<String> {
 /// The CSV template of an experiment through the instrument at the platform poses of `set`
 /// (`legwise select`): per row the leg, the pose to command in `pose.<coordinate>` columns,
 /// and empty target and reading columns to fill in. Once filled, [`read`] reads it (the pose
-/// columns are ignored); unfilled, it refuses the first empty target cell.
+/// columns are ignored); unfilled, it refuses the first empty target cell. A forward model's
+/// rows carry ids (`t1, t2, …`), and with `instrument.poses` its last `measured` rows are rows
+/// whose platform pose is to be measured (ids `m1, m2, …`, the pose's columns `x, y, …` to
+/// fill in, the target columns left empty).
 ///
 /// # Errors
 /// [`Error::Model`] if the model has no instrument.
-pub fn template_csv(mechanism: &Mechanism, set: &super::MeasurementSet) -> Result<String> {
+pub fn template_csv(
+    mechanism: &Mechanism,
+    set: &super::MeasurementSet,
+    measured: usize,
+) -> Result<String> {
     let instrument = instrument_of(mechanism)?;
     let middle = commanded_columns(mechanism)
         .into_iter()
         .chain(instrument.columns());
     let empty = instrument.columns().len() + mechanism.actuated_names().len();
-    let lines = set.poses.iter().map(|pose| {
+    let pose_columns = measured_pose_columns(mechanism, instrument);
+    let pose_cells = pose_columns.len();
+    let touches = set.poses.len().saturating_sub(measured);
+    let lines = set.poses.iter().enumerate().map(|(k, pose)| {
         let mut cells = super::file::leg_and_pose_cells(mechanism, pose);
         cells.extend(std::iter::repeat_n(String::new(), empty));
+        if instrument.forward {
+            cells.push(match k < touches {
+                true => format!("t{}", k + 1),
+                false => format!("m{}", k + 1 - touches),
+            });
+            cells.extend(std::iter::repeat_n(String::new(), pose_cells));
+        }
         cells
     });
-    Ok(rows::csv_text(&rows::columns(mechanism, middle), lines))
+    let mut header = rows::columns(mechanism, middle);
+    if instrument.forward {
+        header.push("id".into());
+        header.extend(pose_columns);
+    }
+    Ok(rows::csv_text(&header, lines))
 }

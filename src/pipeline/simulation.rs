@@ -53,7 +53,7 @@ pub fn simulate(mechanism: &Mechanism, settings: &SimulationSettings) -> Result<
                          rows, grid {} m)",
                         design.candidates, design.spacing
                     );
-                    (Some(design.poses), text)
+                    (Some(design.commanded()), text)
                 }
             };
             let sets = forward_pose_sets(&simulated, instrument, options, commanded.as_deref())?;
@@ -67,8 +67,12 @@ pub fn simulate(mechanism: &Mechanism, settings: &SimulationSettings) -> Result<
             let poses = match measured {
                 0 => String::new(),
                 n => format!(
-                    ", then {n} rows at random poses with their platform pose measured (inverse \
-                     kinematics)"
+                    ", then {n} rows at {} poses with their platform pose measured (inverse \
+                     kinematics)",
+                    match commanded {
+                        Some(_) => "selected",
+                        None => "random",
+                    }
                 ),
             };
             let text = format!(

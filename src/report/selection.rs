@@ -85,7 +85,7 @@ pub fn pose_file(
     }
     Ok(if mechanism.instrument.is_some() {
         (
-            observations::template_csv(mechanism, &set)?,
+            observations::template_csv(mechanism, &set, 0)?,
             "command the pose.* columns, fill in the target coordinates and the readings",
         )
     } else {
@@ -111,6 +111,14 @@ pub fn forward_selection_text(
         criterion,
         design.poses.len()
     );
+    if !design.measured_poses.is_empty() {
+        let _ = writeln!(
+            text,
+            "then {} rows whose platform pose is measured (ids m1…; selected on what such rows \
+             see, from the grid's poses on home's side of the touch surface)",
+            design.measured_poses.len()
+        );
+    }
     let _ = writeln!(
         text,
         "  joint problem ({} unknowns): O1 {:.4}, O3 {:.4e}; condition {:.1}, column-scaled {:.1}; \
@@ -134,7 +142,7 @@ pub fn forward_selection_text(
 pub fn forward_pose_file(mechanism: &Mechanism, design: &ForwardDesign) -> Result<String> {
     let legs = mechanism.legs.len();
     let mut set = MeasurementSet::new(None, legs);
-    for &pose in &design.poses {
+    for pose in design.commanded() {
         let row = MeasuredPose {
             line: None,
             leg: None,
@@ -142,5 +150,5 @@ pub fn forward_pose_file(mechanism: &Mechanism, design: &ForwardDesign) -> Resul
         };
         set.push(row, &vec![None; legs]);
     }
-    observations::template_csv(mechanism, &set)
+    observations::template_csv(mechanism, &set, design.measured_poses.len())
 }

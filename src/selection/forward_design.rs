@@ -22,7 +22,7 @@ use crate::identify::observability::{
     analyse, unit_columns, with_a_row_per_column, Observability, RANK_TOLERANCE,
 };
 use crate::identify::problem::IdentificationProblem;
-use crate::measure::forward_simulate::touched;
+use crate::measure::forward_simulate::{on_home_side, touched};
 use crate::model::mechanism::SelectionCriterion;
 use crate::model::Mechanism;
 use crate::workspace::candidates::feasible_poses;
@@ -39,6 +39,9 @@ pub struct ForwardDesign {
     pub spacing: f64,
     /// The selected commanded poses (each at its nominal touch), in pool order.
     pub poses: Vec<[f64; 6]>,
+    /// With `instrument.poses`: the selected poses whose platform pose is measured (the
+    /// model's `poses.simulate` of them, in pool order), after the touches.
+    pub measured_poses: Vec<[f64; 6]>,
     /// Observability of the joint problem's Jacobian (nominal parameters) on the rows.
     pub observability: Observability,
     /// What the selection algorithm reports.
@@ -124,13 +127,84 @@ pub fn select_forward(
     let chosen = DMatrix::from_fn(selection.indices.len() * width, jacobian.ncols(), |r, c| {
         jacobian[(selection.indices[r / width] * width + r % width, c)]
     });
+    let measured = instrument.poses.as_ref().map_or(0, |p| p.simulate);
+    let (measured_poses, chosen) = match measured {
+        0 => (Vec::new(), chosen),
+        count => {
+            let candidates = feasible.candidates.iter().map(|c| c.pose);
+            let clear =
+                candidates.filter(|p| on_home_side(mechanism, instrument, &nominal_shared, p));
+            let (poses, rows) =
+                select_measured(mechanism, &clear.collect::<Vec<_>>(), count, criterion)?;
+            let mut both = DMatrix::zeros(chosen.nrows() + rows.nrows(), chosen.ncols());
+            both.rows_mut(0, chosen.nrows()).copy_from(&chosen);
+            both.rows_mut(chosen.nrows(), rows.nrows()).copy_from(&rows);
+            (poses, both)
+        }
+    };
     Ok(ForwardDesign {
         candidates: poses.len(),
         spacing: feasible.spacing,
         poses: selection.indices.iter().map(|&i| poses[i]).collect(),
+        measured_poses,
         observability: analyse(&chosen, &names),
         selection,
     })
+}
+
+impl ForwardDesign {
+    /// Every selected row's commanded pose: the touches, then the measured poses (the order
+    /// a simulation takes them in).
+    pub fn commanded(&self) -> Vec<[f64; 6]> {
+        self.poses
+            .iter()
+            .chain(&self.measured_poses)
+            .copied()
+            .collect()
+    }
+}
+
+/// Selects `count` of the poses `candidates` whose platform pose is to be measured, by
+/// `criterion` on the combinations of the unknowns such rows see ([`seen_combinations`]):
+/// each candidate's rows are every identified leg's reading predicted at the pose by the
+/// nominal model (the joint problem's blocks of a measured pose). Returns the poses and their
+/// Jacobian rows.
+///
+/// # Errors
+/// No candidate the nominal model reaches, or a selection failure.
+fn select_measured(
+    mechanism: &Mechanism,
+    candidates: &[[f64; 6]],
+    count: usize,
+    criterion: SelectionCriterion,
+) -> Result<(Vec<[f64; 6]>, DMatrix<f64>)> {
+    let nominal = mechanism.nominal_parameters();
+    let (poses, mut observations, _) = commanded_rows(mechanism, &nominal, candidates, 0);
+    for (row, pose) in observations.rows.iter_mut().zip(&poses) {
+        row.observed = Vec::new();
+        row.pose = Some(*pose);
+    }
+    let fail = |message: String| {
+        Error::Invalid(format!(
+            "{}: selection of the measured poses: {message}",
+            mechanism.model_path.display()
+        ))
+    };
+    let problem = IdentificationProblem::through_instrument(mechanism, &observations)?;
+    let x = problem.start();
+    let (_, jacobian) = problem
+        .residuals_and_jacobian(&x)
+        .map_err(|e| fail(format!("{}: {}", e.location, e.source)))?;
+    // Every identified leg's reading at each candidate: that many rows a candidate.
+    let width = mechanism.identified_legs().len();
+    let options = selection_options(count, criterion);
+    let pool = seen_combinations(&jacobian);
+    let selection =
+        select_columns(pool.transpose(), width, &options).map_err(|e| fail(e.to_string()))?;
+    let rows = DMatrix::from_fn(selection.indices.len() * width, jacobian.ncols(), |r, c| {
+        jacobian[(selection.indices[r / width] * width + r % width, c)]
+    });
+    Ok((selection.indices.iter().map(|&i| poses[i]).collect(), rows))
 }
 
 /// The rows of `jacobian` over the combinations of its column-scaled unknowns it identifies:

@@ -412,7 +412,7 @@ impl Study {
             // Forward rows couple every leg: the joint fit alone, at the commanded poses
             // selected for it (each trial's touches on its own real surface).
             let design = select_forward(&mechanism, options.grid, count, criterion)?;
-            (vec![Arm::Joint], 0, design.poses)
+            (vec![Arm::Joint], 0, design.commanded())
         } else {
             let pool = candidate_pool(&mechanism, options.grid)?;
             let legs = divide_and_conquer(&mechanism, &pool, count, criterion)?;

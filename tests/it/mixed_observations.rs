@@ -10,6 +10,8 @@ use legwise::measure::observations::{self, Observations};
 use legwise::model::mechanism::MeasurementNoise;
 use legwise::model::Mechanism;
 use legwise::pipeline::PoseSource;
+use legwise::report::selection::forward_pose_file;
+use legwise::selection::forward_design::select_forward;
 use nalgebra::{DMatrix, DVector};
 
 use crate::forward_observations::{
@@ -348,4 +350,43 @@ fn the_instrument_blocks_own_noise_takes_the_runs_noise_scale() {
         }
         assert!(own > 0, "{model}: loadings");
     }
+}
+
+#[test]
+fn the_selected_touches_and_poses_make_a_template_that_reads_back_and_identifies() {
+    let mechanism = mixed();
+    let criterion = mechanism.selection.criterion;
+    let design = select_forward(&mechanism, None, 37, criterion).unwrap();
+    assert_eq!((design.poses.len(), design.measured_poses.len()), (37, 6));
+    // The poses to measure sit above the bed (the nozzle 0.02 m under the effector).
+    assert!(
+        design.measured_poses.iter().all(|p| p[2] > 0.02),
+        "{:?}",
+        design.measured_poses
+    );
+    let template = forward_pose_file(&mechanism, &design).unwrap();
+    let mut lines = template.lines();
+    let header: Vec<&str> = lines.next().unwrap().split(',').collect();
+    let column = |name: &str| header.iter().position(|h| *h == name).unwrap();
+    // Filled as the nominal mechanism would: each touch at height 0, each pose measured where
+    // it was commanded (the readings left empty: the nominal model's at the commanded pose).
+    let mut filled = vec![header.join(",")];
+    for line in lines {
+        let mut cells: Vec<String> = line.split(',').map(String::from).collect();
+        if cells[column("id")].starts_with('t') {
+            cells[column("z.nozzle")] = "0".into();
+        } else {
+            for c in ["x", "y", "z"] {
+                cells[column(c)] = cells[column(&format!("pose.{c}"))].clone();
+            }
+        }
+        filled.push(cells.join(","));
+    }
+    let text = filled.join("\n") + "\n";
+    let data = observations::parse(&text, std::path::Path::new("m.csv"), &mechanism).unwrap();
+    assert_eq!(data.rows.iter().filter(|r| r.pose.is_some()).count(), 6);
+    let problem = IdentificationProblem::through_instrument(&mechanism, &data).unwrap();
+    let r = problem.residuals(&problem.start()).unwrap();
+    assert_eq!(r.len(), 6 * 3 + 37);
+    assert!(r.amax() <= 1e-12, "{}", r.amax());
 }
