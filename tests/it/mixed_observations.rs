@@ -390,3 +390,46 @@ fn the_selected_touches_and_poses_make_a_template_that_reads_back_and_identifies
     assert_eq!(r.len(), 6 * 3 + 37);
     assert!(r.amax() <= 1e-12, "{}", r.amax());
 }
+
+#[test]
+fn evaluate_takes_reading_residuals_at_the_rows_of_a_measured_pose_only() {
+    use legwise::evaluate::through_instrument::evaluate_observed;
+    let mechanism = mixed();
+    let (observations, legs, _) = experiment(&mechanism, 0.0);
+    let evaluation = evaluate_observed(&mechanism, &observations).unwrap();
+    for (l, leg) in evaluation.reading_residual.iter().enumerate() {
+        assert_eq!(leg.rows, 6, "{}: the six measured poses", leg.leg);
+        // The nominal model against exact data: its leg's reading error at each pose.
+        let expected: Vec<f64> = observations
+            .rows
+            .iter()
+            .filter_map(|r| r.pose.map(|pose| (pose, r.readings[l].unwrap())))
+            .map(|(pose, reading)| {
+                let model = &mechanism.legs[l];
+                let home = mechanism.home_pose;
+                let nominal = legwise::kinematics::inverse::predict_reading(
+                    model,
+                    &model.nominal(),
+                    &pose,
+                    &home,
+                )
+                .unwrap();
+                let real =
+                    legwise::kinematics::inverse::predict_reading(model, &legs[l], &pose, &home)
+                        .unwrap();
+                assert!(
+                    (real - reading).abs() <= 1e-12,
+                    "zero-noise readings are the real legs'"
+                );
+                nominal - reading
+            })
+            .collect();
+        let rms = (expected.iter().map(|e| e * e).sum::<f64>() / 6.0).sqrt();
+        let reported = leg.rms.expect("residuals");
+        assert!((reported - rms).abs() <= 1e-12, "{reported} vs {rms}");
+    }
+    let mut touches = observations;
+    touches.rows.retain(|r| r.pose.is_none());
+    let evaluation = evaluate_observed(&mechanism, &touches).unwrap();
+    assert!(evaluation.reading_residual.iter().all(|l| l.rms.is_none()));
+}

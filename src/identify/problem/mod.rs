@@ -616,6 +616,9 @@ impl<'a> IdentificationProblem<'a> {
         }
         // The blocks' rows, then the forward rows'.
         let forward = self.evaluate_forward(x, false)?.residuals;
+        if blocks.is_empty() {
+            return Ok(DVector::from_vec(forward));
+        }
         let count = blocks.len() + forward.len();
         Ok(DVector::from_iterator(
             count,
@@ -712,6 +715,9 @@ impl<'a> IdentificationProblem<'a> {
         let below = forward
             .jacobian
             .unwrap_or_else(|| DMatrix::zeros(0, self.parameter_count()));
+        if r.is_empty() {
+            return Ok((DVector::from_vec(forward.residuals), below));
+        }
         let (m, count) = (r.len(), forward.residuals.len());
         let mut stacked = DMatrix::zeros(m + count, self.parameter_count());
         stacked.rows_mut(0, m).copy_from(&jacobian);
