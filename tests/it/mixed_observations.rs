@@ -433,3 +433,29 @@ fn evaluate_takes_reading_residuals_at_the_rows_of_a_measured_pose_only() {
     let evaluation = evaluate_observed(&mechanism, &touches).unwrap();
     assert!(evaluation.reading_residual.iter().all(|l| l.rms.is_none()));
 }
+
+#[test]
+fn a_workspace_with_no_pose_above_the_touch_surface_is_an_error_not_a_hang() {
+    // The region above z = 0.06 (the nozzle above 0.04), home below it (the nozzle at 0.03)
+    // and the bed at 0.035: every pose of the region is on the far side of the bed from home.
+    let text = std::fs::read_to_string(crate_path("models/delta-probe-poses.yaml"))
+        .unwrap()
+        .replace(
+            "region: {cylinder: {centre: [0.0, 0.0, 0.05], radius: 0.08, height: 0.1}}",
+            "region: {cylinder: {centre: [0.0, 0.0, 0.08], radius: 0.08, height: 0.04}}",
+        )
+        .replace("touch: 0.0,", "touch: 0.035,");
+    let mechanism = parse_model(&text).expect("the edited model loads");
+    let settings = legwise::pipeline::SimulationSettings {
+        options: Default::default(),
+        poses: PoseSource::Random,
+        grid: None,
+    };
+    let message = legwise::pipeline::simulate(&mechanism, &settings)
+        .expect_err("no pose to measure above the bed")
+        .to_string();
+    assert!(
+        message.contains("instrument.poses.simulate") && message.contains("touch surface"),
+        "{message}"
+    );
+}
