@@ -18,21 +18,7 @@ use crate::report::plots::files::{identify_picture_names, identify_pictures};
 use crate::report::Report;
 
 pub(super) fn run(args: &IdentifyArgs) -> anyhow::Result<Verdict> {
-    let simulation = args.simulation.settings()?;
-    let map_scale = args.map_scale()?;
-    super::checks::png_needs_plots(args.png, args.plots.as_deref())?;
-    if let (Some(path), Some(flag)) = (&args.measurements, args.simulation.first_given()) {
-        anyhow::bail!(
-            "{flag}: a simulation option, but the measurements are read from {}; drop {flag} \
-             (or --measurements, to simulate)",
-            path.display()
-        );
-    }
-    let mechanism = Mechanism::load(&args.model)?;
-    if mechanism.instrument.is_some() {
-        refuse_unsupported(args)?;
-    }
-    let settings = settings(args, &mechanism, simulation, map_scale);
+    let (mechanism, settings, map_scale) = prepared(args)?;
     let inputs = identify_inputs(args, &mechanism);
     let json_path = args.json.as_deref();
     let json = Output::prepare_optional("--json", json_path, &inputs)?;
@@ -62,6 +48,100 @@ pub(super) fn run(args: &IdentifyArgs) -> anyhow::Result<Verdict> {
     outputs.say_written(&mut console, "JSON report")?;
     Ok(verdict)
 }
+
+/// The checks of `args` made before any work, the model, the library's settings and the map's
+/// scale.
+///
+/// # Errors
+/// A bad option or combination of options, or a model that does not load.
+fn prepared(args: &IdentifyArgs) -> anyhow::Result<(Mechanism, Settings, f64)> {
+    let simulation = args.simulation.settings()?;
+    let map_scale = args.map_scale()?;
+    super::checks::png_needs_plots(args.png, args.plots.as_deref())?;
+    if let (Some(path), Some(flag)) = (&args.measurements, args.simulation.first_given()) {
+        anyhow::bail!(
+            "{flag}: a simulation option, but the measurements are read from {}; drop {flag} \
+             (or --measurements, to simulate)",
+            path.display()
+        );
+    }
+    let mechanism = Mechanism::load(&args.model)?;
+    if mechanism.instrument.is_some() {
+        refuse_unsupported(args)?;
+    }
+    let settings = settings(args, &mechanism, simulation, map_scale);
+    Ok((mechanism, settings, map_scale))
+}
+
+/// What `legwise identify` gives a caller that keeps it in memory (the Python module): the JSON
+/// report (docs/report.md), the terminal report, and why the result must not be trusted (empty
+/// when it may be: the command's exit 0).
+#[derive(Debug, Clone)]
+pub struct IdentifyOutputs {
+    /// The JSON report, as `--json` writes it.
+    pub json: String,
+    /// The terminal report.
+    pub text: String,
+    /// One line per reason not to trust the result (the command's warnings and exit 3).
+    pub trust_issues: Vec<String>,
+}
+
+/// `legwise identify` with the command's arguments `arguments` (those after `identify`), the
+/// measurements read as they say, or parsed from the CSV text `csv` (named `<memory>` in
+/// messages); the outputs kept in memory (`--json`, `--calibrated`, `--plots` are refused).
+///
+/// # Errors
+/// As the command: a usage error (clap's message), a bad option, model or measurement, a
+/// failed identification.
+pub fn identify_in_memory(
+    arguments: &[String],
+    csv: Option<&str>,
+) -> anyhow::Result<IdentifyOutputs> {
+    use clap::Parser;
+    let words = ["legwise", "identify"].map(String::from).into_iter();
+    let cli = super::Cli::try_parse_from(words.chain(arguments.iter().cloned()))
+        .map_err(|e| anyhow::anyhow!("{}", e.render().to_string().trim_end()))?;
+    let super::Command::Identify(args) = cli.command else {
+        anyhow::bail!("not an identification");
+    };
+    let files = [
+        (args.json.is_some(), "--json"),
+        (args.calibrated.is_some(), "--calibrated"),
+        (args.plots.is_some(), "--plots"),
+    ];
+    if let Some((_, flag)) = files.iter().find(|(given, _)| *given) {
+        anyhow::bail!("{flag}: writes a file; in memory the report is returned instead");
+    }
+    if csv.is_some() && args.measurements.is_some() {
+        anyhow::bail!("--measurements: the measurements are given in memory already");
+    }
+    let (mechanism, settings, map_scale) = prepared(&args)?;
+    let measurements = match (csv, &args.measurements) {
+        (Some(text), _) => Some(Measurements::read_from(
+            text.as_bytes(),
+            Path::new(MEMORY_NAME),
+            &mechanism,
+        )?),
+        (None, Some(path)) => Some(read(path, &mechanism)?),
+        (None, None) => None,
+    };
+    if measurements.is_some() && args.map.is_some() {
+        anyhow::bail!("--map: the accuracy map needs the real parameters, known only in simulation (drop the measurements)");
+    }
+    check_map(&args, &mechanism, map_scale)?;
+    let report = match &measurements {
+        Some(data) => pipeline::identify(&mechanism, data, &settings)?,
+        None => pipeline::run(&mechanism, &settings)?,
+    };
+    Ok(IdentifyOutputs {
+        json: report.to_json().to_text()?,
+        text: report.terminal_text(),
+        trust_issues: report.trust_issues(),
+    })
+}
+
+/// How messages name measurements given in memory.
+pub const MEMORY_NAME: &str = "<memory>";
 
 /// The library's settings from the command line: the strategies asked for (through an
 /// instrument, the model's: joint and two-stage), the fit, the simulation and the map.

@@ -16,6 +16,7 @@ mod verdict;
 mod workspace;
 
 pub use args::*;
+pub use identify::{identify_in_memory, IdentifyOutputs, MEMORY_NAME};
 pub use verdict::Verdict;
 
 /// Runs a parsed command line.

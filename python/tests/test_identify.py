@@ -1,0 +1,115 @@
+"""legwise.identify against the command line: the same report to the last digit (timings
+aside), numpy columns as the CSV, the command line's error messages, exact recovery at zero
+noise. The command line is the release binary (`cargo build --release`, or LEGWISE_BIN)."""
+
+import csv
+import json
+import math
+import os
+import pathlib
+import subprocess
+
+import numpy as np
+import pytest
+
+import legwise
+
+ROOT = pathlib.Path(__file__).resolve().parents[2]
+MODEL = str(ROOT / "models" / "5r.yaml")
+BINARY = os.environ.get("LEGWISE_BIN", str(ROOT / "target" / "release" / "legwise"))
+
+
+def command(*arguments, cwd=None):
+    """The command line's run: (exit status, standard output, standard error)."""
+    run = subprocess.run([BINARY, *arguments], capture_output=True, text=True, cwd=cwd)
+    return run.returncode, run.stdout, run.stderr
+
+
+def without_timings(value):
+    """The report without its wall-clock figures (`seconds`), the only values that differ
+    between two runs."""
+    if isinstance(value, dict):
+        return {k: without_timings(v) for k, v in value.items() if k != "seconds"}
+    if isinstance(value, list):
+        return [without_timings(v) for v in value]
+    return value
+
+
+@pytest.fixture(scope="module")
+def measurements(tmp_path_factory):
+    """A simulated 5R measurement file."""
+    path = tmp_path_factory.mktemp("data") / "measurements.csv"
+    status, _, err = command("simulate", "--model", MODEL, "--out", str(path))
+    assert status == 0, err
+    return path
+
+
+def read_columns(path):
+    """The CSV's columns as numpy arrays: `leg` as strings, the others as floats (NaN for an
+    empty cell)."""
+    with open(path, newline="") as handle:
+        rows = list(csv.DictReader(handle))
+    columns = {}
+    for name in rows[0]:
+        cells = [row[name] for row in rows]
+        if name == "leg":
+            columns[name] = np.array(cells, dtype=object)
+        else:
+            columns[name] = np.array([float(c) if c else math.nan for c in cells])
+    return columns
+
+
+def test_the_report_is_the_command_lines_json(measurements):
+    status, out, err = command(
+        "identify", "--model", MODEL, "--measurements", str(measurements), "--json", "-"
+    )
+    assert status == 0, err
+    report = legwise.identify(MODEL, measurements)
+    assert without_timings(report.to_dict()) == without_timings(json.loads(out))
+    assert report.trusted and report.warnings == []
+    assert report.text.startswith("legwise identify")
+
+
+def test_numpy_columns_are_read_as_the_csv(measurements):
+    from_file = legwise.identify(MODEL, measurements).to_dict()
+    from_columns = legwise.identify(MODEL, read_columns(measurements)).to_dict()
+    assert from_columns.pop("measurements") == legwise._native.MEMORY_NAME
+    from_file.pop("measurements")
+    assert without_timings(from_columns) == without_timings(from_file)
+
+
+def test_bad_input_raises_the_command_lines_message(tmp_path, measurements):
+    text = pathlib.Path(measurements).read_text().splitlines()
+    cells = text[2].split(",")
+    cells[1] = "twelve"
+    text[2] = ",".join(cells)
+    bad = tmp_path / "bad.csv"
+    bad.write_text("\n".join(text) + "\n")
+    status, _, err = command("identify", "--model", MODEL, "--measurements", str(bad))
+    assert status == 2
+    with pytest.raises(legwise.LegwiseError) as caught:
+        legwise.identify(MODEL, bad)
+    assert err == f"legwise: {caught.value}\n"
+    assert "line 3" in str(caught.value)
+    assert isinstance(caught.value, ValueError)
+
+
+def test_a_usage_error_is_a_legwise_error():
+    with pytest.raises(legwise.LegwiseError, match="nonsense"):
+        legwise.identify(MODEL, strategy="nonsense")
+    with pytest.raises(legwise.LegwiseError, match="different lengths"):
+        legwise.identify(MODEL, {"x": np.zeros(3), "y": np.zeros(2)})
+
+
+def test_at_zero_noise_the_real_parameters_are_recovered():
+    report = legwise.identify(MODEL, noise_scale=0)
+    checked = 0
+    for leg in report.to_dict()["results"][0]["legs"]:
+        for p in leg["parameters"]:
+            if not p["fixed"]:
+                assert abs(p["identified"] - p["real"]) <= 1e-9, p
+                checked += 1
+    assert checked == 12
+    names, matrix = report.covariance("leg1")
+    assert matrix.shape == (len(names), len(names)) and len(names) == 6
+    assert report.parameters["l1"][0] == pytest.approx(0.7507, abs=1e-9)
