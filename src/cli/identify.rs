@@ -99,9 +99,9 @@ pub fn identify_in_memory(
 ) -> anyhow::Result<IdentifyOutputs> {
     use clap::Parser;
     let words = ["legwise", "identify"].map(String::from).into_iter();
-    let cli = super::Cli::try_parse_from(words.chain(arguments.iter().cloned()))
+    let cli = super::args::Cli::try_parse_from(words.chain(arguments.iter().cloned()))
         .map_err(|e| anyhow::anyhow!("{}", e.render().to_string().trim_end()))?;
-    let super::Command::Identify(args) = cli.command else {
+    let super::args::Command::Identify(args) = cli.command else {
         anyhow::bail!("not an identification");
     };
     let files = [
