@@ -208,3 +208,58 @@ pub(crate) fn touched(
     }
     Ok(pose)
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The bundled model of touches and measured poses, its bed raised to `touch` (m).
+    fn mixed(touch: f64) -> Mechanism {
+        let path =
+            std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("models/delta-probe-poses.yaml");
+        let text = std::fs::read_to_string(&path)
+            .unwrap()
+            .replace("touch: 0.0,", &format!("touch: {touch},"));
+        let urdf_path = path.with_file_name("delta.urdf");
+        let urdf = std::fs::read_to_string(&urdf_path).unwrap();
+        Mechanism::parse(&text, &path, &urdf, &urdf_path).unwrap()
+    }
+
+    #[test]
+    fn home_side_is_the_side_of_the_touch_surface_where_home_is() {
+        // Home puts the nozzle at 0.03 m (0.02 m under the effector at 0.05), the bed at
+        // 0.035 m: a nozzle at 0.032 m is on home's side, one at 0.04 m beyond the bed.
+        let mechanism = mixed(0.035);
+        let instrument = mechanism.instrument.as_ref().unwrap();
+        let shared = instrument.nominal();
+        let at = |z: f64| [0.01, -0.02, z, 0.0, 0.0, 0.0];
+        assert!(on_home_side(&mechanism, instrument, &shared, &at(0.052)));
+        assert!(!on_home_side(&mechanism, instrument, &shared, &at(0.06)));
+        assert!(!on_home_side(&mechanism, instrument, &shared, &at(0.055)));
+    }
+
+    #[test]
+    fn a_measured_pose_the_real_legs_cannot_reach_is_named() {
+        let mechanism = mixed(0.0);
+        let instrument = mechanism.instrument.as_ref().unwrap();
+        let mut commanded = vec![[0.0, 0.0, 0.02, 0.0, 0.0, 0.0]; 37];
+        commanded.extend([[0.0, 0.0, 0.05, 0.0, 0.0, 0.0]; 5]);
+        commanded.push([1.0, 0.0, 0.05, 0.0, 0.0, 0.0]);
+        let options = SimulationOptions::default();
+        let error = forward_pose_sets(&mechanism, instrument, options, Some(&commanded))
+            .expect_err("1 m off the axis is beyond the rods")
+            .to_string();
+        assert!(
+            error.contains("instrument.poses") && error.contains("cannot reach the measured pose"),
+            "{error}"
+        );
+        commanded.pop();
+        commanded.push([0.0, 0.0, 0.06, 0.0, 0.0, 0.0]);
+        let sets = forward_pose_sets(&mechanism, instrument, options, Some(&commanded)).unwrap();
+        assert_eq!(sets.shared.len(), 43);
+        assert_eq!(
+            sets.shared[42], commanded[42],
+            "a measured pose is taken as commanded"
+        );
+    }
+}
