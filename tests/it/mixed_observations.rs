@@ -241,6 +241,12 @@ fn bad_measured_poses_are_named_by_line_and_column() {
         message.contains("line 3") && message.contains("no reading"),
         "{message}"
     );
+    // A touch with a measured pose still needs every reading (its forward kinematics).
+    let message = read_error(&format!("{header}0.0,0.27,,0.23,t2,0.01,0.02,0.05\n"));
+    assert!(
+        message.contains("line 2, column `C2`") && message.contains("missing reading"),
+        "{message}"
+    );
     // Only some of the pose's columns.
     let message = read_error("z.nozzle,C1,C2,C3,x,z\n0.0,0.27,0.31,0.23,,\n");
     assert!(
