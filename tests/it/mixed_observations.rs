@@ -284,6 +284,21 @@ fn bad_measured_poses_are_named_by_line_and_column() {
         message.contains("line 4, column `to`") && message.contains("lacks a reading"),
         "{message}"
     );
+    // A row of readings alone is what a distance names, or nothing to fit.
+    let named = "z.nozzle,C1,C2,C3,id,from,to,distance,x,y,z\n\
+                 0.0,0.27,0.31,0.23,t1,,,,,,\n\
+                 ,0.32,0.29,0.31,r,,,,,,\n\
+                 ,,,,,t1,r,0.05,,,\n";
+    let read = observations::parse(named, std::path::Path::new("m.csv"), &distances).unwrap();
+    assert_eq!((read.rows.len(), read.distances.len()), (2, 1));
+    let unnamed = named.replace(",,,,,t1,r,0.05,,,\n", "");
+    let message = observations::parse(&unnamed, std::path::Path::new("m.csv"), &distances)
+        .expect_err("a row of readings alone that no distance names")
+        .to_string();
+    assert!(
+        message.contains("line 3") && message.contains("nothing to fit"),
+        "{message}"
+    );
 }
 
 #[test]
