@@ -257,8 +257,10 @@ mod tests {
         commanded.push([0.0, 0.0, 0.06, 0.0, 0.0, 0.0]);
         let sets = forward_pose_sets(&mechanism, instrument, options, Some(&commanded)).unwrap();
         assert_eq!(sets.shared.len(), 43);
+        let bits = |pose: [f64; 6]| pose.map(f64::to_bits);
         assert_eq!(
-            sets.shared[42], commanded[42],
+            bits(sets.shared[42]),
+            bits(commanded[42]),
             "a measured pose is taken as commanded"
         );
     }
