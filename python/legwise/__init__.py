@@ -27,7 +27,7 @@ LegwiseError = _native.LegwiseError
 """Bad input, bad usage or a failed identification (a ``ValueError``); the message is the one
 the command line prints after ``legwise:``."""
 
-__all__ = ["identify", "Report", "LegwiseError"]
+__all__ = ["identify", "simulate", "read_csv_text", "Report", "LegwiseError"]
 
 Columns = Mapping[str, Any]
 Measurements = Union[str, "os.PathLike[str]", Columns, Any]
@@ -171,3 +171,34 @@ def identify(
         csv = _csv_text(measurements)
     report, text, warnings = _native.identify(arguments, csv)
     return Report(json.loads(report), text, warnings)
+
+
+#: Columns read as strings (the others are numbers).
+TEXT_COLUMNS = ("leg", "id", "from", "to")
+
+
+def read_csv_text(text: str) -> Dict[str, np.ndarray]:
+    """Measurement CSV text as columns: ``leg``, ``id``, ``from`` and ``to`` as arrays of
+    strings, the others as float arrays with NaN for an empty cell (a reading not taken)."""
+    import csv
+    import io
+
+    rows = list(csv.reader(io.StringIO(text)))
+    header, body = rows[0], rows[1:]
+    columns: Dict[str, np.ndarray] = {}
+    for k, name in enumerate(header):
+        cells = [row[k] for row in body]
+        if name in TEXT_COLUMNS:
+            columns[name] = np.array(cells, dtype=object)
+        else:
+            columns[name] = np.array([float(c) if c else math.nan for c in cells])
+    return columns
+
+
+def simulate(model: Union[str, "os.PathLike[str]"], **options: Any) -> Dict[str, np.ndarray]:
+    """The model's simulated measurements, as ``legwise simulate`` writes them, as columns
+    (:func:`read_csv_text`): ``options`` are the command's (``seed=11``, ``noise_scale=0``,
+    ``poses="random"``, ``poses_per_leg=20``…). The result can be passed to :func:`identify`
+    as its measurements."""
+    text, _source = _native.simulate(["--model", os.fspath(model)] + _arguments(options))
+    return read_csv_text(text)

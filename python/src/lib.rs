@@ -34,16 +34,34 @@ fn identify(
     match outcome {
         Ok(Ok(outputs)) => Ok((outputs.json, outputs.text, outputs.trust_issues)),
         Ok(Err(error)) => Err(LegwiseError::new_err(format!("{error:#}"))),
-        Err(_) => Err(LegwiseError::new_err(
-            "legwise failed inside (a panic): this is a bug of legwise, not of the input",
-        )),
+        Err(_) => Err(LegwiseError::new_err(PANIC)),
     }
 }
+
+/// `legwise simulate` with the command's arguments `arguments` (after `simulate`, without
+/// `--out`): `(csv, source)`, the measurement CSV and the description of the simulation.
+#[pyfunction]
+fn simulate(py: Python<'_>, arguments: Vec<String>) -> PyResult<(String, String)> {
+    let outcome = py.detach(|| {
+        catch_unwind(AssertUnwindSafe(|| {
+            legwise::cli::simulate_in_memory(&arguments)
+        }))
+    });
+    match outcome {
+        Ok(Ok(outputs)) => Ok(outputs),
+        Ok(Err(error)) => Err(LegwiseError::new_err(format!("{error:#}"))),
+        Err(_) => Err(LegwiseError::new_err(PANIC)),
+    }
+}
+
+/// The message of a panic caught before it reaches Python.
+const PANIC: &str = "legwise failed inside (a panic): this is a bug of legwise, not of the input";
 
 /// The module.
 #[pymodule]
 fn _native(module: &Bound<'_, PyModule>) -> PyResult<()> {
     module.add_function(wrap_pyfunction!(identify, module)?)?;
+    module.add_function(wrap_pyfunction!(simulate, module)?)?;
     module.add("LegwiseError", module.py().get_type::<LegwiseError>())?;
     module.add("MEMORY_NAME", legwise::cli::MEMORY_NAME)?;
     Ok(())

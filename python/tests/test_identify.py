@@ -113,3 +113,25 @@ def test_at_zero_noise_the_real_parameters_are_recovered():
     names, matrix = report.covariance("leg1")
     assert matrix.shape == (len(names), len(names)) and len(names) == 6
     assert report.parameters["l1"][0] == pytest.approx(0.7507, abs=1e-9)
+
+
+def test_simulate_gives_the_command_lines_csv_as_columns(tmp_path):
+    status, out, err = command("simulate", "--model", MODEL, "--seed", "11", "--out", "-")
+    assert status == 0, err
+    columns = legwise.simulate(MODEL, seed=11)
+    expected = legwise.read_csv_text(out)
+    assert list(columns) == list(expected)
+    for name in columns:
+        if columns[name].dtype == object:
+            assert list(columns[name]) == list(expected[name]), name
+        else:
+            np.testing.assert_array_equal(columns[name], expected[name])
+
+
+def test_simulated_columns_identify_to_the_real_parameters_at_zero_noise():
+    real = legwise.identify(MODEL, noise_scale=0).to_dict()["results"][0]["legs"]
+    report = legwise.identify(MODEL, legwise.simulate(MODEL, noise_scale=0))
+    legs = report.to_dict()["results"][0]["legs"]
+    for simulated, measured in zip(real, legs):
+        for a, b in zip(simulated["parameters"], measured["parameters"]):
+            assert abs(b["identified"] - a["real"]) <= 1e-9, (a, b)

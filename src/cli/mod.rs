@@ -17,6 +17,7 @@ mod workspace;
 
 pub use args::*;
 pub use identify::{identify_in_memory, IdentifyOutputs, MEMORY_NAME};
+pub use simulate::simulate_in_memory;
 pub use verdict::Verdict;
 
 /// Runs a parsed command line.

@@ -81,3 +81,23 @@ fn in_memory_the_options_that_write_files_and_bad_input_are_refused() {
     let error = identify_in_memory(&arguments(&both), Some(bad)).expect_err("two sources");
     assert!(error.to_string().starts_with("--measurements"), "{error}");
 }
+
+#[test]
+fn a_simulation_in_memory_is_the_csv_the_command_writes() {
+    use legwise::cli::simulate_in_memory;
+    let model = crate_path("models/5r.yaml");
+    let model = model.to_str().unwrap();
+    let (csv, source) =
+        simulate_in_memory(&arguments(&["--model", model, "--seed", "11"])).unwrap();
+    assert!(source.contains("seed 11"), "{source}");
+    let mechanism = legwise::Mechanism::load(model.as_ref()).unwrap();
+    let data =
+        legwise::Measurements::read_from(csv.as_bytes(), "m.csv".as_ref(), &mechanism).unwrap();
+    let again = data.to_csv(&mechanism).unwrap();
+    assert_eq!(again, csv, "reads back to the same text");
+    let (other, _) = simulate_in_memory(&arguments(&["--model", model, "--seed", "12"])).unwrap();
+    assert_ne!(other, csv);
+    let error = simulate_in_memory(&arguments(&["--model", model, "--noise-scale", "-1"]))
+        .expect_err("a negative noise scale");
+    assert!(error.to_string().contains("--noise-scale"), "{error}");
+}
