@@ -72,11 +72,12 @@ pub fn forward_pose_sets(
             poses.push(pose);
         }
     }
+    let clear = home_side(mechanism, instrument, &shared);
     let mut drawn = 0;
     while poses.len() < rows + measured {
         let pose = reachable_pose(mechanism, &real, &mut rng)?;
         drawn += 1;
-        if on_home_side(mechanism, instrument, &shared, &pose) {
+        if clear(&pose) {
             poses.push(pose);
         } else if drawn > 1000 * (measured + 1) {
             return Err(Error::Model {
@@ -117,25 +118,27 @@ fn reaches_real(mechanism: &Mechanism, real: &[Vec<f64>], pose: &[f64; 6]) -> Re
     Ok(())
 }
 
-/// Whether at `pose` every touching target of `instrument` (at the shared values `shared`)
-/// is on the side of its touch surface where it is at home (a probe above its bed): where the
-/// platform can be without passing through the surface.
-pub(crate) fn on_home_side(
+/// Whether a pose puts every touching target of `instrument` (at the shared values `shared`)
+/// on the side of its touch surface where it is at home (a probe above its bed): where the
+/// platform can be without passing through the surface. What the instrument sees at home is
+/// computed once, for every pose the returned test is asked about.
+pub(crate) fn home_side<'i>(
     mechanism: &Mechanism,
-    instrument: &Instrument,
-    shared: &[f64],
-    pose: &[f64; 6],
-) -> bool {
+    instrument: &'i Instrument,
+    shared: &'i [f64],
+) -> impl Fn(&[f64; 6]) -> bool + 'i {
     let home = observe(instrument, shared, &mechanism.home_pose);
-    let seen = observe(instrument, shared, pose);
-    let mut at = 0;
-    instrument.targets.iter().all(|target| {
-        let first = at;
-        at += target.pose_indices().len();
-        target
-            .touch
-            .is_none_or(|t| (seen[first] - t) * (home[first] - t) > 0.0)
-    })
+    move |pose: &[f64; 6]| {
+        let seen = observe(instrument, shared, pose);
+        let mut at = 0;
+        instrument.targets.iter().all(|target| {
+            let first = at;
+            at += target.pose_indices().len();
+            target
+                .touch
+                .is_none_or(|t| (seen[first] - t) * (home[first] - t) > 0.0)
+        })
+    }
 }
 
 /// `pose` moved along the platform coordinate of the touching target's coordinate until the
@@ -233,9 +236,10 @@ mod tests {
         let instrument = mechanism.instrument.as_ref().unwrap();
         let shared = instrument.nominal();
         let at = |z: f64| [0.01, -0.02, z, 0.0, 0.0, 0.0];
-        assert!(on_home_side(&mechanism, instrument, &shared, &at(0.052)));
-        assert!(!on_home_side(&mechanism, instrument, &shared, &at(0.06)));
-        assert!(!on_home_side(&mechanism, instrument, &shared, &at(0.055)));
+        let clear = home_side(&mechanism, instrument, &shared);
+        assert!(clear(&at(0.052)));
+        assert!(!clear(&at(0.06)));
+        assert!(!clear(&at(0.055)));
     }
 
     #[test]

@@ -22,7 +22,7 @@ use crate::identify::observability::{
     analyse, unit_columns, with_a_row_per_column, Observability, RANK_TOLERANCE,
 };
 use crate::identify::problem::IdentificationProblem;
-use crate::measure::forward_simulate::{on_home_side, touched};
+use crate::measure::forward_simulate::{home_side, touched};
 use crate::model::mechanism::SelectionCriterion;
 use crate::model::Mechanism;
 use crate::workspace::candidates::feasible_poses;
@@ -132,8 +132,8 @@ pub fn select_forward(
         0 => (Vec::new(), chosen),
         count => {
             let candidates = feasible.candidates.iter().map(|c| c.pose);
-            let clear =
-                candidates.filter(|p| on_home_side(mechanism, instrument, &nominal_shared, p));
+            let above = home_side(mechanism, instrument, &nominal_shared);
+            let clear = candidates.filter(|p| above(p));
             let (poses, rows) =
                 select_measured(mechanism, &clear.collect::<Vec<_>>(), count, criterion)?;
             let mut both = DMatrix::zeros(chosen.nrows() + rows.nrows(), chosen.ncols());
