@@ -15,12 +15,9 @@ use crate::report::plots::files::{evaluate_picture, POSITION_ERRORS};
 
 pub(super) fn run(args: &EvaluateArgs) -> anyhow::Result<Verdict> {
     super::checks::png_needs_plots(args.png, args.plots.as_deref())?;
-    let mechanism = Mechanism::load(&args.model)?;
-    let other = args.against.as_deref().map(Mechanism::load).transpose()?;
-    let mut inputs = model_inputs(&args.model, &mechanism);
-    if let (Some(path), Some(other)) = (&args.against, &other) {
-        Measurements::same_layout(&mechanism, other)
-            .map_err(|e| anyhow::anyhow!("--against {}: {e}", path.display()))?;
+    let models = Models::load(args)?;
+    let mut inputs = model_inputs(&args.model, &models.model);
+    if let (Some(path), Some(other)) = (&args.against, &models.other) {
         inputs.extend(model_inputs(path, other));
     }
     inputs.push(input("measurement file", &args.measurements));
@@ -29,18 +26,8 @@ pub(super) fn run(args: &EvaluateArgs) -> anyhow::Result<Verdict> {
     let pictures = prepare(args.plots.as_deref(), &[POSITION_ERRORS], format, &inputs)?;
     let outputs = ReportFiles { json, pictures };
     let mut console = outputs.console();
-    let evaluation = evaluate_file(&mechanism, &args.measurements)?;
-    let against = match (&other, &args.against) {
-        (Some(other), Some(path)) => {
-            Some(evaluate_file(other, &args.measurements).map_err(|e| {
-                anyhow::anyhow!(
-                    "--against {}: the measurement file does not read as that model's: {e:#}",
-                    path.display()
-                )
-            })?)
-        }
-        _ => None,
-    };
+    let (evaluation, against) =
+        models.evaluate(args, |model| Measurements::read(&args.measurements, model))?;
     outputs.write_json("JSON evaluation", || {
         let value = evaluation_json(&evaluation, against.as_ref());
         Ok(serde_json::to_string_pretty(&value)? + "\n")
@@ -53,16 +40,85 @@ pub(super) fn run(args: &EvaluateArgs) -> anyhow::Result<Verdict> {
         drawn.push((model.as_str(), &evaluation));
         Ok(vec![evaluate_picture(&drawn, format)?])
     })?;
-    console.print(&evaluation_text(&mechanism, &evaluation, against.as_ref()))?;
+    console.print(&evaluation_text(
+        &models.model,
+        &evaluation,
+        against.as_ref(),
+    ))?;
     outputs.say_written(&mut console, "JSON")?;
-    let mut issues = mechanism.warnings.clone();
-    issues.extend(other.iter().flat_map(|other| other.warnings.clone()));
-    issues.extend(evaluation.trust_issues());
-    issues.extend(against.iter().flat_map(Evaluation::trust_issues));
-    Ok(Verdict::from_reasons(issues))
+    Ok(Verdict::from_reasons(
+        models.trust_issues(&evaluation, against.as_ref()),
+    ))
 }
 
-/// Evaluates `model` on the measurement file at `path` (read in the model's layout).
-fn evaluate_file(model: &Mechanism, path: &Path) -> anyhow::Result<Evaluation> {
-    Ok(evaluate(model, &Measurements::read(path, model)?)?)
+/// The model evaluated and the one it is compared with (`--against`), loaded and checked to
+/// read the same measurement file.
+#[derive(Debug)]
+pub(super) struct Models {
+    /// `--model`.
+    pub(super) model: Mechanism,
+    /// `--against`, if given.
+    pub(super) other: Option<Mechanism>,
+}
+
+impl Models {
+    /// The models of `args`.
+    ///
+    /// # Errors
+    /// A model that does not load, or two models that read different measurement files.
+    pub(super) fn load(args: &EvaluateArgs) -> anyhow::Result<Models> {
+        let model = Mechanism::load(&args.model)?;
+        let other = args.against.as_deref().map(Mechanism::load).transpose()?;
+        if let (Some(path), Some(other)) = (&args.against, &other) {
+            Measurements::same_layout(&model, other)
+                .map_err(|e| anyhow::anyhow!("--against {}: {e}", path.display()))?;
+        }
+        Ok(Models { model, other })
+    }
+
+    /// Evaluates each model on the measurements `read` gives in its layout: the model's
+    /// evaluation and the other's.
+    ///
+    /// # Errors
+    /// Measurements that do not read as a model's, or an evaluation that fails.
+    pub(super) fn evaluate(
+        &self,
+        args: &EvaluateArgs,
+        read: impl Fn(&Mechanism) -> crate::Result<Measurements>,
+    ) -> anyhow::Result<(Evaluation, Option<Evaluation>)> {
+        let evaluation = evaluate(&self.model, &read(&self.model)?)?;
+        let against = match (&self.other, &args.against) {
+            (Some(other), Some(path)) => Some(evaluated(other, &read, path)?),
+            _ => None,
+        };
+        Ok((evaluation, against))
+    }
+
+    /// Why the evaluations must not be trusted: the models' warnings and the evaluations'.
+    pub(super) fn trust_issues(
+        &self,
+        evaluation: &Evaluation,
+        against: Option<&Evaluation>,
+    ) -> Vec<String> {
+        let mut issues = self.model.warnings.clone();
+        issues.extend(self.other.iter().flat_map(|other| other.warnings.clone()));
+        issues.extend(evaluation.trust_issues());
+        issues.extend(against.iter().flat_map(|a| a.trust_issues()));
+        issues
+    }
+}
+
+/// The evaluation of the `--against` model `other` (file `path`).
+fn evaluated(
+    other: &Mechanism,
+    read: impl Fn(&Mechanism) -> crate::Result<Measurements>,
+    path: &Path,
+) -> anyhow::Result<Evaluation> {
+    let evaluation = read(other).and_then(|data| evaluate(other, &data));
+    evaluation.map_err(|e| {
+        anyhow::anyhow!(
+            "--against {}: the measurement file does not read as that model's: {e:#}",
+            path.display()
+        )
+    })
 }

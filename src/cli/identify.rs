@@ -14,8 +14,8 @@ use crate::identify::robust::RobustLoss;
 use crate::measure::{Measurements, STDIN_NAME};
 use crate::model::Mechanism;
 use crate::pipeline::{self, MapSettings, Settings, SimulationSettings};
+use crate::report::calibrated::CalibratedModel;
 use crate::report::plots::files::{identify_picture_names, identify_pictures};
-use crate::report::Report;
 
 pub(super) fn run(args: &IdentifyArgs) -> anyhow::Result<Verdict> {
     let (mechanism, settings, map_scale) = prepared(args)?;
@@ -36,8 +36,11 @@ pub(super) fn run(args: &IdentifyArgs) -> anyhow::Result<Verdict> {
     };
     let verdict = Verdict::from_reasons(report.trust_issues());
     let trusted = verdict == Verdict::Trusted;
-    if let Some(files) = calibrated.as_ref().filter(|_| trusted) {
-        write_calibrated(&report, files)?;
+    if let (Some(files), Some(model)) = (
+        calibrated.as_ref().filter(|_| trusted),
+        report.calibrated_model(),
+    ) {
+        write_calibrated(&model, files)?;
     }
     outputs.write_json("JSON report", || Ok(report.to_json().to_text()?))?;
     outputs.write_pictures(|| Ok(identify_pictures(&report, crate::files::format(args.png))?))?;
@@ -54,7 +57,7 @@ pub(super) fn run(args: &IdentifyArgs) -> anyhow::Result<Verdict> {
 ///
 /// # Errors
 /// A bad option or combination of options, or a model that does not load.
-fn prepared(args: &IdentifyArgs) -> anyhow::Result<(Mechanism, Settings, f64)> {
+pub(super) fn prepared(args: &IdentifyArgs) -> anyhow::Result<(Mechanism, Settings, f64)> {
     let simulation = args.simulation.settings()?;
     let map_scale = args.map_scale()?;
     super::checks::png_needs_plots(args.png, args.plots.as_deref())?;
@@ -72,76 +75,6 @@ fn prepared(args: &IdentifyArgs) -> anyhow::Result<(Mechanism, Settings, f64)> {
     let settings = settings(args, &mechanism, simulation, map_scale);
     Ok((mechanism, settings, map_scale))
 }
-
-/// What `legwise identify` gives a caller that keeps it in memory (the Python module): the JSON
-/// report (docs/report.md), the terminal report, and why the result must not be trusted (empty
-/// when it may be: the command's exit 0).
-#[derive(Debug, Clone)]
-pub struct IdentifyOutputs {
-    /// The JSON report, as `--json` writes it.
-    pub json: String,
-    /// The terminal report.
-    pub text: String,
-    /// One line per reason not to trust the result (the command's warnings and exit 3).
-    pub trust_issues: Vec<String>,
-}
-
-/// `legwise identify` with the command's arguments `arguments` (those after `identify`), the
-/// measurements read as they say, or parsed from the CSV text `csv` (named `<memory>` in
-/// messages); the outputs kept in memory (`--json`, `--calibrated`, `--plots` are refused).
-///
-/// # Errors
-/// As the command: a usage error (clap's message), a bad option, model or measurement, a
-/// failed identification.
-pub fn identify_in_memory(
-    arguments: &[String],
-    csv: Option<&str>,
-) -> anyhow::Result<IdentifyOutputs> {
-    use clap::Parser;
-    let words = ["legwise", "identify"].map(String::from).into_iter();
-    let cli = super::args::Cli::try_parse_from(words.chain(arguments.iter().cloned()))
-        .map_err(|e| anyhow::anyhow!("{}", e.render().to_string().trim_end()))?;
-    let super::args::Command::Identify(args) = cli.command else {
-        anyhow::bail!("not an identification");
-    };
-    let files = [
-        (args.json.is_some(), "--json"),
-        (args.calibrated.is_some(), "--calibrated"),
-        (args.plots.is_some(), "--plots"),
-    ];
-    if let Some((_, flag)) = files.iter().find(|(given, _)| *given) {
-        anyhow::bail!("{flag}: writes a file; in memory the report is returned instead");
-    }
-    if csv.is_some() && args.measurements.is_some() {
-        anyhow::bail!("--measurements: the measurements are given in memory already");
-    }
-    let (mechanism, settings, map_scale) = prepared(&args)?;
-    let measurements = match (csv, &args.measurements) {
-        (Some(text), _) => Some(Measurements::read_from(
-            text.as_bytes(),
-            Path::new(MEMORY_NAME),
-            &mechanism,
-        )?),
-        (None, Some(path)) => Some(read(path, &mechanism)?),
-        (None, None) => None,
-    };
-    if measurements.is_some() && args.map.is_some() {
-        anyhow::bail!("--map: the accuracy map needs the real parameters, known only in simulation (drop the measurements)");
-    }
-    check_map(&args, &mechanism, map_scale)?;
-    let report = match &measurements {
-        Some(data) => pipeline::identify(&mechanism, data, &settings)?,
-        None => pipeline::run(&mechanism, &settings)?,
-    };
-    Ok(IdentifyOutputs {
-        json: report.to_json().to_text()?,
-        text: report.terminal_text(),
-        trust_issues: report.trust_issues(),
-    })
-}
-
-/// How messages name measurements given in memory.
-pub const MEMORY_NAME: &str = "<memory>";
 
 /// The library's settings from the command line: the strategies asked for (through an
 /// instrument, the model's: joint and two-stage), the fit, the simulation and the map.
@@ -214,7 +147,7 @@ fn is_stdin(path: &Path) -> bool {
 }
 
 /// Reads the measurements from `path`, or from standard input for `-`.
-fn read(path: &Path, mechanism: &Mechanism) -> anyhow::Result<Measurements> {
+pub(super) fn read(path: &Path, mechanism: &Mechanism) -> anyhow::Result<Measurements> {
     Ok(if is_stdin(path) {
         Measurements::read_from(std::io::stdin().lock(), Path::new(STDIN_NAME), mechanism)?
     } else {
@@ -239,7 +172,11 @@ fn say_calibrated(
 }
 
 /// `--map`: simulation only, with a valid grid, refused before any work otherwise.
-fn check_map(args: &IdentifyArgs, mechanism: &Mechanism, map_scale: f64) -> anyhow::Result<()> {
+pub(super) fn check_map(
+    args: &IdentifyArgs,
+    mechanism: &Mechanism,
+    map_scale: f64,
+) -> anyhow::Result<()> {
     if let Some(grid) = args.map {
         if args.measurements.is_some() {
             anyhow::bail!("--map: the accuracy map needs the real parameters, known only in simulation (drop --measurements)");
@@ -249,13 +186,14 @@ fn check_map(args: &IdentifyArgs, mechanism: &Mechanism, map_scale: f64) -> anyh
     Ok(())
 }
 
-/// Writes the calibrated model (the URDF first: the model file names it).
-fn write_calibrated(report: &Report<'_>, (yaml, urdf): &(Output, Output)) -> anyhow::Result<()> {
-    let urdf_name = file_name(Path::new(&urdf.name()));
-    if let Some(files) = report.calibrated_files(&urdf_name)? {
-        urdf.write("calibrated URDF", files.urdf.as_bytes())?;
-        yaml.write("calibrated model", files.yaml.as_bytes())?;
-    }
+/// Writes the calibrated model `model` (the URDF first: the model file names it).
+pub(super) fn write_calibrated(
+    model: &CalibratedModel,
+    (yaml, urdf): &(Output, Output),
+) -> anyhow::Result<()> {
+    let files = model.files(&file_name(Path::new(&urdf.name())))?;
+    urdf.write("calibrated URDF", files.urdf.as_bytes())?;
+    yaml.write("calibrated model", files.yaml.as_bytes())?;
     Ok(())
 }
 

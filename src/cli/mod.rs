@@ -8,6 +8,7 @@ mod console;
 mod evaluate;
 mod help;
 mod identify;
+mod in_memory;
 mod montecarlo;
 mod outputs;
 mod select;
@@ -16,8 +17,10 @@ mod verdict;
 mod workspace;
 
 pub use args::*;
-pub use identify::{identify_in_memory, IdentifyOutputs, MEMORY_NAME};
-pub use simulate::simulate_in_memory;
+pub use in_memory::{
+    evaluate_in_memory, identify_in_memory, select_in_memory, simulate_in_memory, EvaluateOutputs,
+    IdentifyOutputs, MEMORY_NAME,
+};
 pub use verdict::Verdict;
 
 /// Runs a parsed command line.

@@ -15,12 +15,51 @@ use crate::selection::design::ExperimentDesign;
 use crate::selection::forward_design::select_forward;
 
 pub(super) fn run(args: &SelectArgs) -> anyhow::Result<Verdict> {
-    let poses_per_leg = checks::poses_per_leg(args.poses_per_leg)?;
-    checks::positive_metres("--grid", args.grid)?;
-    let mechanism = Mechanism::load(&args.model)?;
+    let (poses_per_leg, mechanism) = checked(args)?;
     let inputs = model_inputs(&args.model, &mechanism);
     let output = Output::prepare("--out", &args.out, &inputs)?;
     let mut console = Console::new(output.is_stdout());
+    let selection = selected(args, &mechanism, poses_per_leg)?;
+    output.write("pose CSV", selection.csv.as_bytes())?;
+    console.print(&selection.text)?;
+    console.line(format_args!(
+        "poses written to {} ({})",
+        output.name(),
+        selection.advice
+    ))?;
+    Ok(Verdict::from_reasons(mechanism.warnings.clone()))
+}
+
+/// The checks of `args` made before any work, the poses per leg asked for and the model.
+///
+/// # Errors
+/// A bad option, or a model that does not load.
+pub(super) fn checked(args: &SelectArgs) -> anyhow::Result<(Option<usize>, Mechanism)> {
+    let poses_per_leg = checks::poses_per_leg(args.poses_per_leg)?;
+    checks::positive_metres("--grid", args.grid)?;
+    Ok((poses_per_leg, Mechanism::load(&args.model)?))
+}
+
+/// The selected poses of a run of `legwise select`.
+#[derive(Debug, Clone)]
+pub(super) struct Selection {
+    /// The pose file (measurement CSV layout, readings empty).
+    pub(super) csv: String,
+    /// The report of the selection.
+    pub(super) text: String,
+    /// What to do with the file: what to fill in, then identify.
+    pub(super) advice: String,
+}
+
+/// Selects the poses `args` ask for on `mechanism` (`poses_per_leg` from [`checked`]).
+///
+/// # Errors
+/// A selection that fails (no feasible candidate, too few), or a file that cannot be made.
+pub(super) fn selected(
+    args: &SelectArgs,
+    mechanism: &Mechanism,
+    poses_per_leg: Option<usize>,
+) -> anyhow::Result<Selection> {
     let count = poses_per_leg.unwrap_or(mechanism.selection.poses_per_leg);
     let shared = args.strategy != StrategyArg::Dc;
     let criterion = match args.criterion {
@@ -31,13 +70,7 @@ pub(super) fn run(args: &SelectArgs) -> anyhow::Result<Verdict> {
     };
     if mechanism.forward_instrument().is_some() {
         // Forward rows: every leg's reading at each, selected for the joint problem.
-        let design = select_forward(&mechanism, args.grid, count, criterion)?;
-        let text = forward_selection_text(&mechanism, &design, criterion);
-        output.write(
-            "pose CSV",
-            forward_pose_file(&mechanism, &design)?.as_bytes(),
-        )?;
-        console.print(&text)?;
+        let design = select_forward(mechanism, args.grid, count, criterion)?;
         let measured = match design.measured_poses.is_empty() {
             true => String::new(),
             false => format!(
@@ -45,26 +78,26 @@ pub(super) fn run(args: &SelectArgs) -> anyhow::Result<Verdict> {
                 mechanism.measured_names().join(", ")
             ),
         };
-        console.line(format_args!(
-            "poses written to {} (command the pose.* columns and fill in what the instrument \
-             reports{measured}; leave the readings empty to take the nominal model's at the \
-             commanded pose, or log them; then `legwise identify --measurements`)",
-            output.name()
-        ))?;
-        return Ok(Verdict::from_reasons(mechanism.warnings.clone()));
+        return Ok(Selection {
+            csv: forward_pose_file(mechanism, &design)?,
+            text: forward_selection_text(mechanism, &design, criterion),
+            advice: format!(
+                "command the pose.* columns and fill in what the instrument reports{measured}; \
+                 leave the readings empty to take the nominal model's at the commanded pose, or \
+                 log them; then `legwise identify --measurements`"
+            ),
+        });
     }
-    let design = ExperimentDesign::select(&mechanism, args.grid, count, criterion, shared)?;
+    let design = ExperimentDesign::select(mechanism, args.grid, count, criterion, shared)?;
     let sets = Sets {
         per_leg: args.strategy != StrategyArg::Traditional,
         shared,
     };
-    let text = selection_text(&mechanism, &design, (count, criterion), sets);
-    let (csv, fill) = pose_file(&mechanism, &design, sets)?;
-    output.write("pose CSV", csv.as_bytes())?;
-    console.print(&text)?;
-    console.line(format_args!(
-        "poses written to {} ({fill}, then `legwise identify --measurements`)",
-        output.name()
-    ))?;
-    Ok(Verdict::from_reasons(mechanism.warnings.clone()))
+    let text = selection_text(mechanism, &design, (count, criterion), sets);
+    let (csv, fill) = pose_file(mechanism, &design, sets)?;
+    Ok(Selection {
+        csv,
+        text,
+        advice: format!("{fill}, then `legwise identify --measurements`"),
+    })
 }

@@ -1,4 +1,4 @@
-//! `legwise simulate`, and the same in memory (the Python module).
+//! `legwise simulate`.
 
 use super::args::SimulateArgs;
 use super::console::Console;
@@ -31,26 +31,4 @@ pub(super) fn run(args: &SimulateArgs) -> anyhow::Result<Verdict> {
         output.name()
     ))?;
     Ok(Verdict::from_reasons(mechanism.warnings.clone()))
-}
-
-/// `legwise simulate` with the command's arguments `arguments` (those after `simulate`, without
-/// `--out`): the measurement CSV the command writes, and the description of the simulation it
-/// prints.
-///
-/// # Errors
-/// As the command: a usage error (clap's message), a bad option or model, a failed simulation.
-pub fn simulate_in_memory(arguments: &[String]) -> anyhow::Result<(String, String)> {
-    use clap::Parser;
-    let words = ["legwise", "simulate", "--out", "-"]
-        .map(String::from)
-        .into_iter();
-    let cli = super::args::Cli::try_parse_from(words.chain(arguments.iter().cloned()))
-        .map_err(|e| anyhow::anyhow!("{}", e.render().to_string().trim_end()))?;
-    let super::args::Command::Simulate(args) = cli.command else {
-        anyhow::bail!("not a simulation");
-    };
-    let settings = args.simulation.settings()?;
-    let mechanism = Mechanism::load(&args.model)?;
-    let simulated = simulate(&mechanism, &settings)?;
-    Ok((simulated.measurements.to_csv(&mechanism)?, simulated.source))
 }

@@ -43,31 +43,72 @@ pub struct CalibratedFiles {
     pub urdf: String,
 }
 
-impl Report<'_> {
-    /// The calibrated model of the report's [`Report::calibrated_result`] (`None` without a
-    /// result), its model file naming the URDF `urdf_name`; with several results, its header
-    /// says which one it holds.
+/// A calibrated model on its own, the identified model cloned: what [`Report::calibrated_files`]
+/// writes, kept by a caller that outlives the report (the Python module's report).
+#[derive(Debug, Clone)]
+pub struct CalibratedModel {
+    mechanism: Mechanism,
+    result: StrategyResult,
+    source: String,
+    real: Option<RealValues>,
+    note: Option<String>,
+}
+
+impl CalibratedModel {
+    /// The model that was identified.
+    pub fn mechanism(&self) -> &Mechanism {
+        &self.mechanism
+    }
+
+    /// The name of the strategy whose values it holds.
+    pub fn strategy(&self) -> &'static str {
+        self.result.strategy.name()
+    }
+
+    /// The calibrated model file and URDF, the model file naming the URDF `urdf_name`.
     ///
     /// # Errors
     /// As [`calibrated_files`].
-    pub fn calibrated_files(&self, urdf_name: &str) -> Result<Option<CalibratedFiles>> {
-        let Some(result) = self.calibrated_result() else {
-            return Ok(None);
+    pub fn files(&self, urdf_name: &str) -> Result<CalibratedFiles> {
+        let calibration = Calibration {
+            mechanism: &self.mechanism,
+            result: &self.result,
+            source: &self.source,
+            real: self.real.as_ref(),
+            note: self.note.as_deref(),
         };
+        calibrated_files(&calibration, urdf_name)
+    }
+}
+
+impl Report<'_> {
+    /// The calibrated model of the report's [`Report::calibrated_result`] (`None` without a
+    /// result); with several results, its header says which one it holds.
+    pub fn calibrated_model(&self) -> Option<CalibratedModel> {
+        let result = self.calibrated_result()?;
         let note = (self.results.len() > 1).then(|| {
             format!(
                 "Several strategies ran; this is the {} result.",
                 result.strategy.name()
             )
         });
-        let calibration = Calibration {
-            mechanism: self.mechanism,
-            result,
-            source: &self.source,
-            real: self.real.as_ref(),
-            note: note.as_deref(),
-        };
-        calibrated_files(&calibration, urdf_name).map(Some)
+        Some(CalibratedModel {
+            mechanism: self.mechanism.clone(),
+            result: result.clone(),
+            source: self.source.clone(),
+            real: self.real.clone(),
+            note,
+        })
+    }
+
+    /// The files of [`Report::calibrated_model`], its model file naming the URDF `urdf_name`.
+    ///
+    /// # Errors
+    /// As [`calibrated_files`].
+    pub fn calibrated_files(&self, urdf_name: &str) -> Result<Option<CalibratedFiles>> {
+        self.calibrated_model()
+            .map(|model| model.files(urdf_name))
+            .transpose()
     }
 }
 

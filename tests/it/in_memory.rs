@@ -101,3 +101,171 @@ fn a_simulation_in_memory_is_the_csv_the_command_writes() {
         .expect_err("a negative noise scale");
     assert!(error.to_string().contains("--noise-scale"), "{error}");
 }
+
+/// `legwise ARGS` as a process: its status code, standard output and standard error.
+fn command(args: &[&str]) -> (Option<i32>, String, String) {
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_legwise"))
+        .args(args)
+        .output()
+        .unwrap();
+    let text = |bytes: &[u8]| String::from_utf8_lossy(bytes).into_owned();
+    (out.status.code(), text(&out.stdout), text(&out.stderr))
+}
+
+#[test]
+fn a_selection_in_memory_is_the_file_the_command_writes() {
+    use legwise::cli::select_in_memory;
+    let dir = tempfile::tempdir().unwrap();
+    // Per-leg poses of an inverse model; forward rows (touches) of a bed probe.
+    for (name, options) in [
+        ("models/5r.yaml", &["--strategy", "both"][..]),
+        ("models/delta-probe.yaml", &[][..]),
+    ] {
+        let model = crate_path(name);
+        let model = model.to_str().unwrap();
+        let out = dir.path().join("poses.csv");
+        let mut words = vec!["select", "--model", model, "--out", out.to_str().unwrap()];
+        words.extend(options);
+        let (status, stdout, stderr) = command(&words);
+        assert_eq!(status, Some(0), "{stderr}");
+        let mut in_memory = vec!["--model", model];
+        in_memory.extend(options);
+        let (csv, text) = select_in_memory(&arguments(&in_memory)).unwrap();
+        assert_eq!(csv, std::fs::read_to_string(&out).unwrap(), "{name}");
+        assert!(stdout.starts_with(&text), "{name}: {text}\n---\n{stdout}");
+    }
+    let model = crate_path("models/5r.yaml");
+    let error = select_in_memory(&arguments(&[
+        "--model",
+        model.to_str().unwrap(),
+        "--grid",
+        "0",
+    ]))
+    .expect_err("a zero grid");
+    assert!(error.to_string().starts_with("--grid"), "{error}");
+}
+
+#[test]
+fn an_evaluation_in_memory_is_the_commands_json() {
+    use legwise::cli::{evaluate_in_memory, simulate_in_memory};
+    let dir = tempfile::tempdir().unwrap();
+    let model = crate_path("models/5r.yaml");
+    let model = model.to_str().unwrap();
+    let data = crate_path("examples/data/5r.csv");
+    let data = data.to_str().unwrap();
+    let calibrated = dir.path().join("cal.yaml");
+    let calibrated = calibrated.to_str().unwrap();
+    let fit = [
+        "identify",
+        "--model",
+        model,
+        "--measurements",
+        data,
+        "--calibrated",
+        calibrated,
+    ];
+    assert_eq!(command(&fit).0, Some(0));
+    let (held, _) = simulate_in_memory(&arguments(&[
+        "--model", model, "--seed", "11", "--poses", "random",
+    ]))
+    .unwrap();
+    let held_path = dir.path().join("held.csv");
+    std::fs::write(&held_path, &held).unwrap();
+    let held_path = held_path.to_str().unwrap();
+    let (status, stdout, stderr) = command(&[
+        "evaluate",
+        "--model",
+        calibrated,
+        "--against",
+        model,
+        "--measurements",
+        held_path,
+        "--json",
+        "-",
+    ]);
+    assert_eq!(status, Some(0), "{stderr}");
+    let options = ["--model", calibrated, "--against", model];
+    let from_text = evaluate_in_memory(&arguments(&options), Some(&held)).unwrap();
+    let mut from_file = options.to_vec();
+    from_file.extend(["--measurements", held_path]);
+    let from_file = evaluate_in_memory(&arguments(&from_file), None).unwrap();
+    assert_eq!(
+        from_file.json, stdout,
+        "the file read in memory: the command's JSON"
+    );
+    assert_eq!(from_file.text.trim_end(), stderr.trim_end());
+    let renamed = stdout.replace(held_path, MEMORY_NAME);
+    assert_eq!(
+        from_text.json, renamed,
+        "the CSV text: the same JSON, named <memory>"
+    );
+    assert!(from_text.trust_issues.is_empty());
+    let bad = held.replacen('\n', "\nleg1,x,0,0,0,0,\n", 1);
+    let error = evaluate_in_memory(&arguments(&options), Some(&bad)).expect_err("a bad cell");
+    let message = format!("{error:#}");
+    assert!(
+        message.contains(MEMORY_NAME) && message.contains("line 2"),
+        "{message}"
+    );
+    let error = evaluate_in_memory(
+        &arguments(&["--model", model, "--json", "e.json"]),
+        Some(&held),
+    )
+    .expect_err("writes a file");
+    assert!(error.to_string().starts_with("--json"), "{error}");
+}
+
+#[test]
+fn the_calibrated_model_written_from_memory_is_the_commands() {
+    let dir = tempfile::tempdir().unwrap();
+    let model = crate_path("models/5r.yaml");
+    let model = model.to_str().unwrap();
+    let data = crate_path("examples/data/5r.csv");
+    let data = data.to_str().unwrap();
+    let by_command = dir.path().join("command.yaml");
+    let fit = [
+        "identify",
+        "--model",
+        model,
+        "--measurements",
+        data,
+        "--calibrated",
+        by_command.to_str().unwrap(),
+    ];
+    assert_eq!(command(&fit).0, Some(0));
+    let outputs = identify_in_memory(
+        &arguments(&["--model", model, "--measurements", data]),
+        None,
+    )
+    .unwrap();
+    let in_memory = dir.path().join("memory.yaml");
+    let said = outputs.write_calibrated(&in_memory).unwrap();
+    assert!(said.contains("memory.urdf"), "{said}");
+    let read = |path: &std::path::Path| std::fs::read_to_string(path).unwrap();
+    assert_eq!(
+        read(&in_memory).replace("memory.urdf", "command.urdf"),
+        read(&by_command),
+        "the same model file, naming its own URDF"
+    );
+    assert_eq!(
+        read(&in_memory.with_extension("urdf")),
+        read(&by_command.with_extension("urdf"))
+    );
+    let error = outputs
+        .write_calibrated(std::path::Path::new(model))
+        .expect_err("over the model file");
+    assert!(error.to_string().contains("model file"), "{error}");
+    let huge = crate_path("tests/data/huge_reading.csv");
+    let untrusted = identify_in_memory(
+        &arguments(&["--model", model, "--measurements", huge.to_str().unwrap()]),
+        None,
+    )
+    .unwrap();
+    let out = dir.path().join("untrusted.yaml");
+    let error = untrusted.write_calibrated(&out).expect_err("untrusted");
+    assert!(
+        error.to_string().contains("must not be trusted") && error.to_string().contains("leg1"),
+        "{error}"
+    );
+    assert!(!out.exists());
+}
