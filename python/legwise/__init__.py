@@ -17,7 +17,7 @@ from __future__ import annotations
 import json
 import math
 import os
-from typing import Any, Dict, List, Mapping, Optional, Tuple, Union
+from typing import Any, Dict, List, Mapping, NamedTuple, Optional, Tuple, Union
 
 import numpy as np
 
@@ -27,21 +27,42 @@ LegwiseError = _native.LegwiseError
 """Bad input, bad usage or a failed identification (a ``ValueError``); the message is the one
 the command line prints after ``legwise:``."""
 
-__all__ = ["identify", "simulate", "read_csv_text", "Report", "LegwiseError"]
+__all__ = [
+    "identify",
+    "simulate",
+    "select",
+    "evaluate",
+    "read_csv_text",
+    "Mechanism",
+    "Parameter",
+    "Report",
+    "Evaluation",
+    "Columns",
+    "LegwiseError",
+]
 
-Columns = Mapping[str, Any]
-Measurements = Union[str, "os.PathLike[str]", Columns, Any]
+Measurements = Union[str, "os.PathLike[str]", Mapping[str, Any], Any]
+Model = Union[str, "os.PathLike[str]"]
+"""A model file's path, or a :class:`Mechanism`."""
 
 
 class Report:
     """The result of :func:`identify`: the JSON report and its views."""
 
-    def __init__(self, report: Dict[str, Any], text: str, warnings: List[str]):
-        self._report = report
-        self.text = text
+    def __init__(self, native: Any):
+        self._native = native
+        self._parsed: Optional[Dict[str, Any]] = None
+        self.text: str = native.text
         """The terminal report, as ``legwise identify`` prints it."""
-        self.warnings = list(warnings)
+        self.warnings: List[str] = list(native.trust_issues)
         """Why the result must not be trusted, one line each (empty when it may be)."""
+
+    @property
+    def _report(self) -> Dict[str, Any]:
+        """The JSON report, parsed when first needed."""
+        if self._parsed is None:
+            self._parsed = json.loads(self._native.json)
+        return self._parsed
 
     @property
     def trusted(self) -> bool:
@@ -50,7 +71,7 @@ class Report:
 
     def to_dict(self) -> Dict[str, Any]:
         """The JSON report of ``legwise identify --json`` (docs/report.md), as a new dict."""
-        return json.loads(json.dumps(self._report))
+        return json.loads(self._native.json)
 
     def _results(self) -> List[Dict[str, Any]]:
         return self._report["results"]
@@ -80,6 +101,16 @@ class Report:
                 return names, matrix.reshape(len(names), len(names))
         raise LegwiseError(f"no leg `{leg}` in the report")
 
+    def write_calibrated(self, path: Union[str, "os.PathLike[str]"]) -> str:
+        """Writes the calibrated model as ``legwise identify --calibrated path`` does: the
+        model file at ``path`` and its URDF beside it (extension ``.urdf``), each written to a
+        temporary file renamed into place, never over the model, its URDF or the measurement
+        file. Returns what was written, in words.
+
+        Raises :class:`LegwiseError` when the result must not be trusted (the reasons are in
+        the message), or when a path would overwrite an input."""
+        return self._native.write_calibrated(os.fspath(path))
+
 
 def _cell(value: Any) -> str:
     """A CSV cell: numbers at full precision (shortest round trip), NaN or None empty."""
@@ -106,22 +137,19 @@ def _columns(measurements: Any) -> Dict[str, np.ndarray]:
 
 
 def _csv_text(measurements: Any) -> str:
-    """The CSV text of columns (the layout of docs/models.md, "The measurement CSV")."""
+    """The CSV text of columns (the layout of docs/models.md, "The measurement CSV"): float
+    columns cross to the library as lists of numbers, written there at full precision."""
     columns = _columns(measurements)
-    lengths = {name: len(np.atleast_1d(values)) for name, values in columns.items()}
     for name, values in columns.items():
         if np.ndim(values) != 1:
             raise LegwiseError(
                 f"measurements: column `{name}` has {np.ndim(values)} dimensions; expected 1"
             )
-    if len(set(lengths.values())) > 1:
-        raise LegwiseError(f"measurements: columns of different lengths {lengths}")
-    names = list(columns)
-    rows = max(lengths.values(), default=0)
-    lines = [",".join(names)]
-    for i in range(rows):
-        lines.append(",".join(_cell(columns[name][i]) for name in names))
-    return "\n".join(lines) + "\n"
+    cells = [
+        values.tolist() if values.dtype.kind in "fiu" else [_cell(v) for v in values.tolist()]
+        for values in columns.values()
+    ]
+    return _native.columns_csv(list(columns), cells)
 
 
 def _arguments(options: Mapping[str, Any]) -> List[str]:
@@ -140,7 +168,7 @@ def _arguments(options: Mapping[str, Any]) -> List[str]:
 
 
 def identify(
-    model: Union[str, "os.PathLike[str]"],
+    model: Model,
     measurements: Optional[Measurements] = None,
     strategy: Optional[str] = None,
     solver: Optional[str] = None,
@@ -169,15 +197,23 @@ def identify(
         arguments += ["--measurements", os.fspath(measurements)]
     elif measurements is not None:
         csv = _csv_text(measurements)
-    report, text, warnings = _native.identify(arguments, csv)
-    return Report(json.loads(report), text, warnings)
+    return Report(_native.identify(arguments, csv))
 
 
 #: Columns read as strings (the others are numbers).
 TEXT_COLUMNS = ("leg", "id", "from", "to")
 
 
-def read_csv_text(text: str) -> Dict[str, np.ndarray]:
+class Columns(Dict[str, np.ndarray]):
+    """Measurement columns (a dict of column name to 1-D numpy array, in the CSV's order),
+    with the text legwise printed when it made them (:attr:`text`)."""
+
+    text: str = ""
+    """What the command prints beside the file: the description of a simulation, the report
+    of a selection."""
+
+
+def read_csv_text(text: str) -> Columns:
     """Measurement CSV text as columns: ``leg``, ``id``, ``from`` and ``to`` as arrays of
     strings, the others as float arrays with NaN for an empty cell (a reading not taken)."""
     import csv
@@ -185,7 +221,7 @@ def read_csv_text(text: str) -> Dict[str, np.ndarray]:
 
     rows = list(csv.reader(io.StringIO(text)))
     header, body = rows[0], rows[1:]
-    columns: Dict[str, np.ndarray] = {}
+    columns = Columns()
     for k, name in enumerate(header):
         cells = [row[k] for row in body]
         if name in TEXT_COLUMNS:
@@ -195,10 +231,142 @@ def read_csv_text(text: str) -> Dict[str, np.ndarray]:
     return columns
 
 
-def simulate(model: Union[str, "os.PathLike[str]"], **options: Any) -> Dict[str, np.ndarray]:
+def simulate(model: Model, **options: Any) -> Columns:
     """The model's simulated measurements, as ``legwise simulate`` writes them, as columns
-    (:func:`read_csv_text`): ``options`` are the command's (``seed=11``, ``noise_scale=0``,
-    ``poses="random"``, ``poses_per_leg=20``…). The result can be passed to :func:`identify`
-    as its measurements."""
-    text, _source = _native.simulate(["--model", os.fspath(model)] + _arguments(options))
-    return read_csv_text(text)
+    (:func:`read_csv_text`; ``.text`` describes the simulation): ``options`` are the command's
+    (``seed=11``, ``noise_scale=0``, ``poses="random"``, ``poses_per_leg=20``…). The result
+    can be passed to :func:`identify` as its measurements."""
+    csv, source = _native.simulate(["--model", os.fspath(model)] + _arguments(options))
+    columns = read_csv_text(csv)
+    columns.text = source
+    return columns
+
+
+def select(model: Model, **options: Any) -> Columns:
+    """The poses to measure, as ``legwise select`` writes them (measurement CSV layout, the
+    readings and what the instrument reports empty: NaN), as columns; ``.text`` is the
+    command's report of the selection. ``options`` are the command's: ``strategy`` (``"dc"``
+    per-leg sets, ``"traditional"`` one shared set, ``"both"``), ``grid`` (metres),
+    ``poses_per_leg``, ``criterion`` (``"d"``, ``"a"``, ``"e"``)."""
+    csv, text = _native.select(["--model", os.fspath(model)] + _arguments(options))
+    columns = read_csv_text(csv)
+    columns.text = text
+    return columns
+
+
+class Evaluation(Dict[str, Any]):
+    """The evaluation report of :func:`evaluate` (a dict: the JSON of ``legwise evaluate
+    --json``, docs/report.md), with the terminal report and the verdict."""
+
+    def __init__(self, report: Dict[str, Any], text: str, warnings: List[str]):
+        super().__init__(report)
+        self.text = text
+        """The terminal report, as ``legwise evaluate`` prints it."""
+        self.warnings = list(warnings)
+        """Why the evaluation must not be trusted, one line each (empty when it may be)."""
+
+    @property
+    def trusted(self) -> bool:
+        """False where ``legwise evaluate`` would exit 3."""
+        return not self.warnings
+
+
+def evaluate(
+    model: Model,
+    measurements: Measurements,
+    against: Optional[Model] = None,
+) -> Evaluation:
+    """How well ``model`` explains ``measurements`` (a CSV path, or columns as a dict or a
+    DataFrame), typically held out of the fit: the report of ``legwise evaluate --json``
+    (pose errors by forward kinematics from the readings, each leg's reading residuals), with
+    ``against`` (another model, typically the nominal one) side by side."""
+    arguments = ["--model", os.fspath(model)]
+    if against is not None:
+        arguments += ["--against", os.fspath(against)]
+    csv = None
+    if isinstance(measurements, (str, os.PathLike)):
+        arguments += ["--measurements", os.fspath(measurements)]
+    else:
+        csv = _csv_text(measurements)
+    report, text, warnings = _native.evaluate(arguments, csv)
+    return Evaluation(json.loads(report), text, warnings)
+
+
+class Parameter(NamedTuple):
+    """A parameter of a model: its nominal value (SI units), whether it is identified or held
+    at its nominal value, its unit (``m``, ``rad``, ``-``), its owner (a leg's name, or
+    ``"instrument"``), and its real value in the mechanism the model's simulation block draws
+    with its own seed (what :func:`simulate` without ``seed`` simulates; None without a
+    simulation block)."""
+
+    nominal: float
+    identified: bool
+    unit: str
+    owner: str
+    real: Optional[float]
+
+
+class Mechanism(os.PathLike):  # type: ignore[type-arg]
+    """A model file (docs/models.md), loaded and checked as every command loads it: what it
+    holds, and the functions of the module on it. It is a path-like object: wherever a model
+    path is expected, a Mechanism can be given. The file is read again by each call (as by
+    each command), so its path is kept as given."""
+
+    def __init__(self, path: Union[str, "os.PathLike[str]"]):
+        self.path: str = os.fspath(path)
+        """The model file, as given."""
+        description = json.loads(_native.describe(self.path))
+        self.description: Dict[str, Any] = description
+        """Everything below as one dict (JSON types)."""
+        self.name: str = description["name"]
+        """The model's name."""
+        self.legs: List[str] = [leg["name"] for leg in description["legs"]]
+        """The legs' names, in the model's order."""
+        self.readings: List[str] = [leg["actuated"] for leg in description["legs"]]
+        """Each leg's actuated joint: the reading columns of a measurement file."""
+        self.measured: List[str] = list(description["measured"])
+        """The platform pose coordinates a measurement row holds (a model without an
+        instrument, or a forward instrument's measured poses)."""
+        self.instrument: Optional[Dict[str, Any]] = description["instrument"]
+        """None, or the instrument: ``forward`` (seen through the forward kinematics),
+        ``columns`` (the target coordinates a row holds), ``parameters``."""
+        self.warnings: List[str] = list(description["warnings"])
+        """Implausible values of the model, one line each (a command would exit 3)."""
+        self.parameters: Dict[str, Parameter] = {}
+        """Every parameter by name: each leg's, then the instrument's."""
+        for leg in description["legs"]:
+            for p in leg["parameters"]:
+                self.parameters[p["name"]] = Parameter(
+                    p["nominal"], p["identified"], p["unit"], leg["name"], p["real"]
+                )
+        for p in (self.instrument or {}).get("parameters", []):
+            self.parameters[p["name"]] = Parameter(
+                p["nominal"], p["identified"], p["unit"], "instrument", p["real"]
+            )
+
+    def __fspath__(self) -> str:
+        return self.path
+
+    def __repr__(self) -> str:
+        return f"legwise.Mechanism({self.path!r})"
+
+    @property
+    def identified(self) -> List[str]:
+        """The names of the identified parameters, in the model's order."""
+        return [name for name, p in self.parameters.items() if p.identified]
+
+    def identify(self, measurements: Optional[Measurements] = None, **options: Any) -> Report:
+        """:func:`identify` on this model."""
+        return identify(self, measurements, **options)
+
+    def simulate(self, **options: Any) -> Columns:
+        """:func:`simulate` on this model."""
+        return simulate(self, **options)
+
+    def select(self, **options: Any) -> Columns:
+        """:func:`select` on this model."""
+        return select(self, **options)
+
+    def evaluate(self, measurements: Measurements, against: Optional[Model] = None) -> Evaluation:
+        """:func:`evaluate` on this model."""
+        return evaluate(self, measurements, against)
