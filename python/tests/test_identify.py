@@ -110,3 +110,56 @@ def test_simulated_columns_identify_to_the_real_parameters_at_zero_noise():
     for simulated, measured in zip(real, legs):
         for a, b in zip(simulated["parameters"], measured["parameters"]):
             assert abs(b["identified"] - a["real"]) <= 1e-9, (a, b)
+
+
+def test_the_gil_is_released_while_legwise_computes():
+    import threading
+    import time
+
+    finished = threading.Event()
+
+    def work():
+        legwise.identify(MODEL, map=0.005)  # a few hundred milliseconds of the library's
+        finished.set()
+
+    worker = threading.Thread(target=work)
+    start = time.perf_counter()
+    worker.start()
+    ticks = 0
+    while not finished.is_set():
+        time.sleep(0.001)  # the main thread needs the GIL back after each sleep
+        ticks += 1
+    worker.join()
+    elapsed = time.perf_counter() - start
+    # Held by the native call, the GIL would keep this thread asleep until the call returned.
+    assert elapsed > 0.05 and ticks >= 10, (elapsed, ticks)
+
+
+@pytest.mark.parametrize(
+    "name", ["5r.yaml", "3rpr.yaml", "delta-probe-distances.yaml", "hexapod-reflector.yaml"]
+)
+def test_columns_cross_as_the_text_they_were_read_from(name):
+    from support import model
+
+    text, _ = legwise._native.simulate(["--model", model(name)])
+    # Every number back to the same shortest text, empty cells and the text columns included.
+    assert legwise._csv_text(legwise.read_csv_text(text)) == text
+
+
+def test_columns_of_unusual_types_and_values():
+    text = legwise._csv_text(
+        {
+            "x": np.array([1e-20, 1e300, np.nan, -0.0]),
+            "n": np.array([1, 2, 3, 4]),
+            "leg": np.array(["a", None, np.nan, ""], dtype=object),
+        }
+    )
+    assert text.splitlines() == [
+        "x,n,leg",
+        "0.00000000000000000001,1,a",
+        "1" + "0" * 300 + ",2,",
+        ",3,",
+        "-0,4,",
+    ]
+    with pytest.raises(legwise.LegwiseError, match="2 dimensions"):
+        legwise._csv_text({"x": np.zeros((2, 2))})
