@@ -4,8 +4,10 @@
 //! traditional (several legs stacked), joint (every leg and the instrument) and two-stage
 //! (the instrument alone, then the legs with it held) are groupings of the same blocks.
 //! Implements argmin's `Operator` (residuals) and `Jacobian` (dual numbers), and the bordered
-//! block-diagonal layout a Schur-complement solver takes ([`BorderedLeastSquares`]): each
-//! leg's rows are one group, the shared parameters its border.
+//! block-diagonal layout a Schur-complement solver takes
+//! ([`crate::solver::bordered::BorderedLeastSquares`], `problem/solver_interface.rs`): each
+//! leg's rows are one group, the shared parameters its border. The residuals and their
+//! derivatives are `problem/residuals.rs`.
 //!
 //! A block's pose is measured, or fitted from the targets an instrument saw at the current
 //! shared parameters (`problem/sighted.rs`). Rows may carry weights `w_i` (weighted least squares:
@@ -15,18 +17,14 @@
 use std::borrow::Cow;
 use std::sync::{Arc, Mutex};
 
-use argmin::core::{Error as ArgminError, Jacobian, Operator};
 use nalgebra::{DMatrix, DVector};
 
-use super::residual::{turn_in_reading_units, turns, ResidualBlock};
+use super::residual::ResidualBlock;
 use crate::error::{Error, KinematicsError, Result};
 use crate::kinematics::chain::{platform_transform_f64, Transform};
 use crate::measure::observations::{instrument_of, Observations};
-use crate::measure::targets::platform_pose;
 use crate::model::instrument::Instrument;
-use crate::model::params::ParamTarget;
 use crate::model::Mechanism;
-use crate::solver::bordered::{BorderedBlock, BorderedLayout, BorderedLeastSquares};
 
 mod evaluation;
 mod forward;
@@ -34,13 +32,15 @@ mod forward_problem;
 mod forward_rows;
 mod noise;
 mod reached_points;
+mod residuals;
 mod sighted;
+mod solver_interface;
 mod state;
 
 use forward_rows::Forward;
 pub use reached_points::ReachedPoint;
 use sighted::{Sighted, Sighting};
-use state::{Evaluation, Evaluations, KEPT_SOLUTION_ROWS};
+use state::{Evaluations, KEPT_SOLUTION_ROWS};
 
 /// Where one leg's identified parameters sit in the problem's parameter vector.
 #[derive(Debug, Clone)]
@@ -122,15 +122,6 @@ impl Placed {
             pose,
         }
     }
-}
-
-/// What turn matching needs of one slot's leg at one parameter vector.
-#[derive(Debug, Clone, Copy)]
-struct TurnMatch {
-    gain: f64,
-    /// Position of the gain among the slot's identified columns, if identified.
-    gain_column: Option<usize>,
-    revolute: bool,
 }
 
 impl<'a> IdentificationProblem<'a> {
@@ -464,240 +455,6 @@ impl<'a> IdentificationProblem<'a> {
         phi
     }
 
-    /// Block `index`'s platform: its measured pose (its transform kept), or the pose fitted
-    /// from its targets at the shared values `shared`.
-    fn placed(&self, index: usize, shared: &[f64]) -> Placed {
-        match self.sighting() {
-            Some(sighted) => {
-                let observed = &sighted.rows[index].observed;
-                let home = &self.mechanism.home_pose;
-                Placed::at(platform_pose::<f64>(
-                    sighted.instrument,
-                    shared,
-                    observed,
-                    home,
-                ))
-            }
-            None => {
-                let pose = self.blocks[index].pose;
-                match self.platforms.get(index) {
-                    Some(&platform) => Placed { pose, platform },
-                    None => Placed::at(pose),
-                }
-            }
-        }
-    }
-
-    /// Each slot's gain and whether its actuator turns, at the unknowns `x`.
-    fn turn_matches(&self, x: &DVector<f64>) -> Vec<TurnMatch> {
-        self.slots
-            .iter()
-            .map(|slot| {
-                let leg = &self.mechanism.legs[slot.leg];
-                TurnMatch {
-                    gain: leg.geometry(&self.leg_parameters(slot, x)).gain,
-                    gain_column: slot
-                        .columns
-                        .iter()
-                        .position(|&c| leg.params[c].target == ParamTarget::Gain),
-                    revolute: leg.actuated_is_revolute(),
-                }
-            })
-            .collect()
-    }
-
-    /// `√w` of row `row` (1 when unweighted).
-    pub fn row_scale(&self, row: usize) -> f64 {
-        self.row_scales.as_ref().map_or(1.0, |s| s[row])
-    }
-
-    /// Residuals `predicted − measured` reading (matched modulo one turn, times `√w_i` if
-    /// weighted), one per block.
-    ///
-    /// # Errors
-    /// The first block whose leg cannot reach its pose.
-    pub fn residuals(&self, x: &DVector<f64>) -> Result<DVector<f64>, BlockError> {
-        let blocks = self.block_residuals(x)?;
-        if self.forward.is_none() {
-            return Ok(blocks);
-        }
-        // The blocks' rows, then the forward rows'.
-        let forward = self.evaluate_forward(x, false)?.residuals;
-        if blocks.is_empty() {
-            return Ok(DVector::from_vec(forward));
-        }
-        let count = blocks.len() + forward.len();
-        Ok(DVector::from_iterator(
-            count,
-            blocks.iter().copied().chain(forward),
-        ))
-    }
-
-    /// The blocks' residuals (of [`Self::residuals`]).
-    fn block_residuals(&self, x: &DVector<f64>) -> Result<DVector<f64>, BlockError> {
-        if self.blocks.is_empty() {
-            return Ok(DVector::zeros(0));
-        }
-        let matches = self.turn_matches(x);
-        self.evaluated(x, false, |evaluation| {
-            DVector::from_iterator(
-                self.blocks.len(),
-                self.blocks.iter().enumerate().map(|(i, block)| {
-                    let predicted = evaluation.predicted[i];
-                    let m = matches[self.slot_of_leg[block.leg].unwrap_or_default()];
-                    let n = turns(predicted, block.reading, m.gain, m.revolute);
-                    self.row_scale(i)
-                        * (predicted - block.reading - n * turn_in_reading_units(m.gain))
-                }),
-            )
-        })
-    }
-
-    /// Whole turns of the actuated joint removed from each block's residual at `x` (zero for
-    /// prismatic actuators): non-zero where the readings sit on another turn than the leg's
-    /// home value.
-    ///
-    /// # Errors
-    /// The first block whose leg cannot reach its pose.
-    pub fn turns(&self, x: &DVector<f64>) -> Result<Vec<f64>, BlockError> {
-        let matches = self.turn_matches(x);
-        self.evaluated(x, false, |evaluation| {
-            self.blocks
-                .iter()
-                .zip(&evaluation.predicted)
-                .map(|(block, &predicted)| {
-                    let m = matches[self.slot_of_leg[block.leg].unwrap_or_default()];
-                    turns(predicted, block.reading, m.gain, m.revolute)
-                })
-                .collect()
-        })
-    }
-
-    /// Row `i`'s residual at `evaluation` (turn-matched, times `√w_i`), each of its
-    /// derivatives passed to `put`.
-    fn row_derivatives(
-        &self,
-        (i, evaluation, matches): (usize, &Evaluation, &[TurnMatch]),
-        mut put: impl FnMut(Column, f64),
-    ) -> f64 {
-        let block = &self.blocks[i];
-        let s = self.slot_of_leg[block.leg].unwrap_or_default();
-        let width = self.gradient_stride();
-        let gradient = &evaluation.gradients[i * width..(i + 1) * width];
-        let predicted = evaluation.predicted[i];
-        let tm = matches[s];
-        let n = turns(predicted, block.reading, tm.gain, tm.revolute);
-        let turn = turn_in_reading_units(tm.gain);
-        let scale = self.row_scale(i);
-        for (k, &g) in gradient[..self.slots[s].columns.len()].iter().enumerate() {
-            let mut g = g;
-            if tm.gain_column == Some(k) && n != 0.0 {
-                // d(−n·2π/gain)/d gain = n·2π/gain².
-                g += n * turn / tm.gain;
-            }
-            put(Column::Own(k), g * scale);
-        }
-        for (j, &g) in gradient[self.own_width()..].iter().enumerate() {
-            put(Column::Shared(j), g * scale);
-        }
-        scale * (predicted - block.reading - n * turn)
-    }
-
-    /// Residuals and the identification Jacobian ∂r/∂x (block-structured: a block's row is
-    /// non-zero only in its own leg's columns and the shared ones), from one dual pass per
-    /// block.
-    ///
-    /// # Errors
-    /// The first block whose leg cannot reach its pose.
-    pub fn residuals_and_jacobian(
-        &self,
-        x: &DVector<f64>,
-    ) -> Result<(DVector<f64>, DMatrix<f64>), BlockError> {
-        let (r, jacobian) = self.block_residuals_and_jacobian(x)?;
-        if self.forward.is_none() {
-            return Ok((r, jacobian));
-        }
-        // The blocks' rows, then the forward rows'.
-        let forward = self.evaluate_forward(x, true)?;
-        let below = forward
-            .jacobian
-            .unwrap_or_else(|| DMatrix::zeros(0, self.parameter_count()));
-        if r.is_empty() {
-            return Ok((DVector::from_vec(forward.residuals), below));
-        }
-        let (m, count) = (r.len(), forward.residuals.len());
-        let mut stacked = DMatrix::zeros(m + count, self.parameter_count());
-        stacked.rows_mut(0, m).copy_from(&jacobian);
-        stacked.rows_mut(m, count).copy_from(&below);
-        let all = r.iter().copied().chain(forward.residuals);
-        Ok((DVector::from_iterator(m + count, all), stacked))
-    }
-
-    /// The blocks' residuals and Jacobian (of [`Self::residuals_and_jacobian`]).
-    fn block_residuals_and_jacobian(
-        &self,
-        x: &DVector<f64>,
-    ) -> Result<(DVector<f64>, DMatrix<f64>), BlockError> {
-        if self.blocks.is_empty() {
-            return Ok((DVector::zeros(0), DMatrix::zeros(0, self.parameter_count())));
-        }
-        let matches = self.turn_matches(x);
-        let (m, p, first) = (
-            self.blocks.len(),
-            self.parameter_count(),
-            self.own_columns(),
-        );
-        self.evaluated(x, true, |evaluation| {
-            let mut r = DVector::zeros(m);
-            let mut jacobian = DMatrix::zeros(m, p);
-            for (i, block) in self.blocks.iter().enumerate() {
-                let offset = self.slots[self.slot_of_leg[block.leg].unwrap_or_default()].offset;
-                r[i] = self.row_derivatives((i, evaluation, &matches), |column, g| {
-                    let j = match column {
-                        Column::Own(k) => offset + k,
-                        Column::Shared(k) => first + k,
-                    };
-                    jacobian[(i, j)] = g;
-                });
-            }
-            (r, jacobian)
-        })
-    }
-
-    /// The error of block `block` at the unknowns `x`, located (file line or block) and with the
-    /// trial parameter values.
-    pub fn block_error(
-        &self,
-        block: usize,
-        source: KinematicsError,
-        x: &DVector<f64>,
-    ) -> BlockError {
-        let mut location = match self.blocks[block].line {
-            Some(line) => format!("measurement line {line}"),
-            None => format!("residual block {block}"),
-        };
-        if self.sighting().is_some() {
-            let leg = &self.mechanism.legs[self.blocks[block].leg].name;
-            location = format!("leg `{leg}` at the pose fitted from the targets ({location})");
-        }
-        BlockError {
-            block,
-            source,
-            location,
-            parameters: self.trial_parameters(x),
-        }
-    }
-
-    /// The unknowns `x` by name, `name = value, …`, for a message.
-    fn trial_parameters(&self, x: &DVector<f64>) -> String {
-        self.names()
-            .iter()
-            .zip(x.iter())
-            .map(|(name, &value)| format!("{name} = {}", short(value)))
-            .collect::<Vec<_>>()
-            .join(", ")
-    }
-
     /// The rows and columns of the leg in `slot` of the problem's Jacobian `c`: borrowed
     /// when they are all of it (a problem of one leg, whose slot starts at column 0), else
     /// copied.
@@ -721,116 +478,5 @@ impl<'a> IdentificationProblem<'a> {
         (0..self.blocks.len())
             .filter(|&i| self.blocks[i].leg == slot.leg)
             .collect()
-    }
-}
-
-/// A parameter value for messages: six decimals for ordinary magnitudes, else scientific.
-fn short(value: f64) -> String {
-    if value == 0.0 || (1e-3..1e6).contains(&value.abs()) {
-        format!("{value:.6}")
-    } else {
-        format!("{value:.6e}")
-    }
-}
-
-/// A column of a row's derivatives: the `k`-th identified parameter of its leg, or the
-/// `k`-th identified shared parameter.
-#[derive(Debug, Clone, Copy)]
-enum Column {
-    Own(usize),
-    Shared(usize),
-}
-
-impl BorderedLeastSquares for IdentificationProblem<'_> {
-    fn layout(&self) -> BorderedLayout {
-        if self.forward.is_some() {
-            // Every forward row couples every leg: one group of all the legs' columns.
-            return BorderedLayout {
-                own: vec![self.own_columns()],
-                shared: self.shared_columns().len(),
-            };
-        }
-        BorderedLayout {
-            own: self.slots.iter().map(|s| s.columns.len()).collect(),
-            shared: self.shared_columns().len(),
-        }
-    }
-
-    /// Each slot's rows: their residuals, their derivatives with respect to the slot's own
-    /// columns and to the shared ones.
-    fn bordered(&self, x: &DVector<f64>) -> std::result::Result<Vec<BorderedBlock>, ArgminError> {
-        if self.forward.is_some() {
-            let (r, jacobian) = self.residuals_and_jacobian(x)?;
-            let own = self.own_columns();
-            return Ok(vec![BorderedBlock {
-                own: jacobian.columns(0, own).into_owned(),
-                shared: jacobian.columns(own, jacobian.ncols() - own).into_owned(),
-                residuals: r,
-            }]);
-        }
-        let matches = self.turn_matches(x);
-        let s = self.shared_columns().len();
-        let blocks = self.evaluated(x, true, |evaluation| {
-            let block = |slot: &LegSlot| {
-                let rows = self.rows_of(slot);
-                let mut block = BorderedBlock {
-                    residuals: DVector::zeros(rows.len()),
-                    own: DMatrix::zeros(rows.len(), slot.columns.len()),
-                    shared: DMatrix::zeros(rows.len(), s),
-                };
-                for (row, &i) in rows.iter().enumerate() {
-                    let (own, shared) = (&mut block.own, &mut block.shared);
-                    block.residuals[row] =
-                        self.row_derivatives((i, evaluation, &matches), |column, g| match column {
-                            Column::Own(k) => own[(row, k)] = g,
-                            Column::Shared(k) => shared[(row, k)] = g,
-                        });
-                }
-                block
-            };
-            self.slots.iter().map(block).collect()
-        })?;
-        Ok(blocks)
-    }
-}
-
-impl Operator for IdentificationProblem<'_> {
-    type Param = DVector<f64>;
-    type Output = DVector<f64>;
-
-    fn apply(&self, x: &Self::Param) -> Result<Self::Output, ArgminError> {
-        Ok(self.residuals(x)?)
-    }
-}
-
-impl Jacobian for IdentificationProblem<'_> {
-    type Param = DVector<f64>;
-    type Jacobian = DMatrix<f64>;
-
-    fn jacobian(&self, x: &Self::Param) -> Result<Self::Jacobian, ArgminError> {
-        Ok(self.residuals_and_jacobian(x)?.1)
-    }
-}
-
-#[cfg(test)]
-mod tests {
-    use super::short;
-
-    #[test]
-    fn message_values_have_six_decimals_or_an_exponent() {
-        for (value, text) in [
-            (0.0, "0.000000"),
-            (0.5, "0.500000"),
-            (-3.25, "-3.250000"),
-            (1e-3, "0.001000"),
-            (999_999.0, "999999.000000"),
-            (1e6, "1.000000e6"),
-            (-2.5e7, "-2.500000e7"),
-            (1e-4, "1.000000e-4"),
-            (-9.9e-4, "-9.900000e-4"),
-            (f64::INFINITY, "inf"),
-        ] {
-            assert_eq!(short(value), text, "{value}");
-        }
     }
 }

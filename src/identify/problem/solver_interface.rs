@@ -1,0 +1,81 @@
+//! The problem as argmin and the Schur-complement solver take it: `Operator` (the residuals),
+//! `Jacobian` (dual numbers) and [`BorderedLeastSquares`] (each leg's rows one group, the shared
+//! parameters its border; forward rows couple every leg: one group of all the legs' columns).
+
+use argmin::core::{Error as ArgminError, Jacobian, Operator};
+use nalgebra::{DMatrix, DVector};
+
+use super::residuals::Column;
+use super::{IdentificationProblem, LegSlot};
+use crate::solver::bordered::{BorderedBlock, BorderedLayout, BorderedLeastSquares};
+
+impl BorderedLeastSquares for IdentificationProblem<'_> {
+    fn layout(&self) -> BorderedLayout {
+        if self.forward.is_some() {
+            // Every forward row couples every leg: one group of all the legs' columns.
+            return BorderedLayout {
+                own: vec![self.own_columns()],
+                shared: self.shared_columns().len(),
+            };
+        }
+        BorderedLayout {
+            own: self.slots.iter().map(|s| s.columns.len()).collect(),
+            shared: self.shared_columns().len(),
+        }
+    }
+
+    /// Each slot's rows: their residuals, their derivatives with respect to the slot's own
+    /// columns and to the shared ones.
+    fn bordered(&self, x: &DVector<f64>) -> std::result::Result<Vec<BorderedBlock>, ArgminError> {
+        if self.forward.is_some() {
+            let (r, jacobian) = self.residuals_and_jacobian(x)?;
+            let own = self.own_columns();
+            return Ok(vec![BorderedBlock {
+                own: jacobian.columns(0, own).into_owned(),
+                shared: jacobian.columns(own, jacobian.ncols() - own).into_owned(),
+                residuals: r,
+            }]);
+        }
+        let matches = self.turn_matches(x);
+        let s = self.shared_columns().len();
+        let blocks = self.evaluated(x, true, |evaluation| {
+            let block = |slot: &LegSlot| {
+                let rows = self.rows_of(slot);
+                let mut block = BorderedBlock {
+                    residuals: DVector::zeros(rows.len()),
+                    own: DMatrix::zeros(rows.len(), slot.columns.len()),
+                    shared: DMatrix::zeros(rows.len(), s),
+                };
+                for (row, &i) in rows.iter().enumerate() {
+                    let (own, shared) = (&mut block.own, &mut block.shared);
+                    block.residuals[row] =
+                        self.row_derivatives((i, evaluation, &matches), |column, g| match column {
+                            Column::Own(k) => own[(row, k)] = g,
+                            Column::Shared(k) => shared[(row, k)] = g,
+                        });
+                }
+                block
+            };
+            self.slots.iter().map(block).collect()
+        })?;
+        Ok(blocks)
+    }
+}
+
+impl Operator for IdentificationProblem<'_> {
+    type Param = DVector<f64>;
+    type Output = DVector<f64>;
+
+    fn apply(&self, x: &Self::Param) -> Result<Self::Output, ArgminError> {
+        Ok(self.residuals(x)?)
+    }
+}
+
+impl Jacobian for IdentificationProblem<'_> {
+    type Param = DVector<f64>;
+    type Jacobian = DMatrix<f64>;
+
+    fn jacobian(&self, x: &Self::Param) -> Result<Self::Jacobian, ArgminError> {
+        Ok(self.residuals_and_jacobian(x)?.1)
+    }
+}
