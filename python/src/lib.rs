@@ -1,5 +1,5 @@
 //! `legwise._native`: the Python module's native part. Strings cross the boundary (the command
-//! line's arguments, CSV text, the JSON reports); `legwise/__init__.py` turns numpy arrays and
+//! line's arguments, CSV text, the JSON reports); the Python package (`legwise/`) turns numpy arrays and
 //! dictionaries into them and back. The work runs without the GIL, and no panic reaches
 //! Python: every failure is a `legwise.LegwiseError` carrying the command line's message.
 

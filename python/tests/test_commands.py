@@ -8,7 +8,7 @@ import pytest
 
 import legwise
 
-from support import MODEL, ROOT, assert_same_columns, command, model, without_timings
+from support import MODEL, ROOT, assert_same_columns, command, model
 
 
 @pytest.mark.parametrize(

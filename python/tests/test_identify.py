@@ -11,6 +11,7 @@ import numpy as np
 import pytest
 
 import legwise
+from legwise._columns import csv_text
 
 from support import MODEL, assert_same_columns, command, without_timings
 
@@ -143,11 +144,11 @@ def test_columns_cross_as_the_text_they_were_read_from(name):
 
     text, _ = legwise._native.simulate(["--model", model(name)])
     # Every number back to the same shortest text, empty cells and the text columns included.
-    assert legwise._csv_text(legwise.read_csv_text(text)) == text
+    assert csv_text(legwise.read_csv_text(text)) == text
 
 
 def test_columns_of_unusual_types_and_values():
-    text = legwise._csv_text(
+    text = csv_text(
         {
             "x": np.array([1e-20, 1e300, np.nan, -0.0]),
             "n": np.array([1, 2, 3, 4]),
@@ -162,4 +163,4 @@ def test_columns_of_unusual_types_and_values():
         "-0,4,",
     ]
     with pytest.raises(legwise.LegwiseError, match="2 dimensions"):
-        legwise._csv_text({"x": np.zeros((2, 2))})
+        csv_text({"x": np.zeros((2, 2))})

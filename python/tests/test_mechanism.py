@@ -1,8 +1,6 @@
 """legwise.Mechanism: a model file loaded as the commands load it, usable wherever a model path
 is; a pandas DataFrame as measurements."""
 
-import json
-
 import pytest
 
 import legwise
