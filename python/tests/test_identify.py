@@ -164,3 +164,15 @@ def test_columns_of_unusual_types_and_values():
     ]
     with pytest.raises(legwise.LegwiseError, match="2 dimensions"):
         csv_text({"x": np.zeros((2, 2))})
+
+
+def test_each_legs_covariance_holds_the_reported_standard_deviations(measurements):
+    report = legwise.identify(MODEL, measurements)
+    for leg in ("leg1", "leg2"):
+        names, matrix = report.covariance(leg)
+        assert len(names) == 6 and np.allclose(matrix, matrix.T, rtol=0, atol=0)
+        for k, name in enumerate(names):
+            value, sigma = report.parameters[name]
+            assert math.sqrt(matrix[k, k]) == pytest.approx(sigma, rel=1e-12)
+    with pytest.raises(legwise.LegwiseError, match="no leg `leg9`"):
+        report.covariance("leg9")
