@@ -240,7 +240,11 @@ fn the_calibrated_model_written_from_memory_is_the_commands() {
     .unwrap();
     let in_memory = dir.path().join("memory.yaml");
     let said = outputs.write_calibrated(&in_memory).unwrap();
-    assert!(said.contains("memory.urdf"), "{said}");
+    assert!(
+        said.starts_with("calibrated model (divide and conquer result) written to")
+            && said.ends_with("memory.urdf"),
+        "{said}"
+    );
     let read = |path: &std::path::Path| std::fs::read_to_string(path).unwrap();
     assert_eq!(
         read(&in_memory).replace("memory.urdf", "command.urdf"),
