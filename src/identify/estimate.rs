@@ -408,6 +408,7 @@ fn leg_covariance(
                 rows: rows
                     .map(|(k, &i)| (k, loadings.rows[i].1.clone()))
                     .collect(),
+                also: Vec::new(),
             };
             sandwich::covariance(&leg_r, &problem.slot_jacobian(slot, c), Some(&leg_loadings))
         }),

@@ -32,11 +32,26 @@ pub struct NoiseLoadings {
     /// noise of the same target coordinates) and, per target coordinate `m_i`,
     /// `σ_i ∂r/∂m_i`.
     pub rows: Vec<(usize, Vec<f64>)>,
+    /// Loadings of some residuals on the noise of other measurements, laid out as those
+    /// measurements' own rows' loadings: `(residual, measurement, loading)`. A forward model's
+    /// distance between two rows moves with both rows' readings, which their own residuals
+    /// read too: the distance's residual is correlated with theirs.
+    pub also: Vec<(usize, usize, Vec<f64>)>,
 }
 
 impl NoiseLoadings {
-    /// Each residual's expected variance, `σ_q² + Σ_i (σ_i ∂r/∂m_i)²` (the diagonal of `V`).
+    /// Each residual's expected variance, `σ_q² + Σ_i (σ_i ∂r/∂m_i)²` over every measurement
+    /// it loads on (the diagonal of `V`).
     pub fn variances(&self) -> Vec<f64> {
+        let mut variances = self.own_variances();
+        for (residual, _, w) in &self.also {
+            variances[*residual] += w.iter().map(|wi| wi.powi(2)).sum::<f64>();
+        }
+        variances
+    }
+
+    /// Each residual's variance from its own measurement, `σ_q² + Σ_i (σ_i ∂r/∂m_i)²`.
+    fn own_variances(&self) -> Vec<f64> {
         self.rows
             .iter()
             .map(|(_, w)| w.iter().fold(self.reading.powi(2), |v, wi| v + wi.powi(2)))
@@ -44,43 +59,61 @@ impl NoiseLoadings {
     }
 
     /// `Jᵀ V J` for the Jacobian `jacobian` (rows in the loadings' order): the sum over the
-    /// measurements of `J_Bᵀ V_B J_B`, `V_B = σ_q² I + W_B W_Bᵀ` over the measurement's rows
-    /// `B` (as many operations as forming `JᵀJ`, a measurement being read by a few legs).
+    /// measurements of `J_Bᵀ V_B J_B`, `V_B = σ_q² I + W_B W_Bᵀ` over the residuals `B` that
+    /// load on the measurement (its own rows, then the others' loadings on it, [`Self::also`];
+    /// `σ_q²` only on a residual's own measurement), as many operations as forming `JᵀJ`, a
+    /// measurement being read by a few legs.
     pub fn meat(&self, jacobian: &DMatrix<f64>) -> DMatrix<f64> {
         let n = jacobian.ncols();
-        // The residuals of each measurement, in row order (a deterministic sum).
-        let mut measurements: BTreeMap<usize, Vec<usize>> = BTreeMap::new();
-        for (a, (measurement, _)) in self.rows.iter().enumerate() {
-            measurements.entry(*measurement).or_default().push(a);
+        // The loadings on each measurement, in row order (a deterministic sum): the residual,
+        // its loading, and whether it is its own measurement.
+        let mut measurements: BTreeMap<usize, Vec<Loading<'_>>> = BTreeMap::new();
+        for (a, (measurement, w)) in self.rows.iter().enumerate() {
+            let entry = measurements.entry(*measurement).or_default();
+            entry.push((a, w.as_slice(), true));
+        }
+        for (a, measurement, w) in &self.also {
+            let entry = measurements.entry(*measurement).or_default();
+            entry.push((*a, w.as_slice(), false));
         }
         let mut meat = DMatrix::zeros(n, n);
         // Measurements of one row (every row of a plain leg): `v_i J_iᵀ J_i`, summed as
         // `Sᵀ S` with `S` their rows scaled by `√v_i`, one matrix in all rather than a few per
         // row.
+        let single = |rows: &Vec<Loading<'_>>| rows.len() == 1 && rows[0].2;
         let singles: Vec<usize> = measurements
             .values()
-            .filter(|rows| rows.len() == 1)
-            .map(|rows| rows[0])
+            .filter(|rows| single(rows))
+            .map(|rows| rows[0].0)
             .collect();
         if !singles.is_empty() {
-            let variances = self.variances();
+            let variances = self.own_variances();
             let scaled = DMatrix::from_fn(singles.len(), n, |k, j| {
                 variances[singles[k]].sqrt() * jacobian[(singles[k], j)]
             });
             meat += scaled.tr_mul(&scaled);
         }
-        for rows in measurements.values().filter(|rows| rows.len() > 1) {
-            let block = DMatrix::from_fn(rows.len(), n, |i, j| jacobian[(rows[i], j)]);
+        for rows in measurements.values().filter(|rows| !single(rows)) {
+            let block = DMatrix::from_fn(rows.len(), n, |i, j| jacobian[(rows[i].0, j)]);
             let v = DMatrix::from_fn(rows.len(), rows.len(), |i, k| {
-                let (wi, wk) = (&self.rows[rows[i]].1, &self.rows[rows[k]].1);
+                let ((_, wi, own), (_, wk, _)) = (rows[i], rows[k]);
                 let shared: f64 = wi.iter().zip(wk).map(|(x, y)| x * y).sum();
-                shared + if i == k { self.reading.powi(2) } else { 0.0 }
+                shared
+                    + if i == k && own {
+                        self.reading.powi(2)
+                    } else {
+                        0.0
+                    }
             });
             meat += block.tr_mul(&(v * &block));
         }
         meat
     }
 }
+
+/// A residual's loading on one measurement: the residual, the loading, and whether the
+/// measurement is the residual's own (its reading's own noise `σ_q` counted there).
+type Loading<'a> = (usize, &'a [f64], bool);
 
 /// The covariance of the unweighted least-squares estimate with residuals `r` and Jacobian
 /// `jacobian`: the sandwich `ŝ² A (Jᵀ V J) A` of the module's documentation with `loadings`,
@@ -134,6 +167,7 @@ mod tests {
         let loadings = NoiseLoadings {
             reading: 0.37,
             rows: (0..5).map(|a| (a, vec![0.0, 0.0])).collect(),
+            also: Vec::new(),
         };
         let sandwich = covariance(&r, &jacobian, Some(&loadings)).unwrap();
         assert!((&sandwich - &expected).amax() <= 1e-14 * expected.amax());
@@ -145,6 +179,7 @@ mod tests {
         let loadings = |rows: usize, reading: f64, w: f64| NoiseLoadings {
             reading,
             rows: (0..rows).map(|a| (a, vec![w, -w])).collect(),
+            also: Vec::new(),
         };
         // As many rows as unknowns: no residual degree of freedom, with or without loadings.
         let square = jacobian.rows(0, 2).into_owned();
@@ -170,6 +205,7 @@ mod tests {
         let loadings = NoiseLoadings {
             reading: 0.2,
             rows: (0..5).map(|a| (measurement[a], w[a].to_vec())).collect(),
+            also: Vec::new(),
         };
         let mut v = DMatrix::identity(5, 5) * 0.04;
         for a in 0..5 {
@@ -192,9 +228,56 @@ mod tests {
         // The diagonal V alone (rows taken as separate measurements) is not the same.
         let separate = NoiseLoadings {
             rows: (0..5).map(|a| (a, w[a].to_vec())).collect(),
+            also: Vec::new(),
             ..loadings
         };
         let diagonal = covariance(&r, &jacobian, Some(&separate)).unwrap();
         assert!((&diagonal - &expected).amax() > 0.05 * expected.amax());
+    }
+
+    #[test]
+    fn loadings_on_other_measurements_are_the_dense_formula_too() {
+        let (r, jacobian) = problem();
+        // Rows 0, 1 one measurement, 2 and 3 one each, 4 its own (a distance between the
+        // measurements of rows 0 and 2: it loads on both, laid out as their rows' loadings).
+        let w = [[0.5, -0.2], [0.3, 0.4], [1.0, 0.0], [-0.6, 0.8], [0.1, 0.0]];
+        let measurement = [0, 0, 3, 7, 9];
+        let also = [(4, 0, [0.0, 0.7]), (4, 3, [0.0, -0.45])];
+        let loadings = NoiseLoadings {
+            reading: 0.2,
+            rows: (0..5).map(|a| (measurement[a], w[a].to_vec())).collect(),
+            also: also.iter().map(|(a, m, l)| (*a, *m, l.to_vec())).collect(),
+        };
+        // V = σ_q² I + W Wᵀ, W over every measurement's two sources.
+        let sources = |m: usize| [0, 3, 7, 9].iter().position(|&k| k == m).unwrap() * 2;
+        let mut big_w = DMatrix::<f64>::zeros(5, 8);
+        for a in 0..5 {
+            for k in 0..2 {
+                big_w[(a, sources(measurement[a]) + k)] += w[a][k];
+            }
+        }
+        for (a, m, l) in also {
+            for k in 0..2 {
+                big_w[(a, sources(m) + k)] += l[k];
+            }
+        }
+        let v = DMatrix::identity(5, 5) * 0.04 + &big_w * big_w.transpose();
+        let meat = loadings.meat(&jacobian);
+        let expected = jacobian.transpose() * &v * &jacobian;
+        assert!(
+            (&meat - &expected).amax() <= 1e-14 * expected.amax(),
+            "{meat} {expected}"
+        );
+        let variances = loadings.variances();
+        for a in 0..5 {
+            assert!((variances[a] - v[(a, a)]).abs() <= 1e-15, "{a}");
+        }
+        // The cross terms matter: without them the meat differs.
+        let uncorrelated = NoiseLoadings {
+            also: Vec::new(),
+            ..loadings.clone()
+        };
+        assert!((uncorrelated.meat(&jacobian) - &expected).amax() > 0.01 * expected.amax());
+        assert!(covariance(&r, &jacobian, Some(&loadings)).is_some());
     }
 }

@@ -192,6 +192,7 @@ pub fn row_loadings(
     Ok(NoiseLoadings {
         reading: noise.reading,
         rows,
+        also: Vec::new(),
     })
 }
 

@@ -696,3 +696,43 @@ fn evaluate_reports_the_error_of_held_out_distances() {
     let json = legwise::report::evaluation::evaluation_json(&no_distances, None);
     assert!(json.get("distances").is_none() && json.get("distance_error_m").is_none());
 }
+
+#[test]
+fn a_distance_carries_the_noise_of_its_rows_readings_as_perturbing_the_data_shows() {
+    // Noisy readings: a distance and the touches of its two rows move with the same readings.
+    let mechanism = bundled("delta-probe-distances.yaml").edited(|parts| {
+        if let Some(noise) = parts.noise.as_mut() {
+            noise.reading = 2e-5;
+        }
+    });
+    let (data, _, _) = experiment(&mechanism, 1.0);
+    assert!(!data.distances.is_empty());
+    let problem = IdentificationProblem::through_instrument(&mechanism, &data).unwrap();
+    let x = problem.start();
+    let noise = mechanism.noise.expect("declared noise");
+    let (_, jacobian) = problem.residuals_and_jacobian(&x).unwrap();
+    let loadings = problem.noise_loadings(&x, &noise).unwrap();
+    let w = crate::mixed_observations::loadings_by_perturbation(&mechanism, &data, &x, &noise);
+    let v = &w * w.transpose();
+    // V itself (its correlations included), then Jᵀ V J, both ways.
+    let touches = jacobian.nrows() - data.distances.len();
+    for (k, distance) in data.distances.iter().enumerate() {
+        let d = touches + k;
+        for (row, other) in distance.rows.iter().enumerate() {
+            let by_data = v[(d, *other)];
+            assert!(by_data.abs() > 1e-14, "distance {k}, row {row}: correlated");
+        }
+    }
+    let meat = loadings.meat(&jacobian);
+    let by_data = jacobian.transpose() * &v * &jacobian;
+    let gap = (&meat - &by_data).amax() / by_data.amax();
+    assert!(gap <= 1e-6, "Jᵀ V J: {gap:.2e} relative");
+    let variances = loadings.variances();
+    for (i, variance) in variances.iter().enumerate() {
+        let expected = v[(i, i)];
+        assert!(
+            (variance - expected).abs() <= 1e-6 * expected,
+            "residual {i}: variance {variance:.6e} vs {expected:.6e} from the data"
+        );
+    }
+}

@@ -80,9 +80,10 @@ fn the_mixed_jacobian_matches_central_differences() {
 }
 
 /// Every residual's derivative with respect to every noisy value of `data` (each touch's
-/// height, each measured pose's coordinates, each row's readings) by central differences of
-/// the problem's residuals at `x`, times the value's σ: the columns of `W` with `V = W Wᵀ`.
-fn loadings_by_perturbation(
+/// height, each measured pose's coordinates, each row's readings, each distance) by central
+/// differences of the problem's residuals at `x`, times the value's σ: the columns of `W` with
+/// `V = W Wᵀ`.
+pub(crate) fn loadings_by_perturbation(
     mechanism: &Mechanism,
     data: &Observations,
     x: &DVector<f64>,
@@ -92,14 +93,9 @@ fn loadings_by_perturbation(
         let problem = IdentificationProblem::through_instrument(mechanism, data).unwrap();
         problem.residuals(x).unwrap()
     };
-    let pose_sigma = mechanism
-        .instrument
-        .as_ref()
-        .unwrap()
-        .poses
-        .as_ref()
-        .unwrap()
-        .noise;
+    let instrument = mechanism.instrument.as_ref().unwrap();
+    let pose_sigma = instrument.poses.as_ref().map_or([0.0; 6], |p| p.noise);
+    let distance_sigma = instrument.distances.as_ref().map_or(0.0, |d| d.noise);
     let mut columns: Vec<DVector<f64>> = Vec::new();
     let mut column = |edit: &dyn Fn(&mut Observations, f64), sigma: f64| {
         if sigma == 0.0 {
@@ -133,6 +129,9 @@ fn loadings_by_perturbation(
             };
             column(&edit, noise.reading);
         }
+    }
+    for k in 0..data.distances.len() {
+        column(&|d, h| d.distances[k].value += h, distance_sigma);
     }
     DMatrix::from_columns(&columns)
 }

@@ -407,9 +407,10 @@ impl IdentificationProblem<'_> {
 
     /// The loadings of the declared `noise` on the forward residuals at `x`: per residual, its
     /// measurement (a row, or a distance) and, over its own noise sources then the readings it
-    /// depends on, `σ ∂r/∂·`: a coordinate's `σ_i` on its own residual, a distance's declared
-    /// σ, the readings' `σ_q ∂r/∂s`. (A distance's readings are its rows' too; that
-    /// correlation is not carried.)
+    /// depends on, `σ ∂r/∂·`: a coordinate's `σ_i` on its own residual and the row's readings'
+    /// `σ_q ∂r/∂s`; a distance's declared σ on its own measurement, and its two rows' readings
+    /// on theirs (laid out as those rows' loadings, [`crate::identify::sandwich::NoiseLoadings::also`], indices among the
+    /// forward residuals): the distance moves with the readings its rows' residuals read too.
     ///
     /// # Errors
     /// As [`Self::evaluate_forward`].
@@ -417,9 +418,9 @@ impl IdentificationProblem<'_> {
         &self,
         x: &DVector<f64>,
         noise: &MeasurementNoise,
-    ) -> Result<Vec<(usize, Vec<f64>)>, BlockError> {
+    ) -> Result<ForwardLoadings, BlockError> {
         let (Some(forward), Some(sighted)) = (&self.forward, &self.sighted) else {
-            return Ok(Vec::new());
+            return Ok((Vec::new(), Vec::new()));
         };
         let evaluation = self.evaluate_forward(x, true)?;
         let sigmas = coordinate_sigmas(sighted.instrument, noise);
@@ -429,26 +430,54 @@ impl IdentificationProblem<'_> {
             .distances
             .as_ref()
             .map_or(0.0, |d| d.noise * noise.scale);
-        // Each residual's measurement and own σ, in the residuals' order.
-        let own = forward
+        // Each residual's measurement, and its coordinate (a row's) or its rows' measurements
+        // (a distance's), in the residuals' order.
+        let coordinates = forward
             .rows
             .iter()
             .filter(|row| !row.observed.is_empty())
-            .flat_map(|row| (0..per_row).map(move |o| (row.source, Some(o))))
-            .chain(forward.distances.iter().map(|d| (d.source, None)));
-        Ok(own
-            .zip(&evaluation.reading_gradients)
-            .map(|((source, coordinate), readings)| {
-                let mut loading = vec![0.0; per_row + 1 + readings.len()];
-                match coordinate {
-                    Some(o) => loading[o] = sigmas[o],
-                    None => loading[per_row] = distance_sigma,
-                }
-                for (l, g) in readings.iter().enumerate() {
+            .flat_map(|row| (0..per_row).map(move |o| (row.source, Ok(o))));
+        let distances = forward.distances.iter().map(|d| {
+            let sources = d.rows.map(|r| forward.rows[r].source);
+            (d.source, Err(sources))
+        });
+        let (mut own, mut also) = (Vec::new(), Vec::new());
+        let residuals = coordinates
+            .chain(distances)
+            .zip(&evaluation.reading_gradients);
+        for (residual, ((source, kind), readings)) in residuals.enumerate() {
+            let reading_loadings = |gradient: &[f64]| {
+                let mut loading = vec![0.0; per_row + 1 + gradient.len()];
+                for (l, g) in gradient.iter().enumerate() {
                     loading[per_row + 1 + l] = noise.reading * g;
                 }
-                (source, loading)
-            })
-            .collect())
+                loading
+            };
+            match kind {
+                Ok(o) => {
+                    let mut loading = reading_loadings(readings);
+                    loading[o] = sigmas[o];
+                    own.push((source, loading));
+                }
+                Err(sources) => {
+                    let mut loading = vec![0.0; per_row + 1];
+                    loading[per_row] = distance_sigma;
+                    own.push((source, loading));
+                    // The readings of its first row, then its second's.
+                    let legs = readings.len() / 2;
+                    for (row, gradient) in sources.iter().zip(readings.chunks(legs.max(1))) {
+                        if noise.reading > 0.0 {
+                            also.push((residual, *row, reading_loadings(gradient)));
+                        }
+                    }
+                }
+            }
+        }
+        Ok((own, also))
     }
 }
+
+/// The loadings of a problem's forward residuals ([`IdentificationProblem::forward_loadings`]):
+/// each residual's on its own measurement, and the distances' on their rows' readings
+/// `(residual, measurement, loading)`.
+pub(super) type ForwardLoadings = (Vec<(usize, Vec<f64>)>, Vec<(usize, usize, Vec<f64>)>);

@@ -34,8 +34,18 @@ impl IdentificationProblem<'_> {
             // row's loadings, none left for each residual on its own. The blocks of measured
             // poses first, as the residuals.
             let mut rows = self.measured_pose_loadings(x, noise)?;
-            rows.extend(self.forward_loadings(x, noise)?);
-            return Ok(NoiseLoadings { reading: 0.0, rows });
+            let (forward, also) = self.forward_loadings(x, noise)?;
+            let first = rows.len();
+            rows.extend(forward);
+            let also = also
+                .into_iter()
+                .map(|(r, m, w)| (first + r, m, w))
+                .collect();
+            return Ok(NoiseLoadings {
+                reading: 0.0,
+                rows,
+                also,
+            });
         }
         let shared = self.shared_values(x);
         let home = &self.mechanism.home_pose;
@@ -54,6 +64,7 @@ impl IdentificationProblem<'_> {
         Ok(NoiseLoadings {
             reading: noise.reading,
             rows,
+            also: Vec::new(),
         })
     }
 
