@@ -198,7 +198,9 @@ pub fn evaluate_in_memory(
     arguments: &[String],
     csv: Option<&str>,
 ) -> anyhow::Result<EvaluateOutputs> {
-    let given = arguments.iter().any(|a| a == "--measurements");
+    let given = arguments
+        .iter()
+        .any(|a| a == "--measurements" || a.starts_with("--measurements="));
     if csv.is_some() && given {
         anyhow::bail!("--measurements: the measurements are given in memory already");
     }

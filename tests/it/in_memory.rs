@@ -213,6 +213,14 @@ fn an_evaluation_in_memory_is_the_commands_json() {
     )
     .expect_err("writes a file");
     assert!(error.to_string().starts_with("--json"), "{error}");
+    let given = format!("--measurements={held_path}");
+    for both in [
+        vec!["--model", model, &given],
+        vec!["--model", model, "--measurements", held_path],
+    ] {
+        let error = evaluate_in_memory(&arguments(&both), Some(&held)).expect_err("two sources");
+        assert!(error.to_string().starts_with("--measurements"), "{error}");
+    }
 }
 
 #[test]
