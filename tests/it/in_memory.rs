@@ -112,6 +112,28 @@ fn command(args: &[&str]) -> (Option<i32>, String, String) {
     (out.status.code(), text(&out.stdout), text(&out.stderr))
 }
 
+/// The 5R calibrated from the bundled example data by `legwise identify --calibrated
+/// DIR/NAME` (the command must succeed): the model file's path.
+fn calibrated_by_command(dir: &std::path::Path, name: &str) -> std::path::PathBuf {
+    let (model, data) = (
+        crate_path("models/5r.yaml"),
+        crate_path("examples/data/5r.csv"),
+    );
+    let out = dir.join(name);
+    let fit = [
+        "identify",
+        "--model",
+        model.to_str().unwrap(),
+        "--measurements",
+        data.to_str().unwrap(),
+        "--calibrated",
+        out.to_str().unwrap(),
+    ];
+    let (status, _, stderr) = command(&fit);
+    assert_eq!(status, Some(0), "{stderr}");
+    out
+}
+
 #[test]
 fn a_selection_in_memory_is_the_file_the_command_writes() {
     use legwise::cli::select_in_memory;
@@ -151,20 +173,8 @@ fn an_evaluation_in_memory_is_the_commands_json() {
     let dir = tempfile::tempdir().unwrap();
     let model = crate_path("models/5r.yaml");
     let model = model.to_str().unwrap();
-    let data = crate_path("examples/data/5r.csv");
-    let data = data.to_str().unwrap();
-    let calibrated = dir.path().join("cal.yaml");
+    let calibrated = calibrated_by_command(dir.path(), "cal.yaml");
     let calibrated = calibrated.to_str().unwrap();
-    let fit = [
-        "identify",
-        "--model",
-        model,
-        "--measurements",
-        data,
-        "--calibrated",
-        calibrated,
-    ];
-    assert_eq!(command(&fit).0, Some(0));
     let (held, _) = simulate_in_memory(&arguments(&[
         "--model", model, "--seed", "11", "--poses", "random",
     ]))
@@ -230,17 +240,7 @@ fn the_calibrated_model_written_from_memory_is_the_commands() {
     let model = model.to_str().unwrap();
     let data = crate_path("examples/data/5r.csv");
     let data = data.to_str().unwrap();
-    let by_command = dir.path().join("command.yaml");
-    let fit = [
-        "identify",
-        "--model",
-        model,
-        "--measurements",
-        data,
-        "--calibrated",
-        by_command.to_str().unwrap(),
-    ];
-    assert_eq!(command(&fit).0, Some(0));
+    let by_command = calibrated_by_command(dir.path(), "command.yaml");
     let outputs = identify_in_memory(
         &arguments(&["--model", model, "--measurements", data]),
         None,
