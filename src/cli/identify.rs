@@ -119,7 +119,6 @@ fn refuse_unsupported(args: &IdentifyArgs) -> anyhow::Result<()> {
     let refused = [
         (args.solver != SolverArg::Lm, "--solver gn"),
         (args.strategy != StrategyArg::Dc, "--strategy"),
-        (args.weights.is_some(), "--weights"),
         (args.robust.is_some(), "--robust"),
         (args.drop_outliers, "--drop-outliers"),
         (args.plots.is_some(), "--plots"),
@@ -127,7 +126,8 @@ fn refuse_unsupported(args: &IdentifyArgs) -> anyhow::Result<()> {
     if let Some((_, flag)) = refused.iter().find(|(on, _)| *on) {
         anyhow::bail!(
             "{flag}: not available for a model with an instrument block (the legs and the \
-             instrument are identified with Levenberg-Marquardt, jointly and in two stages)"
+             instrument are identified with Levenberg-Marquardt, jointly and in two stages; \
+             `--weights none|noise` applies to the joint fit)"
         );
     }
     Ok(())

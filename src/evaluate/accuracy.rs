@@ -91,6 +91,22 @@ pub fn orientation_error(reached: &[f64; 6], target: &[f64; 6]) -> f64 {
 /// [`MAX_MAP_POINTS`] points, a lattice over the (scaled) bounding box of more than four
 /// times that many points, or no point in the region at all.
 pub fn map_grid(mechanism: &Mechanism, grid_m: f64, scale: f64) -> Result<Vec<[f64; 6]>> {
+    let z = mechanism.home_pose[2];
+    map_slice(mechanism, grid_m, scale, (z, z))
+}
+
+/// [`map_grid`]'s lattice with the poses at height `z` and the region's depth tested at
+/// `tested_z` (the preimage of `z` under the homothety, for a slice of a spatial region
+/// shrunk in z too; the map's own slice tests the home height).
+///
+/// # Errors
+/// As [`map_grid`].
+pub fn map_slice(
+    mechanism: &Mechanism,
+    grid_m: f64,
+    scale: f64,
+    (z, tested_z): (f64, f64),
+) -> Result<Vec<[f64; 6]>> {
     if !(grid_m.is_finite() && grid_m > 0.0) {
         return Err(Error::Invalid(format!(
             "--map: expected a positive grid spacing in metres, found {grid_m}"
@@ -128,10 +144,11 @@ pub fn map_grid(mechanism: &Mechanism, grid_m: f64, scale: f64) -> Result<Vec<[f
                 centre[0] + (point[0] - centre[0]) / scale,
                 centre[1] + (point[1] - centre[1]) / scale,
             ];
-            if region.depth([preimage[0], preimage[1], mechanism.home_pose[2]]) >= -1e-12 {
+            if region.depth([preimage[0], preimage[1], tested_z]) >= -1e-12 {
                 let mut pose = mechanism.home_pose;
                 pose[0] = point[0];
                 pose[1] = point[1];
+                pose[2] = z;
                 poses.push(pose);
                 if poses.len() > MAX_MAP_POINTS {
                     return Err(too_many(grid_m));

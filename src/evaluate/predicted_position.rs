@@ -7,24 +7,25 @@
 //! `problem/forward.rs`, here for all its coordinates, reported or not), so its covariance is
 //! `J_i C J_iᵀ` (`C` the fit's covariance) and its σ the square root of the trace. As the
 //! map's error in the frame the observations define ([`super::observed_frame`]), the motions
-//! of the held frame components the observations cannot see are projected out first (over
-//! the whole grid at once): the prediction is of that error.
+//! of the frame the observations cannot see (at the estimated frame) are projected out first
+//! (over the whole grid at once): the prediction is of that error.
 
 use nalgebra::{DMatrix, DVector};
 
-use super::accuracy::map_grid;
+use super::accuracy::map_slice;
 use super::commanded_rows::commanded_rows;
-use super::observed_frame::{unseen_components, unseen_motions};
+use super::observed_frame::unseen_frame;
 use crate::identify::problem::IdentificationProblem;
 use crate::identify::result::{PredictedPosition, StrategyResult};
-use crate::model::instrument::Measures;
+use crate::measure::forward_simulate::home_side;
+use crate::model::instrument::{Instrument, Measures};
 use crate::model::Mechanism;
 
 /// Fraction of the workspace region the prediction covers (as the accuracy map's default).
 const SCALE: f64 = 0.95;
 
-/// The predicted σ of the first target's position over the model's workspace grid
-/// (`workspace.grid`) for `result`, a joint fit through a forward instrument with its
+/// The predicted σ of the first target's position over the model's workspace
+/// ([`prediction_poses`] at `workspace.grid`) for `result`, a joint fit through a forward instrument with its
 /// covariance; `None` otherwise, without a `workspace.grid`, or when no grid point is
 /// reachable.
 pub fn predicted_position(
@@ -45,7 +46,7 @@ pub fn predicted_position(
         }
     });
     let params = crate::evaluate::accuracy::result_parameters(mechanism, result);
-    let grid = map_grid(mechanism, mechanism.workspace.grid?, SCALE).ok()?;
+    let grid = prediction_poses(mechanism, instrument, mechanism.workspace.grid?)?;
     let width = seen.instrument.as_ref()?.observed_len();
     // The grid poses every leg reaches, the readings the model commands there and the
     // configuration it reaches (where each row's forward kinematics then closes at once).
@@ -65,12 +66,9 @@ pub fn predicted_position(
     let mut target = DMatrix::from_fn(3 * points, x.len(), |r, j| {
         jacobian[((r / 3) * width + r % 3, j)]
     });
-    let unseen = unseen_components(instrument, &poses);
-    if !unseen.is_empty() {
-        let motions = unseen_motions(instrument, &unseen, &poses);
-        let along = motions.clone().svd(true, true).solve(&target, 1e-12).ok()?;
-        target -= motions * along;
-    }
+    let shared: Vec<f64> = estimate.parameters.iter().map(|p| p.estimate).collect();
+    let unseen = unseen_frame(instrument, &shared, &poses);
+    unseen.project_out(&mut target);
     let sigmas: Vec<f64> = (0..points)
         .map(|i| {
             let block = target.rows(3 * i, 3).into_owned();
@@ -88,6 +86,41 @@ pub fn predicted_position(
         max: sigmas.iter().copied().fold(0.0, f64::max),
         tolerance: instrument.tolerance,
     })
+}
+
+/// The poses the prediction is taken over: the accuracy map's lattice (spacing `grid`, 0.95 of
+/// the region) on every horizontal slice of a spatial region at the same spacing, centred on
+/// the region's middle height (one slice at home for a planar region), the orientation at
+/// home, where every touching target is on home's side of its touch surface (the nominal
+/// one: above the bed). `None` when no pose is left.
+fn prediction_poses(
+    mechanism: &Mechanism,
+    instrument: &Instrument,
+    grid: f64,
+) -> Option<Vec<[f64; 6]>> {
+    let home = mechanism.home_pose[2];
+    let levels: Vec<(f64, f64)> = match mechanism.workspace.region.z_bounds() {
+        None => vec![(home, home)],
+        Some([lo, hi]) => {
+            let middle = (lo + hi) / 2.0;
+            let count = ((hi - lo) * SCALE / grid + 1e-9).floor();
+            (0..=count as usize)
+                .map(|k| {
+                    let z = middle + (k as f64 - count / 2.0) * grid;
+                    (z, middle + (z - middle) / SCALE)
+                })
+                .collect()
+        }
+    };
+    let nominal = instrument.nominal();
+    let clear = home_side(mechanism, instrument, &nominal);
+    let mut poses = Vec::new();
+    for level in levels {
+        if let Ok(slice) = map_slice(mechanism, grid, SCALE, level) {
+            poses.extend(slice.into_iter().filter(|p| clear(p)));
+        }
+    }
+    (!poses.is_empty()).then_some(poses)
 }
 
 /// The result's estimate as the problem's unknowns (by name).

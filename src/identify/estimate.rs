@@ -340,8 +340,14 @@ fn estimate_problem(
             FitKind::Robust => &stats.outlier_rows,
             FitKind::LeastSquares => &[],
         };
-        let (residual_sigma, covariance, dof) =
-            leg_covariance(problem, slot, (&r, &c), excluded, loadings.as_ref());
+        let declared = problem.is_weighted() && kind == FitKind::LeastSquares;
+        let (residual_sigma, covariance, dof) = leg_covariance(
+            problem,
+            slot,
+            (&r, &c),
+            excluded,
+            (loadings.as_ref(), declared),
+        );
         let fit = Fit {
             x: &outcome.x,
             r0: &r0,
@@ -382,13 +388,16 @@ pub(super) struct Fit<'f> {
 /// The σ̂ of the leg in `slot` (its rows of `r` but the `excluded` ones), its covariance from
 /// its block of the Jacobian `c` and the degrees of freedom `m − n` of σ̂; `None` without
 /// redundancy. The covariance is `σ̂² (CᵀC)⁻¹`, or with the `loadings` of a declared noise on
-/// an unweighted fit the sandwich of [`super::sandwich`].
+/// an unweighted fit the sandwich of [`super::sandwich`]. With a declared noise (`loadings`, or
+/// `weighted` by it: `C` then the weighted Jacobian, and `σ̂ = 1` when the noise holds) and
+/// fewer than [`sandwich::SCALE_DOF`] degrees of freedom the σ are the declared noise's,
+/// unscaled by σ̂, and no degrees of freedom are returned.
 fn leg_covariance(
     problem: &IdentificationProblem<'_>,
     slot: &LegSlot,
     (r, c): (&DVector<f64>, &DMatrix<f64>),
     excluded: &[usize],
-    loadings: Option<&NoiseLoadings>,
+    (loadings, weighted): (Option<&NoiseLoadings>, bool),
 ) -> (Option<f64>, Option<DMatrix<f64>>, Option<usize>) {
     let n = slot.columns.len();
     let kept: Vec<usize> = problem
@@ -410,18 +419,27 @@ fn leg_covariance(
                     .collect(),
                 also: Vec::new(),
             };
-            sandwich::covariance(&leg_r, &problem.slot_jacobian(slot, c), Some(&leg_loadings))
+            sandwich::reported_covariance(
+                &leg_r,
+                &problem.slot_jacobian(slot, c),
+                Some(&leg_loadings),
+            )
         }),
         None => residual_sigma.and_then(|sigma| {
-            unscaled_covariance(&problem.slot_jacobian(slot, c))
-                .map(|inverse| inverse * (sigma * sigma))
+            let scale = match weighted && !sandwich::scaled_by_residuals(kept.len() - n) {
+                true => 1.0,
+                false => sigma * sigma,
+            };
+            unscaled_covariance(&problem.slot_jacobian(slot, c)).map(|inverse| inverse * scale)
         }),
     };
-    (
-        residual_sigma,
-        covariance,
-        kept.len().checked_sub(n).filter(|&d| d > 0),
-    )
+    let declared = loadings.is_some() || weighted;
+    let dof = kept
+        .len()
+        .checked_sub(n)
+        .filter(|&d| d > 0)
+        .filter(|&d| !declared || sandwich::scaled_by_residuals(d));
+    (residual_sigma, covariance, dof)
 }
 
 /// The leg in `slot`'s part of a fitted problem: its parameters (σ from the diagonal of

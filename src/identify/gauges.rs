@@ -37,6 +37,13 @@ pub const CONTAINED: f64 = 0.95;
 /// Terms of a combination below this share are left out of its description.
 const NEGLIGIBLE: f64 = 0.1;
 
+/// How the description of null directions that move no reached point ends.
+pub const STILL: &str = "direction(s) moving no reached point";
+
+/// A null direction's motion of the reached points at most this fraction of the motion a
+/// column-scaled unit step of the unknowns produces is round-off: it moves no reached point.
+const ROUND_OFF: f64 = 1e-8;
+
 /// What a forward problem's observations cannot see and hardly see, as motions.
 #[derive(Debug, Clone, PartialEq)]
 pub struct UnseenMotions {
@@ -63,6 +70,7 @@ pub fn unseen_motions(
     }
     let (null, weakest, weakest_ratio) = scaled_directions(jacobian);
     let positions: Vec<[f64; 3]> = points.iter().map(|p| p.position).collect();
+    let reference = unit_step_motion(&points, jacobian);
     let effects = columns(
         3 * points.len(),
         &null
@@ -73,11 +81,11 @@ pub fn unseen_motions(
     let unseen = if null.ncols() == 0 {
         Vec::new()
     } else {
-        describe_span(&positions, &effects)
+        describe_span(&positions, &effects, reference)
     };
     // The weakest direction's motion beyond the unseen ones (which it may carry along: it is
     // orthogonal to them in the parameters, not in the motions).
-    let span = orthonormal_span(&effects);
+    let span = orthonormal_span(&effects, ROUND_OFF * reference);
     let weakest = weakest.map_or_else(String::new, |v| {
         let mut moved = effect(&points, &v);
         for s in &span {
@@ -120,6 +128,24 @@ fn scaled_directions(jacobian: &DMatrix<f64>) -> (DMatrix<f64>, Option<DVector<f
     let weakest = rank.checked_sub(1).map(|k| order[k]);
     let ratio = weakest.map_or(0.0, |i| svd.singular_values[i] / largest);
     (columns(n, &null), weakest.map(unscaled), ratio)
+}
+
+/// The largest motion of the reached points that a column-scaled unit step of one unknown
+/// produces (`e_j / ‖J_j‖`, the size of the steps the null directions are taken at): the yard
+/// against which a null direction's motion is round-off.
+fn unit_step_motion(points: &[ReachedPoint], jacobian: &DMatrix<f64>) -> f64 {
+    let n = jacobian.ncols();
+    jacobian
+        .column_iter()
+        .enumerate()
+        .filter(|(_, c)| c.norm() > 0.0)
+        .map(|(j, c)| {
+            let mut step = DVector::zeros(n);
+            step[j] = 1.0 / c.norm();
+            effect(points, &step).norm()
+        })
+        .filter(|m| m.is_finite())
+        .fold(0.0, f64::max)
 }
 
 /// The matrix of `vectors` (each of length `rows`) as columns; `rows` × 0 for none.
@@ -226,34 +252,34 @@ fn combination(terms: &[(usize, f64)]) -> String {
 }
 
 /// An orthonormal basis of the span of `effects`' columns (directions of singular values
-/// above 1e-6 of the largest; empty for no columns or only zero ones).
-fn orthonormal_span(effects: &DMatrix<f64>) -> Vec<DVector<f64>> {
+/// above `round_off`; empty for no columns or only round-off ones).
+fn orthonormal_span(effects: &DMatrix<f64>, round_off: f64) -> Vec<DVector<f64>> {
     if effects.ncols() == 0 {
         return Vec::new();
     }
     let svd = effects.clone().svd(true, false);
     let u = svd.u.expect("asked for U");
-    let largest = svd.singular_values.max();
     svd.singular_values
         .iter()
         .enumerate()
-        .filter(|(_, &s)| s > 1e-6 * largest)
+        .filter(|(_, &s)| s > round_off && s.is_finite())
         .map(|(i, _)| u.column(i).into_owned())
         .collect()
 }
 
-/// The motions of the points a subspace of effects (its columns) holds: each of the seven
-/// motions lying in it, named, then the rest of it described by [`describe_effect`], and the
-/// directions that move no point counted.
-pub fn describe_span(points: &[[f64; 3]], effects: &DMatrix<f64>) -> Vec<String> {
+/// The motions of the points a subspace of effects (its columns, each the motion of a
+/// column-scaled unit step) holds: each of the seven motions lying in it, named, then the rest
+/// of it described by [`describe_effect`], and the directions that move no point counted. A
+/// motion of at most [`ROUND_OFF`] of `reference` (the motion a column-scaled unit step of one
+/// unknown produces, [`unit_step_motion`]) is round-off: no motion.
+pub fn describe_span(points: &[[f64; 3]], effects: &DMatrix<f64>, reference: f64) -> Vec<String> {
     let k = effects.ncols();
-    let largest = effects.column_iter().map(|c| c.norm()).fold(0.0, f64::max);
     let mut described = Vec::new();
-    if largest == 0.0 || !largest.is_finite() {
-        described.push(format!("{k} direction(s) moving no reached point"));
+    let span = orthonormal_span(effects, ROUND_OFF * reference);
+    if span.is_empty() {
+        described.push(format!("{k} {STILL}"));
         return described;
     }
-    let span = orthonormal_span(effects);
     let basis = motion_basis(points);
     // Greedy: the motion closest to the span first, each taken out of the others.
     let coverage = |b: &DVector<f64>| span.iter().map(|s| s.dot(b).powi(2)).sum::<f64>().sqrt();
@@ -297,10 +323,7 @@ pub fn describe_span(points: &[[f64; 3]], effects: &DMatrix<f64>) -> Vec<String>
     }
     described.extend(rest.iter().map(|v| describe_effect(points, v)));
     if span.len() < k {
-        described.push(format!(
-            "{} direction(s) moving no reached point",
-            k - span.len()
-        ));
+        described.push(format!("{} {STILL}", k - span.len()));
     }
     described
 }
@@ -373,7 +396,7 @@ mod tests {
             .iter()
             .map(|w| w.iter().zip(&pure).map(|(c, m)| m * (1e-6 * c)).sum())
             .collect();
-        let mut named = describe_span(&p, &DMatrix::from_columns(&columns));
+        let mut named = describe_span(&p, &DMatrix::from_columns(&columns), 1e-6);
         named.sort();
         assert_eq!(
             named,
@@ -398,7 +421,7 @@ mod tests {
             motion(&p, 3, 0.8) + motion(&p, 5, 0.6),
             motion(&p, 3, -0.6) + motion(&p, 5, 0.8),
         ];
-        let named = describe_span(&p, &DMatrix::from_columns(&columns));
+        let named = describe_span(&p, &DMatrix::from_columns(&columns), 1.0);
         assert_eq!(named, ["rotation about x", "rotation about z"]);
     }
 
@@ -407,10 +430,34 @@ mod tests {
         let p = points();
         let shear = DVector::from_iterator(3 * p.len(), p.iter().flat_map(|q| [q[1], 0.0, 0.0]));
         let columns = [motion(&p, 2, 1.0), shear, DVector::zeros(3 * p.len())];
-        let named = describe_span(&p, &DMatrix::from_columns(&columns));
+        let named = describe_span(&p, &DMatrix::from_columns(&columns), 1.0);
         assert_eq!(named.len(), 3, "{named:?}");
         assert_eq!(named[0], "translation along z");
         assert!(named[1].contains("deformation"), "{named:?}");
         assert_eq!(named[2], "1 direction(s) moving no reached point");
+    }
+
+    #[test]
+    fn round_off_motions_move_no_reached_point_whatever_their_shape() {
+        let p = points();
+        // Null directions that move the points by round-off (1e-14 of a unit step's motion),
+        // shaped like motions and like noise: none is named, each is counted.
+        let noise = DVector::from_iterator(
+            3 * p.len(),
+            (0..3 * p.len()).map(|i| 1e-14 * ((i * 7919 % 13) as f64 - 6.0)),
+        );
+        let columns = [motion(&p, 0, 1e-14), motion(&p, 5, 3e-14), noise.clone()];
+        let named = describe_span(&p, &DMatrix::from_columns(&columns), 1.0);
+        assert_eq!(named, ["3 direction(s) moving no reached point"]);
+        // Beside a real motion, the round-off ones are still counted, not named.
+        let columns = [motion(&p, 2, 0.5), noise];
+        let named = describe_span(&p, &DMatrix::from_columns(&columns), 1.0);
+        assert_eq!(
+            named,
+            [
+                "translation along z",
+                "1 direction(s) moving no reached point"
+            ]
+        );
     }
 }

@@ -64,18 +64,29 @@ pub struct ParameterEstimate {
     pub std: Option<f64>,
     /// Identified (true) or held fixed.
     pub identified: bool,
-    /// The residual degrees of freedom `m − n` of the σ̂ behind [`Self::std`] (`None`
-    /// without a std).
+    /// The residual degrees of freedom `m − n` of the σ̂ behind [`Self::std`]; `None` without
+    /// a std, or when the std is the declared noise's, unscaled (fewer than
+    /// [`SCALE_DOF`](super::sandwich::SCALE_DOF) degrees of freedom).
     pub degrees_of_freedom: Option<usize>,
 }
 
 impl ParameterEstimate {
     /// Half the width of the two-sided 95 % interval, `t(0.975, ν) · std` with Student's t on
     /// the [`degrees_of_freedom`](Self::degrees_of_freedom) ν (σ̂ is estimated from the
-    /// residuals, so the normal 1.96 would make the interval too short); `None` without a std.
+    /// residuals, so the normal 1.96 would make the interval too short), or `1.96 · std` for a
+    /// std from the declared noise (no ν); `None` without a std.
     pub fn half_width95(&self) -> Option<f64> {
-        let (std, dof) = (self.std?, self.degrees_of_freedom?);
-        Some(super::statistics::half_width95(std, dof))
+        let std = self.std?;
+        Some(match self.degrees_of_freedom {
+            Some(dof) => super::statistics::half_width95(std, dof),
+            None => super::statistics::NORMAL_975 * std,
+        })
+    }
+
+    /// Whether the std is the declared noise's, unscaled by the residuals (a std without
+    /// degrees of freedom).
+    pub fn std_from_declared_noise(&self) -> bool {
+        self.std.is_some() && self.degrees_of_freedom.is_none()
     }
 }
 

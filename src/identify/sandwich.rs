@@ -16,11 +16,28 @@
 //! With the noise declared right `ŝ² ≈ 1`; a noise level declared wrong by a common factor
 //! scales the σ as the residuals say; and with equal variances on every row (`V = σ² I`)
 //! the covariance is exactly the homoscedastic `σ̂² A`, `σ̂² = ‖r‖²/(m − n)`, which is also what
-//! is reported without a declared noise.
+//! is reported without a declared noise. With fewer than
+//! [`SCALE_DOF`] residual degrees of freedom ŝ is too uncertain
+//! to scale by: the report's covariance ([`reported_covariance`]) is then the declared noise's,
+//! `A (Jᵀ V J) A`.
 
 use std::collections::BTreeMap;
 
 use nalgebra::{DMatrix, DVector};
+
+/// The fewest residual degrees of freedom from which a declared noise's σ are scaled by the
+/// residuals' ŝ (docs/statistics.md, "Few degrees of freedom"). With `ν` of them, `ŝ²` is a
+/// `χ²_ν / ν` draw: the σ it scales have `E[(error/σ)²] = ν / (ν − 2)`, more than 1.1² below 12
+/// (infinite at 1 or 2, the firmware-sized fits of 7 touches for 6 factors), and the relative
+/// spread of ŝ is `1/√(2ν)`, 20 % at 12. Below it the σ are the declared noise's, unscaled (ŝ
+/// is still reported, and the χ² test still says whether the declared noise holds).
+pub const SCALE_DOF: usize = 12;
+
+/// Whether σ on `dof` residual degrees of freedom are scaled by the residuals' ŝ (with a
+/// declared noise; without one ŝ is all there is).
+pub fn scaled_by_residuals(dof: usize) -> bool {
+    dof >= SCALE_DOF
+}
 
 /// How the declared noise reaches the residuals (rows in the problem's order): through an
 /// instrument, or from the measured poses ([`super::statistics::row_loadings`]).
@@ -48,6 +65,43 @@ impl NoiseLoadings {
             variances[*residual] += w.iter().map(|wi| wi.powi(2)).sum::<f64>();
         }
         variances
+    }
+
+    /// The same noise on the residuals of a weighted fit, residual `i` times `scales[i]`
+    /// (`√w_i`; a missing scale counts as 1): every loading of the residual times its scale,
+    /// the readings' own noise `σ_q` carried as a loading of each residual on a measurement of
+    /// its own (so that it scales with it). `V` becomes `S V S`, and [`covariance`] of the
+    /// weighted residuals and Jacobian is then the weighted fit's sandwich.
+    pub fn scaled(&self, scales: &[f64]) -> NoiseLoadings {
+        let scale = |i: usize| scales.get(i).copied().unwrap_or(1.0);
+        let times = |w: &[f64], s: f64| w.iter().map(|v| v * s).collect::<Vec<f64>>();
+        let mut also: Vec<(usize, usize, Vec<f64>)> = self
+            .also
+            .iter()
+            .map(|(r, m, w)| (*r, *m, times(w, scale(*r))))
+            .collect();
+        if self.reading != 0.0 {
+            let fresh = self
+                .rows
+                .iter()
+                .map(|(m, _)| *m)
+                .chain(self.also.iter().map(|(_, m, _)| *m))
+                .max()
+                .map_or(0, |m| m + 1);
+            for i in 0..self.rows.len() {
+                also.push((i, fresh + i, vec![self.reading * scale(i)]));
+            }
+        }
+        NoiseLoadings {
+            reading: 0.0,
+            rows: self
+                .rows
+                .iter()
+                .enumerate()
+                .map(|(i, (m, w))| (*m, times(w, scale(i))))
+                .collect(),
+            also,
+        }
     }
 
     /// Each residual's variance from its own measurement, `σ_q² + Σ_i (σ_i ∂r/∂m_i)²`.
@@ -111,6 +165,19 @@ impl NoiseLoadings {
     }
 }
 
+/// The covariance the report gives: [`covariance`], but with `loadings` and fewer than
+/// [`SCALE_DOF`] residual degrees of freedom the declared noise's
+/// sandwich `A (Jᵀ V J) A`, unscaled by ŝ (docs/statistics.md, "Few degrees of freedom").
+pub fn reported_covariance(
+    r: &DVector<f64>,
+    jacobian: &DMatrix<f64>,
+    loadings: Option<&NoiseLoadings>,
+) -> Option<DMatrix<f64>> {
+    let (m, n) = jacobian.shape();
+    let by_residuals = m <= n || scaled_by_residuals(m - n);
+    sandwich(r, jacobian, loadings, by_residuals)
+}
+
 /// A residual's loading on one measurement: the residual, the loading, and whether the
 /// measurement is the residual's own (its reading's own noise `σ_q` counted there).
 type Loading<'a> = (usize, &'a [f64], bool);
@@ -123,6 +190,17 @@ pub fn covariance(
     r: &DVector<f64>,
     jacobian: &DMatrix<f64>,
     loadings: Option<&NoiseLoadings>,
+) -> Option<DMatrix<f64>> {
+    sandwich(r, jacobian, loadings, true)
+}
+
+/// [`covariance`], with the sandwich scaled by ŝ² (`by_residuals`) or not (the declared
+/// noise's).
+fn sandwich(
+    r: &DVector<f64>,
+    jacobian: &DMatrix<f64>,
+    loadings: Option<&NoiseLoadings>,
+    by_residuals: bool,
 ) -> Option<DMatrix<f64>> {
     let (m, n) = jacobian.shape();
     if m <= n || loadings.is_some_and(|l| l.rows.len() != m) {
@@ -138,7 +216,11 @@ pub fn covariance(
     if !(expected > 0.0 && expected.is_finite()) {
         return None;
     }
-    let scale = r.norm_squared() / expected;
+    let scale = if by_residuals {
+        r.norm_squared() / expected
+    } else {
+        1.0
+    };
     Some(&inverse * meat * &inverse * scale)
 }
 
@@ -146,7 +228,7 @@ pub fn covariance(
 mod tests {
     use nalgebra::{DMatrix, DVector};
 
-    use super::{covariance, NoiseLoadings};
+    use super::{covariance, reported_covariance, NoiseLoadings};
 
     /// A small Jacobian and residuals.
     fn problem() -> (DVector<f64>, DMatrix<f64>) {
@@ -279,5 +361,87 @@ mod tests {
         };
         assert!((uncorrelated.meat(&jacobian) - &expected).amax() > 0.01 * expected.amax());
         assert!(covariance(&r, &jacobian, Some(&loadings)).is_some());
+    }
+
+    #[test]
+    fn the_weighted_fits_sandwich_is_the_dense_formula() {
+        let (r, jacobian) = problem();
+        let w = [[0.5, -0.2], [0.3, 0.4], [1.0, 0.0], [-0.6, 0.8], [0.1, 0.0]];
+        let measurement = [0, 0, 3, 7, 9];
+        let also = [(4, 0, [0.0, 0.7])];
+        let loadings = NoiseLoadings {
+            reading: 0.2,
+            rows: (0..5).map(|a| (measurement[a], w[a].to_vec())).collect(),
+            also: also.iter().map(|(a, m, l)| (*a, *m, l.to_vec())).collect(),
+        };
+        // V of the plain residuals, dense: σ_q² I plus every pair's shared loadings.
+        let all: Vec<(usize, usize, Vec<f64>)> = (0..5)
+            .map(|a| (a, measurement[a], w[a].to_vec()))
+            .chain(also.iter().map(|(a, m, l)| (*a, *m, l.to_vec())))
+            .collect();
+        let mut v = DMatrix::identity(5, 5) * 0.04;
+        for (a, ma, la) in &all {
+            for (b, mb, lb) in &all {
+                if ma == mb {
+                    v[(*a, *b)] += la.iter().zip(lb).map(|(x, y)| x * y).sum::<f64>();
+                }
+            }
+        }
+        // Weights: A_w = (Jᵀ W J)⁻¹, the estimate's covariance A_w Jᵀ W V W J A_w, scaled by
+        // ŝ² = ‖√W r‖² / tr((I − H_w) √W V √W).
+        let scales = [1.5, 0.7, 2.0, 1.1, 0.4];
+        let s = DMatrix::from_diagonal(&DVector::from_row_slice(&scales));
+        let (jw, rw) = (&s * &jacobian, &s * &r);
+        let a = (jw.transpose() * &jw).try_inverse().unwrap();
+        let vw = &s * &v * &s;
+        let h = &jw * &a * jw.transpose();
+        let scale = rw.norm_squared() / ((DMatrix::identity(5, 5) - h) * &vw).trace();
+        let expected = &a * jw.transpose() * &vw * &jw * &a * scale;
+        let sandwich = covariance(&rw, &jw, Some(&loadings.scaled(&scales))).unwrap();
+        assert!(
+            (&sandwich - &expected).amax() <= 1e-12 * expected.amax(),
+            "{sandwich} against {expected}"
+        );
+        // Scaling the loadings matters: the plain ones on the weighted rows differ.
+        let plain = covariance(&rw, &jw, Some(&loadings)).unwrap();
+        assert!((&plain - &expected).amax() > 0.05 * expected.amax());
+        // Unit scales change nothing.
+        let unit = covariance(&r, &jacobian, Some(&loadings.scaled(&[1.0; 5]))).unwrap();
+        let same = covariance(&r, &jacobian, Some(&loadings)).unwrap();
+        assert!((&unit - &same).amax() <= 1e-14 * same.amax());
+    }
+
+    #[test]
+    fn few_degrees_of_freedom_report_the_declared_noises_covariance() {
+        let (r, jacobian) = problem();
+        let loadings = NoiseLoadings {
+            reading: 0.2,
+            rows: (0..5).map(|a| (a, vec![0.1 * a as f64])).collect(),
+            also: Vec::new(),
+        };
+        // 3 degrees of freedom, below SCALE_DOF: unscaled, the scaled one over ŝ².
+        let scaled = covariance(&r, &jacobian, Some(&loadings)).unwrap();
+        let reported = reported_covariance(&r, &jacobian, Some(&loadings)).unwrap();
+        let inverse = jacobian.tr_mul(&jacobian).try_inverse().unwrap();
+        let declared = &inverse * loadings.meat(&jacobian) * &inverse;
+        assert!((&reported - &declared).amax() <= 1e-14 * declared.amax());
+        assert!((&reported - &scaled).amax() > 0.05 * scaled.amax());
+        // Zero residuals (an exact fit) keep the declared noise's covariance, not zero.
+        let exact = reported_covariance(&(r.clone() * 0.0), &jacobian, Some(&loadings)).unwrap();
+        assert!((&exact - &declared).amax() <= 1e-14 * declared.amax());
+        // Without a declared noise σ̂ is all there is.
+        let plain = reported_covariance(&r, &jacobian, None).unwrap();
+        assert_eq!(plain, covariance(&r, &jacobian, None).unwrap());
+        // With enough rows (12 degrees of freedom) the report scales by ŝ².
+        let tall = DMatrix::from_fn(14, 2, |i, j| ((i * 3 + j * 5) % 7) as f64 - 3.0 + j as f64);
+        let rt = DVector::from_fn(14, |i, _| ((i * 11) % 5) as f64 * 0.1 - 0.2);
+        let lt = NoiseLoadings {
+            reading: 0.2,
+            rows: (0..14).map(|a| (a, vec![0.05])).collect(),
+            also: Vec::new(),
+        };
+        let a = reported_covariance(&rt, &tall, Some(&lt)).unwrap();
+        let b = covariance(&rt, &tall, Some(&lt)).unwrap();
+        assert!((&a - &b).amax() <= 1e-15 * b.amax());
     }
 }

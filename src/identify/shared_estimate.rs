@@ -15,14 +15,15 @@
 use nalgebra::{DMatrix, DVector};
 
 use super::estimate::{leg_estimate, Fit};
-use super::gauges::unseen_motions;
+use super::gauges::{unseen_motions, STILL};
 use super::observability::{analyse, Observability};
 use super::problem::IdentificationProblem;
 use super::result::{
     FitOptions, InstrumentEstimate, LegEstimate, ParameterEstimate, SolverRun, Strategy,
-    StrategyResult,
+    StrategyResult, Weighting,
 };
-use super::sandwich::covariance;
+use super::sandwich::{self, reported_covariance};
+use super::shared_weights::weighted_joint_fit;
 use super::statistics;
 use super::two_stage::TwoStage;
 use crate::error::{Error, Result};
@@ -81,9 +82,21 @@ pub fn check_rank(
                     m.weakest,
                     m.weakest_ratio
                 ),
-                "hold one parameter for each unseen motion, one that moves the points that \
-                 way (a base joint's coordinate, an actuator offset, the instrument frame's position), \
-                 or measure what sees it (docs/models.md, \"Forward observations\")",
+                if m.unseen.iter().any(|u| u.ends_with(STILL)) {
+                    "hold one parameter for each unseen motion, one that moves the points that \
+                     way (a base joint's coordinate, an actuator offset, the instrument frame's \
+                     position), or measure what sees it; a direction moving no reached point \
+                     changes parameters that no observation depends on apart (a frame of their \
+                     own, such as the platform's: hold one parameter of each such direction, \
+                     e.g. the attachments or target offsets that define the platform frame, \
+                     among those its null-space direction names) (docs/models.md, \"Forward \
+                     observations\")"
+                } else {
+                    "hold one parameter for each unseen motion, one that moves the points that \
+                     way (a base joint's coordinate, an actuator offset, the instrument frame's \
+                     position), or measure what sees it (docs/models.md, \"Forward \
+                     observations\")"
+                },
             ),
             None => (
                 String::new(),
@@ -145,8 +158,33 @@ pub fn identify_shared(
     let observability = check_rank(&problem, observations)?;
     let started = std::time::Instant::now();
     let noise = options.expected_noise(mechanism);
+    // The joint fit is weighted by the declared noise unless asked not to be; the two-stage
+    // one (a comparison) stays unweighted.
+    let weigh = strategy == Strategy::Joint && options.weights != Weighting::Unweighted;
+    if weigh && options.weights == Weighting::Noise && noise.is_none() {
+        return Err(Error::Model {
+            path: mechanism.model_path.clone(),
+            field: "noise".into(),
+            message: "--weights noise needs the measurement noise: add a `noise:` block with \
+                      non-zero standard deviations"
+                .into(),
+        });
+    }
+    let mut scales: Option<Vec<f64>> = None;
     let (problem, outcome, registered) = if strategy == Strategy::Joint {
-        let outcome = solve_bordered(&problem, problem.start()).map_err(solver_error)?;
+        let weighted = match (&noise, weigh) {
+            (Some(noise), true) => {
+                weighted_joint_fit(&problem, &problem.start(), noise).map_err(solver_error)?
+            }
+            _ => None,
+        };
+        let outcome = match weighted {
+            Some(fit) => {
+                scales = Some(fit.scales);
+                fit.outcome
+            }
+            None => solve_bordered(&problem, problem.start()).map_err(solver_error)?,
+        };
         (problem, outcome, None)
     } else {
         let registration = problem.with_legs_fixed().with_rows(REGISTRATION_ROWS);
@@ -179,8 +217,6 @@ pub fn identify_shared(
         return Err(solver_error("the estimate is not finite"));
     }
     let (m, n) = jacobian.shape();
-    // The degrees of freedom of the residuals' scale behind every σ.
-    let dof = m.checked_sub(n).filter(|&d| d > 0);
     let loadings = match &noise {
         Some(noise) => Some(
             problem
@@ -189,9 +225,27 @@ pub fn identify_shared(
         ),
         None => None,
     };
-    // The joint fit's sandwich; the two-stage one's propagates the registration's error.
+    // The degrees of freedom of the residuals' scale behind every σ; none when the σ are the
+    // declared noise's (too few to scale by, `sandwich::SCALE_DOF`).
+    let dof = m
+        .checked_sub(n)
+        .filter(|&d| d > 0)
+        .filter(|&d| loadings.is_none() || sandwich::scaled_by_residuals(d));
+    // The joint fit's sandwich (on the weighted rows when weighted); the two-stage one's
+    // propagates the registration's error.
     let (covariance, registration) = match registered {
-        None => (covariance(&r, &jacobian, loadings.as_ref()), None),
+        None => match (&scales, &loadings) {
+            (Some(s), Some(l)) => {
+                let weighted_r = DVector::from_fn(r.len(), |i, _| s[i] * r[i]);
+                let weighted_jacobian = DMatrix::from_fn(m, n, |i, j| s[i] * jacobian[(i, j)]);
+                let weighted_loadings = l.scaled(s);
+                (
+                    reported_covariance(&weighted_r, &weighted_jacobian, Some(&weighted_loadings)),
+                    None,
+                )
+            }
+            _ => (reported_covariance(&r, &jacobian, loadings.as_ref()), None),
+        },
         Some(two_stage) => match two_stage {
             Some(c) => (Some(c.legs), Some((c.registration, c.registration_dof))),
             None => (None, None),
@@ -239,7 +293,7 @@ pub fn identify_shared(
     let instrument = InstrumentEstimate {
         parameters: match &registration_sigmas {
             Some((sigmas, dof)) => registered_parameters(&problem, sigmas, *dof),
-            None => instrument_parameters(&problem, &outcome.x, sigmas.as_deref().zip(dof)),
+            None => instrument_parameters(&problem, &outcome.x, sigmas.as_deref(), dof),
         },
         rows: m,
         unknowns: n,
@@ -257,10 +311,14 @@ pub fn identify_shared(
         solver: SolverKind::LevenbergMarquardt,
         legs,
         runs: vec![run],
-        // Through the instrument the fit is unweighted (its covariance the sandwich of
-        // `sandwich`), whatever the default.
+        // Weighted by the declared noise or not, as fitted (unweighted, the covariance is the
+        // sandwich of `sandwich` on the plain rows).
         options: FitOptions {
-            weights: super::result::Weighting::Unweighted,
+            weights: if scales.is_some() {
+                Weighting::Noise
+            } else {
+                Weighting::Unweighted
+            },
             ..options
         },
         warnings: Vec::new(),
@@ -269,12 +327,13 @@ pub fn identify_shared(
 }
 
 /// The instrument's parameters of `problem` at `x`: estimated (σ from `sigmas`, the
-/// problem's), or held (no σ; the two-stage strategy's registration takes its σ from
-/// [`registered_parameters`]).
+/// problem's, on `dof` degrees of freedom or the declared noise's without), or held (no σ; the
+/// two-stage strategy's registration takes its σ from [`registered_parameters`]).
 fn instrument_parameters(
     problem: &IdentificationProblem<'_>,
     x: &DVector<f64>,
-    sigmas: Option<(&[f64], usize)>,
+    sigmas: Option<&[f64]>,
+    dof: Option<usize>,
 ) -> Vec<ParameterEstimate> {
     let values = problem.shared_values(x);
     let identified = problem.shared_columns();
@@ -288,7 +347,7 @@ fn instrument_parameters(
         .enumerate()
         .map(|(k, p)| {
             let column = identified.iter().position(|&c| c == k);
-            let std = column.and_then(|i| sigmas.map(|(s, _)| s[first + i]));
+            let std = column.and_then(|i| sigmas.map(|s| s[first + i]));
             ParameterEstimate {
                 name: p.name.clone(),
                 unit: p.unit,
@@ -296,7 +355,7 @@ fn instrument_parameters(
                 estimate: values[k],
                 std,
                 identified: p.identified,
-                degrees_of_freedom: std.and(sigmas.map(|(_, dof)| dof)),
+                degrees_of_freedom: std.and(dof),
             }
         })
         .collect()
@@ -312,7 +371,7 @@ fn registered_parameters(
 ) -> Vec<ParameterEstimate> {
     let mut identified = sigmas.iter();
     let x = DVector::zeros(problem.parameter_count());
-    instrument_parameters(problem, &x, None)
+    instrument_parameters(problem, &x, None, None)
         .into_iter()
         .map(|mut p| {
             if p.identified {

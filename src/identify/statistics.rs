@@ -46,6 +46,10 @@ pub fn half_width95(std: f64, dof: usize) -> f64 {
     student_t_975(dof) * std
 }
 
+/// The 0.975 quantile of the normal law: the factor of a two-sided 95 % interval on a known σ
+/// (the declared noise's, [`SCALE_DOF`](super::sandwich::SCALE_DOF)).
+pub const NORMAL_975: f64 = 1.959_963_984_540_054;
+
 /// Upper-tail probability of the χ² statistic below which the declared noise is rejected.
 pub const NOISE_TEST_P: f64 = 1e-3;
 

@@ -138,13 +138,14 @@ pub fn identify_one(
         Measurements::Targets(observations) => {
             let defaults = FitOptions {
                 noise_scale: fit.noise_scale,
+                weights: fit.weights,
                 ..FitOptions::default()
             };
             if solver != SolverKind::LevenbergMarquardt || fit != defaults {
                 return Err(Error::Invalid(format!(
                     "{}: through an instrument the legs and the instrument are identified by \
-                     unweighted Levenberg-Marquardt (no Gauss-Newton, weights, robust loss or \
-                     outlier dropping yet)",
+                     Levenberg-Marquardt, weighted by the declared noise or not (`--weights`), \
+                     without Gauss-Newton, a robust loss or outlier dropping yet",
                     mechanism.model_path.display()
                 )));
             }
@@ -167,14 +168,15 @@ pub fn identify_one(
     }
 }
 
-/// Seen through the forward kinematics, does the model hold a frame component its first
-/// target's reported coordinates cannot see (a bed's x, y, yaw under a height probe; tested at
-/// the home pose)?
+/// Seen through the forward kinematics, is there a motion of the instrument frame its first
+/// target's reported coordinates cannot see (a bed's motion along its own plane under a height
+/// probe; tested at the home pose and the nominal frame)?
 fn unseen_frame(mechanism: &Mechanism) -> bool {
     let Some(instrument) = mechanism.forward_instrument() else {
         return false;
     };
-    !crate::evaluate::observed_frame::unseen_components(instrument, &[mechanism.home_pose])
+    let nominal = instrument.nominal();
+    !crate::evaluate::observed_frame::unseen_frame(instrument, &nominal, &[mechanism.home_pose])
         .is_empty()
 }
 

@@ -72,6 +72,10 @@ pub struct ReportJson<'a> {
     measurements: &'a str,
     units: &'static str,
     instrument_columns: Option<Vec<String>>,
+    /// Whether nothing speaks against the run's result (exit 0; false: exit 3).
+    trusted: bool,
+    /// Every reason the run's result must not be trusted, as the command prints them.
+    trust_issues: Vec<String>,
     results: Vec<ResultJson<'a>>,
     #[serde(skip_serializing_if = "Option::is_none")]
     accuracy_map_before: Option<&'a AccuracyMap>,
@@ -91,6 +95,8 @@ impl<'a> ReportJson<'a> {
             measurements: &report.source,
             units: "SI (m, rad); costs are 1/2 ||r||^2 in reading units squared",
             instrument_columns: mechanism.instrument.as_ref().map(|i| i.columns()),
+            trusted: report.trusted(),
+            trust_issues: report.trust_issues(),
             results: report
                 .results
                 .iter()
@@ -121,8 +127,60 @@ struct ResultJson<'a> {
     instrument: Option<InstrumentJson<'a>>,
     legs: Vec<LegJson<'a>>,
     fixed_legs: Vec<String>,
+    /// The covariance of every identified parameter of the result, cross terms included.
+    covariance: Option<FullCovarianceJson>,
     #[serde(skip_serializing_if = "Option::is_none")]
     accuracy_map: Option<&'a AccuracyMap>,
+}
+
+/// The covariance of every identified parameter in one matrix, rows and columns in the order
+/// of `parameters` (docs/report.md, "Propagating the covariance").
+#[derive(Debug, Serialize)]
+struct FullCovarianceJson {
+    parameters: Vec<String>,
+    matrix: Vec<Vec<f64>>,
+}
+
+/// The full covariance of `result`'s identified parameters: through an instrument, the joint
+/// fit's matrix (the legs' identified parameters in the order of the result's legs, then the
+/// instrument's); otherwise the legs' blocks on the diagonal, the cross terms between legs
+/// zero (each leg's rows depend on its own parameters alone and are fitted apart, or as
+/// separable blocks of one problem). `None` when a fitted leg or the instrument has none.
+fn full_covariance(result: &StrategyResult) -> Option<FullCovarianceJson> {
+    let identified = |ps: &[ParameterEstimate]| -> Vec<String> {
+        ps.iter()
+            .filter(|p| p.identified)
+            .map(|p| p.name.clone())
+            .collect()
+    };
+    let mut parameters: Vec<String> = result
+        .legs
+        .iter()
+        .flat_map(|l| identified(&l.parameters))
+        .collect();
+    if let Some(instrument) = &result.instrument {
+        parameters.extend(identified(&instrument.parameters));
+        let matrix = instrument.covariance.as_ref()?;
+        return (matrix.nrows() == parameters.len()).then(|| FullCovarianceJson {
+            parameters,
+            matrix: self::matrix(matrix),
+        });
+    }
+    let n = parameters.len();
+    let mut full = DMatrix::zeros(n, n);
+    let mut at = 0;
+    for leg in &result.legs {
+        let block = leg.covariance.as_ref()?;
+        if at + block.nrows() > n {
+            return None;
+        }
+        full.view_mut((at, at), block.shape()).copy_from(block);
+        at += block.nrows();
+    }
+    (at == n).then(|| FullCovarianceJson {
+        parameters,
+        matrix: matrix(&full),
+    })
 }
 
 impl<'a> ResultJson<'a> {
@@ -140,7 +198,7 @@ impl<'a> ResultJson<'a> {
             },
             robust: result.options.robust.map(|r| r.name()),
             drop_outliers: result.options.drop_outliers,
-            warnings: result.all_warnings(),
+            warnings: result_warnings(result),
             instrument: result
                 .instrument
                 .as_ref()
@@ -151,9 +209,22 @@ impl<'a> ResultJson<'a> {
                 .map(|leg| LegJson::new(report, result, leg))
                 .collect(),
             fixed_legs: report.fixed_legs(result),
+            covariance: full_covariance(result),
             accuracy_map: map,
         }
     }
+}
+
+/// A result's warnings: its own and its legs', then every reason it must not be trusted that
+/// they do not already say (the predicted σ above the tolerance, a rejected noise test, …).
+fn result_warnings(result: &StrategyResult) -> Vec<String> {
+    let mut warnings = result.all_warnings();
+    for issue in crate::identify::trust::trust_issues(std::slice::from_ref(result)) {
+        if !warnings.contains(&issue) {
+            warnings.push(issue);
+        }
+    }
+    warnings
 }
 
 /// One parameter: the same keys for a leg's and for the instrument's.

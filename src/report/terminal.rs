@@ -80,7 +80,8 @@ fn observed_frame_line(out: &mut String, map: &crate::evaluate::accuracy::Accura
     let aligned = match seen.aligned.is_empty() {
         true => "nothing aligned: the observations see every frame motion".to_string(),
         false => format!(
-            "aligned over {}, which its reported coordinates cannot see",
+            "aligned over the frame's motion {} (its own axes), which its reported coordinates \
+             cannot see",
             seen.aligned.join(", ")
         ),
     };
@@ -137,6 +138,38 @@ fn table_row(p: &ParameterEstimate, real: Option<f64>) -> String {
     format!("{row}{fixed}")
 }
 
+/// Every parameter estimate of the result that holds `instrument` (its legs', then the
+/// instrument's).
+fn result_parameters_of<'r>(
+    report: &'r Report<'_>,
+    instrument: &'r InstrumentEstimate,
+) -> impl Iterator<Item = &'r crate::identify::result::ParameterEstimate> {
+    report
+        .results
+        .iter()
+        .filter(move |r| {
+            r.instrument
+                .as_ref()
+                .is_some_and(|i| std::ptr::eq(i, instrument))
+        })
+        .flat_map(|r| r.legs.iter().flat_map(|l| &l.parameters))
+        .chain(&instrument.parameters)
+}
+
+/// The note that the σ are the declared noise's, unscaled, when some parameter's are (too few
+/// residual degrees of freedom to scale them by σ̂, `sandwich::SCALE_DOF`).
+pub(crate) fn declared_sigma_note<'p>(
+    mut parameters: impl Iterator<Item = &'p crate::identify::result::ParameterEstimate>,
+) -> Option<String> {
+    parameters.any(|p| p.std_from_declared_noise()).then(|| {
+        format!(
+            "σ from the declared noise, not scaled by σ̂: fewer than {} residual degrees of \
+             freedom (docs/statistics.md, \"Few degrees of freedom\"); 95 % intervals ±1.96 σ",
+            crate::identify::sandwich::SCALE_DOF
+        )
+    })
+}
+
 /// The instrument's block: the fit as a whole, then its parameters.
 fn render_instrument(out: &mut String, report: &Report<'_>, instrument: &InstrumentEstimate) {
     let _ = writeln!(
@@ -154,6 +187,9 @@ fn render_instrument(out: &mut String, report: &Report<'_>, instrument: &Instrum
             test.p_value,
             if test.rejected { " (REJECTED)" } else { "" }
         );
+    }
+    if let Some(note) = declared_sigma_note(result_parameters_of(report, instrument)) {
+        let _ = writeln!(out, "  {note}");
     }
     if let Some(test) = &instrument.held_frame {
         let _ = writeln!(
@@ -297,6 +333,9 @@ fn render_result(out: &mut String, report: &Report<'_>, result: &StrategyResult)
         if result.instrument.is_none() {
             let no_test = why_no_noise_test(report, result);
             render_statistics(out, leg, no_test);
+            if let Some(note) = declared_sigma_note(leg.parameters.iter()) {
+                let _ = writeln!(out, "  {note}");
+            }
         }
     }
     let warnings = result.all_warnings();
@@ -317,6 +356,7 @@ fn fit_text(result: &StrategyResult) -> String {
             "robust {} loss scaled by the declared noise (iteratively reweighted); costs and σ̂ are of the weighted residuals",
             loss.name()
         ),
+        (None, Weighting::Noise) if result.instrument.is_some() => "least squares weighted by the declared noise (at the estimate); costs and residuals in measurement units, σ the sandwich of the weighted fit".to_string(),
         (None, Weighting::Noise) => "least squares weighted by the declared noise (at the estimate); costs and σ̂ are of the weighted (dimensionless) residuals".to_string(),
         (None, Weighting::Unweighted | Weighting::Declared) => "unweighted least squares".to_string(),
     };

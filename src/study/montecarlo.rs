@@ -227,6 +227,12 @@ pub struct Alarms {
     pub noise_tests: usize,
     /// Of those, the tests that rejected the declared noise.
     pub rejected: usize,
+    /// Fits with a predicted σ of the target and a tolerance to hold it to (seen through the
+    /// forward kinematics, with the model's `instrument.tolerance`).
+    pub tolerance_tests: usize,
+    /// Of those, the fits whose predicted σ exceeded the tolerance (the warning and exit 3 of
+    /// `legwise identify`).
+    pub above_tolerance: usize,
 }
 
 impl Alarms {
@@ -243,6 +249,11 @@ impl Alarms {
         }
         if let Some(instrument) = &result.instrument {
             alarms.count_noise_test(instrument.noise_test.as_ref());
+            let predicted = instrument.predicted_position.as_ref();
+            if let Some((max, tolerance)) = predicted.and_then(|p| Some((p.max, p.tolerance?))) {
+                alarms.tolerance_tests += 1;
+                alarms.above_tolerance += usize::from(max > tolerance);
+            }
         }
         alarms
     }
@@ -265,6 +276,8 @@ impl std::ops::Add for Alarms {
             flagged: self.flagged + other.flagged,
             noise_tests: self.noise_tests + other.noise_tests,
             rejected: self.rejected + other.rejected,
+            tolerance_tests: self.tolerance_tests + other.tolerance_tests,
+            above_tolerance: self.above_tolerance + other.above_tolerance,
         }
     }
 }
@@ -309,6 +322,9 @@ pub struct ArmSummary {
     pub flagged: Estimate,
     /// The fraction of the noise tests that rejected the declared noise (Wilson interval).
     pub rejected: Estimate,
+    /// The fraction of the fits held to a tolerance whose predicted σ exceeded it (Wilson
+    /// interval).
+    pub above_tolerance: Estimate,
 }
 
 /// One parameter's error statistics under one arm.
@@ -504,7 +520,7 @@ impl Study {
         let instrument = self.mechanism.forward_instrument()?;
         Some(format!(
             "target `{}` in the frame the observations define (the instrument frame, aligned \
-             over the held frame components its reported coordinates cannot see)",
+             over the frame motions its reported coordinates cannot see)",
             instrument.targets[0].name
         ))
     }
@@ -769,6 +785,10 @@ impl Study {
                     alarms,
                     flagged: stats::proportion_interval(alarms.flagged, alarms.outlier_tests),
                     rejected: stats::proportion_interval(alarms.rejected, alarms.noise_tests),
+                    above_tolerance: stats::proportion_interval(
+                        alarms.above_tolerance,
+                        alarms.tolerance_tests,
+                    ),
                     parameters: (0..self.parameters.len())
                         .map(|p| {
                             let errors: Vec<f64> =

@@ -77,6 +77,9 @@ pub fn montecarlo_json(study: &MonteCarlo) -> Value {
                     "noise_tests": arm.alarms.noise_tests,
                     "rejected": arm.alarms.rejected,
                     "rejected_fraction": estimate_json(&arm.rejected),
+                    "tolerance_tests": arm.alarms.tolerance_tests,
+                    "above_tolerance": arm.alarms.above_tolerance,
+                    "above_tolerance_fraction": estimate_json(&arm.above_tolerance),
                 },
                 "parameters": parameters,
             })
@@ -236,6 +239,17 @@ pub fn montecarlo_text(study: &MonteCarlo) -> String {
             percentage(&arm.flagged, arm.alarms.flagged, arm.alarms.outlier_tests),
             percentage(&arm.rejected, arm.alarms.rejected, arm.alarms.noise_tests),
         ));
+        if arm.alarms.tolerance_tests > 0 {
+            text.push_str(&format!(
+                "    {:<26} predicted σ above the model's tolerance (the warning, exit 3) {}\n",
+                arm.arm.name(),
+                percentage(
+                    &arm.above_tolerance,
+                    arm.alarms.above_tolerance,
+                    arm.alarms.tolerance_tests
+                ),
+            ));
+        }
     }
     text.push_str("\npaired comparisons (same draws in every arm):\n");
     for c in &study.comparisons {

@@ -843,7 +843,7 @@ fn the_observed_frame_error_of_the_map_is_the_gauge_free_error() {
     let theirs = observed_frame_error(instrument, (&shared, &real_shared), &targets, &reached)
         .expect("reached");
     assert_eq!(theirs.target, "nozzle");
-    assert_eq!(theirs.aligned, ["frame_x", "frame_y", "frame_yaw"]);
+    assert_eq!(theirs.aligned, ["along x", "along y", "about z"]);
     let rms = theirs.position_error.rms;
     assert!(
         (rms - ours).abs() <= 1e-3 * ours,

@@ -521,7 +521,7 @@ fn nozzle(mechanism: &Mechanism, params: &[Vec<f64>], readings: &[f64]) -> [f64;
 
 #[test]
 fn the_predicted_position_sigma_is_the_covariance_carried_by_central_differences() {
-    use legwise::evaluate::accuracy::{map_grid, result_parameters};
+    use legwise::evaluate::accuracy::{map_slice, result_parameters};
     use legwise::kinematics::inverse::predict_reading;
     for model in ["delta-probe.yaml", "delta-probe-distances.yaml"] {
         let mechanism = bundled(model);
@@ -529,6 +529,7 @@ fn the_predicted_position_sigma_is_the_covariance_carried_by_central_differences
         let result = identify_shared(&mechanism, &observations, Strategy::Joint).unwrap();
         let instrument = result.instrument.as_ref().unwrap();
         let reported = instrument.predicted_position.as_ref().expect("predicted");
+
         let covariance = instrument.covariance.as_ref().expect("a covariance");
         // The unknowns: every identified leg parameter (the bed is held).
         let params = result_parameters(&mechanism, &result);
@@ -540,7 +541,18 @@ fn the_predicted_position_sigma_is_the_covariance_carried_by_central_differences
             .collect();
         assert_eq!(unknowns.len(), covariance.nrows(), "{model}");
         let home = mechanism.home_pose;
-        let grid = map_grid(&mechanism, mechanism.workspace.grid.unwrap(), 0.95).unwrap();
+        // The workspace sample: the map's lattice on every slice of the cylinder (z from 0
+        // to 0.1 m, shrunk by 0.95 about 0.05) at the grid's spacing, where the nozzle (0.02 m
+        // under the effector) is above the bed.
+        let spacing = mechanism.workspace.grid.unwrap();
+        let grid: Vec<[f64; 6]> = (0..5)
+            .flat_map(|k| {
+                let z = 0.05 + (k as f64 - 2.0) * spacing;
+                map_slice(&mechanism, spacing, 0.95, (z, 0.05 + (z - 0.05) / 0.95)).unwrap()
+            })
+            .filter(|pose| pose[2] - 0.02 > 0.0)
+            .collect();
+        assert_eq!(grid.len(), 180, "{model}");
         let mut jacobian = DMatrix::zeros(3 * grid.len(), unknowns.len());
         let mut motions = DMatrix::zeros(3 * grid.len(), 3);
         for (i, pose) in grid.iter().enumerate() {
@@ -571,11 +583,10 @@ fn the_predicted_position_sigma_is_the_covariance_carried_by_central_differences
             motions[(3 * i, 2)] = m[1];
             motions[(3 * i + 1, 2)] = -m[0];
         }
-        let along = motions
-            .clone()
-            .svd(true, true)
-            .solve(&jacobian, 1e-12)
-            .unwrap();
+        // The least-squares fit by the motions from the normal equations (three independent
+        // columns; nalgebra's SVD solve of this 540 × 3 matrix was seen to go wrong).
+        let normal = (motions.transpose() * &motions).try_inverse().unwrap();
+        let along = normal * motions.transpose() * &jacobian;
         let seen = &jacobian - &motions * along;
         let sigmas: Vec<f64> = (0..grid.len())
             .map(|i| {

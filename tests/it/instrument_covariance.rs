@@ -2,13 +2,14 @@
 //! central differences of the residuals in the unknowns, the noise's covariance `V` by central
 //! differences of the residuals in every measured target coordinate (so a shared row's
 //! residuals of both legs are correlated as the data make them), the pseudo-inverse by SVD,
-//! and `σ² = ŝ² diag(J⁺ V J⁺ᵀ)`, `ŝ² = ‖r‖²/tr((I − J J⁺) V)`. Over seeded Monte Carlo trials
+//! and, the fit being weighted by the declared noise (`S = diag(V)^(-1/2)`), `σ² = ŝ² diag((SJ)⁺ SVS (SJ)⁺ᵀ)`,
+//! `ŝ² = ‖Sr‖²/tr((I − SJ (SJ)⁺) SVS)`. Over seeded Monte Carlo trials
 //! the predicted σ of the frame lies in the interval of the observed spread, and with shared
 //! rows the frame's errors over their σ have the second moment of Student's t. The two-stage
 //! strategy's σ (the registration's error carried into the legs) follows its observed spread too.
 use argmin::core::Operator;
 use legwise::identify::problem::IdentificationProblem;
-use legwise::identify::result::{Strategy, StrategyResult};
+use legwise::identify::result::{Strategy, StrategyResult, Weighting};
 use legwise::measure::observations::Observations;
 use legwise::measure::observe_simulate::simulate_observed;
 use legwise::measure::simulate::SimulationOptions;
@@ -78,15 +79,23 @@ impl Recomputed {
         Self { r, jacobian, v }
     }
 
-    /// `ŝ² diag(J⁺ V J⁺ᵀ)`, square-rooted, with the covariance `v`.
-    fn sigmas(&self, v: &DMatrix<f64>) -> Vec<f64> {
+    /// The σ of the fit weighted by `w` (one weight per residual): with `S = diag(√w)`,
+    /// `ŝ² diag((SJ)⁺ S V S (SJ)⁺ᵀ)`, `ŝ² = ‖S r‖² / tr((I − SJ (SJ)⁺) S V S)`.
+    fn weighted_sigmas(&self, v: &DMatrix<f64>, w: &DVector<f64>) -> Vec<f64> {
         let m = self.r.len();
-        let pinv = self.jacobian.clone().pseudo_inverse(1e-12).unwrap();
-        let leverage = &self.jacobian * &pinv;
-        let expected = ((DMatrix::identity(m, m) - leverage) * v).trace();
-        let scale = self.r.norm_squared() / expected;
+        let s = DMatrix::from_diagonal(&w.map(f64::sqrt));
+        let (jacobian, r, v) = (&s * &self.jacobian, &s * &self.r, &s * v * &s);
+        let pinv = jacobian.clone().pseudo_inverse(1e-12).unwrap();
+        let leverage = &jacobian * &pinv;
+        let expected = ((DMatrix::identity(m, m) - leverage) * &v).trace();
+        let scale = r.norm_squared() / expected;
         let covariance = &pinv * v * pinv.transpose() * scale;
         covariance.diagonal().iter().map(|c| c.sqrt()).collect()
+    }
+
+    /// The weights of the declared noise: the inverse of `V`'s diagonal (recomputed here).
+    fn noise_weights(&self) -> DVector<f64> {
+        self.v.diagonal().map(|v| 1.0 / v)
     }
 
     /// `σ̂ √diag((JᵀJ)⁻¹)`, `σ̂² = ‖r‖²/(m − n)`: the homoscedastic σ.
@@ -126,7 +135,10 @@ fn check(
         .names();
     let recomputed = Recomputed::new(mechanism, observations, &x);
     let sigmas = reported(&estimate);
-    let expected = recomputed.sigmas(&recomputed.v);
+    // The joint fit is weighted by the declared noise (the default): its σ are the weighted
+    // fit's sandwich, with the weights recomputed from V's diagonal.
+    assert_eq!(estimate.options.weights, Weighting::Noise, "{model}");
+    let expected = recomputed.weighted_sigmas(&recomputed.v, &recomputed.noise_weights());
     assert_eq!(sigmas.len(), expected.len(), "{model}");
     for ((name, s), e) in names.iter().zip(&sigmas).zip(&expected) {
         assert!(
@@ -169,7 +181,7 @@ fn a_shared_rows_legs_share_its_target_noise_and_the_sigma_accounts_for_it() {
     // The two legs' residuals at one row are correlated; leaving that out (V's diagonal only)
     // gives other σ.
     let diagonal = DMatrix::from_diagonal(&recomputed.v.diagonal());
-    let uncorrelated = recomputed.sigmas(&diagonal);
+    let uncorrelated = recomputed.weighted_sigmas(&diagonal, &recomputed.noise_weights());
     let differs = gap(&uncorrelated, &sigmas);
     assert!(
         differs > 0.1,

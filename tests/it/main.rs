@@ -12,6 +12,7 @@ mod evaluation_reuse;
 mod exit_codes;
 mod files;
 mod firmware_delta;
+mod forward_honest;
 mod forward_kinematics;
 mod forward_observations;
 mod fuzz;

@@ -534,6 +534,7 @@ fn the_study_counts_the_fits_outlier_flags_and_noise_rejections() {
                 flagged,
                 noise_tests: 2,
                 rejected,
+                ..Alarms::default()
             },
             "{file}"
         );
@@ -544,18 +545,46 @@ fn the_study_counts_the_fits_outlier_flags_and_noise_rejections() {
         flagged: 1,
         noise_tests: 3,
         rejected: 1,
+        tolerance_tests: 2,
+        above_tolerance: 0,
     };
     let other = Alarms {
         outlier_tests: 5,
         flagged: 2,
         noise_tests: 7,
         rejected: 3,
+        tolerance_tests: 4,
+        above_tolerance: 1,
     };
     let sum = Alarms {
         outlier_tests: 7,
         flagged: 3,
         noise_tests: 10,
         rejected: 4,
+        tolerance_tests: 6,
+        above_tolerance: 1,
     };
     assert_eq!(one + other, sum);
+}
+
+/// A forward model's fits are held to its tolerance, and the study counts how often the
+/// predicted σ exceeded it: never at the bundled tolerance, every time at a nanometre.
+#[test]
+fn the_study_counts_the_fits_above_the_models_tolerance() {
+    use legwise::study::montecarlo::Alarms;
+    use legwise::{run, Settings};
+    let probe = crate::support::bundled("delta-probe.yaml");
+    for (tolerance, above) in [(1e-4, 0), (1e-9, 1)] {
+        let held = probe.edited(|parts| {
+            parts.instrument.as_mut().expect("a bed").tolerance = Some(tolerance);
+        });
+        let report = run(&held, &Settings::default()).unwrap();
+        let alarms = Alarms::of(&report.results[0]);
+        assert_eq!(alarms.tolerance_tests, 1, "{tolerance}");
+        assert_eq!(alarms.above_tolerance, above, "{tolerance}");
+    }
+    // Without a tolerance nothing is tested.
+    let free = probe.edited(|parts| parts.instrument.as_mut().expect("a bed").tolerance = None);
+    let report = run(&free, &Settings::default()).unwrap();
+    assert_eq!(Alarms::of(&report.results[0]).tolerance_tests, 0);
 }

@@ -141,7 +141,9 @@ fn what_a_pipeline_does_not_offer_is_refused_by_name() {
     let gn = SolverKind::GaussNewton;
     let error = identify_one(&tracker, &targets, Strategy::Joint, gn, fit).unwrap_err();
     assert!(
-        error.to_string().contains("no Gauss-Newton, weights"),
+        error
+            .to_string()
+            .contains("without Gauss-Newton, a robust loss"),
         "{error}"
     );
     let error = identify_one(&tracker, &targets, Strategy::DivideAndConquer, lm, fit).unwrap_err();

@@ -29,7 +29,7 @@ fn set(list: &[&'static str]) -> BTreeSet<&'static str> {
     list.iter().copied().collect()
 }
 
-const TOP: [&str; 10] = [
+const TOP: [&str; 12] = [
     "schema_version",
     "legwise_version",
     "mechanism",
@@ -38,11 +38,13 @@ const TOP: [&str; 10] = [
     "measurements",
     "units",
     "instrument_columns",
+    "trusted",
+    "trust_issues",
     "results",
     // Written with --map only.
     "accuracy_map_before",
 ];
-const RESULT: [&str; 9] = [
+const RESULT: [&str; 10] = [
     "strategy",
     "solver",
     "weights",
@@ -52,6 +54,7 @@ const RESULT: [&str; 9] = [
     "instrument",
     "legs",
     "fixed_legs",
+    "covariance",
 ];
 const LEG: [&str; 22] = [
     "name",
@@ -130,7 +133,7 @@ fn check_parameter(p: &Value) {
 fn a_plain_and_a_tracker_report_read_through_the_same_documented_keys() {
     for (model, through) in [("5r.yaml", false), ("5r-tracker.yaml", true)] {
         let value = report(model);
-        let top: BTreeSet<&str> = set(&TOP[..9]);
+        let top: BTreeSet<&str> = set(&TOP[..11]);
         assert_eq!(keys(&value), top, "{model}");
         assert_eq!(value["schema_version"], 2);
         assert_eq!(value["instrument_columns"].is_array(), through, "{model}");
@@ -298,12 +301,12 @@ fn intervals_use_student_s_t_on_the_residual_degrees_of_freedom() {
         .half_width95(),
         None
     );
-    assert_eq!(
-        ParameterEstimate {
-            degrees_of_freedom: None,
-            ..p
-        }
-        .half_width95(),
-        None
-    );
+    // A std without degrees of freedom is the declared noise's (too few to scale by σ̂):
+    // the normal quantile.
+    let declared = ParameterEstimate {
+        degrees_of_freedom: None,
+        ..p
+    };
+    assert!(declared.std_from_declared_noise());
+    assert!((declared.half_width95().unwrap() - 1.959_964e-3).abs() < 1e-9);
 }

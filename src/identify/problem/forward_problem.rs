@@ -101,6 +101,7 @@ impl<'a> IdentificationProblem<'a> {
                 source: rows_count + k,
                 rows: d.rows.map(forward_row),
                 value: d.value,
+                line: d.line,
             })
             .collect();
         let mut problem = Self::assemble(mechanism, legs, blocks, Some(sighted));

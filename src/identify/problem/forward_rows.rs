@@ -31,6 +31,8 @@ pub(super) struct ForwardDistance {
     pub(super) rows: [usize; 2],
     /// The measured distance, metres.
     pub(super) value: f64,
+    /// Line of the distance row in the measurement file, if read from one.
+    pub(super) line: Option<usize>,
 }
 
 /// The forward rows of a problem and their warm starts.

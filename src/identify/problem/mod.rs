@@ -31,6 +31,7 @@ mod forward;
 mod forward_problem;
 mod forward_rows;
 mod noise;
+mod places;
 mod reached_points;
 mod residuals;
 mod sighted;
@@ -38,6 +39,7 @@ mod solver_interface;
 mod state;
 
 use forward_rows::Forward;
+pub use places::ResidualPlace;
 pub use reached_points::ReachedPoint;
 use sighted::{Sighted, Sighting};
 use state::{Evaluations, KEPT_SOLUTION_ROWS};
@@ -251,12 +253,12 @@ impl<'a> IdentificationProblem<'a> {
         }
     }
 
-    /// The same problem with row weights `weights` (one per block, in row order, finite and
-    /// non-negative): residual `i` and its Jacobian row are multiplied by `√weights[i]`.
-    /// A missing weight counts as 1.
+    /// The same problem with row weights `weights` (one per residual, in row order: the
+    /// blocks', then a forward problem's rows'; finite and non-negative): residual `i` and its
+    /// Jacobian row are multiplied by `√weights[i]`. A missing weight counts as 1.
     pub fn with_weights(mut self, weights: &[f64]) -> Self {
         self.row_scales = Some(
-            (0..self.blocks.len())
+            (0..self.blocks.len().max(weights.len()))
                 .map(|i| weights.get(i).copied().unwrap_or(1.0).max(0.0).sqrt())
                 .collect(),
         );

@@ -66,7 +66,33 @@ impl<'a> IdentificationProblem<'a> {
 
     /// `√w` of row `row` (1 when unweighted).
     pub fn row_scale(&self, row: usize) -> f64 {
-        self.row_scales.as_ref().map_or(1.0, |s| s[row])
+        self.row_scales
+            .as_ref()
+            .and_then(|s| s.get(row))
+            .copied()
+            .unwrap_or(1.0)
+    }
+
+    /// The forward rows' residuals (of [`Self::evaluate_forward`]), each times its `√w`
+    /// (after the blocks' `first` rows), and their Jacobian rows likewise if given.
+    fn weigh_forward(
+        &self,
+        first: usize,
+        residuals: &mut [f64],
+        jacobian: Option<&mut DMatrix<f64>>,
+    ) {
+        if self.row_scales.is_none() {
+            return;
+        }
+        for (k, r) in residuals.iter_mut().enumerate() {
+            *r *= self.row_scale(first + k);
+        }
+        if let Some(jacobian) = jacobian {
+            for k in 0..jacobian.nrows() {
+                let scale = self.row_scale(first + k);
+                jacobian.row_mut(k).scale_mut(scale);
+            }
+        }
     }
 
     /// Residuals `predicted − measured` reading (matched modulo one turn, times `√w_i` if
@@ -80,7 +106,8 @@ impl<'a> IdentificationProblem<'a> {
             return Ok(blocks);
         }
         // The blocks' rows, then the forward rows'.
-        let forward = self.evaluate_forward(x, false)?.residuals;
+        let mut forward = self.evaluate_forward(x, false)?.residuals;
+        self.weigh_forward(blocks.len(), &mut forward, None);
         if blocks.is_empty() {
             return Ok(DVector::from_vec(forward));
         }
@@ -176,10 +203,12 @@ impl<'a> IdentificationProblem<'a> {
             return Ok((r, jacobian));
         }
         // The blocks' rows, then the forward rows'.
-        let forward = self.evaluate_forward(x, true)?;
-        let below = forward
+        let mut forward = self.evaluate_forward(x, true)?;
+        let mut below = forward
             .jacobian
+            .take()
             .unwrap_or_else(|| DMatrix::zeros(0, self.parameter_count()));
+        self.weigh_forward(r.len(), &mut forward.residuals, Some(&mut below));
         if r.is_empty() {
             return Ok((DVector::from_vec(forward.residuals), below));
         }
