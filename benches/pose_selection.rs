@@ -9,7 +9,9 @@
 //! (K = 1000). The traditional design of a bundled model from its own candidate pool, with the
 //! separable engine that `select` picks for it and with the dense block engine forced:
 //! `select/5r/traditional`, `select/5r/traditional_dense`, `select/hexapod/traditional`,
-//! `select/hexapod/traditional_dense`.
+//! `select/hexapod/traditional_dense`. A forward model's rows (3 a candidate, 45 unknowns) on
+//! a coarser grid than its own (3375 candidates), D against E, the pool built each time:
+//! `select/hexapod-reflector/d`, `select/hexapod-reflector/e`.
 //!
 //! # Reference
 //! docs/method.md §6 (the greedy and exchange phases and their rank-one updates).
@@ -18,8 +20,10 @@ use std::hint::black_box;
 use std::time::Duration;
 
 use criterion::{criterion_group, criterion_main, Criterion};
+use legwise::model::mechanism::SelectionCriterion;
 use legwise::model::Mechanism;
 use legwise::selection::candidates::{candidate_pool, CandidatePool};
+use legwise::selection::forward_design::select_forward;
 use legwise::selection::{select, select_dense_blocks, select_naive, SelectionOptions};
 use nalgebra::DMatrix;
 use rand::{Rng, SeedableRng};
@@ -297,5 +301,25 @@ fn traditional(c: &mut Criterion) {
     group.finish();
 }
 
-criterion_group!(benches, bench, hexapod, traditional);
+/// The hexapod seen by one tracker reflector (`models/hexapod-reflector.yaml`): 100 rows of
+/// three coordinates from the candidate pool of a 0.05 m grid (3375 candidates, 45 unknowns),
+/// by the D and the E criterion; `select_forward` builds the pool (the same for both) and
+/// selects. Ids: `select/hexapod-reflector/d`, `select/hexapod-reflector/e`.
+fn forward(c: &mut Criterion) {
+    let path =
+        std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("models/hexapod-reflector.yaml");
+    let mechanism = Mechanism::load(&path).expect("bundled model");
+    let mut group = c.benchmark_group("select");
+    group
+        .sample_size(10)
+        .measurement_time(Duration::from_secs(20));
+    for (name, criterion) in [("d", SelectionCriterion::D), ("e", SelectionCriterion::E)] {
+        group.bench_function(format!("hexapod-reflector/{name}"), |b| {
+            b.iter(|| select_forward(black_box(&mechanism), Some(0.05), 100, criterion).unwrap())
+        });
+    }
+    group.finish();
+}
+
+criterion_group!(benches, bench, hexapod, traditional, forward);
 criterion_main!(benches);

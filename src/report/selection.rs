@@ -101,13 +101,24 @@ pub fn forward_selection_text(
 ) -> String {
     let mut text = super::title("select", mechanism);
     let o = &design.observability;
+    // Only a target that declares `touch` moves the grid's poses (onto the nominal surface).
+    let touches = mechanism
+        .forward_instrument()
+        .is_some_and(|instrument| instrument.targets.iter().any(|t| t.touch.is_some()));
+    let spacing = design.spacing;
+    let candidates = if touches {
+        format!(
+            "distinct candidate rows (grid {spacing} m, each at its touch on the nominal surface)"
+        )
+    } else {
+        format!("candidate rows (grid {spacing} m, one at each feasible pose of the grid)")
+    };
     let _ = writeln!(
         text,
-        "{} distinct candidate rows (grid {} m, each at its touch on the nominal surface); \
-         criterion {:?}; {} rows of every leg's reading (forward kinematics: the legs and the \
-         instrument identified together)",
+        "{} {}; criterion {:?}; {} rows of every leg's reading (forward kinematics: the legs \
+         and the instrument identified together)",
         design.candidates,
-        design.spacing,
+        candidates,
         criterion,
         design.poses.len()
     );
@@ -151,4 +162,66 @@ pub fn forward_pose_file(mechanism: &Mechanism, design: &ForwardDesign) -> Resul
         set.push(row, &vec![None; legs]);
     }
     observations::template_csv(mechanism, &set, design.measured_poses.len())
+}
+
+#[cfg(test)]
+mod tests {
+    use nalgebra::DMatrix;
+
+    use super::forward_selection_text;
+    use crate::identify::observability::analyse;
+    use crate::model::mechanism::SelectionCriterion;
+    use crate::model::Mechanism;
+    use crate::selection::forward_design::ForwardDesign;
+    use crate::selection::Selection;
+
+    fn bundled(name: &str) -> Mechanism {
+        let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+            .join("models")
+            .join(name);
+        Mechanism::load(&path).expect("bundled model")
+    }
+
+    /// A design of two rows over two unknowns from a pool of 7 candidates, grid 0.025 m.
+    fn design() -> ForwardDesign {
+        let names = vec!["p".to_string(), "q".to_string()];
+        ForwardDesign {
+            candidates: 7,
+            spacing: 0.025,
+            poses: vec![[0.0, 0.0, 0.6, 0.0, 0.0, 0.0]; 2],
+            measured_poses: Vec::new(),
+            observability: analyse(&DMatrix::identity(2, 2), &names),
+            selection: Selection {
+                indices: vec![0, 1],
+                sweeps: 1,
+                exchanges: 0,
+                excursions: 0,
+                log_det: 0.0,
+                engine: "E",
+                certificate: 2.0,
+            },
+        }
+    }
+
+    #[test]
+    fn the_candidates_are_said_to_be_touches_only_where_a_target_touches() {
+        let first_line = |model: &str| {
+            let text = forward_selection_text(&bundled(model), &design(), SelectionCriterion::E);
+            text.lines().nth(1).expect("the pool's line").to_string()
+        };
+        // One tracker reflector: the grid's poses are the candidates, nothing touches.
+        assert_eq!(
+            first_line("hexapod-reflector.yaml"),
+            "7 candidate rows (grid 0.025 m, one at each feasible pose of the grid); criterion \
+             E; 2 rows of every leg's reading (forward kinematics: the legs and the instrument \
+             identified together)"
+        );
+        // A bed probe (`touch: 0.0`): each pose lowered onto the nominal bed.
+        assert_eq!(
+            first_line("delta-probe.yaml"),
+            "7 distinct candidate rows (grid 0.025 m, each at its touch on the nominal \
+             surface); criterion E; 2 rows of every leg's reading (forward kinematics: the legs \
+             and the instrument identified together)"
+        );
+    }
 }

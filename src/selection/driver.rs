@@ -1,5 +1,9 @@
 //! The driver, shared by all evaluation strategies: greedy construction, Fedorov exchange
-//! sweeps and DETMAX excursions over an [`Engine`].
+//! sweeps and DETMAX excursions over an [`Engine`], with a progress bar per phase on a
+//! terminal and, when a phase promises to last longer than [`ANNOUNCED_AFTER`], a line saying
+//! how long.
+
+use std::time::{Duration, Instant};
 
 use nalgebra::DMatrix;
 
@@ -7,6 +11,14 @@ use super::gains::{accept_ln, addition, gram_value, removal};
 use super::linalg::{log_det_spd, spd_inverse};
 use super::pool::Pool;
 use super::{Criterion, Selection, SelectionError, SelectionOptions, EXCURSION_LENGTH};
+use crate::progress::{duration_text, Progress};
+
+/// A phase of the selection that promises to last longer than this says so, with its cost,
+/// before going on (on a terminal, as the progress bars).
+pub(super) const ANNOUNCED_AFTER: Duration = Duration::from_secs(5);
+
+/// The time the first steps of a phase must take before their rate is trusted for the cost.
+const SAMPLE_TIME: Duration = Duration::from_millis(500);
 
 /// One step of an exchange sweep: the current design and what may enter it.
 pub(super) struct Step<'s> {
@@ -69,22 +81,35 @@ pub(super) fn run(
     engine: &mut dyn Engine,
 ) -> Result<Selection, SelectionError> {
     let count = options.count;
+    let label = format!(
+        "selecting {count} of {} candidates ({})",
+        pool.k,
+        engine.name()
+    );
     let mut design: Vec<usize> = Vec::with_capacity(count);
     let mut copies = vec![0usize; pool.k];
     let mut eligible = vec![true; pool.k];
+    let mut greedy = Phase::new(format!("{label}: greedy"), count, "steps");
     for _ in 0..count {
         let j = engine.greedy_pick(&design, &eligible)?;
         design.push(j);
         copies[j] += 1;
         eligible[j] = options.allow_replicates;
         engine.greedy_added(&design, j);
+        greedy.step();
     }
+    drop(greedy);
     let mut counts = Counts::default();
     while counts.sweeps < options.max_sweeps {
         counts.sweeps += 1;
         let (minv, ridge) = pool.exchange_inverse(&design)?;
         engine.sweep_start(minv);
         let mut improved = false;
+        let mut sweep = Phase::new(
+            format!("{label}: exchange sweep {}", counts.sweeps),
+            count,
+            "steps at most",
+        );
         for _ in 0..count {
             let step = Step {
                 design: &design,
@@ -104,7 +129,9 @@ pub(super) fn run(
             design[pos] = j;
             counts.exchanges += 1;
             improved = true;
+            sweep.step();
         }
+        drop(sweep);
         if improved {
             continue;
         }
@@ -132,6 +159,71 @@ pub(super) fn order(design: &[usize]) -> Vec<usize> {
     let mut order: Vec<usize> = (0..design.len()).collect();
     order.sort_by_key(|&pos| (design[pos], pos));
     order
+}
+
+/// A phase of at most `total` steps: its progress bar, and its cost said once when its
+/// first steps promise more than [`ANNOUNCED_AFTER`] ([`cost_line`]).
+struct Phase {
+    progress: Progress,
+    label: String,
+    what: &'static str,
+    total: usize,
+    done: usize,
+    started: Instant,
+    said: bool,
+}
+
+impl Phase {
+    fn new(label: String, total: usize, what: &'static str) -> Self {
+        Self {
+            progress: Progress::new(total as u64, &label),
+            label,
+            what,
+            total,
+            done: 0,
+            started: Instant::now(),
+            said: false,
+        }
+    }
+
+    /// One step done.
+    fn step(&mut self) {
+        self.progress.advance(1);
+        self.done += 1;
+        let elapsed = self.started.elapsed();
+        if !self.said && elapsed >= SAMPLE_TIME {
+            self.said = true;
+            if let Some(line) = cost_line(&self.label, (self.total, self.what), self.done, elapsed)
+            {
+                self.progress.say(&line);
+            }
+        }
+    }
+}
+
+/// What a phase of `total` steps (called `what`) will cost, from its first `done` having
+/// taken `elapsed`, when that is more than [`ANNOUNCED_AFTER`]: `selecting 100 of 15625
+/// candidates (E): greedy: 100 steps will take about 1 min 40 s (1.0 s each, timed on the
+/// first 3); Ctrl-C stops`.
+pub(super) fn cost_line(
+    label: &str,
+    (total, what): (usize, &str),
+    done: usize,
+    elapsed: Duration,
+) -> Option<String> {
+    if done == 0 || done >= total {
+        return None;
+    }
+    let each = elapsed.as_secs_f64() / done as f64;
+    let whole = each * total as f64;
+    (whole > ANNOUNCED_AFTER.as_secs_f64()).then(|| {
+        format!(
+            "{label}: {total} {what} will take about {} ({} each, timed on the first {done}); \
+             Ctrl-C stops",
+            duration_text(whole),
+            duration_text(each)
+        )
+    })
 }
 
 #[derive(Default)]

@@ -33,7 +33,8 @@ const SAME_TOUCH: f64 = 1e-9;
 /// The selected commanded poses of a forward model's rows.
 #[derive(Debug, Clone)]
 pub struct ForwardDesign {
-    /// Distinct candidate poses (after the touch) the rows were selected from.
+    /// Distinct candidate poses (after the touch, where a target declares one) the rows were
+    /// selected from.
     pub candidates: usize,
     /// Grid spacing of the candidate pool, metres.
     pub spacing: f64,
