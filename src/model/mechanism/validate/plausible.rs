@@ -6,15 +6,23 @@
 //!   of the home pose, of a workspace range or of the instrument frame, and a URDF joint
 //!   origin's `rpy` in a leg's chain) is accepted with a warning: degrees instead of radians?
 //!   The measurement checks apply the same rule to readings.
+//!
+//! [`Mechanism::refused_value`] applies the rules the loader applies to a parameter's value
+//! (its magnitude, a gain's, a length's distance from nominal) to any value, such as an
+//! identified one: an estimate the model itself would refuse is not a calibration.
 
 use std::f64::consts::TAU;
 
 use serde_json::Value;
 
+use super::legs::{tiny_gain, MIN_GAIN};
+use super::scale::mechanism_size;
 use super::Builder;
 use crate::error::Result;
 use crate::model::file::ModelFile;
 use crate::model::leg::LegModel;
+use crate::model::params::Unit;
+use crate::model::Mechanism;
 
 /// Largest magnitude of a real value in a model file: a million metres, radians or gain.
 pub(super) const MAX_MAGNITUDE: f64 = 1e6;
@@ -29,15 +37,50 @@ impl Builder<'_> {
         // The file as a tree of values: every field with its path, whatever its type.
         let tree = serde_json::to_value(file).unwrap_or(Value::Null);
         match beyond(&tree, String::new()) {
-            Some((field, value)) => Err(self.error(
-                field,
-                format!(
-                    "{value:e} is not a plausible value; legwise reads metres, radians and \
-                     gains, and expects magnitudes up to {MAX_MAGNITUDE:e}"
-                ),
-            )),
+            Some((field, value)) => Err(self.error(field, too_large(value).unwrap_or_default())),
             None => Ok(()),
         }
+    }
+}
+
+/// Why the loader refuses `value`, of magnitude beyond [`MAX_MAGNITUDE`] (the text of
+/// [`Builder::magnitudes`]).
+fn too_large(value: f64) -> Option<String> {
+    (value.abs() > MAX_MAGNITUDE).then(|| {
+        format!(
+            "{value:e} is not a plausible value; legwise reads metres, radians and gains, and \
+             expects magnitudes up to {MAX_MAGNITUDE:e}"
+        )
+    })
+}
+
+/// Why the loader refuses the length `value` (metres), more than the mechanism's size `size`
+/// from its nominal value `nominal` (the rule of `simulation.real`).
+pub(super) fn far_from_nominal(value: f64, nominal: f64, size: f64) -> Option<String> {
+    ((value - nominal).abs() > size).then(|| {
+        format!(
+            "{value} m is {} m from the nominal value {nominal} m, more than the mechanism's \
+             size ({size:.3} m): millimetres instead of metres?",
+            (value - nominal).abs()
+        )
+    })
+}
+
+impl Mechanism {
+    /// Why the model loader would refuse `value` for a parameter of unit `unit` and nominal
+    /// value `nominal` (`None`: it would load): a magnitude beyond [`MAX_MAGNITUDE`], a gain (the
+    /// one dimensionless kind of parameter) below 1e-6 in magnitude, a length more than the
+    /// mechanism's size (its longest leg) from its nominal value. Non-finite values are left
+    /// to the caller.
+    pub fn refused_value(&self, unit: Unit, nominal: f64, value: f64) -> Option<String> {
+        if !value.is_finite() {
+            return None;
+        }
+        too_large(value).or_else(|| match unit {
+            Unit::One => (value.abs() < MIN_GAIN).then(|| tiny_gain(value)),
+            Unit::Metre => far_from_nominal(value, nominal, mechanism_size(&self.legs)),
+            Unit::Radian => None,
+        })
     }
 }
 
