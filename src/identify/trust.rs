@@ -321,6 +321,58 @@ mod tests {
     }
 
     #[test]
+    fn an_estimate_is_implausible_beyond_ten_declared_sigmas_or_the_loader_s_rules() {
+        // The 3-RPR declares perturbations of 2 mm, 2 mrad and 0.002 of a gain.
+        let path = concat!(env!("CARGO_MANIFEST_DIR"), "/models/3rpr.yaml");
+        let mechanism = Mechanism::load(std::path::Path::new(path)).unwrap();
+        let judged = |unit: Unit, nominal: f64, estimate: f64, identified: bool| {
+            let p = ParameterEstimate {
+                unit,
+                nominal,
+                ..parameter("a1x", estimate, Some(1e-4), identified)
+            };
+            implausible_estimates(&mechanism, &result(vec![p], 1e-8))
+        };
+        assert!(judged(Unit::Metre, 0.0, -0.0199, true).is_empty());
+        assert_eq!(
+            judged(Unit::Metre, 0.0, -0.0201, true),
+            [
+                "divide and conquer, leg `leg1`: a1x = -0.0201 m is 0.0201 m from its nominal \
+                 value 0 m, more than 10 times the perturbation the model declares for it (σ \
+                 0.002 m); either the measurements do not determine a1x (a reading that never \
+                 changes? poses that do not move it?) or the mechanism measured is not the \
+                 model's (a wrong nominal value, a unit mix-up)"
+            ]
+        );
+        assert!(judged(Unit::Metre, 0.0, 0.5, false).is_empty());
+        assert!(judged(Unit::One, 1.0, 1.0199, true).is_empty());
+        assert_eq!(judged(Unit::One, 1.0, 1.0201, true).len(), 1);
+        assert!(judged(Unit::Radian, 0.0, 0.0199, true).is_empty());
+        assert_eq!(judged(Unit::Radian, 0.0, 0.0201, true).len(), 1);
+        // The loader's rules first, whatever the perturbation.
+        let refused = judged(Unit::One, 1.0, 2e6, true);
+        assert_eq!(refused.len(), 1);
+        assert!(
+            refused[0].starts_with(
+                "divide and conquer, leg `leg1`: a1x = 2e6: the model would refuse it (2e6 is not \
+                 a plausible value;"
+            ),
+            "{refused:?}"
+        );
+        // Without a declared perturbation, the loader's rules alone.
+        let undeclared = mechanism.edited(|parts| {
+            if let Some(simulation) = parts.simulation.as_mut() {
+                simulation.perturbation = None;
+            }
+        });
+        let p = ParameterEstimate {
+            nominal: 0.0,
+            ..parameter("a1x", 0.5, Some(1e-4), true)
+        };
+        assert!(implausible_estimates(&undeclared, &result(vec![p], 1e-8)).is_empty());
+    }
+
+    #[test]
     fn a_finite_result_has_no_issue() {
         let ok = result(vec![parameter("l1", 0.75, Some(1e-4), true)], 1e-8);
         assert!(trust_issues(&[ok]).is_empty());

@@ -188,9 +188,38 @@ fn degree_warnings(file: &ModelFile, legs: &[LegModel]) -> Vec<String> {
 
 #[cfg(test)]
 mod tests {
+    use std::path::Path;
+
     use serde_json::json;
 
-    use super::{beyond, MAX_MAGNITUDE};
+    use super::{beyond, mechanism_size, MAX_MAGNITUDE};
+    use crate::model::params::Unit;
+    use crate::model::Mechanism;
+
+    #[test]
+    fn a_value_is_refused_by_the_loader_s_rules_only_beyond_their_limits() {
+        let path = concat!(env!("CARGO_MANIFEST_DIR"), "/models/5r.yaml");
+        let m = Mechanism::load(Path::new(path)).unwrap();
+        let size = mechanism_size(&m.legs);
+        // Magnitude: any kind, up to 1e6.
+        assert_eq!(m.refused_value(Unit::Radian, 0.0, -MAX_MAGNITUDE), None);
+        let large = m.refused_value(Unit::Radian, 0.0, 1.5e6).unwrap();
+        assert!(
+            large.starts_with("1.5e6 is not a plausible value"),
+            "{large}"
+        );
+        // A gain: at least 1e-6 in magnitude, either sign.
+        assert_eq!(m.refused_value(Unit::One, 1.0, -1e-6), None);
+        let tiny = m.refused_value(Unit::One, 1.0, 9e-7).unwrap();
+        assert!(tiny.starts_with("9e-7 is not a plausible gain"), "{tiny}");
+        // A length: within the mechanism's size of its nominal value.
+        assert_eq!(m.refused_value(Unit::Metre, 0.0, size), None);
+        let far = m.refused_value(Unit::Metre, 0.0, -1.01 * size).unwrap();
+        assert!(far.ends_with("millimetres instead of metres?"), "{far}");
+        assert_eq!(m.refused_value(Unit::Radian, 0.0, -1.01 * size), None);
+        // Non-finite values are named elsewhere.
+        assert_eq!(m.refused_value(Unit::One, 1.0, f64::NAN), None);
+    }
 
     #[test]
     fn a_value_is_absurd_only_beyond_the_largest_magnitude_and_is_named_by_its_path() {
