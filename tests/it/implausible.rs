@@ -258,3 +258,33 @@ fn the_stuck_encoder_is_named_in_the_report_the_json_and_the_verdict_and_no_mode
     assert!(report.trusted(), "{:?}", report.trust_issues());
     assert_eq!(report.calibrated_model_refused(), None);
 }
+
+#[test]
+fn observations_made_in_memory_may_not_give_a_distance_twice() {
+    use legwise::measure::observations::{DistanceRow, Observations, ObservedRow};
+    let row = |reading: f64| ObservedRow {
+        line: None,
+        leg: None,
+        observed: vec![0.0],
+        readings: vec![Some(reading); 3],
+        id: None,
+        pose: None,
+    };
+    let distance = |rows: [usize; 2]| DistanceRow {
+        line: None,
+        rows,
+        value: 0.02,
+    };
+    let mut set = Observations {
+        source: None,
+        rows: vec![row(0.25), row(0.26), row(0.27)],
+        distances: vec![distance([0, 1]), distance([1, 2])],
+    };
+    assert!(set.check_distances().is_ok());
+    set.distances.push(distance([1, 0]));
+    assert_eq!(
+        set.check_distances().unwrap_err().to_string(),
+        "distance 2: joins rows 1 and 0, as distance 0 does: a distance given twice counts one \
+         measurement twice; keep one of them"
+    );
+}
