@@ -37,7 +37,16 @@ pub(super) fn run(args: &SelectArgs) -> anyhow::Result<Verdict> {
 pub(super) fn checked(args: &SelectArgs) -> anyhow::Result<(Option<usize>, Mechanism)> {
     let poses_per_leg = checks::poses_per_leg(args.poses_per_leg)?;
     checks::positive_metres("--grid", args.grid)?;
-    Ok((poses_per_leg, Mechanism::load(&args.model)?))
+    let mechanism = Mechanism::load(&args.model)?;
+    if mechanism.forward_instrument().is_some() && args.strategy != StrategyArg::Dc {
+        // It changed nothing, silently.
+        anyhow::bail!(
+            "--strategy: a model seen through the forward kinematics (`instrument.kinematics: \
+             forward`) has one set of rows, every leg's reading at each, selected for the \
+             joint problem of every leg and the instrument: drop --strategy"
+        );
+    }
+    Ok((poses_per_leg, mechanism))
 }
 
 /// The selected poses of a run of `legwise select`.

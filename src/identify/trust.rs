@@ -7,9 +7,21 @@
 //!   A non-finite value means the fit or its statistics broke down, whatever the solver said
 //!   about its own stopping;
 //! * no leg's residuals reject the declared measurement noise (the χ² test of
-//!   [`super::statistics`]): wrong units, outliers or a wrong model.
+//!   [`super::statistics`]): wrong units, outliers or a wrong model;
+//! * every estimate is one the model itself would accept ([`implausible_estimates`]): the model
+//!   loader's plausibility rules ([`Mechanism::refused_value`]), and no farther from its
+//!   nominal value than [`PERTURBATION_MULTIPLE`] times the perturbation the model declares
+//!   for it.
 
-use super::result::{InstrumentEstimate, LegEstimate, StrategyResult};
+use super::result::{InstrumentEstimate, LegEstimate, ParameterEstimate, StrategyResult};
+use crate::model::params::Unit;
+use crate::model::Mechanism;
+
+/// An estimate farther from its nominal value than this many times the model's declared
+/// perturbation of the parameter (its standard deviation) is not trusted: a Gaussian draw lies
+/// beyond 10 σ with probability 2e-23, so either the measurements do not determine the
+/// parameter or the model does not describe the mechanism measured.
+pub const PERTURBATION_MULTIPLE: f64 = 10.0;
 
 /// The reasons the results of an identification must not be trusted (empty: nothing found).
 /// Each names the strategy, the leg or solver run, and the values.
@@ -115,6 +127,105 @@ fn instrument_issues(issues: &mut Vec<String>, strategy: &str, instrument: &Inst
     }
 }
 
+/// The estimates of `result` the model would not accept, one line each naming the strategy,
+/// the leg (or the instrument), the parameter and why: a value the model loader refuses (the
+/// calibrated model would not load), or one farther from its nominal value than
+/// [`PERTURBATION_MULTIPLE`] times the model's declared perturbation of it (for a leg's
+/// parameter `simulation.perturbation` by its kind, or its distance to `simulation.real` if
+/// that is larger; for an instrument's, `instrument.frame.perturbation` or the target's
+/// `perturbation`). Held parameters and non-finite values (named by [`trust_issues`]) are
+/// skipped.
+pub fn implausible_estimates(mechanism: &Mechanism, result: &StrategyResult) -> Vec<String> {
+    let strategy = result.strategy.name();
+    let mut issues = Vec::new();
+    let simulation = mechanism.simulation.as_ref();
+    for leg in &result.legs {
+        for p in leg.parameters.iter().filter(|p| p.identified) {
+            let declared = simulation.and_then(|s| {
+                let (length, angle, gain) = s.perturbation?;
+                let sigma = match p.unit {
+                    Unit::One => gain,
+                    Unit::Radian => angle,
+                    Unit::Metre => length,
+                };
+                let real = s.real.get(&p.name).map_or(0.0, |r| (r - p.nominal).abs());
+                Some(sigma.max(real))
+            });
+            let place = format!("{strategy}, leg `{}`", leg.leg);
+            issues.extend(implausible(mechanism, &place, p, declared));
+        }
+    }
+    let shared = mechanism.instrument.as_ref().map(|i| &i.parameters);
+    if let (Some(estimate), Some(model)) = (&result.instrument, shared) {
+        for (p, declared) in estimate.parameters.iter().zip(model) {
+            if p.identified {
+                let place = format!("{strategy}, instrument");
+                issues.extend(implausible(
+                    mechanism,
+                    &place,
+                    p,
+                    Some(declared.perturbation),
+                ));
+            }
+        }
+    }
+    issues
+}
+
+/// Why the estimate `p` (of `place`) is implausible, if it is: refused by the loader, or more
+/// than [`PERTURBATION_MULTIPLE`] times `declared` (a standard deviation; none when 0) from its
+/// nominal value.
+fn implausible(
+    mechanism: &Mechanism,
+    place: &str,
+    p: &ParameterEstimate,
+    declared: Option<f64>,
+) -> Option<String> {
+    let value = p.estimate;
+    if !value.is_finite() {
+        return None;
+    }
+    // A value with its unit (a gain has none).
+    let shown = |v: f64| {
+        // Six significant digits, in scientific notation when huge or tiny.
+        let v: f64 = format!("{v:.5e}").parse().unwrap_or(v);
+        let number = match v.abs() {
+            a if a != 0.0 && !(1e-4..1e6).contains(&a) => format!("{v:e}"),
+            _ => format!("{v}"),
+        };
+        match p.unit {
+            Unit::One => number,
+            unit => format!("{number} {unit}"),
+        }
+    };
+    let name = &p.name;
+    let unknown = format!(
+        "either the measurements do not determine {name} (a reading that never changes? poses \
+         that do not move it?) or the mechanism measured is not the model's (a wrong nominal \
+         value, a unit mix-up)"
+    );
+    if let Some(reason) = mechanism.refused_value(p.unit, p.nominal, value) {
+        return Some(format!(
+            "{place}: {name} = {}: the model would refuse it ({reason}), and a calibrated model \
+             holding it would not load; {unknown}",
+            shown(value)
+        ));
+    }
+    let sigma = declared.filter(|&s| s > 0.0)?;
+    let distance = (value - p.nominal).abs();
+    (distance > PERTURBATION_MULTIPLE * sigma).then(|| {
+        format!(
+            "{place}: {name} = {} is {} from its nominal value {}, more than \
+             {PERTURBATION_MULTIPLE} times the perturbation the model declares for it (σ {}); \
+             {unknown}",
+            shown(value),
+            shown(distance),
+            shown(p.nominal),
+            shown(sigma)
+        )
+    })
+}
+
 /// The non-finite values of one leg's estimate, as `name value`.
 fn non_finite(leg: &LegEstimate) -> Vec<String> {
     let mut values = Vec::new();
@@ -207,6 +318,58 @@ mod tests {
             warnings: Vec::new(),
             instrument: None,
         }
+    }
+
+    #[test]
+    fn an_estimate_is_implausible_beyond_ten_declared_sigmas_or_the_loader_s_rules() {
+        // The 3-RPR declares perturbations of 2 mm, 2 mrad and 0.002 of a gain.
+        let path = concat!(env!("CARGO_MANIFEST_DIR"), "/models/3rpr.yaml");
+        let mechanism = Mechanism::load(std::path::Path::new(path)).unwrap();
+        let judged = |unit: Unit, nominal: f64, estimate: f64, identified: bool| {
+            let p = ParameterEstimate {
+                unit,
+                nominal,
+                ..parameter("a1x", estimate, Some(1e-4), identified)
+            };
+            implausible_estimates(&mechanism, &result(vec![p], 1e-8))
+        };
+        assert!(judged(Unit::Metre, 0.0, -0.0199, true).is_empty());
+        assert_eq!(
+            judged(Unit::Metre, 0.0, -0.0201, true),
+            [
+                "divide and conquer, leg `leg1`: a1x = -0.0201 m is 0.0201 m from its nominal \
+                 value 0 m, more than 10 times the perturbation the model declares for it (σ \
+                 0.002 m); either the measurements do not determine a1x (a reading that never \
+                 changes? poses that do not move it?) or the mechanism measured is not the \
+                 model's (a wrong nominal value, a unit mix-up)"
+            ]
+        );
+        assert!(judged(Unit::Metre, 0.0, 0.5, false).is_empty());
+        assert!(judged(Unit::One, 1.0, 1.0199, true).is_empty());
+        assert_eq!(judged(Unit::One, 1.0, 1.0201, true).len(), 1);
+        assert!(judged(Unit::Radian, 0.0, 0.0199, true).is_empty());
+        assert_eq!(judged(Unit::Radian, 0.0, 0.0201, true).len(), 1);
+        // The loader's rules first, whatever the perturbation.
+        let refused = judged(Unit::One, 1.0, 2e6, true);
+        assert_eq!(refused.len(), 1);
+        assert!(
+            refused[0].starts_with(
+                "divide and conquer, leg `leg1`: a1x = 2e6: the model would refuse it (2e6 is not \
+                 a plausible value;"
+            ),
+            "{refused:?}"
+        );
+        // Without a declared perturbation, the loader's rules alone.
+        let undeclared = mechanism.edited(|parts| {
+            if let Some(simulation) = parts.simulation.as_mut() {
+                simulation.perturbation = None;
+            }
+        });
+        let p = ParameterEstimate {
+            nominal: 0.0,
+            ..parameter("a1x", 0.5, Some(1e-4), true)
+        };
+        assert!(implausible_estimates(&undeclared, &result(vec![p], 1e-8)).is_empty());
     }
 
     #[test]

@@ -17,6 +17,7 @@
 //! of platform poses), with or without target coordinates (docs/models.md §10).
 //! Errors name the file, the line and the column.
 
+use std::collections::HashMap;
 use std::path::{Path, PathBuf};
 
 use super::checks::{mechanism_size, SIZE_FACTOR};
@@ -72,8 +73,8 @@ pub struct Observations {
 
 impl Observations {
     /// Checks every distance row: it joins two different rows of these observations and
-    /// measures a finite length (the reader checks a file's; observations made in memory are
-    /// checked here before use).
+    /// measures a finite length, and no two join the same rows (either way round) (the reader
+    /// checks a file's; observations made in memory are checked here before use).
     ///
     /// # Errors
     /// [`Error::Invalid`] naming the first bad distance (its line, or its index) and what it
@@ -92,6 +93,13 @@ impl Observations {
                     d.value
                 )));
             }
+        }
+        if let Some((k, first)) = repeated_pair(&self.distances) {
+            let [a, b] = self.distances[k].rows;
+            return Err(Error::Invalid(format!(
+                "distance {k}: joins rows {a} and {b}, as distance {first} does: a distance \
+                 given twice counts one measurement twice; keep one of them"
+            )));
         }
         Ok(())
     }
@@ -409,12 +417,63 @@ pub fn parse(text: &str, path: &Path, mechanism: &Mechanism) -> Result<Observati
     if rows.is_empty() {
         return Err(rows::no_rows(path));
     }
+    if instrument.forward {
+        repeated_rows(path, &rows)?;
+    }
     let distances = resolve_distances(path, &rows, pending)?;
     Ok(Observations {
         source: Some(path.to_path_buf()),
         rows,
         distances,
     })
+}
+
+/// A forward model's rows must differ: the same touch entered twice (under two ids, or none)
+/// counts the same measurement twice and makes the standard deviations too small.
+///
+/// # Errors
+/// The first row that repeats an earlier one exactly (target coordinates, readings and
+/// measured pose, bit for bit), naming both lines.
+fn repeated_rows(path: &Path, rows: &[ObservedRow]) -> Result<()> {
+    let mut seen: HashMap<Vec<u64>, usize> = HashMap::with_capacity(rows.len());
+    for (i, row) in rows.iter().enumerate() {
+        // Each part tagged by its length, so that rows of different kinds never share a key.
+        let mut key = vec![row.observed.len() as u64];
+        key.extend(row.observed.iter().map(|v| v.to_bits()));
+        key.extend(
+            row.readings
+                .iter()
+                .map(|r| r.map_or(u64::MAX, f64::to_bits)),
+        );
+        key.extend(row.pose.iter().flatten().map(|v| v.to_bits()));
+        if let Some(&first) = seen.get(&key) {
+            let name = |r: &ObservedRow| {
+                let line = r
+                    .line
+                    .map_or(String::from("a row"), |l| format!("line {l}"));
+                match &r.id {
+                    Some(id) => format!("{line} (id `{id}`)"),
+                    None => line,
+                }
+            };
+            let id = row
+                .id
+                .as_ref()
+                .map_or(String::new(), |id| format!(" (id `{id}`)"));
+            return Err(rows::fail(
+                path,
+                format!("line {}{id}", row.line.unwrap_or(i + 2)),
+                format!(
+                    "the row repeats {} exactly (the same target coordinates, readings and \
+                     measured pose): a touch entered twice counts one measurement twice and \
+                     makes the standard deviations too small; keep one of them",
+                    name(&rows[first])
+                ),
+            ));
+        }
+        seen.insert(key, i);
+    }
+    Ok(())
 }
 
 /// A distance row as read, its rows still named by their ids.
@@ -519,6 +578,26 @@ fn resolve_distances(
             })
         })
         .collect::<Result<Vec<_>>>()?;
+    if let Some((k, first)) = repeated_pair(&distances) {
+        let (d, earlier) = (&distances[k], &distances[first]);
+        let id = |r: usize| rows[r].id.clone().unwrap_or_default();
+        let reversed = match d.rows == earlier.rows {
+            true => "",
+            false => ", from and to reversed",
+        };
+        return Err(rows::fail(
+            path,
+            format!("line {}, column `from`", d.line.unwrap_or_default()),
+            format!(
+                "the distance between `{}` and `{}` is given already at line {}{reversed}: a \
+                 distance entered twice counts one measurement twice; keep one of them (or \
+                 their mean)",
+                id(d.rows[0]),
+                id(d.rows[1]),
+                earlier.line.unwrap_or_default()
+            ),
+        ));
+    }
     for (i, row) in rows.iter().enumerate() {
         let named = distances.iter().any(|d| d.rows.contains(&i));
         if row.observed.is_empty() && row.pose.is_none() && !named {
@@ -532,6 +611,20 @@ fn resolve_distances(
         }
     }
     Ok(distances)
+}
+
+/// The first distance (its index) that joins the same two rows as an earlier one (the earlier
+/// one's index), either way round.
+fn repeated_pair(distances: &[DistanceRow]) -> Option<(usize, usize)> {
+    let mut seen: HashMap<[usize; 2], usize> = HashMap::with_capacity(distances.len());
+    for (k, d) in distances.iter().enumerate() {
+        let [a, b] = d.rows;
+        if let Some(&first) = seen.get(&[a.min(b), a.max(b)]) {
+            return Some((k, first));
+        }
+        seen.insert([a.min(b), a.max(b)], k);
+    }
+    None
 }
 
 /// The readings the nominal model commands for the platform pose of measured coordinates

@@ -16,7 +16,7 @@ use super::observations::{instrument_of, DistanceRow, Observations, ObservedRow}
 use super::simulate::{gaussian, setup, simulate, SimulatedExperiment, SimulationOptions};
 use super::targets::{observe, target_position};
 use super::MeasurementSet;
-use crate::error::Result;
+use crate::error::{Error, Result};
 use crate::model::instrument::Instrument;
 use crate::model::mechanism::Simulation;
 use crate::model::Mechanism;
@@ -151,7 +151,7 @@ pub fn observed_from(
         .take(seen_rows)
         .map(|p| p.pose)
         .collect();
-    let distances = simulated_distances(instrument, &shared, &poses, options, &mut rng);
+    let distances = simulated_distances(mechanism, &shared, &poses, options, &mut rng)?;
     Ok(ObservedExperiment {
         real: experiment.real,
         real_shared: shared,
@@ -167,29 +167,47 @@ pub fn observed_from(
 /// The model's simulated distances (`instrument.distances.simulate` of them, noise times the
 /// scale): between distinct random pairs of rows, the real distance between the target's
 /// positions at their true poses `poses`, plus Gaussian noise.
+///
+/// # Errors
+/// More distances asked for than there are distinct pairs of rows (they were silently fewer).
 fn simulated_distances(
-    instrument: &Instrument,
+    mechanism: &Mechanism,
     shared: &[f64],
     poses: &[[f64; 6]],
     options: SimulationOptions,
     rng: &mut ChaCha8Rng,
-) -> Vec<DistanceRow> {
+) -> Result<Vec<DistanceRow>> {
+    let instrument = instrument_of(mechanism)?;
     let Some(distances) = &instrument.distances else {
-        return Vec::new();
+        return Ok(Vec::new());
     };
     let mut pairs: Vec<[usize; 2]> = Vec::new();
+    // The pairs drawn, for a membership test that stays fast for many distances.
+    let mut drawn = std::collections::HashSet::new();
     let possible = poses.len() * poses.len().saturating_sub(1) / 2;
-    while pairs.len() < distances.simulate.min(possible) {
+    if distances.simulate > possible {
+        return Err(Error::Model {
+            path: mechanism.model_path.clone(),
+            field: "instrument.distances.simulate".into(),
+            message: format!(
+                "{} distances between distinct pairs of {} simulated rows, which have {possible} \
+                 pairs: ask for at most {possible}, or simulate more rows",
+                distances.simulate,
+                poses.len()
+            ),
+        });
+    }
+    while pairs.len() < distances.simulate {
         let pair = [
             rng.random_range(0..poses.len()),
             rng.random_range(0..poses.len()),
         ];
         let sorted = [pair[0].min(pair[1]), pair[0].max(pair[1])];
-        if sorted[0] != sorted[1] && !pairs.contains(&sorted) {
+        if sorted[0] != sorted[1] && drawn.insert(sorted) {
             pairs.push(sorted);
         }
     }
-    pairs
+    Ok(pairs
         .into_iter()
         .map(|rows| {
             let [a, b] =
@@ -201,5 +219,5 @@ fn simulated_distances(
                 value: length + options.noise_scale * distances.noise * gaussian(rng),
             }
         })
-        .collect()
+        .collect())
 }

@@ -28,6 +28,7 @@ use crate::identify::estimate::identify_with;
 use crate::identify::held_test::held_frame_test;
 use crate::identify::result::{FitOptions, Strategy, StrategyResult};
 use crate::identify::shared_estimate::identify_shared;
+use crate::identify::trust::implausible_estimates;
 use crate::measure::Measurements;
 use crate::model::Mechanism;
 use crate::report::{AccuracyMaps, RealValues, Report};
@@ -118,6 +119,22 @@ fn identify_all<'m>(
 /// Measurements of the other kind than the model's, a strategy or option the pipeline does
 /// not offer, or the identification's error.
 pub fn identify_one(
+    mechanism: &Mechanism,
+    data: &Measurements,
+    strategy: Strategy,
+    solver: SolverKind,
+    fit: FitOptions,
+) -> Result<StrategyResult> {
+    let mut result = identify_by_kind(mechanism, data, strategy, solver, fit)?;
+    // Estimates the model would refuse are the result's warnings too (the verdict names them:
+    // `Report::trust_issues`).
+    let implausible = implausible_estimates(mechanism, &result);
+    result.warnings.extend(implausible);
+    Ok(result)
+}
+
+/// [`identify_one`] before the plausibility of its estimates is judged.
+fn identify_by_kind(
     mechanism: &Mechanism,
     data: &Measurements,
     strategy: Strategy,

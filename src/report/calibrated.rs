@@ -4,7 +4,9 @@
 //! Joint-origin parameters go into the URDF (`OUT.urdf`, beside `OUT.yaml` and named by its
 //! `urdf` field); actuator gains and offsets and platform attachments into the model file. The
 //! model file's header comments say where the values came from and give each parameter's σ.
-//! This module makes the texts; the command line writes them (never over an input).
+//! This module makes the texts; the command line writes them (never over an input). The texts
+//! are loaded as the model loader loads a model file before they are given out: a calibrated
+//! model that would not load is refused with the loader's reason, never written.
 
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
@@ -70,14 +72,18 @@ impl CalibratedModel {
     /// # Errors
     /// As [`calibrated_files`].
     pub fn files(&self, urdf_name: &str) -> Result<CalibratedFiles> {
-        let calibration = Calibration {
+        calibrated_files(&self.calibration(), urdf_name)
+    }
+
+    /// What the model is made from.
+    fn calibration(&self) -> Calibration<'_> {
+        Calibration {
             mechanism: &self.mechanism,
             result: &self.result,
             source: &self.source,
             real: self.real.as_ref(),
             note: self.note.as_deref(),
-        };
-        calibrated_files(&calibration, urdf_name)
+        }
     }
 }
 
@@ -99,6 +105,15 @@ impl Report<'_> {
             real: self.real.clone(),
             note,
         })
+    }
+
+    /// Why the calibrated model of this report would not load (the model loader's reason), if
+    /// it would not; `None` when it loads, and when there is no result or its texts cannot be
+    /// made (the model file cannot be read again).
+    pub fn calibrated_model_refused(&self) -> Option<String> {
+        let model = self.calibrated_model()?;
+        let files = texts(&model.calibration(), CHECK_URDF_NAME).ok()?;
+        refusal(&model.calibration(), &files, CHECK_URDF_NAME)
     }
 
     /// The files of [`Report::calibrated_model`], its model file naming the URDF `urdf_name`.
@@ -127,16 +142,52 @@ pub fn urdf_path(out: &Path) -> Result<PathBuf> {
 }
 
 /// The calibrated model file and URDF; the model file names the URDF `urdf_name` (a path
-/// relative to the model file: normally the file name of [`urdf_path`]).
+/// relative to the model file: normally the file name of [`urdf_path`]). Both are loaded as
+/// [`Mechanism::parse`] loads a model before they are given out.
 ///
 /// # Errors
-/// The model file or the URDF cannot be read again, or the model cannot be serialised.
+/// The model file or the URDF cannot be read again, or the model cannot be serialised;
+/// [`Error::Invalid`] with the loader's reason when the calibrated model would not load (an
+/// estimate the model refuses: a gain of 6.4e14, a length moved by more than the mechanism's
+/// size).
 pub fn calibrated_files(calibration: &Calibration<'_>, urdf_name: &str) -> Result<CalibratedFiles> {
+    let files = texts(calibration, urdf_name)?;
+    match refusal(calibration, &files, urdf_name) {
+        Some(reason) => Err(Error::Invalid(format!("{reason}; it is not written"))),
+        None => Ok(files),
+    }
+}
+
+/// The URDF name the calibrated model names when it is only checked, not written.
+const CHECK_URDF_NAME: &str = "calibrated.urdf";
+
+/// The calibrated model's texts, unchecked.
+fn texts(calibration: &Calibration<'_>, urdf_name: &str) -> Result<CalibratedFiles> {
     let values = calibrated_values(calibration);
     Ok(CalibratedFiles {
         urdf: calibrated_urdf(calibration.mechanism, calibration.source, &values)?,
         yaml: calibrated_yaml(calibration, &values, urdf_name)?,
     })
+}
+
+/// Why the model loader refuses the calibrated model `files` (its model file naming the URDF
+/// `urdf_name`), if it does: every check of [`Mechanism::parse`], the kinematic ones included.
+fn refusal(
+    calibration: &Calibration<'_>,
+    files: &CalibratedFiles,
+    urdf_name: &str,
+) -> Option<String> {
+    let yaml = Path::new("calibrated model");
+    let error = Mechanism::parse(&files.yaml, yaml, &files.urdf, Path::new(urdf_name)).err()?;
+    let reason = match error {
+        Error::Model { field, message, .. } => format!("field `{field}`: {message}"),
+        Error::Urdf { message, .. } => format!("its URDF: {message}"),
+        other => other.to_string(),
+    };
+    Some(format!(
+        "the calibrated model ({} result) would not load: {reason}",
+        calibration.result.strategy.name()
+    ))
 }
 
 /// A parameter's calibrated value, its σ and the σ's degrees of freedom.

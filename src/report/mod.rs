@@ -10,7 +10,7 @@ pub mod workspace;
 
 use crate::evaluate::accuracy::AccuracyMap;
 use crate::identify::estimate::{LegEstimate, Strategy, StrategyResult};
-use crate::identify::trust::trust_issues;
+use crate::identify::trust::{implausible_estimates, trust_issues};
 use crate::measure::Measurements;
 use crate::model::Mechanism;
 
@@ -136,6 +136,16 @@ impl Report<'_> {
     pub fn trust_issues(&self) -> Vec<String> {
         let mut issues = self.mechanism.warnings.clone();
         issues.extend(trust_issues(self.judged_results()));
+        let implausible: Vec<String> = self
+            .judged_results()
+            .iter()
+            .flat_map(|result| implausible_estimates(self.mechanism, result))
+            .collect();
+        // An implausible estimate is the reason a calibrated model would not load: named once.
+        if implausible.is_empty() {
+            issues.extend(self.calibrated_model_refused());
+        }
+        issues.extend(implausible);
         issues
     }
 

@@ -18,6 +18,7 @@ mod forward_observations;
 mod fuzz;
 mod golden;
 mod hostile_inputs;
+mod implausible;
 mod in_memory;
 mod instrument_cli;
 mod instrument_commands;

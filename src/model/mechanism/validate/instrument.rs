@@ -3,6 +3,7 @@
 
 use std::collections::HashSet;
 
+use super::scale::mechanism_size;
 use super::Builder;
 use crate::error::Result;
 use crate::model::instrument::{
@@ -10,6 +11,7 @@ use crate::model::instrument::{
     PLANAR_FRAME, PLANAR_OFFSET, SPATIAL_FRAME, SPATIAL_OFFSET,
 };
 use crate::model::leg::LegModel;
+use crate::model::mechanism::MAX_POSES_PER_LEG;
 use crate::model::params::Unit;
 
 impl Builder<'_> {
@@ -44,6 +46,10 @@ impl Builder<'_> {
         };
         let mut parameters = self.frame(entry, frame_components)?;
         self.frame_scale(&parameters, legs)?;
+        if let Some(length) = entry.frame.perturbation.map(|p| p.length) {
+            let field = "instrument.frame.perturbation.length";
+            self.within_size(field, "a standard deviation", length, legs)?;
+        }
         let mut targets = Vec::new();
         let several = entry.targets.len() > 1;
         let mut offsets = Vec::new();
@@ -98,6 +104,8 @@ impl Builder<'_> {
                     format!("expected finite numbers (metres), found {value}"),
                 ));
             }
+            let reach = target.offset.iter().map(|v| v * v).sum::<f64>().sqrt();
+            self.within_size(&format!("{field}.offset"), "an offset", reach, legs)?;
             let identified = self.components(
                 &format!("{field}.identify"),
                 target.identify.as_deref(),
@@ -110,6 +118,8 @@ impl Builder<'_> {
                     format!("expected a non-negative standard deviation (metres), found {sigma}"),
                 ));
             }
+            let what = "a standard deviation";
+            self.within_size(&format!("{field}.perturbation"), what, sigma, legs)?;
             for (c, component) in offset_components.iter().enumerate() {
                 let suffix = if several {
                     format!("_{name}")
@@ -146,6 +156,12 @@ impl Builder<'_> {
                         ),
                     ));
                 }
+                self.within_size(
+                    &format!("{field}.touch"),
+                    "a touch value",
+                    touch.abs(),
+                    legs,
+                )?;
             }
             targets.push(Target {
                 name: name.to_string(),
@@ -192,7 +208,15 @@ impl Builder<'_> {
             }
         }
         let distances = self.distances(entry, forward, &targets)?;
+        if let Some(d) = &distances {
+            let field = "instrument.distances.noise";
+            self.within_size(field, "a standard deviation", d.noise, legs)?;
+            self.at_most("instrument.distances.simulate", d.simulate)?;
+        }
         let poses = self.measured_poses(entry, forward, measured)?;
+        if let Some(p) = &poses {
+            self.at_most("instrument.poses.simulate", p.simulate)?;
+        }
         let tolerance = match entry.tolerance {
             None => None,
             Some(t) if forward && t.is_finite() && t > 0.0 => Some(t),
@@ -206,6 +230,9 @@ impl Builder<'_> {
                 ))
             }
         };
+        if let Some(t) = tolerance {
+            self.within_size("instrument.tolerance", "a tolerance", t, legs)?;
+        }
         Ok(Some(Instrument {
             parameters,
             targets,
@@ -216,6 +243,36 @@ impl Builder<'_> {
             poses,
             tolerance,
         }))
+    }
+
+    /// A length of the instrument block (`what`, with its article; metres, at `field`) held to the mechanism's
+    /// size (its longest leg), as `simulation.perturbation.length` is: a touch value, an offset
+    /// or a tolerance written in millimetres (`touch: 2.0`, `tolerance: 100`) passed without a
+    /// word.
+    fn within_size(&self, field: &str, what: &str, value: f64, legs: &[LegModel]) -> Result<()> {
+        let size = mechanism_size(legs);
+        if size > 0.0 && value > size {
+            return Err(self.error(
+                field,
+                format!(
+                    "{what} of {value} m is more than the mechanism's size ({size:.3} m): \
+                     millimetres instead of metres? (every length of a model file is in metres)"
+                ),
+            ));
+        }
+        Ok(())
+    }
+
+    /// A simulation count of the instrument block (at `field`) held to
+    /// [`MAX_POSES_PER_LEG`], as the simulation's own counts are.
+    fn at_most(&self, field: &str, count: usize) -> Result<()> {
+        if count > MAX_POSES_PER_LEG {
+            return Err(self.error(
+                field,
+                format!("expected at most {MAX_POSES_PER_LEG} (as every simulated count), found {count}"),
+            ));
+        }
+        Ok(())
     }
 
     /// The `distances` block: forward only, a known target, a positive noise.

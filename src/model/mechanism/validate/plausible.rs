@@ -6,15 +6,23 @@
 //!   of the home pose, of a workspace range or of the instrument frame, and a URDF joint
 //!   origin's `rpy` in a leg's chain) is accepted with a warning: degrees instead of radians?
 //!   The measurement checks apply the same rule to readings.
+//!
+//! [`Mechanism::refused_value`] applies the rules the loader applies to a parameter's value
+//! (its magnitude, a gain's, a length's distance from nominal) to any value, such as an
+//! identified one: an estimate the model itself would refuse is not a calibration.
 
 use std::f64::consts::TAU;
 
 use serde_json::Value;
 
+use super::legs::{tiny_gain, MIN_GAIN};
+use super::scale::mechanism_size;
 use super::Builder;
 use crate::error::Result;
 use crate::model::file::ModelFile;
 use crate::model::leg::LegModel;
+use crate::model::params::Unit;
+use crate::model::Mechanism;
 
 /// Largest magnitude of a real value in a model file: a million metres, radians or gain.
 pub(super) const MAX_MAGNITUDE: f64 = 1e6;
@@ -29,15 +37,50 @@ impl Builder<'_> {
         // The file as a tree of values: every field with its path, whatever its type.
         let tree = serde_json::to_value(file).unwrap_or(Value::Null);
         match beyond(&tree, String::new()) {
-            Some((field, value)) => Err(self.error(
-                field,
-                format!(
-                    "{value:e} is not a plausible value; legwise reads metres, radians and \
-                     gains, and expects magnitudes up to {MAX_MAGNITUDE:e}"
-                ),
-            )),
+            Some((field, value)) => Err(self.error(field, too_large(value).unwrap_or_default())),
             None => Ok(()),
         }
+    }
+}
+
+/// Why the loader refuses `value`, of magnitude beyond [`MAX_MAGNITUDE`] (the text of
+/// [`Builder::magnitudes`]).
+fn too_large(value: f64) -> Option<String> {
+    (value.abs() > MAX_MAGNITUDE).then(|| {
+        format!(
+            "{value:e} is not a plausible value; legwise reads metres, radians and gains, and \
+             expects magnitudes up to {MAX_MAGNITUDE:e}"
+        )
+    })
+}
+
+/// Why the loader refuses the length `value` (metres), more than the mechanism's size `size`
+/// from its nominal value `nominal` (the rule of `simulation.real`).
+pub(super) fn far_from_nominal(value: f64, nominal: f64, size: f64) -> Option<String> {
+    ((value - nominal).abs() > size).then(|| {
+        format!(
+            "{value} m is {} m from the nominal value {nominal} m, more than the mechanism's \
+             size ({size:.3} m): millimetres instead of metres?",
+            (value - nominal).abs()
+        )
+    })
+}
+
+impl Mechanism {
+    /// Why the model loader would refuse `value` for a parameter of unit `unit` and nominal
+    /// value `nominal` (`None`: it would load): a magnitude beyond [`MAX_MAGNITUDE`], a gain (the
+    /// one dimensionless kind of parameter) below 1e-6 in magnitude, a length more than the
+    /// mechanism's size (its longest leg) from its nominal value. Non-finite values are left
+    /// to the caller.
+    pub fn refused_value(&self, unit: Unit, nominal: f64, value: f64) -> Option<String> {
+        if !value.is_finite() {
+            return None;
+        }
+        too_large(value).or_else(|| match unit {
+            Unit::One => (value.abs() < MIN_GAIN).then(|| tiny_gain(value)),
+            Unit::Metre => far_from_nominal(value, nominal, mechanism_size(&self.legs)),
+            Unit::Radian => None,
+        })
     }
 }
 
@@ -145,9 +188,38 @@ fn degree_warnings(file: &ModelFile, legs: &[LegModel]) -> Vec<String> {
 
 #[cfg(test)]
 mod tests {
+    use std::path::Path;
+
     use serde_json::json;
 
-    use super::{beyond, MAX_MAGNITUDE};
+    use super::{beyond, mechanism_size, MAX_MAGNITUDE};
+    use crate::model::params::Unit;
+    use crate::model::Mechanism;
+
+    #[test]
+    fn a_value_is_refused_by_the_loader_s_rules_only_beyond_their_limits() {
+        let path = concat!(env!("CARGO_MANIFEST_DIR"), "/models/5r.yaml");
+        let m = Mechanism::load(Path::new(path)).unwrap();
+        let size = mechanism_size(&m.legs);
+        // Magnitude: any kind, up to 1e6.
+        assert_eq!(m.refused_value(Unit::Radian, 0.0, -MAX_MAGNITUDE), None);
+        let large = m.refused_value(Unit::Radian, 0.0, 1.5e6).unwrap();
+        assert!(
+            large.starts_with("1.5e6 is not a plausible value"),
+            "{large}"
+        );
+        // A gain: at least 1e-6 in magnitude, either sign.
+        assert_eq!(m.refused_value(Unit::One, 1.0, -1e-6), None);
+        let tiny = m.refused_value(Unit::One, 1.0, 9e-7).unwrap();
+        assert!(tiny.starts_with("9e-7 is not a plausible gain"), "{tiny}");
+        // A length: within the mechanism's size of its nominal value.
+        assert_eq!(m.refused_value(Unit::Metre, 0.0, size), None);
+        let far = m.refused_value(Unit::Metre, 0.0, -1.01 * size).unwrap();
+        assert!(far.ends_with("millimetres instead of metres?"), "{far}");
+        assert_eq!(m.refused_value(Unit::Radian, 0.0, -1.01 * size), None);
+        // Non-finite values are named elsewhere.
+        assert_eq!(m.refused_value(Unit::One, 1.0, f64::NAN), None);
+    }
 
     #[test]
     fn a_value_is_absurd_only_beyond_the_largest_magnitude_and_is_named_by_its_path() {

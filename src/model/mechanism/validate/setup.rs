@@ -1,6 +1,7 @@
 //! The simulation and pose selection set-ups.
 
 use super::legs::{tiny_gain, MIN_GAIN};
+use super::plausible::far_from_nominal;
 use super::scale::mechanism_size;
 use super::Builder;
 use crate::error::Result;
@@ -102,18 +103,10 @@ impl Builder<'_> {
             return Err(self.error(field, tiny_gain(value)));
         }
         let size = mechanism_size(legs);
-        if param.unit == Unit::Metre && (value - param.nominal).abs() > size {
-            return Err(self.error(
-                field,
-                format!(
-                    "{value} m is {} m from the nominal value {} m, more than the mechanism's \
-                     size ({size:.3} m): millimetres instead of metres?",
-                    (value - param.nominal).abs(),
-                    param.nominal
-                ),
-            ));
+        match far_from_nominal(value, param.nominal, size) {
+            Some(message) if param.unit == Unit::Metre => Err(self.error(field, message)),
+            _ => Ok(()),
         }
-        Ok(())
     }
 
     pub(super) fn selection(
