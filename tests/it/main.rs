@@ -35,6 +35,7 @@ mod instrument_trust;
 mod inverse_kinematics;
 mod jacobian;
 mod kinematics;
+mod library_example;
 mod lm_behaviour;
 mod mgh;
 mod mixed_observations;

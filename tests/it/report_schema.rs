@@ -42,13 +42,15 @@ const TOP: [&str; 10] = [
     // Written with --map only.
     "accuracy_map_before",
 ];
-const RESULT: [&str; 9] = [
+const RESULT: [&str; 11] = [
     "strategy",
     "solver",
     "weights",
     "robust",
     "drop_outliers",
     "warnings",
+    "trusted",
+    "trust_issues",
     "instrument",
     "legs",
     "fixed_legs",
