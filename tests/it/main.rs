@@ -5,6 +5,7 @@ mod calibrated;
 mod chain;
 mod checks_prismatic;
 mod cli;
+mod doc_commands;
 mod estimate_options;
 mod evaluate;
 mod evaluate_values;
