@@ -1,4 +1,5 @@
-//! legwise from Rust: identify a mechanism from a measurement CSV and print each parameter ± σ.
+//! legwise from Rust: identify a mechanism from a measurement CSV and print each result's
+//! verdict and each parameter ± σ; the run's verdict (the command's exit 3) last.
 //!
 //! ```sh
 //! cargo run --example library                                  # the 5R, divide and conquer
@@ -12,11 +13,13 @@ fn main() -> Result<(), legwise::Error> {
     let data = Measurements::read(arg(2, "examples/data/5r.csv").as_ref(), &mechanism)?;
     let report = identify(&mechanism, &data, &Settings::default())?;
     for result in &report.results {
-        println!("{} (trusted: {})", result.strategy.name(), report.trusted());
+        let trusted = report.result_trusted(result);
+        println!("{} (trusted: {trusted})", result.strategy.name());
         for p in result.parameters().filter(|p| p.identified) {
             let (name, value, std) = (&p.name, p.estimate, p.std.unwrap_or(f64::NAN));
             println!("  {name:<10} {value:>12.6} ± {std:.1e} {}", p.unit);
         }
     }
+    println!("run trusted: {}", report.trusted());
     Ok(())
 }

@@ -5,7 +5,8 @@
 # `cargo run --release -- ARGS` runs as the release binary with ARGS, in a scratch directory
 # holding the repository's models/ and examples/ (so the files the commands write, such as
 # tracker.csv or poses.csv, do not land in the clone). `cargo test` is skipped: CI runs it
-# itself. Comment lines, and commented-out commands, are skipped.
+# itself; so is `cargo install --path .` (the release build below). Comment lines, and
+# commented-out commands, are skipped.
 #
 # Usage: tools/readme_commands.sh [README]   (from anywhere; CI runs it after `cargo test`)
 set -euo pipefail
@@ -29,6 +30,7 @@ count=0
 for command in "${commands[@]}"; do
   case "$command" in
     "cargo test"*) echo "readme: skipped (CI runs it): $command"; continue ;;
+    "cargo install --path ."*) echo "readme: skipped (the release build above is it): $command"; continue ;;
     "cargo run --release -- "*) args="${command#cargo run --release -- }" ;;
     *) echo "readme: not a legwise command this script knows how to run: $command" >&2; exit 1 ;;
   esac

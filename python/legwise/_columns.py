@@ -6,7 +6,8 @@ from __future__ import annotations
 import csv as _csv
 import io
 import math
-from typing import Any, Dict, Mapping
+import numbers
+from typing import Any, Dict, List, Mapping, Tuple
 
 import numpy as np
 
@@ -41,24 +42,74 @@ def read_csv_text(text: str) -> Columns:
     return columns
 
 
-def _cell(value: Any) -> str:
-    """A CSV cell: numbers at full precision (shortest round trip), NaN or None empty."""
+def _refused(name: str, what: str, value: Any) -> LegwiseError:
+    """The error of a column whose cells are not numbers or text: the column, what it holds
+    and its first such value, on one line."""
+    return LegwiseError(
+        f"measurements: column `{name}` holds {what} (first: {value!r}); expected numbers in "
+        "SI units, or text for `leg`, `id`, `from` and `to`"
+    )
+
+
+def _is_bool(value: Any) -> bool:
+    return isinstance(value, (bool, np.bool_))
+
+
+def _cell(name: str, value: Any) -> str:
+    """A CSV cell of column `name`: text as it is, numbers at full precision (shortest round
+    trip), NaN or None empty; anything else (booleans, bytes, complex numbers, dates) refused
+    naming the column."""
     if value is None:
         return ""
     if isinstance(value, str):
         return value
+    if _is_bool(value):
+        raise _refused(name, "booleans", value)
+    if not isinstance(value, numbers.Real):
+        raise _refused(name, f"values of type {type(value).__name__}", value)
     number = float(value)
     if math.isnan(number):
         return ""
     return repr(number)
 
 
-def _columns(measurements: Any) -> Dict[str, np.ndarray]:
-    """A dict of column name to 1-D array from a dict or a pandas DataFrame."""
-    if hasattr(measurements, "to_dict") and hasattr(measurements, "columns"):
-        return {str(c): np.asarray(measurements[c]) for c in measurements.columns}
+#: What a column of each numpy kind that is neither numbers nor text holds, in words.
+_REFUSED_KINDS = {
+    "b": "booleans",
+    "c": "complex numbers",
+    "S": "bytes",
+    "M": "dates",
+    "m": "time spans",
+    "V": "raw records",
+}
+
+
+def _column_cells(name: str, values: np.ndarray) -> list:
+    """One column's cells for the library: a list of floats for a number column, else a list
+    of text cells; a column of booleans, bytes, complex numbers or dates is refused."""
+    if np.ndim(values) != 1:
+        raise LegwiseError(
+            f"measurements: column `{name}` has {np.ndim(values)} dimensions (shape "
+            f"{np.shape(values)}); expected 1"
+        )
+    if values.dtype.kind in "fiu":
+        return values.tolist()
+    if values.dtype.kind in _REFUSED_KINDS:
+        first = values[0] if len(values) else None
+        raise _refused(name, f"{_REFUSED_KINDS[values.dtype.kind]} ({values.dtype})", first)
+    return [_cell(name, v) for v in values.tolist()]
+
+
+def _columns(measurements: Any) -> List[Tuple[str, np.ndarray]]:
+    """(column name, 1-D array) pairs, in order, from a dict or a pandas DataFrame (whose
+    columns are taken by position: two of one name reach the reader, which names them)."""
+    if hasattr(measurements, "iloc") and hasattr(measurements, "columns"):
+        return [
+            (str(c), np.asarray(measurements.iloc[:, k]))
+            for k, c in enumerate(measurements.columns)
+        ]
     if isinstance(measurements, Mapping):
-        return {str(k): np.asarray(v) for k, v in measurements.items()}
+        return [(str(k), np.asarray(v)) for k, v in measurements.items()]
     raise LegwiseError(
         "measurements: expected a CSV path, a dict of column name to 1-D array, or a pandas "
         f"DataFrame; found {type(measurements).__name__}"
@@ -69,13 +120,5 @@ def csv_text(measurements: Any) -> str:
     """The CSV text of columns (the layout of docs/models.md, "The measurement CSV"): float
     columns cross to the library as lists of numbers, written there at full precision."""
     columns = _columns(measurements)
-    for name, values in columns.items():
-        if np.ndim(values) != 1:
-            raise LegwiseError(
-                f"measurements: column `{name}` has {np.ndim(values)} dimensions; expected 1"
-            )
-    cells = [
-        values.tolist() if values.dtype.kind in "fiu" else [_cell(v) for v in values.tolist()]
-        for values in columns.values()
-    ]
-    return _native.columns_csv(list(columns), cells)
+    cells = [_column_cells(name, values) for name, values in columns]
+    return _native.columns_csv([name for name, _ in columns], cells)

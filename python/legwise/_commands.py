@@ -7,9 +7,12 @@ import json
 import os
 from typing import Any, List, Mapping, Optional, Union
 
+import numpy as np
+
 from . import _native
 from ._columns import Columns, csv_text, read_csv_text
 from ._reports import Evaluation, Report
+from ._words import path, word
 
 Measurements = Union[str, "os.PathLike[str]", Mapping[str, Any], Any]
 """A CSV path, or columns: a dict of column name to 1-D array, or a pandas DataFrame."""
@@ -23,12 +26,12 @@ def _arguments(options: Mapping[str, Any]) -> List[str]:
     words: List[str] = []
     for key, value in options.items():
         flag = "--" + key.replace("_", "-")
-        if value is None or value is False:
+        if value is None or value is False or value is np.False_:
             continue
-        if value is True:
+        if value is True or value is np.True_:
             words.append(flag)
         else:
-            words.extend([flag, str(value)])
+            words.extend([flag, word(key, value)])
     return words
 
 
@@ -51,15 +54,11 @@ def identify(
 
     Raises :class:`LegwiseError` with legwise's message for bad input or usage.
     """
-    arguments = ["--model", os.fspath(model)]
-    if strategy is not None:
-        arguments += ["--strategy", strategy]
-    if solver is not None:
-        arguments += ["--solver", solver]
-    arguments += _arguments(options)
+    arguments = ["--model", path("model", model)]
+    arguments += _arguments({"strategy": strategy, "solver": solver, **options})
     csv = None
     if isinstance(measurements, (str, os.PathLike)):
-        arguments += ["--measurements", os.fspath(measurements)]
+        arguments += ["--measurements", path("measurements", measurements)]
     elif measurements is not None:
         csv = csv_text(measurements)
     return Report(_native.identify(arguments, csv))
@@ -70,7 +69,7 @@ def simulate(model: Model, **options: Any) -> Columns:
     (:func:`read_csv_text`; ``.text`` describes the simulation): ``options`` are the command's
     (``seed=11``, ``noise_scale=0``, ``poses="random"``, ``poses_per_leg=20``…). The result
     can be passed to :func:`identify` as its measurements."""
-    csv, source = _native.simulate(["--model", os.fspath(model)] + _arguments(options))
+    csv, source = _native.simulate(["--model", path("model", model)] + _arguments(options))
     columns = read_csv_text(csv)
     columns.text = source
     return columns
@@ -82,7 +81,7 @@ def select(model: Model, **options: Any) -> Columns:
     command's report of the selection. ``options`` are the command's: ``strategy`` (``"dc"``
     per-leg sets, ``"traditional"`` one shared set, ``"both"``), ``grid`` (metres),
     ``poses_per_leg``, ``criterion`` (``"d"``, ``"a"``, ``"e"``)."""
-    csv, text = _native.select(["--model", os.fspath(model)] + _arguments(options))
+    csv, text = _native.select(["--model", path("model", model)] + _arguments(options))
     columns = read_csv_text(csv)
     columns.text = text
     return columns
@@ -97,12 +96,12 @@ def evaluate(
     DataFrame), typically held out of the fit: the report of ``legwise evaluate --json``
     (pose errors by forward kinematics from the readings, each leg's reading residuals), with
     ``against`` (another model, typically the nominal one) side by side."""
-    arguments = ["--model", os.fspath(model)]
+    arguments = ["--model", path("model", model)]
     if against is not None:
-        arguments += ["--against", os.fspath(against)]
+        arguments += ["--against", path("against", against)]
     csv = None
     if isinstance(measurements, (str, os.PathLike)):
-        arguments += ["--measurements", os.fspath(measurements)]
+        arguments += ["--measurements", path("measurements", measurements)]
     else:
         csv = csv_text(measurements)
     report, text, warnings = _native.evaluate(arguments, csv)

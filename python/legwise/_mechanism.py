@@ -10,6 +10,7 @@ from . import _native
 from ._columns import Columns
 from ._commands import Measurements, Model, evaluate, identify, select, simulate
 from ._reports import Evaluation, Report
+from ._words import path as path_text
 
 class Parameter(NamedTuple):
     """A parameter of a model: its nominal value (SI units), whether it is identified or held
@@ -32,7 +33,7 @@ class Mechanism(os.PathLike):  # type: ignore[type-arg]
     each command), so its path is kept as given."""
 
     def __init__(self, path: Union[str, "os.PathLike[str]"]):
-        self.path: str = os.fspath(path)
+        self.path: str = path_text("Mechanism", path)
         """The model file, as given."""
         description = json.loads(_native.describe(self.path))
         self.description: Dict[str, Any] = description

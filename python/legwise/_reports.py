@@ -9,6 +9,7 @@ from typing import Any, Dict, List, Optional, Tuple, Union
 import numpy as np
 
 from ._errors import LegwiseError
+from ._words import path as path_text
 
 class Report:
     """The result of :func:`identify`: the JSON report and its views."""
@@ -73,7 +74,7 @@ class Report:
 
         Raises :class:`LegwiseError` when the result must not be trusted (the reasons are in
         the message), or when a path would overwrite an input."""
-        return self._native.write_calibrated(os.fspath(path))
+        return self._native.write_calibrated(path_text("write_calibrated", path))
 
 
 class Evaluation(Dict[str, Any]):

@@ -38,7 +38,7 @@ pub(super) fn run(args: &EvaluateArgs) -> anyhow::Result<Verdict> {
         let model = file_name(&args.model);
         let mut drawn = Vec::from_iter(other_name.as_deref().zip(against.as_ref()));
         drawn.push((model.as_str(), &evaluation));
-        Ok(vec![evaluate_picture(&drawn, format)?])
+        Ok(vec![evaluate_picture(&models.model, &drawn, format)?])
     })?;
     console.print(&evaluation_text(
         &models.model,

@@ -8,6 +8,7 @@ use super::args::{Cli, Command};
 use super::evaluate::Models;
 use super::identify::{check_map, prepared, read, write_calibrated};
 use super::outputs::{input, model_inputs};
+use super::usage::usage_line;
 use crate::files::Output;
 use crate::measure::Measurements;
 use crate::model::Mechanism;
@@ -22,12 +23,16 @@ pub const MEMORY_NAME: &str = "<memory>";
 /// line's parser.
 ///
 /// # Errors
-/// A usage error, with clap's message.
+/// A usage error, on one line as the command line prints it.
 fn parsed(words: &[&str], arguments: &[String]) -> anyhow::Result<Command> {
     use clap::Parser;
-    let words = ["legwise"].iter().chain(words).map(|w| w.to_string());
-    let cli = Cli::try_parse_from(words.chain(arguments.iter().cloned()))
-        .map_err(|e| anyhow::anyhow!("{}", e.render().to_string().trim_end()))?;
+    let words: Vec<String> = words
+        .iter()
+        .map(|w| w.to_string())
+        .chain(arguments.iter().cloned())
+        .collect();
+    let cli = Cli::try_parse_from(std::iter::once("legwise".to_string()).chain(words.clone()))
+        .map_err(|e| anyhow::anyhow!("{}", usage_line(&e, &words)))?;
     Ok(cli.command)
 }
 

@@ -13,6 +13,7 @@ mod montecarlo;
 mod outputs;
 mod select;
 mod simulate;
+mod usage;
 mod verdict;
 mod workspace;
 
@@ -21,6 +22,7 @@ pub use in_memory::{
     evaluate_in_memory, identify_in_memory, select_in_memory, simulate_in_memory, EvaluateOutputs,
     IdentifyOutputs, MEMORY_NAME,
 };
+pub use usage::{command_name, usage_line};
 pub use verdict::Verdict;
 
 /// Runs a parsed command line.

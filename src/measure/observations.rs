@@ -304,6 +304,17 @@ pub fn parse(text: &str, path: &Path, mechanism: &Mechanism) -> Result<Observati
             .filter(|c| !c.is_empty())
             .map(str::to_string);
         if let [Some(from), Some(to), Some(distance)] = distance_columns {
+            let names_rows = !(cell(from).is_empty() && cell(to).is_empty());
+            if names_rows && cell(distance).is_empty() {
+                return Err(fail(
+                    format!("line {line}, column `distance`"),
+                    format!(
+                        "missing distance: the row names `from` `{}` and `to` `{}`, a distance                          row; expected the distance measured between them in metres",
+                        cell(from),
+                        cell(to)
+                    ),
+                ));
+            }
             if !cell(distance).is_empty() {
                 let cells = (cell(from), cell(to), cell(distance));
                 let mut other = target_columns.iter().chain(&reading_columns).copied();

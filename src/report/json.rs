@@ -124,6 +124,8 @@ struct ResultJson<'a> {
     robust: Option<&'static str>,
     drop_outliers: bool,
     warnings: Vec<String>,
+    trusted: bool,
+    trust_issues: Vec<String>,
     instrument: Option<InstrumentJson<'a>>,
     legs: Vec<LegJson<'a>>,
     fixed_legs: Vec<String>,
@@ -189,6 +191,7 @@ impl<'a> ResultJson<'a> {
         result: &'a StrategyResult,
         map: Option<&'a AccuracyMap>,
     ) -> Self {
+        let trust_issues = report.result_trust_issues(result);
         ResultJson {
             strategy: result.strategy.name(),
             solver: result.solver.short_name(),
@@ -199,6 +202,8 @@ impl<'a> ResultJson<'a> {
             robust: result.options.robust.map(|r| r.name()),
             drop_outliers: result.options.drop_outliers,
             warnings: result_warnings(result),
+            trusted: trust_issues.is_empty(),
+            trust_issues,
             instrument: result
                 .instrument
                 .as_ref()

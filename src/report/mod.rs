@@ -149,6 +149,23 @@ impl Report<'_> {
         issues
     }
 
+    /// The reasons `result` (one of [`Self::results`]) must not be trusted on its own (empty:
+    /// nothing found), by the rules of [`Self::trust_issues`]: the model's warnings, then what
+    /// speaks against this result. Unlike the run's verdict, a comparison result (the
+    /// two-stage identification through an instrument) is judged too.
+    pub fn result_trust_issues(&self, result: &StrategyResult) -> Vec<String> {
+        let mut issues = self.mechanism.warnings.clone();
+        issues.extend(trust_issues(std::slice::from_ref(result)));
+        issues.extend(implausible_estimates(self.mechanism, result));
+        issues
+    }
+
+    /// Whether nothing speaks against `result` on its own ([`Self::result_trust_issues`] is
+    /// empty): the verdict to print beside that result, where [`Self::trusted`] is the run's.
+    pub fn result_trusted(&self, result: &StrategyResult) -> bool {
+        self.result_trust_issues(result).is_empty()
+    }
+
     /// Whether nothing speaks against the result ([`Self::trust_issues`] is empty).
     pub fn trusted(&self) -> bool {
         self.trust_issues().is_empty()

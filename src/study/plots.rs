@@ -111,7 +111,7 @@ impl Figure for Histograms {
                 .build_cartesian_2d(lo..hi, 0.0..top.max(1e-9))?;
             chart
                 .configure_mesh()
-                .x_labels(4)
+                .x_labels(style::label_count(lo, hi, 4))
                 .y_labels(4)
                 .y_desc("fraction of trials")
                 .x_label_formatter(&|v| style::tick(*v, hi - lo))

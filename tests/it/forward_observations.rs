@@ -456,6 +456,38 @@ fn distance_rows_round_trip_through_the_csv_and_name_missing_rows() {
     assert!(message.contains("line 3, column `to`"), "{message}");
 }
 
+/// A distance row whose distance is empty (a NaN from Python) is named by its `distance` cell,
+/// not as a missing reading of the first leg.
+#[test]
+fn a_distance_row_without_its_distance_names_the_distance_column() {
+    let mechanism = bundled("delta-probe-distances.yaml");
+    let (observations, _, _) = experiment(&mechanism, 1.0);
+    let text = observations::to_csv(&mechanism, &observations).unwrap();
+    let mut lines: Vec<&str> = text.lines().collect();
+    // The columns end with `from`, `to`, `distance`: a distance row names a `to`.
+    let at = lines
+        .iter()
+        .position(|l| {
+            l.rsplit(',')
+                .nth(1)
+                .is_some_and(|to| !to.is_empty() && to != "to")
+        })
+        .expect("a distance row");
+    let emptied = lines[at].rsplit_once(',').unwrap().0.to_string() + ",";
+    lines[at] = &emptied;
+    let path = std::path::Path::new("distances.csv");
+    let message = observations::parse(&(lines.join("\n") + "\n"), path, &mechanism)
+        .expect_err("a distance row without its distance")
+        .to_string();
+    assert!(
+        message.starts_with(&format!(
+            "distances.csv: line {}, column `distance`: missing distance",
+            at + 1
+        )),
+        "{message}"
+    );
+}
+
 #[test]
 fn readings_may_be_logged_as_the_commanded_pose_of_the_nominal_model() {
     use legwise::kinematics::platform::forward;

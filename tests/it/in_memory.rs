@@ -67,7 +67,20 @@ fn in_memory_the_options_that_write_files_and_bad_input_are_refused() {
         None,
     )
     .expect_err("a usage error");
-    assert!(error.to_string().contains("nonsense"), "{error}");
+    // The command line's own line (after `legwise: `), not clap's multi-line block.
+    let command = std::process::Command::new(env!("CARGO_BIN_EXE_legwise"))
+        .args(["identify", "--model", model, "--strategy", "nonsense"])
+        .output()
+        .unwrap();
+    assert_eq!(
+        String::from_utf8_lossy(&command.stderr),
+        format!("legwise: {error}\n")
+    );
+    assert!(
+        error.to_string().contains("'nonsense' for '--strategy")
+            && error.to_string().ends_with("see `legwise identify --help`"),
+        "{error}"
+    );
     let bad = "leg,x,y,A1,A2\nleg1,0.1,twelve,0.2,\n";
     let error =
         identify_in_memory(&arguments(&["--model", model]), Some(bad)).expect_err("a bad cell");

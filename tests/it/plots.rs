@@ -181,6 +181,7 @@ fn the_error_map_has_metre_axes_a_millimetre_colour_bar_and_the_poses() {
 fn the_error_distribution_names_each_model_with_its_statistics() {
     let figure = ErrorDistribution {
         title: "position errors on held.csv".into(),
+        quantity: "position error".into(),
         samples: vec![
             ErrorSample {
                 name: "nominal.yaml".into(),
@@ -203,6 +204,84 @@ fn the_error_distribution_names_each_model_with_its_statistics() {
     ] {
         assert!(has(&texts, wanted), "`{wanted}` missing from {texts:?}");
     }
+}
+
+/// A logarithmic axis from 10⁻⁵ mm to 0.1 mm writes every tick with an exponent: it used to
+/// mix `1.0e-5` and `0.001`.
+#[test]
+fn the_error_distribution_writes_its_log_ticks_alike() {
+    let figure = ErrorDistribution {
+        title: "height errors on held.csv".into(),
+        quantity: "height error".into(),
+        samples: vec![ErrorSample {
+            name: "calibrated.yaml".into(),
+            errors_m: vec![2e-8, 3e-7, 1e-5, 1e-4],
+        }],
+    };
+    let texts = svg_texts(&svg(&figure));
+    assert!(has(&texts, "height error (mm, logarithmic)"), "{texts:?}");
+    let start = texts
+        .iter()
+        .position(|t| t == "height error (mm, logarithmic)")
+        .unwrap();
+    // The y ticks (0 … 1) come first, then the x ticks, then the legend.
+    let x_ticks: Vec<&String> = texts[start + 1..]
+        .iter()
+        .skip_while(|t| t.parse::<f64>().is_ok_and(|v| v >= 0.0) && !t.contains('e'))
+        .take_while(|t| t.parse::<f64>().is_ok())
+        .collect();
+    assert!(x_ticks.len() >= 4, "{texts:?}");
+    assert!(
+        x_ticks.iter().all(|t| t.contains('e')) && x_ticks.contains(&&"1e-3".to_string()),
+        "{x_ticks:?}"
+    );
+}
+
+/// The evaluation picture says what its errors are: positions, a target's positions, or the
+/// heights a bed probe touches.
+#[test]
+fn the_evaluation_picture_names_the_errors_of_the_model() {
+    use legwise::report::plots::files::error_quantity;
+    for (model, quantity) in [
+        ("5r.yaml", "position error"),
+        ("5r-tracker.yaml", "target position error"),
+        ("delta-probe.yaml", "height error"),
+    ] {
+        assert_eq!(error_quantity(&bundled(model)), quantity, "{model}");
+    }
+    let dir = tempfile::tempdir().unwrap();
+    let csv = dir.path().join("held.csv");
+    let model = "models/delta-probe.yaml";
+    let out = legwise(&[
+        "simulate",
+        "--model",
+        model,
+        "--seed",
+        "7",
+        "--out",
+        csv.to_str().unwrap(),
+    ]);
+    assert_eq!(out.status.code(), Some(0));
+    let plots = dir.path().join("pictures");
+    let (csv, plots) = (csv.to_str().unwrap(), plots.to_str().unwrap());
+    let out = legwise(&[
+        "evaluate",
+        "--model",
+        model,
+        "--measurements",
+        csv,
+        "--plots",
+        plots,
+    ]);
+    assert!(
+        out.status.code() != Some(2),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let svg = std::fs::read_to_string(dir.path().join("pictures/position-errors.svg")).unwrap();
+    let texts = svg_texts(&svg);
+    assert!(texts[0].starts_with("height errors on "), "{texts:?}");
+    assert!(has(&texts, "height error (mm, logarithmic)"), "{texts:?}");
 }
 
 /// `svg` rasterised here, independently of legwise's renderer: resvg over white, with a font
@@ -325,6 +404,7 @@ fn a_png_is_its_svg_rasterised_with_the_embedded_font() {
     assert!(dark > 50, "{dark} dark pixels in the title strip");
     let distribution = ErrorDistribution {
         title: "position errors on held.csv".into(),
+        quantity: "position error".into(),
         samples: vec![ErrorSample {
             name: "nominal.yaml".into(),
             errors_m: vec![0.003, 0.004, 0.012],
@@ -467,6 +547,40 @@ fn each_monte_carlo_histogram_has_a_y_axis_description() {
         })
         .count();
     assert_eq!(descriptions, 2);
+}
+
+/// A histogram's x axis has at least three tick labels: the 200-trial gamma2 errors of the 5R
+/// (-4.84 … 4.99 mrad) used to get a single `0`.
+#[test]
+fn a_monte_carlo_panel_has_at_least_three_x_ticks() {
+    let values: Vec<f64> = (0..200)
+        .map(|k| -4.841 + 9.832 * f64::from(k) / 199.0)
+        .collect();
+    let figure = Histograms {
+        title: "test".into(),
+        panels: vec![HistogramPanel {
+            caption: "gamma2 error (mrad)".into(),
+            series: vec![("D&C".into(), values)],
+        }],
+    };
+    let texts = svg_texts(&svg(&figure));
+    // After the caption and the y-axis description: the y ticks (fractions of 200 trials, at
+    // most 0.05 here), then the x ticks.
+    let start = texts
+        .iter()
+        .position(|t| t == "fraction of trials")
+        .unwrap()
+        + 1;
+    let x_ticks: Vec<f64> = texts[start..]
+        .iter()
+        .filter_map(|t| t.parse::<f64>().ok())
+        .filter(|v| v.abs() >= 1.0 || *v == 0.0)
+        .collect();
+    assert!(
+        x_ticks.len() >= 3 && x_ticks.iter().any(|v| *v < 0.0) && x_ticks.iter().any(|v| *v > 0.0),
+        "{:?}",
+        &texts[start..]
+    );
 }
 
 #[test]

@@ -44,13 +44,15 @@ const TOP: [&str; 12] = [
     // Written with --map only.
     "accuracy_map_before",
 ];
-const RESULT: [&str; 10] = [
+const RESULT: [&str; 12] = [
     "strategy",
     "solver",
     "weights",
     "robust",
     "drop_outliers",
     "warnings",
+    "trusted",
+    "trust_issues",
     "instrument",
     "legs",
     "fixed_legs",

@@ -23,6 +23,9 @@ pub struct ErrorSample {
 pub struct ErrorDistribution {
     /// Figure title.
     pub title: String,
+    /// What an error is, singular (`position error`; `height error` for a bed probe): the x
+    /// axis says it.
+    pub quantity: String,
     /// The samples.
     pub samples: Vec<ErrorSample>,
 }
@@ -87,9 +90,9 @@ impl Figure for ErrorDistribution {
             .build_cartesian_2d((lo..hi).log_scale(), 0.0..1.0)?;
         chart
             .configure_mesh()
-            .x_desc("position error (mm, logarithmic)")
+            .x_desc(format!("{} (mm, logarithmic)", self.quantity))
             .y_desc("fraction of poses with a smaller error")
-            .x_label_formatter(&|v| style::short_number(*v))
+            .x_label_formatter(&|v| style::log_tick(*v, lo, hi))
             .y_label_formatter(&|v| style::tick(*v, 1.0))
             .label_style(style::label())
             .axis_desc_style(style::axis_description())

@@ -97,17 +97,46 @@ pub fn map_slice(mechanism: &Mechanism) -> Option<String> {
     Some(slice)
 }
 
-/// The evaluation picture: the distribution of position errors of each `(name, evaluation)`,
-/// the first drawn as "before".
+/// What the evaluation picture's errors are, singular: `position error`; through an
+/// instrument that reports only some of a target's position coordinates, those
+/// (`height error` for `z` alone, as a bed probe's touches; `target (x, y) error`).
+pub fn error_quantity(mechanism: &Mechanism) -> String {
+    let Some(instrument) = &mechanism.instrument else {
+        return "position error".into();
+    };
+    let mut seen: Vec<&str> = Vec::new();
+    for c in instrument.targets.iter().flat_map(|t| t.coordinates()) {
+        if !seen.contains(c) {
+            seen.push(c);
+        }
+    }
+    let spatial = instrument.targets.iter().any(|t| t.spatial);
+    let position = if spatial { 3 } else { 2 };
+    let partial = seen.len() < position && seen.iter().all(|c| ["x", "y", "z"].contains(c));
+    match seen.as_slice() {
+        ["z"] => "height error".into(),
+        _ if partial => format!("target ({}) error", seen.join(", ")),
+        _ => "target position error".into(),
+    }
+}
+
+/// The evaluation picture: the distribution of the errors of each `(name, evaluation)` of
+/// `mechanism`'s measurements, the first drawn as "before".
 ///
 /// # Errors
 /// The picture cannot be drawn.
-pub fn evaluate_picture(evaluations: &[(&str, &Evaluation)], format: Format) -> Result<Vec<u8>> {
+pub fn evaluate_picture(
+    mechanism: &Mechanism,
+    evaluations: &[(&str, &Evaluation)],
+    format: Format,
+) -> Result<Vec<u8>> {
     let measurements = evaluations
         .first()
         .map_or(String::new(), |(_, e)| e.measurements.clone());
+    let quantity = error_quantity(mechanism);
     let figure = ErrorDistribution {
-        title: format!("position errors on {measurements}"),
+        title: format!("{quantity}s on {measurements}"),
+        quantity,
         samples: evaluations
             .iter()
             .map(|(name, evaluation)| ErrorSample {
