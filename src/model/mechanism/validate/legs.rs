@@ -3,24 +3,12 @@
 
 use std::collections::{HashMap, HashSet};
 
+use super::plausible::{tiny_gain, MIN_GAIN};
 use super::Builder;
 use crate::error::Result;
 use crate::model::file::ModelFile;
 use crate::model::joint::JointModel;
 use crate::model::leg::LegModel;
-
-/// Smallest gain magnitude accepted: the reciprocal of the largest value a model file may hold
-/// (a gain of 1e-300 makes every reading 1e300 times the joint's motion, and the solvers
-/// never recover from it).
-pub(super) const MIN_GAIN: f64 = 1.0 / super::plausible::MAX_MAGNITUDE;
-
-/// Why a gain below [`MIN_GAIN`] in magnitude is refused.
-pub(super) fn tiny_gain(gain: f64) -> String {
-    format!(
-        "{gain:e} is not a plausible gain: legwise expects gains of magnitude {MIN_GAIN:e} to \
-         1e6 (about ±1 for readings converted to radians or metres)"
-    )
-}
 
 /// True when `name` can stand in a CSV cell as written and be read back: not empty, without
 /// commas, quotes or line breaks, and without spaces at either end (cells are trimmed).

@@ -15,7 +15,6 @@ use std::f64::consts::TAU;
 
 use serde_json::Value;
 
-use super::legs::{tiny_gain, MIN_GAIN};
 use super::scale::mechanism_size;
 use super::Builder;
 use crate::error::Result;
@@ -26,6 +25,19 @@ use crate::model::Mechanism;
 
 /// Largest magnitude of a real value in a model file: a million metres, radians or gain.
 pub(super) const MAX_MAGNITUDE: f64 = 1e6;
+
+/// Smallest gain magnitude accepted: the reciprocal of the largest value a model file may hold
+/// (a gain of 1e-300 makes every reading 1e300 times the joint's motion, and the solvers
+/// never recover from it).
+pub(super) const MIN_GAIN: f64 = 1.0 / MAX_MAGNITUDE;
+
+/// Why a gain below [`MIN_GAIN`] in magnitude is refused.
+pub(super) fn tiny_gain(gain: f64) -> String {
+    format!(
+        "{gain:e} is not a plausible gain: legwise expects gains of magnitude {MIN_GAIN:e} to \
+         1e6 (about ±1 for readings converted to radians or metres)"
+    )
+}
 
 /// The pose components that are angles.
 const ANGLES: [&str; 3] = ["roll", "pitch", "yaw"];

@@ -1,7 +1,7 @@
 //! The simulation and pose selection set-ups.
 
-use super::legs::{tiny_gain, MIN_GAIN};
 use super::plausible::far_from_nominal;
+use super::plausible::{tiny_gain, MIN_GAIN};
 use super::scale::mechanism_size;
 use super::Builder;
 use crate::error::Result;
