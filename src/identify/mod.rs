@@ -12,6 +12,7 @@ pub mod result;
 pub mod robust;
 pub mod sandwich;
 pub mod shared_estimate;
+pub mod shared_outliers;
 pub mod shared_weights;
 mod solve_from;
 pub mod statistics;

@@ -317,6 +317,13 @@ pub struct InstrumentEstimate {
     /// The χ² test of the residuals against the declared noise (propagated from the target
     /// coordinates through the pose fit), if the model declares one.
     pub noise_test: Option<NoiseTest>,
+    /// The residuals flagged as outliers (every observation kind, each on its declared σ;
+    /// `identify::shared_outliers`), largest `|t|` first.
+    pub outliers: Vec<super::shared_outliers::RowOutlier>,
+    /// The threshold on `|t|` (`None` without enough redundancy).
+    pub outlier_threshold: Option<f64>,
+    /// With `--drop-outliers`: the first fit's outliers whose rows were left out of the refit.
+    pub dropped: Vec<super::shared_outliers::RowOutlier>,
     /// The likelihood-ratio test of the frame components the model holds (joint strategy,
     /// when they can be freed and a noise is declared).
     pub held_frame: Option<HeldFrameTest>,

@@ -104,6 +104,21 @@ impl NoiseLoadings {
         }
     }
 
+    /// The same noise on the residuals `kept` only (in that order; a dropped row's residuals
+    /// left out, with their loadings on other measurements).
+    pub fn restricted(&self, kept: &[usize]) -> NoiseLoadings {
+        let position = |i: usize| kept.iter().position(|&k| k == i);
+        NoiseLoadings {
+            reading: self.reading,
+            rows: kept.iter().map(|&i| self.rows[i].clone()).collect(),
+            also: self
+                .also
+                .iter()
+                .filter_map(|(r, m, w)| position(*r).map(|k| (k, *m, w.clone())))
+                .collect(),
+        }
+    }
+
     /// Each residual's variance from its own measurement, `σ_q² + Σ_i (σ_i ∂r/∂m_i)²`.
     fn own_variances(&self) -> Vec<f64> {
         self.rows

@@ -23,6 +23,7 @@ use super::result::{
     StrategyResult, Weighting,
 };
 use super::sandwich::{self, reported_covariance};
+use super::shared_outliers;
 use super::shared_weights::weighted_joint_fit;
 use super::statistics;
 use super::two_stage::TwoStage;
@@ -30,7 +31,7 @@ use crate::error::{Error, Result};
 use crate::measure::observations::Observations;
 use crate::measure::simulate::perturbation_sigma;
 use crate::model::Mechanism;
-use crate::solver::{solve, solve_bordered, SolverKind};
+use crate::solver::{solve, solve_bordered, SolverKind, SolverOutcome};
 
 /// Rows per leg the two-stage strategy registers the instrument from.
 pub const REGISTRATION_ROWS: usize = 6;
@@ -170,21 +171,62 @@ pub fn identify_shared(
                 .into(),
         });
     }
+    // `√w` of every residual when the fit is weighted (by the noise, or 0 for a dropped row),
+    // and whether by the declared noise.
     let mut scales: Option<Vec<f64>> = None;
+    let mut noise_weighted = false;
+    let mut dropped = Vec::new();
     let (problem, outcome, registered) = if strategy == Strategy::Joint {
-        let weighted = match (&noise, weigh) {
-            (Some(noise), true) => {
-                weighted_joint_fit(&problem, &problem.start(), noise).map_err(solver_error)?
+        let fit = |mask: Option<&[f64]>| -> Result<(SolverOutcome, Option<Vec<f64>>, bool)> {
+            if let (Some(noise), true) = (&noise, weigh) {
+                let start = problem.start();
+                if let Some(fit) =
+                    weighted_joint_fit(&problem, &start, noise, mask).map_err(solver_error)?
+                {
+                    return Ok((fit.outcome, Some(fit.scales), true));
+                }
             }
-            _ => None,
-        };
-        let outcome = match weighted {
-            Some(fit) => {
-                scales = Some(fit.scales);
-                fit.outcome
+            match mask {
+                None => Ok((
+                    solve_bordered(&problem, problem.start()).map_err(solver_error)?,
+                    None,
+                    false,
+                )),
+                Some(mask) => {
+                    let masked = problem.clone().with_weights(mask);
+                    let outcome = solve_bordered(&masked, problem.start()).map_err(solver_error)?;
+                    Ok((
+                        outcome,
+                        Some(mask.iter().map(|w| w.sqrt()).collect()),
+                        false,
+                    ))
+                }
             }
-            None => solve_bordered(&problem, problem.start()).map_err(solver_error)?,
         };
+        let (mut outcome, mut fitted_scales, mut by_noise) = fit(None)?;
+        if options.drop_outliers {
+            // The first fit's outlier rows, then a refit without every residual of them.
+            let (r, jacobian) = dense(&problem, &outcome.x)?;
+            let variances = match &noise {
+                Some(noise) => problem
+                    .row_variances(&outcome.x, noise)
+                    .map_err(solver_error)?,
+                None => vec![1.0; r.len()],
+            };
+            let all: Vec<usize> = (0..r.len()).collect();
+            let (flagged, _) =
+                shared_outliers::outliers(&problem, (&r, &jacobian), &variances, &all);
+            if !flagged.is_empty() {
+                let kept = shared_outliers::kept_residuals(&problem, &flagged);
+                let mask: Vec<f64> = (0..r.len())
+                    .map(|i| if kept.contains(&i) { 1.0 } else { 0.0 })
+                    .collect();
+                (outcome, fitted_scales, by_noise) = fit(Some(&mask))?;
+                dropped = flagged;
+            }
+        }
+        scales = fitted_scales;
+        noise_weighted = by_noise;
         (problem, outcome, None)
     } else {
         let registration = problem.with_legs_fixed().with_rows(REGISTRATION_ROWS);
@@ -216,14 +258,28 @@ pub fn identify_shared(
     if !r.iter().chain(outcome.x.iter()).all(|v| v.is_finite()) {
         return Err(solver_error("the estimate is not finite"));
     }
-    let (m, n) = jacobian.shape();
-    let loadings = match &noise {
+    let n = jacobian.ncols();
+    let all_loadings = match &noise {
         Some(noise) => Some(
             problem
                 .noise_loadings(&outcome.x, noise)
                 .map_err(solver_error)?,
         ),
         None => None,
+    };
+    // The statistics are of the kept residuals (every one unless outlier rows were dropped).
+    let kept = shared_outliers::kept_residuals(&problem, &dropped);
+    let m = kept.len();
+    let kept_r = DVector::from_iterator(m, kept.iter().map(|&i| r[i]));
+    let kept_jacobian = DMatrix::from_fn(m, n, |k, j| jacobian[(kept[k], j)]);
+    let loadings = all_loadings.as_ref().map(|l| l.restricted(&kept));
+    let scales: Option<Vec<f64>> = scales.map(|s| kept.iter().map(|&i| s[i]).collect());
+    let (outliers, outlier_threshold) = {
+        let variances = match &all_loadings {
+            Some(l) => l.variances(),
+            None => vec![1.0; r.len()],
+        };
+        shared_outliers::outliers(&problem, (&r, &jacobian), &variances, &kept)
     };
     // The degrees of freedom of the residuals' scale behind every σ; none when the σ are the
     // declared noise's (too few to scale by, `sandwich::SCALE_DOF`).
@@ -235,16 +291,19 @@ pub fn identify_shared(
     // propagates the registration's error.
     let (covariance, registration) = match registered {
         None => match (&scales, &loadings) {
-            (Some(s), Some(l)) => {
-                let weighted_r = DVector::from_fn(r.len(), |i, _| s[i] * r[i]);
-                let weighted_jacobian = DMatrix::from_fn(m, n, |i, j| s[i] * jacobian[(i, j)]);
+            (Some(s), Some(l)) if noise_weighted => {
+                let weighted_r = DVector::from_fn(m, |i, _| s[i] * kept_r[i]);
+                let weighted_jacobian = DMatrix::from_fn(m, n, |i, j| s[i] * kept_jacobian[(i, j)]);
                 let weighted_loadings = l.scaled(s);
                 (
                     reported_covariance(&weighted_r, &weighted_jacobian, Some(&weighted_loadings)),
                     None,
                 )
             }
-            _ => (reported_covariance(&r, &jacobian, loadings.as_ref()), None),
+            _ => (
+                reported_covariance(&kept_r, &kept_jacobian, loadings.as_ref()),
+                None,
+            ),
         },
         Some(two_stage) => match two_stage {
             Some(c) => (Some(c.legs), Some((c.registration, c.registration_dof))),
@@ -262,7 +321,7 @@ pub fn identify_shared(
     });
     let noise_test = loadings
         .as_ref()
-        .and_then(|l| statistics::noise_test(r.as_slice(), &l.variances(), n, 0));
+        .and_then(|l| statistics::noise_test(kept_r.as_slice(), &l.variances(), n, r.len() - m));
     // The residuals at the start, for each leg's cost before (evaluated last: the warm starts
     // of the estimate's evaluations are untouched).
     let r0 = problem.residuals(&problem.start()).map_err(located)?;
@@ -297,15 +356,19 @@ pub fn identify_shared(
         },
         rows: m,
         unknowns: n,
-        rms: (r.norm_squared() / m.max(1) as f64).sqrt(),
+        rms: (kept_r.norm_squared() / m.max(1) as f64).sqrt(),
         observability,
         noise_test,
+        outliers,
+        outlier_threshold,
+        dropped,
         held_frame: None,
         // The two-stage covariance is the legs' alone.
         covariance: covariance.clone().filter(|_| strategy == Strategy::Joint),
         predicted_position: None,
     };
     let run = SolverRun::new(names, &outcome, (&r0, &r), seconds);
+    let warnings = outlier_warnings(&instrument, strategy);
     Ok(StrategyResult {
         strategy,
         solver: SolverKind::LevenbergMarquardt,
@@ -314,16 +377,43 @@ pub fn identify_shared(
         // Weighted by the declared noise or not, as fitted (unweighted, the covariance is the
         // sandwich of `sandwich` on the plain rows).
         options: FitOptions {
-            weights: if scales.is_some() {
+            weights: if noise_weighted {
                 Weighting::Noise
             } else {
                 Weighting::Unweighted
             },
             ..options
         },
-        warnings: Vec::new(),
+        warnings,
         instrument: Some(instrument),
     })
+}
+
+/// The warnings naming the outlier rows of a fit through the instrument, and the rows dropped.
+fn outlier_warnings(instrument: &InstrumentEstimate, strategy: Strategy) -> Vec<String> {
+    let figure = statistics::figure;
+    let dropped = instrument.dropped.iter().map(|o| {
+        format!(
+            "{}: dropped {} (residual {}, studentized residual t = {} in the first fit) and \
+             refitted",
+            strategy.name(),
+            o.place,
+            figure(o.residual),
+            figure(o.t)
+        )
+    });
+    let flagged = instrument.outliers.iter().map(|o| {
+        format!(
+            "{}: outlier {} (residual {}, studentized residual t = {} beyond {}): check that \
+             row (a mistyped value, a probe that misfired); --drop-outliers refits without it",
+            strategy.name(),
+            o.place,
+            figure(o.residual),
+            figure(o.t),
+            instrument.outlier_threshold.map_or("-".into(), figure)
+        )
+    });
+    dropped.chain(flagged).collect()
 }
 
 /// The instrument's parameters of `problem` at `x`: estimated (σ from `sigmas`, the

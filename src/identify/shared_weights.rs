@@ -39,9 +39,10 @@ fn inverse(variances: &[f64]) -> Option<Vec<f64>> {
         .collect()
 }
 
-/// The joint fit of `problem` (unweighted, as built) from `x0` weighted by `noise`; `Ok(None)`
-/// when a residual's expected variance is zero (nothing to weight it by: the caller fits
-/// unweighted and says so).
+/// The joint fit of `problem` (unweighted, as built) from `x0` weighted by `noise`, each
+/// weight times `mask[i]` when given (0 leaves a dropped row out); `Ok(None)` when a
+/// residual's expected variance is zero (nothing to weight it by: the caller fits unweighted
+/// and says so).
 ///
 /// # Errors
 /// The variances cannot be evaluated, or the solver's error, as text.
@@ -49,10 +50,14 @@ pub fn weighted_joint_fit(
     problem: &IdentificationProblem<'_>,
     x0: &DVector<f64>,
     noise: &MeasurementNoise,
+    mask: Option<&[f64]>,
 ) -> Result<Option<WeightedFit>, String> {
     let weights_at = |x: &DVector<f64>| -> Result<Option<Vec<f64>>, String> {
         let variances = problem.row_variances(x, noise).map_err(|e| e.to_string())?;
-        Ok(inverse(&variances))
+        Ok(inverse(&variances).map(|w| match mask {
+            Some(mask) => w.iter().zip(mask).map(|(w, m)| w * m).collect(),
+            None => w,
+        }))
     };
     let Some(mut weights) = weights_at(x0)? else {
         return Ok(None);
@@ -70,6 +75,7 @@ pub fn weighted_joint_fit(
         let change = next
             .iter()
             .zip(&weights)
+            .filter(|(_, b)| **b > 0.0)
             .map(|(a, b)| (a / b - 1.0).abs())
             .fold(0.0, f64::max);
         if change <= WEIGHT_TOLERANCE {

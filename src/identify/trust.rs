@@ -100,18 +100,31 @@ fn instrument_issues(issues: &mut Vec<String>, strategy: &str, instrument: &Inst
     }
     if let Some(predicted) = &instrument.predicted_position {
         if let Some(tolerance) = predicted.tolerance.filter(|&t| predicted.max > t) {
-            issues.push(format!(
-                "{strategy}: the predicted σ of target `{}`'s position over the workspace \
+            if !instrument.outliers.is_empty() {
+                issues.push(format!(
+                    "{strategy}: the predicted σ of target `{}`'s position over the workspace \
+                     reaches {:.4} mm, above the model's tolerance {:.4} mm, but the residuals \
+                     hold {} outlier row(s) (named in the warnings) that inflate it: check \
+                     them, or refit without them (--drop-outliers), before judging the design",
+                    predicted.target,
+                    predicted.max * 1e3,
+                    tolerance * 1e3,
+                    instrument.outliers.len()
+                ));
+            } else {
+                issues.push(format!(
+                    "{strategy}: the predicted σ of target `{}`'s position over the workspace \
                  reaches {:.4} mm (RMS {:.4} mm), above the model's tolerance {:.4} mm: these \
                  observations hardly see the combination {}; a low residual is not a good \
                  calibration here: measure what determines it (distances between rows, \
                  touches at a second height) or hold one of its parameters",
-                predicted.target,
-                predicted.max * 1e3,
-                predicted.rms * 1e3,
-                tolerance * 1e3,
-                instrument.observability.weakest_direction
-            ));
+                    predicted.target,
+                    predicted.max * 1e3,
+                    predicted.rms * 1e3,
+                    tolerance * 1e3,
+                    instrument.observability.weakest_direction
+                ));
+            }
         }
     }
     if let Some(test) = instrument.held_frame.as_ref().filter(|t| t.rejected) {

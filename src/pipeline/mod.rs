@@ -156,13 +156,15 @@ fn identify_by_kind(
             let defaults = FitOptions {
                 noise_scale: fit.noise_scale,
                 weights: fit.weights,
+                drop_outliers: fit.drop_outliers,
                 ..FitOptions::default()
             };
             if solver != SolverKind::LevenbergMarquardt || fit != defaults {
                 return Err(Error::Invalid(format!(
                     "{}: through an instrument the legs and the instrument are identified by \
                      Levenberg-Marquardt, weighted by the declared noise or not (`--weights`), \
-                     without Gauss-Newton, a robust loss or outlier dropping yet",
+                     with or without outlier dropping, without Gauss-Newton or a robust loss \
+                     yet",
                     mechanism.model_path.display()
                 )));
             }

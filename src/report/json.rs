@@ -14,6 +14,7 @@ use crate::identify::estimate::{
     LegEstimate, ParameterEstimate, SolverRun, StrategyResult, Weighting,
 };
 use crate::identify::result::{HeldFrameTest, InstrumentEstimate, PredictedPosition};
+use crate::identify::shared_outliers::RowOutlier;
 use crate::identify::statistics::{NoiseTest, Outlier};
 
 /// Version of the JSON layout documented in `docs/report.md`; raised when a key changes meaning or
@@ -275,6 +276,9 @@ struct InstrumentJson<'a> {
     unknowns: usize,
     rms_residual: f64,
     noise_test: Option<&'a NoiseTest>,
+    outlier_threshold: Option<f64>,
+    outliers: &'a [RowOutlier],
+    dropped: &'a [RowOutlier],
     held_frame_test: Option<&'a HeldFrameTest>,
     #[serde(skip_serializing_if = "Option::is_none")]
     predicted_position: Option<&'a PredictedPosition>,
@@ -294,6 +298,9 @@ impl<'a> InstrumentJson<'a> {
             unknowns: instrument.unknowns,
             rms_residual: instrument.rms,
             noise_test: instrument.noise_test.as_ref(),
+            outlier_threshold: instrument.outlier_threshold,
+            outliers: &instrument.outliers,
+            dropped: &instrument.dropped,
             held_frame_test: instrument.held_frame.as_ref(),
             predicted_position: instrument.predicted_position.as_ref(),
             observability: InstrumentObservabilityJson {

@@ -188,6 +188,39 @@ fn render_instrument(out: &mut String, report: &Report<'_>, instrument: &Instrum
             if test.rejected { " (REJECTED)" } else { "" }
         );
     }
+    if let (Some(limit), Some(largest)) = (
+        instrument.outlier_threshold,
+        instrument.outliers.first().map(|o| o.t.abs()).or(Some(0.0)),
+    ) {
+        let _ = writeln!(
+            out,
+            "  outliers: {} beyond |t| > {}{}",
+            instrument.outliers.len(),
+            figure(limit),
+            if largest > 0.0 {
+                format!(" (largest |t| {})", figure(largest))
+            } else {
+                String::new()
+            }
+        );
+        for o in &instrument.outliers {
+            let _ = writeln!(
+                out,
+                "    {}: residual {}, t = {}",
+                o.place,
+                figure(o.residual),
+                figure(o.t)
+            );
+        }
+    }
+    for o in &instrument.dropped {
+        let _ = writeln!(
+            out,
+            "  dropped {} (t = {} in the first fit)",
+            o.place,
+            figure(o.t)
+        );
+    }
     if let Some(note) = declared_sigma_note(result_parameters_of(report, instrument)) {
         let _ = writeln!(out, "  {note}");
     }

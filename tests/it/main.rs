@@ -16,6 +16,7 @@ mod firmware_delta;
 mod forward_honest;
 mod forward_kinematics;
 mod forward_observations;
+mod forward_outliers;
 mod fuzz;
 mod golden;
 mod hostile_inputs;

@@ -143,7 +143,7 @@ fn what_a_pipeline_does_not_offer_is_refused_by_name() {
     assert!(
         error
             .to_string()
-            .contains("without Gauss-Newton, a robust loss"),
+            .contains("without Gauss-Newton or a robust loss"),
         "{error}"
     );
     let error = identify_one(&tracker, &targets, Strategy::DivideAndConquer, lm, fit).unwrap_err();

@@ -95,12 +95,15 @@ const PARAMETER: [&str; 11] = [
     "error_before",
     "error_after",
 ];
-const INSTRUMENT: [&str; 7] = [
+const INSTRUMENT: [&str; 10] = [
     "parameters",
     "rows",
     "unknowns",
     "rms_residual",
     "noise_test",
+    "outlier_threshold",
+    "outliers",
+    "dropped",
     "held_frame_test",
     "observability",
 ];
