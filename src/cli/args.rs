@@ -70,6 +70,11 @@ pub struct MontecarloArgs {
     /// Candidate grid spacing of the pose selection, metres (default: the model's `workspace.grid`).
     #[arg(long, allow_negative_numbers = true)]
     pub grid: Option<f64>,
+    /// A forward model's commanded poses, measured in every trial instead of selected ones: a
+    /// CSV with a `pose.<coordinate>` column per measured coordinate (as `legwise select`
+    /// writes; other columns ignored), e.g. a firmware's probe points.
+    #[arg(long, value_name = "FILE")]
+    pub poses: Option<PathBuf>,
     /// Grid spacing of the accuracy map, metres.
     #[arg(long, value_name = "GRID_M", default_value_t = crate::study::montecarlo::DEFAULT_MAP_GRID, allow_negative_numbers = true)]
     pub map: f64,

@@ -407,7 +407,31 @@ impl Study {
     /// No simulation block; the pose selection's errors (too few candidates, an unidentifiable
     /// design); an invalid map grid or scale.
     pub fn prepare(mechanism: &Mechanism, options: MonteCarloOptions) -> Result<Self> {
+        Self::prepare_at(mechanism, options, None)
+    }
+
+    /// [`Self::prepare`], a forward model measured at the commanded poses `commanded` (every
+    /// trial's touches on its own real surface) instead of selected ones: a firmware's probe
+    /// points, a design of one's own.
+    ///
+    /// # Errors
+    /// As [`Self::prepare`]; commanded poses for a model not seen through the forward
+    /// kinematics, or none.
+    pub fn prepare_at(
+        mechanism: &Mechanism,
+        options: MonteCarloOptions,
+        commanded: Option<&[[f64; 6]]>,
+    ) -> Result<Self> {
         crate::measure::simulate::setup(mechanism)?;
+        if let Some(poses) = commanded {
+            if mechanism.forward_instrument().is_none() || poses.is_empty() {
+                return Err(Error::Invalid(format!(
+                    "{}: commanded poses (--poses FILE) are for a model seen through the forward \
+                     kinematics (`instrument.kinematics: forward`), at least one",
+                    mechanism.model_path.display()
+                )));
+            }
+        }
         if mechanism.instrument.is_some() && options.solver != SolverKind::LevenbergMarquardt {
             return Err(Error::Invalid(format!(
                 "{}: through an instrument the legs and the instrument are identified by \
@@ -427,8 +451,11 @@ impl Study {
         let (arms, shared_count, shared_poses) = if forward {
             // Forward rows couple every leg: the joint fit alone, at the commanded poses
             // selected for it (each trial's touches on its own real surface).
-            let design = select_forward(&mechanism, options.grid, count, criterion)?;
-            (vec![Arm::Joint], 0, design.commanded())
+            let commanded = match commanded {
+                Some(poses) => poses.to_vec(),
+                None => select_forward(&mechanism, options.grid, count, criterion)?.commanded(),
+            };
+            (vec![Arm::Joint], 0, commanded)
         } else {
             let pool = candidate_pool(&mechanism, options.grid)?;
             let legs = divide_and_conquer(&mechanism, &pool, count, criterion)?;

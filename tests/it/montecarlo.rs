@@ -588,3 +588,76 @@ fn the_study_counts_the_fits_above_the_models_tolerance() {
     let report = run(&free, &Settings::default()).unwrap();
     assert_eq!(Alarms::of(&report.results[0]).tolerance_tests, 0);
 }
+
+/// `--poses FILE` measures a forward model at given commanded poses in every trial (a
+/// firmware's seven probe points), and is refused with a clear message elsewhere.
+#[test]
+fn a_forward_study_runs_at_the_commanded_poses_of_a_file() {
+    use crate::cli::{assert_fails_with, legwise, text};
+    let dir = tempfile::tempdir().unwrap();
+    let points = dir.path().join("firmware7.csv");
+    let mut csv = String::from("id,pose.x,pose.y,pose.z\nc,0.0,0.0,0.05\n");
+    for (k, degrees) in [30.0_f64, 90.0, 150.0, 210.0, 270.0, 330.0]
+        .iter()
+        .enumerate()
+    {
+        let (s, c) = degrees.to_radians().sin_cos();
+        csv.push_str(&format!("p{k},{},{},0.05\n", 0.064 * c, 0.064 * s));
+    }
+    std::fs::write(&points, csv).unwrap();
+    let file = points.to_str().unwrap();
+    let out = legwise(&[
+        "montecarlo",
+        "--model",
+        "models/delta-probe.yaml",
+        "--trials",
+        "3",
+        "--poses",
+        file,
+    ]);
+    let stdout = text(&out.stdout);
+    assert_eq!(out.status.code(), Some(0), "{}", text(&out.stderr));
+    assert!(stdout.contains("poses measured: joint 7"), "{stdout}");
+    assert!(
+        stdout.contains("predicted σ above the model's tolerance"),
+        "{stdout}"
+    );
+    // Not a forward model.
+    let model = crate::support::crate_path("models/5r.yaml");
+    let out = legwise(&[
+        "montecarlo",
+        "--model",
+        "models/5r.yaml",
+        "--trials",
+        "3",
+        "--poses",
+        file,
+    ]);
+    assert_eq!(out.status.code(), Some(2));
+    assert!(
+        text(&out.stderr).contains(
+            "commanded poses (--poses FILE) are for a model seen through the forward kinematics"
+        ),
+        "{} ({})",
+        text(&out.stderr),
+        model.display()
+    );
+    // A cell that is not a number: its line and column.
+    let bad = dir.path().join("bad.csv");
+    std::fs::write(&bad, "pose.x,pose.y,pose.z\n0.0,0.0,0.05\n0.01,abc,0.05\n").unwrap();
+    let bad = bad.to_str().unwrap();
+    assert_fails_with(
+        &[
+            "montecarlo",
+            "--model",
+            "models/delta-probe.yaml",
+            "--trials",
+            "3",
+            "--poses",
+            bad,
+        ],
+        &format!(
+            "legwise: {bad}: line 3, column `pose.y`: expected a number (m or rad), found \"abc\""
+        ),
+    );
+}
