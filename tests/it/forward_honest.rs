@@ -349,3 +349,43 @@ fn the_joint_fit_is_weighted_by_the_declared_noise_by_default() {
     assert!(at_weighted <= 1e-8, "weighted gradient {at_weighted}");
     assert!(at_plain > 1e-3, "unweighted gradient {at_plain}");
 }
+
+#[test]
+fn freed_platform_holds_are_directions_moving_no_reached_point() {
+    use legwise::{PoseSource, SimulationSettings};
+    // The attachments that define the platform frame freed: six null directions that move
+    // the reflector by round-off only; none is described as a motion.
+    let freed = bundled("hexapod-reflector.yaml").edited(|parts| {
+        for leg in &mut parts.legs {
+            for p in &mut leg.params {
+                if ["b1x", "b1y", "b1z", "b3x", "b3z", "b5z"].contains(&p.name.as_str()) {
+                    p.identified = true;
+                }
+            }
+        }
+    });
+    let settings = Settings {
+        simulation: SimulationSettings {
+            poses: PoseSource::Random,
+            ..SimulationSettings::default()
+        },
+        ..Settings::default()
+    };
+    let message = run(&freed, &settings)
+        .expect_err("rank-deficient")
+        .to_string();
+    assert!(
+        message.contains("cannot see these motions of the reached points: 6 direction(s) moving no reached point;"),
+        "{message}"
+    );
+    let unseen = message
+        .split("cannot see these motions of the reached points:")
+        .nth(1)
+        .and_then(|rest| rest.split("; the least seen").next())
+        .expect("the unseen motions");
+    assert_eq!(unseen.trim(), "6 direction(s) moving no reached point");
+    assert!(
+        message.contains("e.g. the attachments or target offsets that define the platform frame"),
+        "{message}"
+    );
+}
