@@ -95,8 +95,9 @@ const STEP_ROUNDS_ABOVE: f64 = 1e-9;
 /// While the weights still change by more than [`STEP_ROUNDS_ABOVE`], a round is one
 /// Gauss–Newton step of the newly weighted problem from the previous estimate (kept if it
 /// lowers that problem's cost; else the round is a full solve): the weights and the estimate
-/// then converge together, one evaluation a round. The rounds that end it are full solves, so
-/// the estimate is the same fixed point, found by the same test.
+/// then converge together, one evaluation a round. Only a full solve ends it (after a step,
+/// a full solve follows whatever the change), so the estimate is the same fixed point, found
+/// by the same test.
 fn consistent_weights<'a>(
     problem: &IdentificationProblem<'a>,
     x0: &DVector<f64>,
@@ -115,6 +116,8 @@ fn consistent_weights<'a>(
     let mut weighted = problem.clone().with_weights(&weights);
     let mut outcome = solve_from(&weighted, x0, solver)?;
     let (mut iterations, mut residuals, mut jacobians) = (0, 0, 0);
+    // Whether the estimate is a Gauss–Newton step's (then the weights' test does not end it).
+    let mut stepped = false;
     for round in 1..MAX_WEIGHTINGS {
         let next = weights_at(&outcome.x)?;
         let change = next
@@ -122,7 +125,7 @@ fn consistent_weights<'a>(
             .zip(&weights)
             .map(|(a, b)| (a / b - 1.0).abs())
             .fold(0.0, f64::max);
-        if change <= WEIGHT_TOLERANCE {
+        if change <= WEIGHT_TOLERANCE && !stepped {
             break;
         }
         iterations += outcome.iterations;
@@ -140,8 +143,10 @@ fn consistent_weights<'a>(
             outcome.x = x;
             (outcome.iterations, outcome.refinement_steps) = (1, 0);
             (outcome.residual_evaluations, outcome.jacobian_evaluations) = (1, 1);
+            stepped = true;
             continue;
         }
+        stepped = false;
         let start = outcome.x.clone();
         outcome = solve_from(&weighted, &start, solver)?;
         // Already the minimiser: the weights at the estimate are the ones it was fitted with.
