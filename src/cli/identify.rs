@@ -31,7 +31,7 @@ pub(super) fn run(args: &IdentifyArgs) -> anyhow::Result<Verdict> {
     let outputs = ReportFiles { json, pictures };
     let mut console = outputs.console();
     let report = match &args.measurements {
-        Some(path) => pipeline::identify(&mechanism, &read(path, &mechanism)?, &settings)?,
+        Some(path) => pipeline::identify_owned(&mechanism, read(path, &mechanism)?, &settings)?,
         None => pipeline::run(&mechanism, &settings)?,
     };
     let verdict = Verdict::from_reasons(report.trust_issues());

@@ -82,10 +82,22 @@ const MAX_WEIGHTINGS: usize = 20;
 /// consistent with the estimate.
 const WEIGHT_TOLERANCE: f64 = 1e-12;
 
+/// Relative change of the weights above which a reweighting round is one Gauss–Newton step
+/// from the previous estimate ([`gauss_newton_step`]) rather than a full solve: far from the
+/// consistent weights a round's minimiser is not the answer, only the way to it.
+const STEP_ROUNDS_ABOVE: f64 = 1e-9;
+
 /// Generalised least squares on the rows' variances under `noise`: weights at `x0`, a fit,
 /// then weights at the estimate and a fit from it, until the weights change by at most
 /// [`WEIGHT_TOLERANCE`] (relative) or after [`MAX_WEIGHTINGS`] fits. The weighted problem and
 /// the last fit's outcome (its iterations and evaluations those of every fit).
+///
+/// While the weights still change by more than [`STEP_ROUNDS_ABOVE`], a round is one
+/// Gauss–Newton step of the newly weighted problem from the previous estimate (kept if it
+/// lowers that problem's cost; else the round is a full solve): the weights and the estimate
+/// then converge together, one evaluation a round. Only a full solve ends it (after a step,
+/// a full solve follows whatever the change), so the estimate is the same fixed point, found
+/// by the same test.
 fn consistent_weights<'a>(
     problem: &IdentificationProblem<'a>,
     x0: &DVector<f64>,
@@ -104,14 +116,16 @@ fn consistent_weights<'a>(
     let mut weighted = problem.clone().with_weights(&weights);
     let mut outcome = solve_from(&weighted, x0, solver)?;
     let (mut iterations, mut residuals, mut jacobians) = (0, 0, 0);
-    for _ in 1..MAX_WEIGHTINGS {
+    // Whether the estimate is a Gauss–Newton step's (then the weights' test does not end it).
+    let mut stepped = false;
+    for round in 1..MAX_WEIGHTINGS {
         let next = weights_at(&outcome.x)?;
         let change = next
             .iter()
             .zip(&weights)
             .map(|(a, b)| (a / b - 1.0).abs())
             .fold(0.0, f64::max);
-        if change <= WEIGHT_TOLERANCE {
+        if change <= WEIGHT_TOLERANCE && !stepped {
             break;
         }
         iterations += outcome.iterations;
@@ -119,12 +133,65 @@ fn consistent_weights<'a>(
         jacobians += outcome.jacobian_evaluations;
         weights = next;
         weighted = problem.clone().with_weights(&weights);
-        outcome = solve_from(&weighted, &outcome.x, solver)?;
+        // The last rounds left are full solves, whatever the change.
+        let stepping = change > STEP_ROUNDS_ABOVE && round + 2 < MAX_WEIGHTINGS;
+        let step = match stepping {
+            true => gauss_newton_step(&weighted, &outcome.x)?,
+            false => None,
+        };
+        if let Some(x) = step {
+            outcome.x = x;
+            (outcome.iterations, outcome.refinement_steps) = (1, 0);
+            (outcome.residual_evaluations, outcome.jacobian_evaluations) = (1, 1);
+            stepped = true;
+            continue;
+        }
+        stepped = false;
+        let start = outcome.x.clone();
+        outcome = solve_from(&weighted, &start, solver)?;
+        // Already the minimiser: the weights at the estimate are the ones it was fitted with.
+        if outcome.x == start {
+            break;
+        }
     }
     outcome.iterations += iterations;
     outcome.residual_evaluations += residuals;
     outcome.jacobian_evaluations += jacobians;
     Ok((weighted, outcome))
+}
+
+/// One Gauss–Newton step of `problem` from `x` (the step `C⁺r` from the SVD of the Jacobian,
+/// without its `m × n` factor `U`), if it lowers the cost; `None` if it does not, if the
+/// Jacobian is rank-deficient or a row cannot be solved at the step's end (a full solve then
+/// handles the round).
+///
+/// # Errors
+/// A block whose leg cannot reach its pose at `x`.
+fn gauss_newton_step(
+    problem: &IdentificationProblem<'_>,
+    x: &DVector<f64>,
+) -> Result<Option<DVector<f64>>, FitError> {
+    let (r, jacobian) = problem.residuals_and_jacobian(x).map_err(FitError::Block)?;
+    let gradient = jacobian.tr_mul(&r);
+    let svd = jacobian.svd(false, true);
+    let (Some(v_t), s) = (svd.v_t, &svd.singular_values) else {
+        return Ok(None);
+    };
+    if s.iter().any(|&value| value <= f64::EPSILON * s.max()) {
+        return Ok(None);
+    }
+    let mut projected = &v_t * gradient;
+    for (value, &s) in projected.iter_mut().zip(s.iter()) {
+        *value /= s * s;
+    }
+    let next = x - v_t.tr_mul(&projected);
+    if !next.iter().all(|v| v.is_finite()) {
+        return Ok(None);
+    }
+    let Ok(r_next) = problem.residuals(&next) else {
+        return Ok(None);
+    };
+    Ok((r_next.norm_squared() < r.norm_squared()).then_some(next))
 }
 
 /// `1 / v` for every variance, if all are positive and finite.

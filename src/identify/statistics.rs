@@ -164,8 +164,8 @@ pub struct OtherTurn {
 
 /// Expected variance of every residual of `problem` at the unknowns `x`:
 /// `σ_q² + Σ_c (∂ψ/∂P_c)² σ_c²`, with each row's pose gradient at its inverse-kinematics
-/// solution warm-started from the problem's last one ([`IdentificationProblem::map_solved`];
-/// in parallel for a large problem).
+/// solution: the problem's own where its last evaluation was at `x`, else warm-started from
+/// its last one ([`IdentificationProblem::map_seeded`]; in parallel for a large problem).
 ///
 /// # Errors
 /// The first block whose leg cannot reach its pose.
@@ -202,7 +202,7 @@ pub fn row_loadings(
 
 /// `f(row, w)` for every row of `problem` at `x`, `w` the row's pose loadings
 /// `σ_c ∂ψ/∂P_c` under `noise` (in parallel for a large problem, as
-/// [`IdentificationProblem::map_solved`]).
+/// [`IdentificationProblem::map_seeded`]).
 fn map_pose_loadings<T: Send>(
     problem: &IdentificationProblem<'_>,
     x: &DVector<f64>,
@@ -210,7 +210,7 @@ fn map_pose_loadings<T: Send>(
     f: impl Fn(usize, &[f64; 6]) -> T + Sync,
 ) -> Result<Vec<T>, BlockError> {
     let measured = &problem.mechanism().measured;
-    problem.map_solved(x, |index, leg, _, solution| {
+    problem.map_seeded(x, |index, leg, solution| {
         let pose = &problem.blocks()[index].pose;
         let gradient = leg.pose_gradient_of(pose, solution, measured);
         f(index, &std::array::from_fn(|c| gradient[c] * noise.pose[c]))

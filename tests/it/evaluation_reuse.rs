@@ -177,6 +177,39 @@ fn a_large_problem_solves_again_only_for_an_older_evaluations_jacobian() {
     assert!((&c2 - &c2_again).amax() < 1e-12);
 }
 
+/// The rows' expected variances of a problem too large to keep its solutions, at the unknowns
+/// it last solved: each row's pose gradient from its seed (the joints and the closure
+/// inverse's actuated row), no row solved again, and the same variances to 1e-12 as those
+/// of a fresh problem, which solves every row (`map_solved`).
+#[test]
+fn a_large_problems_row_variances_where_it_last_solved_solve_no_row() {
+    use legwise::identify::statistics::row_variances;
+    let mech = bundled("5r.yaml");
+    let noise = mech.noise.expect("the 5R declares its noise");
+    let large = leg_problem(&mech, 40, 65_536 / 40 + 1);
+    let m = large.blocks().len() as u64;
+    let [x1, x2, _] = three_points(&large);
+    large.residuals(&x2).unwrap();
+    large.residuals(&x1).unwrap();
+    assert_eq!(large.row_solves(), 2 * m);
+    let seeded = row_variances(&large, &x1, &noise).unwrap();
+    assert_eq!(large.row_solves(), 2 * m, "from the seeds: no row solved");
+    let other = leg_problem(&mech, 40, 65_536 / 40 + 1);
+    let solved = row_variances(&other, &x1, &noise).unwrap();
+    assert_eq!(
+        other.row_solves(),
+        m,
+        "nothing solved at x1 yet: every row solved"
+    );
+    assert_eq!(seeded.len(), solved.len());
+    for (i, (a, b)) in seeded.iter().zip(&solved).enumerate() {
+        assert!((a - b).abs() <= 1e-12 * b.abs(), "row {i}: {a} against {b}");
+    }
+    // At x2 the seeds are x1's: solved again, warm-started.
+    row_variances(&large, &x2, &noise).unwrap();
+    assert_eq!(large.row_solves(), 3 * m);
+}
+
 /// What stays in memory: two evaluations at most, the gradients of one at most (an older
 /// evaluation's freed before another's are computed), nothing but the newest evaluation's
 /// values after `release_gradients`.

@@ -305,6 +305,49 @@ impl<'a> IdentificationProblem<'a> {
         }
     }
 
+    /// As [`Self::map_solved`], for a `row` that reads of a solution only its joints and the
+    /// actuated joint's row of its closure inverse (a pose gradient): where the problem's last
+    /// solve was at exactly `x` and it keeps no full solutions (a large problem), they are its
+    /// seeds ([`seed_solution`]), and no row is solved again.
+    ///
+    /// # Errors
+    /// As [`Self::map_solved`].
+    pub fn map_seeded<R: Send>(
+        &self,
+        x: &DVector<f64>,
+        row: impl Fn(usize, &PreparedLeg<'a>, &Solution) -> R + Sync,
+    ) -> Result<Vec<R>, BlockError> {
+        let key = key(x);
+        let seeded = {
+            let state = self.lock();
+            let kept = state
+                .recent
+                .iter()
+                .any(|e| e.x == key && !e.solutions.is_empty());
+            !kept && !self.blocks.is_empty() && state.solved == key
+        };
+        if !seeded {
+            return self.map_solved(x, |index, leg, _, solution| row(index, leg, solution));
+        }
+        let state = self.lock();
+        let prepared = self.prepare(x, false);
+        let seeds = &state.seeds;
+        let task = |chunk: usize| {
+            let start = chunk * ROWS_PER_TASK;
+            let end = (start + ROWS_PER_TASK).min(self.blocks.len());
+            (start..end)
+                .map(|index| {
+                    let leg = self.prepared_leg(&prepared, index);
+                    let seed = &seeds.values[index * seeds.stride..];
+                    row(index, leg, &seed_solution(seed, leg.leg()))
+                })
+                .collect::<Vec<R>>()
+        };
+        let chunks = self.blocks.len().div_ceil(ROWS_PER_TASK);
+        let results: Vec<Vec<R>> = (0..chunks).into_par_iter().map(task).collect();
+        Ok(results.into_iter().flatten().collect())
+    }
+
     /// Calls `row` with every block's index, its slot's leg prepared at the unknowns `x`
     /// (without derivative columns), its platform pose and transform and its
     /// inverse-kinematics solution at `x`, in row order: the kept solutions of an evaluation at
