@@ -46,6 +46,9 @@ pub struct KlipperExport {
     pub rms_loss: f64,
     /// Its largest value over the grid, m.
     pub max_loss: f64,
+    /// The RMS loss of the closed-form start (the towers' circumcircle, rods, endstop heights),
+    /// m: what the least squares improved on.
+    pub start_rms_loss: f64,
     /// Number of grid points.
     pub points: usize,
 }
@@ -179,6 +182,7 @@ pub fn fit_klipper(mechanism: &Mechanism, bed_radius: f64) -> Result<KlipperExpo
         ))
     };
     let mut r = residuals(&q).ok_or_else(unreachable)?;
+    let start_rms_loss = rms(&r, samples.len());
     for _ in 0..50 {
         let mut jacobian = DMatrix::zeros(r.len(), 12);
         for j in 0..12 {
@@ -213,7 +217,7 @@ pub fn fit_klipper(mechanism: &Mechanism, bed_radius: f64) -> Result<KlipperExpo
     let distances: Vec<f64> = (0..samples.len())
         .map(|k| Vector3::new(r[3 * k], r[3 * k + 1], r[3 * k + 2]).norm())
         .collect();
-    let rms_loss = (distances.iter().map(|d| d * d).sum::<f64>() / distances.len() as f64).sqrt();
+    let rms_loss = rms(&r, samples.len());
     let max_loss = distances.iter().copied().fold(0.0, f64::max);
     let radius = q[2];
     let values = KlipperValues {
@@ -229,8 +233,14 @@ pub fn fit_klipper(mechanism: &Mechanism, bed_radius: f64) -> Result<KlipperExpo
         origin: [q[0], q[1]],
         rms_loss,
         max_loss,
+        start_rms_loss,
         points: samples.len(),
     })
+}
+
+/// RMS over `points` of the norm of each point's three residuals.
+fn rms(r: &DVector<f64>, points: usize) -> f64 {
+    (r.norm_squared() / points as f64).sqrt()
 }
 
 /// Klipper's nozzle position for readings `s` with values `q` = [cx, cy, radius, angles (rad),

@@ -36,6 +36,7 @@ mod instrument_trust;
 mod inverse_kinematics;
 mod jacobian;
 mod kinematics;
+mod klipper_printer;
 mod lm_behaviour;
 mod mgh;
 mod mixed_observations;
