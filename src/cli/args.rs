@@ -79,6 +79,9 @@ pub struct PrinterImportArgs {
     /// σ of the probe's height, m (the model's `noise.z`).
     #[arg(long, default_value_t = crate::printer::delta_model::DEFAULT_PROBE_NOISE, allow_negative_numbers = true)]
     pub probe_noise: f64,
+    /// σ of a DELTA_ANALYZE distance, m (with distances in the file).
+    #[arg(long, default_value_t = crate::printer::delta_model::DEFAULT_DISTANCE_NOISE, allow_negative_numbers = true)]
+    pub distance_noise: f64,
 }
 
 /// Options of `legwise printer export`.

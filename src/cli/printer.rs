@@ -40,8 +40,16 @@ fn import(args: &PrinterImportArgs) -> anyhow::Result<Verdict> {
         path: args.out.clone(),
         error,
     })?;
+    if !(args.distance_noise.is_finite() && args.distance_noise > 0.0) {
+        return Err(Error::Invalid(format!(
+            "--distance-noise: expected a positive σ in metres, found {}",
+            args.distance_noise
+        ))
+        .into());
+    }
     let options = ModelOptions {
         probe_noise: args.probe_noise,
+        distance_noise: args.distance_noise,
     };
     let files = printer_files(&delta, &options, "printer.urdf");
     write(&args.out.join("printer.yaml"), &files.yaml)?;
@@ -64,10 +72,11 @@ fn import(args: &PrinterImportArgs) -> anyhow::Result<Verdict> {
     if delta.touches.is_empty() {
         println!("no [delta_calibrate] heightN in the file: probe.csv has no rows (run DELTA_CALIBRATE and SAVE_CONFIG first)");
     }
-    if delta.distances > 0 {
+    if !delta.distances.is_empty() {
         println!(
-            "{} distanceN measurements of DELTA_ANALYZE are not imported yet",
-            delta.distances
+            "{} distances of DELTA_ANALYZE imported (sigma {} m): the rods are identified too",
+            delta.distances.len(),
+            args.distance_noise
         );
     }
     println!(

@@ -14,18 +14,23 @@ use super::klipper::KlipperDelta;
 
 /// Default σ of the probe's height, m (a typical `PROBE_ACCURACY` standard deviation).
 pub const DEFAULT_PROBE_NOISE: f64 = 1.0e-5;
+/// Default σ of a `DELTA_ANALYZE` distance, m (calipers on a printed part).
+pub const DEFAULT_DISTANCE_NOISE: f64 = 2.0e-5;
 
 /// Options of the generated model.
 #[derive(Debug, Clone, Copy)]
 pub struct ModelOptions {
     /// σ of the probe's height, m (the model's `noise.z`).
     pub probe_noise: f64,
+    /// σ of a measured distance, m (`instrument.distances.noise`, with distances only).
+    pub distance_noise: f64,
 }
 
 impl Default for ModelOptions {
     fn default() -> Self {
         ModelOptions {
             probe_noise: DEFAULT_PROBE_NOISE,
+            distance_noise: DEFAULT_DISTANCE_NOISE,
         }
     }
 }
@@ -145,13 +150,20 @@ fn yaml(delta: &KlipperDelta, options: &ModelOptions, urdf_name: &str) -> String
             num(elbow)
         );
     }
-    out.push_str(
+    let with_distances = !delta.distances.is_empty();
+    out.push_str(if with_distances {
+        "\n# phi_i = [t_ix, t_iy, L_i, k_i, h0_i]: Klipper's enhanced factors (six + three rods) in\n\
+         # legwise's coordinates. A probe cannot see where the printer stands in x, y nor its turn\n\
+         # about z: tower c (leg3) and t1x are held. The distances see scale: the rods are\n\
+         # identified. Gains and effector joints are held; the bed's height and tilts are held.\n\
+         parameters:\n"
+    } else {
         "\n# phi_i = [t_ix, t_iy, L_i, k_i, h0_i]: Klipper's six factors in legwise's coordinates.\n\
          # A probe cannot see where the printer stands in x, y nor its turn about z: tower c\n\
          # (leg3) and t1x are held. Rods, gains and the effector joints are held (heights alone\n\
          # cannot see scale); the bed's height and tilts are held (the offsets take them).\n\
-         parameters:\n",
-    );
+         parameters:\n"
+    });
     for i in 0..3 {
         let n = i + 1;
         let tower_held = |c: &str| i == 2 || (i == 0 && c == "x");
@@ -163,10 +175,12 @@ fn yaml(delta: &KlipperDelta, options: &ModelOptions, urdf_name: &str) -> String
             };
             let _ = writeln!(out, "  - {{name: t{n}{c}, joint: C{n}, origin: {c}{held}}}");
         }
-        let _ = writeln!(
-            out,
-            "  - {{name: L{n}, joint: R{n}, origin: x, identify: false}}"
-        );
+        let rod_held = if with_distances {
+            ""
+        } else {
+            ", identify: false"
+        };
+        let _ = writeln!(out, "  - {{name: L{n}, joint: R{n}, origin: x{rod_held}}}");
         let _ = writeln!(
             out,
             "  - {{name: k{n}, leg: leg{n}, actuator: gain, identify: false}}"
@@ -196,20 +210,58 @@ fn yaml(delta: &KlipperDelta, options: &ModelOptions, urdf_name: &str) -> String
         num(options.probe_noise),
         num(touch)
     );
+    if with_distances {
+        let _ = writeln!(
+            out,
+            "  distances: {{target: nozzle, noise: {}}}",
+            num(options.distance_noise)
+        );
+    }
     out
 }
 
 fn csv(delta: &KlipperDelta) -> String {
-    let mut out = String::from("z.nozzle,C1,C2,C3,id\n");
+    let with_distances = !delta.distances.is_empty();
+    let tail = if with_distances { ",,," } else { "" };
+    let mut out = String::from("z.nozzle,C1,C2,C3,id");
+    out.push_str(if with_distances {
+        ",from,to,distance\n"
+    } else {
+        "\n"
+    });
+    let readings = |steps: &[f64; 3]| {
+        format!(
+            "{},{},{}",
+            num(reading(delta, 0, steps[0])),
+            num(reading(delta, 1, steps[1])),
+            num(reading(delta, 2, steps[2]))
+        )
+    };
     for touch in &delta.touches {
         let _ = writeln!(
             out,
-            "{},{},{},{},{}",
+            "{},{},{}{tail}",
             num(touch.height_mm * MM),
-            num(reading(delta, 0, touch.steps[0])),
-            num(reading(delta, 1, touch.steps[1])),
-            num(reading(delta, 2, touch.steps[2])),
+            readings(&touch.steps),
             touch.id
+        );
+    }
+    // A distance: its two positions as rows of readings alone, then the distance row.
+    for distance in &delta.distances {
+        for (k, steps) in distance.steps.iter().enumerate() {
+            let _ = writeln!(
+                out,
+                ",{},{}_pos{}{tail}",
+                readings(steps),
+                distance.id,
+                k + 1
+            );
+        }
+        let _ = writeln!(
+            out,
+            ",,,,,{0}_pos1,{0}_pos2,{1}",
+            distance.id,
+            num(distance.distance_mm * MM)
         );
     }
     out

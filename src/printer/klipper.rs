@@ -254,8 +254,19 @@ pub struct KlipperDelta {
     pub calibrate_radius: Option<f64>,
     /// The touches of the SAVE_CONFIG `[delta_calibrate]` section, manual heights first.
     pub touches: Vec<ProbeTouch>,
-    /// Number of `distanceN` measurements present (not imported yet).
-    pub distances: usize,
+    /// The `DELTA_ANALYZE` distances of the SAVE_CONFIG `[delta_calibrate]` section.
+    pub distances: Vec<MeasuredDistance>,
+}
+
+/// One measured distance: `distanceN = d`, `distanceN_pos1 = a,b,c`, `distanceN_pos2 = a,b,c`.
+#[derive(Debug, Clone, PartialEq)]
+pub struct MeasuredDistance {
+    /// `distance0`, …: the key.
+    pub id: String,
+    /// The measured distance between the nozzle's two positions, mm.
+    pub distance_mm: f64,
+    /// The two stable positions (steps since each tower's endstop).
+    pub steps: [[f64; 3]; 2],
 }
 
 /// Tower names, in legwise's leg order.
@@ -348,13 +359,32 @@ impl KlipperDelta {
                 });
             }
         }
-        let distances = (0..)
-            .take_while(|n| {
-                config
-                    .get("delta_calibrate", &format!("distance{n}"))
-                    .is_some()
-            })
-            .count();
+        let mut distances = Vec::new();
+        for n in 0.. {
+            let key = format!("distance{n}");
+            let Some(distance_mm) = config.float("delta_calibrate", &key)? else {
+                break;
+            };
+            let mut steps = [[0.0; 3]; 2];
+            for (k, end) in steps.iter_mut().enumerate() {
+                let pos_key = format!("{key}_pos{}", k + 1);
+                let v = config
+                    .floats("delta_calibrate", &pos_key, 3)?
+                    .ok_or_else(|| {
+                        config.missing(
+                            "delta_calibrate",
+                            &pos_key,
+                            "a stable position of the distance",
+                        )
+                    })?;
+                *end = [v[0], v[1], v[2]];
+            }
+            distances.push(MeasuredDistance {
+                id: key,
+                distance_mm,
+                steps,
+            });
+        }
         Ok(KlipperDelta {
             radius,
             angles,

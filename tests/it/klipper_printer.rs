@@ -59,10 +59,15 @@ const ODD_ENDSTOPS: [f64; 3] = [250.0, 251.25, 250.0];
 
 /// Klipper's closed form, written here: the steps since each endstop with the nozzle at `p` (mm).
 fn odd_steps_at(p: [f64; 3]) -> [f64; 3] {
+    steps_with_arms(p, ODD_ARMS)
+}
+
+/// As [`odd_steps_at`] with other rods `arms` (mm).
+fn steps_with_arms(p: [f64; 3], arms: [f64; 3]) -> [f64; 3] {
     std::array::from_fn(|i| {
         let a = ODD_ANGLES[i].to_radians();
         let (tx, ty) = (ODD_R * a.cos(), ODD_R * a.sin());
-        let l = ODD_ARMS[i];
+        let l = arms[i];
         let carriage = (l * l - (p[0] - tx).powi(2) - (p[1] - ty).powi(2)).sqrt() + p[2];
         let top = ODD_ENDSTOPS[i] + (l * l - ODD_R * ODD_R).sqrt();
         (top - carriage) / ODD_STEPS[i]
@@ -375,4 +380,100 @@ fn bad_printer_cfgs_name_file_line_section_and_key() {
         &noise,
         "legwise: --probe-noise: expected a positive σ in metres, found -1",
     );
+}
+
+#[test]
+fn delta_analyze_distances_free_the_rods() {
+    // A printer whose rods are not the file's: touches at three heights and six distances
+    // between touch points (DELTA_ANALYZE's `distanceN`, `distanceN_pos1`, `distanceN_pos2`).
+    let real_arms = [ODD_ARMS[0] + 0.6, ODD_ARMS[1] - 0.4, ODD_ARMS[2] + 0.3];
+    let points = odd_points();
+    let mut file = format!(
+        "{ODD}\n#*# <---------------------- SAVE_CONFIG ---------------------->\n\
+         #*# DO NOT EDIT THIS BLOCK OR BELOW. The contents are auto-generated.\n#*#\n#*# [delta_calibrate]\n"
+    );
+    let fmt = |s: [f64; 3]| format!("{:.9},{:.9},{:.9}", s[0], s[1], s[2]);
+    for (n, p) in points.iter().enumerate() {
+        let s = steps_with_arms(*p, real_arms);
+        file.push_str(&format!(
+            "#*# height{n} = {}\n#*# height{n}_pos = {}\n",
+            p[2],
+            fmt(s)
+        ));
+    }
+    for (n, (a, b)) in [(0, 1), (2, 3), (1, 4), (5, 8), (7, 12), (3, 14)]
+        .into_iter()
+        .enumerate()
+    {
+        let (pa, pb): ([f64; 3], [f64; 3]) = (points[a], points[b]);
+        let d =
+            ((pa[0] - pb[0]).powi(2) + (pa[1] - pb[1]).powi(2) + (pa[2] - pb[2]).powi(2)).sqrt();
+        file.push_str(&format!(
+            "#*# distance{n} = {d:.12}\n#*# distance{n}_pos1 = {}\n#*# distance{n}_pos2 = {}\n",
+            fmt(steps_with_arms(pa, real_arms)),
+            fmt(steps_with_arms(pb, real_arms))
+        ));
+    }
+    let dir = tempfile::tempdir().unwrap();
+    let cfg = dir.path().join("analyze.cfg");
+    std::fs::write(&cfg, file).unwrap();
+    let d = dir.path().to_str().unwrap();
+    let out = legwise_succeeds(&[
+        "printer",
+        "import",
+        "--klipper",
+        cfg.to_str().unwrap(),
+        "--out",
+        d,
+    ]);
+    assert!(text(&out.stdout).contains("6 distances of DELTA_ANALYZE imported"));
+    let csv = std::fs::read_to_string(dir.path().join("probe.csv")).unwrap();
+    assert!(
+        csv.starts_with("z.nozzle,C1,C2,C3,id,from,to,distance\n"),
+        "{csv}"
+    );
+    assert!(csv.contains(",,,,,distance0_pos1,distance0_pos2,"), "{csv}");
+    let (model, cal, out_cfg) = (
+        format!("{d}/printer.yaml"),
+        format!("{d}/cal.yaml"),
+        format!("{d}/cal.cfg"),
+    );
+    let csv = format!("{d}/probe.csv");
+    legwise_succeeds(&[
+        "identify",
+        "--model",
+        &model,
+        "--measurements",
+        &csv,
+        "--calibrated",
+        &cal,
+    ]);
+    legwise_succeeds(&[
+        "printer",
+        "export",
+        "--klipper",
+        "--calibrated",
+        &cal,
+        "--out",
+        &out_cfg,
+    ]);
+    let block = exported(Path::new(&out_cfg));
+    for (i, tower) in ["stepper_a", "stepper_b", "stepper_c"]
+        .into_iter()
+        .enumerate()
+    {
+        let arm = block.float(tower, "arm_length").unwrap().unwrap();
+        assert!(
+            (arm - real_arms[i]).abs() < 1e-5,
+            "{tower}: {arm} vs {}",
+            real_arms[i]
+        );
+        let endstop = block.float(tower, "position_endstop").unwrap().unwrap();
+        assert!(
+            (endstop - ODD_ENDSTOPS[i]).abs() < 1e-5,
+            "{tower}: {endstop}"
+        );
+    }
+    let radius = block.float("printer", "delta_radius").unwrap().unwrap();
+    assert!((radius - ODD_R).abs() < 1e-5, "{radius}");
 }
