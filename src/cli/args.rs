@@ -45,6 +45,7 @@ pub enum Command {
     Montecarlo(MontecarloArgs),
     /// A delta printer's firmware files: import a Klipper printer.cfg as a model and probe CSV,
     /// export a calibrated model as Klipper's SAVE_CONFIG values (docs/printers.md).
+    #[command(after_help = help::PRINTER)]
     Printer(PrinterArgs),
 }
 

@@ -69,6 +69,11 @@ fn import(args: &PrinterImportArgs) -> anyhow::Result<Verdict> {
             .z_offset
             .map_or("none".to_string(), |z| format!("{z} mm"))
     );
+    for include in config.section_names().filter(|s| s.starts_with("include ")) {
+        println!(
+            "[{include}]: included files are not read (import the file with the delta's sections)"
+        );
+    }
     if delta.touches.is_empty() {
         println!("no [delta_calibrate] heightN in the file: probe.csv has no rows (run DELTA_CALIBRATE and SAVE_CONFIG first)");
     }

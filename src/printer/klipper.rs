@@ -131,6 +131,11 @@ impl KlipperConfig {
         Error::Invalid(format!("{}: line {line}: {message}", self.path.display()))
     }
 
+    /// The sections' names, in alphabetical order.
+    pub fn section_names(&self) -> impl Iterator<Item = &str> {
+        self.sections.keys().map(String::as_str)
+    }
+
     /// Does the file have section `name`?
     pub fn has_section(&self, name: &str) -> bool {
         self.sections.contains_key(name)

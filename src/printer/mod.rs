@@ -26,4 +26,5 @@ conventions (Klipper linear delta; docs/printers.md):
   actuator: h_i = k_i * s_i + h0_i, k_i = 1, h0_i = position_endstop_i + sqrt(arm_length_i^2 - delta_radius^2)
   probe: heightN (the nozzle's height above the bed at the trigger, the probe's z_offset) at the
     stable position heightN_pos (steps since the endstop per tower); the bed is the instrument frame
+  distances: distanceN between the nozzle at distanceN_pos1 and at distanceN_pos2 (DELTA_ANALYZE)
   units: mm -> m, degrees -> rad";
