@@ -105,6 +105,7 @@ pub mod kinematics;
 pub mod measure;
 pub mod model;
 pub mod pipeline;
+pub mod printer;
 pub mod progress;
 pub mod report;
 pub mod scalar;

@@ -2,7 +2,7 @@
 # Runs every command of the README's `sh` blocks, in the README's order, as a newcomer would on a
 # fresh clone, and fails on the first one that does not exit 0.
 #
-# `cargo run --release -- ARGS` runs as the release binary with ARGS, in a scratch directory
+# `cargo run --release -- ARGS` and `legwise ARGS` run as the release binary with ARGS, in a scratch directory
 # holding the repository's models/ and examples/ (so the files the commands write, such as
 # tracker.csv or poses.csv, do not land in the clone). `cargo test` is skipped: CI runs it
 # itself; so is `cargo install --path .` (the release build below). Comment lines, and
@@ -22,6 +22,7 @@ fi
 scratch="$(mktemp -d)"
 trap 'rm -rf "$scratch"' EXIT
 cp -r "$root/models" "$root/examples" "$scratch/"
+mkdir -p "$scratch/tests/data" && cp -r "$root/tests/data/klipper" "$scratch/tests/data/"
 
 mapfile -t commands < <(awk '/^```sh/{inside=1; next} /^```/{inside=0} inside' "$readme" |
   grep -v '^[[:space:]]*#' | grep -v '^[[:space:]]*$')
@@ -32,6 +33,7 @@ for command in "${commands[@]}"; do
     "cargo test"*) echo "readme: skipped (CI runs it): $command"; continue ;;
     "cargo install --path ."*) echo "readme: skipped (the release build above is it): $command"; continue ;;
     "cargo run --release -- "*) args="${command#cargo run --release -- }" ;;
+    "legwise "*) args="${command#legwise }" ;;
     *) echo "readme: not a legwise command this script knows how to run: $command" >&2; exit 1 ;;
   esac
   count=$((count + 1))

@@ -43,6 +43,63 @@ pub enum Command {
     /// joint and the two-stage identification), with 95 % confidence intervals.
     #[command(after_help = help::MONTECARLO)]
     Montecarlo(MontecarloArgs),
+    /// A delta printer's firmware files: import a Klipper printer.cfg as a model and probe CSV,
+    /// export a calibrated model as Klipper's SAVE_CONFIG values (docs/printers.md).
+    #[command(after_help = help::PRINTER)]
+    Printer(PrinterArgs),
+}
+
+/// Options of `legwise printer`.
+#[derive(Debug, clap::Args)]
+pub struct PrinterArgs {
+    /// Import or export.
+    #[command(subcommand)]
+    pub command: PrinterCommand,
+}
+
+/// The subcommands of `legwise printer`.
+#[derive(Debug, Subcommand)]
+pub enum PrinterCommand {
+    /// Read a Klipper printer.cfg (SAVE_CONFIG block included) and write DIR/printer.yaml,
+    /// DIR/printer.urdf and DIR/probe.csv (the DELTA_CALIBRATE touches).
+    Import(PrinterImportArgs),
+    /// Write a calibrated imported model as Klipper's SAVE_CONFIG values, with what Klipper
+    /// cannot express (µm RMS over the bed).
+    Export(PrinterExportArgs),
+}
+
+/// Options of `legwise printer import`.
+#[derive(Debug, clap::Args)]
+pub struct PrinterImportArgs {
+    /// The Klipper printer.cfg of a linear delta.
+    #[arg(long, value_name = "printer.cfg")]
+    pub klipper: PathBuf,
+    /// Directory for printer.yaml, printer.urdf and probe.csv (created if missing).
+    #[arg(long, value_name = "DIR")]
+    pub out: PathBuf,
+    /// σ of the probe's height, m (the model's `noise.z`).
+    #[arg(long, default_value_t = crate::printer::delta_model::DEFAULT_PROBE_NOISE, allow_negative_numbers = true)]
+    pub probe_noise: f64,
+    /// σ of a DELTA_ANALYZE distance, m (with distances in the file).
+    #[arg(long, default_value_t = crate::printer::delta_model::DEFAULT_DISTANCE_NOISE, allow_negative_numbers = true)]
+    pub distance_noise: f64,
+}
+
+/// Options of `legwise printer export`.
+#[derive(Debug, clap::Args)]
+pub struct PrinterExportArgs {
+    /// Export for Klipper (the only firmware so far).
+    #[arg(long, required = true)]
+    pub klipper: bool,
+    /// The calibrated model (`legwise identify --calibrated cal.yaml` on an imported printer).
+    #[arg(long, value_name = "cal.yaml")]
+    pub calibrated: PathBuf,
+    /// Where to write the SAVE_CONFIG block (`-`: standard output).
+    #[arg(long, value_name = "cal.cfg")]
+    pub out: PathBuf,
+    /// Radius of the bed disc the fit covers, m (default: the model's workspace radius).
+    #[arg(long, allow_negative_numbers = true)]
+    pub bed_radius: Option<f64>,
 }
 
 /// Options of `legwise montecarlo`.

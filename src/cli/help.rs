@@ -127,3 +127,13 @@ EXAMPLES:
   # the same results on one thread (identical for a seed whatever the thread count)
   RAYON_NUM_THREADS=1 legwise montecarlo --model models/5r.yaml --trials 100 --json -"
 );
+
+/// `legwise printer --help`.
+pub(super) const PRINTER: &str = examples!(
+    "
+  # a Klipper delta's printer.cfg (its SAVE_CONFIG block holds DELTA_CALIBRATE's touches)
+  legwise printer import --klipper printer.cfg --out mydelta --probe-noise 5e-6
+  legwise identify --model mydelta/printer.yaml --measurements mydelta/probe.csv --calibrated mydelta/cal.yaml
+  # the values to paste over printer.cfg's SAVE_CONFIG block, and what Klipper cannot express
+  legwise printer export --klipper --calibrated mydelta/cal.yaml --out mydelta/cal.cfg"
+);

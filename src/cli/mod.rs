@@ -11,6 +11,7 @@ mod identify;
 mod in_memory;
 mod montecarlo;
 mod outputs;
+mod printer;
 mod select;
 mod simulate;
 mod usage;
@@ -37,5 +38,6 @@ pub fn run(cli: Cli) -> anyhow::Result<Verdict> {
         Command::Workspace(args) => workspace::run(&args),
         Command::Evaluate(args) => evaluate::run(&args),
         Command::Montecarlo(args) => montecarlo::run(&args),
+        Command::Printer(args) => printer::run(&args),
     }
 }

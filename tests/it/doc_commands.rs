@@ -136,6 +136,10 @@ fn problems(name: &str) -> (usize, Vec<String>) {
                 let known = value == "-"
                     || PLACEHOLDERS.contains(&value)
                     || written.contains(value)
+                    // A file of a directory an earlier command wrote (`printer import --out DIR`).
+                    || std::path::Path::new(value)
+                        .parent()
+                        .is_some_and(|dir| written.contains(dir.to_str().unwrap_or_default()))
                     || crate_path(value).exists();
                 if a_file && !known {
                     problems.push(format!(

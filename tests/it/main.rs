@@ -39,6 +39,7 @@ mod instrument_trust;
 mod inverse_kinematics;
 mod jacobian;
 mod kinematics;
+mod klipper_printer;
 mod library_example;
 mod lm_behaviour;
 mod mgh;

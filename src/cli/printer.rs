@@ -1,0 +1,152 @@
+//! `legwise printer import|export`: a thin shell over [`crate::printer`].
+
+use std::path::Path;
+
+use super::args::{PrinterArgs, PrinterCommand, PrinterExportArgs, PrinterImportArgs};
+use super::verdict::Verdict;
+use crate::error::Error;
+use crate::model::region::Region;
+use crate::model::Mechanism;
+use crate::printer::delta_model::{printer_files, ModelOptions};
+use crate::printer::export::{fit_klipper, save_config_block};
+use crate::printer::klipper::{KlipperConfig, KlipperDelta};
+use crate::printer::CONVENTIONS;
+
+pub(super) fn run(args: &PrinterArgs) -> anyhow::Result<Verdict> {
+    match &args.command {
+        PrinterCommand::Import(args) => import(args),
+        PrinterCommand::Export(args) => export(args),
+    }
+}
+
+fn write(path: &Path, contents: &str) -> Result<(), Error> {
+    std::fs::write(path, contents).map_err(|error| Error::Io {
+        path: path.to_path_buf(),
+        error,
+    })
+}
+
+fn import(args: &PrinterImportArgs) -> anyhow::Result<Verdict> {
+    if !(args.probe_noise.is_finite() && args.probe_noise > 0.0) {
+        return Err(Error::Invalid(format!(
+            "--probe-noise: expected a positive σ in metres, found {}",
+            args.probe_noise
+        ))
+        .into());
+    }
+    let config = KlipperConfig::read(&args.klipper)?;
+    let delta = KlipperDelta::from_config(&config)?;
+    std::fs::create_dir_all(&args.out).map_err(|error| Error::Io {
+        path: args.out.clone(),
+        error,
+    })?;
+    if !(args.distance_noise.is_finite() && args.distance_noise > 0.0) {
+        return Err(Error::Invalid(format!(
+            "--distance-noise: expected a positive σ in metres, found {}",
+            args.distance_noise
+        ))
+        .into());
+    }
+    let options = ModelOptions {
+        probe_noise: args.probe_noise,
+        distance_noise: args.distance_noise,
+    };
+    let files = printer_files(&delta, &options, "printer.urdf");
+    write(&args.out.join("printer.yaml"), &files.yaml)?;
+    write(&args.out.join("printer.urdf"), &files.urdf)?;
+    write(&args.out.join("probe.csv"), &files.csv)?;
+    println!("{CONVENTIONS}");
+    println!(
+        "read {}: delta_radius {} mm, angles {:?} deg, arm_length {:?} mm, position_endstop {:?} mm, \
+         step distance {:?} mm, probe z_offset {}",
+        args.klipper.display(),
+        delta.radius,
+        delta.angles,
+        delta.arms,
+        delta.endstops,
+        delta.step_distances,
+        delta
+            .z_offset
+            .map_or("none".to_string(), |z| format!("{z} mm"))
+    );
+    for include in config.section_names().filter(|s| s.starts_with("include ")) {
+        println!(
+            "[{include}]: included files are not read (import the file with the delta's sections)"
+        );
+    }
+    if delta.touches.is_empty() {
+        println!("no [delta_calibrate] heightN in the file: probe.csv has no rows (run DELTA_CALIBRATE and SAVE_CONFIG first)");
+    }
+    if !delta.distances.is_empty() {
+        println!(
+            "{} distances of DELTA_ANALYZE imported (sigma {} m): the rods are identified too",
+            delta.distances.len(),
+            args.distance_noise
+        );
+    }
+    println!(
+        "wrote {0}/printer.yaml, {0}/printer.urdf and {0}/probe.csv ({1} touches, probe sigma {2} m)",
+        args.out.display(),
+        delta.touches.len(),
+        args.probe_noise
+    );
+    Ok(Verdict::Trusted)
+}
+
+fn export(args: &PrinterExportArgs) -> anyhow::Result<Verdict> {
+    let mechanism = Mechanism::load(&args.calibrated)?;
+    let bed_radius = match args.bed_radius {
+        Some(r) if r.is_finite() && r > 0.0 => r,
+        Some(r) => {
+            return Err(Error::Invalid(format!(
+                "--bed-radius: expected a positive radius in metres, found {r}"
+            ))
+            .into())
+        }
+        None => match mechanism.workspace.region {
+            Region::Cylinder { radius, .. } => radius,
+            _ => {
+                return Err(Error::Invalid(format!(
+                    "{}: field `workspace.region`: expected the cylinder of an imported printer, or give --bed-radius",
+                    args.calibrated.display()
+                ))
+                .into())
+            }
+        },
+    };
+    let fit = fit_klipper(&mechanism, bed_radius)?;
+    let block = save_config_block(&fit.values);
+    if args.out.as_os_str() == "-" {
+        print!("{block}");
+    } else {
+        write(&args.out, &block)?;
+    }
+    let v = &fit.values;
+    eprintln!(
+        "Klipper values closest to {} over the bed (r <= {:.1} mm, {} points at 0 and {:.1} mm): \
+         delta_radius {:.6} mm, angle {:.6?} deg, arm_length {:.6?} mm, position_endstop {:.6?} mm",
+        args.calibrated.display(),
+        bed_radius * 1e3,
+        fit.points,
+        bed_radius * 5e2,
+        v.radius,
+        v.angles,
+        v.arms,
+        v.endstops
+    );
+    eprintln!(
+        "lost in the export (what Klipper cannot express: gains, a bed tilt): {:.3} µm RMS, {:.3} µm max \
+         of the nozzle's position over the bed; Klipper's origin at ({:.4}, {:.4}) mm of the bed frame",
+        fit.rms_loss * 1e6,
+        fit.max_loss * 1e6,
+        fit.origin[0] * 1e3,
+        fit.origin[1] * 1e3
+    );
+    if args.out.as_os_str() != "-" {
+        eprintln!(
+            "wrote {}: paste its lines over the same keys of printer.cfg's SAVE_CONFIG block",
+            args.out.display()
+        );
+    }
+    Ok(Verdict::Trusted)
+}
