@@ -7,6 +7,7 @@
 //!   conquer and to the traditional strategy, trials in parallel, bit-identical for a seed;
 //! * [`report`] — its terminal and JSON renderings;
 //! * [`plots`] — the error distributions per strategy.
+mod alarms;
 pub mod montecarlo;
 pub mod plots;
 pub mod report;
