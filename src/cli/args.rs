@@ -220,7 +220,8 @@ pub struct IdentifyArgs {
     #[arg(long, value_enum)]
     pub weights: Option<WeightsArg>,
     /// A robust loss inside the fit (scaled by the model's `noise` block): huber or cauchy.
-    #[arg(long, value_enum)]
+    /// Not with `--drop-outliers` (the loss weighs outliers down; the other drops them).
+    #[arg(long, value_enum, conflicts_with = "drop_outliers")]
     pub robust: Option<RobustArg>,
     /// Refit once without the rows flagged as outliers, and list them.
     #[arg(long)]

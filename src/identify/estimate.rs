@@ -328,6 +328,20 @@ fn estimate_problem(
         ),
         _ => None,
     };
+    // A robust fit's covariance: the declared-noise weighted one at its estimate (each row's
+    // residual and Jacobian over its σ), times the loss's variance factor.
+    let mut robust = match (kind, options.robust, noise.as_ref()) {
+        (FitKind::Robust, Some(loss), Some(noise)) => {
+            let v = statistics::row_variances(&problem.unweighted(), &outcome.x, noise)
+                .map_err(|e| located(mechanism, data, problem, e))?;
+            let r = DVector::from_fn(v.len(), |i, _| unweighted_r[i] / v[i].sqrt());
+            let c = DMatrix::from_fn(v.len(), unweighted_c.ncols(), |i, j| {
+                unweighted_c[(i, j)] / v[i].sqrt()
+            });
+            Some((loss.variance_factor(), r, c))
+        }
+        _ => None,
+    };
     problem.release_gradients();
     let mut estimates = Vec::new();
     for slot in problem.slots() {
@@ -341,13 +355,28 @@ fn estimate_problem(
             FitKind::LeastSquares => &[],
         };
         let declared = problem.is_weighted() && kind == FitKind::LeastSquares;
-        let (residual_sigma, covariance, dof) = leg_covariance(
-            problem,
-            slot,
-            (&r, &c),
-            excluded,
-            (loadings.as_ref(), declared),
-        );
+        let (residual_sigma, covariance, dof) = match &mut robust {
+            Some((factor, gls_r, gls_c)) => {
+                let residual_sigma =
+                    leg_covariance(problem, slot, (&r, &c), excluded, (None, false)).0;
+                // The outliers, at full weight here, leave the leg's Jacobian (each row is one
+                // leg's: no other leg reads it).
+                for &i in excluded {
+                    gls_c.row_mut(i).fill(0.0);
+                }
+                let (_, covariance, dof) =
+                    leg_covariance(problem, slot, (gls_r, gls_c), excluded, (None, true));
+                let factor = *factor;
+                (residual_sigma, covariance.map(|v| v * factor), dof)
+            }
+            None => leg_covariance(
+                problem,
+                slot,
+                (&r, &c),
+                excluded,
+                (loadings.as_ref(), declared),
+            ),
+        };
         let fit = Fit {
             x: &outcome.x,
             r0: &r0,
