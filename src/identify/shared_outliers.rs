@@ -110,3 +110,49 @@ fn robust_t(e: &[f64], scaled: &DMatrix<f64>) -> Vec<Option<f64>> {
         })
         .collect()
 }
+
+#[cfg(test)]
+mod tests {
+    use std::path::Path;
+
+    use super::{outliers, FitKind};
+    use crate::identify::problem::IdentificationProblem;
+    use crate::measure::observations::read;
+    use crate::model::Mechanism;
+
+    /// The test needs every residual's declared variance: one that is zero or not finite
+    /// leaves nothing to divide by, and no residual is tested (no threshold either); the same
+    /// residuals with positive variances get a threshold. And without redundancy (`m ≤ n + 1`
+    /// kept residuals) there is no test.
+    #[test]
+    fn no_residual_is_tested_without_a_positive_finite_variance_or_redundancy() {
+        let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+        let mechanism = Mechanism::load(&root.join("models/5r-tracker.yaml")).unwrap();
+        let observations = read(&root.join("examples/data/5r-tracker.csv"), &mechanism).unwrap();
+        let problem = IdentificationProblem::through_instrument(&mechanism, &observations).unwrap();
+        let (r, jacobian) = problem.residuals_and_jacobian(&problem.start()).unwrap();
+        let all: Vec<usize> = (0..r.len()).collect();
+        let kinds = [FitKind::LeastSquares, FitKind::Robust];
+        let positive = vec![1e-8; r.len()];
+        for kind in kinds {
+            let (_, threshold) = outliers(&problem, (&r, &jacobian), &positive, &all, kind);
+            assert!(
+                threshold.is_some(),
+                "{kind:?}: positive variances are tested"
+            );
+            for bad in [0.0, f64::INFINITY, f64::NAN, -1e-8] {
+                let mut variances = positive.clone();
+                variances[3] = bad;
+                let (flagged, threshold) =
+                    outliers(&problem, (&r, &jacobian), &variances, &all, kind);
+                assert!(flagged.is_empty() && threshold.is_none(), "{kind:?} {bad}");
+            }
+            let few: Vec<usize> = (0..=jacobian.ncols()).collect();
+            let (_, threshold) = outliers(&problem, (&r, &jacobian), &positive, &few, kind);
+            assert!(threshold.is_none(), "{kind:?}: n + 1 kept residuals");
+            let enough: Vec<usize> = (0..jacobian.ncols() + 2).collect();
+            let (_, threshold) = outliers(&problem, (&r, &jacobian), &positive, &enough, kind);
+            assert!(threshold.is_some(), "{kind:?}: n + 2 kept residuals");
+        }
+    }
+}
