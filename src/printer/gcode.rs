@@ -1,5 +1,6 @@
 //! G-code lines as RepRapFirmware's `config.g` and Marlin's `M503` report write them: a command
-//! (`M665`, `G30`, …) and its parameters (a letter and a number, or numbers separated by `:`).
+//! (`M665`, `G30`, …) and its parameters (a letter and a number, or numbers separated by `:`),
+//! separated by blanks.
 //!
 //! A `;` starts a comment to the end of the line; `(…)` comments are removed; a quoted string
 //! (`M550 P"my printer"`) is one parameter whose text is not read. Serial-console prefixes
@@ -180,26 +181,19 @@ pub fn parse_command(raw: &str, line: usize) -> Option<Command> {
             continue;
         }
         let letter = c.to_ascii_uppercase();
+        // The text runs to the next blank outside quotes: `R18O` is `R` = `18O` (an error
+        // when read as a number), never `R18` and a stray `O`.
         let mut text = String::new();
-        if it.peek() == Some(&'"') {
-            text.push(it.next().unwrap_or('"'));
-            for d in it.by_ref() {
-                text.push(d);
-                if d == '"' {
-                    break;
-                }
+        let mut quoted = false;
+        while let Some(&d) = it.peek() {
+            if !quoted && (d.is_whitespace() || d == '*') {
+                break;
             }
-        } else {
-            while let Some(&d) = it.peek() {
-                if d.is_ascii_alphabetic() && !text.is_empty() && d != 'e' && d != 'E' {
-                    break;
-                }
-                if d.is_whitespace() || d == '*' {
-                    break;
-                }
-                text.push(d);
-                it.next();
+            if d == '"' {
+                quoted = !quoted;
             }
+            text.push(d);
+            it.next();
         }
         words.push((letter, text));
     }

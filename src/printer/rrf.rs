@@ -28,9 +28,9 @@ conventions (RepRapFirmware linear delta; docs/printers.md):
   actuator: h0_i = H + M666_i + sqrt(L_i^2 - R^2) (the homed carriage height), k_i = 1
   reading: s_i = h_i - h0_i at the nozzle's stopped position (m; 0 at the endstop, down negative)
   probe: G31 Z = the nozzle's height above the bed at the trigger; G31 X Y = the probe's offset
-    from the nozzle. G30 P.. X Y Z-99999 probes with the probe at (X, Y): the nozzle stops at
-    (X - G31 X, Y - G31 Y, e + G31 Z), e the height the S-1 reply lists for that point;
-    G30 S-1 stops the nozzle at the last G0/G1 X Y and height h ('Stopped at height h mm')
+    from the nozzle. G30 P.. X Y Z-99999 [H] probes with the probe at (X, Y): the nozzle stops at
+    (X - G31 X, Y - G31 Y, e + G31 Z + H), e the height the S-1 reply lists for that point;
+    G30 S-1 [H] stops the nozzle at the last G0/G1 X Y and height h + H ('Stopped at height h mm')
   M92: steps per mm, not needed (the log's heights are already the stopped motor positions)
   units: mm -> m, degrees -> rad, percent -> fraction";
 
@@ -186,9 +186,9 @@ fn read_log(path: &Path, offset: [f64; 2], trigger: f64) -> Result<Vec<Stop>> {
         Error::Invalid(format!("{}: line {line}: {message}", path.display()))
     };
     let mut stops: Vec<Stop> = Vec::new();
-    let mut points: std::collections::BTreeMap<usize, ([f64; 2], usize)> = Default::default();
+    let mut points: std::collections::BTreeMap<usize, ([f64; 3], usize)> = Default::default();
     let mut at: [Option<f64>; 2] = [None, None];
-    let mut pending: Option<([f64; 2], usize)> = None;
+    let mut pending: Option<([f64; 3], usize)> = None;
     for (index, raw) in text.lines().enumerate() {
         let line = index + 1;
         let reply = parse_reply(raw);
@@ -213,6 +213,8 @@ fn read_log(path: &Path, offset: [f64; 2], trigger: f64) -> Result<Vec<Stop>> {
                 }
                 "G30" => {
                     let s = number('S')?;
+                    // `H`: the firmware reports the stopped height minus H.
+                    let correction = number('H')?.unwrap_or(0.0);
                     if let Some(p) = number('P')? {
                         let (Some(x), Some(y)) = (number('X')?, number('Y')?) else {
                             return Err(err(
@@ -235,7 +237,7 @@ fn read_log(path: &Path, offset: [f64; 2], trigger: f64) -> Result<Vec<Stop>> {
                         if p < 0.0 || p.fract() != 0.0 {
                             return Err(err(line, format!("G30 P: expected a point number 0, 1, …, found {p}")));
                         }
-                        points.insert(p as usize, ([x, y], line));
+                        points.insert(p as usize, ([x, y, correction], line));
                     } else if s == Some(-1.0) {
                         let (Some(x), Some(y)) = (at[0], at[1]) else {
                             return Err(err(
@@ -244,7 +246,7 @@ fn read_log(path: &Path, offset: [f64; 2], trigger: f64) -> Result<Vec<Stop>> {
                                     .into(),
                             ));
                         };
-                        pending = Some(([x, y], line));
+                        pending = Some(([x, y, correction], line));
                     }
                 }
                 _ => {}
@@ -269,7 +271,7 @@ fn read_log(path: &Path, offset: [f64; 2], trigger: f64) -> Result<Vec<Stop>> {
                 }
             }
             for (k, e) in heights.iter().enumerate() {
-                let Some(([x, y], _)) = points.get(&k) else {
+                let Some(([x, y, h], _)) = points.get(&k) else {
                     return Err(err(
                         line,
                         format!(
@@ -280,13 +282,13 @@ fn read_log(path: &Path, offset: [f64; 2], trigger: f64) -> Result<Vec<Stop>> {
                 };
                 stops.push(Stop {
                     id: format!("P{k}_line{line}"),
-                    nozzle: [x - offset[0], y - offset[1], e + trigger],
+                    nozzle: [x - offset[0], y - offset[1], e + trigger + h],
                     line,
                 });
             }
             points.clear();
         } else if let Some(rest) = reply.strip_prefix("Stopped at height") {
-            let Some(([x, y], _)) = pending.take() else {
+            let Some(([x, y, correction], _)) = pending.take() else {
                 return Err(err(line, "Stopped at height: no G30 S-1 before it".into()));
             };
             let value = rest.trim().trim_end_matches("mm").trim();
@@ -302,7 +304,7 @@ fn read_log(path: &Path, offset: [f64; 2], trigger: f64) -> Result<Vec<Stop>> {
                 })?;
             stops.push(Stop {
                 id: format!("S-1_line{line}"),
-                nozzle: [x, y, h],
+                nozzle: [x, y, h + correction],
                 line,
             });
         }

@@ -96,7 +96,7 @@ with open("tests/data/rrf/bed-probe.log", "w") as log:
         z = stopped_z(RRF_FW, RRF_REAL, (x - RRF_OFFSET[0], y - RRF_OFFSET[1]), RRF_TRIGGER)
         heights.append(round(z - RRF_TRIGGER, 3))
         tail = " S-1" if n == len(points) - 1 else ""
-        log.write(f"G30 P{n} X{x} Y{y} Z-99999{tail}\n")
+        log.write(f"G30 P{n} X{x} Y{y} H0 Z-99999{tail}\n")
     mean = sum(heights) / len(heights)
     dev = math.sqrt(sum(h * h for h in heights) / len(heights) - mean * mean)
     log.write("G32 bed probe heights: " + " ".join(f"{h:.3f}" for h in heights)
