@@ -15,7 +15,7 @@ use super::observability::{analyse, Observability};
 use super::problem::{BlockError, IdentificationProblem, LegSlot};
 use super::sandwich::{self, NoiseLoadings};
 use super::solve_from::FitError;
-use super::statistics::{self, FitKind, LegStatistics};
+use super::statistics::{self, FitKind, LegStatistics, Outlier};
 use crate::error::{Error, Result};
 use crate::measure::MeasurementSet;
 use crate::model::Mechanism;
@@ -177,7 +177,15 @@ fn confirmed_outliers(
     let flagged = |estimates: &[LegEstimate]| -> Vec<(usize, f64)> {
         let legs = estimates.iter().map(|e| &e.statistics);
         let pairs = legs.flat_map(|s| s.outlier_rows.iter().copied().zip(&s.outliers));
-        pairs.map(|(row, o)| (row, o.t.abs())).collect()
+        // A reading out of range is set aside first, whatever its |t| in a fit it distorts.
+        let weight = |o: &Outlier| {
+            if o.out_of_range {
+                f64::INFINITY
+            } else {
+                o.t.abs()
+            }
+        };
+        pairs.map(|(row, o)| (row, weight(o))).collect()
     };
     let candidates: Vec<usize> = flagged(first).into_iter().map(|(row, _)| row).collect();
     let all: Vec<usize> = (0..problem.blocks().len()).collect();
