@@ -57,10 +57,6 @@ pub struct DyadFrame<T> {
 /// Chain-origin components that must stay zero for the chain to be planar: roll and pitch.
 const OUT_OF_PLANE: [usize; 2] = [3, 4];
 
-/// Margin over [`SINGULAR_DETERMINANT`] below which the closed form leaves the pose to the
-/// generic Newton solve (which tells a reach limit from a pose beyond it and names it).
-const SINGULAR_MARGIN: f64 = 10.0;
-
 impl Dyad {
     /// The dyad pattern of `leg`, if its chain is one exactly (see the module); `None` for any
     /// other chain (extra moving joints, a prismatic joint, a tilted axis or origin).
@@ -182,7 +178,8 @@ impl Dyad {
     /// 2π window centred on `seed` (as Newton's solution from `seed` is), with the closure
     /// Jacobian's inverse and normalised determinant at them: the [`Solution`] Newton's method
     /// converges to, to round-off. `None` where the generic solve must decide: the circles do
-    /// not meet, or the pose is within a margin of the reach limit (a serial singularity).
+    /// not meet, or the pose is at the generic solve's reach-limit threshold (a serial
+    /// singularity).
     pub fn solve(
         &self,
         frame: &DyadFrame<f64>,
@@ -213,7 +210,10 @@ impl Dyad {
             jacobian[(1, k)] = self.signs[k] * arm[0];
         }
         let determinant = normalised_determinant(&jacobian, 2);
-        let near_limit = determinant.abs() <= SINGULAR_MARGIN * SINGULAR_DETERMINANT;
+        // At the generic solve's own threshold Newton reports a reach limit, or a pose beyond
+        // it: the generic solve decides (and names) those; above it the closed form is
+        // accurate (the elbow's distance from the line is at least 1e-4 of the links).
+        let near_limit = determinant.abs() <= SINGULAR_DETERMINANT;
         let on_branch = determinant.is_sign_positive() == self.home_positive;
         if near_limit || !on_branch || !q.iter().all(|v| v.is_finite()) {
             return None;
