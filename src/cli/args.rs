@@ -60,20 +60,37 @@ pub struct PrinterArgs {
 /// The subcommands of `legwise printer`.
 #[derive(Debug, Subcommand)]
 pub enum PrinterCommand {
-    /// Read a Klipper printer.cfg (SAVE_CONFIG block included) and write DIR/printer.yaml,
-    /// DIR/printer.urdf and DIR/probe.csv (the DELTA_CALIBRATE touches).
+    /// Read a Klipper printer.cfg (SAVE_CONFIG block included), a RepRapFirmware config.g
+    /// (config-override.g over it) or a Marlin M503 report with a probe log, and write
+    /// DIR/printer.yaml, DIR/printer.urdf and DIR/probe.csv (the probe's touches).
     Import(PrinterImportArgs),
-    /// Write a calibrated imported model as Klipper's SAVE_CONFIG values, with what Klipper
-    /// cannot express (µm RMS over the bed).
+    /// Write a calibrated imported model as the firmware's values (Klipper's SAVE_CONFIG block,
+    /// RepRapFirmware's or Marlin's M665/M666 lines), with what the firmware cannot express
+    /// (µm RMS over the bed).
     Export(PrinterExportArgs),
 }
 
 /// Options of `legwise printer import`.
 #[derive(Debug, clap::Args)]
+#[command(group(clap::ArgGroup::new("firmware").required(true).args(["klipper", "rrf", "marlin"])))]
 pub struct PrinterImportArgs {
     /// The Klipper printer.cfg of a linear delta.
     #[arg(long, value_name = "printer.cfg")]
-    pub klipper: PathBuf,
+    pub klipper: Option<PathBuf>,
+    /// A RepRapFirmware config.g (M665, M666, M92, G31).
+    #[arg(long, value_name = "config.g")]
+    pub rrf: Option<PathBuf>,
+    /// RepRapFirmware's config-override.g, read over --rrf's file (its values win).
+    #[arg(long = "override", value_name = "config-override.g", requires = "rrf")]
+    pub overrides: Option<PathBuf>,
+    /// A Marlin M503 report (M665, M666, M92, M851).
+    #[arg(long, value_name = "m503.txt")]
+    pub marlin: Option<PathBuf>,
+    /// The console log of a bed probe (RepRapFirmware: G30 P… X… Y… Z-99999 lines and the
+    /// "bed probe heights:" reply, or G30 S-1 and "Stopped at height"; Marlin: "Bed X: Y: Z:"
+    /// lines of G30 or G29 V3).
+    #[arg(long, value_name = "log.txt", conflicts_with = "klipper")]
+    pub probes: Option<PathBuf>,
     /// Directory for printer.yaml, printer.urdf and probe.csv (created if missing).
     #[arg(long, value_name = "DIR")]
     pub out: PathBuf,
@@ -87,14 +104,21 @@ pub struct PrinterImportArgs {
 
 /// Options of `legwise printer export`.
 #[derive(Debug, clap::Args)]
+#[command(group(clap::ArgGroup::new("firmware").required(true).args(["klipper", "rrf", "marlin"])))]
 pub struct PrinterExportArgs {
-    /// Export for Klipper (the only firmware so far).
-    #[arg(long, required = true)]
+    /// Export for Klipper: a SAVE_CONFIG block.
+    #[arg(long)]
     pub klipper: bool,
+    /// Export for RepRapFirmware: M665 and M666 lines (with the bed tilt A B).
+    #[arg(long)]
+    pub rrf: bool,
+    /// Export for Marlin: M665 and M666 lines and M500.
+    #[arg(long)]
+    pub marlin: bool,
     /// The calibrated model (`legwise identify --calibrated cal.yaml` on an imported printer).
     #[arg(long, value_name = "cal.yaml")]
     pub calibrated: PathBuf,
-    /// Where to write the SAVE_CONFIG block (`-`: standard output).
+    /// Where to write the values (`-`: standard output).
     #[arg(long, value_name = "cal.cfg")]
     pub out: PathBuf,
     /// Radius of the bed disc the fit covers, m (default: the model's workspace radius).
@@ -220,7 +244,8 @@ pub struct IdentifyArgs {
     #[arg(long, value_enum)]
     pub weights: Option<WeightsArg>,
     /// A robust loss inside the fit (scaled by the model's `noise` block): huber or cauchy.
-    #[arg(long, value_enum)]
+    /// Not with `--drop-outliers` (the loss weighs outliers down; the other drops them).
+    #[arg(long, value_enum, conflicts_with = "drop_outliers")]
     pub robust: Option<RobustArg>,
     /// Refit once without the rows flagged as outliers, and list them.
     #[arg(long)]

@@ -135,5 +135,11 @@ pub(super) const PRINTER: &str = examples!(
   legwise printer import --klipper printer.cfg --out mydelta --probe-noise 5e-6
   legwise identify --model mydelta/printer.yaml --measurements mydelta/probe.csv --calibrated mydelta/cal.yaml
   # the values to paste over printer.cfg's SAVE_CONFIG block, and what Klipper cannot express
-  legwise printer export --klipper --calibrated mydelta/cal.yaml --out mydelta/cal.cfg"
+  legwise printer export --klipper --calibrated mydelta/cal.yaml --out mydelta/cal.cfg
+  # RepRapFirmware: config.g, config-override.g over it, and the console log of bed.g's G30 points
+  legwise printer import --rrf config.g --override config-override.g --probes bed-probe.log --out rrf
+  legwise printer export --rrf --calibrated rrf/cal.yaml --out rrf/cal.g
+  # Marlin: an M503 report and a log of G30 X Y replies (Bed X: Y: Z:)
+  legwise printer import --marlin m503.txt --probes g30.log --out marlin
+  legwise printer export --marlin --calibrated marlin/cal.yaml --out marlin/cal.g"
 );

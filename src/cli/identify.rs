@@ -119,14 +119,13 @@ fn refuse_unsupported(args: &IdentifyArgs) -> anyhow::Result<()> {
     let refused = [
         (args.solver != SolverArg::Lm, "--solver gn"),
         (args.strategy != StrategyArg::Dc, "--strategy"),
-        (args.robust.is_some(), "--robust"),
         (args.plots.is_some(), "--plots"),
     ];
     if let Some((_, flag)) = refused.iter().find(|(on, _)| *on) {
         anyhow::bail!(
             "{flag}: not available for a model with an instrument block (the legs and the \
              instrument are identified with Levenberg-Marquardt, jointly and in two stages; \
-             `--weights none|noise` and `--drop-outliers` apply to the joint fit)"
+             `--weights none|noise`, `--robust` and `--drop-outliers` apply to the joint fit)"
         );
     }
     Ok(())

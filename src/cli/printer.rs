@@ -7,9 +7,11 @@ use super::verdict::Verdict;
 use crate::error::Error;
 use crate::model::region::Region;
 use crate::model::Mechanism;
-use crate::printer::delta_model::{printer_files, ModelOptions};
-use crate::printer::export::{fit_klipper, save_config_block};
+use crate::printer::delta_model::{printer_files, DeltaGeometry, ModelOptions};
+use crate::printer::export::{fit_delta, fit_klipper, save_config_block};
 use crate::printer::klipper::{KlipperConfig, KlipperDelta};
+use crate::printer::marlin::{self, MarlinDelta, MarlinValues};
+use crate::printer::rrf::{self, RrfDelta, RrfValues};
 use crate::printer::CONVENTIONS;
 
 pub(super) fn run(args: &PrinterArgs) -> anyhow::Result<Verdict> {
@@ -34,12 +36,6 @@ fn import(args: &PrinterImportArgs) -> anyhow::Result<Verdict> {
         ))
         .into());
     }
-    let config = KlipperConfig::read(&args.klipper)?;
-    let delta = KlipperDelta::from_config(&config)?;
-    std::fs::create_dir_all(&args.out).map_err(|error| Error::Io {
-        path: args.out.clone(),
-        error,
-    })?;
     if !(args.distance_noise.is_finite() && args.distance_noise > 0.0) {
         return Err(Error::Invalid(format!(
             "--distance-noise: expected a positive σ in metres, found {}",
@@ -47,50 +43,105 @@ fn import(args: &PrinterImportArgs) -> anyhow::Result<Verdict> {
         ))
         .into());
     }
+    let geometry = read_geometry(args)?;
+    std::fs::create_dir_all(&args.out).map_err(|error| Error::Io {
+        path: args.out.clone(),
+        error,
+    })?;
     let options = ModelOptions {
         probe_noise: args.probe_noise,
         distance_noise: args.distance_noise,
     };
-    let files = printer_files(&delta, &options, "printer.urdf");
+    let files = printer_files(&geometry, &options, "printer.urdf");
     write(&args.out.join("printer.yaml"), &files.yaml)?;
     write(&args.out.join("printer.urdf"), &files.urdf)?;
     write(&args.out.join("probe.csv"), &files.csv)?;
-    println!("{CONVENTIONS}");
-    println!(
-        "read {}: delta_radius {} mm, angles {:?} deg, arm_length {:?} mm, position_endstop {:?} mm, \
-         step distance {:?} mm, probe z_offset {}",
-        args.klipper.display(),
-        delta.radius,
-        delta.angles,
-        delta.arms,
-        delta.endstops,
-        delta.step_distances,
-        delta
-            .z_offset
-            .map_or("none".to_string(), |z| format!("{z} mm"))
-    );
-    for include in config.section_names().filter(|s| s.starts_with("include ")) {
-        println!(
-            "[{include}]: included files are not read (import the file with the delta's sections)"
-        );
-    }
-    if delta.touches.is_empty() {
-        println!("no [delta_calibrate] heightN in the file: probe.csv has no rows (run DELTA_CALIBRATE and SAVE_CONFIG first)");
-    }
-    if !delta.distances.is_empty() {
-        println!(
-            "{} distances of DELTA_ANALYZE imported (sigma {} m): the rods are identified too",
-            delta.distances.len(),
-            args.distance_noise
-        );
-    }
     println!(
         "wrote {0}/printer.yaml, {0}/printer.urdf and {0}/probe.csv ({1} touches, probe sigma {2} m)",
         args.out.display(),
-        delta.touches.len(),
+        geometry.touches.len(),
         args.probe_noise
     );
     Ok(Verdict::Trusted)
+}
+
+/// The geometry of the firmware's files, printing the conventions and the values read.
+fn read_geometry(args: &PrinterImportArgs) -> anyhow::Result<DeltaGeometry> {
+    if let Some(path) = &args.klipper {
+        let config = KlipperConfig::read(path)?;
+        let delta = KlipperDelta::from_config(&config)?;
+        println!("{CONVENTIONS}");
+        println!(
+            "read {}: delta_radius {} mm, angles {:?} deg, arm_length {:?} mm, position_endstop {:?} mm, \
+             step distance {:?} mm, probe z_offset {}",
+            path.display(),
+            delta.radius,
+            delta.angles,
+            delta.arms,
+            delta.endstops,
+            delta.step_distances,
+            delta
+                .z_offset
+                .map_or("none".to_string(), |z| format!("{z} mm"))
+        );
+        for include in config.section_names().filter(|s| s.starts_with("include ")) {
+            println!(
+                "[{include}]: included files are not read (import the file with the delta's sections)"
+            );
+        }
+        if delta.touches.is_empty() {
+            println!("no [delta_calibrate] heightN in the file: probe.csv has no rows (run DELTA_CALIBRATE and SAVE_CONFIG first)");
+        }
+        if !delta.distances.is_empty() {
+            println!(
+                "{} distances of DELTA_ANALYZE imported (sigma {} m): the rods are identified too",
+                delta.distances.len(),
+                args.distance_noise
+            );
+        }
+        return Ok(delta.geometry());
+    }
+    let (geometry, steps, files) = if let Some(path) = &args.rrf {
+        let delta = RrfDelta::read(path, args.overrides.as_deref(), args.probes.as_deref())?;
+        println!("{}", rrf::CONVENTIONS);
+        let files = match &args.overrides {
+            Some(o) => format!("{} + {}", path.display(), o.display()),
+            None => path.display().to_string(),
+        };
+        (delta.geometry, delta.steps_per_mm, files)
+    } else if let Some(path) = &args.marlin {
+        let delta = MarlinDelta::read(path, args.probes.as_deref())?;
+        println!("{}", marlin::CONVENTIONS);
+        (
+            delta.geometry,
+            delta.steps_per_mm,
+            path.display().to_string(),
+        )
+    } else {
+        unreachable!("clap requires one of --klipper, --rrf, --marlin")
+    };
+    println!(
+        "read {files}: radius {} mm, tower angles {:?} deg, rods {:?} mm, nozzle heights at the endstops \
+         {:?} mm, tilt {:?}, probe trigger height {}, M92 {}",
+        geometry.radius,
+        geometry.angles,
+        geometry.arms,
+        geometry.endstops,
+        geometry.tilt,
+        geometry
+            .z_offset
+            .map_or("none".to_string(), |z| format!("{z} mm")),
+        steps.map_or("not given".to_string(), |s| format!("{s:?} steps/mm"))
+    );
+    match &args.probes {
+        Some(log) if geometry.touches.is_empty() => println!(
+            "{}: no probed heights found: probe.csv has no rows (docs/printers.md lists the lines read)",
+            log.display()
+        ),
+        Some(log) => println!("{}: {} touches", log.display(), geometry.touches.len()),
+        None => println!("no --probes log: probe.csv has no rows"),
+    }
+    Ok(geometry)
 }
 
 fn export(args: &PrinterExportArgs) -> anyhow::Result<Verdict> {
@@ -114,7 +165,79 @@ fn export(args: &PrinterExportArgs) -> anyhow::Result<Verdict> {
             }
         },
     };
-    let fit = fit_klipper(&mechanism, bed_radius)?;
+    if args.klipper {
+        return export_klipper(args, &mechanism, bed_radius);
+    }
+    let (terms, name) = if args.rrf {
+        (rrf::TERMS, "RepRapFirmware")
+    } else {
+        (marlin::TERMS, "Marlin")
+    };
+    let fit = fit_delta(&mechanism, bed_radius, terms)?;
+    let (lines, summary, lost) = if args.rrf {
+        let v = RrfValues::from_fit(&fit);
+        (
+            v.lines(),
+            format!(
+                "M665 L {:.6?} R {:.6} H {:.6} X Y Z {:.6?} deg; M666 X Y Z {:.6?} mm, A B {:.6?} %",
+                v.rods, v.radius, v.height, v.corrections, v.adjustments, v.tilt
+            ),
+            "gains, a bed tilt beyond the firmware's shear",
+        )
+    } else {
+        // Marlin's H counts from the probe's M851 Z: the model keeps it as the nozzle's touch
+        // height (−M851 Z).
+        let touch = mechanism
+            .instrument
+            .as_ref()
+            .and_then(|i| i.targets.first())
+            .and_then(|t| t.touch)
+            .unwrap_or(0.0);
+        let v = MarlinValues::from_fit(&fit, -touch * 1e3);
+        (
+            v.lines(),
+            format!(
+                "M665 L {:.6} R {:.6} H {:.6} X Y Z {:.6?} deg A B C {:.6?} mm; M666 X Y Z {:.6?} mm (M851 Z {:.6} mm)",
+                v.rod, v.radius, v.height, v.trims, v.rod_trims, v.adjustments, -touch * 1e3
+            ),
+            "gains, a bed tilt",
+        )
+    };
+    if args.out.as_os_str() == "-" {
+        print!("{lines}");
+    } else {
+        write(&args.out, &lines)?;
+    }
+    eprintln!(
+        "{name} values closest to {} over the bed (r <= {:.1} mm, {} points at 0 and {:.1} mm): {summary}",
+        args.calibrated.display(),
+        bed_radius * 1e3,
+        fit.points,
+        bed_radius * 5e2,
+    );
+    eprintln!(
+        "lost in the export (what {name} cannot express: {lost}): {:.3} µm RMS, {:.3} µm max \
+         of the nozzle's position over the bed; the firmware's origin at ({:.4}, {:.4}) mm of the bed frame",
+        fit.rms_loss * 1e6,
+        fit.max_loss * 1e6,
+        fit.origin[0] * 1e3,
+        fit.origin[1] * 1e3
+    );
+    if args.out.as_os_str() != "-" {
+        eprintln!(
+            "wrote {}: send its lines to the printer (or put them in its configuration)",
+            args.out.display()
+        );
+    }
+    Ok(Verdict::Trusted)
+}
+
+fn export_klipper(
+    args: &PrinterExportArgs,
+    mechanism: &Mechanism,
+    bed_radius: f64,
+) -> anyhow::Result<Verdict> {
+    let fit = fit_klipper(mechanism, bed_radius)?;
     let block = save_config_block(&fit.values);
     if args.out.as_os_str() == "-" {
         print!("{block}");

@@ -15,7 +15,7 @@ use super::observability::{analyse, Observability};
 use super::problem::{BlockError, IdentificationProblem, LegSlot};
 use super::sandwich::{self, NoiseLoadings};
 use super::solve_from::FitError;
-use super::statistics::{self, FitKind, LegStatistics};
+use super::statistics::{self, FitKind, LegStatistics, Outlier};
 use crate::error::{Error, Result};
 use crate::measure::MeasurementSet;
 use crate::model::Mechanism;
@@ -177,7 +177,15 @@ fn confirmed_outliers(
     let flagged = |estimates: &[LegEstimate]| -> Vec<(usize, f64)> {
         let legs = estimates.iter().map(|e| &e.statistics);
         let pairs = legs.flat_map(|s| s.outlier_rows.iter().copied().zip(&s.outliers));
-        pairs.map(|(row, o)| (row, o.t.abs())).collect()
+        // A reading out of range is set aside first, whatever its |t| in a fit it distorts.
+        let weight = |o: &Outlier| {
+            if o.out_of_range {
+                f64::INFINITY
+            } else {
+                o.t.abs()
+            }
+        };
+        pairs.map(|(row, o)| (row, weight(o))).collect()
     };
     let candidates: Vec<usize> = flagged(first).into_iter().map(|(row, _)| row).collect();
     let all: Vec<usize> = (0..problem.blocks().len()).collect();
@@ -328,6 +336,20 @@ fn estimate_problem(
         ),
         _ => None,
     };
+    // A robust fit's covariance: the declared-noise weighted one at its estimate (each row's
+    // residual and Jacobian over its σ), times the loss's variance factor.
+    let mut robust = match (kind, options.robust, noise.as_ref()) {
+        (FitKind::Robust, Some(loss), Some(noise)) => {
+            let v = statistics::row_variances(&problem.unweighted(), &outcome.x, noise)
+                .map_err(|e| located(mechanism, data, problem, e))?;
+            let r = DVector::from_fn(v.len(), |i, _| unweighted_r[i] / v[i].sqrt());
+            let c = DMatrix::from_fn(v.len(), unweighted_c.ncols(), |i, j| {
+                unweighted_c[(i, j)] / v[i].sqrt()
+            });
+            Some((loss.variance_factor(), r, c))
+        }
+        _ => None,
+    };
     problem.release_gradients();
     let mut estimates = Vec::new();
     for slot in problem.slots() {
@@ -341,13 +363,28 @@ fn estimate_problem(
             FitKind::LeastSquares => &[],
         };
         let declared = problem.is_weighted() && kind == FitKind::LeastSquares;
-        let (residual_sigma, covariance, dof) = leg_covariance(
-            problem,
-            slot,
-            (&r, &c),
-            excluded,
-            (loadings.as_ref(), declared),
-        );
+        let (residual_sigma, covariance, dof) = match &mut robust {
+            Some((factor, gls_r, gls_c)) => {
+                let residual_sigma =
+                    leg_covariance(problem, slot, (&r, &c), excluded, (None, false)).0;
+                // The outliers, at full weight here, leave the leg's Jacobian (each row is one
+                // leg's: no other leg reads it).
+                for &i in excluded {
+                    gls_c.row_mut(i).fill(0.0);
+                }
+                let (_, covariance, dof) =
+                    leg_covariance(problem, slot, (gls_r, gls_c), excluded, (None, true));
+                let factor = *factor;
+                (residual_sigma, covariance.map(|v| v * factor), dof)
+            }
+            None => leg_covariance(
+                problem,
+                slot,
+                (&r, &c),
+                excluded,
+                (loadings.as_ref(), declared),
+            ),
+        };
         let fit = Fit {
             x: &outcome.x,
             r0: &r0,

@@ -22,10 +22,11 @@ use super::result::{
     FitOptions, InstrumentEstimate, LegEstimate, ParameterEstimate, SolverRun, Strategy,
     StrategyResult, Weighting,
 };
+use super::robust::{self, RobustError, RobustFit, RobustLoss};
 use super::sandwich::{self, reported_covariance};
 use super::shared_outliers;
 use super::shared_weights::weighted_joint_fit;
-use super::statistics;
+use super::statistics::{self, FitKind};
 use super::two_stage::TwoStage;
 use crate::error::{Error, Result};
 use crate::measure::observations::Observations;
@@ -162,6 +163,28 @@ pub fn identify_shared(
     // The joint fit is weighted by the declared noise unless asked not to be; the two-stage
     // one (a comparison) stays unweighted.
     let weigh = strategy == Strategy::Joint && options.weights != Weighting::Unweighted;
+    if let Some(loss) = options.robust.filter(|_| strategy == Strategy::Joint) {
+        if options.drop_outliers {
+            return Err(Error::Invalid(format!(
+                "{}: --robust {} and --drop-outliers are two answers to the same rows: a \
+                 robust loss weighs outliers down inside the fit, --drop-outliers refits \
+                 without them; choose one",
+                mechanism.model_path.display(),
+                loss.name()
+            )));
+        }
+        if noise.is_none() {
+            return Err(Error::Model {
+                path: mechanism.model_path.clone(),
+                field: "noise".into(),
+                message: format!(
+                    "--robust {} scales its loss by the measurement noise: add a `noise:` \
+                     block with non-zero standard deviations",
+                    loss.name()
+                ),
+            });
+        }
+    }
     if weigh && options.weights == Weighting::Noise && noise.is_none() {
         return Err(Error::Model {
             path: mechanism.model_path.clone(),
@@ -176,6 +199,8 @@ pub fn identify_shared(
     let mut scales: Option<Vec<f64>> = None;
     let mut noise_weighted = false;
     let mut dropped = Vec::new();
+    // The loss of a robust joint fit (the two-stage comparison stays least squares).
+    let robust = options.robust.filter(|_| strategy == Strategy::Joint);
     let (problem, outcome, registered) = if strategy == Strategy::Joint {
         let fit = |mask: Option<&[f64]>| -> Result<(SolverOutcome, Option<Vec<f64>>, bool)> {
             if let (Some(noise), true) = (&noise, weigh) {
@@ -204,6 +229,20 @@ pub fn identify_shared(
             }
         };
         let (mut outcome, mut fitted_scales, mut by_noise) = fit(None)?;
+        if let (Some(loss), Some(noise)) = (robust, &noise) {
+            // From the least-squares estimate, the loss scaled by each residual's declared σ
+            // there.
+            let fit = robust_fit(&problem, &outcome.x, loss, noise)?;
+            outcome = fit.outcome;
+            outcome.x = fit.x;
+            // The covariance is the declared-noise weighted one at the robust estimate, times
+            // the loss's variance factor (below).
+            let variances = problem
+                .row_variances(&outcome.x, noise)
+                .map_err(solver_error)?;
+            fitted_scales = Some(variances.iter().map(|v| 1.0 / v.sqrt()).collect());
+            by_noise = true;
+        }
         if options.drop_outliers {
             // The first fit's outlier rows, then a refit without every residual of them.
             let (r, jacobian) = dense(&problem, &outcome.x)?;
@@ -214,8 +253,13 @@ pub fn identify_shared(
                 None => vec![1.0; r.len()],
             };
             let all: Vec<usize> = (0..r.len()).collect();
-            let (flagged, _) =
-                shared_outliers::outliers(&problem, (&r, &jacobian), &variances, &all);
+            let (flagged, _) = shared_outliers::outliers(
+                &problem,
+                (&r, &jacobian),
+                &variances,
+                &all,
+                FitKind::LeastSquares,
+            );
             if !flagged.is_empty() {
                 let kept = shared_outliers::kept_residuals(&problem, &flagged);
                 let mask: Vec<f64> = (0..r.len())
@@ -267,20 +311,33 @@ pub fn identify_shared(
         ),
         None => None,
     };
-    // The statistics are of the kept residuals (every one unless outlier rows were dropped).
-    let kept = shared_outliers::kept_residuals(&problem, &dropped);
-    let m = kept.len();
-    let kept_r = DVector::from_iterator(m, kept.iter().map(|&i| r[i]));
-    let kept_jacobian = DMatrix::from_fn(m, n, |k, j| jacobian[(kept[k], j)]);
-    let loadings = all_loadings.as_ref().map(|l| l.restricted(&kept));
-    let scales: Option<Vec<f64>> = scales.map(|s| kept.iter().map(|&i| s[i]).collect());
+    // The outlier test over the residuals left after a drop; the statistics are of the kept
+    // residuals: every one but those of dropped rows and, after a robust fit, of its outliers
+    // (as a robust leg fit's σ̂ leaves them out).
+    let tested = shared_outliers::kept_residuals(&problem, &dropped);
+    let kind = match robust {
+        Some(_) => FitKind::Robust,
+        None => FitKind::LeastSquares,
+    };
     let (outliers, outlier_threshold) = {
         let variances = match &all_loadings {
             Some(l) => l.variances(),
             None => vec![1.0; r.len()],
         };
-        shared_outliers::outliers(&problem, (&r, &jacobian), &variances, &kept)
+        shared_outliers::outliers(&problem, (&r, &jacobian), &variances, &tested, kind)
     };
+    let kept = match robust {
+        Some(_) => {
+            let excluded: Vec<_> = dropped.iter().chain(&outliers).cloned().collect();
+            shared_outliers::kept_residuals(&problem, &excluded)
+        }
+        None => tested,
+    };
+    let m = kept.len();
+    let kept_r = DVector::from_iterator(m, kept.iter().map(|&i| r[i]));
+    let kept_jacobian = DMatrix::from_fn(m, n, |k, j| jacobian[(kept[k], j)]);
+    let loadings = all_loadings.as_ref().map(|l| l.restricted(&kept));
+    let scales: Option<Vec<f64>> = scales.map(|s| kept.iter().map(|&i| s[i]).collect());
     // The degrees of freedom of the residuals' scale behind every σ; none when the σ are the
     // declared noise's (too few to scale by, `sandwich::SCALE_DOF`).
     let dof = m
@@ -309,6 +366,11 @@ pub fn identify_shared(
             Some(c) => (Some(c.legs), Some((c.registration, c.registration_dof))),
             None => (None, None),
         },
+    };
+    // A robust fit's scatter is its loss's variance factor times the weighted fit's.
+    let covariance = match robust {
+        Some(loss) => covariance.map(|c| c * loss.variance_factor()),
+        None => covariance,
     };
     let sigmas: Option<Vec<f64>> = covariance
         .as_ref()
@@ -368,7 +430,7 @@ pub fn identify_shared(
         predicted_position: None,
     };
     let run = SolverRun::new(names, &outcome, (&r0, &r), seconds);
-    let warnings = outlier_warnings(&instrument, strategy);
+    let warnings = outlier_warnings(&instrument, strategy, robust);
     Ok(StrategyResult {
         strategy,
         solver: SolverKind::LevenbergMarquardt,
@@ -382,6 +444,7 @@ pub fn identify_shared(
             } else {
                 Weighting::Unweighted
             },
+            robust,
             ..options
         },
         warnings,
@@ -389,8 +452,13 @@ pub fn identify_shared(
     })
 }
 
-/// The warnings naming the outlier rows of a fit through the instrument, and the rows dropped.
-fn outlier_warnings(instrument: &InstrumentEstimate, strategy: Strategy) -> Vec<String> {
+/// The warnings naming the outlier rows of a fit through the instrument (weighed down by
+/// `robust`'s loss, if any), and the rows dropped.
+fn outlier_warnings(
+    instrument: &InstrumentEstimate,
+    strategy: Strategy,
+    robust: Option<RobustLoss>,
+) -> Vec<String> {
     let figure = statistics::figure;
     let dropped = instrument.dropped.iter().map(|o| {
         format!(
@@ -402,10 +470,17 @@ fn outlier_warnings(instrument: &InstrumentEstimate, strategy: Strategy) -> Vec<
             figure(o.t)
         )
     });
+    let remedy = match robust {
+        Some(loss) => format!(
+            "the {} loss weighs it down and the statistics leave it out",
+            loss.name()
+        ),
+        None => "--drop-outliers refits without it".to_string(),
+    };
     let flagged = instrument.outliers.iter().map(|o| {
         format!(
             "{}: outlier {} (residual {}, studentized residual t = {} beyond {}): check that \
-             row (a mistyped value, a probe that misfired); --drop-outliers refits without it",
+             row (a mistyped value, a probe that misfired); {remedy}",
             strategy.name(),
             o.place,
             figure(o.residual),
@@ -487,6 +562,40 @@ fn departure_sigmas(mechanism: &Mechanism, problem: &IdentificationProblem<'_>) 
         }
     }
     sigmas
+}
+
+/// The robust joint fit of `problem` (unweighted, as built) from the least-squares estimate
+/// `x0` with `loss`, scaled by each residual's declared σ at `x0` under `noise`; each
+/// reweighting round solved by the Schur complement.
+///
+/// # Errors
+/// A residual whose expected variance is zero (nothing to scale the loss by), a block out of
+/// reach, or the solver's failure.
+fn robust_fit(
+    problem: &IdentificationProblem<'_>,
+    x0: &DVector<f64>,
+    loss: RobustLoss,
+    noise: &crate::model::mechanism::MeasurementNoise,
+) -> Result<RobustFit> {
+    let variances = problem.row_variances(x0, noise).map_err(solver_error)?;
+    let sigma: Vec<f64> = variances.iter().map(|v| v.sqrt()).collect();
+    if let Some(i) = sigma.iter().position(|s| !(*s > 0.0 && s.is_finite())) {
+        return Err(solver_error(format!(
+            "--robust {}: residual {} ({}) has no declared scatter to scale the loss by \
+             (expected variance {:e})",
+            loss.name(),
+            i + 1,
+            problem.residual_places()[i].text(),
+            variances[i]
+        )));
+    }
+    robust::fit_with(problem, x0, loss, &sigma, |weighted, x| {
+        solve_bordered(weighted, x.clone()).map_err(|e| RobustError::Solver(e.to_string()))
+    })
+    .map_err(|e| match e {
+        RobustError::Block(e) => located(e),
+        RobustError::Solver(message) => solver_error(message),
+    })
 }
 
 fn solver_error(error: impl std::fmt::Display) -> Error {

@@ -5,13 +5,16 @@
 //! Student's t on `m − n − 1` degrees of freedom, as a leg's rows are tested
 //! (docs/statistics.md §3). A flagged residual is named by its row's line and what it measures;
 //! `--drop-outliers` refits without every residual of the flagged rows' measurements (a
-//! measured pose's readings go together) by giving them zero weight.
+//! measured pose's readings go together) by giving them zero weight. After a robust fit, whose
+//! residuals do not follow least-squares algebra, `t_i = e_i / √(1 − h_ii)` with `e_i` the
+//! residual in declared σ and `h_ii` the leverage of the σ-scaled Jacobian, against the normal
+//! law, as a robust leg fit's rows are tested.
 
 use nalgebra::{DMatrix, DVector};
 use serde::Serialize;
 
 use super::problem::IdentificationProblem;
-use super::statistics::{exact_fit, outlier_threshold, studentized};
+use super::statistics::{exact_fit, leverages, outlier_threshold, studentized, FitKind};
 
 /// One residual flagged as an outlier (or dropped).
 #[derive(Debug, Clone, PartialEq, Serialize)]
@@ -33,12 +36,15 @@ pub struct RowOutlier {
 /// declared variance `variances[i]`, the residuals `kept` only (the others dropped): the
 /// flagged residuals, largest `|t|` first, and the threshold on `|t|` (`None` without enough
 /// redundancy). Nothing is flagged on an exact fit (residuals at round-off or far below the
-/// declared scatter).
+/// declared scatter). `kind` says how the fit was made: least squares (externally studentized
+/// residuals, Student's t) or a robust loss (residuals in declared σ over `√(1 − h)`, the
+/// normal law); `jacobian` is the unweighted one.
 pub fn outliers(
     problem: &IdentificationProblem<'_>,
     (r, jacobian): (&DVector<f64>, &DMatrix<f64>),
     variances: &[f64],
     kept: &[usize],
+    kind: FitKind,
 ) -> (Vec<RowOutlier>, Option<f64>) {
     let (m, n) = (kept.len(), jacobian.ncols());
     if m <= n + 1 || variances.iter().any(|v| !(*v > 0.0 && v.is_finite())) {
@@ -48,8 +54,13 @@ pub fn outliers(
     let scaled = DMatrix::from_fn(m, n, |k, j| {
         jacobian[(kept[k], j)] / variances[kept[k]].sqrt()
     });
-    let t = studentized(&e, &scaled);
-    let threshold = outlier_threshold(m, Some(m - n - 1));
+    let (t, threshold) = match kind {
+        FitKind::LeastSquares => (
+            studentized(&e, &scaled),
+            outlier_threshold(m, Some(m - n - 1)),
+        ),
+        FitKind::Robust => (robust_t(&e, &scaled), outlier_threshold(m, None)),
+    };
     let raw: Vec<f64> = kept.iter().map(|&i| r[i]).collect();
     let kept_variances: Vec<f64> = kept.iter().map(|&i| variances[i]).collect();
     if exact_fit(&raw, &[], Some(&kept_variances)) {
@@ -86,4 +97,62 @@ pub fn kept_residuals(problem: &IdentificationProblem<'_>, dropped: &[RowOutlier
         .filter(|(_, p)| !dropped.iter().any(|d| d.measurement == p.measurement))
         .map(|(i, _)| i)
         .collect()
+}
+
+/// A robust fit's standardised residuals: `e_i / √(1 − h_ii)` (`e` in declared σ, `h` the
+/// leverages of the σ-scaled Jacobian); `None` for a row of leverage 1.
+fn robust_t(e: &[f64], scaled: &DMatrix<f64>) -> Vec<Option<f64>> {
+    e.iter()
+        .zip(leverages(scaled))
+        .map(|(ei, hi)| {
+            let free = 1.0 - hi;
+            (free > 1e-12).then(|| ei / free.sqrt())
+        })
+        .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use std::path::Path;
+
+    use super::{outliers, FitKind};
+    use crate::identify::problem::IdentificationProblem;
+    use crate::measure::observations::read;
+    use crate::model::Mechanism;
+
+    /// The test needs every residual's declared variance: one that is zero or not finite
+    /// leaves nothing to divide by, and no residual is tested (no threshold either); the same
+    /// residuals with positive variances get a threshold. And without redundancy (`m ≤ n + 1`
+    /// kept residuals) there is no test.
+    #[test]
+    fn no_residual_is_tested_without_a_positive_finite_variance_or_redundancy() {
+        let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+        let mechanism = Mechanism::load(&root.join("models/5r-tracker.yaml")).unwrap();
+        let observations = read(&root.join("examples/data/5r-tracker.csv"), &mechanism).unwrap();
+        let problem = IdentificationProblem::through_instrument(&mechanism, &observations).unwrap();
+        let (r, jacobian) = problem.residuals_and_jacobian(&problem.start()).unwrap();
+        let all: Vec<usize> = (0..r.len()).collect();
+        let kinds = [FitKind::LeastSquares, FitKind::Robust];
+        let positive = vec![1e-8; r.len()];
+        for kind in kinds {
+            let (_, threshold) = outliers(&problem, (&r, &jacobian), &positive, &all, kind);
+            assert!(
+                threshold.is_some(),
+                "{kind:?}: positive variances are tested"
+            );
+            for bad in [0.0, f64::INFINITY, f64::NAN, -1e-8] {
+                let mut variances = positive.clone();
+                variances[3] = bad;
+                let (flagged, threshold) =
+                    outliers(&problem, (&r, &jacobian), &variances, &all, kind);
+                assert!(flagged.is_empty() && threshold.is_none(), "{kind:?} {bad}");
+            }
+            let few: Vec<usize> = (0..=jacobian.ncols()).collect();
+            let (_, threshold) = outliers(&problem, (&r, &jacobian), &positive, &few, kind);
+            assert!(threshold.is_none(), "{kind:?}: n + 1 kept residuals");
+            let enough: Vec<usize> = (0..jacobian.ncols() + 2).collect();
+            let (_, threshold) = outliers(&problem, (&r, &jacobian), &positive, &enough, kind);
+            assert!(threshold.is_some(), "{kind:?}: n + 2 kept residuals");
+        }
+    }
 }

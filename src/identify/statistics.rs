@@ -32,7 +32,9 @@ use statrs::distribution::{ChiSquared, ContinuousCDF, Normal, StudentsT};
 
 use super::problem::{BlockError, IdentificationProblem, LegSlot};
 use super::sandwich::NoiseLoadings;
+use crate::measure::checks::{mechanism_size, reading_out_of_range, SIZE_FACTOR};
 use crate::model::mechanism::MeasurementNoise;
+use crate::model::Mechanism;
 
 /// The 0.975 quantile of Student's t with `dof` degrees of freedom (NaN for none): the factor
 /// of a two-sided 95 % interval built on an estimated σ.
@@ -121,6 +123,11 @@ pub struct Outlier {
     pub residual: f64,
     /// Its studentized residual.
     pub t: f64,
+    /// Flagged because its reading puts the joint where it cannot be (more than 2π from its
+    /// home value, or a stroke beyond the mechanism's size), whatever its `t`: a gross error
+    /// that a fit may absorb (a reading of 1e12 fitted by a gain of 1e-12).
+    #[serde(skip_serializing_if = "std::ops::Not::not")]
+    pub out_of_range: bool,
 }
 
 impl Outlier {
@@ -348,6 +355,23 @@ pub fn noise_test(e: &[f64], v: &[f64], parameters: usize, excluded: usize) -> O
     })
 }
 
+/// The leg's rows (positions in `readings`, the leg's rows' raw readings) whose reading puts
+/// the joint where it cannot be ([`reading_out_of_range`]), when they are a few of the leg's
+/// rows (at most one in ten): gross errors among good rows. When more are, the file is in other
+/// units (degrees, millimetres), which the checks before the fit name; none is then an outlier.
+fn out_of_range_rows(mechanism: &Mechanism, slot: &LegSlot, readings: &[f64]) -> Vec<usize> {
+    let limit = SIZE_FACTOR * mechanism_size(mechanism);
+    let leg = &mechanism.legs[slot.leg];
+    let rows: Vec<usize> = (0..readings.len())
+        .filter(|&k| reading_out_of_range(leg, readings[k], limit))
+        .collect();
+    if rows.len() * 10 <= readings.len() {
+        rows
+    } else {
+        Vec::new()
+    }
+}
+
 /// How the leg was fitted, for the statistics.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum FitKind {
@@ -421,13 +445,22 @@ pub fn leg_statistics(
     let mechanism = problem.mechanism();
     let readings: Vec<f64> = rows.iter().map(|&i| problem.blocks()[i].reading).collect();
     let exact = exact_fit(&e, &readings, leg_variances.as_deref());
+    let out_of_range = out_of_range_rows(mechanism, slot, &readings);
     let mut flagged: Vec<(usize, f64)> = t
         .iter()
         .enumerate()
         .filter_map(|(k, tk)| tk.map(|v| (k, v)))
-        .filter(|(_, v)| !exact && threshold.is_some_and(|limit| v.abs() > limit))
+        .filter(|(k, v)| {
+            out_of_range.contains(k) || (!exact && threshold.is_some_and(|limit| v.abs() > limit))
+        })
         .collect();
-    flagged.sort_by(|a, b| b.1.abs().total_cmp(&a.1.abs()));
+    // Rows out of range first, then by |t|.
+    flagged.sort_by(|a, b| {
+        let range = |k: usize| out_of_range.contains(&k);
+        range(b.0)
+            .cmp(&range(a.0))
+            .then(b.1.abs().total_cmp(&a.1.abs()))
+    });
     let outliers = flagged
         .iter()
         .map(|&(k, tk)| {
@@ -438,6 +471,7 @@ pub fn leg_statistics(
                 reading: block.reading,
                 residual: e[k],
                 t: tk,
+                out_of_range: out_of_range.contains(&k),
             }
         })
         .collect();
@@ -519,15 +553,28 @@ pub fn warnings(
         ));
     }
     for o in &statistics.outliers {
-        warnings.push(format!(
-            "leg {leg}: {} is an outlier: reading {} {unit}, residual {:.3e} {unit}, studentized \
-             residual t = {} beyond ±{} (Bonferroni, family level {OUTLIER_ALPHA})",
-            o.place(),
-            o.reading,
-            o.residual,
-            figure(o.t),
-            figure(statistics.outlier_threshold.unwrap_or_default())
-        ));
+        warnings.push(if o.out_of_range {
+            format!(
+                "leg {leg}: {} is an outlier: reading {} {unit} puts the joint where it cannot \
+                 be (whatever the fit makes of it: residual {:.3e} {unit}, studentized residual \
+                 t = {})",
+                o.place(),
+                o.reading,
+                o.residual,
+                figure(o.t),
+            )
+        } else {
+            format!(
+                "leg {leg}: {} is an outlier: reading {} {unit}, residual {:.3e} {unit}, \
+                 studentized residual t = {} beyond ±{} (Bonferroni, family level \
+                 {OUTLIER_ALPHA})",
+                o.place(),
+                o.reading,
+                o.residual,
+                figure(o.t),
+                figure(statistics.outlier_threshold.unwrap_or_default())
+            )
+        });
     }
     if let Some(OtherTurn { turns, rows, lines }) = &statistics.other_turn {
         let lines = if lines.is_empty() {

@@ -24,6 +24,7 @@ use rayon::prelude::*;
 
 use super::MeasurementSet;
 use crate::error::{Error, Result};
+use crate::model::leg::LegModel;
 use crate::model::mechanism::COORDINATES;
 use crate::model::Mechanism;
 
@@ -104,6 +105,19 @@ pub fn check(mechanism: &Mechanism, data: &MeasurementSet) -> Result<Vec<String>
     Ok(warnings)
 }
 
+/// Whether `value`, a raw reading of `leg`'s actuated joint, puts the joint where it cannot be:
+/// through the nominal actuator model (gain · reading + offset: a geared reading may pass ±2π
+/// while its joint does not), a revolute joint more than 2π from its home value, a prismatic
+/// one beyond `limit` ([`SIZE_FACTOR`] times the mechanism's size, [`mechanism_size`]).
+pub fn reading_out_of_range(leg: &LegModel, value: f64, limit: f64) -> bool {
+    let joint = leg.gain * value + leg.offset;
+    if leg.actuated_is_revolute() {
+        (joint - leg.home_joints[leg.actuated]).abs() > TAU
+    } else {
+        joint.abs() > limit
+    }
+}
+
 fn range_warnings(mechanism: &Mechanism, data: &MeasurementSet) -> Result<Vec<String>> {
     let size = mechanism_size(mechanism);
     let limit = SIZE_FACTOR * size;
@@ -137,16 +151,7 @@ fn range_warnings(mechanism: &Mechanism, data: &MeasurementSet) -> Result<Vec<St
         }
         for (l, reading) in pose_readings.iter().enumerate() {
             let Some(value) = *reading else { continue };
-            let leg = &mechanism.legs[l];
-            // The joint value through the nominal actuator model (a geared reading may pass
-            // ±2π while its joint does not).
-            let joint = leg.gain * value + leg.offset;
-            let implausible = if leg.actuated_is_revolute() {
-                (joint - leg.home_joints[leg.actuated]).abs() > TAU
-            } else {
-                joint.abs() > limit
-            };
-            if implausible {
+            if reading_out_of_range(&mechanism.legs[l], value, limit) {
                 readings[l].add(pose.line, value);
             }
         }

@@ -166,18 +166,11 @@ fn identify_by_kind(
             identify_with(mechanism, set, strategy, solver, fit)
         }
         Measurements::Targets(observations) => {
-            let defaults = FitOptions {
-                noise_scale: fit.noise_scale,
-                weights: fit.weights,
-                drop_outliers: fit.drop_outliers,
-                ..FitOptions::default()
-            };
-            if solver != SolverKind::LevenbergMarquardt || fit != defaults {
+            if solver != SolverKind::LevenbergMarquardt {
                 return Err(Error::Invalid(format!(
                     "{}: through an instrument the legs and the instrument are identified by \
                      Levenberg-Marquardt, weighted by the declared noise or not (`--weights`), \
-                     with or without outlier dropping, without Gauss-Newton or a robust loss \
-                     yet",
+                     with a robust loss or outlier dropping, not by Gauss-Newton",
                     mechanism.model_path.display()
                 )));
             }

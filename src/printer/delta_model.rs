@@ -1,16 +1,143 @@
-//! The legwise model of a Klipper linear delta: `printer.yaml`, `printer.urdf` and the probe's
-//! measurement CSV, generated from a [`KlipperDelta`] (every length in metres, angles in rad).
+//! The legwise model of a linear delta printer: `printer.yaml`, `printer.urdf` and the probe's
+//! measurement CSV, generated from a firmware-neutral [`DeltaGeometry`] (every length in metres
+//! in the files, angles in rad) that each firmware's reader fills in.
 //!
-//! Leg `i` (1, 2, 3 = Klipper's towers a, b, c): the carriage `C{i}`, a prismatic joint along
-//! the vertical line through the tower `t_i = delta_radius (cos θ_i, sin θ_i)`, its frame turned
-//! by `θ_i + π` so that x points to the centre; the universal joint `U{i}a`, `U{i}b`; the rod
-//! `R{i}` of length `arm_length_i`, whose end is the nozzle (attachments 0: Klipper's
-//! `delta_radius` is already `|t_i − e_i|`). The actuator is `h_i = s_i + h0_i` with `h0_i` the
-//! carriage height at the endstop; the bed is the instrument frame and the nozzle its target.
+//! Leg `i` (1, 2, 3 = the towers at 210°, 330°, 90°: Klipper's a, b, c, RepRapFirmware's and
+//! Marlin's X, Y, Z): the carriage `C{i}`, a prismatic joint along the vertical line through the
+//! tower `t_i = radius (cos θ_i, sin θ_i)`, its frame turned by `θ_i + π` so that x points to the
+//! centre; the universal joint `U{i}a`, `U{i}b`; the rod `R{i}` of length `L_i`, whose end is the
+//! nozzle (attachments 0: the firmwares' delta radius is already `|t_i − e_i|`). The actuator is
+//! `h_i = s_i + h0_i` with `h0_i` the carriage height at the endstop; the bed is the instrument
+//! frame and the nozzle its target.
 
 use std::fmt::Write as _;
 
-use super::klipper::KlipperDelta;
+/// The firmware a geometry was read from (its name in the generated files' comments).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Firmware {
+    /// Klipper (`printer.cfg`).
+    Klipper,
+    /// RepRapFirmware (`config.g`, `config-override.g`).
+    Rrf,
+    /// Marlin (`M503` output).
+    Marlin,
+}
+
+impl Firmware {
+    /// The firmware's name as written in messages.
+    pub fn name(self) -> &'static str {
+        match self {
+            Firmware::Klipper => "Klipper",
+            Firmware::Rrf => "RepRapFirmware",
+            Firmware::Marlin => "Marlin",
+        }
+    }
+
+    /// The `legwise printer import` option that reads it.
+    pub fn option(self) -> &'static str {
+        match self {
+            Firmware::Klipper => "--klipper",
+            Firmware::Rrf => "--rrf",
+            Firmware::Marlin => "--marlin",
+        }
+    }
+}
+
+/// One probe touch: the nozzle's height above the bed and the carriage readings there.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Touch {
+    /// The row's id (`height0`, `P3`, `line 12`, …).
+    pub id: String,
+    /// The nozzle's height above the bed at the touch, mm.
+    pub height_mm: f64,
+    /// Each carriage's reading, mm: its travel from the endstop (0 there, down negative).
+    pub readings_mm: [f64; 3],
+}
+
+/// One measured distance between the nozzle at two positions.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Distance {
+    /// The distance's id (`distance0`, …).
+    pub id: String,
+    /// The distance, mm.
+    pub distance_mm: f64,
+    /// The carriage readings at its two ends, mm.
+    pub readings_mm: [[f64; 3]; 2],
+}
+
+/// A linear delta in the firmwares' common terms (mm, degrees), whatever file it came from.
+#[derive(Debug, Clone, PartialEq)]
+pub struct DeltaGeometry {
+    /// The firmware it was read from.
+    pub firmware: Firmware,
+    /// The delta radius, mm: each tower's horizontal distance from the centre to its rod's
+    /// effector end (`|t_i − e_i|`).
+    pub radius: f64,
+    /// Each tower's angle about the centre, degrees (nominally 210, 330, 90).
+    pub angles: [f64; 3],
+    /// Each tower's diagonal rod, mm.
+    pub arms: [f64; 3],
+    /// Each tower's endstop as the nozzle's height (mm) with the carriages at their endstops and
+    /// the nozzle at the centre (Klipper's `position_endstop`; RepRapFirmware `H + M666`,
+    /// Marlin `H − M851 Z − M666`).
+    pub endstops: [f64; 3],
+    /// The firmware's bed tilt `[a, b]` (dimensionless): its carriage heights add `a x + b y`,
+    /// (RepRapFirmware's `M666 A B` / 100; 0 for the others).
+    pub tilt: [f64; 2],
+    /// The nozzle's height above the bed when the probe triggers, mm, if known.
+    pub z_offset: Option<f64>,
+    /// The radius of the probed disc, mm, if the firmware keeps one.
+    pub calibrate_radius: Option<f64>,
+    /// The probe touches.
+    pub touches: Vec<Touch>,
+    /// Measured distances (Klipper's `DELTA_ANALYZE`).
+    pub distances: Vec<Distance>,
+}
+
+impl DeltaGeometry {
+    /// Tower `i`'s position in the firmware's frame, mm.
+    pub fn tower(&self, i: usize) -> [f64; 2] {
+        let a = self.angles[i].to_radians();
+        [self.radius * a.cos(), self.radius * a.sin()]
+    }
+
+    /// Tower `i`'s carriage height at its endstop, mm: `endstop_i + sqrt(L_i² − radius²)`.
+    pub fn abs_endstop(&self, i: usize) -> f64 {
+        self.endstops[i] + (self.arms[i].powi(2) - self.radius.powi(2)).sqrt()
+    }
+
+    /// The firmware's inverse kinematics: carriage `i`'s height with the nozzle at `p` (mm, the
+    /// firmware's coordinates): `z + a x + b y + sqrt(L_i² − (x − t_ix)² − (y − t_iy)²)`;
+    /// `None` out of the rod's reach.
+    pub fn carriage_height(&self, i: usize, p: [f64; 3]) -> Option<f64> {
+        let [tx, ty] = self.tower(i);
+        let vertical = self.arms[i].powi(2) - (p[0] - tx).powi(2) - (p[1] - ty).powi(2);
+        (vertical > 0.0).then(|| p[2] + self.tilt[0] * p[0] + self.tilt[1] * p[1] + vertical.sqrt())
+    }
+
+    /// The carriage readings (mm) with the nozzle at `p` (mm, the firmware's coordinates): each
+    /// carriage's height minus its height at the endstop. `None` out of reach.
+    pub fn readings_at(&self, p: [f64; 3]) -> Option<[f64; 3]> {
+        let mut out = [0.0; 3];
+        for (i, r) in out.iter_mut().enumerate() {
+            *r = self.carriage_height(i, p)? - self.abs_endstop(i);
+        }
+        Some(out)
+    }
+
+    /// The bed's pose in the base frame as legwise's `(roll, pitch)`, rad: the plane
+    /// `z = a x + b y` on which the firmware's `z = 0` lies (the firmware shears its frame,
+    /// legwise turns the bed: the two agree to first order in the tilt).
+    pub fn bed_roll_pitch(&self) -> [f64; 2] {
+        let [a, b] = self.tilt;
+        // The bed's normal ∝ (−a, −b, 1) = Rz·Ry(pitch)·Rx(roll)·e_z
+        // = (cos r sin p, −sin r, cos r cos p).
+        let pitch = (-a).atan();
+        let roll = (b * pitch.cos()).atan();
+        // `+ 0.0`: a level bed is written `0.0`, not `-0.0`.
+        [roll + 0.0, pitch + 0.0]
+    }
+}
 
 /// Default σ of the probe's height, m (a typical `PROBE_ACCURACY` standard deviation).
 pub const DEFAULT_PROBE_NOISE: f64 = 1.0e-5;
@@ -49,14 +176,8 @@ pub struct PrinterFiles {
 /// Millimetres to metres.
 const MM: f64 = 1.0e-3;
 
-/// The carriage reading of tower `i` at `steps` steps since its endstop, m:
-/// `−steps × step_distance` (0 at the endstop, negative below it).
-pub fn reading(delta: &KlipperDelta, i: usize, steps: f64) -> f64 {
-    -steps * delta.step_distances[i] * MM
-}
-
 /// Tower `i`'s actuator offset `h0_i`, m: the carriage height at the endstop.
-pub fn offset(delta: &KlipperDelta, i: usize) -> f64 {
+pub fn offset(delta: &DeltaGeometry, i: usize) -> f64 {
     delta.abs_endstop(i) * MM
 }
 
@@ -67,7 +188,7 @@ fn num(v: f64) -> String {
 
 /// The model files of `delta`; the YAML names its URDF `urdf_name`.
 pub fn printer_files(
-    delta: &KlipperDelta,
+    delta: &DeltaGeometry,
     options: &ModelOptions,
     urdf_name: &str,
 ) -> PrinterFiles {
@@ -78,14 +199,25 @@ pub fn printer_files(
     }
 }
 
-fn urdf(delta: &KlipperDelta) -> String {
+fn urdf(delta: &DeltaGeometry) -> String {
     let top = (0..3).map(|i| offset(delta, i)).fold(0.0, f64::max);
-    let mut out = String::from(
-        "<?xml version=\"1.0\"?>\n<!-- A Klipper linear delta, generated by legwise printer import (Klipper)\n     \
-         (docs/printers.md). Leg i = tower a, b, c: C{i} the carriage, prismatic along the tower\n     \
-         line, x turned to the centre; U{i}a, U{i}b the universal joint; R{i} the rod (arm_length),\n     \
-         its end the nozzle. Metres, radians. -->\n<robot name=\"klipper_delta\">\n  <link name=\"base\"/>\n",
-    );
+    let mut out = match delta.firmware {
+        Firmware::Klipper => String::from(
+            "<?xml version=\"1.0\"?>\n<!-- A Klipper linear delta, generated by legwise printer import (Klipper)\n     \
+             (docs/printers.md). Leg i = tower a, b, c: C{i} the carriage, prismatic along the tower\n     \
+             line, x turned to the centre; U{i}a, U{i}b the universal joint; R{i} the rod (arm_length),\n     \
+             its end the nozzle. Metres, radians. -->\n<robot name=\"klipper_delta\">\n  <link name=\"base\"/>\n",
+        ),
+        firmware => format!(
+            "<?xml version=\"1.0\"?>\n<!-- A {} linear delta, generated by legwise printer import ({})\n     \
+             (docs/printers.md). Leg i = tower X, Y, Z: C{{i}} the carriage, prismatic along the tower\n     \
+             line, x turned to the centre; U{{i}}a, U{{i}}b the universal joint; R{{i}} the rod (M665 L),\n     \
+             its end the nozzle. Metres, radians. -->\n<robot name=\"{}_delta\">\n  <link name=\"base\"/>\n",
+            firmware.name(),
+            firmware.name(),
+            firmware.option().trim_start_matches('-')
+        ),
+    };
     for i in 0..3 {
         let n = i + 1;
         let [tx, ty] = delta.tower(i).map(|v| v * MM);
@@ -116,22 +248,48 @@ fn urdf(delta: &KlipperDelta) -> String {
     out
 }
 
-fn yaml(delta: &KlipperDelta, options: &ModelOptions, urdf_name: &str) -> String {
+fn yaml(delta: &DeltaGeometry, options: &ModelOptions, urdf_name: &str) -> String {
     let r = delta.radius * MM;
     let bed = delta.calibrate_radius.map_or(0.8 * r, |v| v * MM);
     let home_z = 0.05_f64.min(bed);
     let touch = delta.z_offset.map_or(0.0, |v| v * MM);
+    let [roll, pitch] = delta.bed_roll_pitch();
     let mut out = String::new();
+    if delta.firmware == Firmware::Klipper {
+        let _ = write!(
+            out,
+            "# A Klipper linear delta with its bed probe, generated by `legwise printer import --klipper`\n\
+             # (docs/printers.md): delta_radius {} mm, angles {:?} deg, arm_length {:?} mm,\n\
+             # position_endstop {:?} mm. Leg i = tower a, b, c; the nozzle is the effector point; the\n\
+             # carriage reading s_i = -(steps since the endstop) * step distance, h_i = k_i s_i + h0_i.\n\
+             # Every value is SI: metres, radians; gains are dimensionless.\n\
+             name: klipper delta with a bed probe\n",
+            delta.radius, delta.angles, delta.arms, delta.endstops
+        );
+    } else {
+        let _ = write!(
+            out,
+            "# A {} linear delta with its bed probe, generated by `legwise printer import {}`\n\
+             # (docs/printers.md): radius {} mm, tower angles {:?} deg, rods {:?} mm, nozzle heights\n\
+             # at the endstops {:?} mm, tilt {:?}. Leg i = tower X, Y, Z; the nozzle is the effector\n\
+             # point; the carriage reading s_i = its travel from the endstop (the firmware's kinematics\n\
+             # at the probed point), h_i = k_i s_i + h0_i. Every value is SI: metres, radians.\n\
+             name: {} delta with a bed probe\n",
+            delta.firmware.name(),
+            delta.firmware.option(),
+            delta.radius,
+            delta.angles,
+            delta.arms,
+            delta.endstops,
+            delta.tilt,
+            delta.firmware.name()
+        );
+    }
     let _ = write!(
         out,
-        "# A Klipper linear delta with its bed probe, generated by `legwise printer import --klipper`\n\
-         # (docs/printers.md): delta_radius {} mm, angles {:?} deg, arm_length {:?} mm,\n\
-         # position_endstop {:?} mm. Leg i = tower a, b, c; the nozzle is the effector point; the\n\
-         # carriage reading s_i = -(steps since the endstop) * step distance, h_i = k_i s_i + h0_i.\n\
-         # Every value is SI: metres, radians; gains are dimensionless.\n\
-         name: klipper delta with a bed probe\nurdf: {urdf_name}\nmeasured: [x, y, z]\n\
+        "urdf: {urdf_name}\nmeasured: [x, y, z]\n\
          mode: \"rods below the carriages (elbows up)\"\nhome:\n  pose: {{x: 0.0, y: 0.0, z: {}}}\n\nlegs:\n",
-        delta.radius, delta.angles, delta.arms, delta.endstops, num(home_z)
+        num(home_z)
     );
     for i in 0..3 {
         let n = i + 1;
@@ -201,13 +359,15 @@ fn yaml(delta: &KlipperDelta, options: &ModelOptions, urdf_name: &str) -> String
          noise: {{z: {}, readings: 0.0}}\n\n\
          # The bed is the instrument frame; the nozzle touches it at the probe's z_offset.\n\
          instrument:\n  kinematics: forward\n  tolerance: 1.0e-4\n  frame:\n    \
-         pose: {{x: 0.0, y: 0.0, z: 0.0, roll: 0.0, pitch: 0.0, yaw: 0.0}}\n    identify: []\n  \
+         pose: {{x: 0.0, y: 0.0, z: 0.0, roll: {}, pitch: {}, yaw: 0.0}}\n    identify: []\n  \
          targets:\n    - {{name: nozzle, offset: [0.0, 0.0, 0.0], measures: [z], touch: {}, identify: []}}\n",
         num(home_z),
         num(bed),
         num(2.0 * home_z),
         num((bed / 4.0).max(0.005)),
         num(options.probe_noise),
+        num(roll),
+        num(pitch),
         num(touch)
     );
     if with_distances {
@@ -220,7 +380,7 @@ fn yaml(delta: &KlipperDelta, options: &ModelOptions, urdf_name: &str) -> String
     out
 }
 
-fn csv(delta: &KlipperDelta) -> String {
+fn csv(delta: &DeltaGeometry) -> String {
     let with_distances = !delta.distances.is_empty();
     let tail = if with_distances { ",,," } else { "" };
     let mut out = String::from("z.nozzle,C1,C2,C3,id");
@@ -229,20 +389,14 @@ fn csv(delta: &KlipperDelta) -> String {
     } else {
         "\n"
     });
-    let readings = |steps: &[f64; 3]| {
-        format!(
-            "{},{},{}",
-            num(reading(delta, 0, steps[0])),
-            num(reading(delta, 1, steps[1])),
-            num(reading(delta, 2, steps[2]))
-        )
-    };
+    let readings =
+        |r: &[f64; 3]| format!("{},{},{}", num(r[0] * MM), num(r[1] * MM), num(r[2] * MM));
     for touch in &delta.touches {
         let _ = writeln!(
             out,
             "{},{},{}{tail}",
             num(touch.height_mm * MM),
-            readings(&touch.steps),
+            readings(&touch.readings_mm),
             touch.id
         );
     }
@@ -251,8 +405,8 @@ fn csv(delta: &KlipperDelta) -> String {
     let mut written: Vec<(String, String)> = Vec::new();
     for distance in &delta.distances {
         let mut ends = Vec::new();
-        for (k, steps) in distance.steps.iter().enumerate() {
-            let cells = readings(steps);
+        for (k, ends_mm) in distance.readings_mm.iter().enumerate() {
+            let cells = readings(ends_mm);
             if let Some((_, id)) = written.iter().find(|(c, _)| *c == cells) {
                 ends.push(id.clone());
                 continue;

@@ -1,4 +1,5 @@
-//! A calibrated delta as Klipper's values: `delta_radius`, each tower's `angle`, `arm_length`
+//! A calibrated delta as a firmware's values (the fit is common: [`fit_delta`] with the
+//! firmware's [`FirmwareTerms`]); Klipper's here: `delta_radius`, each tower's `angle`, `arm_length`
 //! and `position_endstop`, fitted so that Klipper's kinematics come closest to the calibrated
 //! model over the bed, and what that leaves (the part Klipper cannot express: gains, a bed tilt).
 //!
@@ -77,14 +78,88 @@ fn value(mechanism: &Mechanism, leg: usize, name: &str) -> Result<f64> {
         })
 }
 
-/// Fits Klipper's values to `mechanism` (a model from `legwise printer import --klipper`,
-/// calibrated or not) over the bed disc of radius `bed_radius` (m), at the bed and `bed_radius / 2`
-/// above it.
+/// What a firmware's parameters can express beyond the common ones (a radius, three tower
+/// angles, three endstop heights, an origin).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct FirmwareTerms {
+    /// One diagonal rod for the three towers (Marlin's `M665 L`) rather than three.
+    pub one_rod: bool,
+    /// A bed tilt: the carriage heights add `a x + b y` (RepRapFirmware's `M666 A B`).
+    pub tilt: bool,
+}
+
+/// Klipper: three rods, no tilt.
+pub const KLIPPER_TERMS: FirmwareTerms = FirmwareTerms {
+    one_rod: false,
+    tilt: false,
+};
+
+/// A firmware-neutral fit, in SI units: the closest delta a firmware with [`FirmwareTerms`] can
+/// express.
+#[derive(Debug, Clone)]
+pub struct DeltaFit {
+    /// The delta radius, m.
+    pub radius: f64,
+    /// Each tower's angle, rad (as fitted, not wrapped).
+    pub angles: [f64; 3],
+    /// Each tower's rod, m (equal with [`FirmwareTerms::one_rod`]).
+    pub arms: [f64; 3],
+    /// Each carriage's height at its endstop, m, in the firmware's frame (the bed at z = 0).
+    pub carriage_tops: [f64; 3],
+    /// The tilt `[a, b]` (0 without [`FirmwareTerms::tilt`]).
+    pub tilt: [f64; 2],
+    /// The firmware's origin in the bed frame (x, y), m.
+    pub origin: [f64; 2],
+    /// RMS over the grid of the nozzle's distance between the firmware's and the calibrated
+    /// model, m.
+    pub rms_loss: f64,
+    /// Its largest value over the grid, m.
+    pub max_loss: f64,
+    /// The RMS loss of the closed-form start, m.
+    pub start_rms_loss: f64,
+    /// Number of grid points.
+    pub points: usize,
+}
+
+impl DeltaFit {
+    /// Tower `i`'s endstop as the nozzle's height at the centre with the carriages at their
+    /// endstops, m: `carriage_top_i − sqrt(L_i² − radius²)`.
+    pub fn endstop(&self, i: usize) -> f64 {
+        self.carriage_tops[i] - (self.arms[i].powi(2) - self.radius.powi(2)).sqrt()
+    }
+}
+
+/// Fits Klipper's values to `mechanism` (a model from `legwise printer import`, calibrated or
+/// not) over the bed disc of radius `bed_radius` (m), at the bed and `bed_radius / 2` above it.
 ///
 /// # Errors
-/// Not an imported Klipper delta (three legs, the parameters it names, an instrument with a
-/// target), a grid point the calibrated model cannot reach, or a fit that does not converge.
+/// As [`fit_delta`].
 pub fn fit_klipper(mechanism: &Mechanism, bed_radius: f64) -> Result<KlipperExport> {
+    let fit = fit_delta(mechanism, bed_radius, KLIPPER_TERMS)?;
+    let values = KlipperValues {
+        radius: fit.radius * 1e3,
+        angles: std::array::from_fn(|i| fit.angles[i].to_degrees().rem_euclid(360.0)),
+        arms: std::array::from_fn(|i| fit.arms[i] * 1e3),
+        endstops: std::array::from_fn(|i| fit.endstop(i) * 1e3),
+    };
+    Ok(KlipperExport {
+        values,
+        origin: fit.origin,
+        rms_loss: fit.rms_loss,
+        max_loss: fit.max_loss,
+        start_rms_loss: fit.start_rms_loss,
+        points: fit.points,
+    })
+}
+
+/// Fits the values of a firmware with `terms` to `mechanism` (a model from
+/// `legwise printer import`, calibrated or not) over the bed disc of radius `bed_radius` (m),
+/// at the bed and `bed_radius / 2` above it.
+///
+/// # Errors
+/// Not an imported delta (three legs, the parameters it names, an instrument with a target),
+/// a grid point the calibrated model cannot reach, or a fit that does not converge.
+pub fn fit_delta(mechanism: &Mechanism, bed_radius: f64, terms: FirmwareTerms) -> Result<DeltaFit> {
     let path = mechanism.model_path.display().to_string();
     if mechanism.legs.len() != 3 {
         return Err(Error::Invalid(format!(
@@ -108,9 +183,10 @@ pub fn fit_klipper(mechanism: &Mechanism, bed_radius: f64) -> Result<KlipperExpo
     let bed = platform_transform_f64(&frame);
     let params = mechanism.nominal_parameters();
 
-    // The closed-form start.
+    // The closed-form start: q = [cx, cy, radius, angles (3), rods (3), carriage tops (3),
+    // tilt a, b].
     let mut towers = [[0.0; 2]; 3];
-    let mut q = DVector::zeros(12);
+    let mut q = DVector::zeros(14);
     for (i, tower) in towers.iter_mut().enumerate() {
         let n = i + 1;
         *tower = [
@@ -135,6 +211,41 @@ pub fn fit_klipper(mechanism: &Mechanism, bed_radius: f64) -> Result<KlipperExpo
     for i in 0..3 {
         q[3 + i] = (towers[i][1] - centre[1]).atan2(towers[i][0] - centre[0]);
     }
+    if terms.tilt {
+        // The bed's normal n = R e_z; the firmware's plane z = a x + b y has n ∝ (−a, −b, 1).
+        let normal = bed.rotation * Vector3::z();
+        q[12] = -normal.x / normal.z;
+        q[13] = -normal.y / normal.z;
+    }
+    // The free values and how they fill q: one rod ties the three, no tilt holds a, b at 0.
+    let mut free: Vec<usize> = (0..6).collect();
+    free.extend(if terms.one_rod {
+        vec![6]
+    } else {
+        vec![6, 7, 8]
+    });
+    free.extend(9..12);
+    if terms.tilt {
+        free.extend([12, 13]);
+    }
+    if terms.one_rod {
+        let mean = (q[6] + q[7] + q[8]) / 3.0;
+        for k in 6..9 {
+            q[k] = mean;
+        }
+    }
+    let expand = |p: &DVector<f64>| -> DVector<f64> {
+        let mut full = q.clone();
+        for (k, &j) in free.iter().enumerate() {
+            full[j] = p[k];
+        }
+        if terms.one_rod {
+            full[7] = full[6];
+            full[8] = full[6];
+        }
+        full
+    };
+    let mut p = DVector::from_iterator(free.len(), free.iter().map(|&j| q[j]));
 
     // The grid over the bed, and the calibrated model's readings there.
     let step = bed_radius / 8.0;
@@ -166,73 +277,68 @@ pub fn fit_klipper(mechanism: &Mechanism, bed_radius: f64) -> Result<KlipperExpo
     }
 
     // Gauss–Newton on central differences.
-    let residuals = |q: &DVector<f64>| -> Option<DVector<f64>> {
+    let residuals = |p: &DVector<f64>| -> Option<DVector<f64>> {
+        let q = expand(p);
         let mut r = DVector::zeros(3 * samples.len());
         for (k, sample) in samples.iter().enumerate() {
-            let p = klipper_forward(q, &sample.readings)?;
-            r[3 * k] = p.x + q[0] - sample.nozzle.x;
-            r[3 * k + 1] = p.y + q[1] - sample.nozzle.y;
-            r[3 * k + 2] = p.z - sample.nozzle.z;
+            let f = firmware_forward(&q, &sample.readings)?;
+            r[3 * k] = f.x + q[0] - sample.nozzle.x;
+            r[3 * k + 1] = f.y + q[1] - sample.nozzle.y;
+            r[3 * k + 2] = f.z - sample.nozzle.z;
         }
         Some(r)
     };
     let unreachable = || {
         Error::Invalid(format!(
-            "{path}: Klipper's kinematics cannot reach the bed grid with the fitted values"
+            "{path}: the firmware's kinematics cannot reach the bed grid with the fitted values"
         ))
     };
-    let mut r = residuals(&q).ok_or_else(unreachable)?;
+    let mut r = residuals(&p).ok_or_else(unreachable)?;
     let start_rms_loss = rms(&r, samples.len());
     for _ in 0..50 {
-        let mut jacobian = DMatrix::zeros(r.len(), 12);
-        for j in 0..12 {
-            let h = if (3..6).contains(&j) {
+        let mut jacobian = DMatrix::zeros(r.len(), p.len());
+        for (k, &j) in free.iter().enumerate() {
+            let h = if (3..6).contains(&j) || j >= 12 {
                 1e-7
             } else {
-                1e-7 * q[j].abs().max(0.01)
+                1e-7 * p[k].abs().max(0.01)
             };
-            let mut plus = q.clone();
-            plus[j] += h;
-            let mut minus = q.clone();
-            minus[j] -= h;
+            let mut plus = p.clone();
+            plus[k] += h;
+            let mut minus = p.clone();
+            minus[k] -= h;
             let rp = residuals(&plus).ok_or_else(unreachable)?;
             let rm = residuals(&minus).ok_or_else(unreachable)?;
-            jacobian.set_column(j, &((rp - rm) / (2.0 * h)));
+            jacobian.set_column(k, &((rp - rm) / (2.0 * h)));
         }
         let svd = jacobian.svd(true, true);
         let delta = svd
             .solve(&(-&r), 1e-12)
-            .map_err(|e| Error::Invalid(format!("{path}: the Klipper fit failed: {e}")))?;
-        let trial = &q + &delta;
+            .map_err(|e| Error::Invalid(format!("{path}: the firmware fit failed: {e}")))?;
+        let trial = &p + &delta;
         let Some(rt) = residuals(&trial) else { break };
         if rt.norm() > r.norm() {
             break;
         }
-        q = trial;
+        p = trial;
         r = rt;
         if delta.amax() < 1e-13 {
             break;
         }
     }
+    let q = expand(&p);
     let distances: Vec<f64> = (0..samples.len())
         .map(|k| Vector3::new(r[3 * k], r[3 * k + 1], r[3 * k + 2]).norm())
         .collect();
-    let rms_loss = rms(&r, samples.len());
-    let max_loss = distances.iter().copied().fold(0.0, f64::max);
-    let radius = q[2];
-    let values = KlipperValues {
-        radius: radius * 1e3,
-        angles: std::array::from_fn(|i| q[3 + i].to_degrees().rem_euclid(360.0)),
-        arms: std::array::from_fn(|i| q[6 + i] * 1e3),
-        endstops: std::array::from_fn(|i| {
-            (q[9 + i] - (q[6 + i].powi(2) - radius * radius).sqrt()) * 1e3
-        }),
-    };
-    Ok(KlipperExport {
-        values,
+    Ok(DeltaFit {
+        radius: q[2],
+        angles: [q[3], q[4], q[5]],
+        arms: [q[6], q[7], q[8]],
+        carriage_tops: [q[9], q[10], q[11]],
+        tilt: [q[12], q[13]],
         origin: [q[0], q[1]],
-        rms_loss,
-        max_loss,
+        rms_loss: rms(&r, samples.len()),
+        max_loss: distances.iter().copied().fold(0.0, f64::max),
         start_rms_loss,
         points: samples.len(),
     })
@@ -243,10 +349,11 @@ fn rms(r: &DVector<f64>, points: usize) -> f64 {
     (r.norm_squared() / points as f64).sqrt()
 }
 
-/// Klipper's nozzle position for readings `s` with values `q` = [cx, cy, radius, angles (rad),
-/// rods, endstop carriage heights] (m): the point below the carriages at each rod's length from
-/// its carriage `(radius cos θ_i, radius sin θ_i, h_i = A_i + s_i)`. `None` out of reach.
-fn klipper_forward(q: &DVector<f64>, s: &[f64; 3]) -> Option<Vector3<f64>> {
+/// The firmware's nozzle position for readings `s` with values `q` = [cx, cy, radius, angles
+/// (rad), rods, endstop carriage heights, tilt a, b] (m): the point below the carriages at each
+/// rod's length from its carriage `(radius cos θ_i, radius sin θ_i, h_i = A_i + s_i)`, lowered
+/// by the tilt `a x + b y`. `None` out of reach.
+fn firmware_forward(q: &DVector<f64>, s: &[f64; 3]) -> Option<Vector3<f64>> {
     let centres: [Vector3<f64>; 3] = std::array::from_fn(|i| {
         Vector3::new(
             q[2] * q[3 + i].cos(),
@@ -254,7 +361,8 @@ fn klipper_forward(q: &DVector<f64>, s: &[f64; 3]) -> Option<Vector3<f64>> {
             q[9 + i] + s[i],
         )
     });
-    trilaterate(&centres, &[q[6], q[7], q[8]])
+    let p = trilaterate(&centres, &[q[6], q[7], q[8]])?;
+    Some(Vector3::new(p.x, p.y, p.z - q[12] * p.x - q[13] * p.y))
 }
 
 /// The lower of the two points at distances `r` from the three `centres`.

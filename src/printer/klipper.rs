@@ -10,6 +10,7 @@
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
+use super::delta_model::{DeltaGeometry, Distance, Firmware, Touch};
 use crate::error::{Error, Result};
 
 /// The marker line opening Klipper's SAVE_CONFIG block.
@@ -401,6 +402,42 @@ impl KlipperDelta {
             touches,
             distances,
         })
+    }
+
+    /// The firmware-neutral geometry: the touches' and distances' readings are
+    /// `−steps × step distance` (mm; 0 at the endstop, negative below it).
+    pub fn geometry(&self) -> DeltaGeometry {
+        let readings = |steps: &[f64; 3]| -> [f64; 3] {
+            std::array::from_fn(|i| -steps[i] * self.step_distances[i])
+        };
+        DeltaGeometry {
+            firmware: Firmware::Klipper,
+            radius: self.radius,
+            angles: self.angles,
+            arms: self.arms,
+            endstops: self.endstops,
+            tilt: [0.0, 0.0],
+            z_offset: self.z_offset,
+            calibrate_radius: self.calibrate_radius,
+            touches: self
+                .touches
+                .iter()
+                .map(|t| Touch {
+                    id: t.id.clone(),
+                    height_mm: t.height_mm,
+                    readings_mm: readings(&t.steps),
+                })
+                .collect(),
+            distances: self
+                .distances
+                .iter()
+                .map(|d| Distance {
+                    id: d.id.clone(),
+                    distance_mm: d.distance_mm,
+                    readings_mm: [readings(&d.steps[0]), readings(&d.steps[1])],
+                })
+                .collect(),
+        }
     }
 
     /// Tower `i`'s position in Klipper's frame, mm.

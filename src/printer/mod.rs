@@ -1,17 +1,23 @@
-//! Delta printers in their firmware's own files: import a Klipper `printer.cfg` as a legwise
-//! model and measurement CSV, and export a calibrated model as Klipper's `SAVE_CONFIG` values.
+//! Delta printers in their firmware's own files: import a Klipper `printer.cfg`, a
+//! RepRapFirmware `config.g` or a Marlin `M503` report (with a probe log) as a legwise model and
+//! measurement CSV, and export a calibrated model as the firmware's values.
 //!
 //! * [`klipper`]: the `printer.cfg` reader (sections, `key: value` / `key = value`, comments,
 //!   the `#*#` SAVE_CONFIG block overriding the sections above it) and the delta it describes;
 //! * [`delta_model`]: the legwise model (YAML + URDF) and probe CSV written for that geometry;
-//! * [`export`]: the Klipper values whose kinematics come closest to a calibrated model.
+//! * [`export`]: the firmware values whose kinematics come closest to a calibrated model;
+//! * [`gcode`]: G-code lines (RepRapFirmware's and Marlin's files and logs);
+//! * [`rrf`], [`marlin`]: their readers and writers over the same geometry.
 //!
 //! The conventions (Klipper's docs/Config_Reference.md and klippy/kinematics/delta.py; formulas
 //! only, no code) are in docs/printers.md and [`CONVENTIONS`].
 
 pub mod delta_model;
 pub mod export;
+pub mod gcode;
 pub mod klipper;
+pub mod marlin;
+pub mod rrf;
 
 /// The conventions of the import and export, as printed by `legwise printer import`.
 pub const CONVENTIONS: &str = "\

@@ -386,8 +386,9 @@ fn fit_text(result: &StrategyResult) -> String {
     let options = &result.options;
     let mut text = match (options.robust, options.weights) {
         (Some(loss), _) => format!(
-            "robust {} loss scaled by the declared noise (iteratively reweighted); costs and σ̂ are of the weighted residuals",
-            loss.name()
+            "robust {} loss scaled by the declared noise (iteratively reweighted); costs and σ̂ are of the weighted residuals, σ the noise-weighted fit's times the loss's variance factor {:.4}",
+            loss.name(),
+            loss.variance_factor()
         ),
         (None, Weighting::Noise) if result.instrument.is_some() => "least squares weighted by the declared noise (at the estimate); costs and residuals in measurement units, σ the sandwich of the weighted fit".to_string(),
         (None, Weighting::Noise) => "least squares weighted by the declared noise (at the estimate); costs and σ̂ are of the weighted (dimensionless) residuals".to_string(),

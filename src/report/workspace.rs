@@ -111,6 +111,22 @@ fn spatial(
     let [x, y, z] = miw.centre.map(|v| crate::report::tidy(v, 7));
     let _ = writeln!(text, "  centre  x = {x:.7} m, y = {y:.7} m, z = {z:.7} m");
     let _ = writeln!(text, "  radius  {:.7} m", miw.radius);
+    for surface in &miw.surfaces {
+        let clearance = surface.clearance();
+        let _ = writeln!(
+            text,
+            "  the touch surface of target `{}` is {clearance:.7} m from the home position{}",
+            surface.target,
+            if clearance < miw.singularity_free_radius {
+                format!(
+                    " and bounds the ball (singularity-free radius {:.7} m)",
+                    miw.singularity_free_radius
+                )
+            } else {
+                String::new()
+            }
+        );
+    }
     let reach = REACH * miw3d::region_size(mechanism);
     let far = |points: &mut dyn Iterator<Item = f64>| {
         points.filter(|r| *r >= reach * (1.0 - 1e-9)).count()

@@ -4,11 +4,14 @@
 //! * [`stats`] — means, standard deviations and RMS values with their 95 % intervals, paired
 //!   differences;
 //! * [`montecarlo`] — the study itself (`legwise montecarlo`): the same draws fed to divide and
-//!   conquer and to the traditional strategy, trials in parallel, bit-identical for a seed;
+//!   conquer and to the traditional strategy, trials in parallel, bit-identical for a seed (its
+//!   arms, one trial, the verdict's sentence and the false alarms in files of their own);
 //! * [`report`] — its terminal and JSON renderings;
 //! * [`plots`] — the error distributions per strategy.
 mod alarms;
+mod arm;
 pub mod montecarlo;
 pub mod plots;
 pub mod report;
 pub mod stats;
+mod verdict;

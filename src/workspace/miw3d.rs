@@ -10,11 +10,14 @@
 //! ball's radius is the nearest crossing, then shrunk until a denser set of points on its surface
 //! (four times the rays) is inside: it never reaches between rays into a dent. Unlike the planar
 //! MIW the centre is not optimised: it stays at the home position.
-//! A ray that meets no boundary within [`REACH`] region sizes stops there.
+//! A ray that meets no boundary within [`REACH`] region sizes stops there. A model whose
+//! instrument has a touch surface (a bed probe) bounds the ball by it too: the target cannot go
+//! through the bed ([`super::touch_surface`]).
 
 use rayon::prelude::*;
 
 use super::miw::{crossing, SingularityMargin};
+use super::touch_surface::{touch_surfaces, TouchSurface};
 use crate::error::{Error, Result};
 use crate::kinematics::inverse::LegSolution;
 use crate::model::Mechanism;
@@ -59,6 +62,10 @@ pub struct Miw3d {
     pub radius: f64,
     /// The boundary crossing along each ray, metres.
     pub boundary: Vec<[f64; 3]>,
+    /// The radius of the singularity-free ball alone, before the touch surfaces bound it.
+    pub singularity_free_radius: f64,
+    /// The instrument's touch surfaces, seen from the centre.
+    pub surfaces: Vec<TouchSurface>,
 }
 
 /// `count` unit directions spread evenly over the sphere (Fibonacci lattice).
@@ -105,10 +112,17 @@ pub fn spatial_inscribed_workspace(mechanism: &Mechanism, options: Miw3dOptions)
         }
         radius *= 0.99;
     }
+    let surfaces = touch_surfaces(mechanism, centre);
+    let nearest = surfaces
+        .iter()
+        .map(TouchSurface::clearance)
+        .fold(f64::INFINITY, f64::min);
     Ok(Miw3d {
         centre,
-        radius,
+        radius: radius.min(nearest),
         boundary,
+        singularity_free_radius: radius,
+        surfaces,
     })
 }
 

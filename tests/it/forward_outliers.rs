@@ -142,3 +142,109 @@ fn clean_data_flag_nothing_and_drop_nothing() {
         assert_eq!(first(&plain), first(&dropping), "{model}");
     }
 }
+
+/// The instrument's identified parameters and every leg's: name → (estimate, σ).
+fn estimates(json: &Value) -> Vec<(String, f64, f64)> {
+    let result = &json["results"][0];
+    let legs = result["legs"].as_array().unwrap().iter();
+    let parameters = legs
+        .flat_map(|l| l["parameters"].as_array().unwrap().iter())
+        .chain(result["instrument"]["parameters"].as_array().unwrap());
+    parameters
+        .filter_map(|p| {
+            let std = p["std"].as_f64()?;
+            Some((
+                p["name"].as_str().unwrap().to_string(),
+                p["identified"].as_f64().unwrap(),
+                std,
+            ))
+        })
+        .collect()
+}
+
+/// A robust (Cauchy) joint fit through an instrument weighs a bad touch, distance, measured
+/// pose or tracker row down: the row is named, the noise test passes on the other rows, and
+/// the estimate is the refit without the row's to a fraction of its σ, with σ larger by the
+/// loss's variance factor (√1.0526 ≈ 1.026 for Cauchy, to the few percent its different
+/// weights make).
+#[test]
+fn a_robust_loss_weighs_a_bad_row_of_every_kind_down() {
+    let cases = [
+        ("models/delta-probe.yaml", "z.nozzle", 9),
+        ("models/delta-probe-distances.yaml", "distance", 3),
+        ("models/delta-probe-poses.yaml", "x", 2),
+        ("models/5r-tracker.yaml", "x.reflector", 4),
+    ];
+    for (model, column, which) in cases {
+        let (_dir, bad, line) = corrupted(model, column, which, 0.005);
+        let (code, dropped) = identified(model, &bad, &["--drop-outliers"]);
+        assert_eq!(code, Some(0), "{model}: {dropped}");
+        let (code, robust) = identified(model, &bad, &["--robust", "cauchy"]);
+        assert_eq!(code, Some(0), "{model}: {robust}");
+        assert_eq!(robust["results"][0]["robust"], "cauchy", "{model}");
+        let flagged = lines(&robust, "outliers");
+        assert!(
+            !flagged.is_empty() && flagged.iter().all(|&l| l == line as u64),
+            "{model}: {flagged:?} vs {line}"
+        );
+        let warnings = robust["results"][0]["warnings"].to_string();
+        assert!(
+            warnings.contains("the cauchy loss weighs it down"),
+            "{model}: {warnings}"
+        );
+        let test = &robust["results"][0]["instrument"]["noise_test"];
+        assert_eq!(test["rejected"], false, "{model}");
+        assert!(test["excluded_rows"].as_u64().unwrap() >= 1, "{model}");
+        let reference = estimates(&dropped);
+        let fitted = estimates(&robust);
+        assert_eq!(reference.len(), fitted.len(), "{model}");
+        for ((name, a, sa), (other, b, sb)) in reference.iter().zip(&fitted) {
+            assert_eq!(name, other);
+            assert!((a - b).abs() < *sa, "{model}: {name} {b} vs {a} ± {sa}");
+            let ratio = sb / sa;
+            assert!(
+                (1.0..1.1).contains(&ratio),
+                "{model}: {name} σ ratio {ratio}"
+            );
+        }
+    }
+}
+
+/// `--robust` needs the declared noise through an instrument as in a leg fit, and is one
+/// answer to bad rows, `--drop-outliers` the other: both together are refused.
+#[test]
+fn a_robust_instrument_fit_needs_a_noise_and_refuses_drop_outliers() {
+    let both = legwise(&[
+        "identify",
+        "--model",
+        "models/delta-probe.yaml",
+        "--robust",
+        "huber",
+        "--drop-outliers",
+    ]);
+    assert_eq!(both.status.code(), Some(2));
+    let message = text(&both.stderr);
+    assert!(
+        message.contains("--robust") && message.contains("--drop-outliers"),
+        "{message}"
+    );
+    let dir = tempfile::tempdir().unwrap();
+    let model = std::fs::read_to_string("models/delta-probe.yaml").unwrap();
+    let urdf = std::fs::canonicalize("models/delta.urdf").unwrap();
+    let silent = model
+        .replace("noise: {z: 1.0e-5, readings: 0.0}\n", "")
+        .replace("urdf: delta.urdf", &format!("urdf: {}", urdf.display()));
+    assert!(!silent.contains("\nnoise:"), "the copy declares no noise");
+    let copy = dir.path().join("silent.yaml");
+    std::fs::write(&copy, silent).unwrap();
+    let out = legwise(&[
+        "identify",
+        "--model",
+        copy.to_str().unwrap(),
+        "--robust",
+        "cauchy",
+    ]);
+    let message = text(&out.stderr);
+    assert_eq!(out.status.code(), Some(2), "{message}");
+    assert!(message.contains("noise"), "{message}");
+}

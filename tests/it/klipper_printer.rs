@@ -96,7 +96,7 @@ fn import(dir: &Path, name: &str, text: &str) -> (KlipperDelta, Mechanism) {
     let path = dir.join(name);
     std::fs::write(&path, text).unwrap();
     let delta = KlipperDelta::from_config(&KlipperConfig::read(&path).unwrap()).unwrap();
-    let files = printer_files(&delta, &ModelOptions::default(), "printer.urdf");
+    let files = printer_files(&delta.geometry(), &ModelOptions::default(), "printer.urdf");
     std::fs::write(dir.join("printer.yaml"), &files.yaml).unwrap();
     std::fs::write(dir.join("printer.urdf"), &files.urdf).unwrap();
     std::fs::write(dir.join("probe.csv"), &files.csv).unwrap();

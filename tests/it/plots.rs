@@ -357,6 +357,7 @@ fn small_workspace(title: &str, axes: [&str; 2]) -> WorkspaceFigure {
         region_label: "singularity-free region".into(),
         serial_label: "serial (type I) singularity".into(),
         miw_label: "MIW: centre (0, 0) m, radius 0.25 m".into(),
+        surfaces: vec![],
     }
 }
 

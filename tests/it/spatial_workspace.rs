@@ -272,3 +272,66 @@ fn the_legend_has_no_empty_row_for_a_curve_not_drawn() {
         "{rows:?}"
     );
 }
+
+/// A bed probe's bed bounds the 3-D MIW: the nozzle (0.02 m under the platform) cannot go
+/// through it. delta-probe.yaml's platform is at z = 0.05 at home, so the nozzle is 0.03 m above
+/// the level bed, and the ball's radius is 0.03 m (the same mechanism without the probe,
+/// delta.yaml, has 0.158 m, the singularity-free radius kept beside it). A bed tilted by roll
+/// 0.2 rad is nearer along its normal: 0.03·cos(0.2) + 0 (the nozzle under the platform's
+/// centre, the plane through the frame origin). `legwise workspace` prints both and draws the
+/// bed in the vertical slices.
+#[test]
+fn a_bed_probe_bounds_the_ball_by_its_bed() {
+    let options = |m: &Mechanism| Miw3dOptions::for_mechanism(m);
+    let probe = bundled("delta-probe.yaml");
+    let miw = spatial_inscribed_workspace(&probe, options(&probe)).unwrap();
+    let plain = bundled("delta.yaml");
+    let free = spatial_inscribed_workspace(&plain, options(&plain)).unwrap();
+    assert!((miw.radius - 0.03).abs() < 1e-12, "{}", miw.radius);
+    assert!((miw.singularity_free_radius - free.radius).abs() < 1e-15);
+    assert!(free.surfaces.is_empty());
+    assert!((free.radius - free.singularity_free_radius).abs() < 1e-15);
+    // Tilted about x by 0.2 rad: the nozzle at (0, 0, 0.03) in the world is 0.03·cos(0.2)
+    // above the plane through the origin with normal (0, −sin 0.2, cos 0.2).
+    let dir = tempfile::tempdir().unwrap();
+    let yaml = std::fs::read_to_string("models/delta-probe.yaml").unwrap();
+    let urdf = std::fs::canonicalize("models/delta.urdf").unwrap();
+    let tilted = yaml
+        .replace(
+            "pose: {x: 0.0, y: 0.0, z: 0.0, roll: 0.0, pitch: 0.0, yaw: 0.0}",
+            "pose: {x: 0.0, y: 0.0, z: 0.0, roll: 0.2, pitch: 0.0, yaw: 0.0}",
+        )
+        .replace("urdf: delta.urdf", &format!("urdf: {}", urdf.display()));
+    assert_ne!(tilted, yaml);
+    let path = dir.path().join("tilted.yaml");
+    std::fs::write(&path, tilted).unwrap();
+    let mechanism = Mechanism::load(&path).unwrap();
+    let miw = spatial_inscribed_workspace(&mechanism, options(&mechanism)).unwrap();
+    let expected = 0.03 * 0.2_f64.cos();
+    assert!(
+        (miw.radius - expected).abs() < 1e-12,
+        "{} vs {expected}",
+        miw.radius
+    );
+    let out = legwise(&[
+        "workspace",
+        "--model",
+        "models/delta-probe.yaml",
+        "--out",
+        dir.path().join("w.svg").to_str().unwrap(),
+    ]);
+    let printed = text(&out.stdout);
+    assert_eq!(out.status.code(), Some(0), "{}", text(&out.stderr));
+    assert!(printed.contains("radius  0.0300000 m"), "{printed}");
+    assert!(
+        printed.contains("the touch surface of target `nozzle` is 0.0300000 m from the home position and bounds the ball"),
+        "{printed}"
+    );
+    let labels = svg_texts(&std::fs::read_to_string(dir.path().join("w.svg")).unwrap());
+    assert!(
+        labels
+            .iter()
+            .any(|l| l.starts_with("touch surface of target `nozzle`")),
+        "{labels:?}"
+    );
+}

@@ -49,6 +49,9 @@ pub struct WorkspaceFigure {
     pub serial_label: String,
     /// Legend entry of the MIW's circle.
     pub miw_label: String,
+    /// The instrument's touch surfaces crossing the plane: segments (m), with their legend
+    /// entry.
+    pub surfaces: Vec<([[f64; 2]; 2], String)>,
 }
 
 /// Legend entry of the serial curves of a mechanism without joint limits.
@@ -64,6 +67,8 @@ pub const REGION: RGBColor = RGBColor(216, 240, 208);
 pub const SERIAL: RGBColor = RGBColor(192, 57, 43);
 /// Parallel singular curves.
 pub const PARALLEL: RGBColor = RGBColor(36, 85, 195);
+/// A touch surface (a bed).
+pub const SURFACE: RGBColor = RGBColor(120, 78, 30);
 
 const PLOT: u32 = 640;
 const Y_LABELS: u32 = 72;
@@ -156,6 +161,12 @@ impl WorkspaceFigure {
                 )
             }))?;
         }
+        for ([a, b], _) in &self.surfaces {
+            chart.draw_series(std::iter::once(PathElement::new(
+                vec![(a[0], a[1]), (b[0], b[1])],
+                SURFACE.stroke_width(3),
+            )))?;
+        }
         let circle: Vec<(f64, f64)> = (0..=360)
             .map(|k| {
                 let angle = std::f64::consts::TAU * f64::from(k) / 360.0;
@@ -190,7 +201,10 @@ impl WorkspaceFigure {
     fn legend_rows(&self, panels: &[WorkspaceFigure]) -> u32 {
         let serial = panels.iter().any(|p| !p.serial.is_empty());
         let parallel = panels.iter().any(|p| !p.parallel.is_empty());
-        2 + u32::from(serial) + u32::from(parallel) + u32::from(!self.poses.is_empty())
+        2 + u32::from(serial)
+            + u32::from(parallel)
+            + surface_labels(panels).len() as u32
+            + u32::from(!self.poses.is_empty())
     }
 
     /// Height (pixels) of the legend of `panels` (see [`WorkspaceFigure::draw_legend`]) in
@@ -260,6 +274,11 @@ impl WorkspaceFigure {
         }
         area.draw(&text(self.miw_label.clone(), x0, row(next)))?;
         next += 1;
+        for label in surface_labels(panels) {
+            area.draw(&line(x0, row(next), SURFACE))?;
+            area.draw(&text(label, x0, row(next)))?;
+            next += 1;
+        }
         let mut x = x0;
         for (g, group) in self.poses.iter().enumerate() {
             let colour = style::AFTER[g % style::AFTER.len()];
@@ -271,6 +290,17 @@ impl WorkspaceFigure {
         }
         Ok(())
     }
+}
+
+/// The legend entries of the touch surfaces any of `panels` draws, each once.
+fn surface_labels(panels: &[WorkspaceFigure]) -> Vec<String> {
+    let mut labels: Vec<String> = Vec::new();
+    for (_, label) in panels.iter().flat_map(|p| &p.surfaces) {
+        if !labels.contains(label) {
+            labels.push(label.clone());
+        }
+    }
+    labels
 }
 
 /// Grid cells per side sampled to trace the singular curves of the picture.
@@ -306,6 +336,7 @@ pub fn workspace_figure(
             tidy(miw.centre[1], 4),
             miw.radius
         ),
+        surfaces: Vec::new(),
     }
 }
 
@@ -356,7 +387,7 @@ pub fn slice_figure(
         around(margin, &boundary, &poses, centre, SLICE_GRID);
     let fixed = 3 - axes[0] - axes[1];
     let c = miw.centre.map(|v| tidy(v, 4));
-    WorkspaceFigure {
+    let mut figure = WorkspaceFigure {
         title: format!(
             "slice {} = {} m",
             NAMES[fixed],
@@ -376,5 +407,20 @@ pub fn slice_figure(
             "3-D MIW: a ball about ({}, {}, {}) m, radius {:.4} m (its cross-section)",
             c[0], c[1], c[2], miw.radius
         ),
-    }
+        surfaces: Vec::new(),
+    };
+    let shown = figure.square_bounds();
+    figure.surfaces = miw
+        .surfaces
+        .iter()
+        .filter_map(|surface| {
+            let segment = surface.trace(miw.centre, axes, shown)?;
+            let label = format!(
+                "touch surface of target `{}`: the platform positions where it touches (the platform stays on the home side)",
+                surface.target
+            );
+            Some((segment, label))
+        })
+        .collect();
+    figure
 }
