@@ -216,34 +216,46 @@ fn the_stuck_encoder_is_named_in_the_report_the_json_and_the_verdict_and_no_mode
     let mechanism = Mechanism::load(&dir.path().join("5r.yaml")).unwrap();
     let data = Measurements::read(&dir.path().join("stuck.csv"), &mechanism).unwrap();
     let report = legwise::identify(&mechanism, &data, &Settings::default()).unwrap();
-    let k1 = "divide and conquer, leg `leg1`: k1 = 6.43201e14: the model would refuse it \
-              (6.432009511535185e14 is not a plausible value; legwise reads metres, radians and \
-              gains, and expects magnitudes up to 1e6), and a calibrated model holding it would \
-              not load";
+    // Where the fit of a stuck encoder stops is arbitrary (k1 grows without bound): the
+    // values are not pinned, only that each implausible estimate is named, once.
+    let k1 = "divide and conquer, leg `leg1`: k1 = ";
+    let refusal = "the model would refuse it";
     let issues = report.trust_issues();
     assert!(!report.trusted());
-    assert!(issues.iter().any(|i| i.starts_with(k1)), "{issues:?}");
-    assert!(
+    let named = |prefix: &str| {
         issues
             .iter()
-            .any(|i| i.contains("leg `leg1`: gamma1 = -6.43201e14 rad")),
-        "{issues:?}"
+            .filter(|i| i.starts_with(prefix) && i.contains(refusal))
+            .count()
+    };
+    assert_eq!(named(k1), 1, "{issues:?}");
+    let gamma1 = "divide and conquer, leg `leg1`: gamma1 = ";
+    assert_eq!(named(gamma1), 1, "{issues:?}");
+    // Named once: the calibrated model's refusal repeats the same cause and is not an issue.
+    assert!(
+        issues.iter().all(|i| i.contains(refusal)),
+        "only implausible estimates: {issues:?}"
     );
-    // Named once: the calibrated model's refusal repeats the same cause.
-    assert_eq!(issues.len(), 2, "{issues:?}");
-    assert!(report.terminal_text().contains(&format!("WARNING: {k1}")));
+    let k1_issue = issues.iter().find(|i| i.starts_with(k1)).unwrap();
+    assert!(
+        report
+            .terminal_text()
+            .contains(&format!("WARNING: {k1_issue}")),
+        "{k1_issue}"
+    );
     let json: serde_json::Value =
         serde_json::from_str(&report.to_json().to_text().unwrap()).unwrap();
     let warnings = json["results"][0]["warnings"].as_array().unwrap();
     assert!(
-        warnings.iter().any(|w| w.as_str().unwrap().starts_with(k1)),
+        warnings.iter().any(|w| w.as_str().unwrap() == k1_issue),
         "{warnings:?}"
     );
     // The calibrated model would not load: refused with the loader's own reason.
     let refused = "the calibrated model (divide and conquer result) would not load: field \
-                   `legs[0].actuator.gain`: 6.432009511535185e14 is not a plausible value";
+                   `legs[0].actuator.gain`: ";
     let reason = report.calibrated_model_refused().unwrap();
     assert!(reason.starts_with(refused), "{reason}");
+    assert!(reason.contains("is not a plausible value"), "{reason}");
     let error = report
         .calibrated_model()
         .unwrap()
