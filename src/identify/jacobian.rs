@@ -25,8 +25,9 @@ use crate::kinematics::chain::{
     TipChain, Transform,
 };
 use crate::kinematics::inverse::{
-    reading_at_tip, reading_value, solve_warm, Joints, LegSolution, Solution,
+    joints, reading_at_tip, reading_value, solve_warm, Joints, LegSolution, Solution,
 };
+use crate::kinematics::kernel::{LegKernel, PreparedKernel};
 use crate::model::leg::{LegGeometry, LegModel};
 use crate::model::params::ParamTarget;
 
@@ -39,6 +40,8 @@ pub struct PreparedLeg<'a> {
     leg: &'a LegModel,
     geometry: LegGeometry<f64>,
     frames: ChainFrames<f64>,
+    /// The leg's closed-form kernel at the parameters, if its chain has one.
+    kernel: Option<PreparedKernel<f64>>,
     passes: Vec<Arc<dyn GradientPass>>,
     columns: usize,
 }
@@ -62,11 +65,17 @@ struct DualPass<const N: usize> {
     first: usize,
     chain: TipChain<DualSVec64<N>>,
     geometry: LegGeometry<DualSVec64<N>>,
+    /// The closed-form kernel in duals: the reading's derivatives from its closed form.
+    kernel: Option<PreparedKernel<DualSVec64<N>>>,
 }
 
 impl<const N: usize> DualPass<N> {
     /// Lane `k` carries ∂/∂φ[columns[first + k]].
-    fn new(leg: &LegModel, phi: &[f64], columns: &[usize], first: usize) -> Self {
+    fn new(
+        leg: &LegModel,
+        (phi, columns, first): (&[f64], &[usize], usize),
+        kernel: Option<&LegKernel>,
+    ) -> Self {
         let mut phi_dual: Vec<DualSVec64<N>> =
             phi.iter().map(|&v| DualSVec64::<N>::from_re(v)).collect();
         let mut variable_angles = vec![false; leg.joints.len()];
@@ -80,6 +89,7 @@ impl<const N: usize> DualPass<N> {
         Self {
             first,
             chain: TipChain::new(&geometry, &variable_angles),
+            kernel: kernel.map(|kernel| kernel.prepare(&geometry)),
             geometry,
         }
     }
@@ -94,8 +104,14 @@ impl<const N: usize> GradientPass for DualPass<N> {
         gradient: &mut [f64],
     ) -> f64 {
         let target = attachment_on_constant(platform, &self.geometry.attachment);
-        let tip = self.chain.tip(leg, &solution.q[..leg.moving.len()]);
-        let reading = reading_at_tip(leg, &tip, &self.geometry, &target, solution);
+        let closed_form = self.kernel.as_ref();
+        let reading = match closed_form.and_then(|k| k.reading(&self.geometry, &target, solution)) {
+            Some(reading) => reading,
+            None => {
+                let tip = self.chain.tip(leg, &solution.q[..leg.moving.len()]);
+                reading_at_tip(leg, &tip, &self.geometry, &target, solution)
+            }
+        };
         let lanes = reading.eps.unwrap_generic(Const::<N>, U1);
         gradient[self.first..self.first + N].copy_from_slice(lanes.as_slice());
         reading.re()
@@ -105,39 +121,66 @@ impl<const N: usize> GradientPass for DualPass<N> {
 /// The pass for `count` columns from `first` on (`1 ≤ count ≤ LANES`).
 fn pass(
     leg: &LegModel,
-    phi: &[f64],
-    columns: &[usize],
-    first: usize,
+    (phi, columns, first): (&[f64], &[usize], usize),
     count: usize,
+    kernel: Option<&LegKernel>,
 ) -> Arc<dyn GradientPass> {
+    let at = (phi, columns, first);
     match count {
-        1 => Arc::new(DualPass::<1>::new(leg, phi, columns, first)),
-        2 => Arc::new(DualPass::<2>::new(leg, phi, columns, first)),
-        3 => Arc::new(DualPass::<3>::new(leg, phi, columns, first)),
-        4 => Arc::new(DualPass::<4>::new(leg, phi, columns, first)),
-        5 => Arc::new(DualPass::<5>::new(leg, phi, columns, first)),
-        6 => Arc::new(DualPass::<6>::new(leg, phi, columns, first)),
-        7 => Arc::new(DualPass::<7>::new(leg, phi, columns, first)),
-        _ => Arc::new(DualPass::<LANES>::new(leg, phi, columns, first)),
+        1 => Arc::new(DualPass::<1>::new(leg, at, kernel)),
+        2 => Arc::new(DualPass::<2>::new(leg, at, kernel)),
+        3 => Arc::new(DualPass::<3>::new(leg, at, kernel)),
+        4 => Arc::new(DualPass::<4>::new(leg, at, kernel)),
+        5 => Arc::new(DualPass::<5>::new(leg, at, kernel)),
+        6 => Arc::new(DualPass::<6>::new(leg, at, kernel)),
+        7 => Arc::new(DualPass::<7>::new(leg, at, kernel)),
+        _ => Arc::new(DualPass::<LANES>::new(leg, at, kernel)),
     }
 }
 
 impl<'a> PreparedLeg<'a> {
     /// Prepares `leg` at full parameter vector `phi`, for derivatives with respect to the
     /// parameters listed in `columns` (indices into the leg's parameters).
+    /// The leg's inverse kinematics and derivatives take its closed-form kernel
+    /// ([`LegKernel::recognise`]) if its chain has one.
     pub fn new(leg: &'a LegModel, phi: &[f64], columns: &[usize]) -> Self {
+        Self::with_kernel(leg, phi, columns, LegKernel::recognise(leg))
+    }
+
+    /// As [`Self::new`], always on the generic chain (Newton's method and the derivative step
+    /// through the chain): the reference the closed-form kernels are tested against.
+    pub fn generic(leg: &'a LegModel, phi: &[f64], columns: &[usize]) -> Self {
+        Self::with_kernel(leg, phi, columns, None)
+    }
+
+    /// As [`Self::new`], with the closed-form `kernel` recognised for `leg` (or none).
+    pub fn with_kernel(
+        leg: &'a LegModel,
+        phi: &[f64],
+        columns: &[usize],
+        kernel: Option<LegKernel>,
+    ) -> Self {
         let passes = (0..columns.len())
             .step_by(LANES)
-            .map(|first| pass(leg, phi, columns, first, LANES.min(columns.len() - first)))
+            .map(|first| {
+                let count = LANES.min(columns.len() - first);
+                pass(leg, (phi, columns, first), count, kernel.as_ref())
+            })
             .collect();
         let geometry = leg.geometry(phi);
         Self {
             leg,
             frames: ChainFrames::new(&geometry),
+            kernel: kernel.map(|kernel| kernel.prepare(&geometry)),
             geometry,
             passes,
             columns: columns.len(),
         }
+    }
+
+    /// Whether the leg is solved by a closed-form kernel.
+    pub fn closed_form(&self) -> bool {
+        self.kernel.is_some()
     }
 
     /// Number of prepared derivative columns.
@@ -212,6 +255,14 @@ impl<'a> PreparedLeg<'a> {
         seed: Option<&Joints>,
     ) -> Result<Solution, KinematicsError> {
         let target = attachment_on(platform, &self.geometry.attachment);
+        if let Some(kernel) = &self.kernel {
+            let seed = seed
+                .copied()
+                .unwrap_or_else(|| joints(&self.leg.home_joints));
+            if let Some(solution) = kernel.solve(&target, &seed) {
+                return Ok(solution);
+            }
+        }
         solve_warm(
             self.leg,
             &self.geometry,
@@ -298,7 +349,7 @@ impl<'a> PreparedLeg<'a> {
         solution: &LegSolution,
         gradient: &mut [f64],
     ) -> f64 {
-        let q = crate::kinematics::inverse::joints(&solution.q);
+        let q = joints(&solution.q);
         let tip = self.frames.tip(self.leg, &solution.q);
         let target = attachment_on(&platform_transform(pose), &self.geometry.attachment);
         let mut closure = tip - target;

@@ -1,7 +1,9 @@
 //! Kinematics as free functions over the immutable model, generic over the scalar.
 pub mod assembly;
 pub mod chain;
+pub mod dyad;
 pub mod inverse;
+pub mod kernel;
 mod newton_stop;
 pub mod platform;
 pub mod singularity;

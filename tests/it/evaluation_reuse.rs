@@ -256,11 +256,13 @@ fn a_problem_is_weighted_only_with_weights() {
 
 /// Each row's solve is warm-started from its solution at the previous evaluation: the problem's
 /// solutions at x₂ after x₁ are, bit for bit, Newton's from the x₁ solutions; from home they
-/// differ in the last bits on some rows (the start leaves its trace at round-off).
+/// differ in the last bits on some rows (the start leaves its trace at round-off). On a leg of
+/// the generic chain (the 3-RPR's): the 5R's legs are solved in closed form, where the start
+/// picks only the joints' turn (`tests/it/kernels.rs`).
 #[test]
 fn each_row_is_warm_started_from_its_previous_solution() {
     use legwise::identify::jacobian::PreparedLeg;
-    let mech = bundled("5r.yaml");
+    let mech = bundled("3rpr.yaml");
     let problem = leg_problem(&mech, 30, 1);
     let [x1, x2, _] = three_points(&problem);
     problem.residuals(&x1).unwrap();

@@ -39,6 +39,7 @@ mod instrument_support;
 mod instrument_trust;
 mod inverse_kinematics;
 mod jacobian;
+mod kernels;
 mod kinematics;
 mod klipper_printer;
 mod library_example;

@@ -1,0 +1,83 @@
+//! Closed-form leg kernels: the legs whose inverse kinematics legwise solves without Newton's
+//! method, recognised once from the chain's joint kinds and geometry (never from the
+//! mechanism's name). A leg that matches no pattern exactly keeps the generic chain
+//! ([`super::inverse`]); a kernel also hands back to it every pose it cannot solve cleanly
+//! (out of reach, near a reach limit), so that refusals are the generic solve's own.
+//!
+//! A kernel gives the [`Solution`] Newton's method converges to (to round-off) and the
+//! actuated joint's value in any scalar, so the identification's dual pass takes the reading's
+//! exact derivatives from the same closed form.
+
+use nalgebra::Vector3;
+
+use super::dyad::{Dyad, DyadFrame};
+use super::inverse::{Joints, Solution};
+use crate::model::leg::{LegGeometry, LegModel};
+use crate::scalar::Scalar;
+
+/// A recognised closed-form pattern.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum LegKernel {
+    /// A planar two-revolute dyad reaching a point ([`super::dyad`]).
+    Dyad(Dyad),
+}
+
+/// A kernel prepared at one parameter vector, in scalar `T`.
+#[derive(Debug, Clone, Copy)]
+pub struct PreparedKernel<T> {
+    kernel: LegKernel,
+    frame: KernelFrame<T>,
+}
+
+/// What a kernel precomputes from a parameter vector.
+#[derive(Debug, Clone, Copy)]
+enum KernelFrame<T> {
+    Dyad(DyadFrame<T>),
+}
+
+impl LegKernel {
+    /// The closed-form pattern `leg`'s chain matches exactly, if any.
+    pub fn recognise(leg: &LegModel) -> Option<Self> {
+        Dyad::recognise(leg).map(Self::Dyad)
+    }
+
+    /// The kernel prepared at `geometry` (the leg's geometry at one parameter vector).
+    pub fn prepare<T: Scalar>(&self, geometry: &LegGeometry<T>) -> PreparedKernel<T> {
+        let frame = match self {
+            Self::Dyad(dyad) => KernelFrame::Dyad(dyad.frame(geometry)),
+        };
+        PreparedKernel {
+            kernel: *self,
+            frame,
+        }
+    }
+}
+
+impl PreparedKernel<f64> {
+    /// The solution reaching `target` (the world position of the leg's attachment at the
+    /// pose), joints in the 2π window centred on `seed`; `None`: left to the generic solve.
+    pub fn solve(&self, target: &Vector3<f64>, seed: &Joints) -> Option<Solution> {
+        match (&self.kernel, &self.frame) {
+            (LegKernel::Dyad(dyad), KernelFrame::Dyad(frame)) => dyad.solve(frame, target, seed),
+        }
+    }
+}
+
+impl<T: Scalar> PreparedKernel<T> {
+    /// The predicted reading `(q_actuated − offset) / gain` at `target` (in `T`), on the turn
+    /// of `solution` (the f64 solution of the same pose); `None` if the closed form fails in
+    /// `T`'s value part (the caller then takes the generic derivative step).
+    pub fn reading(
+        &self,
+        actuator: &LegGeometry<T>,
+        target: &Vector3<T>,
+        solution: &Solution,
+    ) -> Option<T> {
+        let actuated = match (&self.kernel, &self.frame) {
+            (LegKernel::Dyad(dyad), KernelFrame::Dyad(frame)) => {
+                dyad.actuated(frame, target, solution)?
+            }
+        };
+        Some((actuated - actuator.offset) / actuator.gain)
+    }
+}
