@@ -278,12 +278,22 @@ fn export_klipper(
     Ok(Verdict::Trusted)
 }
 
+/// The `G30 P` points RepRapFirmware keeps on its smaller boards (MaxProbePoints).
+const RRF_POINTS: usize = 32;
+
 fn points(args: &PrinterPointsArgs) -> anyhow::Result<Verdict> {
     let mechanism = Mechanism::load(&args.model)?;
     let touches = read_selected(&args.selected, &mechanism)?;
     let source = args.selected.display().to_string();
     let (text, name, next) = if let Some(path) = &args.rrf {
         let delta = RrfDelta::read(path, args.overrides.as_deref(), None)?;
+        if touches.len() > RRF_POINTS {
+            eprintln!(
+                "note: {} G30 P points: RepRapFirmware keeps {RRF_POINTS} on some boards \
+                 (MaxProbePoints); if it refuses P{RRF_POINTS}, select fewer (--poses-per-leg)",
+                touches.len()
+            );
+        }
         (
             rrf_bed_g(&touches, delta.probe_offset, &source),
             "RepRapFirmware",
