@@ -1,14 +1,15 @@
 //! `legwise printer points` (src/printer/points.rs): the touches `legwise select` picks for an
 //! imported printer, written as the firmware's probing commands; the log the firmware prints
 //! for them, simulated here on a printer whose bed is not flat, imported back gives the selected
-//! touches (RepRapFirmware's bed.g and Marlin's G30 lines); Klipper's `[delta_calibrate]`
-//! points; bad selections name the file and the line.
+//! touches (RepRapFirmware's bed.g and Marlin's G30 lines; Klipper's `[delta_calibrate]`
+//! points through a simulated SAVE_CONFIG block); bad selections name the file and the line.
 // The values read from the files are compared exactly: they are the files' decimals.
 #![allow(clippy::float_cmp)]
 use std::path::Path;
 
 use legwise::printer::delta_model::DeltaGeometry;
 use legwise::printer::export::trilaterate;
+use legwise::printer::klipper::{KlipperConfig, KlipperDelta};
 use legwise::printer::marlin::MarlinDelta;
 use legwise::printer::rrf::RrfDelta;
 use nalgebra::Vector3;
@@ -224,6 +225,63 @@ fn klipper_points_are_the_selected_nozzle_points_in_delta_calibrate() {
     assert_eq!(points.len(), selected.len());
     for (p, s) in points.iter().zip(&selected) {
         assert!((p[0] - s[0]).abs() < 1e-6 && (p[1] - s[1]).abs() < 1e-6);
+    }
+}
+
+#[test]
+fn klipper_delta_calibrate_of_the_points_round_trips_through_save_config() {
+    let dir = tempfile::tempdir().unwrap();
+    let (selected, section) = select_and_write(
+        dir.path(),
+        &["--klipper", KLIPPER_CFG],
+        &["--klipper", KLIPPER_CFG],
+    );
+    let at = section.find("points:\n").unwrap();
+    let points: Vec<[f64; 2]> = section[at + 8..]
+        .lines()
+        .map(|l| {
+            let (x, y) = l.trim().split_once(", ").unwrap();
+            [x.parse().unwrap(), y.parse().unwrap()]
+        })
+        .collect();
+    assert_eq!(points.len(), selected.len());
+    // DELTA_CALIBRATE on the example printer over the simulated bed: at each point the nozzle
+    // stops z_offset (1.2 mm) above the bed, and SAVE_CONFIG keeps z_offset as heightN and the
+    // steps since each endstop, (endstop carriage height − carriage height) / step distance, to
+    // 0.001 step, as heightN_pos.
+    let text = std::fs::read_to_string(KLIPPER_CFG).unwrap();
+    let delta =
+        KlipperDelta::from_config(&KlipperConfig::read(Path::new(KLIPPER_CFG)).unwrap()).unwrap();
+    let geometry = delta.geometry();
+    let mut cfg = text[..text.find("#*# [delta_calibrate]").unwrap()].to_string();
+    cfg.push_str("#*# [delta_calibrate]\n");
+    for (k, [x, y]) in points.iter().enumerate() {
+        let p = [*x, *y, bed(*x, *y) + 1.2];
+        let steps: Vec<String> = (0..3)
+            .map(|i| {
+                let h = geometry.carriage_height(i, p).unwrap();
+                format!(
+                    "{:.3}",
+                    (geometry.abs_endstop(i) - h) / delta.step_distances[i]
+                )
+            })
+            .collect();
+        cfg.push_str(&format!(
+            "#*# height{k} = 1.2\n#*# height{k}_pos = {}\n",
+            steps.join(",")
+        ));
+    }
+    let path = dir.path().join("probed.cfg");
+    std::fs::write(&path, cfg).unwrap();
+    let back = KlipperDelta::from_config(&KlipperConfig::read(&path).unwrap()).unwrap();
+    // 0.001 step of 0.0125 mm: each carriage to 6.25e-6 mm; the nozzle within 1e-5 mm
+    // measured, 5e-5 mm asserted.
+    let got = nozzles(&back.geometry());
+    assert_eq!(got.len(), selected.len());
+    for (p, s) in got.iter().zip(&selected) {
+        let e = (p.x - s[0]).hypot(p.y - s[1]);
+        assert!(e < 5e-5, "nozzle {p:?} mm, selected {s:?} mm");
+        assert!((p.z - bed(s[0], s[1]) - 1.2).abs() < 5e-5, "{p:?}");
     }
 }
 
