@@ -44,7 +44,8 @@ pub enum Command {
     #[command(after_help = help::MONTECARLO)]
     Montecarlo(MontecarloArgs),
     /// A delta printer's firmware files: import a Klipper printer.cfg as a model and probe CSV,
-    /// export a calibrated model as Klipper's SAVE_CONFIG values (docs/printers.md).
+    /// export a calibrated model as Klipper's SAVE_CONFIG values, write selected touches as the
+    /// firmware's probing commands (docs/printers.md).
     #[command(after_help = help::PRINTER)]
     Printer(PrinterArgs),
 }
@@ -52,7 +53,7 @@ pub enum Command {
 /// Options of `legwise printer`.
 #[derive(Debug, clap::Args)]
 pub struct PrinterArgs {
-    /// Import or export.
+    /// Import, export or points.
     #[command(subcommand)]
     pub command: PrinterCommand,
 }

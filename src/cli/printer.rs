@@ -1,4 +1,4 @@
-//! `legwise printer import|export`: a thin shell over [`crate::printer`].
+//! `legwise printer import|export|points`: a thin shell over [`crate::printer`].
 
 use std::path::Path;
 
