@@ -44,7 +44,8 @@ pub enum Command {
     #[command(after_help = help::MONTECARLO)]
     Montecarlo(MontecarloArgs),
     /// A delta printer's firmware files: import a Klipper printer.cfg as a model and probe CSV,
-    /// export a calibrated model as Klipper's SAVE_CONFIG values (docs/printers.md).
+    /// export a calibrated model as Klipper's SAVE_CONFIG values, write selected touches as the
+    /// firmware's probing commands (docs/printers.md).
     #[command(after_help = help::PRINTER)]
     Printer(PrinterArgs),
 }
@@ -52,7 +53,7 @@ pub enum Command {
 /// Options of `legwise printer`.
 #[derive(Debug, clap::Args)]
 pub struct PrinterArgs {
-    /// Import or export.
+    /// Import, export or points.
     #[command(subcommand)]
     pub command: PrinterCommand,
 }
@@ -68,6 +69,10 @@ pub enum PrinterCommand {
     /// RepRapFirmware's or Marlin's M665/M666 lines), with what the firmware cannot express
     /// (µm RMS over the bed).
     Export(PrinterExportArgs),
+    /// Write the touches `legwise select` picked for an imported printer as the firmware's
+    /// probing commands (RepRapFirmware's bed.g, Marlin's G30 lines, Klipper's
+    /// [delta_calibrate] points), whose log `printer import` reads back.
+    Points(PrinterPointsArgs),
 }
 
 /// Options of `legwise printer import`.
@@ -124,6 +129,33 @@ pub struct PrinterExportArgs {
     /// Radius of the bed disc the fit covers, m (default: the model's workspace radius).
     #[arg(long, allow_negative_numbers = true)]
     pub bed_radius: Option<f64>,
+}
+
+/// Options of `legwise printer points`.
+#[derive(Debug, clap::Args)]
+#[command(group(clap::ArgGroup::new("firmware").required(true).args(["klipper", "rrf", "marlin"])))]
+pub struct PrinterPointsArgs {
+    /// The Klipper printer.cfg the model was imported from (its [delta_calibrate] radius).
+    #[arg(long, value_name = "printer.cfg")]
+    pub klipper: Option<PathBuf>,
+    /// The RepRapFirmware config.g the model was imported from (its G31 X Y probe offset).
+    #[arg(long, value_name = "config.g")]
+    pub rrf: Option<PathBuf>,
+    /// RepRapFirmware's config-override.g, read over --rrf's file (its values win).
+    #[arg(long = "override", value_name = "config-override.g", requires = "rrf")]
+    pub overrides: Option<PathBuf>,
+    /// The Marlin M503 report the model was imported from (its M851 X Y probe offset).
+    #[arg(long, value_name = "m503.txt")]
+    pub marlin: Option<PathBuf>,
+    /// The imported model (`legwise printer import --out DIR`: DIR/printer.yaml).
+    #[arg(long, value_name = "printer.yaml")]
+    pub model: PathBuf,
+    /// The selection (`legwise select --model DIR/printer.yaml --out SELECTED.csv`).
+    #[arg(long, value_name = "SELECTED.csv")]
+    pub selected: PathBuf,
+    /// Where to write the commands (`-`: standard output).
+    #[arg(long, value_name = "FILE")]
+    pub out: PathBuf,
 }
 
 /// Options of `legwise montecarlo`.

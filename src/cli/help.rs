@@ -141,5 +141,8 @@ pub(super) const PRINTER: &str = examples!(
   legwise printer export --rrf --calibrated rrf/cal.yaml --out rrf/cal.g
   # Marlin: an M503 report and a log of G30 X Y replies (Bed X: Y: Z:)
   legwise printer import --marlin m503.txt --probes g30.log --out marlin
-  legwise printer export --marlin --calibrated marlin/cal.yaml --out marlin/cal.g"
+  legwise printer export --marlin --calibrated marlin/cal.yaml --out marlin/cal.g
+  # the touches legwise selects, as the firmware's probing commands (here RepRapFirmware's bed.g)
+  legwise select --model rrf/printer.yaml --out rrf/selected.csv
+  legwise printer points --rrf config.g --override config-override.g --model rrf/printer.yaml --selected rrf/selected.csv --out bed.g"
 );

@@ -1,8 +1,10 @@
-//! `legwise printer import|export`: a thin shell over [`crate::printer`].
+//! `legwise printer import|export|points`: a thin shell over [`crate::printer`].
 
 use std::path::Path;
 
-use super::args::{PrinterArgs, PrinterCommand, PrinterExportArgs, PrinterImportArgs};
+use super::args::{
+    PrinterArgs, PrinterCommand, PrinterExportArgs, PrinterImportArgs, PrinterPointsArgs,
+};
 use super::verdict::Verdict;
 use crate::error::Error;
 use crate::model::region::Region;
@@ -11,6 +13,7 @@ use crate::printer::delta_model::{printer_files, DeltaGeometry, ModelOptions};
 use crate::printer::export::{fit_delta, fit_klipper, save_config_block};
 use crate::printer::klipper::{KlipperConfig, KlipperDelta};
 use crate::printer::marlin::{self, MarlinDelta, MarlinValues};
+use crate::printer::points::{klipper_section, marlin_g30, read_selected, rrf_bed_g};
 use crate::printer::rrf::{self, RrfDelta, RrfValues};
 use crate::printer::CONVENTIONS;
 
@@ -18,6 +21,7 @@ pub(super) fn run(args: &PrinterArgs) -> anyhow::Result<Verdict> {
     match &args.command {
         PrinterCommand::Import(args) => import(args),
         PrinterCommand::Export(args) => export(args),
+        PrinterCommand::Points(args) => points(args),
     }
 }
 
@@ -271,5 +275,71 @@ fn export_klipper(
             args.out.display()
         );
     }
+    Ok(Verdict::Trusted)
+}
+
+/// The `G30 P` points RepRapFirmware keeps on its smaller boards (MaxProbePoints).
+const RRF_POINTS: usize = 32;
+
+fn points(args: &PrinterPointsArgs) -> anyhow::Result<Verdict> {
+    let mechanism = Mechanism::load(&args.model)?;
+    let touches = read_selected(&args.selected, &mechanism)?;
+    let source = args.selected.display().to_string();
+    let (text, name, next) = if let Some(path) = &args.rrf {
+        let delta = RrfDelta::read(path, args.overrides.as_deref(), None)?;
+        if touches.len() > RRF_POINTS {
+            eprintln!(
+                "note: {} G30 P points: RepRapFirmware keeps {RRF_POINTS} on some boards \
+                 (MaxProbePoints); if it refuses P{RRF_POINTS}, select fewer (--poses-per-leg)",
+                touches.len()
+            );
+        }
+        (
+            rrf_bed_g(&touches, delta.probe_offset, &source),
+            "RepRapFirmware",
+            "run it as bed.g (G32) with the console logged, then `legwise printer import --rrf … --probes LOG`",
+        )
+    } else if let Some(path) = &args.marlin {
+        let delta = MarlinDelta::read(path, None)?;
+        let [x, y, _] = delta.probe_offset;
+        (
+            marlin_g30(&touches, [x, y], &source),
+            "Marlin",
+            "send its lines with the host's log on, then `legwise printer import --marlin … --probes LOG`",
+        )
+    } else if let Some(path) = &args.klipper {
+        let config = KlipperConfig::read(path)?;
+        let section = "delta_calibrate";
+        let radius = config.require_float(section, "radius", "the probed radius, mm")?;
+        let text = klipper_section(
+            &touches,
+            radius,
+            config.float(section, "speed")?,
+            config.float(section, "horizontal_move_z")?,
+            &source,
+        );
+        (
+            text,
+            "Klipper",
+            "put it in printer.cfg, DELTA_CALIBRATE, SAVE_CONFIG, then `legwise printer import --klipper printer.cfg`",
+        )
+    } else {
+        unreachable!("clap requires one of --klipper, --rrf, --marlin")
+    };
+    if args.out.as_os_str() == "-" {
+        print!("{text}");
+    } else {
+        write(&args.out, &text)?;
+    }
+    eprintln!(
+        "{} touches of {} written as {name}'s probing commands to {}: {next}",
+        touches.len(),
+        args.selected.display(),
+        if args.out.as_os_str() == "-" {
+            "standard output".to_string()
+        } else {
+            args.out.display().to_string()
+        }
+    );
     Ok(Verdict::Trusted)
 }

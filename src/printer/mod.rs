@@ -7,7 +7,8 @@
 //! * [`delta_model`]: the legwise model (YAML + URDF) and probe CSV written for that geometry;
 //! * [`export`]: the firmware values whose kinematics come closest to a calibrated model;
 //! * [`gcode`]: G-code lines (RepRapFirmware's and Marlin's files and logs);
-//! * [`rrf`], [`marlin`]: their readers and writers over the same geometry.
+//! * [`rrf`], [`marlin`]: their readers and writers over the same geometry;
+//! * [`points`]: the touches `legwise select` picks, as the firmware's probing commands.
 //!
 //! The conventions (Klipper's docs/Config_Reference.md and klippy/kinematics/delta.py; formulas
 //! only, no code) are in docs/printers.md and [`CONVENTIONS`].
@@ -17,6 +18,7 @@ pub mod export;
 pub mod gcode;
 pub mod klipper;
 pub mod marlin;
+pub mod points;
 pub mod rrf;
 
 /// The conventions of the import and export, as printed by `legwise printer import`.

@@ -13,6 +13,7 @@ mod evaluation_reuse;
 mod exit_codes;
 mod files;
 mod firmware_delta;
+mod firmware_points;
 mod firmware_printers;
 mod forward_honest;
 mod forward_kinematics;
