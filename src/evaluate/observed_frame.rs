@@ -258,3 +258,82 @@ pub fn observed_frame_error(
         position_error: ErrorStats::of(&errors)?,
     })
 }
+
+#[cfg(test)]
+mod tests {
+    use std::path::Path;
+
+    use super::twist_rows;
+    use crate::model::Mechanism;
+
+    fn bundled(name: &str) -> Mechanism {
+        Mechanism::load(
+            &Path::new(env!("CARGO_MANIFEST_DIR"))
+                .join("models")
+                .join(name),
+        )
+        .unwrap()
+    }
+
+    /// A target fixed in the world seen from a frame moved by a twist in the frame's own axes:
+    /// its frame-local position becomes `Rᵀ (m − v)`. Each column of the motion matrix is the
+    /// central difference of that under one component (rotations built as matrices here), and
+    /// each reported coordinate's row is the motion's row for a position coordinate.
+    #[test]
+    fn the_motions_are_the_derivatives_of_the_local_position_under_each_twist() {
+        let rotation = |axis: usize, a: f64| -> [[f64; 3]; 3] {
+            let (s, c) = a.sin_cos();
+            match axis {
+                0 => [[1.0, 0.0, 0.0], [0.0, c, -s], [0.0, s, c]],
+                1 => [[c, 0.0, s], [0.0, 1.0, 0.0], [-s, 0.0, c]],
+                _ => [[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]],
+            }
+        };
+        // Rᵀ (m − v) for a twist component j by `e`.
+        let local = |j: usize, e: f64, m: [f64; 3]| -> [f64; 3] {
+            let mut shifted = m;
+            if j < 3 {
+                shifted[j] -= e;
+                return shifted;
+            }
+            let r = rotation(j - 3, e);
+            std::array::from_fn(|i| (0..3).map(|k| r[k][i] * m[k]).sum())
+        };
+        let m = [0.3, -0.2, 0.5];
+        let probe = bundled("delta-probe.yaml");
+        let instrument = probe.forward_instrument().unwrap();
+        let (moved, seen) = twist_rows(instrument, m);
+        assert_eq!(moved.shape(), (3, 6));
+        let h = 1e-6;
+        for j in 0..6 {
+            let (up, down) = (local(j, h, m), local(j, -h, m));
+            for i in 0..3 {
+                let expected = (up[i] - down[i]) / (2.0 * h);
+                assert!(
+                    (moved[(i, j)] - expected).abs() < 1e-9,
+                    "row {i}, twist {j}: {} vs {expected}",
+                    moved[(i, j)]
+                );
+            }
+            // The probe reports the height: the motion's z row.
+            assert!((seen[(0, j)] - moved[(2, j)]).abs() < 1e-15);
+        }
+        // Planar: (v_x, v_y, ω about z), the z row zero.
+        let tracker = bundled("5r-tracker.yaml");
+        let planar = tracker.instrument.as_ref().unwrap();
+        let m = [0.3, -0.2, 0.0];
+        let (moved, _) = twist_rows(planar, m);
+        assert_eq!(moved.shape(), (3, 3));
+        for (j, component) in [0, 1, 5].into_iter().enumerate() {
+            let (up, down) = (local(component, h, m), local(component, -h, m));
+            for i in 0..3 {
+                let expected = (up[i] - down[i]) / (2.0 * h);
+                assert!(
+                    (moved[(i, j)] - expected).abs() < 1e-9,
+                    "planar row {i}, twist {j}: {} vs {expected}",
+                    moved[(i, j)]
+                );
+            }
+        }
+    }
+}
