@@ -318,6 +318,25 @@ mod tests {
             // The probe reports the height: the motion's z row.
             assert!((seen[(0, j)] - moved[(2, j)]).abs() < 1e-15);
         }
+        // A target reporting its pose: its orientation turns against the frame's rotation
+        // about the same axis, and moves with no translation or other rotation.
+        let mut posed = instrument.clone();
+        posed.targets[0].measures = crate::model::instrument::Measures::Pose;
+        let (moved, seen) = twist_rows(&posed, [0.3, -0.2, 0.5]);
+        assert_eq!(seen.shape(), (6, 6));
+        for j in 0..6 {
+            for i in 0..3 {
+                assert!((seen[(i, j)] - moved[(i, j)]).abs() < 1e-15);
+            }
+            for a in 0..3 {
+                let expected = if j == 3 + a { -1.0 } else { 0.0 };
+                assert!(
+                    (seen[(3 + a, j)] - expected).abs() < 1e-15,
+                    "orientation {a}, twist {j}: {}",
+                    seen[(3 + a, j)]
+                );
+            }
+        }
         // Planar: (v_x, v_y, ω about z), the z row zero.
         let tracker = bundled("5r-tracker.yaml");
         let planar = tracker.instrument.as_ref().unwrap();
