@@ -167,6 +167,12 @@ pub fn unseen_frame(instrument: &Instrument, shared: &[f64], poses: &[[f64; 6]])
     } else {
         scaled
     };
+    // Every scale is positive and the poses finite: a NaN here would reach nalgebra's SVD,
+    // which may never return from one.
+    debug_assert!(
+        padded.iter().all(|v| v.is_finite()),
+        "unseen_frame: scaled motions not finite"
+    );
     let svd = padded.svd(false, true);
     let v_t = svd.v_t.expect("asked for V");
     let null: Vec<DVector<f64>> = (0..svd.singular_values.len())
@@ -263,7 +269,7 @@ pub fn observed_frame_error(
 mod tests {
     use std::path::Path;
 
-    use super::twist_rows;
+    use super::{twist_rows, unseen_frame};
     use crate::model::Mechanism;
 
     fn bundled(name: &str) -> Mechanism {
@@ -353,6 +359,36 @@ mod tests {
                     moved[(i, j)]
                 );
             }
+        }
+    }
+
+    /// Each twist is judged by how much it changes the reported height per unit of how far it
+    /// moves the target: a turn about y with the nozzle 1e-12 m and 2e-12 m from the frame's
+    /// origin along x changes the heights by as much as it moves the nozzle, and is seen beside
+    /// the rise along z; the four others that change no height (along x, along y, about x,
+    /// which moves nothing there, and about z) are not. Unscaled, that turn's 1e-12 change
+    /// would count as round-off.
+    #[test]
+    fn a_twist_is_seen_by_its_change_per_unit_of_motion_however_small_the_lever() {
+        let probe = bundled("delta-probe.yaml");
+        let instrument = probe.forward_instrument().unwrap();
+        let shared = instrument.nominal();
+        for lever in [1e-12, 0.1] {
+            // The platform puts the nozzle (0.02 m below it) at (lever, 0, 0) and (2 lever, 0,
+            // 0) on the bed: two heights that tell a rise from a turn about y.
+            let poses = [1.0, 2.0].map(|k| [k * lever, 0.0, 0.02, 0.0, 0.0, 0.0]);
+            let unseen = unseen_frame(instrument, &shared, &poses);
+            assert_eq!(
+                unseen.twists.ncols(),
+                4,
+                "lever {lever}: {:?}",
+                unseen.names
+            );
+            assert_eq!(
+                unseen.names,
+                ["along x", "along y", "about x", "about z"],
+                "lever {lever}"
+            );
         }
     }
 }
