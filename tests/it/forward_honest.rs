@@ -389,3 +389,22 @@ fn freed_platform_holds_are_directions_moving_no_reached_point() {
         "{message}"
     );
 }
+
+/// The predicted σ is sampled on every horizontal slice of the region above the bed: for
+/// delta-probe.yaml (a cylinder of radius 0.08 m and height 0.1 m about z = 0.05 m, shrunk to
+/// 0.95, the map's grid) 180 points over the slices whose nozzle clears the bed;
+/// hexapod-reflector.yaml's region 36. A change of how many slices there are (or of their
+/// spacing) changes these counts.
+#[test]
+fn the_predicted_sigma_is_sampled_on_the_slices_above_the_bed() {
+    for (model, expected) in [("delta-probe.yaml", 180), ("hexapod-reflector.yaml", 36)] {
+        let mechanism = bundled(model);
+        let report = run(&mechanism, &Settings::default()).expect("runs");
+        let predicted = report.results[0]
+            .instrument
+            .as_ref()
+            .and_then(|i| i.predicted_position.clone())
+            .expect("a predicted σ");
+        assert_eq!(predicted.points, expected, "{model}");
+    }
+}
