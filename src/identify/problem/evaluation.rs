@@ -332,20 +332,24 @@ impl<'a> IdentificationProblem<'a> {
         let state = self.lock();
         let prepared = self.prepare(x, false);
         let seeds = &state.seeds;
-        let task = |chunk: usize| {
-            let start = chunk * ROWS_PER_TASK;
-            let end = (start + ROWS_PER_TASK).min(self.blocks.len());
-            (start..end)
-                .map(|index| {
-                    let leg = self.prepared_leg(&prepared, index);
-                    let seed = &seeds.values[index * seeds.stride..];
-                    row(index, leg, &seed_solution(seed, leg.leg()))
-                })
-                .collect::<Vec<R>>()
+        let task = |rows: std::ops::Range<usize>| {
+            rows.map(|index| {
+                let leg = self.prepared_leg(&prepared, index);
+                let seed = &seeds.values[index * seeds.stride..];
+                row(index, leg, &seed_solution(seed, leg.leg()))
+            })
+            .collect::<Vec<R>>()
         };
-        let chunks = self.blocks.len().div_ceil(ROWS_PER_TASK);
-        let results: Vec<Vec<R>> = (0..chunks).into_par_iter().map(task).collect();
+        let results: Vec<Vec<R>> = self.row_chunks().map(task).collect();
         Ok(results.into_iter().flatten().collect())
+    }
+
+    /// The blocks' indices in chunks of [`ROWS_PER_TASK`], in parallel.
+    fn row_chunks(&self) -> impl IndexedParallelIterator<Item = std::ops::Range<usize>> + '_ {
+        let rows = self.blocks.len();
+        (0..rows.div_ceil(ROWS_PER_TASK))
+            .into_par_iter()
+            .map(move |chunk| chunk * ROWS_PER_TASK..((chunk + 1) * ROWS_PER_TASK).min(rows))
     }
 
     /// Calls `row` with every block's index, its slot's leg prepared at the unknowns `x`
@@ -372,34 +376,29 @@ impl<'a> IdentificationProblem<'a> {
         let shared = self.shared_values(x);
         let home = &self.mechanism.home_pose;
         let seeds = &state.seeds;
-        let task = |chunk: usize| {
-            let start = chunk * ROWS_PER_TASK;
-            let end = (start + ROWS_PER_TASK).min(self.blocks.len());
-            (start..end)
-                .map(|index| {
-                    let leg = self.prepared_leg(&prepared, index);
-                    let placed = match kept.and_then(|e| e.poses.get(index)) {
-                        Some(&pose) => Placed::at(pose),
-                        None => self.placed(index, &shared),
-                    };
-                    let solution = match kept {
-                        Some(evaluation) => evaluation.solutions[index],
-                        None => leg
-                            .solve_warm_on(
-                                &placed.platform,
-                                &placed.pose,
-                                home,
-                                seed_joints(&seeds.values[index * seeds.stride..], leg.leg())
-                                    .as_ref(),
-                            )
-                            .map_err(|source| (index, source))?,
-                    };
-                    Ok(row(index, leg, &placed, &solution))
-                })
-                .collect::<Result<Vec<R>, (usize, KinematicsError)>>()
+        let task = |rows: std::ops::Range<usize>| {
+            rows.map(|index| {
+                let leg = self.prepared_leg(&prepared, index);
+                let placed = match kept.and_then(|e| e.poses.get(index)) {
+                    Some(&pose) => Placed::at(pose),
+                    None => self.placed(index, &shared),
+                };
+                let solution = match kept {
+                    Some(evaluation) => evaluation.solutions[index],
+                    None => leg
+                        .solve_warm_on(
+                            &placed.platform,
+                            &placed.pose,
+                            home,
+                            seed_joints(&seeds.values[index * seeds.stride..], leg.leg()).as_ref(),
+                        )
+                        .map_err(|source| (index, source))?,
+                };
+                Ok(row(index, leg, &placed, &solution))
+            })
+            .collect::<Result<Vec<R>, (usize, KinematicsError)>>()
         };
-        let chunks = self.blocks.len().div_ceil(ROWS_PER_TASK);
-        let results: Vec<_> = (0..chunks).into_par_iter().map(task).collect();
+        let results: Vec<_> = self.row_chunks().map(task).collect();
         let mut values = Vec::with_capacity(self.blocks.len());
         for result in results {
             match result {
