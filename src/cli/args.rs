@@ -48,6 +48,25 @@ pub enum Command {
     /// firmware's probing commands (docs/printers.md).
     #[command(after_help = help::PRINTER)]
     Printer(PrinterArgs),
+    /// Fit the model's own parameters and each of its factor sets (`factor_sets:`, e.g. a
+    /// firmware's calibration factors) on the same measurements: residual, degrees of freedom,
+    /// scale against the declared noise, predicted σ over the workspace, rank, each factor's σ.
+    #[command(after_help = help::SETS)]
+    Sets(SetsArgs),
+}
+
+/// Options of `legwise sets`.
+#[derive(Debug, clap::Args)]
+pub struct SetsArgs {
+    /// The model file (YAML).
+    #[arg(long)]
+    pub model: PathBuf,
+    /// Measurement CSV (default: the model's simulated experiment).
+    #[arg(long)]
+    pub measurements: Option<PathBuf>,
+    /// Also write the table as JSON to this file (`-`: standard output).
+    #[arg(long)]
+    pub json: Option<PathBuf>,
 }
 
 /// Options of `legwise printer`.

@@ -96,6 +96,15 @@ pub(super) const WORKSPACE: &str = examples!(
   legwise workspace --model models/hexapod.yaml"
 );
 
+/// `legwise sets --help`.
+pub(super) const SETS: &str = examples!(
+    "
+  # an imported printer's own fit beside its firmware's factor sets, on its probe file
+  legwise sets --model printer/printer.yaml --measurements printer/probe.csv
+  # on the model's simulated experiment, the table also as JSON
+  legwise sets --model printer/printer.yaml --json sets.json"
+);
+
 /// `legwise evaluate --help`.
 pub(super) const EVALUATE: &str = examples!(
     "

@@ -13,6 +13,7 @@ mod montecarlo;
 mod outputs;
 mod printer;
 mod select;
+mod sets;
 mod simulate;
 mod usage;
 mod verdict;
@@ -39,5 +40,6 @@ pub fn run(cli: Cli) -> anyhow::Result<Verdict> {
         Command::Evaluate(args) => evaluate::run(&args),
         Command::Montecarlo(args) => montecarlo::run(&args),
         Command::Printer(args) => printer::run(&args),
+        Command::Sets(args) => sets::run(&args),
     }
 }

@@ -159,14 +159,10 @@ pub fn unseen_frame(instrument: &Instrument, shared: &[f64], poses: &[[f64; 6]])
     for (j, s) in scales.iter().enumerate() {
         scaled.column_mut(j).unscale_mut(*s);
     }
-    // Square (padded with zero rows) so that the SVD gives every right singular vector.
-    let padded = if scaled.nrows() < width {
-        let mut square = DMatrix::zeros(width, width);
-        square.rows_mut(0, scaled.nrows()).copy_from(&scaled);
-        square
-    } else {
-        scaled
-    };
+    // At least square (padded with zero rows) so that the SVD gives every right singular
+    // vector.
+    let mut padded = DMatrix::zeros(scaled.nrows().max(width), width);
+    padded.rows_mut(0, scaled.nrows()).copy_from(&scaled);
     // Every scale is positive and the poses finite: a NaN here would reach nalgebra's SVD,
     // which may never return from one.
     debug_assert!(

@@ -32,9 +32,28 @@ pub fn predicted_position(
     mechanism: &Mechanism,
     result: &StrategyResult,
 ) -> Option<PredictedPosition> {
-    let instrument = mechanism.forward_instrument()?;
     let estimate = result.instrument.as_ref()?;
     let covariance = estimate.covariance.as_ref()?;
+    let params = crate::evaluate::accuracy::result_parameters(mechanism, result);
+    let shared: Vec<f64> = estimate.parameters.iter().map(|p| p.estimate).collect();
+    let named: Vec<(&str, f64)> = result
+        .parameters()
+        .map(|p| (p.name.as_str(), p.estimate))
+        .collect();
+    predicted_position_of(mechanism, (&params, &shared), &named, covariance)
+}
+
+/// [`predicted_position`] of an estimate given as every leg's parameters and every shared
+/// parameter (`estimate`), the problem's unknowns by name (`named`: at least those `mechanism`
+/// identifies, legs in model order then the instrument's) and their `covariance`, in the
+/// order of the problem of `mechanism` through its instrument.
+pub fn predicted_position_of(
+    mechanism: &Mechanism,
+    (params, shared): (&[Vec<f64>], &[f64]),
+    named: &[(&str, f64)],
+    covariance: &DMatrix<f64>,
+) -> Option<PredictedPosition> {
+    let instrument = mechanism.forward_instrument()?;
     // Every target reports its whole position: the first one's rows are the first three.
     let every = if instrument.spatial { 0b111 } else { 0b011 };
     let seen = mechanism.edited(|parts| {
@@ -45,17 +64,16 @@ pub fn predicted_position(
             instrument.distances = None;
         }
     });
-    let params = crate::evaluate::accuracy::result_parameters(mechanism, result);
     let grid = prediction_poses(mechanism, instrument, mechanism.workspace.grid?)?;
     let width = seen.instrument.as_ref()?.observed_len();
     // The grid poses every leg reaches, the readings the model commands there and the
     // configuration it reaches (where each row's forward kinematics then closes at once).
-    let (poses, observations, configurations) = commanded_rows(mechanism, &params, &grid, width);
+    let (poses, observations, configurations) = commanded_rows(mechanism, params, &grid, width);
     if poses.is_empty() {
         return None;
     }
     let problem = IdentificationProblem::through_instrument(&seen, &observations).ok()?;
-    let x = unknowns(&problem, result)?;
+    let x = unknowns(&problem, named)?;
     problem.close_forward_rows_at(&x, configurations);
     if covariance.nrows() != x.len() {
         return None;
@@ -66,8 +84,7 @@ pub fn predicted_position(
     let mut target = DMatrix::from_fn(3 * points, x.len(), |r, j| {
         jacobian[((r / 3) * width + r % 3, j)]
     });
-    let shared: Vec<f64> = estimate.parameters.iter().map(|p| p.estimate).collect();
-    let unseen = unseen_frame(instrument, &shared, &poses);
+    let unseen = unseen_frame(instrument, shared, &poses);
     unseen.project_out(&mut target);
     let sigmas: Vec<f64> = (0..points)
         .map(|i| {
@@ -98,20 +115,11 @@ fn prediction_poses(
     instrument: &Instrument,
     grid: f64,
 ) -> Option<Vec<[f64; 6]>> {
-    let home = mechanism.home_pose[2];
-    let levels: Vec<(f64, f64)> = match mechanism.workspace.region.z_bounds() {
-        None => vec![(home, home)],
-        Some([lo, hi]) => {
-            let middle = (lo + hi) / 2.0;
-            let count = ((hi - lo) * SCALE / grid + 1e-9).floor();
-            (0..=count as usize)
-                .map(|k| {
-                    let z = middle + (k as f64 - count / 2.0) * grid;
-                    (z, middle + (z - middle) / SCALE)
-                })
-                .collect()
-        }
-    };
+    let levels = slice_levels(
+        mechanism.workspace.region.z_bounds(),
+        mechanism.home_pose[2],
+        grid,
+    );
     let nominal = instrument.nominal();
     let clear = home_side(mechanism, instrument, &nominal);
     let mut poses = Vec::new();
@@ -123,16 +131,65 @@ fn prediction_poses(
     (!poses.is_empty()).then_some(poses)
 }
 
-/// The result's estimate as the problem's unknowns (by name).
-fn unknowns(problem: &IdentificationProblem<'_>, result: &StrategyResult) -> Option<DVector<f64>> {
-    let estimates: Vec<(&str, f64)> = result
-        .parameters()
-        .map(|p| (p.name.as_str(), p.estimate))
-        .collect();
+/// The heights of the slices the prediction is taken on, each with the height in the region
+/// whose section it samples (the lattice is the section's, shrunk to [`SCALE`] about the
+/// region's middle): the spacing `grid` within the shrunk height `bounds`, centred on its
+/// middle; one slice at `home` for a planar region (`None`).
+fn slice_levels(bounds: Option<[f64; 2]>, home: f64, grid: f64) -> Vec<(f64, f64)> {
+    let Some([lo, hi]) = bounds else {
+        return vec![(home, home)];
+    };
+    let middle = (lo + hi) / 2.0;
+    let count = spacings_within((hi - lo) * SCALE, grid) as f64;
+    (0..=count as usize)
+        .map(|k| {
+            let z = middle + (k as f64 - count / 2.0) * grid;
+            (z, middle + (z - middle) / SCALE)
+        })
+        .collect()
+}
+
+/// Whole spacings `grid` within `span`, a span that is a whole number of them counting as one
+/// even where its division rounds just below (0.3 · 0.95 / 0.0285 is 9.999999999999998).
+fn spacings_within(span: f64, grid: f64) -> usize {
+    (span / grid + 1e-9).floor() as usize
+}
+
+/// The estimate as the problem's unknowns (by name).
+fn unknowns(problem: &IdentificationProblem<'_>, named: &[(&str, f64)]) -> Option<DVector<f64>> {
     let values = problem
         .names()
         .iter()
-        .map(|name| estimates.iter().find(|(n, _)| n == name).map(|(_, v)| *v))
+        .map(|name| named.iter().find(|(n, _)| n == name).map(|(_, v)| *v))
         .collect::<Option<Vec<f64>>>()?;
     Some(DVector::from_vec(values))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::{slice_levels, spacings_within};
+
+    /// A region 0.1 m high from z = 0 at a 0.02 m grid: 0.095 m shrunk, four spacings, five
+    /// slices about 0.05 m; each samples the region's section at its height scaled back out
+    /// from the middle (0.01 m samples 0.05 − 0.04 / 0.95).
+    #[test]
+    fn slices_are_centred_and_sample_the_unshrunk_section() {
+        let levels = slice_levels(Some([0.0, 0.1]), 0.3, 0.02);
+        let expected = [0.01, 0.03, 0.05, 0.07, 0.09];
+        assert_eq!(levels.len(), 5);
+        for ((z, section), e) in levels.iter().zip(expected) {
+            assert!((z - e).abs() < 1e-15, "{levels:?}");
+            let scaled = 0.05 + (e - 0.05) / 0.95;
+            assert!((section - scaled).abs() < 1e-15, "{levels:?}");
+        }
+        assert_eq!(slice_levels(None, 0.3, 0.02), [(0.3, 0.3)]);
+    }
+
+    #[test]
+    fn a_whole_number_of_spacings_survives_rounding() {
+        assert_eq!(spacings_within(0.3 * 0.95, 0.0285), 10);
+        assert_eq!(spacings_within(0.3 * 0.95, 0.057), 5);
+        assert_eq!(spacings_within(0.1 * 0.95, 0.02), 4);
+        assert_eq!(spacings_within(0.01, 0.02), 0);
+    }
 }

@@ -344,6 +344,21 @@ mod tests {
         points
     }
 
+    /// The yard is the largest motion of a column-scaled unit step: with columns of norm 2 and
+    /// 0.5 and one point moving (1, 0, 0) and (0, 3, 4) per unit of each unknown, steps 1/2 and
+    /// 2 move it by 0.5 and 10. A column of zeros (an unknown no row sees) takes no step.
+    #[test]
+    fn the_yard_is_the_largest_motion_of_a_scaled_unit_step() {
+        let point = |moves: DMatrix<f64>| ReachedPoint {
+            position: [0.0, 0.0, 0.0],
+            moves,
+        };
+        let moves = DMatrix::from_row_slice(3, 3, &[1.0, 0.0, 7.0, 0.0, 3.0, 7.0, 0.0, 4.0, 7.0]);
+        let jacobian = DMatrix::from_row_slice(2, 3, &[2.0, 0.0, 0.0, 0.0, 0.5, 0.0]);
+        let yard = unit_step_motion(&[point(moves)], &jacobian);
+        assert!((yard - 10.0).abs() < 1e-12, "{yard}");
+    }
+
     /// The motion `j` of `points`, at an arbitrary size, not normalised.
     fn motion(points: &[[f64; 3]], j: usize, size: f64) -> DVector<f64> {
         motion_basis(points).column(j) * size

@@ -1,6 +1,7 @@
 //! Identification: residual blocks, dual-number Jacobians, problems, observability, estimates,
 //! the statistics of each fit, robust losses and the trust verdict.
 pub mod estimate;
+pub mod factor_set;
 mod fit;
 pub mod gauges;
 pub mod held_test;

@@ -115,8 +115,11 @@ fn robust_t(e: &[f64], scaled: &DMatrix<f64>) -> Vec<Option<f64>> {
 mod tests {
     use std::path::Path;
 
-    use super::{outliers, FitKind};
+    use nalgebra::DMatrix;
+
+    use super::{outliers, robust_t, FitKind};
     use crate::identify::problem::IdentificationProblem;
+    use crate::identify::statistics::outlier_threshold;
     use crate::measure::observations::read;
     use crate::model::Mechanism;
 
@@ -140,6 +143,14 @@ mod tests {
                 threshold.is_some(),
                 "{kind:?}: positive variances are tested"
             );
+            // Least squares: Student's t on the m − n − 1 degrees of freedom of a residual
+            // left out of its own fit; robust: the normal law.
+            let (m, n) = (r.len(), jacobian.ncols());
+            let dof = match kind {
+                FitKind::LeastSquares => Some(m - n - 1),
+                FitKind::Robust => None,
+            };
+            assert_eq!(threshold, outlier_threshold(m, dof), "{kind:?}");
             for bad in [0.0, f64::INFINITY, f64::NAN, -1e-8] {
                 let mut variances = positive.clone();
                 variances[3] = bad;
@@ -154,5 +165,19 @@ mod tests {
             let (_, threshold) = outliers(&problem, (&r, &jacobian), &positive, &enough, kind);
             assert!(threshold.is_some(), "{kind:?}: n + 2 kept residuals");
         }
+    }
+
+    /// Four rows fitting one mean: each leverage is 1/4, so each residual (in σ) is divided by
+    /// √(3/4); a row of leverage 1 (the only one seeing its own unknown) has none.
+    #[test]
+    fn robust_t_divides_by_the_room_the_leverage_leaves() {
+        let scaled = DMatrix::from_element(4, 1, 1.0);
+        let t = robust_t(&[0.3, -0.6, 0.9, 0.0], &scaled);
+        for (got, e) in t.iter().zip([0.3, -0.6, 0.9, 0.0]) {
+            let got = got.expect("a leverage below 1");
+            assert!((got - e / 0.75f64.sqrt()).abs() < 1e-15, "{got} vs {e}");
+        }
+        let lone = DMatrix::from_row_slice(2, 2, &[1.0, 0.0, 0.0, 1.0]);
+        assert_eq!(robust_t(&[0.5, 0.5], &lone), [None, None]);
     }
 }

@@ -29,8 +29,14 @@ pub struct ModelFile {
     pub home: HomeEntry,
     /// The legs, each a serial chain of URDF joints from the base to the platform attachment.
     pub legs: Vec<LegEntry>,
+    /// Named quantities other parameters are functions of (optional).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub quantities: Vec<QuantityEntry>,
     /// Named kinematic parameters, each mapped onto one quantity of the model.
     pub parameters: Vec<ParameterEntry>,
+    /// Named sets of factors to fit and compare (optional; `legwise sets`).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub factor_sets: Vec<FactorSetEntry>,
     /// The usable workspace.
     pub workspace: WorkspaceEntry,
     /// Pose selection (optional; defaults: D-optimal, `simulation.poses_per_leg` or 18 poses).
@@ -136,6 +142,36 @@ pub struct ParameterEntry {
     /// Identified (true, the default) or held fixed at its nominal value (false).
     #[serde(default = "yes")]
     pub identify: bool,
+    /// An expression of the model's quantities the parameter equals (a derived parameter: it
+    /// follows them in a factor set that fits one of them; `identify` still says what the
+    /// model's own fit does with it).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub value: Option<String>,
+}
+
+/// A named quantity.
+#[derive(Debug, Clone, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct QuantityEntry {
+    /// Its name, as expressions and factor sets write it.
+    pub name: String,
+    /// Its nominal value, SI units.
+    pub value: f64,
+    /// Its unit: `m`, `rad` or `1` (dimensionless).
+    pub unit: String,
+}
+
+/// A named set of factors to fit together.
+#[derive(Debug, Clone, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct FactorSetEntry {
+    /// Its name.
+    pub name: String,
+    /// The quantities and parameters it fits.
+    pub fit: Vec<String>,
+    /// Where it comes from (one line).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub note: Option<String>,
 }
 
 /// The usable workspace.

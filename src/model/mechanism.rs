@@ -7,6 +7,7 @@ use std::path::PathBuf;
 use super::instrument::Instrument;
 use super::joint::ORIGIN_COMPONENTS;
 use super::leg::LegModel;
+use super::quantities::{FactorSet, Quantity};
 use super::workspace::Workspace;
 
 mod validate;
@@ -83,6 +84,10 @@ pub struct MechanismParts {
     /// The measuring instrument (frame and targets), if the model has the block: the
     /// measurements are then the targets' coordinates in the instrument frame.
     pub instrument: Option<Instrument>,
+    /// Named quantities derived parameters are functions of (model file `quantities:`).
+    pub quantities: Vec<Quantity>,
+    /// Named sets of factors to fit (model file `factor_sets:`).
+    pub factor_sets: Vec<FactorSet>,
     /// What the model file holds that is accepted but implausible (an angle beyond ±2π rad:
     /// degrees?), one line each naming the file and the field; every command's result is then
     /// untrusted.

@@ -1,4 +1,5 @@
 //! What the mechanism is: the model file, the URDF legs and the validated [`Mechanism`].
+pub mod expression;
 pub mod file;
 pub mod instrument;
 pub mod joint;
@@ -6,6 +7,7 @@ pub mod leg;
 pub mod load;
 pub mod mechanism;
 pub mod params;
+pub mod quantities;
 pub mod region;
 pub mod source;
 pub mod urdf;

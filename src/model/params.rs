@@ -2,6 +2,8 @@
 
 use std::fmt;
 
+use super::expression::Expression;
+
 /// The model quantity a parameter stands for, within its leg.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum ParamTarget {
@@ -57,4 +59,7 @@ pub struct Parameter {
     pub identified: bool,
     /// SI unit.
     pub unit: Unit,
+    /// For a derived parameter, the expression of the model's quantities it equals: it follows
+    /// them in a factor set that fits one of them; elsewhere `identified` says what it is.
+    pub derived: Option<Expression>,
 }

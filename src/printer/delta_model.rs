@@ -309,6 +309,9 @@ fn yaml(delta: &DeltaGeometry, options: &ModelOptions, urdf_name: &str) -> Strin
         );
     }
     let with_distances = !delta.distances.is_empty();
+    let names = FirmwareNames::of(delta);
+    out.push('\n');
+    out.push_str(&names.quantities_yaml(delta));
     out.push_str(if with_distances {
         "\n# phi_i = [t_ix, t_iy, L_i, k_i, h0_i]: Klipper's enhanced factors (six + three rods) in\n\
          # legwise's coordinates. A probe cannot see where the printer stands in x, y nor its turn\n\
@@ -331,19 +334,31 @@ fn yaml(delta: &DeltaGeometry, options: &ModelOptions, urdf_name: &str) -> Strin
             } else {
                 ""
             };
-            let _ = writeln!(out, "  - {{name: t{n}{c}, joint: C{n}, origin: {c}{held}}}");
+            let value = names.tower(i, c);
+            let _ = writeln!(
+                out,
+                "  - {{name: t{n}{c}, joint: C{n}, origin: {c}{held}, value: \"{value}\"}}"
+            );
         }
         let rod_held = if with_distances {
             ""
         } else {
             ", identify: false"
         };
-        let _ = writeln!(out, "  - {{name: L{n}, joint: R{n}, origin: x{rod_held}}}");
+        let rod = names.rod(i);
+        let _ = writeln!(
+            out,
+            "  - {{name: L{n}, joint: R{n}, origin: x{rod_held}, value: \"{rod}\"}}"
+        );
         let _ = writeln!(
             out,
             "  - {{name: k{n}, leg: leg{n}, actuator: gain, identify: false}}"
         );
-        let _ = writeln!(out, "  - {{name: h0_{n}, leg: leg{n}, actuator: offset}}");
+        let offset = names.offset(i);
+        let _ = writeln!(
+            out,
+            "  - {{name: h0_{n}, leg: leg{n}, actuator: offset, value: \"{offset}\"}}"
+        );
         for c in ["x", "y"] {
             let _ = writeln!(
                 out,
@@ -351,6 +366,7 @@ fn yaml(delta: &DeltaGeometry, options: &ModelOptions, urdf_name: &str) -> Strin
             );
         }
     }
+    out.push_str(&names.factor_sets_yaml(with_distances));
     let _ = write!(
         out,
         "\nworkspace:\n  region: {{cylinder: {{centre: [0.0, 0.0, {}], radius: {}, height: {}}}}}\n  \
@@ -378,6 +394,170 @@ fn yaml(delta: &DeltaGeometry, options: &ModelOptions, urdf_name: &str) -> Strin
         );
     }
     out
+}
+
+/// The firmware's names of the towers' quantities (Klipper's `a b c`, the others' `X Y Z`),
+/// and whether one rod stands for all three.
+struct FirmwareNames {
+    firmware: Firmware,
+    towers: [&'static str; 3],
+    one_rod: bool,
+}
+
+impl FirmwareNames {
+    fn of(delta: &DeltaGeometry) -> Self {
+        let klipper = delta.firmware == Firmware::Klipper;
+        FirmwareNames {
+            firmware: delta.firmware,
+            towers: if klipper {
+                ["a", "b", "c"]
+            } else {
+                ["x", "y", "z"]
+            },
+            // The same number read for every tower (not nearly: one rod, or three).
+            one_rod: !klipper
+                && delta
+                    .arms
+                    .iter()
+                    .all(|a| a.to_bits() == delta.arms[0].to_bits()),
+        }
+    }
+
+    /// Tower `i`'s rod quantity.
+    fn rod(&self, i: usize) -> String {
+        match (self.firmware, self.one_rod) {
+            (Firmware::Klipper, _) => format!("arm_{}", self.towers[i]),
+            (_, true) => "rod".to_string(),
+            (_, false) => format!("rod_{}", self.towers[i]),
+        }
+    }
+
+    /// Tower `i`'s position component `c` (`x`, `y`) as an expression.
+    fn tower(&self, i: usize, c: &str) -> String {
+        let f = if c == "x" { "cos" } else { "sin" };
+        format!("radius * {f}(angle_{})", self.towers[i])
+    }
+
+    /// Tower `i`'s carriage height at its endstop as an expression.
+    fn offset(&self, i: usize) -> String {
+        format!(
+            "endstop_{} + sqrt({}^2 - radius^2)",
+            self.towers[i],
+            self.rod(i)
+        )
+    }
+
+    /// The `quantities:` block: the firmware's geometry in SI units.
+    fn quantities_yaml(&self, delta: &DeltaGeometry) -> String {
+        let mut out = String::from(
+            "# The firmware's own geometry (SI: metres, radians): the parameters below follow it in\n\
+             # the firmware's factor sets (`legwise sets`); the model's own fit identifies them directly.\n\
+             quantities:\n",
+        );
+        let _ = writeln!(
+            out,
+            "  - {{name: radius, value: {}, unit: m}}",
+            num(delta.radius * MM)
+        );
+        for (i, t) in self.towers.iter().enumerate() {
+            let angle = delta.angles[i].to_radians();
+            let _ = writeln!(
+                out,
+                "  - {{name: angle_{t}, value: {}, unit: rad}}",
+                num(angle)
+            );
+        }
+        match self.firmware != Firmware::Klipper && self.one_rod {
+            true => {
+                let _ = writeln!(
+                    out,
+                    "  - {{name: rod, value: {}, unit: m}}",
+                    num(delta.arms[0] * MM)
+                );
+            }
+            false => {
+                for i in 0..3 {
+                    let (rod, value) = (self.rod(i), num(delta.arms[i] * MM));
+                    let _ = writeln!(out, "  - {{name: {rod}, value: {value}, unit: m}}");
+                }
+            }
+        }
+        for (i, t) in self.towers.iter().enumerate() {
+            let value = num(delta.endstops[i] * MM);
+            let _ = writeln!(out, "  - {{name: endstop_{t}, value: {value}, unit: m}}");
+        }
+        out.push('\n');
+        out
+    }
+
+    /// The `factor_sets:` block: the firmware's calibration factors.
+    fn factor_sets_yaml(&self, with_distances: bool) -> String {
+        let [a, b, c] = self.towers;
+        let endstops = format!("endstop_{a}, endstop_{b}, endstop_{c}");
+        let rods = (0..3).map(|i| self.rod(i)).collect::<Vec<_>>();
+        let mut sets: Vec<(String, String, String)> = Vec::new();
+        let mut set = |name: &str, fit: String, note: &str| {
+            sets.push((name.to_string(), fit, note.to_string()));
+        };
+        match self.firmware {
+            Firmware::Klipper => {
+                let six = format!("radius, angle_{a}, angle_{b}, {endstops}");
+                set(
+                    "klipper-6",
+                    six.clone(),
+                    "DELTA_CALIBRATE: endstops, radius, two tower angles",
+                );
+                let note = match with_distances {
+                    true => "DELTA_CALIBRATE METHOD=enhanced: also the three arms (needs the distances)",
+                    false => "the enhanced method's nine factors on heights alone (Klipper asks for distances)",
+                };
+                set("klipper-9", format!("{six}, {}", rods.join(", ")), note);
+            }
+            Firmware::Rrf => {
+                let four = format!("{endstops}, radius");
+                let six = format!("{four}, angle_{a}, angle_{b}");
+                let tilt = "frame_roll, frame_pitch";
+                set("rrf-3", endstops.clone(), "G30 S3: endstop corrections");
+                set("rrf-4", four, "G30 S4: and the delta radius");
+                set(
+                    "rrf-6",
+                    six.clone(),
+                    "G30 S6: and two tower angle corrections",
+                );
+                set("rrf-8", format!("{six}, {tilt}"), "G30 S8: and the bed tilt (here a turn of the bed, RepRapFirmware's is a shear)");
+                if self.one_rod {
+                    set(
+                        "rrf-7",
+                        format!("{six}, rod"),
+                        "G30 S7: and the diagonal rod",
+                    );
+                    set(
+                        "rrf-9",
+                        format!("{six}, rod, {tilt}"),
+                        "G30 S9: rod and bed tilt",
+                    );
+                }
+            }
+            Firmware::Marlin => {
+                let four = format!("{endstops}, radius");
+                set(
+                    "marlin-4",
+                    four.clone(),
+                    "G33 T: height, endstops and radius, no tower angles",
+                );
+                set(
+                    "marlin-6",
+                    format!("{four}, angle_{a}, angle_{b}"),
+                    "G33: height, endstops, radius and tower angles",
+                );
+            }
+        }
+        let mut out = String::from("\n# The firmware's calibration factors, fitted beside the model's own set by `legwise sets`.\nfactor_sets:\n");
+        for (name, fit, note) in sets {
+            let _ = writeln!(out, "  - {{name: {name}, fit: [{fit}], note: \"{note}\"}}");
+        }
+        out
+    }
 }
 
 fn csv(delta: &DeltaGeometry) -> String {

@@ -270,6 +270,17 @@ fn calibrated_yaml(
     let mut file = ModelFile::read(&mechanism.model_path)?;
     file.urdf = urdf_name.to_string();
     set_leg_values(&mut file, mechanism, values);
+    // The identified parameters moved: relations to quantities they broke go (a factor set of
+    // the firmware's terms is the imported model's, not the calibrated one's).
+    let moved: Vec<&str> = mechanism
+        .legs
+        .iter()
+        .zip(values)
+        .flat_map(|(leg, v)| leg.params.iter().zip(v))
+        .filter(|(p, &(value, _, _))| value.to_bits() != p.nominal.to_bits())
+        .map(|(p, _)| p.name.as_str())
+        .collect();
+    crate::model::quantities::drop_broken_relations(&mut file, &moved);
     let instrument = calibration.result.instrument.as_ref();
     if let (Some(block), Some(model), Some(estimate)) =
         (file.instrument.as_mut(), &mechanism.instrument, instrument)

@@ -2,6 +2,7 @@
 //! its JSON document, the calibrated model and the pictures.
 pub mod calibrated;
 pub mod evaluation;
+pub mod factor_sets;
 pub mod json;
 pub mod plots;
 pub mod selection;

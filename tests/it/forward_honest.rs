@@ -153,6 +153,19 @@ fn a_reflector_sees_every_frame_motion() {
     // At one pose a lone point cannot see the frame turn about itself: three rotations.
     let unseen = unseen_frame(instrument, &instrument.nominal(), &[home]);
     assert_eq!(unseen.twists.ncols(), 3, "{:?}", unseen.names);
+    // Turns about the point are no frame axis: each moves it by nothing (the twists in the
+    // frame's units, not the scaled ones the SVD saw), and they are counted, not named.
+    assert_eq!(unseen.names, ["3 other motion(s)"]);
+    for j in 0..3 {
+        let twist = unseen.twists.column(j);
+        let turn = twist.rows(3, 3).norm();
+        assert!(turn > 1e-3, "twist {j} turns: {twist}");
+        assert!(
+            unseen.motions.column(j).norm() <= 1e-12 * turn,
+            "twist {j} moves the point: {}",
+            unseen.motions.column(j)
+        );
+    }
 }
 
 /// The full covariance of a result's JSON: its parameter names and matrix.

@@ -128,6 +128,7 @@ fn leg_model(d: &Dyad, tilt: f64) -> LegModel {
                 nominal: joint.origin[component],
                 identified: true,
                 unit,
+                derived: None,
             });
         }
     }
@@ -137,6 +138,7 @@ fn leg_model(d: &Dyad, tilt: f64) -> LegModel {
         nominal,
         identified: true,
         unit,
+        derived: None,
     };
     params.push(scalar("gain", ParamTarget::Gain, d.gain, Unit::One));
     params.push(scalar(
@@ -363,6 +365,7 @@ fn only_exact_patterns_are_recognised() {
         nominal: 0.0,
         identified: true,
         unit: Unit::Radian,
+        derived: None,
     });
     assert!(LegKernel::recognise(&rolled).is_none());
 }

@@ -11,6 +11,7 @@ mod evaluate;
 mod evaluate_values;
 mod evaluation_reuse;
 mod exit_codes;
+mod factor_sets;
 mod files;
 mod firmware_delta;
 mod firmware_points;

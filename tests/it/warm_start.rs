@@ -143,6 +143,7 @@ fn every_quantity(leg: &LegModel) -> LegModel {
                 } else {
                     Unit::Radian
                 },
+                derived: None,
             });
         }
     }
@@ -153,6 +154,7 @@ fn every_quantity(leg: &LegModel) -> LegModel {
             nominal: leg.attachment[component],
             identified: true,
             unit: Unit::Metre,
+            derived: None,
         });
     }
     for (name, target, nominal) in [
@@ -165,6 +167,7 @@ fn every_quantity(leg: &LegModel) -> LegModel {
             nominal,
             identified: true,
             unit: Unit::One,
+            derived: None,
         });
     }
     wide

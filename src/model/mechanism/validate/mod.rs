@@ -15,6 +15,7 @@ mod noise;
 mod parameters;
 mod plausible;
 mod polygon;
+mod quantities;
 mod scale;
 mod setup;
 mod workspace;
@@ -76,6 +77,7 @@ impl Builder<'_> {
         let closure_dims = if measured.contains(&2) { 3 } else { 2 };
         let mut legs = self.legs(&file, closure_dims)?;
         self.parameters(&file.parameters, &mut legs)?;
+        let quantities = self.quantities(&file, &mut legs)?;
         self.scale(&file, &legs)?;
         for (index, leg) in legs.iter_mut().enumerate() {
             self.home(leg, index, &file.legs[index].home)?;
@@ -86,6 +88,7 @@ impl Builder<'_> {
             None => None,
         };
         let instrument = self.instrument(file.instrument.as_ref(), &measured, &legs)?;
+        let factor_sets = self.factor_sets(&file, &legs, &quantities, instrument.as_ref())?;
         let simulation = self.simulation(&file, &measured, &legs, noise, instrument.as_ref())?;
         let selection = self.selection(&file, simulation.as_ref())?;
         let mut warnings = self.degree_warnings(&file, &legs);
@@ -103,6 +106,8 @@ impl Builder<'_> {
             noise,
             simulation,
             instrument,
+            quantities,
+            factor_sets,
             warnings,
         });
         Ok(mechanism)

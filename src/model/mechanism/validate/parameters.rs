@@ -73,6 +73,7 @@ impl Builder<'_> {
                 nominal,
                 identified: entry.identify,
                 unit,
+                derived: None,
             });
         }
         Ok(())

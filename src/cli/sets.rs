@@ -1,0 +1,56 @@
+//! `legwise sets`: the model's own set and each of its factor sets fitted on the same
+//! measurements (or its simulation), one table.
+
+use super::args::SetsArgs;
+use super::console::Console;
+use super::outputs::{input, model_inputs};
+use super::verdict::Verdict;
+use crate::files::Output;
+use crate::identify::factor_set::{fit_factor_set, model_sets};
+use crate::measure::Measurements;
+use crate::model::Mechanism;
+use crate::pipeline::{simulate, SimulationSettings};
+use crate::report::factor_sets::{factor_sets_json, factor_sets_text};
+
+pub(super) fn run(args: &SetsArgs) -> anyhow::Result<Verdict> {
+    let mechanism = Mechanism::load(&args.model)?;
+    let mut inputs = model_inputs(&args.model, &mechanism);
+    inputs.extend(
+        args.measurements
+            .as_deref()
+            .map(|p| input("measurement file", p)),
+    );
+    let json = Output::prepare_optional("--json", args.json.as_deref(), &inputs)?;
+    let (data, source) = match &args.measurements {
+        Some(path) => (
+            Measurements::read(path, &mechanism)?,
+            path.display().to_string(),
+        ),
+        None => {
+            let simulated = simulate(&mechanism, &SimulationSettings::default())?;
+            (
+                simulated.measurements,
+                format!("simulated {}", simulated.source),
+            )
+        }
+    };
+    let fits = model_sets(&mechanism)
+        .iter()
+        .map(|set| fit_factor_set(&mechanism, &data, set))
+        .collect::<crate::error::Result<Vec<_>>>()?;
+    let mut console = Console::new(json.as_ref().is_some_and(Output::is_stdout));
+    if let Some(json) = &json {
+        json.write(
+            "JSON table",
+            (serde_json::to_string_pretty(&factor_sets_json(&fits))? + "\n").as_bytes(),
+        )?;
+    }
+    let title = format!("Factor sets of {} on {source}", mechanism.name);
+    console.print(&factor_sets_text(&title, &fits))?;
+    if let Some(json) = &json {
+        console.line(format_args!("JSON table written to {}", json.name()))?;
+    }
+    // A set the data cannot determine is an answer of the table (its rank column), not a
+    // reason to distrust the others.
+    Ok(Verdict::from_reasons(mechanism.warnings.clone()))
+}

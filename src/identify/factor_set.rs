@@ -1,0 +1,481 @@
+//! One factor set of the model fitted (`factor_sets:` in the model file): its quantities,
+//! parameters and instrument parameters the unknowns, everything else held at nominal.
+//!
+//! The fit is the model's own problem (the same residual blocks and forward rows, the same
+//! dual-number Jacobian) seen through a change of unknowns: the problem's unknowns `x` (every
+//! leg parameter the set moves, directly or through a quantity, and the set's instrument
+//! parameters) are a function `x = g(θ)` of the set's factors `θ`, the derived parameters by
+//! their expressions; its Jacobian is `∂r/∂x · ∂g/∂θ` (the expressions' derivatives by dual
+//! numbers). Weighted by the declared noise as the default fit is, solved by
+//! Levenberg–Marquardt; σ from the declared noise (a firmware-sized set of touches has too few
+//! degrees of freedom to estimate it), the residual's own scale printed beside it.
+
+use nalgebra::{DMatrix, DVector};
+use num_dual::Dual64;
+
+use super::observability::{analyse, Observability};
+use super::problem::IdentificationProblem;
+use super::result::FitOptions;
+use crate::error::{Error, Result};
+use crate::evaluate::predicted_position::predicted_position_of;
+use crate::identify::result::PredictedPosition;
+use crate::measure::Measurements;
+use crate::model::params::Unit;
+use crate::model::quantities::FactorSet;
+use crate::model::Mechanism;
+use crate::solver::{solve, SolverKind};
+
+/// One factor's estimate.
+#[derive(Debug, Clone, PartialEq)]
+pub struct FactorEstimate {
+    /// Its name (a quantity, a parameter or an instrument parameter).
+    pub name: String,
+    /// Its nominal value, SI units.
+    pub nominal: f64,
+    /// Its estimate, SI units.
+    pub estimate: f64,
+    /// Its standard deviation from the declared noise (`NaN` without one or when the set
+    /// cannot determine it).
+    pub sigma: f64,
+    /// SI unit.
+    pub unit: Unit,
+}
+
+/// A factor set fitted.
+#[derive(Debug, Clone)]
+pub struct FactorSetFit {
+    /// The set's name.
+    pub name: String,
+    /// Where the set comes from, if the model says.
+    pub note: Option<String>,
+    /// Each factor, in the set's order.
+    pub factors: Vec<FactorEstimate>,
+    /// Residuals of the fit.
+    pub rows: usize,
+    /// Residuals minus the factors the data determine.
+    pub degrees_of_freedom: usize,
+    /// RMS of the residuals (measurement units: metres, radians).
+    pub rms: f64,
+    /// `Σ (r_i / σ_i)²` at the estimate, `NaN` without a declared noise.
+    pub chi_square: f64,
+    /// The rank answer at the estimate (in the factors).
+    pub observability: Observability,
+    /// The predicted σ of the first target's position over the workspace (forward
+    /// instruments with a `workspace.grid`).
+    pub predicted: Option<PredictedPosition>,
+}
+
+impl FactorSetFit {
+    /// `√(χ² / dof)`: the residual's scale against the declared noise (1 when they agree).
+    pub fn scale(&self) -> f64 {
+        (self.chi_square / self.degrees_of_freedom as f64).sqrt()
+    }
+}
+
+/// Where a problem unknown comes from.
+#[derive(Debug, Clone)]
+enum Source {
+    /// The `k`-th factor itself.
+    Factor(usize),
+    /// A derived parameter: its expression over the quantities (`values`: every quantity's
+    /// value, the set's ones replaced by their factor).
+    Derived(crate::model::expression::Expression),
+}
+
+/// The change of unknowns `x = g(θ)`.
+#[derive(Debug, Clone)]
+struct Unknowns {
+    /// Per problem unknown.
+    sources: Vec<Source>,
+    /// Every quantity's nominal value.
+    quantities: Vec<f64>,
+    /// For each quantity, the factor it is (if in the set).
+    factor_of_quantity: Vec<Option<usize>>,
+}
+
+impl Unknowns {
+    /// `g(θ)`.
+    fn x(&self, theta: &DVector<f64>) -> DVector<f64> {
+        let values = self.quantity_values(theta.as_slice(), |v| v);
+        DVector::from_iterator(
+            self.sources.len(),
+            self.sources.iter().map(|s| match s {
+                Source::Factor(k) => theta[*k],
+                Source::Derived(e) => e.eval(&values),
+            }),
+        )
+    }
+
+    /// `∂g/∂θ`, one dual pass per factor.
+    fn jacobian(&self, theta: &DVector<f64>) -> DMatrix<f64> {
+        let mut g = DMatrix::zeros(self.sources.len(), theta.len());
+        for k in 0..theta.len() {
+            let seeded: Vec<Dual64> = (0..theta.len())
+                .map(|j| match j == k {
+                    true => Dual64::from_re(theta[j]).derivative(),
+                    false => Dual64::from_re(theta[j]),
+                })
+                .collect();
+            let values = self.quantity_values(&seeded, Dual64::from_re);
+            for (i, source) in self.sources.iter().enumerate() {
+                g[(i, k)] = match source {
+                    Source::Factor(j) => f64::from(*j == k),
+                    Source::Derived(e) => e.eval(&values).eps,
+                };
+            }
+        }
+        g
+    }
+
+    /// Every quantity's value: the factor's where the set fits it, else nominal (`lift`ed).
+    fn quantity_values<T: Copy>(&self, theta: &[T], lift: impl Fn(f64) -> T) -> Vec<T> {
+        self.quantities
+            .iter()
+            .zip(&self.factor_of_quantity)
+            .map(|(&nominal, factor)| factor.map_or_else(|| lift(nominal), |k| theta[k]))
+            .collect()
+    }
+}
+
+/// The set's problem seen in its factors: residuals `r(g(θ))`, Jacobian `∂r/∂x · ∂g/∂θ`.
+#[derive(Debug, Clone)]
+struct InFactors<'p, 'm> {
+    problem: &'p IdentificationProblem<'m>,
+    unknowns: &'p Unknowns,
+}
+
+impl argmin::core::Operator for InFactors<'_, '_> {
+    type Param = DVector<f64>;
+    type Output = DVector<f64>;
+
+    fn apply(&self, theta: &Self::Param) -> std::result::Result<Self::Output, argmin::core::Error> {
+        Ok(self.problem.residuals(&self.unknowns.x(theta))?)
+    }
+}
+
+impl argmin::core::Jacobian for InFactors<'_, '_> {
+    type Param = DVector<f64>;
+    type Jacobian = DMatrix<f64>;
+
+    fn jacobian(
+        &self,
+        theta: &Self::Param,
+    ) -> std::result::Result<Self::Jacobian, argmin::core::Error> {
+        let (_, c) = self
+            .problem
+            .residuals_and_jacobian(&self.unknowns.x(theta))?;
+        Ok(c * self.unknowns.jacobian(theta))
+    }
+}
+
+/// Most reweighting rounds (the row variances at the estimate, as the default fit's).
+const MAX_WEIGHTINGS: usize = 20;
+
+/// Largest relative change of a row's weight at which the weights are consistent.
+const WEIGHT_TOLERANCE: f64 = 1e-12;
+
+/// Fits `set` of `mechanism` on `data`.
+///
+/// # Errors
+/// Measurements of the other kind than the model's, a leg without rows, a pose out of reach
+/// at the start, or the solver's failure.
+pub fn fit_factor_set(
+    mechanism: &Mechanism,
+    data: &Measurements,
+    set: &FactorSet,
+) -> Result<FactorSetFit> {
+    let uses_factor = |expression: &crate::model::expression::Expression| {
+        expression
+            .names_used()
+            .iter()
+            .any(|&q| set.factors.contains(&mechanism.quantities[q].name))
+    };
+    // The problem's unknowns: every leg parameter the set moves, its instrument parameters.
+    let inner = mechanism.edited(|parts| {
+        for leg in &mut parts.legs {
+            for p in &mut leg.params {
+                p.identified =
+                    set.factors.contains(&p.name) || p.derived.as_ref().is_some_and(&uses_factor);
+            }
+        }
+        if let Some(instrument) = parts.instrument.as_mut() {
+            for p in &mut instrument.parameters {
+                p.identified = set.factors.contains(&p.name);
+            }
+        }
+    });
+    let problem = set_problem(&inner, data)?;
+    let names = problem.names();
+    let derived_of = |name: &str| {
+        inner
+            .legs
+            .iter()
+            .flat_map(|l| &l.params)
+            .find(|p| p.name == name)
+            .and_then(|p| p.derived.clone())
+    };
+    // A parameter named by the set is its own factor; any other unknown follows the set's
+    // quantities (the model's checks refuse a set naming a parameter and its quantity).
+    let sources = names
+        .iter()
+        .map(|name| match set.factors.iter().position(|f| f == name) {
+            Some(k) => Source::Factor(k),
+            None => Source::Derived(derived_of(name).expect("a moved parameter is derived")),
+        })
+        .collect();
+    let unknowns = Unknowns {
+        sources,
+        quantities: mechanism.quantities.iter().map(|q| q.nominal).collect(),
+        factor_of_quantity: mechanism
+            .quantities
+            .iter()
+            .map(|q| set.factors.iter().position(|f| f == &q.name))
+            .collect(),
+    };
+    let factors = set_factors(&inner, set);
+    let theta0 = DVector::from_iterator(factors.len(), factors.iter().map(|f| f.nominal));
+    let noise = FitOptions::default().expected_noise(&inner);
+    let solver_error = |e: argmin::core::Error| {
+        Error::Invalid(format!("factor set `{}`: the solver failed: {e}", set.name))
+    };
+    let block =
+        |e: super::problem::BlockError| Error::Invalid(format!("factor set `{}`: {e}", set.name));
+    let weights_at = |theta: &DVector<f64>| -> Result<Option<Vec<f64>>> {
+        let Some(noise) = &noise else { return Ok(None) };
+        let x = unknowns.x(theta);
+        // Through an instrument every row's variance (a height, a distance, a pose); at
+        // measured poses each reading's.
+        let variances = match problem.instrument() {
+            Some(_) => problem
+                .row_variances(&x, noise)
+                .map_err(|e| Error::Invalid(format!("factor set `{}`: {e}", set.name)))?,
+            None => super::statistics::row_variances(&problem, &x, noise).map_err(block)?,
+        };
+        Ok(variances
+            .iter()
+            .map(|&v| (v > 0.0 && v.is_finite()).then(|| 1.0 / v))
+            .collect())
+    };
+    let mut weights = weights_at(&theta0)?;
+    let weighted = |w: &Option<Vec<f64>>| match w {
+        Some(w) => problem.clone().with_weights(w),
+        None => problem.unweighted(),
+    };
+    let mut current = weighted(&weights);
+    let mut theta = theta0;
+    for _ in 0..MAX_WEIGHTINGS {
+        let view = InFactors {
+            problem: &current,
+            unknowns: &unknowns,
+        };
+        theta = solve(&view, theta, SolverKind::LevenbergMarquardt)
+            .map_err(solver_error)?
+            .x;
+        let next = weights_at(&theta)?;
+        let change = match (&next, &weights) {
+            (Some(a), Some(b)) => a
+                .iter()
+                .zip(b)
+                .map(|(a, b)| (a / b - 1.0).abs())
+                .fold(0.0, f64::max),
+            _ => 0.0,
+        };
+        weights = next;
+        current = weighted(&weights);
+        if change <= WEIGHT_TOLERANCE {
+            break;
+        }
+    }
+    let x = unknowns.x(&theta);
+    let g = unknowns.jacobian(&theta);
+    let raw = problem.residuals(&x).map_err(block)?;
+    let (weighted_r, c) = current.residuals_and_jacobian(&x).map_err(block)?;
+    let c = c * &g;
+    let factor_names: Vec<String> = set.factors.clone();
+    let observability = analyse(&c, &factor_names);
+    let rows = raw.len();
+    let full_rank = observability.rank == factors.len();
+    let covariance = match (full_rank, &noise) {
+        (true, Some(_)) => (c.transpose() * &c).try_inverse(),
+        _ => None,
+    };
+    let factors = factors
+        .into_iter()
+        .enumerate()
+        .map(|(k, f)| FactorEstimate {
+            estimate: theta[k],
+            sigma: covariance
+                .as_ref()
+                .map_or(f64::NAN, |cov| cov[(k, k)].max(0.0).sqrt()),
+            ..f
+        })
+        .collect();
+    let predicted = covariance.as_ref().and_then(|cov| {
+        let params: Vec<Vec<f64>> = inner
+            .legs
+            .iter()
+            .enumerate()
+            .map(|(l, _)| problem_leg_parameters(&problem, l, &x))
+            .collect();
+        let shared = problem.shared_values(&x);
+        let named: Vec<(&str, f64)> = names
+            .iter()
+            .map(|n| n.as_str())
+            .zip(x.iter().copied())
+            .collect();
+        let covariance = &g * cov * g.transpose();
+        predicted_position_of(&inner, (&params, &shared), &named, &covariance)
+    });
+    Ok(FactorSetFit {
+        name: set.name.clone(),
+        note: set.note.clone(),
+        factors,
+        rows,
+        degrees_of_freedom: rows.saturating_sub(observability.rank),
+        rms: (raw.norm_squared() / rows.max(1) as f64).sqrt(),
+        chi_square: match noise {
+            Some(_) => weighted_r.norm_squared(),
+            None => f64::NAN,
+        },
+        observability,
+        predicted,
+    })
+}
+
+/// Every factor of `set` at its nominal value, named and with its unit.
+fn set_factors(mechanism: &Mechanism, set: &FactorSet) -> Vec<FactorEstimate> {
+    set.factors
+        .iter()
+        .map(|name| {
+            let quantity = mechanism.quantities.iter().find(|q| &q.name == name);
+            let parameter = mechanism
+                .legs
+                .iter()
+                .flat_map(|l| &l.params)
+                .find(|p| &p.name == name);
+            let shared = mechanism
+                .instrument
+                .as_ref()
+                .and_then(|i| i.parameters.iter().find(|p| &p.name == name));
+            let (nominal, unit) = match (quantity, parameter, shared) {
+                (Some(q), _, _) => (q.nominal, q.unit),
+                (_, Some(p), _) => (p.nominal, p.unit),
+                (_, _, Some(s)) => (s.nominal, s.unit),
+                _ => unreachable!("the model's factor sets name what it has"),
+            };
+            FactorEstimate {
+                name: name.clone(),
+                nominal,
+                estimate: nominal,
+                sigma: f64::NAN,
+                unit,
+            }
+        })
+        .collect()
+}
+
+/// Leg `leg`'s whole parameter vector at the unknowns `x` (nominal where `problem` does not
+/// identify it).
+fn problem_leg_parameters(
+    problem: &IdentificationProblem<'_>,
+    leg: usize,
+    x: &DVector<f64>,
+) -> Vec<f64> {
+    match problem.slots().iter().find(|s| s.leg == leg) {
+        Some(slot) => problem.leg_parameters(slot, x),
+        None => problem.mechanism().legs[leg].nominal(),
+    }
+}
+
+/// The problem of every leg and the instrument on `data` (measured poses: every leg's rows).
+fn set_problem<'m>(
+    mechanism: &'m Mechanism,
+    data: &Measurements,
+) -> Result<IdentificationProblem<'m>> {
+    match data {
+        Measurements::Targets(observations) => {
+            IdentificationProblem::through_instrument(mechanism, observations)
+        }
+        Measurements::Readings(set) => {
+            if mechanism.instrument.is_some() {
+                return Err(Error::Invalid(format!(
+                    "{}: the model has an instrument block: its measurements are the targets' \
+                     coordinates in the instrument frame, not platform poses",
+                    mechanism.model_path.display()
+                )));
+            }
+            let legs = mechanism.identified_legs();
+            let blocks = legs.iter().flat_map(|&l| set.leg_blocks(l)).collect();
+            Ok(IdentificationProblem::new(mechanism, &legs, blocks))
+        }
+    }
+}
+
+/// The model's own set (`model`: every parameter it identifies, legs in model order, then the
+/// instrument's) and the sets of its `factor_sets:`, in file order.
+pub fn model_sets(mechanism: &Mechanism) -> Vec<FactorSet> {
+    let legs = mechanism.legs.iter().flat_map(|l| &l.params);
+    let shared = mechanism.instrument.iter().flat_map(|i| &i.parameters);
+    let own: Vec<String> = legs
+        .filter(|p| p.identified)
+        .map(|p| p.name.clone())
+        .chain(shared.filter(|p| p.identified).map(|p| p.name.clone()))
+        .collect();
+    let mut sets = vec![FactorSet {
+        name: "model".to_string(),
+        factors: own,
+        note: Some("the model's own identified parameters".to_string()),
+    }];
+    sets.extend(mechanism.factor_sets.iter().cloned());
+    sets
+}
+
+#[cfg(test)]
+mod tests {
+    use nalgebra::DVector;
+
+    use super::{Source, Unknowns};
+    use crate::model::expression::Expression;
+
+    /// `∂g/∂θ` from the expressions' dual numbers against central differences of `g`: a
+    /// factor is its own column, a derived unknown follows every factor its expression uses,
+    /// and a quantity outside the set stays at its nominal value.
+    #[test]
+    fn the_change_of_unknowns_derivative_is_its_central_difference() {
+        let names = ["radius", "angle", "rod", "held"];
+        let expression = |t: &str| Source::Derived(Expression::parse(t, &names).unwrap());
+        let unknowns = Unknowns {
+            sources: vec![
+                expression("radius * cos(angle)"),
+                Source::Factor(1),
+                expression("held + sqrt(rod^2 - radius^2)"),
+                expression("held * 2"),
+            ],
+            quantities: vec![0.175, 3.66, 0.3, 0.25],
+            factor_of_quantity: vec![Some(0), Some(2), Some(1), None],
+        };
+        let theta = DVector::from_vec(vec![0.17, 0.31, 3.7]);
+        let x = unknowns.x(&theta);
+        assert!((x[0] - 0.17 * 3.7f64.cos()).abs() < 1e-15);
+        assert!((x[1] - 0.31).abs() < 1e-15);
+        assert!((x[2] - (0.25 + (0.31f64.powi(2) - 0.17f64.powi(2)).sqrt())).abs() < 1e-15);
+        assert!((x[3] - 0.5).abs() < 1e-15);
+        let g = unknowns.jacobian(&theta);
+        let h = 1e-6;
+        for k in 0..3 {
+            let (mut up, mut down) = (theta.clone(), theta.clone());
+            up[k] += h;
+            down[k] -= h;
+            let fd = (unknowns.x(&up) - unknowns.x(&down)) / (2.0 * h);
+            for i in 0..4 {
+                assert!(
+                    (g[(i, k)] - fd[i]).abs() < 1e-8,
+                    "({i}, {k}): {} vs {}",
+                    g[(i, k)],
+                    fd[i]
+                );
+            }
+        }
+        assert!(g[(3, 0)].abs() < 1e-15 && (g[(1, 1)] - 1.0).abs() < 1e-15);
+    }
+}

@@ -1,0 +1,107 @@
+//! The factor-set table (`legwise sets`): per set its residual, degrees of freedom, scale
+//! against the declared noise, predicted σ over the workspace and rank answer; then each set's
+//! factors with their σ. SI units throughout.
+
+use std::fmt::Write as _;
+
+use serde_json::{json, Value};
+
+use crate::identify::factor_set::FactorSetFit;
+
+/// The table as text; `title` names the model and the measurements.
+pub fn factor_sets_text(title: &str, fits: &[FactorSetFit]) -> String {
+    let mut out = format!("{title}\n\n");
+    let _ = writeln!(
+        out,
+        "{:<14} {:>7} {:>5} {:>12} {:>8} {:>26}  rank",
+        "set", "factors", "dof", "RMS resid.", "scale", "predicted σ RMS / max (m)"
+    );
+    for fit in fits {
+        let predicted = fit.predicted.as_ref().map_or("-".to_string(), |p| {
+            format!("{:.3e} / {:.3e}", p.rms, p.max)
+        });
+        let n = fit.factors.len();
+        let rank = match fit.observability.rank == n {
+            true => "full".to_string(),
+            false => format!(
+                "{} of {n}: cannot see {}",
+                fit.observability.rank,
+                fit.observability.unidentifiable.join(", ")
+            ),
+        };
+        let _ = writeln!(
+            out,
+            "{:<14} {:>7} {:>5} {:>12.3e} {:>8} {:>26}  {rank}",
+            fit.name,
+            n,
+            fit.degrees_of_freedom,
+            fit.rms,
+            number(fit.scale(), 3),
+            predicted
+        );
+    }
+    out.push_str(
+        "\nscale: the residual's RMS in declared σ (about 1 when the data agree with the noise \
+         and the set explains them); σ below is the declared noise's, not scaled by it.\n",
+    );
+    for fit in fits {
+        let note = fit
+            .note
+            .as_deref()
+            .map_or(String::new(), |n| format!(" ({n})"));
+        let _ = writeln!(out, "\n{}{note}:", fit.name);
+        for f in &fit.factors {
+            let _ = writeln!(
+                out,
+                "  {:<14} {:>16.9e} ± {:<10} {}  (nominal {:.9e}, moved {:.3e})",
+                f.name,
+                f.estimate,
+                number(f.sigma, 2),
+                f.unit,
+                f.nominal,
+                f.estimate - f.nominal
+            );
+        }
+    }
+    out
+}
+
+/// `v` in scientific notation with `digits` decimals, `-` when not finite.
+fn number(v: f64, digits: usize) -> String {
+    match v.is_finite() {
+        true => format!("{v:.digits$e}"),
+        false => "-".to_string(),
+    }
+}
+
+/// The table as JSON.
+pub fn factor_sets_json(fits: &[FactorSetFit]) -> Value {
+    let finite = |v: f64| v.is_finite().then_some(v);
+    Value::Array(
+        fits.iter()
+            .map(|fit| {
+                json!({
+                    "name": fit.name,
+                    "note": fit.note,
+                    "rows": fit.rows,
+                    "degrees_of_freedom": fit.degrees_of_freedom,
+                    "rms": fit.rms,
+                    "chi_square": finite(fit.chi_square),
+                    "scale": finite(fit.scale()),
+                    "rank": fit.observability.rank,
+                    "unidentifiable": fit.observability.unidentifiable,
+                    "predicted": fit.predicted.as_ref().map(|p| json!({
+                        "target": p.target, "points": p.points, "rms": p.rms, "max": p.max,
+                    })),
+                    "factors": fit.factors.iter().map(|f| json!({
+                        "name": f.name,
+                        "unit": f.unit.to_string(),
+                        "nominal": f.nominal,
+                        "estimate": f.estimate,
+                        "sigma": finite(f.sigma),
+                    })).collect::<Vec<_>>(),
+                })
+            })
+            .collect(),
+    )
+}

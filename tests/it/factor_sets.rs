@@ -1,0 +1,322 @@
+//! Factor sets (`quantities:`, derived parameters, `factor_sets:`, `legwise sets`): a
+//! firmware's own factors fitted on its own touches recover the printer behind them; the
+//! model's own set is the default fit; a printer inside a set is recovered exactly at zero
+//! noise; bad quantities, expressions and sets are refused naming the field.
+use std::path::Path;
+
+use legwise::identify::factor_set::{fit_factor_set, model_sets, FactorSetFit};
+use legwise::pipeline::identify_one;
+use legwise::printer::delta_model::{printer_files, DeltaGeometry, ModelOptions, Touch};
+use legwise::printer::klipper::{KlipperConfig, KlipperDelta};
+use legwise::{FitOptions, Measurements, Mechanism, SolverKind, Strategy};
+
+use crate::cli::{legwise_succeeds, text};
+
+const CFG: &str = "tests/data/klipper/printer.cfg";
+
+/// The printer behind tests/data/klipper/printer.cfg's touches (make_printer_cfg.py): mm, deg.
+const REAL_RADIUS: f64 = 175.15;
+const REAL_ANGLES: [f64; 3] = [210.25, 329.8, 90.0];
+const REAL_ENDSTOPS: [f64; 3] = [297.36, 296.93, 297.10];
+
+/// Writes the model of `delta` into `dir` and loads it with its probe file.
+fn model_of(dir: &Path, delta: &DeltaGeometry, noise: f64) -> (Mechanism, Measurements) {
+    let options = ModelOptions {
+        probe_noise: noise,
+        ..ModelOptions::default()
+    };
+    let files = printer_files(delta, &options, "printer.urdf");
+    std::fs::write(dir.join("printer.yaml"), &files.yaml).unwrap();
+    std::fs::write(dir.join("printer.urdf"), &files.urdf).unwrap();
+    std::fs::write(dir.join("probe.csv"), &files.csv).unwrap();
+    let mechanism = Mechanism::load(&dir.join("printer.yaml")).unwrap();
+    let data = Measurements::read(&dir.join("probe.csv"), &mechanism).unwrap();
+    (mechanism, data)
+}
+
+/// The Klipper printer.cfg's geometry (SAVE_CONFIG over the sections) and its touches.
+fn klipper_cfg() -> DeltaGeometry {
+    let config = KlipperConfig::read(Path::new(CFG)).unwrap();
+    KlipperDelta::from_config(&config).unwrap().geometry()
+}
+
+fn fitted(mechanism: &Mechanism, data: &Measurements, name: &str) -> FactorSetFit {
+    let sets = model_sets(mechanism);
+    let set = sets.iter().find(|s| s.name == name).expect("the set");
+    fit_factor_set(mechanism, data, set).unwrap()
+}
+
+fn factor(fit: &FactorSetFit, name: &str) -> f64 {
+    fit.factors
+        .iter()
+        .find(|f| f.name == name)
+        .expect(name)
+        .estimate
+}
+
+/// Klipper's DELTA_CALIBRATE fits six factors on seven touches. The printer.cfg's touches were
+/// made by a printer inside those six (its SAVE_CONFIG is the geometry before calibration):
+/// fitted in Klipper's own terms, the six come back to Klipper's step rounding (0.001 step of
+/// 0.0125 mm), angle c held at its 90°.
+#[test]
+fn klippers_six_factors_on_its_touches_are_the_printer_behind_them() {
+    let dir = tempfile::tempdir().unwrap();
+    let (mechanism, data) = model_of(dir.path(), &klipper_cfg(), 1e-5);
+    let fit = fitted(&mechanism, &data, "klipper-6");
+    assert_eq!((fit.rows, fit.degrees_of_freedom), (7, 1));
+    assert_eq!(fit.observability.rank, 6);
+    assert!(
+        (factor(&fit, "radius") * 1e3 - REAL_RADIUS).abs() < 1e-4,
+        "{fit:?}"
+    );
+    for (k, tower) in ["a", "b"].iter().enumerate() {
+        let angle = factor(&fit, &format!("angle_{tower}")).to_degrees();
+        assert!((angle - REAL_ANGLES[k]).abs() < 1e-4, "{tower}: {angle}");
+    }
+    for (k, tower) in ["a", "b", "c"].iter().enumerate() {
+        let endstop = factor(&fit, &format!("endstop_{tower}")) * 1e3;
+        assert!(
+            (endstop - REAL_ENDSTOPS[k]).abs() < 1e-4,
+            "{tower}: {endstop}"
+        );
+    }
+    // The residual is the step rounding's, far below the declared 10 µm.
+    assert!(fit.rms < 1e-6, "{}", fit.rms);
+    // σ from the declared noise: every factor's is finite and positive.
+    assert!(fit
+        .factors
+        .iter()
+        .all(|f| f.sigma > 0.0 && f.sigma.is_finite()));
+}
+
+/// The model's own set through the change of unknowns (the identity here) is the default
+/// joint fit: the same estimates and the same σ (the pipeline's covariance is its own code).
+#[test]
+fn the_model_set_is_the_default_fit() {
+    let dir = tempfile::tempdir().unwrap();
+    let (mechanism, data) = model_of(dir.path(), &klipper_cfg(), 1e-5);
+    let fit = fitted(&mechanism, &data, "model");
+    let result = identify_one(
+        &mechanism,
+        &data,
+        Strategy::Joint,
+        SolverKind::LevenbergMarquardt,
+        FitOptions::default(),
+    )
+    .unwrap();
+    assert_eq!(fit.factors.len(), 6);
+    for f in &fit.factors {
+        let p = result
+            .parameters()
+            .find(|p| p.name == f.name)
+            .expect("the same name");
+        assert!(
+            (f.estimate - p.estimate).abs() < 1e-10,
+            "{}: {} vs {}",
+            f.name,
+            f.estimate,
+            p.estimate
+        );
+        let std = p.std.expect("a σ");
+        assert!(
+            (f.sigma / std - 1.0).abs() < 1e-6,
+            "{}: {} vs {std}",
+            f.name,
+            f.sigma
+        );
+    }
+}
+
+/// Touches made by a printer whose geometry differs from the model's only in Klipper's six
+/// factors, without rounding: the six are recovered to round-off, whichever way the towers
+/// and endstops were off.
+#[test]
+fn a_printer_inside_the_set_is_recovered_exactly_at_zero_noise() {
+    let nominal = DeltaGeometry {
+        touches: Vec::new(),
+        distances: Vec::new(),
+        ..klipper_cfg()
+    };
+    let real = DeltaGeometry {
+        radius: nominal.radius + 0.83,
+        angles: [
+            nominal.angles[0] - 0.4,
+            nominal.angles[1] + 0.27,
+            nominal.angles[2],
+        ],
+        endstops: [
+            nominal.endstops[0] + 0.61,
+            nominal.endstops[1] - 0.35,
+            nominal.endstops[2] + 0.12,
+        ],
+        ..nominal.clone()
+    };
+    let touch_height = nominal.z_offset.unwrap_or(0.0);
+    let mut touches = Vec::new();
+    for (k, (r, a)) in [
+        (0.0, 0.0),
+        (45.0, 30.0),
+        (45.0, 150.0),
+        (45.0, 270.0),
+        (80.0, 90.0),
+        (80.0, 210.0),
+        (80.0, 330.0),
+        (70.0, 10.0),
+    ]
+    .iter()
+    .enumerate()
+    {
+        let a = f64::to_radians(*a);
+        let p = [r * a.cos(), r * a.sin(), touch_height];
+        touches.push(Touch {
+            id: format!("t{k}"),
+            height_mm: touch_height,
+            readings_mm: real.readings_at(p).unwrap(),
+        });
+    }
+    let dir = tempfile::tempdir().unwrap();
+    let (mechanism, data) = model_of(dir.path(), &DeltaGeometry { touches, ..nominal }, 1e-5);
+    let fit = fitted(&mechanism, &data, "klipper-6");
+    assert!(fit.rms < 1e-12, "{}", fit.rms);
+    assert!((factor(&fit, "radius") - real.radius * 1e-3).abs() < 1e-11);
+    for (k, t) in ["a", "b", "c"].iter().enumerate() {
+        let e = factor(&fit, &format!("endstop_{t}"));
+        assert!((e - real.endstops[k] * 1e-3).abs() < 1e-11, "{t}");
+        if k < 2 {
+            let angle = factor(&fit, &format!("angle_{t}"));
+            assert!((angle - real.angles[k].to_radians()).abs() < 1e-10, "{t}");
+        }
+    }
+}
+
+/// `legwise sets` on an imported printer: the model's row and Klipper's two sets, each
+/// factor with its σ; nine factors on heights alone cannot see scale.
+#[test]
+fn sets_prints_the_table_of_an_imported_printer() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path().to_str().unwrap();
+    legwise_succeeds(&["printer", "import", "--klipper", CFG, "--out", d]);
+    let model = format!("{d}/printer.yaml");
+    let csv = format!("{d}/probe.csv");
+    let json = format!("{d}/sets.json");
+    let out = legwise_succeeds(&[
+        "sets",
+        "--model",
+        &model,
+        "--measurements",
+        &csv,
+        "--json",
+        &json,
+    ]);
+    let stdout = text(&out.stdout);
+    for row in [
+        "model ",
+        "klipper-6 ",
+        "klipper-9 ",
+        "DELTA_CALIBRATE",
+        "endstop_a",
+    ] {
+        assert!(stdout.contains(row), "{row}: {stdout}");
+    }
+    let value: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
+    let sets = value.as_array().unwrap();
+    assert_eq!(sets.len(), 3);
+    assert_eq!(sets[1]["name"], "klipper-6");
+    assert_eq!(sets[1]["rank"], 6);
+    // Seven touches cannot hold nine factors.
+    assert!(sets[2]["rank"].as_u64().unwrap() < 9, "{}", sets[2]);
+    // The calibrated model states its geometry in legwise's terms: the firmware's quantities
+    // no longer describe it and go, with the sets in them; it loads. (A 1 µm probe: the fit
+    // is trusted, so the calibrated model is written.)
+    legwise_succeeds(&[
+        "printer",
+        "import",
+        "--klipper",
+        CFG,
+        "--out",
+        d,
+        "--probe-noise",
+        "1e-6",
+    ]);
+    let cal = format!("{d}/cal.yaml");
+    let out = crate::cli::legwise(&[
+        "identify",
+        "--model",
+        &model,
+        "--measurements",
+        &csv,
+        "--calibrated",
+        &cal,
+    ]);
+    assert!(std::path::Path::new(&cal).exists(), "{}", text(&out.stderr));
+    let written = std::fs::read_to_string(&cal).unwrap();
+    assert!(
+        !written.contains("quantities") && !written.contains("factor_sets"),
+        "{written}"
+    );
+    Mechanism::load(Path::new(&cal)).expect("the calibrated model loads");
+}
+
+/// A copy of delta-probe.yaml with `quantities` and `factor_sets` blocks and `edit` applied
+/// to its text; the load's error message.
+fn load_error(extra: &str, edit: impl Fn(String) -> String) -> String {
+    let dir = tempfile::tempdir().unwrap();
+    let text = std::fs::read_to_string("models/delta-probe.yaml").unwrap();
+    std::fs::copy("models/delta.urdf", dir.path().join("delta.urdf")).unwrap();
+    let path = dir.path().join("copy.yaml");
+    std::fs::write(&path, edit(text) + extra).unwrap();
+    match Mechanism::load(&path) {
+        Ok(_) => "loaded".to_string(),
+        Err(e) => e.to_string(),
+    }
+}
+
+const QUANTITIES: &str = "
+quantities:
+  - {name: rod, value: 0.3, unit: m}
+  - {name: ring, value: 0.175, unit: m}
+";
+
+/// An edit of a model file's text.
+type Edit = Box<dyn Fn(String) -> String>;
+
+#[test]
+fn bad_quantities_expressions_and_sets_name_the_field() {
+    let with = |parameter: &str, value: &str| {
+        let parameter = parameter.to_string();
+        let value = value.to_string();
+        move |text: String| {
+            text.replace(
+                &format!("{{name: {parameter}, "),
+                &format!("{{name: {parameter}, value: \"{value}\", "),
+            )
+        }
+    };
+    // Well formed: one rod for three legs, loads.
+    let shared = |t: String| with("L1", "rod")(with("L2", "rod")(with("L3", "rod")(t)));
+    assert_eq!(load_error(QUANTITIES, shared), "loaded");
+    let set = "factor_sets:\n  - {name: one-rod, fit: [rod, h0_1]}\n";
+    let shared = |t: String| with("L1", "rod")(with("L2", "rod")(t));
+    assert_eq!(load_error(&format!("{QUANTITIES}{set}"), shared), "loaded");
+    let cases: Vec<(String, Edit, &str)> = vec![
+        (QUANTITIES.into(), Box::new(with("L1", "rod * 2")), "`parameters[2].value`: `rod * 2` is 0.6 at the quantities' values, but `L1` is 0.3"),
+        (QUANTITIES.into(), Box::new(with("L1", "rod +")), "`parameters[2].value`: `rod +`: at character 6: expected a number, a name or `(`, found the end"),
+        (QUANTITIES.into(), Box::new(with("L1", "rods")), "`rods` is not a quantity; expected one of rod, ring"),
+        ("\nquantities:\n  - {name: rod, value: 0.3, unit: mm}\n".into(), Box::new(|t| t), "`quantities[0].unit`: `mm` is not one of m, rad, 1"),
+        ("\nquantities:\n  - {name: L1, value: 0.3, unit: m}\n".into(), Box::new(|t| t), "`quantities[0].name`: `L1` is already the name of a quantity or a parameter"),
+        ("\nquantities:\n  - {name: 2rod, value: 0.3, unit: m}\n".into(), Box::new(|t| t), "`quantities[0].name`: `2rod` cannot be written in an expression"),
+        (format!("{QUANTITIES}factor_sets:\n  - {{name: s, fit: [rod, L1]}}\n"), Box::new(with("L1", "rod")), "`factor_sets[0].fit[1]`: `L1` follows `rod`, which the set fits too"),
+        (format!("{QUANTITIES}factor_sets:\n  - {{name: s, fit: [rods]}}\n"), Box::new(|t| t), "`factor_sets[0].fit[0]`: `rods` is no quantity, parameter or instrument parameter"),
+        (format!("{QUANTITIES}factor_sets:\n  - {{name: s, fit: [rod, rod]}}\n"), Box::new(|t| t), "`factor_sets[0].fit[1]`: `rod` is listed twice"),
+        (format!("{QUANTITIES}factor_sets:\n  - {{name: s, fit: []}}\n"), Box::new(|t| t), "`factor_sets[0].fit`: expected at least one"),
+    ];
+    for (extra, edit, expected) in cases {
+        let message = load_error(&extra, edit);
+        assert!(
+            message.contains(expected),
+            "expected `{expected}` in: {message}"
+        );
+        assert!(message.contains("copy.yaml"), "{message}");
+    }
+}
