@@ -13,21 +13,23 @@ NaN. Errors are :class:`LegwiseError` (a ``ValueError``) with legwise's own mess
 """
 
 from ._columns import Columns, read_csv_text
-from ._commands import Measurements, Model, evaluate, identify, select, simulate
+from ._commands import Measurements, Model, evaluate, identify, select, sets, simulate
 from ._errors import LegwiseError
 from ._mechanism import Mechanism, Parameter
-from ._reports import Evaluation, Report
+from ._reports import Evaluation, FactorSets, Report
 
 __all__ = [
     "identify",
     "simulate",
     "select",
     "evaluate",
+    "sets",
     "read_csv_text",
     "Mechanism",
     "Parameter",
     "Report",
     "Evaluation",
+    "FactorSets",
     "Columns",
     "LegwiseError",
     "Measurements",

@@ -1,4 +1,4 @@
-"""The commands: ``identify``, ``simulate``, ``select`` and ``evaluate``, as the command line
+"""The commands: ``identify``, ``simulate``, ``select``, ``evaluate`` and ``sets``, as the command line
 runs them (its arguments, parser, checks and readers, in the library), their outputs returned."""
 
 from __future__ import annotations
@@ -11,7 +11,7 @@ import numpy as np
 
 from . import _native
 from ._columns import Columns, csv_text, read_csv_text
-from ._reports import Evaluation, Report
+from ._reports import Evaluation, FactorSets, Report
 from ._words import path, word
 
 Measurements = Union[str, "os.PathLike[str]", Mapping[str, Any], Any]
@@ -106,3 +106,18 @@ def evaluate(
         csv = csv_text(measurements)
     report, text, warnings = _native.evaluate(arguments, csv)
     return Evaluation(json.loads(report), text, warnings)
+
+
+def sets(model: Model, measurements: Optional[Measurements] = None) -> FactorSets:
+    """The model's own parameters and each of its factor sets (``factor_sets:``, e.g. a delta
+    printer's firmware factors) fitted on the same ``measurements`` (a CSV path or columns; the
+    model's simulated experiment if None): the table of ``legwise sets --json``."""
+    arguments = ["--model", path("model", model)]
+    csv = None
+    if measurements is not None:
+        if isinstance(measurements, (str, os.PathLike)):
+            arguments += ["--measurements", path("measurements", measurements)]
+        else:
+            csv = csv_text(measurements)
+    table, text = _native.sets(arguments, csv)
+    return FactorSets(json.loads(table), text)

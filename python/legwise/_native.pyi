@@ -40,3 +40,7 @@ def evaluate(arguments: List[str], csv: Optional[str] = None) -> Tuple[str, str,
 
 def describe(path: str) -> str:
     """The model file at `path`, loaded and checked, described as JSON."""
+
+def sets(arguments: List[str], csv: Optional[str] = None) -> Tuple[str, str]:
+    """`legwise sets` with the command's arguments (after `sets`) on the CSV text `csv` if
+    given: (JSON table, terminal table)."""

@@ -92,3 +92,29 @@ class Evaluation(Dict[str, Any]):
     def trusted(self) -> bool:
         """False where ``legwise evaluate`` would exit 3."""
         return not self.warnings
+
+
+class FactorSets:
+    """The result of :func:`sets`: one entry per set (the model's own, ``"model"``, first), as
+    ``legwise sets --json`` writes it."""
+
+    def __init__(self, table: List[Dict[str, Any]], text: str):
+        self.sets: List[Dict[str, Any]] = table
+        """Each set: ``name``, ``rows``, ``degrees_of_freedom``, ``rms``, ``scale``, ``rank``,
+        ``predicted`` and ``factors`` (each ``name``, ``unit``, ``nominal``, ``estimate``,
+        ``sigma``)."""
+        self.text: str = text
+        """The table as ``legwise sets`` prints it."""
+
+    def __getitem__(self, name: str) -> Dict[str, Any]:
+        for entry in self.sets:
+            if entry["name"] == name:
+                return entry
+        raise LegwiseError(
+            f"no factor set is named `{name}`; expected one of "
+            + ", ".join(e["name"] for e in self.sets)
+        )
+
+    def estimates(self, name: str) -> Dict[str, Tuple[float, Optional[float]]]:
+        """Set ``name``'s factors: name to (estimate, σ), SI units."""
+        return {f["name"]: (f["estimate"], f["sigma"]) for f in self[name]["factors"]}

@@ -114,6 +114,16 @@ fn evaluate(
     Ok((outputs.json, outputs.text, outputs.trust_issues))
 }
 
+/// `legwise sets` with the command's arguments `arguments` (after `sets`), on the CSV text
+/// `csv` if given: `(json, text)`.
+#[pyfunction]
+#[pyo3(signature = (arguments, csv=None))]
+fn sets(py: Python<'_>, arguments: Vec<String>, csv: Option<String>) -> PyResult<(String, String)> {
+    guarded(py, || {
+        legwise::cli::sets_in_memory(&arguments, csv.as_deref())
+    })
+}
+
 /// The CSV text of the columns `columns` named `names` (numbers at full precision, NaN as an
 /// empty cell; text as it is), for `identify` and `evaluate`.
 #[pyfunction]
@@ -138,6 +148,7 @@ fn _native(module: &Bound<'_, PyModule>) -> PyResult<()> {
     module.add_function(wrap_pyfunction!(simulate, module)?)?;
     module.add_function(wrap_pyfunction!(select, module)?)?;
     module.add_function(wrap_pyfunction!(evaluate, module)?)?;
+    module.add_function(wrap_pyfunction!(sets, module)?)?;
     module.add_function(wrap_pyfunction!(describe, module)?)?;
     module.add_function(wrap_pyfunction!(columns_csv, module)?)?;
     module.add_class::<Identification>()?;

@@ -3,6 +3,7 @@ same pose file, the same evaluation report, the same calibrated model files; the
 checks (never over an input, nothing written from an untrusted result)."""
 
 import json
+import pathlib
 
 import pytest
 
@@ -111,3 +112,28 @@ def test_write_calibrated_never_overwrites_an_input_nor_writes_an_untrusted_resu
     with pytest.raises(legwise.LegwiseError, match="must not be trusted"):
         untrusted.write_calibrated(tmp_path / "cal.yaml")
     assert list(tmp_path.iterdir()) == []
+
+
+def test_sets_gives_the_command_lines_table(tmp_path):
+    """An imported Klipper printer's table, from a path and from columns: the command line's
+    JSON; Klipper's six factors give the printer behind the touches (radius 175.15 mm)."""
+    printer = tmp_path / "printer"
+    cfg = str(ROOT / "tests" / "data" / "klipper" / "printer.cfg")
+    status, _, err = command("printer", "import", "--klipper", cfg, "--out", str(printer))
+    assert status == 0, err
+    model_path, probe = str(printer / "printer.yaml"), str(printer / "probe.csv")
+    out = tmp_path / "sets.json"
+    status, stdout, err = command(
+        "sets", "--model", model_path, "--measurements", probe, "--json", str(out)
+    )
+    assert status == 0, err
+    table = legwise.sets(model_path, probe)
+    assert table.sets == json.loads(out.read_text())
+    assert stdout.startswith(table.text)
+    radius, sigma = table.estimates("klipper-6")["radius"]
+    assert abs(radius - 0.17515) < 1e-7 and sigma > 0
+    columns = legwise.read_csv_text(pathlib.Path(probe).read_text())
+    assert legwise.sets(model_path, dict(columns)).sets[1]["factors"] == table["klipper-6"]["factors"]
+    with pytest.raises(legwise.LegwiseError) as caught:
+        table["klipper-7"]
+    assert "expected one of model, klipper-6, klipper-9" in str(caught.value)

@@ -230,3 +230,34 @@ pub fn evaluate_in_memory(
         trust_issues: models.trust_issues(&evaluation, against.as_ref()),
     })
 }
+
+/// `legwise sets` with the command's arguments `arguments` (those after `sets`), the
+/// measurements read from `--measurements`, or parsed from the CSV text `csv` (named
+/// [`MEMORY_NAME`]), or simulated without either: the JSON table and the terminal text.
+///
+/// # Errors
+/// As the command: a usage error, a bad model or measurement, a failed fit.
+pub fn sets_in_memory(arguments: &[String], csv: Option<&str>) -> anyhow::Result<(String, String)> {
+    let given = arguments
+        .iter()
+        .any(|a| a == "--measurements" || a.starts_with("--measurements="));
+    if csv.is_some() && given {
+        anyhow::bail!("--measurements: the measurements are given in memory already");
+    }
+    let memory = ["--measurements", MEMORY_NAME];
+    let words: &[&str] = if csv.is_some() { &memory } else { &[] };
+    let Command::Sets(args) = parsed(&[&["sets"], words].concat(), arguments)? else {
+        anyhow::bail!("not a factor-set table");
+    };
+    refuse_files(&[(args.json.is_some(), "--json")])?;
+    let mechanism = Mechanism::load(&args.model)?;
+    let (fits, title) = super::sets::table(&mechanism, &args, |path| match csv {
+        Some(text) => from_text(text, &mechanism),
+        None => Measurements::read(path, &mechanism),
+    })?;
+    let json = serde_json::to_string_pretty(&crate::report::factor_sets::factor_sets_json(&fits))?;
+    Ok((
+        json + "\n",
+        crate::report::factor_sets::factor_sets_text(&title, &fits),
+    ))
+}

@@ -21,8 +21,8 @@ mod workspace;
 
 pub use args::*;
 pub use in_memory::{
-    evaluate_in_memory, identify_in_memory, select_in_memory, simulate_in_memory, EvaluateOutputs,
-    IdentifyOutputs, MEMORY_NAME,
+    evaluate_in_memory, identify_in_memory, select_in_memory, sets_in_memory, simulate_in_memory,
+    EvaluateOutputs, IdentifyOutputs, MEMORY_NAME,
 };
 pub use usage::{command_name, usage_line};
 pub use verdict::Verdict;

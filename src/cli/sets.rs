@@ -6,7 +6,7 @@ use super::console::Console;
 use super::outputs::{input, model_inputs};
 use super::verdict::Verdict;
 use crate::files::Output;
-use crate::identify::factor_set::{fit_factor_set, model_sets};
+use crate::identify::factor_set::{fit_factor_set, model_sets, FactorSetFit};
 use crate::measure::Measurements;
 use crate::model::Mechanism;
 use crate::pipeline::{simulate, SimulationSettings};
@@ -21,31 +21,13 @@ pub(super) fn run(args: &SetsArgs) -> anyhow::Result<Verdict> {
             .map(|p| input("measurement file", p)),
     );
     let json = Output::prepare_optional("--json", args.json.as_deref(), &inputs)?;
-    let (data, source) = match &args.measurements {
-        Some(path) => (
-            Measurements::read(path, &mechanism)?,
-            path.display().to_string(),
-        ),
-        None => {
-            let simulated = simulate(&mechanism, &SimulationSettings::default())?;
-            (
-                simulated.measurements,
-                format!("simulated {}", simulated.source),
-            )
-        }
-    };
-    let fits = model_sets(&mechanism)
-        .iter()
-        .map(|set| fit_factor_set(&mechanism, &data, set))
-        .collect::<crate::error::Result<Vec<_>>>()?;
+    let read = |path: &std::path::Path| Measurements::read(path, &mechanism);
+    let (fits, title) = table(&mechanism, args, read)?;
     let mut console = Console::new(json.as_ref().is_some_and(Output::is_stdout));
     if let Some(json) = &json {
-        json.write(
-            "JSON table",
-            (serde_json::to_string_pretty(&factor_sets_json(&fits))? + "\n").as_bytes(),
-        )?;
+        let text = serde_json::to_string_pretty(&factor_sets_json(&fits))? + "\n";
+        json.write("JSON table", text.as_bytes())?;
     }
-    let title = format!("Factor sets of {} on {source}", mechanism.name);
     console.print(&factor_sets_text(&title, &fits))?;
     if let Some(json) = &json {
         console.line(format_args!("JSON table written to {}", json.name()))?;
@@ -53,4 +35,32 @@ pub(super) fn run(args: &SetsArgs) -> anyhow::Result<Verdict> {
     // A set the data cannot determine is an answer of the table (its rank column), not a
     // reason to distrust the others.
     Ok(Verdict::from_reasons(mechanism.warnings.clone()))
+}
+
+/// Every set of `mechanism` fitted on the measurements `read` gives for `--measurements` (the
+/// model's simulated experiment without), and the table's title.
+///
+/// # Errors
+/// Measurements that do not read, a simulation or a fit that fails.
+pub(super) fn table(
+    mechanism: &Mechanism,
+    args: &SetsArgs,
+    read: impl FnOnce(&std::path::Path) -> crate::error::Result<Measurements>,
+) -> anyhow::Result<(Vec<FactorSetFit>, String)> {
+    let (data, source) = match &args.measurements {
+        Some(path) => (read(path)?, path.display().to_string()),
+        None => {
+            let simulated = simulate(mechanism, &SimulationSettings::default())?;
+            (
+                simulated.measurements,
+                format!("simulated {}", simulated.source),
+            )
+        }
+    };
+    let fits = model_sets(mechanism)
+        .iter()
+        .map(|set| fit_factor_set(mechanism, &data, set))
+        .collect::<crate::error::Result<Vec<_>>>()?;
+    let title = format!("Factor sets of {} on {source}", mechanism.name);
+    Ok((fits, title))
 }

@@ -251,10 +251,7 @@ pub fn fit_factor_set(
                 .map_err(|e| Error::Invalid(format!("factor set `{}`: {e}", set.name)))?,
             None => super::statistics::row_variances(&problem, &x, noise).map_err(block)?,
         };
-        Ok(variances
-            .iter()
-            .map(|&v| (v > 0.0 && v.is_finite()).then(|| 1.0 / v))
-            .collect())
+        Ok(super::fit::inverse(&variances))
     };
     let mut weights = weights_at(&theta0)?;
     let weighted = |w: &Option<Vec<f64>>| match w {
@@ -295,7 +292,8 @@ pub fn fit_factor_set(
     let observability = analyse(&c, &factor_names);
     let rows = raw.len();
     let full_rank = observability.rank == factors.len();
-    let covariance = match (full_rank, &noise) {
+    // σ and χ² need every row weighted by its declared variance (none zero).
+    let covariance = match (full_rank, &weights) {
         (true, Some(_)) => (c.transpose() * &c).try_inverse(),
         _ => None,
     };
@@ -333,7 +331,7 @@ pub fn fit_factor_set(
         rows,
         degrees_of_freedom: rows.saturating_sub(observability.rank),
         rms: (raw.norm_squared() / rows.max(1) as f64).sqrt(),
-        chi_square: match noise {
+        chi_square: match weights {
             Some(_) => weighted_r.norm_squared(),
             None => f64::NAN,
         },

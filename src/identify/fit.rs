@@ -195,7 +195,7 @@ fn gauss_newton_step(
 }
 
 /// `1 / v` for every variance, if all are positive and finite.
-fn inverse(variances: &[f64]) -> Option<Vec<f64>> {
+pub(super) fn inverse(variances: &[f64]) -> Option<Vec<f64>> {
     variances
         .iter()
         .map(|&v| (v > 0.0 && v.is_finite()).then(|| 1.0 / v))

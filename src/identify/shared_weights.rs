@@ -10,6 +10,7 @@
 
 use nalgebra::DVector;
 
+use super::fit::inverse;
 use super::problem::IdentificationProblem;
 use crate::model::mechanism::MeasurementNoise;
 use crate::solver::{solve_bordered, SolverOutcome};
@@ -31,12 +32,20 @@ pub struct WeightedFit {
     pub scales: Vec<f64>,
 }
 
-/// `1 / v` for every variance, if all are positive and finite.
-fn inverse(variances: &[f64]) -> Option<Vec<f64>> {
-    variances
-        .iter()
-        .map(|&v| (v > 0.0 && v.is_finite()).then(|| 1.0 / v))
-        .collect()
+/// What a sequence of solves spent.
+#[derive(Debug, Default)]
+struct Spent {
+    iterations: u64,
+    residuals: u64,
+    jacobians: u64,
+}
+
+impl Spent {
+    fn add(&mut self, outcome: &SolverOutcome) {
+        self.iterations += outcome.iterations;
+        self.residuals += outcome.residual_evaluations;
+        self.jacobians += outcome.jacobian_evaluations;
+    }
 }
 
 /// The joint fit of `problem` (unweighted, as built) from `x0` weighted by `noise`, each
@@ -66,8 +75,9 @@ pub fn weighted_joint_fit(
         let weighted = problem.clone().with_weights(weights);
         solve_bordered(&weighted, from.clone()).map_err(|e| e.to_string())
     };
+    let mut spent = Spent::default();
     let mut outcome = fit(&weights, x0)?;
-    let (mut iterations, mut residuals, mut jacobians) = (0, 0, 0);
+    spent.add(&outcome);
     for _ in 1..MAX_WEIGHTINGS {
         let Some(next) = weights_at(&outcome.x)? else {
             return Ok(None);
@@ -81,17 +91,72 @@ pub fn weighted_joint_fit(
         if change <= WEIGHT_TOLERANCE {
             break;
         }
-        iterations += outcome.iterations;
-        residuals += outcome.residual_evaluations;
-        jacobians += outcome.jacobian_evaluations;
         weights = next;
         outcome = fit(&weights, &outcome.x)?;
+        spent.add(&outcome);
     }
-    outcome.iterations += iterations;
-    outcome.residual_evaluations += residuals;
-    outcome.jacobian_evaluations += jacobians;
+    // The last fit's outcome, with every fit's counts.
+    outcome.iterations = spent.iterations;
+    outcome.residual_evaluations = spent.residuals;
+    outcome.jacobian_evaluations = spent.jacobians;
     Ok(Some(WeightedFit {
         outcome,
         scales: weights.iter().map(|w| w.sqrt()).collect(),
     }))
+}
+
+#[cfg(test)]
+mod tests {
+    use std::path::Path;
+
+    use super::weighted_joint_fit;
+    use crate::identify::problem::IdentificationProblem;
+    use crate::measure::Measurements;
+    use crate::model::Mechanism;
+    use crate::pipeline::{simulate, SimulationSettings};
+    use crate::solver::solve_bordered;
+
+    /// A probe's heights all have the probe's variance whatever the parameters: the weights at
+    /// the first estimate are the starting ones, so the weighted fit is one solve, its
+    /// counts that solve's (and the weights `1/σ²`).
+    #[test]
+    fn weights_that_do_not_change_make_one_solve() {
+        let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+        let mechanism = Mechanism::load(&root.join("models/delta-probe.yaml")).unwrap();
+        let simulated = simulate(&mechanism, &SimulationSettings::default()).unwrap();
+        let Measurements::Targets(observations) = simulated.measurements else {
+            panic!("a probe's touches");
+        };
+        let problem = IdentificationProblem::through_instrument(&mechanism, &observations).unwrap();
+        let noise = mechanism.noise.unwrap();
+        let x0 = problem.start();
+        let fit = weighted_joint_fit(&problem, &x0, &noise, None)
+            .unwrap()
+            .unwrap();
+        let sigma = noise.pose[2];
+        let weights = vec![1.0 / (sigma * sigma); problem.residuals(&x0).unwrap().len()];
+        for scale in &fit.scales {
+            assert!((scale * sigma - 1.0).abs() < 1e-12, "{scale}");
+        }
+        let once = solve_bordered(&problem.clone().with_weights(&weights), x0).unwrap();
+        assert!(once.iterations > 0);
+        // One solve's counts (to a step: the weights are 1/σ² to round-off, and a solve's
+        // last steps are decided at round-off), not twenty solves'.
+        let near = |a: u64, b: u64| a >= 1 && a <= b + 1 && b <= a + 1;
+        assert!(
+            near(fit.outcome.iterations, once.iterations),
+            "{} vs {}",
+            fit.outcome.iterations,
+            once.iterations
+        );
+        assert!(near(
+            fit.outcome.residual_evaluations,
+            once.residual_evaluations
+        ));
+        assert!(near(
+            fit.outcome.jacobian_evaluations,
+            once.jacobian_evaluations
+        ));
+        assert!((fit.outcome.x - &once.x).norm() <= 1e-12 * once.x.norm());
+    }
 }
