@@ -596,7 +596,33 @@ pub fn warnings(
 
 #[cfg(test)]
 mod tests {
-    use super::most_common;
+    use super::{most_common, out_of_range_rows};
+    use crate::identify::problem::LegSlot;
+    use crate::measure::checks::{mechanism_size, SIZE_FACTOR};
+    use crate::model::Mechanism;
+
+    /// A prismatic leg's stroke beyond SIZE_FACTOR times the mechanism's size is out of range
+    /// (one and a half times it is, half of it is not), and out-of-range rows are outliers only
+    /// while they are at most one in ten of the leg's rows.
+    #[test]
+    fn strokes_beyond_the_size_limit_are_outliers_when_few() {
+        let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("models/3rpr.yaml");
+        let mechanism = Mechanism::load(&path).unwrap();
+        let limit = SIZE_FACTOR * mechanism_size(&mechanism);
+        let slot = LegSlot {
+            leg: 0,
+            columns: Vec::new(),
+            offset: 0,
+        };
+        let mut readings = vec![0.0; 20];
+        readings[7] = 1.5 * limit;
+        readings[11] = 0.5 * limit;
+        assert_eq!(out_of_range_rows(&mechanism, &slot, &readings), [7]);
+        readings[11] = -1.5 * limit;
+        assert_eq!(out_of_range_rows(&mechanism, &slot, &readings), [7, 11]);
+        readings[3] = 2.0 * limit;
+        assert!(out_of_range_rows(&mechanism, &slot, &readings).is_empty());
+    }
 
     #[test]
     fn the_most_common_value_and_the_first_of_equally_common_ones() {
