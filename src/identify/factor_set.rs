@@ -16,6 +16,7 @@ use num_dual::Dual64;
 use super::observability::{analyse, Observability};
 use super::problem::IdentificationProblem;
 use super::result::FitOptions;
+use super::statistics::leverages;
 use crate::error::{Error, Result};
 use crate::evaluate::predicted_position::predicted_position_of;
 use crate::identify::result::PredictedPosition;
@@ -63,6 +64,15 @@ pub struct FactorSetFit {
     /// The predicted σ of the first target's position over the workspace (forward
     /// instruments with a `workspace.grid`).
     pub predicted: Option<PredictedPosition>,
+    /// RMS of each row's leave-one-out prediction error, measurement units: the residual the
+    /// row would have if the set were fitted without it, `r_i / (1 − h_ii)` (`h` the leverages
+    /// of the weighted Jacobian; exact for a linear model, to first order here). `None` when a
+    /// row is the only one to see some factor (`h_ii` = 1) or the set is rank-deficient.
+    pub leave_one_out: Option<f64>,
+    /// Akaike's information criterion with the declared noise: `χ² + 2 k` (`k` the factors the
+    /// data determine); `NaN` without a declared noise. Lower is better, between sets fitted on
+    /// the same rows.
+    pub information: f64,
 }
 
 impl FactorSetFit {
@@ -324,20 +334,42 @@ pub fn fit_factor_set(
         let covariance = &g * cov * g.transpose();
         predicted_position_of(&inner, (&params, &shared), &named, &covariance)
     });
+    let leave_one_out = full_rank
+        .then(|| leave_one_out_rms(raw.as_slice(), &leverages(&c)))
+        .flatten();
+    let chi_square = match weights {
+        Some(_) => weighted_r.norm_squared(),
+        None => f64::NAN,
+    };
     Ok(FactorSetFit {
+        leave_one_out,
+        information: chi_square + 2.0 * observability.rank as f64,
         name: set.name.clone(),
         note: set.note.clone(),
         factors,
         rows,
         degrees_of_freedom: rows.saturating_sub(observability.rank),
         rms: (raw.norm_squared() / rows.max(1) as f64).sqrt(),
-        chi_square: match weights {
-            Some(_) => weighted_r.norm_squared(),
-            None => f64::NAN,
-        },
+        chi_square,
         observability,
         predicted,
     })
+}
+
+/// Largest leverage at which a row still has a leave-one-out prediction.
+const MAX_LEVERAGE: f64 = 1.0 - 1e-9;
+
+/// RMS of `r_i / (1 − h_ii)`; `None` when a leverage reaches [`MAX_LEVERAGE`] or no row.
+fn leave_one_out_rms(residuals: &[f64], leverages: &[f64]) -> Option<f64> {
+    if residuals.is_empty() || leverages.iter().any(|h| h.is_nan() || *h >= MAX_LEVERAGE) {
+        return None;
+    }
+    let sum: f64 = residuals
+        .iter()
+        .zip(leverages)
+        .map(|(r, h)| (r / (1.0 - h)).powi(2))
+        .sum();
+    Some((sum / residuals.len() as f64).sqrt())
 }
 
 /// Every factor of `set` at its nominal value, named and with its unit.
@@ -432,7 +464,7 @@ pub fn model_sets(mechanism: &Mechanism) -> Vec<FactorSet> {
 mod tests {
     use nalgebra::DVector;
 
-    use super::{Source, Unknowns};
+    use super::{leave_one_out_rms, Source, Unknowns};
     use crate::model::expression::Expression;
 
     /// `∂g/∂θ` from the expressions' dual numbers against central differences of `g`: a
@@ -475,5 +507,29 @@ mod tests {
             }
         }
         assert!(g[(3, 0)].abs() < 1e-15 && (g[(1, 1)] - 1.0).abs() < 1e-15);
+    }
+
+    /// A mean fitted to 0, 1, 2, 5: residuals −2, −1, 0, 3, each leverage 1/4, so each row
+    /// left out is predicted with error r·4/3; the RMS of those against the formula. A leverage
+    /// of 1 leaves no prediction.
+    #[test]
+    fn leave_one_out_errors_are_residuals_over_the_room_left() {
+        let rms = leave_one_out_rms(&[-2.0, -1.0, 0.0, 3.0], &[0.25; 4]).unwrap();
+        // Refitting without row i gives the mean of the others: its distance to row i.
+        let values = [0.0, 1.0, 2.0, 5.0];
+        let direct: f64 = (0..4)
+            .map(|i| {
+                let others: f64 = (0..4).filter(|&j| j != i).map(|j| values[j]).sum::<f64>() / 3.0;
+                (values[i] - others).powi(2)
+            })
+            .sum::<f64>()
+            / 4.0;
+        assert!(
+            (rms - direct.sqrt()).abs() < 1e-15,
+            "{rms} vs {}",
+            direct.sqrt()
+        );
+        assert_eq!(leave_one_out_rms(&[1.0, 0.0], &[1.0, 0.5]), None);
+        assert_eq!(leave_one_out_rms(&[], &[]), None);
     }
 }

@@ -13,8 +13,15 @@ pub fn factor_sets_text(title: &str, fits: &[FactorSetFit]) -> String {
     let mut out = format!("{title}\n\n");
     let _ = writeln!(
         out,
-        "{:<14} {:>7} {:>5} {:>12} {:>8} {:>26}  rank",
-        "set", "factors", "dof", "RMS resid.", "scale", "predicted σ RMS / max (m)"
+        "{:<14} {:>7} {:>5} {:>12} {:>12} {:>8} {:>9} {:>26}  rank",
+        "set",
+        "factors",
+        "dof",
+        "RMS resid.",
+        "left out",
+        "scale",
+        "AIC",
+        "predicted σ RMS / max (m)"
     );
     for fit in fits {
         let predicted = fit.predicted.as_ref().map_or("-".to_string(), |p| {
@@ -29,20 +36,25 @@ pub fn factor_sets_text(title: &str, fits: &[FactorSetFit]) -> String {
                 fit.observability.unidentifiable.join(", ")
             ),
         };
+        let left_out = fit.leave_one_out.map_or(f64::NAN, |v| v);
         let _ = writeln!(
             out,
-            "{:<14} {:>7} {:>5} {:>12.3e} {:>8} {:>26}  {rank}",
+            "{:<14} {:>7} {:>5} {:>12.3e} {:>12} {:>8} {:>9} {:>26}  {rank}",
             fit.name,
             n,
             fit.degrees_of_freedom,
             fit.rms,
+            number(left_out, 3),
             number(fit.scale(), 3),
+            aic(fit.information),
             predicted
         );
     }
     out.push_str(
-        "\nscale: the residual's RMS in declared σ (about 1 when the data agree with the noise \
-         and the set explains them); σ below is the declared noise's, not scaled by it.\n",
+        "\nleft out: RMS of each row's leave-one-out prediction error (m; - where a row alone \
+         sees a factor). scale: the residual's RMS in declared σ (about 1 when the data agree \
+         with the noise and the set explains them). AIC: χ² + 2 × factors (lower is better on \
+         the same rows). σ below is the declared noise's, not scaled by it.\n",
     );
     for fit in fits {
         let note = fit
@@ -64,6 +76,14 @@ pub fn factor_sets_text(title: &str, fits: &[FactorSetFit]) -> String {
         }
     }
     out
+}
+
+/// An information criterion to one decimal, `-` when not finite.
+fn aic(v: f64) -> String {
+    match v.is_finite() {
+        true => format!("{v:.1}"),
+        false => "-".to_string(),
+    }
 }
 
 /// `v` in scientific notation with `digits` decimals, `-` when not finite.
@@ -88,6 +108,8 @@ pub fn factor_sets_json(fits: &[FactorSetFit]) -> Value {
                     "rms": fit.rms,
                     "chi_square": finite(fit.chi_square),
                     "scale": finite(fit.scale()),
+                    "leave_one_out": fit.leave_one_out,
+                    "information": finite(fit.information),
                     "rank": fit.observability.rank,
                     "unidentifiable": fit.observability.unidentifiable,
                     "predicted": fit.predicted.as_ref().map(|p| json!({

@@ -189,6 +189,104 @@ fn a_printer_inside_the_set_is_recovered_exactly_at_zero_noise() {
     }
 }
 
+/// The nozzle position (mm) where `delta`'s carriages read `readings` (mm): Newton on the
+/// firmware's inverse kinematics, from above the bed's centre.
+fn nozzle_at(delta: &DeltaGeometry, readings: [f64; 3]) -> [f64; 3] {
+    let mut p = [0.0, 0.0, 0.0];
+    for _ in 0..50 {
+        let f = |p: [f64; 3]| {
+            let r = delta.readings_at(p).unwrap();
+            [r[0] - readings[0], r[1] - readings[1], r[2] - readings[2]]
+        };
+        let r = f(p);
+        let h = 1e-6;
+        let j = nalgebra::Matrix3::from_fn(|i, k| {
+            let (mut up, mut down) = (p, p);
+            up[k] += h;
+            down[k] -= h;
+            (f(up)[i] - f(down)[i]) / (2.0 * h)
+        });
+        let step = j.lu().solve(&nalgebra::Vector3::from(r)).unwrap();
+        for k in 0..3 {
+            p[k] -= step[k];
+        }
+    }
+    p
+}
+
+/// The leave-one-out error against refits: eleven touches of a printer inside Klipper's six
+/// factors, heights off by a few µm; each touch left out, the six refitted on the others
+/// (through legwise), the left-out touch's height predicted by an independent forward
+/// kinematics of the refitted geometry. The closed form `r_i / (1 − h_ii)` is first order:
+/// it agrees with the refits to 1e-3.
+#[test]
+fn the_leave_one_out_error_is_the_refits() {
+    let nominal = DeltaGeometry {
+        touches: Vec::new(),
+        distances: Vec::new(),
+        ..klipper_cfg()
+    };
+    let real = DeltaGeometry {
+        radius: nominal.radius - 0.4,
+        endstops: [
+            nominal.endstops[0] + 0.3,
+            nominal.endstops[1],
+            nominal.endstops[2] - 0.2,
+        ],
+        ..nominal.clone()
+    };
+    let height = nominal.z_offset.unwrap_or(0.0);
+    let errors = [3.0, -5.0, 2.0, 7.0, -4.0, 1.0, -6.0, 4.0, -2.0, 5.0, -3.0];
+    let touches: Vec<Touch> = errors
+        .iter()
+        .enumerate()
+        .map(|(k, e)| {
+            let (r, a) = (75.0 * (k % 4) as f64 / 3.0, (k as f64 * 137.5).to_radians());
+            Touch {
+                id: format!("t{k}"),
+                height_mm: height + e * 1e-3,
+                readings_mm: real
+                    .readings_at([r * a.cos(), r * a.sin(), height])
+                    .unwrap(),
+            }
+        })
+        .collect();
+    let dir = tempfile::tempdir().unwrap();
+    let all = DeltaGeometry {
+        touches: touches.clone(),
+        ..nominal.clone()
+    };
+    let (mechanism, data) = model_of(dir.path(), &all, 1e-5);
+    let fit = fitted(&mechanism, &data, "klipper-6");
+    let closed = fit.leave_one_out.expect("every touch has room");
+    let mut sum = 0.0;
+    for left in 0..touches.len() {
+        let mut others = touches.clone();
+        let out = others.remove(left);
+        let (mechanism, data) = model_of(
+            dir.path(),
+            &DeltaGeometry {
+                touches: others,
+                ..nominal.clone()
+            },
+            1e-5,
+        );
+        let refit = fitted(&mechanism, &data, "klipper-6");
+        let mut refitted = nominal.clone();
+        refitted.radius = factor(&refit, "radius") * 1e3;
+        refitted.angles[0] = factor(&refit, "angle_a").to_degrees();
+        refitted.angles[1] = factor(&refit, "angle_b").to_degrees();
+        for (k, t) in ["a", "b", "c"].iter().enumerate() {
+            refitted.endstops[k] = factor(&refit, &format!("endstop_{t}")) * 1e3;
+        }
+        let predicted = nozzle_at(&refitted, out.readings_mm)[2];
+        sum += ((predicted - out.height_mm) * 1e-3).powi(2);
+    }
+    let refits = (sum / touches.len() as f64).sqrt();
+    assert!((closed / refits - 1.0).abs() < 1e-3, "{closed} vs {refits}");
+    assert!(closed > fit.rms, "{closed} vs {}", fit.rms);
+}
+
 /// `legwise sets` on an imported printer: the model's row and Klipper's two sets, each
 /// factor with its σ; nine factors on heights alone cannot see scale.
 #[test]
