@@ -238,23 +238,23 @@ pub fn evaluate_in_memory(
 /// # Errors
 /// As the command: a usage error, a bad model or measurement, a failed fit.
 pub fn sets_in_memory(arguments: &[String], csv: Option<&str>) -> anyhow::Result<(String, String)> {
-    let given = arguments
-        .iter()
-        .any(|a| a == "--measurements" || a.starts_with("--measurements="));
-    if csv.is_some() && given {
-        anyhow::bail!("--measurements: the measurements are given in memory already");
-    }
-    let memory = ["--measurements", MEMORY_NAME];
-    let words: &[&str] = if csv.is_some() { &memory } else { &[] };
-    let Command::Sets(args) = parsed(&[&["sets"], words].concat(), arguments)? else {
+    let Command::Sets(args) = parsed(&["sets"], arguments)? else {
         anyhow::bail!("not a factor-set table");
     };
     refuse_files(&[(args.json.is_some(), "--json")])?;
+    if csv.is_some() && args.measurements.is_some() {
+        anyhow::bail!("--measurements: the measurements are given in memory already");
+    }
     let mechanism = Mechanism::load(&args.model)?;
-    let (fits, title) = super::sets::table(&mechanism, &args, |path| match csv {
-        Some(text) => from_text(text, &mechanism),
-        None => Measurements::read(path, &mechanism),
-    })?;
+    let data = match (csv, &args.measurements) {
+        (Some(text), _) => Some((from_text(text, &mechanism)?, MEMORY_NAME.to_string())),
+        (None, Some(path)) => Some((
+            Measurements::read(path, &mechanism)?,
+            path.display().to_string(),
+        )),
+        (None, None) => None,
+    };
+    let (fits, title) = super::sets::table(&mechanism, data)?;
     let json = serde_json::to_string_pretty(&crate::report::factor_sets::factor_sets_json(&fits))?;
     Ok((
         json + "\n",

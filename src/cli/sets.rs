@@ -21,8 +21,14 @@ pub(super) fn run(args: &SetsArgs) -> anyhow::Result<Verdict> {
             .map(|p| input("measurement file", p)),
     );
     let json = Output::prepare_optional("--json", args.json.as_deref(), &inputs)?;
-    let read = |path: &std::path::Path| Measurements::read(path, &mechanism);
-    let (fits, title) = table(&mechanism, args, read)?;
+    let data = match &args.measurements {
+        Some(path) => Some((
+            Measurements::read(path, &mechanism)?,
+            path.display().to_string(),
+        )),
+        None => None,
+    };
+    let (fits, title) = table(&mechanism, data)?;
     let mut console = Console::new(json.as_ref().is_some_and(Output::is_stdout));
     if let Some(json) = &json {
         let text = serde_json::to_string_pretty(&factor_sets_json(&fits))? + "\n";
@@ -37,18 +43,17 @@ pub(super) fn run(args: &SetsArgs) -> anyhow::Result<Verdict> {
     Ok(Verdict::from_reasons(mechanism.warnings.clone()))
 }
 
-/// Every set of `mechanism` fitted on the measurements `read` gives for `--measurements` (the
-/// model's simulated experiment without), and the table's title.
+/// Every set of `mechanism` fitted on `data` (the measurements and where they come from; the
+/// model's simulated experiment when `None`), and the table's title.
 ///
 /// # Errors
-/// Measurements that do not read, a simulation or a fit that fails.
+/// A simulation or a fit that fails.
 pub(super) fn table(
     mechanism: &Mechanism,
-    args: &SetsArgs,
-    read: impl FnOnce(&std::path::Path) -> crate::error::Result<Measurements>,
+    data: Option<(Measurements, String)>,
 ) -> anyhow::Result<(Vec<FactorSetFit>, String)> {
-    let (data, source) = match &args.measurements {
-        Some(path) => (read(path)?, path.display().to_string()),
+    let (data, source) = match data {
+        Some(given) => given,
         None => {
             let simulated = simulate(mechanism, &SimulationSettings::default())?;
             (

@@ -169,17 +169,17 @@ fn unknowns(problem: &IdentificationProblem<'_>, named: &[(&str, f64)]) -> Optio
 mod tests {
     use super::{slice_levels, spacings_within};
 
-    /// A region 0.1 m high from z = 0 at a 0.02 m grid: 0.095 m shrunk, four spacings, five
-    /// slices about 0.05 m; each samples the region's section at its height scaled back out
-    /// from the middle (0.01 m samples 0.05 − 0.04 / 0.95).
+    /// A region 0.1 m high from z = 0.02 m at a 0.02 m grid: 0.095 m shrunk, four spacings,
+    /// five slices about 0.07 m; each samples the region's section at its height scaled back
+    /// out from the middle (0.03 m samples 0.07 − 0.04 / 0.95).
     #[test]
     fn slices_are_centred_and_sample_the_unshrunk_section() {
-        let levels = slice_levels(Some([0.0, 0.1]), 0.3, 0.02);
-        let expected = [0.01, 0.03, 0.05, 0.07, 0.09];
-        assert_eq!(levels.len(), 5);
+        let levels = slice_levels(Some([0.02, 0.12]), 0.3, 0.02);
+        let expected = [0.03, 0.05, 0.07, 0.09, 0.11];
+        assert_eq!(levels.len(), 5, "{levels:?}");
         for ((z, section), e) in levels.iter().zip(expected) {
             assert!((z - e).abs() < 1e-15, "{levels:?}");
-            let scaled = 0.05 + (e - 0.05) / 0.95;
+            let scaled = 0.07 + (e - 0.07) / 0.95;
             assert!((section - scaled).abs() < 1e-15, "{levels:?}");
         }
         assert_eq!(slice_levels(None, 0.3, 0.02), [(0.3, 0.3)]);

@@ -428,11 +428,7 @@ fn set_problem<'m>(
         }
         Measurements::Readings(set) => {
             if mechanism.instrument.is_some() {
-                return Err(Error::Invalid(format!(
-                    "{}: the model has an instrument block: its measurements are the targets' \
-                     coordinates in the instrument frame, not platform poses",
-                    mechanism.model_path.display()
-                )));
+                return Err(Measurements::poses_for_an_instrument(mechanism));
             }
             let legs = mechanism.identified_legs();
             let blocks = legs.iter().flat_map(|&l| set.leg_blocks(l)).collect();

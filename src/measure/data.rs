@@ -23,6 +23,15 @@ pub enum Measurements {
 }
 
 impl Measurements {
+    /// The error of platform poses given to `mechanism`, a model with an instrument block.
+    pub fn poses_for_an_instrument(mechanism: &Mechanism) -> Error {
+        Error::Invalid(format!(
+            "{}: the model has an instrument block: its measurements are the targets' \
+             coordinates in the instrument frame, not platform poses",
+            mechanism.model_path.display()
+        ))
+    }
+
     /// Reads the measurement CSV at `path` in the layout `mechanism` expects (docs/models.md).
     ///
     /// # Errors

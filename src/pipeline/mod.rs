@@ -157,11 +157,7 @@ fn identify_by_kind(
     match data {
         Measurements::Readings(set) => {
             if mechanism.instrument.is_some() {
-                return Err(Error::Invalid(format!(
-                    "{}: the model has an instrument block: its measurements are the targets' \
-                     coordinates in the instrument frame, not platform poses",
-                    mechanism.model_path.display()
-                )));
+                return Err(Measurements::poses_for_an_instrument(mechanism));
             }
             identify_with(mechanism, set, strategy, solver, fit)
         }
