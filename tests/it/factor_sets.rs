@@ -283,6 +283,21 @@ fn the_leave_one_out_error_is_the_refits() {
         sum += ((predicted - out.height_mm) * 1e-3).powi(2);
     }
     let refits = (sum / touches.len() as f64).sqrt();
+    // Every touch has the probe's σ (10 µm): χ² = m (RMS / σ)², the scale √(χ² / dof), the
+    // criterion χ² + 2 × 6.
+    let m = touches.len() as f64;
+    let chi_square = m * (fit.rms / 1e-5).powi(2);
+    assert_eq!(fit.degrees_of_freedom, touches.len() - 6);
+    assert!(
+        (fit.scale() / (chi_square / (m - 6.0)).sqrt() - 1.0).abs() < 1e-9,
+        "{}",
+        fit.scale()
+    );
+    assert!(
+        (fit.information - (chi_square + 12.0)).abs() < 1e-9 * chi_square,
+        "{}",
+        fit.information
+    );
     assert!((closed / refits - 1.0).abs() < 1e-3, "{closed} vs {refits}");
     assert!(closed > fit.rms, "{closed} vs {}", fit.rms);
 }
