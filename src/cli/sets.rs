@@ -56,10 +56,7 @@ pub(super) fn table(
         Some(given) => given,
         None => {
             let simulated = simulate(mechanism, &SimulationSettings::default())?;
-            (
-                simulated.measurements,
-                format!("simulated {}", simulated.source),
-            )
+            (simulated.measurements, simulated.source)
         }
     };
     let fits = model_sets(mechanism)

@@ -51,8 +51,9 @@ pub fn factor_sets_text(title: &str, fits: &[FactorSetFit]) -> String {
         );
     }
     out.push_str(
-        "\nleft out: RMS of each row's leave-one-out prediction error (m; - where a row alone \
-         sees a factor). scale: the residual's RMS in declared σ (about 1 when the data agree \
+        "\nRMS resid., left out: the residuals' RMS and that of each row's leave-one-out \
+         prediction error, in the measurements' units (m, rad; - where a row alone sees a \
+         factor). scale: the residual's RMS in declared σ (about 1 when the data agree \
          with the noise and the set explains them). AIC: χ² + 2 × factors (lower is better on \
          the same rows). σ below is the declared noise's, not scaled by it.\n",
     );
