@@ -73,6 +73,9 @@ pub struct FactorSetFit {
     /// data determine); `NaN` without a declared noise. Lower is better, between sets fitted on
     /// the same rows.
     pub information: f64,
+    /// Weighted solves until the weights at the estimate were the ones it was fitted with (1
+    /// when the rows' variances do not depend on the factors, as a probe's heights).
+    pub weightings: usize,
 }
 
 impl FactorSetFit {
@@ -270,7 +273,9 @@ pub fn fit_factor_set(
     };
     let mut current = weighted(&weights);
     let mut theta = theta0;
+    let mut weightings = 0;
     for _ in 0..MAX_WEIGHTINGS {
+        weightings += 1;
         let view = InFactors {
             problem: &current,
             unknowns: &unknowns,
@@ -343,6 +348,7 @@ pub fn fit_factor_set(
     };
     Ok(FactorSetFit {
         leave_one_out,
+        weightings,
         information: chi_square + 2.0 * observability.rank as f64,
         name: set.name.clone(),
         note: set.note.clone(),

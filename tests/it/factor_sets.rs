@@ -64,6 +64,8 @@ fn klippers_six_factors_on_its_touches_are_the_printer_behind_them() {
     let (mechanism, data) = model_of(dir.path(), &klipper_cfg(), 1e-5);
     let fit = fitted(&mechanism, &data, "klipper-6");
     assert_eq!((fit.rows, fit.degrees_of_freedom), (7, 1));
+    // A height's variance is the probe's whatever the factors: one weighted solve.
+    assert_eq!(fit.weightings, 1);
     assert_eq!(fit.observability.rank, 6);
     assert!(
         (factor(&fit, "radius") * 1e3 - REAL_RADIUS).abs() < 1e-4,
