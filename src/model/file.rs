@@ -255,10 +255,7 @@ impl ModelFile {
     /// # Errors
     /// [`Error::Io`] if the file cannot be read, [`Error::Yaml`] if it is not a valid model file.
     pub fn read(path: &Path) -> Result<Self> {
-        let text = std::fs::read_to_string(path).map_err(|error| Error::Io {
-            path: path.to_path_buf(),
-            error,
-        })?;
+        let text = crate::model::source::read_text_file(path)?;
         Self::parse(&text, path)
     }
 

@@ -37,6 +37,18 @@ pub fn read_text(path: &Path) -> std::io::Result<String> {
     std::fs::read_to_string(path)
 }
 
+/// [`read_text`] with its error as the crate's [`crate::error::Error::Io`] naming `path`: for
+/// every text input (model files, firmware configurations, probe logs, selections).
+///
+/// # Errors
+/// As [`read_text`].
+pub fn read_text_file(path: &Path) -> crate::error::Result<String> {
+    read_text(path).map_err(|error| crate::error::Error::Io {
+        path: path.to_path_buf(),
+        error,
+    })
+}
+
 /// What kind of file system object a non-regular file is, for messages.
 fn describe(file_type: &std::fs::FileType) -> &'static str {
     #[cfg(unix)]

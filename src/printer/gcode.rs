@@ -242,10 +242,7 @@ impl Settings {
     /// # Errors
     /// The file cannot be read.
     pub fn read(&mut self, path: &Path, names: &[&str]) -> Result<()> {
-        let text = std::fs::read_to_string(path).map_err(|error| Error::Io {
-            path: path.to_path_buf(),
-            error,
-        })?;
+        let text = crate::model::source::read_text_file(path)?;
         self.apply(path, &text, names);
         Ok(())
     }

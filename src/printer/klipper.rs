@@ -44,10 +44,7 @@ impl KlipperConfig {
     /// The file cannot be read, or a line is neither a section, a value, a comment nor a
     /// continuation (the message names the file and line).
     pub fn read(path: &Path) -> Result<Self> {
-        let text = std::fs::read_to_string(path).map_err(|error| Error::Io {
-            path: path.to_path_buf(),
-            error,
-        })?;
+        let text = crate::model::source::read_text_file(path)?;
         Self::parse(path, &text)
     }
 

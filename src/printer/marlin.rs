@@ -165,10 +165,7 @@ impl MarlinDelta {
 
 /// The nozzle's stopped positions in a probe log: its `Bed X: x Y: y Z: z` lines.
 fn read_log(path: &Path, offset: [f64; 3]) -> Result<Vec<Stop>> {
-    let text = std::fs::read_to_string(path).map_err(|error| Error::Io {
-        path: path.to_path_buf(),
-        error,
-    })?;
+    let text = crate::model::source::read_text_file(path)?;
     let mut stops = Vec::new();
     for (index, raw) in text.lines().enumerate() {
         let line = index + 1;

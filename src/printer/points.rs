@@ -42,10 +42,7 @@ const SAME_HEIGHT: f64 = 1e-9;
 /// selection made for another model); a point outside the model's workspace radius; no touch
 /// rows. Each names the file and the line.
 pub fn read_selected(path: &Path, mechanism: &Mechanism) -> Result<Vec<SelectedTouch>> {
-    let text = std::fs::read_to_string(path).map_err(|error| Error::Io {
-        path: path.to_path_buf(),
-        error,
-    })?;
+    let text = crate::model::source::read_text_file(path)?;
     let err = |line: usize, message: String| {
         Error::Invalid(format!("{}: line {line}: {message}", path.display()))
     };

@@ -178,10 +178,7 @@ pub(crate) struct Stop {
 
 /// The nozzle's stopped positions in a probe log (mm, the firmware's coordinates).
 fn read_log(path: &Path, offset: [f64; 2], trigger: f64) -> Result<Vec<Stop>> {
-    let text = std::fs::read_to_string(path).map_err(|error| Error::Io {
-        path: path.to_path_buf(),
-        error,
-    })?;
+    let text = crate::model::source::read_text_file(path)?;
     let err = |line: usize, message: String| {
         Error::Invalid(format!("{}: line {line}: {message}", path.display()))
     };

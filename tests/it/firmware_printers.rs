@@ -595,3 +595,29 @@ fn bad_firmware_files_name_file_line_and_parameter() {
         ),
     );
 }
+
+/// A firmware file or probe log that is not a regular file (a device that never ends, a
+/// directory) is refused by name before any read, as model files are: no hang, no memory
+/// exhausted on `/dev/zero`.
+#[test]
+fn firmware_inputs_that_are_not_regular_files_are_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path().to_str().unwrap();
+    for (flag, path, what) in [
+        ("--klipper", "/dev/zero", "a character device"),
+        ("--marlin", d, "a directory"),
+        ("--rrf", "/dev/zero", "a character device"),
+    ] {
+        crate::cli::assert_fails_with(
+            &[
+                "printer",
+                "import",
+                flag,
+                path,
+                "--out",
+                &format!("{d}/out"),
+            ],
+            &format!("legwise: {path}: not a regular file (it is {what}); expected a text file"),
+        );
+    }
+}
