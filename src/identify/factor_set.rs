@@ -119,6 +119,25 @@ impl Unknowns {
         )
     }
 
+    /// `g(θ)`, refused where an expression leaves its domain (`sqrt` of a negative, …): a
+    /// solver's trial step there is a failed step, not NaN residuals.
+    fn finite_x(
+        &self,
+        theta: &DVector<f64>,
+    ) -> std::result::Result<DVector<f64>, argmin::core::Error> {
+        let x = self.x(theta);
+        match x.iter().all(|v| v.is_finite()) {
+            true => Ok(x),
+            false => Err(argmin::core::ArgminError::InvalidParameter {
+                text: format!(
+                    "the factors {:?} put a derived parameter outside its expression's domain",
+                    theta.as_slice()
+                ),
+            }
+            .into()),
+        }
+    }
+
     /// `∂g/∂θ`, one dual pass per factor.
     fn jacobian(&self, theta: &DVector<f64>) -> DMatrix<f64> {
         let mut g = DMatrix::zeros(self.sources.len(), theta.len());
@@ -162,7 +181,7 @@ impl argmin::core::Operator for InFactors<'_, '_> {
     type Output = DVector<f64>;
 
     fn apply(&self, theta: &Self::Param) -> std::result::Result<Self::Output, argmin::core::Error> {
-        Ok(self.problem.residuals(&self.unknowns.x(theta))?)
+        Ok(self.problem.residuals(&self.unknowns.finite_x(theta)?)?)
     }
 }
 
@@ -176,7 +195,7 @@ impl argmin::core::Jacobian for InFactors<'_, '_> {
     ) -> std::result::Result<Self::Jacobian, argmin::core::Error> {
         let (_, c) = self
             .problem
-            .residuals_and_jacobian(&self.unknowns.x(theta))?;
+            .residuals_and_jacobian(&self.unknowns.finite_x(theta)?)?;
         Ok(c * self.unknowns.jacobian(theta))
     }
 }
@@ -509,6 +528,11 @@ mod tests {
             }
         }
         assert!(g[(3, 0)].abs() < 1e-15 && (g[(1, 1)] - 1.0).abs() < 1e-15);
+        // A rod shorter than the radius: sqrt of a negative, refused rather than NaN.
+        assert!(unknowns.finite_x(&theta).is_ok());
+        let short = DVector::from_vec(vec![0.17, 0.1, 3.7]);
+        let error = unknowns.finite_x(&short).unwrap_err().to_string();
+        assert!(error.contains("outside its expression's domain"), "{error}");
     }
 
     /// A mean fitted to 0, 1, 2, 5: residuals −2, −1, 0, 3, each leverage 1/4, so each row

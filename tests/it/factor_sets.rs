@@ -339,8 +339,15 @@ fn sets_prints_the_table_of_an_imported_printer() {
     assert_eq!(sets.len(), 3);
     assert_eq!(sets[1]["name"], "klipper-6");
     assert_eq!(sets[1]["rank"], 6);
-    // Seven touches cannot hold nine factors.
-    assert!(sets[2]["rank"].as_u64().unwrap() < 9, "{}", sets[2]);
+    // Seven touches cannot hold nine factors: every one of the seven heights is used, two
+    // directions are left, and no σ is claimed.
+    assert_eq!(sets[2]["rank"], 7, "{}", sets[2]);
+    assert_eq!(sets[2]["unidentifiable"].as_array().unwrap().len(), 2);
+    assert!(sets[2]["factors"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .all(|f| f["sigma"].is_null()));
     // The calibrated model states its geometry in legwise's terms: the firmware's quantities
     // no longer describe it and go, with the sets in them; it loads. (A 1 µm probe: the fit
     // is trusted, so the calibrated model is written.)
