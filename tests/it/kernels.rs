@@ -191,13 +191,24 @@ fn close(a: f64, b: f64, scale: f64, tolerance: f64) -> bool {
     (a - b).abs() <= tolerance * scale.max(1.0)
 }
 
+/// The property tests' set-up: `LEGWISE_KERNEL_CASES` cases (256), drawn from the fixed seed
+/// `LEGWISE_KERNEL_SEED` (1), so that a CI run is the run a developer repeats; another seed
+/// explores other dyads.
 fn config() -> Config {
     let cases = std::env::var("LEGWISE_KERNEL_CASES")
         .ok()
         .and_then(|v| v.parse().ok())
         .unwrap_or(256);
+    let seed = std::env::var("LEGWISE_KERNEL_SEED")
+        .ok()
+        .and_then(|v| v.parse().ok())
+        .unwrap_or(1);
     Config {
         cases,
+        rng_seed: proptest::test_runner::RngSeed::Fixed(seed),
+        // Dyads and poses outside the compared region are set aside (`prop_assume!`): room
+        // for them in proportion to the cases asked for.
+        max_global_rejects: (4 * cases).max(1024),
         failure_persistence: None,
         ..Config::default()
     }
@@ -254,9 +265,17 @@ proptest! {
                 theirs.normalised_determinant.is_sign_positive()
             );
             prop_assert!(close(mine.normalised_determinant, theirs.normalised_determinant, 1.0, 1e-12));
+            // The generic Newton solve stops within round-off of the exact q; its closure
+            // inverse carries that error amplified by the inverse itself (δA⁻¹ = A⁻¹ δA A⁻¹):
+            // relative to its size, by the conditioning 1 / |normalised determinant| (≤ 20
+            // here). A fixed 1e-12 failed at determinant 0.057 (1.4e-12).
             let inverse_scale = theirs.closure_inverse.amax();
+            let conditioning = 1.0 / theirs.normalised_determinant.abs();
             for (a, b) in mine.closure_inverse.iter().zip(theirs.closure_inverse.iter()) {
-                prop_assert!(close(*a, *b, inverse_scale, 1e-12), "{mine:?} vs {theirs:?}");
+                prop_assert!(
+                    close(*a, *b, inverse_scale * conditioning, 1e-12),
+                    "{mine:?} vs {theirs:?}"
+                );
             }
             let mut g_mine = vec![0.0; columns.len()];
             let mut g_theirs = vec![0.0; columns.len()];
