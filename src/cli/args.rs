@@ -92,6 +92,10 @@ pub enum PrinterCommand {
     /// probing commands (RepRapFirmware's bed.g, Marlin's G30 lines, Klipper's
     /// [delta_calibrate] points), whose log `printer import` reads back.
     Points(PrinterPointsArgs),
+    /// Compare, on simulated printers, legwise's calibration (its selected touches, its fit,
+    /// exported through the firmware's values) with the firmware's own (its points, its
+    /// factors), by the print error each leaves.
+    Study(PrinterStudyArgs),
 }
 
 /// Options of `legwise printer import`.
@@ -175,6 +179,44 @@ pub struct PrinterPointsArgs {
     /// Where to write the commands (`-`: standard output).
     #[arg(long, value_name = "FILE")]
     pub out: PathBuf,
+}
+
+/// Options of `legwise printer study`.
+#[derive(Debug, clap::Args)]
+#[command(group(clap::ArgGroup::new("firmware").required(true).args(["klipper"])))]
+pub struct PrinterStudyArgs {
+    /// Against Klipper's DELTA_CALIBRATE: its seven points at the model's bed radius (its
+    /// [delta_calibrate] radius), the set `klipper-6`; legwise's fit exported as Klipper values.
+    #[arg(long)]
+    pub klipper: bool,
+    /// The imported model (`legwise printer import --out DIR`: DIR/printer.yaml).
+    #[arg(long, value_name = "printer.yaml")]
+    pub model: PathBuf,
+    /// Number of simulated printers (1 to 100000).
+    #[arg(long, default_value_t = 100, allow_negative_numbers = true)]
+    pub printers: i64,
+    /// Study seed, 0 to 2^64 − 1; printer i's draws derive from it and i.
+    #[arg(long, default_value_t = 1, allow_negative_numbers = true)]
+    pub seed: i128,
+    /// legwise's touches (default: the model's `selection.poses_per_leg`).
+    #[arg(long, allow_negative_numbers = true)]
+    pub touches: Option<i64>,
+    /// σ of the printers' lengths about the model's (towers, rods, carriage offsets, effector
+    /// joints, the bed's height), m.
+    #[arg(long, default_value_t = 3e-4, allow_negative_numbers = true)]
+    pub spread_length: f64,
+    /// σ of the bed's tilt, rad.
+    #[arg(long, default_value_t = 1e-3, allow_negative_numbers = true)]
+    pub spread_angle: f64,
+    /// σ of the actuator gains (steps per mm), relative.
+    #[arg(long, default_value_t = 1e-3, allow_negative_numbers = true)]
+    pub spread_gain: f64,
+    /// Grid spacing of the print-error map over the workspace, m.
+    #[arg(long, default_value_t = 0.01, allow_negative_numbers = true)]
+    pub map: f64,
+    /// Write every printer's errors and the summary as JSON.
+    #[arg(long, value_name = "FILE")]
+    pub json: Option<PathBuf>,
 }
 
 /// Options of `legwise montecarlo`.

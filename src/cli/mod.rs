@@ -12,6 +12,7 @@ mod in_memory;
 mod montecarlo;
 mod outputs;
 mod printer;
+mod printer_study;
 mod select;
 mod sets;
 mod simulate;

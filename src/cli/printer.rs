@@ -22,6 +22,7 @@ pub(super) fn run(args: &PrinterArgs) -> anyhow::Result<Verdict> {
         PrinterCommand::Import(args) => import(args),
         PrinterCommand::Export(args) => export(args),
         PrinterCommand::Points(args) => points(args),
+        PrinterCommand::Study(args) => super::printer_study::run(args),
     }
 }
 

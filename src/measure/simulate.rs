@@ -101,7 +101,7 @@ pub fn perturbation_sigma(p: &Parameter, simulation: &Simulation) -> Option<f64>
 }
 
 /// A standard normal draw.
-pub(super) fn gaussian(rng: &mut ChaCha8Rng) -> f64 {
+pub(crate) fn gaussian(rng: &mut ChaCha8Rng) -> f64 {
     Normal::new(0.0, 1.0).map_or(0.0, |n| n.sample(rng))
 }
 

@@ -20,6 +20,7 @@ pub mod klipper;
 pub mod marlin;
 pub mod points;
 pub mod rrf;
+pub mod study;
 
 /// The conventions of the import and export, as printed by `legwise printer import`.
 pub const CONVENTIONS: &str = "\

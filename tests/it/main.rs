@@ -54,6 +54,7 @@ mod observability_values;
 mod parallel_measure;
 mod pipeline;
 mod plots;
+mod printer_study;
 mod recovery;
 mod report_schema;
 mod robust_stationarity;

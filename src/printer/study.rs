@@ -1,0 +1,699 @@
+//! A study of a delta printer's calibration workflows on simulated printers: legwise's (its
+//! selected touches, its default fit, the result exported through the firmware's parameters)
+//! against the firmware's own (its probe points, its factor set), each judged by the print
+//! error the real printer makes when the firmware commands it with the values the workflow
+//! gives.
+//!
+//! **The printers.** Each one perturbs every parameter of an imported model (`legwise printer
+//! import`) — every tower's position, rod, gain, carriage offset and effector joint — and the
+//! bed's height and tilt, by Gaussian draws of the standard deviations of [`Spread`]: what a
+//! built printer is off its drawings by, much of it beyond what the firmware can express (its
+//! rods equal to each other in some firmwares, its gains 1, its bed level). Its probe touches
+//! the real, tilted bed, with the model's declared noise on each height.
+//!
+//! **The print error.** The firmware, with the values a workflow gives, commands the carriage
+//! readings of its own kinematics at every point of a map over the workspace (the model's
+//! region, [`PrinterStudyOptions::map_grid`]); the real printer puts the nozzle where its
+//! geometry takes it. The error is taken in the frame the probe defines (the real bed, after
+//! the motions a probe cannot see: along the bed and about its normal, as
+//! [`observed_frame_error`]), its RMS over the map is the printer's print error.
+//!
+//! Printers run in parallel (rayon); printer `i` draws from its own generator seeded from the
+//! study seed and `i`, so a seed gives the same figures whatever the number of threads.
+
+use std::collections::BTreeMap;
+
+use rand::SeedableRng;
+use rand_chacha::ChaCha8Rng;
+use rayon::prelude::*;
+
+use crate::error::{Error, Result};
+use crate::evaluate::accuracy::{map_slice, reached_poses_from, result_parameters};
+use crate::evaluate::observed_frame::observed_frame_error;
+use crate::identify::estimate::FitOptions;
+use crate::identify::factor_set::fit_factor_set;
+use crate::identify::result::Strategy;
+use crate::kinematics::platform::ForwardKinematics;
+use crate::measure::forward_simulate::{forward_pose_sets, touched};
+use crate::measure::observe_simulate::simulated_poses;
+use crate::measure::simulate::{gaussian, simulate_at, SimulationOptions};
+use crate::measure::Measurements;
+use crate::model::mechanism::Simulation;
+use crate::model::params::Unit;
+use crate::model::quantities::FactorSet;
+use crate::model::region::Region;
+use crate::model::Mechanism;
+use crate::pipeline::{identify_one, measured};
+use crate::selection::forward_design::select_forward;
+use crate::solver::SolverKind;
+use crate::study::montecarlo::trial_seed;
+
+use super::export::{fit_delta, DeltaFit, FirmwareTerms};
+
+/// How far the simulated printers are from the imported model: Gaussian standard deviations by
+/// kind of parameter.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Spread {
+    /// Lengths (tower positions, rods, carriage offsets, effector joints, the bed's height), m.
+    pub length: f64,
+    /// Angles (the bed's tilt), rad.
+    pub angle: f64,
+    /// Actuator gains (steps per millimetre), dimensionless.
+    pub gain: f64,
+}
+
+impl Default for Spread {
+    /// A printer built to about a third of a millimetre and a milliradian, its steps per
+    /// millimetre to 0.1 %: 3e-4 m, 1e-3 rad, 1e-3.
+    fn default() -> Self {
+        Self {
+            length: 3e-4,
+            angle: 1e-3,
+            gain: 1e-3,
+        }
+    }
+}
+
+/// A firmware's own calibration: where it probes and which factors it fits.
+#[derive(Debug, Clone, PartialEq)]
+pub struct FirmwareCalibration {
+    /// Its name in reports (`Klipper DELTA_CALIBRATE`).
+    pub name: String,
+    /// The nozzle's points it probes, (x, y) in the firmware's frame, m.
+    pub points: Vec<[f64; 2]>,
+    /// The factor set it fits (one of the model's `factor_sets`).
+    pub set: FactorSet,
+    /// What its parameters can express (the export of legwise's fit).
+    pub terms: FirmwareTerms,
+}
+
+/// Scatter of Klipper's six outer `DELTA_CALIBRATE` points, as fractions of its `radius`:
+/// Klipper probes the centre and six points at 90° + 60° k, not all at the same distance.
+pub const KLIPPER_SCATTER: [f64; 6] = [0.95, 0.90, 0.85, 0.70, 0.75, 0.80];
+
+/// Klipper's `DELTA_CALIBRATE` on `mechanism` (a model imported from Klipper): its seven
+/// default points at the `[delta_calibrate] radius` (the model's workspace radius) and its set
+/// `klipper-6`.
+///
+/// # Errors
+/// The model has no `klipper-6` set or no cylinder workspace (not imported from Klipper).
+pub fn klipper_calibration(mechanism: &Mechanism) -> Result<FirmwareCalibration> {
+    let set = named_set(mechanism, "klipper-6")?;
+    let radius = bed_radius(mechanism)?;
+    let mut points = vec![[0.0, 0.0]];
+    points.extend(KLIPPER_SCATTER.iter().enumerate().map(|(k, s)| {
+        let angle = (90.0 + 60.0 * k as f64).to_radians();
+        [radius * s * angle.cos(), radius * s * angle.sin()]
+    }));
+    Ok(FirmwareCalibration {
+        name: "Klipper DELTA_CALIBRATE".into(),
+        points,
+        set,
+        terms: super::export::KLIPPER_TERMS,
+    })
+}
+
+/// The model's factor set called `name`.
+fn named_set(mechanism: &Mechanism, name: &str) -> Result<FactorSet> {
+    mechanism
+        .factor_sets
+        .iter()
+        .find(|s| s.name == name)
+        .cloned()
+        .ok_or_else(|| Error::Model {
+            path: mechanism.model_path.clone(),
+            field: "factor_sets".into(),
+            message: format!(
+                "expected the set `{name}` of a printer imported by `legwise printer import`, \
+                 found {}",
+                if mechanism.factor_sets.is_empty() {
+                    "none".to_string()
+                } else {
+                    let names: Vec<&str> = mechanism
+                        .factor_sets
+                        .iter()
+                        .map(|s| s.name.as_str())
+                        .collect();
+                    names.join(", ")
+                }
+            ),
+        })
+}
+
+/// Heights of the print map's layers, as fractions of the workspace cylinder's height from its
+/// bottom (the bed): near the bed, half-way, near the top.
+pub const MAP_LAYERS: [f64; 3] = [0.05, 0.5, 0.95];
+
+/// The print-error map of an imported printer: the workspace cylinder's disc at each of
+/// [`MAP_LAYERS`], on a lattice of `grid` (m).
+///
+/// # Errors
+/// Not a cylinder workspace; a grid [`map_slice`] refuses.
+pub fn print_map(mechanism: &Mechanism, grid: f64) -> Result<Vec<[f64; 6]>> {
+    let (centre, _, height) = cylinder(mechanism)?;
+    let mut map = Vec::new();
+    for layer in MAP_LAYERS {
+        let z = centre[2] + (layer - 0.5) * height;
+        map.extend(map_slice(mechanism, grid, 1.0, (z, z))?);
+    }
+    Ok(map)
+}
+
+/// The radius of an imported printer's bed disc: its workspace cylinder's.
+fn bed_radius(mechanism: &Mechanism) -> Result<f64> {
+    cylinder(mechanism).map(|(_, radius, _)| radius)
+}
+
+/// An imported printer's workspace cylinder: its centre, radius and height (m).
+fn cylinder(mechanism: &Mechanism) -> Result<([f64; 3], f64, f64)> {
+    match mechanism.workspace.region {
+        Region::Cylinder {
+            centre,
+            radius,
+            height,
+        } => Ok((centre, radius, height)),
+        _ => Err(Error::Model {
+            path: mechanism.model_path.clone(),
+            field: "workspace.region".into(),
+            message: "expected the cylinder of a printer imported by `legwise printer import`"
+                .into(),
+        }),
+    }
+}
+
+/// What a study runs.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct PrinterStudyOptions {
+    /// Number of simulated printers.
+    pub printers: usize,
+    /// Study seed.
+    pub seed: u64,
+    /// legwise's touches (default: the model's `selection.poses_per_leg`).
+    pub touches: Option<usize>,
+    /// How far the printers are from the model.
+    pub spread: Spread,
+    /// Grid spacing of the print-error map, m.
+    pub map_grid: f64,
+}
+
+impl PrinterStudyOptions {
+    /// `printers` printers from `seed`, the default spread, the model's touch count and a 1 cm
+    /// map.
+    pub fn new(printers: usize, seed: u64) -> Self {
+        Self {
+            printers,
+            seed,
+            touches: None,
+            spread: Spread::default(),
+            map_grid: 0.01,
+        }
+    }
+}
+
+/// One printer's print errors (RMS over the map in the frame the probe defines, m).
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
+pub struct PrinterErrors {
+    /// With the imported (nominal) values.
+    pub nominal: f64,
+    /// After the firmware's own calibration.
+    pub firmware: f64,
+    /// legwise's calibrated model itself commanding (what a firmware with its terms would do).
+    pub legwise_model: f64,
+    /// legwise's calibration exported through the firmware's parameters.
+    pub legwise: f64,
+    /// The export's loss: RMS over the bed of the nozzle's distance between the exported
+    /// firmware values and legwise's calibrated model, m.
+    pub export_loss: f64,
+}
+
+/// What one printer's two calibrations gave.
+#[derive(Debug, Clone, PartialEq, serde::Serialize)]
+pub struct PrinterOutcome {
+    /// The print errors.
+    #[serde(rename = "print_error_m")]
+    pub errors: PrinterErrors,
+    /// The firmware's values after its own calibration (the model's quantities it fits, SI).
+    pub firmware_values: BTreeMap<String, f64>,
+    /// legwise's calibration exported as the firmware's values (the model's quantities, SI).
+    pub legwise_values: BTreeMap<String, f64>,
+}
+
+/// One printer: its seed and what its calibrations gave, or why it failed.
+#[derive(Debug, Clone, PartialEq)]
+pub struct PrinterTrial {
+    /// Its index.
+    pub index: usize,
+    /// Its seed.
+    pub seed: u64,
+    /// Its outcome, or the reason it failed (a touch out of reach, a fit that did not
+    /// converge).
+    pub outcome: std::result::Result<PrinterOutcome, String>,
+}
+
+/// A prepared study.
+#[derive(Debug, Clone)]
+pub struct PrinterStudy {
+    mechanism: Mechanism,
+    firmware: FirmwareCalibration,
+    options: PrinterStudyOptions,
+    /// legwise's selected touches (commanded poses).
+    selected: Vec<[f64; 6]>,
+    /// The firmware's touches (commanded poses at its points).
+    firmware_poses: Vec<[f64; 6]>,
+    map: Vec<[f64; 6]>,
+    bed_radius: f64,
+}
+
+/// The study's result.
+#[derive(Debug, Clone, PartialEq)]
+pub struct PrinterStudyResult {
+    /// The options it ran with.
+    pub options: PrinterStudyOptions,
+    /// The firmware's calibration's name.
+    pub firmware: String,
+    /// The firmware's touches.
+    pub firmware_touches: usize,
+    /// legwise's touches.
+    pub legwise_touches: usize,
+    /// Points of the print-error map.
+    pub map_points: usize,
+    /// Every printer, in index order.
+    pub printers: Vec<PrinterTrial>,
+}
+
+impl PrinterStudy {
+    /// Selects legwise's touches, places the firmware's and builds the map.
+    ///
+    /// # Errors
+    /// Not an imported printer (no forward instrument, no set); the selection's errors; a
+    /// firmware point off the nominal bed; an empty map.
+    pub fn prepare(
+        mechanism: &Mechanism,
+        firmware: FirmwareCalibration,
+        options: PrinterStudyOptions,
+    ) -> Result<Self> {
+        let instrument = mechanism.forward_instrument().ok_or_else(|| Error::Model {
+            path: mechanism.model_path.clone(),
+            field: "instrument.kinematics".into(),
+            message: "expected an imported printer (a forward model), found none".into(),
+        })?;
+        if options.printers == 0 {
+            return Err(Error::Invalid("a printer study needs printers".into()));
+        }
+        let count = options.touches.unwrap_or(mechanism.selection.poses_per_leg);
+        let criterion = mechanism.selection.criterion;
+        let selected = select_forward(mechanism, None, count, criterion)?.commanded();
+        let nominal_shared = instrument.nominal();
+        let firmware_poses = firmware
+            .points
+            .iter()
+            .map(|&[x, y]| {
+                let mut pose = mechanism.home_pose;
+                pose[0] = x;
+                pose[1] = y;
+                touched(mechanism, instrument, &nominal_shared, pose)
+            })
+            .collect::<Result<Vec<_>>>()?;
+        let map = print_map(mechanism, options.map_grid)?;
+        Ok(Self {
+            mechanism: mechanism.clone(),
+            firmware,
+            options,
+            selected,
+            firmware_poses,
+            map,
+            bed_radius: bed_radius(mechanism)?,
+        })
+    }
+
+    /// Runs every printer (in parallel) and gathers them in index order.
+    pub fn run(&self) -> PrinterStudyResult {
+        let printers = (0..self.options.printers)
+            .into_par_iter()
+            .map(|index| PrinterTrial {
+                index,
+                seed: trial_seed(self.options.seed, index),
+                outcome: self.printer(index).map_err(|e| e.to_string()),
+            })
+            .collect();
+        PrinterStudyResult {
+            options: self.options,
+            firmware: self.firmware.name.clone(),
+            firmware_touches: self.firmware_poses.len(),
+            legwise_touches: self.selected.len(),
+            map_points: self.map.len(),
+            printers,
+        }
+    }
+
+    /// Printer `index`: drawn from its seed, calibrated both ways, its print errors measured.
+    ///
+    /// # Errors
+    /// A touch beyond the printer's reach, a fit that fails or does not converge, an export
+    /// that does not converge.
+    pub fn printer(&self, index: usize) -> Result<PrinterOutcome> {
+        let seed = trial_seed(self.options.seed, index);
+        let real = self.draw(seed);
+        let (legs, shared) = real_values(&real)?;
+        let kinematics = ForwardKinematics::new(&real, &legs);
+        let error = |model: &Mechanism| self.print_error(model, &kinematics, &shared);
+
+        let firmware_data = self.touches(&real, &self.firmware_poses, seed)?;
+        let set = fit_factor_set(&self.mechanism, &firmware_data, &self.firmware.set)?;
+        let values: Vec<(String, f64)> = set
+            .factors
+            .iter()
+            .map(|f| (f.name.clone(), f.estimate))
+            .collect();
+        let firmware = with_quantities(&self.mechanism, &values)?;
+
+        let data = self.touches(&real, &self.selected, seed ^ 0x7e11)?;
+        let result = identify_one(
+            &self.mechanism,
+            &data,
+            Strategy::Joint,
+            SolverKind::LevenbergMarquardt,
+            FitOptions::default(),
+        )?;
+        if let Some(run) = result.runs.iter().find(|r| !r.converged) {
+            return Err(Error::Solver {
+                context: "legwise's fit".into(),
+                message: format!("did not converge: {}", run.stop_reason),
+            });
+        }
+        let calibrated = with_parameters(
+            &self.mechanism,
+            &result_parameters(&self.mechanism, &result),
+            result
+                .instrument
+                .as_ref()
+                .map(|i| i.parameters.iter().map(|p| p.estimate).collect()),
+        );
+        let export = fit_delta(&calibrated, self.bed_radius, self.firmware.terms)?;
+        let legwise_values = firmware_quantities(&self.mechanism, &export)?;
+        let exported = with_quantities(&self.mechanism, &legwise_values)?;
+        let errors = PrinterErrors {
+            nominal: error(&self.mechanism)?,
+            firmware: error(&firmware)?,
+            legwise_model: error(&calibrated)?,
+            legwise: error(&exported)?,
+            export_loss: export.rms_loss,
+        };
+        Ok(PrinterOutcome {
+            errors,
+            firmware_values: values.into_iter().collect(),
+            legwise_values: legwise_values.into_iter().collect(),
+        })
+    }
+
+    /// Printer `index`: the model with its simulation block's `real` values drawn (every leg
+    /// parameter and the bed's height and tilt about the model's values).
+    pub fn real_printer(&self, index: usize) -> Mechanism {
+        self.draw(trial_seed(self.options.seed, index))
+    }
+
+    /// The map the print errors are taken over.
+    pub fn map(&self) -> &[[f64; 6]] {
+        &self.map
+    }
+
+    /// A printer drawn from `seed`.
+    fn draw(&self, seed: u64) -> Mechanism {
+        let mut rng = ChaCha8Rng::seed_from_u64(seed);
+        let spread = self.options.spread;
+        let sigma = |unit: Unit| match unit {
+            Unit::Metre => spread.length,
+            Unit::Radian => spread.angle,
+            Unit::One => spread.gain,
+        };
+        let mut real = BTreeMap::new();
+        for leg in &self.mechanism.legs {
+            for p in &leg.params {
+                let value = p.nominal + sigma(p.unit) * gaussian(&mut rng);
+                real.insert(p.name.clone(), value);
+            }
+        }
+        if let Some(instrument) = &self.mechanism.instrument {
+            // The bed's height and tilt; where it lies along itself and its turn about its
+            // normal a probe cannot see (and the map's frame aligns away).
+            let components = instrument.frame_components();
+            for (k, p) in instrument
+                .parameters
+                .iter()
+                .enumerate()
+                .take(components.len())
+            {
+                let moved = matches!(components[k], "z" | "roll" | "pitch");
+                let value = p.nominal
+                    + if moved {
+                        sigma(p.unit) * gaussian(&mut rng)
+                    } else {
+                        0.0
+                    };
+                real.insert(p.name.clone(), value);
+            }
+        }
+        let noise = self.mechanism.noise.unwrap_or_default();
+        self.mechanism.edited(|parts| {
+            parts.simulation = Some(Simulation {
+                real,
+                perturbation: None,
+                pose_noise: noise.pose,
+                reading_noise: noise.reading,
+                poses_per_leg: 1,
+                seed,
+            });
+        })
+    }
+
+    /// The touches of `real` (a drawn printer) at the commanded poses, with the declared noise.
+    fn touches(&self, real: &Mechanism, commanded: &[[f64; 6]], seed: u64) -> Result<Measurements> {
+        let instrument = real.forward_instrument().ok_or_else(|| {
+            Error::Invalid("a printer study's model has a forward instrument".into())
+        })?;
+        let options = SimulationOptions {
+            seed: Some(seed),
+            noise_scale: 1.0,
+            poses_per_leg: None,
+        };
+        let simulated = simulated_poses(real);
+        let sets = forward_pose_sets(&simulated, instrument, options, Some(commanded))?;
+        let experiment = simulate_at(&simulated, &sets, options)?;
+        Ok(measured(real, experiment, options)?.1)
+    }
+
+    /// The print error of `model` commanding the real printer (`real`: its forward kinematics;
+    /// `real_shared`: its bed frame and nozzle), RMS over the map in the frame the probe defines.
+    fn print_error(
+        &self,
+        model: &Mechanism,
+        real: &ForwardKinematics<'_>,
+        real_shared: &[f64],
+    ) -> Result<f64> {
+        let commanding = model.nominal_parameters();
+        let reached = reached_poses_from(model, &commanding, real, &self.map, &mut Vec::new());
+        let instrument = model.forward_instrument().ok_or_else(|| {
+            Error::Invalid("a printer study's model has a forward instrument".into())
+        })?;
+        let shared = instrument.nominal();
+        observed_frame_error(instrument, (&shared, real_shared), &self.map, &reached)
+            .map(|e| e.position_error.rms)
+            .ok_or_else(|| {
+                Error::Invalid(format!(
+                    "print error: the real printer reaches none of the {} map points",
+                    self.map.len()
+                ))
+            })
+    }
+}
+
+/// A drawn printer's leg parameters and instrument values (its simulation block's `real`).
+fn real_values(real: &Mechanism) -> Result<(Vec<Vec<f64>>, Vec<f64>)> {
+    let simulation = crate::measure::simulate::setup(real)?;
+    let value = |name: &str, nominal: f64| simulation.real.get(name).copied().unwrap_or(nominal);
+    let legs = real
+        .legs
+        .iter()
+        .map(|leg| {
+            leg.params
+                .iter()
+                .map(|p| value(&p.name, p.nominal))
+                .collect()
+        })
+        .collect();
+    let shared = real.instrument.as_ref().map_or_else(Vec::new, |i| {
+        i.parameters
+            .iter()
+            .map(|p| value(&p.name, p.nominal))
+            .collect()
+    });
+    Ok((legs, shared))
+}
+
+/// `mechanism` with its quantities at `values` (by name; the others nominal) and every
+/// derived parameter following them: the geometry the firmware's values describe.
+///
+/// # Errors
+/// A name that is not a quantity of the model; a derived parameter that is not finite there.
+pub fn with_quantities(mechanism: &Mechanism, values: &[(String, f64)]) -> Result<Mechanism> {
+    let mut quantities: Vec<f64> = mechanism.quantities.iter().map(|q| q.nominal).collect();
+    for (name, value) in values {
+        let k = mechanism
+            .quantities
+            .iter()
+            .position(|q| &q.name == name)
+            .ok_or_else(|| Error::Model {
+                path: mechanism.model_path.clone(),
+                field: "quantities".into(),
+                message: format!("expected a quantity `{name}`, found none"),
+            })?;
+        quantities[k] = *value;
+    }
+    for leg in &mechanism.legs {
+        for p in &leg.params {
+            if let Some(e) = &p.derived {
+                let value: f64 = e.eval(&quantities);
+                if !value.is_finite() {
+                    return Err(Error::Model {
+                        path: mechanism.model_path.clone(),
+                        field: format!("parameters.{}.value", p.name),
+                        message: format!("not finite at the firmware's values ({value})"),
+                    });
+                }
+            }
+        }
+    }
+    Ok(mechanism.edited(|parts| {
+        for (q, value) in parts.quantities.iter_mut().zip(&quantities) {
+            q.nominal = *value;
+        }
+        for leg in &mut parts.legs {
+            for p in &mut leg.params {
+                if let Some(e) = &p.derived {
+                    p.nominal = e.eval(&quantities);
+                }
+            }
+        }
+    }))
+}
+
+/// `mechanism` with its legs' parameters at `legs` and its instrument's at `shared`: a
+/// calibrated model in memory.
+fn with_parameters(
+    mechanism: &Mechanism,
+    legs: &[Vec<f64>],
+    shared: Option<Vec<f64>>,
+) -> Mechanism {
+    mechanism.edited(|parts| {
+        for (leg, values) in parts.legs.iter_mut().zip(legs) {
+            for (p, value) in leg.params.iter_mut().zip(values) {
+                p.nominal = *value;
+            }
+        }
+        if let (Some(instrument), Some(shared)) = (parts.instrument.as_mut(), shared) {
+            for (p, value) in instrument.parameters.iter_mut().zip(shared) {
+                p.nominal = value;
+            }
+        }
+    })
+}
+
+/// A firmware fit as the values of `mechanism`'s quantities: `radius`, each tower's `angle_t`,
+/// its rod (`arm_t`, or one `rod`) and `endstop_t`, the towers' letters read from the model's
+/// `angle_*` quantities in order.
+///
+/// # Errors
+/// The model does not name three tower angles.
+pub fn firmware_quantities(mechanism: &Mechanism, fit: &DeltaFit) -> Result<Vec<(String, f64)>> {
+    let towers: Vec<&str> = mechanism
+        .quantities
+        .iter()
+        .filter_map(|q| q.name.strip_prefix("angle_"))
+        .collect();
+    if towers.len() != 3 {
+        return Err(Error::Model {
+            path: mechanism.model_path.clone(),
+            field: "quantities".into(),
+            message: format!(
+                "expected the three tower angles `angle_*` of an imported printer, found {}",
+                towers.len()
+            ),
+        });
+    }
+    let has = |name: &str| mechanism.quantities.iter().any(|q| q.name == name);
+    let mut values = vec![("radius".to_string(), fit.radius)];
+    for (i, t) in towers.iter().enumerate() {
+        values.push((format!("angle_{t}"), fit.angles[i]));
+        values.push((format!("endstop_{t}"), fit.endstop(i)));
+        if has(&format!("arm_{t}")) {
+            values.push((format!("arm_{t}"), fit.arms[i]));
+        }
+    }
+    if has("rod") {
+        values.push(("rod".to_string(), fit.arms[0]));
+    }
+    Ok(values)
+}
+
+/// The study's figures over the printers that succeeded.
+#[derive(Debug, Clone, PartialEq, serde::Serialize)]
+pub struct PrinterStudySummary {
+    /// Printers whose both workflows ran.
+    pub succeeded: usize,
+    /// Median print error with the imported values, m.
+    pub nominal_median: f64,
+    /// Median print error after the firmware's calibration, m.
+    pub firmware_median: f64,
+    /// Median print error of legwise's calibrated model itself, m.
+    pub legwise_model_median: f64,
+    /// Median print error of legwise's calibration exported through the firmware, m.
+    pub legwise_median: f64,
+    /// `legwise_median / firmware_median`.
+    pub ratio: f64,
+    /// Fraction of the printers where legwise's exported calibration prints better.
+    pub legwise_better: f64,
+    /// Median of the export's loss (RMS over the bed), m.
+    pub export_loss_median: f64,
+    /// Largest export loss, m.
+    pub export_loss_max: f64,
+}
+
+impl PrinterStudyResult {
+    /// The figures over the printers that succeeded (`None` if none did).
+    pub fn summary(&self) -> Option<PrinterStudySummary> {
+        let ok: Vec<&PrinterErrors> = self
+            .printers
+            .iter()
+            .filter_map(|p| p.outcome.as_ref().ok().map(|o| &o.errors))
+            .collect();
+        if ok.is_empty() {
+            return None;
+        }
+        let median_of = |f: fn(&PrinterErrors) -> f64| median(ok.iter().map(|e| f(e)).collect());
+        let firmware_median = median_of(|e| e.firmware);
+        let legwise_median = median_of(|e| e.legwise);
+        Some(PrinterStudySummary {
+            succeeded: ok.len(),
+            nominal_median: median_of(|e| e.nominal),
+            firmware_median,
+            legwise_model_median: median_of(|e| e.legwise_model),
+            legwise_median,
+            ratio: legwise_median / firmware_median,
+            legwise_better: ok.iter().filter(|e| e.legwise < e.firmware).count() as f64
+                / ok.len() as f64,
+            export_loss_median: median_of(|e| e.export_loss),
+            export_loss_max: ok.iter().map(|e| e.export_loss).fold(0.0, f64::max),
+        })
+    }
+}
+
+/// The median of `values` (the mean of the middle two for an even count).
+pub fn median(mut values: Vec<f64>) -> f64 {
+    values.sort_by(f64::total_cmp);
+    let n = values.len();
+    match n {
+        0 => f64::NAN,
+        _ if n % 2 == 1 => values[n / 2],
+        _ => 0.5 * (values[n / 2 - 1] + values[n / 2]),
+    }
+}
