@@ -91,6 +91,44 @@ fn klippers_six_factors_on_its_touches_are_the_printer_behind_them() {
         .all(|f| f.sigma > 0.0 && f.sigma.is_finite()));
 }
 
+/// A real printer: an FLSUN QQ-S whose SAVE_CONFIG block (tests/data/klipper/flsun_qqs.cfg,
+/// from a public NixOS configuration) holds the values Klipper's DELTA_CALIBRATE computed from
+/// the seven stable positions saved beside them. Klipper's six factors fitted by legwise on
+/// those positions, from those values, stay at them to 1e-4 mm and 1e-4° (Klipper writes six
+/// decimals and stops at its own tolerance); the rods are the file's 280 mm.
+#[test]
+fn a_real_save_config_is_klippers_six_factors_on_its_own_touches() {
+    let dir = tempfile::tempdir().unwrap();
+    let config = KlipperConfig::read(Path::new("tests/data/klipper/flsun_qqs.cfg")).unwrap();
+    let delta = KlipperDelta::from_config(&config).unwrap().geometry();
+    let (mechanism, data) = model_of(dir.path(), &delta, 1e-5);
+    let fit = fitted(&mechanism, &data, "klipper-6");
+    assert_eq!((fit.rows, fit.observability.rank), (7, 6));
+    let saved_angles = [210.181908, 329.784204];
+    let saved_endstops = [372.971746, 373.433577, 373.629930];
+    let radius = factor(&fit, "radius") * 1e3;
+    assert!((radius - 141.553523).abs() < 1e-4, "radius {radius} mm");
+    for (k, tower) in ["a", "b"].iter().enumerate() {
+        let angle = factor(&fit, &format!("angle_{tower}")).to_degrees();
+        assert!((angle - saved_angles[k]).abs() < 1e-4, "{tower}: {angle}°");
+    }
+    for (k, tower) in ["a", "b", "c"].iter().enumerate() {
+        let endstop = factor(&fit, &format!("endstop_{tower}")) * 1e3;
+        assert!(
+            (endstop - saved_endstops[k]).abs() < 1e-4,
+            "{tower}: {endstop} mm"
+        );
+    }
+    // A real probe on a real printer: the residual (72 µm RMS) is far above the declared
+    // 10 µm, and the fit says so.
+    assert!(
+        fit.rms > 5e-5 && fit.scale() > 10.0,
+        "{} {}",
+        fit.rms,
+        fit.scale()
+    );
+}
+
 /// The model's own set through the change of unknowns (the identity here) is the default
 /// joint fit: the same estimates and the same σ (the pipeline's covariance is its own code).
 #[test]
