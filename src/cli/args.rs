@@ -67,6 +67,14 @@ pub struct SetsArgs {
     /// Also write the table as JSON to this file (`-`: standard output).
     #[arg(long)]
     pub json: Option<PathBuf>,
+    /// Directory for the pictures (created if missing): each row's residual where it was
+    /// measured, before (the nominal model) and after (the model's own set); models seen
+    /// through an instrument.
+    #[arg(long, value_name = "DIR")]
+    pub plots: Option<PathBuf>,
+    /// Draw the pictures as PNG instead of SVG.
+    #[arg(long)]
+    pub png: bool,
 }
 
 /// Options of `legwise printer`.

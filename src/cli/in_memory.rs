@@ -254,7 +254,7 @@ pub fn sets_in_memory(arguments: &[String], csv: Option<&str>) -> anyhow::Result
         )),
         (None, None) => None,
     };
-    let (fits, title) = super::sets::table(&mechanism, data)?;
+    let (fits, title, _) = super::sets::table(&mechanism, data)?;
     let json = serde_json::to_string_pretty(&crate::report::factor_sets::factor_sets_json(&fits))?;
     Ok((
         json + "\n",

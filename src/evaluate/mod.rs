@@ -17,6 +17,7 @@ mod error_stats;
 pub mod held_out;
 pub mod observed_frame;
 pub mod predicted_position;
+pub mod row_residuals;
 pub mod through_instrument;
 
 use crate::error::Result;

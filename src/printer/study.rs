@@ -42,6 +42,7 @@ use crate::model::mechanism::Simulation;
 use crate::model::params::Unit;
 use crate::model::quantities::FactorSet;
 use crate::model::region::Region;
+use crate::model::with_values::with_values;
 use crate::model::Mechanism;
 use crate::pipeline::{identify_one, measured};
 use crate::selection::forward_design::select_forward;
@@ -365,7 +366,7 @@ impl PrinterStudy {
             .iter()
             .map(|f| (f.name.clone(), f.estimate))
             .collect();
-        let firmware = with_quantities(&self.mechanism, &values)?;
+        let firmware = with_values(&self.mechanism, &values)?;
 
         let data = self.touches(&real, &self.selected, seed ^ 0x7e11)?;
         let result = identify_one(
@@ -391,7 +392,7 @@ impl PrinterStudy {
         );
         let export = fit_delta(&calibrated, self.bed_radius, self.firmware.terms)?;
         let legwise_values = firmware_quantities(&self.mechanism, &export)?;
-        let exported = with_quantities(&self.mechanism, &legwise_values)?;
+        let exported = with_values(&self.mechanism, &legwise_values)?;
         let errors = PrinterErrors {
             nominal: error(&self.mechanism)?,
             firmware: error(&firmware)?,
@@ -528,53 +529,6 @@ fn real_values(real: &Mechanism) -> Result<(Vec<Vec<f64>>, Vec<f64>)> {
             .collect()
     });
     Ok((legs, shared))
-}
-
-/// `mechanism` with its quantities at `values` (by name; the others nominal) and every
-/// derived parameter following them: the geometry the firmware's values describe.
-///
-/// # Errors
-/// A name that is not a quantity of the model; a derived parameter that is not finite there.
-pub fn with_quantities(mechanism: &Mechanism, values: &[(String, f64)]) -> Result<Mechanism> {
-    let mut quantities: Vec<f64> = mechanism.quantities.iter().map(|q| q.nominal).collect();
-    for (name, value) in values {
-        let k = mechanism
-            .quantities
-            .iter()
-            .position(|q| &q.name == name)
-            .ok_or_else(|| Error::Model {
-                path: mechanism.model_path.clone(),
-                field: "quantities".into(),
-                message: format!("expected a quantity `{name}`, found none"),
-            })?;
-        quantities[k] = *value;
-    }
-    for leg in &mechanism.legs {
-        for p in &leg.params {
-            if let Some(e) = &p.derived {
-                let value: f64 = e.eval(&quantities);
-                if !value.is_finite() {
-                    return Err(Error::Model {
-                        path: mechanism.model_path.clone(),
-                        field: format!("parameters.{}.value", p.name),
-                        message: format!("not finite at the firmware's values ({value})"),
-                    });
-                }
-            }
-        }
-    }
-    Ok(mechanism.edited(|parts| {
-        for (q, value) in parts.quantities.iter_mut().zip(&quantities) {
-            q.nominal = *value;
-        }
-        for leg in &mut parts.legs {
-            for p in &mut leg.params {
-                if let Some(e) = &p.derived {
-                    p.nominal = e.eval(&quantities);
-                }
-            }
-        }
-    }))
 }
 
 /// `mechanism` with its legs' parameters at `legs` and its instrument's at `shared`: a

@@ -76,6 +76,9 @@ pub fn factor_sets_text(title: &str, fits: &[FactorSetFit]) -> String {
             );
         }
     }
+    out.push_str(&super::next_steps::next_steps_text(
+        &super::next_steps::next_steps(fits),
+    ));
     out
 }
 

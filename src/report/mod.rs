@@ -4,6 +4,7 @@ pub mod calibrated;
 pub mod evaluation;
 pub mod factor_sets;
 pub mod json;
+pub mod next_steps;
 pub mod plots;
 pub mod selection;
 pub mod terminal;

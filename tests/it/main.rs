@@ -60,6 +60,7 @@ mod report_schema;
 mod robust_stationarity;
 mod schur;
 mod selection;
+mod sets_report;
 mod sigma_calibration;
 mod silent_inputs;
 mod solver_refine;

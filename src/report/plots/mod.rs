@@ -18,6 +18,7 @@ pub mod error_map;
 pub mod files;
 pub mod parameter_errors;
 mod raster;
+pub mod row_residuals;
 pub mod slices;
 pub mod style;
 pub mod workspace;
