@@ -101,7 +101,7 @@ class FactorSets:
     def __init__(self, table: List[Dict[str, Any]], text: str):
         self.sets: List[Dict[str, Any]] = table
         """Each set: ``name``, ``rows``, ``degrees_of_freedom``, ``rms``, ``leave_one_out``,
-        ``scale``, ``information``, ``rank``, ``predicted`` and ``factors`` (each ``name``, ``unit``, ``nominal``, ``estimate``,
+        ``scale``, ``information`` (AIC), ``information_corrected`` (AICc, the recommendation's score), ``rank``, ``predicted`` and ``factors`` (each ``name``, ``unit``, ``nominal``, ``estimate``,
         ``sigma``)."""
         self.text: str = text
         """The table as ``legwise sets`` prints it."""

@@ -222,6 +222,11 @@ pub struct PrinterStudyArgs {
     /// Grid spacing of the print-error map over the workspace, m.
     #[arg(long, default_value_t = 0.01, allow_negative_numbers = true)]
     pub map: f64,
+    /// Also fit every factor set of the model on legwise's touches: each set's print error,
+    /// and how the set recommended by the touches' leave-one-out error does against the best
+    /// in hindsight.
+    #[arg(long)]
+    pub sets: bool,
     /// Write every printer's errors and the summary as JSON.
     #[arg(long, value_name = "FILE")]
     pub json: Option<PathBuf>,

@@ -34,6 +34,7 @@ pub(super) fn run(args: &PrinterStudyArgs) -> anyhow::Result<Verdict> {
         touches,
         spread,
         map_grid,
+        compare_sets: args.sets,
         ..PrinterStudyOptions::new(printers, seed)
     };
     let study = PrinterStudy::prepare(&mechanism, firmware, options)?;
@@ -92,6 +93,7 @@ fn study_json(result: &PrinterStudyResult) -> serde_json::Value {
         "map_points": result.map_points,
         "map_grid_m": o.map_grid,
         "summary": result.summary(),
+        "choice": result.choice(),
         "per_printer": printers,
     })
 }
@@ -166,6 +168,34 @@ fn study_text(result: &PrinterStudyResult) -> Result<String, Error> {
         um(s.export_loss_max)
     )
     .map_err(w)?;
+    if let Some(choice) = result.choice() {
+        writeln!(
+            t,
+            "  every set on legwise's touches (median print error over the printers whose touches \
+             determine it; how often legwise recommends it: the lowest AICc of the sets the touches determine):"
+        )
+        .map_err(w)?;
+        for set in &choice.sets {
+            writeln!(
+                t,
+                "    {:<14} {:>2} factors  determined {:>5}  {:>8.1} µm  recommended {:>5}",
+                set.name,
+                set.factors,
+                set.determined,
+                um(set.median_print_error_m),
+                set.recommended
+            )
+            .map_err(w)?;
+        }
+        writeln!(
+            t,
+            "  the recommended set: median {:.1} µm; the best set in hindsight: {:.1} µm; ratio {:.3}",
+            um(choice.recommended_median_m),
+            um(choice.best_median_m),
+            choice.ratio
+        )
+        .map_err(w)?;
+    }
     for p in &result.printers {
         if let Err(reason) = &p.outcome {
             writeln!(t, "  printer {} failed: {reason}", p.index).map_err(w)?;

@@ -73,6 +73,10 @@ pub struct FactorSetFit {
     /// data determine); `NaN` without a declared noise. Lower is better, between sets fitted on
     /// the same rows.
     pub information: f64,
+    /// Akaike's criterion corrected for few rows (Hurvich and Tsai's AICc): `χ² + 2k +
+    /// 2k(k + 1)/(n − k − 1)` over `n` rows; infinite when `n ≤ k + 1` (the rows cannot judge
+    /// the set), `NaN` without a declared noise. Lower is better, between sets on the same rows.
+    pub information_corrected: f64,
     /// Weighted solves until the weights at the estimate were the ones it was fitted with (1
     /// when the rows' variances do not depend on the factors, as a probe's heights).
     pub weightings: usize,
@@ -369,6 +373,7 @@ pub fn fit_factor_set(
         leave_one_out,
         weightings,
         information: chi_square + 2.0 * observability.rank as f64,
+        information_corrected: corrected_information(chi_square, observability.rank, rows),
         name: set.name.clone(),
         note: set.note.clone(),
         factors,
@@ -379,6 +384,16 @@ pub fn fit_factor_set(
         observability,
         predicted,
     })
+}
+
+/// AICc: `χ² + 2k + 2k(k + 1)/(n − k − 1)`, infinite for `n ≤ k + 1`.
+pub fn corrected_information(chi_square: f64, k: usize, n: usize) -> f64 {
+    let (k, n) = (k as f64, n as f64);
+    let room = n - k - 1.0;
+    match room > 0.0 {
+        true => chi_square + 2.0 * k + 2.0 * k * (k + 1.0) / room,
+        false => chi_square + f64::INFINITY,
+    }
 }
 
 /// Largest leverage at which a row still has a leave-one-out prediction.

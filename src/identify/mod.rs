@@ -12,6 +12,7 @@ pub mod residual;
 pub mod result;
 pub mod robust;
 pub mod sandwich;
+pub mod set_choice;
 pub mod shared_estimate;
 pub mod shared_outliers;
 pub mod shared_weights;

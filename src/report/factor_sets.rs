@@ -20,7 +20,7 @@ pub fn factor_sets_text(title: &str, fits: &[FactorSetFit]) -> String {
         "RMS resid.",
         "left out",
         "scale",
-        "AIC",
+        "AICc",
         "predicted σ RMS / max (m)"
     );
     for fit in fits {
@@ -46,7 +46,7 @@ pub fn factor_sets_text(title: &str, fits: &[FactorSetFit]) -> String {
             fit.rms,
             number(left_out, 3),
             number(fit.scale(), 3),
-            aic(fit.information),
+            aic(fit.information_corrected),
             predicted
         );
     }
@@ -54,8 +54,9 @@ pub fn factor_sets_text(title: &str, fits: &[FactorSetFit]) -> String {
         "\nRMS resid., left out: the residuals' RMS and that of each row's leave-one-out \
          prediction error, in the measurements' units (m, rad; - where a row alone sees a \
          factor). scale: the residual's RMS in declared σ (about 1 when the data agree \
-         with the noise and the set explains them). AIC: χ² + 2 × factors (lower is better on \
-         the same rows). σ below is the declared noise's, not scaled by it.\n",
+         with the noise and the set explains them). AICc: Akaike's χ² + 2k corrected for few rows, \
+         + 2k(k + 1)/(rows − k − 1) (k factors; lower is better on the same rows; inf: too \
+         few rows to judge the set). σ below is the declared noise's, not scaled by it.\n",
     );
     for fit in fits {
         let note = fit
@@ -82,10 +83,12 @@ pub fn factor_sets_text(title: &str, fits: &[FactorSetFit]) -> String {
     out
 }
 
-/// An information criterion to one decimal, `-` when not finite.
+/// An information criterion to one decimal, `inf` when the rows cannot judge the set, `-`
+/// without a declared noise.
 fn aic(v: f64) -> String {
     match v.is_finite() {
         true => format!("{v:.1}"),
+        false if v == f64::INFINITY => "inf".to_string(),
         false => "-".to_string(),
     }
 }
@@ -114,6 +117,7 @@ pub fn factor_sets_json(fits: &[FactorSetFit]) -> Value {
                     "scale": finite(fit.scale()),
                     "leave_one_out": fit.leave_one_out,
                     "information": finite(fit.information),
+                    "information_corrected": finite(fit.information_corrected),
                     "rank": fit.observability.rank,
                     "unidentifiable": fit.observability.unidentifiable,
                     "predicted": fit.predicted.as_ref().map(|p| json!({

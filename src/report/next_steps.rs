@@ -5,6 +5,15 @@
 //! figure it rests on; nothing is specific to one mechanism.
 
 use crate::identify::factor_set::FactorSetFit;
+use crate::identify::set_choice::{recommended, Candidate};
+
+/// A criterion to one decimal, `inf` when the rows are too few to judge the set.
+fn score_text(score: f64) -> String {
+    match score.is_finite() {
+        true => format!("{score:.1}"),
+        false => "inf".to_string(),
+    }
+}
 
 /// Residual scale (in declared σ) above which the data do not agree with the declared noise.
 pub const NOISIER: f64 = 2.0;
@@ -91,56 +100,42 @@ pub fn next_steps(fits: &[FactorSetFit]) -> Vec<String> {
             ));
         }
     }
-    let determined: Vec<&FactorSetFit> = fits
-        .iter()
-        .filter(|f| f.observability.rank == f.factors.len() && f.leave_one_out.is_some())
-        .collect();
-    let best = determined.iter().min_by(|a, b| {
-        a.leave_one_out
-            .partial_cmp(&b.leave_one_out)
-            .unwrap_or(std::cmp::Ordering::Equal)
-    });
-    if let (Some(best), true) = (best, determined.len() > 1) {
-        let worse: Vec<String> = determined
-            .iter()
-            .filter(|f| f.factors.len() > best.factors.len())
-            .map(|f| {
-                format!(
-                    "`{}` ({} factors, {:.3e})",
-                    f.name,
-                    f.factors.len(),
-                    f.leave_one_out.unwrap_or(f64::NAN)
-                )
-            })
-            .collect();
-        let best_error = best.leave_one_out.unwrap_or(f64::NAN);
-        // Sets predicting as well (the same directions in other coordinates) are named with it.
-        let equal: Vec<String> = determined
-            .iter()
-            .filter(|f| f.name != best.name)
-            .filter(|f| {
-                f.leave_one_out
-                    .is_some_and(|e| (e - best_error).abs() <= 1e-6 * best_error)
-            })
-            .map(|f| format!("`{}`", f.name))
+    let candidates: Vec<Candidate> = fits.iter().map(Candidate::of).collect();
+    if let (Some(best), true) = (recommended(&candidates), fits.len() > 1) {
+        let score = candidates[best].score;
+        let equal: Vec<String> = (0..fits.len())
+            .filter(|&k| k != best && candidates[k].determined)
+            .filter(|&k| (candidates[k].score - score).abs() <= 1e-9 * score.abs().max(1.0))
+            .map(|k| format!("`{}`", fits[k].name))
             .collect();
         let also = match equal.is_empty() {
             true => String::new(),
             false => format!(" (as well: {})", equal.join(", ")),
         };
         let mut sentence = format!(
-            "Of the sets the rows determine, `{}` predicts left-out rows best ({best_error:.3e} \
-             RMS){also}.",
-            best.name
+            "Recommended: `{}`, the lowest AICc of the sets the rows determine ({score:.1}){also}.",
+            fits[best].name
         );
+        let worse: Vec<String> = (0..fits.len())
+            .filter(|&k| {
+                candidates[k].determined && candidates[k].factors > candidates[best].factors
+            })
+            .filter(|&k| candidates[k].score > score + 1e-9 * score.abs().max(1.0))
+            .map(|k| format!("`{}` ({})", fits[k].name, score_text(candidates[k].score)))
+            .collect();
         if !worse.is_empty() {
             sentence.push_str(&format!(
-                " More factors predict them worse: {}; the rows do not support the extra \
-                 factors.",
+                " More factors score worse: {}; these rows do not support the extra factors.",
                 worse.join(", ")
             ));
         }
         out.push(sentence);
+    } else if candidates.iter().any(|c| c.determined) {
+        out.push(
+            "No set can be recommended from these rows: each set they determine leaves at most \
+             one row beyond its factors (its AICc is infinite). More rows let the rows choose."
+                .to_string(),
+        );
     }
     out
 }
@@ -152,7 +147,8 @@ pub fn next_steps_text(sentences: &[String]) -> String {
     }
     let options = textwrap::Options::new(96)
         .initial_indent("  * ")
-        .subsequent_indent("    ");
+        .subsequent_indent("    ")
+        .word_splitter(textwrap::WordSplitter::NoHyphenation);
     let mut out = String::from("\nWhat next:\n");
     for sentence in sentences {
         out.push_str(&textwrap::fill(sentence, &options));

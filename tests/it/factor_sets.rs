@@ -338,6 +338,13 @@ fn the_leave_one_out_error_is_the_refits() {
         "{}",
         fit.information
     );
+    // Corrected for the few rows: + 2 × 6 × 7 / (m − 7).
+    let corrected = chi_square + 12.0 + 84.0 / (m - 7.0);
+    assert!(
+        (fit.information_corrected - corrected).abs() < 1e-9 * corrected,
+        "{}",
+        fit.information_corrected
+    );
     assert!((closed / refits - 1.0).abs() < 1e-3, "{closed} vs {refits}");
     assert!(closed > fit.rms, "{closed} vs {}", fit.rms);
 }

@@ -329,3 +329,60 @@ fn bad_studies_are_refused_by_name() {
          a printer imported by `legwise printer import`, found none",
     );
 }
+
+/// The imported model with three more candidate sets: the bed's tilts freed, the rods freed,
+/// and four factors (no tower angles).
+fn with_candidate_sets(dir: &Path) -> Mechanism {
+    imported(dir);
+    let path = dir.join("printer.yaml");
+    let text = std::fs::read_to_string(&path).unwrap().replace(
+        "factor_sets:\n",
+        "factor_sets:\n  - {name: tilts, fit: [radius, angle_a, angle_b, endstop_a, endstop_b, \
+         endstop_c, frame_roll, frame_pitch]}\n  - {name: rods, fit: [radius, angle_a, angle_b, \
+         endstop_a, endstop_b, endstop_c, arm_a, arm_b, arm_c]}\n  - {name: four, fit: [radius, \
+         endstop_a, endstop_b, endstop_c]}\n",
+    );
+    std::fs::write(&path, text).unwrap();
+    Mechanism::load(&path).unwrap()
+}
+
+#[test]
+fn the_recommended_set_is_the_lowest_corrected_criterion_and_never_frees_rods_or_tilts() {
+    let dir = tempfile::tempdir().unwrap();
+    let mechanism = with_candidate_sets(dir.path());
+    for touches in [18, 7] {
+        let firmware = klipper_calibration(&mechanism).unwrap();
+        let options = PrinterStudyOptions {
+            compare_sets: true,
+            touches: Some(touches),
+            ..PrinterStudyOptions::new(6, 3)
+        };
+        let study = PrinterStudy::prepare(&mechanism, firmware, options).unwrap();
+        let result = study.run();
+        let choice = result.choice().unwrap();
+        let picked: usize = choice.sets.iter().map(|s| s.recommended).sum();
+        assert_eq!(picked, 6, "one set a printer at {touches} touches");
+        for printer in &result.printers {
+            let sets = &printer.outcome.as_ref().unwrap().sets;
+            // Recomputed here: the lowest finite AICc of the determined sets, fewer factors
+            // first among equal scores.
+            let best = sets
+                .iter()
+                .filter(|s| s.determined)
+                .filter_map(|s| s.information_corrected.map(|v| (v, s.factors, &s.name)))
+                .min_by(|a, b| {
+                    let same = (a.0 - b.0).abs() <= 1e-9 * a.0.abs().max(1.0);
+                    match same {
+                        true => a.1.cmp(&b.1),
+                        false => a.0.total_cmp(&b.0),
+                    }
+                })
+                .unwrap();
+            let k = legwise::printer::study::recommended(sets).unwrap();
+            assert_eq!(&sets[k].name, best.2, "{sets:?}");
+            assert!(!["tilts", "rods", "klipper-9"].contains(&sets[k].name.as_str()));
+            assert!(sets[k].factors <= 6, "{touches} touches: {}", sets[k].name);
+        }
+        assert!(choice.best_median_m <= choice.recommended_median_m);
+    }
+}

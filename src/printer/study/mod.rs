@@ -51,6 +51,10 @@ use crate::study::montecarlo::trial_seed;
 
 use super::export::{fit_delta, DeltaFit, FirmwareTerms};
 
+mod choice;
+
+pub use choice::{recommended, SetOutcome};
+
 /// How far the simulated printers are from the imported model: Gaussian standard deviations by
 /// kind of parameter.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -195,6 +199,9 @@ pub struct PrinterStudyOptions {
     pub spread: Spread,
     /// Grid spacing of the print-error map, m.
     pub map_grid: f64,
+    /// Also fit every factor set of the model on legwise's touches, each judged by its print
+    /// error, and the set the touches alone recommend ([`recommended`]).
+    pub compare_sets: bool,
 }
 
 impl PrinterStudyOptions {
@@ -207,6 +214,7 @@ impl PrinterStudyOptions {
             touches: None,
             spread: Spread::default(),
             map_grid: 0.01,
+            compare_sets: false,
         }
     }
 }
@@ -237,6 +245,10 @@ pub struct PrinterOutcome {
     pub firmware_values: BTreeMap<String, f64>,
     /// legwise's calibration exported as the firmware's values (the model's quantities, SI).
     pub legwise_values: BTreeMap<String, f64>,
+    /// With [`PrinterStudyOptions::compare_sets`]: every set of the model on legwise's
+    /// touches (the model's own first).
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub sets: Vec<SetOutcome>,
 }
 
 /// One printer: its seed and what its calibrations gave, or why it failed.
@@ -400,10 +412,15 @@ impl PrinterStudy {
             legwise: error(&exported)?,
             export_loss: export.rms_loss,
         };
+        let sets = match self.options.compare_sets {
+            true => self.set_outcomes(&data, &kinematics, &shared)?,
+            false => Vec::new(),
+        };
         Ok(PrinterOutcome {
             errors,
             firmware_values: values.into_iter().collect(),
             legwise_values: legwise_values.into_iter().collect(),
+            sets,
         })
     }
 
@@ -637,6 +654,88 @@ impl PrinterStudyResult {
                 / ok.len() as f64,
             export_loss_median: median_of(|e| e.export_loss),
             export_loss_max: ok.iter().map(|e| e.export_loss).fold(0.0, f64::max),
+        })
+    }
+}
+
+/// One set's figures over the printers.
+#[derive(Debug, Clone, PartialEq, serde::Serialize)]
+pub struct SetSummary {
+    /// The set's name.
+    pub name: String,
+    /// Its factors.
+    pub factors: usize,
+    /// Printers whose touches determined it.
+    pub determined: usize,
+    /// Median print error over those printers, m.
+    pub median_print_error_m: f64,
+    /// Printers on which the rule recommended it.
+    pub recommended: usize,
+}
+
+/// How the recommendation did over the printers.
+#[derive(Debug, Clone, PartialEq, serde::Serialize)]
+pub struct ChoiceSummary {
+    /// Per set.
+    pub sets: Vec<SetSummary>,
+    /// Median over the printers of the recommended set's print error, m.
+    pub recommended_median_m: f64,
+    /// Median over the printers of the best set's in hindsight (the smallest print error of
+    /// the determined sets), m.
+    pub best_median_m: f64,
+    /// `recommended_median_m / best_median_m`.
+    pub ratio: f64,
+}
+
+impl PrinterStudyResult {
+    /// The recommendation's figures (`None` without [`PrinterStudyOptions::compare_sets`] or
+    /// a printer that succeeded).
+    pub fn choice(&self) -> Option<ChoiceSummary> {
+        let printers: Vec<&[SetOutcome]> = self
+            .printers
+            .iter()
+            .filter_map(|p| p.outcome.as_ref().ok())
+            .map(|o| o.sets.as_slice())
+            .filter(|sets| !sets.is_empty())
+            .collect();
+        let first = printers.first()?;
+        let picks: Vec<Option<usize>> = printers.iter().map(|sets| recommended(sets)).collect();
+        let sets = first
+            .iter()
+            .enumerate()
+            .map(|(k, set)| {
+                let errors: Vec<f64> = printers
+                    .iter()
+                    .filter_map(|sets| sets.get(k).and_then(|s| s.print_error_m))
+                    .collect();
+                SetSummary {
+                    name: set.name.clone(),
+                    factors: set.factors,
+                    determined: errors.len(),
+                    median_print_error_m: median(errors),
+                    recommended: picks.iter().filter(|p| **p == Some(k)).count(),
+                }
+            })
+            .collect();
+        let chosen: Vec<f64> = printers
+            .iter()
+            .zip(&picks)
+            .filter_map(|(sets, pick)| pick.and_then(|k| sets[k].print_error_m))
+            .collect();
+        let best: Vec<f64> = printers
+            .iter()
+            .filter_map(|sets| {
+                sets.iter()
+                    .filter_map(|s| s.print_error_m)
+                    .min_by(f64::total_cmp)
+            })
+            .collect();
+        let (recommended_median_m, best_median_m) = (median(chosen), median(best));
+        Some(ChoiceSummary {
+            sets,
+            recommended_median_m,
+            best_median_m,
+            ratio: recommended_median_m / best_median_m,
         })
     }
 }
