@@ -53,6 +53,28 @@ pub enum Command {
     /// scale against the declared noise, predicted σ over the workspace, rank, each factor's σ.
     #[command(after_help = help::SETS)]
     Sets(SetsArgs),
+    /// How many rows a model needs: the predicted σ of its target over the workspace at
+    /// several numbers of selected rows (each as `identify --poses-per-leg N`), as a table.
+    #[command(name = "how-many", after_help = help::HOW_MANY)]
+    HowMany(HowManyArgs),
+}
+
+/// Options of `legwise how-many`.
+#[derive(Debug, clap::Args)]
+pub struct HowManyArgs {
+    /// The model file (YAML), seen through the forward kinematics, with a simulation block.
+    #[arg(long)]
+    pub model: PathBuf,
+    /// The numbers of rows, comma-separated (default: 1/4, 1/2, 3/4, 1, 3/2 and 2 times the
+    /// model's `selection.poses_per_leg`).
+    #[arg(long, value_delimiter = ',', allow_negative_numbers = true)]
+    pub counts: Option<Vec<i64>>,
+    /// Seed of the simulated experiments (default: the model's `simulation.seed`).
+    #[arg(long, allow_negative_numbers = true)]
+    pub seed: Option<i128>,
+    /// Also write the table as JSON to this file (`-`: standard output).
+    #[arg(long)]
+    pub json: Option<PathBuf>,
 }
 
 /// Options of `legwise sets`.

@@ -105,6 +105,15 @@ pub(super) const SETS: &str = examples!(
   legwise sets --model printer/printer.yaml --json sets.json"
 );
 
+/// `legwise how-many --help`.
+pub(super) const HOW_MANY: &str = examples!(
+    "
+  # the delta probe's predicted σ over the bed at 9 to 74 selected touches
+  legwise how-many --model models/delta-probe.yaml
+  # chosen counts
+  legwise how-many --model models/delta-probe.yaml --counts 8,12,18,37"
+);
+
 /// `legwise evaluate --help`.
 pub(super) const EVALUATE: &str = examples!(
     "

@@ -7,6 +7,7 @@ mod checks;
 mod console;
 mod evaluate;
 mod help;
+mod how_many;
 mod identify;
 mod in_memory;
 mod montecarlo;
@@ -42,5 +43,6 @@ pub fn run(cli: Cli) -> anyhow::Result<Verdict> {
         Command::Montecarlo(args) => montecarlo::run(&args),
         Command::Printer(args) => printer::run(&args),
         Command::Sets(args) => sets::run(&args),
+        Command::HowMany(args) => how_many::run(&args),
     }
 }

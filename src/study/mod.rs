@@ -10,6 +10,7 @@
 //! * [`plots`] — the error distributions per strategy.
 mod alarms;
 mod arm;
+pub mod how_many;
 pub mod montecarlo;
 pub mod plots;
 pub mod report;

@@ -23,6 +23,7 @@ mod forward_outliers;
 mod fuzz;
 mod golden;
 mod hostile_inputs;
+mod how_many;
 mod implausible;
 mod in_memory;
 mod instrument_cli;
