@@ -11,12 +11,18 @@ fn at_the_models_own_count_it_is_what_identify_predicts() {
     let model = "models/delta-probe.yaml";
     let identify = json_of(&["identify", "--model", model, "--json", "-"]);
     let expected = &identify["results"][0]["instrument"]["predicted_position"];
-    let table = json_of(&["how-many", "--model", model, "--counts", "9,37", "--json", "-"]);
+    let table = json_of(&[
+        "how-many", "--model", model, "--counts", "9,37", "--json", "-",
+    ]);
     let at = |k: usize, key: &str| table[k]["predicted"][key].as_f64().unwrap();
     assert_eq!(table[1]["count"], 37);
     for key in ["rms_m", "max_m"] {
         let want = expected[key].as_f64().unwrap();
-        assert!((at(1, key) - want).abs() <= 1e-12 * want, "{key}: {} vs {want}", at(1, key));
+        assert!(
+            (at(1, key) - want).abs() <= 1e-12 * want,
+            "{key}: {} vs {want}",
+            at(1, key)
+        );
     }
     // A quarter of the rows: a larger σ (about twice, as 1/√N).
     assert!(at(0, "rms_m") > 1.5 * at(1, "rms_m"), "{table}");
@@ -24,14 +30,26 @@ fn at_the_models_own_count_it_is_what_identify_predicts() {
 
 #[test]
 fn counts_beyond_the_candidates_say_why_and_bad_input_is_refused() {
-    let out = legwise_succeeds(&["how-many", "--model", "models/delta-probe.yaml", "--counts", "60"]);
+    let out = legwise_succeeds(&[
+        "how-many",
+        "--model",
+        "models/delta-probe.yaml",
+        "--counts",
+        "60",
+    ]);
     assert!(
         text(&out.stdout).contains("60 poses requested but the pool has only 49 candidates"),
         "{}",
         text(&out.stdout)
     );
     assert_fails_with(
-        &["how-many", "--model", "models/delta-probe.yaml", "--counts", "0"],
+        &[
+            "how-many",
+            "--model",
+            "models/delta-probe.yaml",
+            "--counts",
+            "0",
+        ],
         "legwise: --counts: expected between 1 and 100000, found 0",
     );
     assert_fails_with(

@@ -88,9 +88,9 @@ const PANEL: u32 = 560;
 const BAR: u32 = 124;
 const TITLE: u32 = 44;
 const FOOTER: u32 = 36;
-const Y_LABELS: u32 = 72;
-const X_LABELS: u32 = 44;
-const MARGIN: u32 = 12;
+const Y_LABELS: u32 = style::MAP_FRAME.2;
+const X_LABELS: u32 = style::MAP_FRAME.1;
+const MARGIN: u32 = style::MAP_FRAME.0;
 const CAPTION: u32 = 30;
 
 impl ErrorMapFigure {
@@ -163,22 +163,7 @@ impl ErrorMapFigure {
             ),
             None => format!("{}: no assemblable point", panel.title),
         };
-        let mut chart = ChartBuilder::on(area)
-            .caption(caption, style::caption())
-            .margin(MARGIN)
-            .x_label_area_size(X_LABELS)
-            .y_label_area_size(Y_LABELS)
-            .build_cartesian_2d(lo[0]..hi[0], lo[1]..hi[1])?;
-        chart
-            .configure_mesh()
-            .disable_mesh()
-            .x_desc("x (m)")
-            .y_desc("y (m)")
-            .x_label_formatter(&|v| style::tick(*v, hi[0] - lo[0]))
-            .y_label_formatter(&|v| style::tick(*v, hi[1] - lo[1]))
-            .label_style(style::label())
-            .axis_desc_style(style::axis_description())
-            .draw()?;
+        let mut chart = style::xy_map(area, caption, (lo, hi))?;
         let half = 0.5 * self.grid_m;
         chart.draw_series(panel.cells.iter().map(|cell| {
             let colour = match cell.error_m {

@@ -33,9 +33,9 @@ const PANEL: u32 = 520;
 const BAR: u32 = 130;
 const TITLE: u32 = 44;
 const FOOTER: u32 = 30;
-const Y_LABELS: u32 = 72;
-const X_LABELS: u32 = 44;
-const MARGIN: u32 = 12;
+const Y_LABELS: u32 = style::MAP_FRAME.2;
+const X_LABELS: u32 = style::MAP_FRAME.1;
+const MARGIN: u32 = style::MAP_FRAME.0;
 const CAPTION: u32 = 30;
 const DISC: i32 = 7;
 
@@ -126,22 +126,7 @@ impl Figure for ResidualFigure {
                 panel.title,
                 style::short_number(panel.rms() * 1e6)
             );
-            let mut chart = ChartBuilder::on(area)
-                .caption(caption, style::caption())
-                .margin(MARGIN)
-                .x_label_area_size(X_LABELS)
-                .y_label_area_size(Y_LABELS)
-                .build_cartesian_2d(lo[0]..hi[0], lo[1]..hi[1])?;
-            chart
-                .configure_mesh()
-                .disable_mesh()
-                .x_desc("x (m)")
-                .y_desc("y (m)")
-                .x_label_formatter(&|v| style::tick(*v, hi[0] - lo[0]))
-                .y_label_formatter(&|v| style::tick(*v, hi[1] - lo[1]))
-                .label_style(style::label())
-                .axis_desc_style(style::axis_description())
-                .draw()?;
+            let mut chart = style::xy_map(area, caption, (lo, hi))?;
             chart.draw_series(panel.rows.iter().map(|(at, r)| {
                 Circle::new((at[0], at[1]), DISC, diverging(r * 1e6, top_um).filled())
             }))?;

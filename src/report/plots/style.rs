@@ -147,6 +147,46 @@ pub fn bounding_box(points: impl IntoIterator<Item = [f64; 2]>) -> ([f64; 2], [f
     (lo, hi)
 }
 
+/// The label areas and margin of an x–y map panel: `(margin, x labels, y labels)` pixels.
+pub const MAP_FRAME: (u32, u32, u32) = (12, 44, 72);
+
+/// The chart [`xy_map`] returns: the plane in metres on `DB`.
+pub type XyMap<'a, DB> = ChartContext<
+    'a,
+    DB,
+    Cartesian2d<plotters::coord::types::RangedCoordf64, plotters::coord::types::RangedCoordf64>,
+>;
+
+/// A chart of the plane `x`, `y` (m) over `lo..hi` on `area`, titled, without a mesh: the
+/// frame of the maps (the accuracy map's panels, the row residuals'), sized by [`MAP_FRAME`].
+///
+/// # Errors
+/// The backend fails to draw.
+pub fn xy_map<'a, DB: DrawingBackend>(
+    area: &'a DrawingArea<DB, plotters::coord::Shift>,
+    title: String,
+    (lo, hi): ([f64; 2], [f64; 2]),
+) -> Result<XyMap<'a, DB>, DrawingAreaErrorKind<DB::ErrorType>> {
+    let (margin, x_labels, y_labels) = MAP_FRAME;
+    let mut chart = ChartBuilder::on(area)
+        .caption(title, caption())
+        .margin(margin)
+        .x_label_area_size(x_labels)
+        .y_label_area_size(y_labels)
+        .build_cartesian_2d(lo[0]..hi[0], lo[1]..hi[1])?;
+    chart
+        .configure_mesh()
+        .disable_mesh()
+        .x_desc("x (m)")
+        .y_desc("y (m)")
+        .x_label_formatter(&|v| tick(*v, hi[0] - lo[0]))
+        .y_label_formatter(&|v| tick(*v, hi[1] - lo[1]))
+        .label_style(label())
+        .axis_desc_style(axis_description())
+        .draw()?;
+    Ok(chart)
+}
+
 #[cfg(test)]
 mod tests {
     use super::{label_count, log_tick, short_number, tick};
