@@ -20,7 +20,7 @@ const REAL_ANGLES: [f64; 3] = [210.25, 329.8, 90.0];
 const REAL_ENDSTOPS: [f64; 3] = [297.36, 296.93, 297.10];
 
 /// Writes the model of `delta` into `dir` and loads it with its probe file.
-fn model_of(dir: &Path, delta: &DeltaGeometry, noise: f64) -> (Mechanism, Measurements) {
+pub(crate) fn model_of(dir: &Path, delta: &DeltaGeometry, noise: f64) -> (Mechanism, Measurements) {
     let options = ModelOptions {
         probe_noise: noise,
         ..ModelOptions::default()

@@ -7,11 +7,12 @@ use std::path::Path;
 use legwise::evaluate::row_residuals::row_residuals;
 use legwise::identify::factor_set::{fit_factor_set, model_sets};
 use legwise::model::with_values::with_values;
-use legwise::printer::delta_model::{printer_files, ModelOptions};
+use legwise::printer::delta_model::ModelOptions;
 use legwise::printer::klipper::{KlipperConfig, KlipperDelta};
 use legwise::{Measurements, Mechanism};
 
 use crate::cli::{assert_fails_with, legwise_succeeds, text};
+use crate::factor_sets::model_of;
 
 const FLSUN: &str = "tests/data/klipper/flsun_qqs.cfg";
 
@@ -19,13 +20,7 @@ const FLSUN: &str = "tests/data/klipper/flsun_qqs.cfg";
 fn flsun(dir: &Path) -> (Mechanism, Measurements) {
     let config = KlipperConfig::read(Path::new(FLSUN)).unwrap();
     let delta = KlipperDelta::from_config(&config).unwrap().geometry();
-    let files = printer_files(&delta, &ModelOptions::default(), "printer.urdf");
-    std::fs::write(dir.join("printer.yaml"), &files.yaml).unwrap();
-    std::fs::write(dir.join("printer.urdf"), &files.urdf).unwrap();
-    std::fs::write(dir.join("probe.csv"), &files.csv).unwrap();
-    let mechanism = Mechanism::load(&dir.join("printer.yaml")).unwrap();
-    let data = Measurements::read(&dir.join("probe.csv"), &mechanism).unwrap();
-    (mechanism, data)
+    model_of(dir, &delta, ModelOptions::default().probe_noise)
 }
 
 #[test]
