@@ -7,8 +7,10 @@
 use serde::Serialize;
 
 use crate::error::{Error, Result};
+use crate::identify::factor_set::{fit_factor_set, model_sets};
 use crate::identify::result::PredictedPosition;
 use crate::measure::simulate::SimulationOptions;
+use crate::model::mechanism::Simulation;
 use crate::model::Mechanism;
 use crate::pipeline::{run, Settings, SimulationSettings};
 
@@ -17,9 +19,13 @@ use crate::pipeline::{run, Settings, SimulationSettings};
 pub struct CountPoint {
     /// Rows selected.
     pub count: usize,
-    /// The predicted σ over the workspace, or why there is none (too few rows to determine the
-    /// unknowns, more rows than the candidate grid holds).
+    /// The predicted σ over the workspace as `legwise identify` reports it (with enough rows a
+    /// sandwich of the residuals: it varies with the experiment's noise), or why there is none
+    /// (too few rows to determine the unknowns, more rows than the candidate grid holds).
     pub predicted: std::result::Result<PredictedPosition, String>,
+    /// The design's: the same rows' predicted σ from the declared noise alone (the model's own
+    /// set fitted by [`crate::identify::factor_set::fit_factor_set`]), smooth in the count.
+    pub design: Option<PredictedPosition>,
 }
 
 /// The default counts around the model's own `n`: n/4, n/2, 3n/4, n, 3n/2, 2n (at least 2,
@@ -34,11 +40,12 @@ pub fn default_counts(n: usize) -> Vec<usize> {
 }
 
 /// The predicted σ at each of `counts` selected rows, simulated from `seed` (the model's seed
-/// when `None`).
+/// when `None`); a model without a simulation block is simulated at its nominal values with
+/// its declared noise (seed 1).
 ///
 /// # Errors
 /// The model is not seen through the forward kinematics (its predicted σ over the workspace is
-/// a forward fit's), or has no simulation block.
+/// a forward fit's).
 pub fn predicted_by_count(
     mechanism: &Mechanism,
     counts: &[usize],
@@ -54,7 +61,26 @@ pub fn predicted_by_count(
                 .into(),
         });
     }
-    crate::measure::simulate::setup(mechanism)?;
+    // Without a simulation block (an imported printer) the experiment is the nominal model's
+    // with the declared noise: the σ a design predicts at the model's values.
+    let with_simulation;
+    let mechanism = match mechanism.simulation {
+        Some(_) => mechanism,
+        None => {
+            let noise = mechanism.noise.unwrap_or_default();
+            with_simulation = mechanism.edited(|parts| {
+                parts.simulation = Some(Simulation {
+                    real: Default::default(),
+                    perturbation: None,
+                    pose_noise: noise.pose,
+                    reading_noise: noise.reading,
+                    poses_per_leg: parts.selection.poses_per_leg,
+                    seed: 1,
+                });
+            });
+            &with_simulation
+        }
+    };
     Ok(counts
         .iter()
         .map(|&count| {
@@ -69,18 +95,27 @@ pub fn predicted_by_count(
                 },
                 ..Settings::default()
             };
-            let predicted = run(mechanism, &settings)
-                .map_err(|e| e.to_string())
-                .and_then(|report| {
-                    report
-                        .results
-                        .iter()
-                        .find_map(|r| r.instrument.as_ref()?.predicted_position.clone())
-                        .ok_or_else(|| {
-                            "no predicted σ: the rows do not determine every unknown".to_string()
-                        })
-                });
-            CountPoint { count, predicted }
+            let report = run(mechanism, &settings).map_err(|e| e.to_string());
+            let design = report.as_ref().ok().and_then(|report| {
+                let own = model_sets(mechanism).into_iter().next()?;
+                fit_factor_set(mechanism, &report.measurements, &own)
+                    .ok()?
+                    .predicted
+            });
+            let predicted = report.and_then(|report| {
+                report
+                    .results
+                    .iter()
+                    .find_map(|r| r.instrument.as_ref()?.predicted_position.clone())
+                    .ok_or_else(|| {
+                        "no predicted σ: the rows do not determine every unknown".to_string()
+                    })
+            });
+            CountPoint {
+                count,
+                predicted,
+                design,
+            }
         })
         .collect())
 }

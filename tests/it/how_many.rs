@@ -29,6 +29,31 @@ fn at_the_models_own_count_it_is_what_identify_predicts() {
 }
 
 #[test]
+fn the_design_sigma_falls_with_the_rows_and_is_identifys_below_twelve_dof() {
+    let table = json_of(&[
+        "how-many",
+        "--model",
+        "models/delta-probe.yaml",
+        "--counts",
+        "9,18,27,37,49",
+        "--json",
+        "-",
+    ]);
+    let design: Vec<f64> = (0..5)
+        .map(|k| table[k]["design"]["rms_m"].as_f64().unwrap())
+        .collect();
+    assert!(design.windows(2).all(|w| w[1] < w[0]), "{design:?}");
+    // 9 touches, 6 unknowns: 3 residual degrees of freedom, so identify's σ are the declared
+    // noise's too (docs/statistics.md, "Few degrees of freedom").
+    let identify = table[0]["predicted"]["rms_m"].as_f64().unwrap();
+    assert!(
+        (design[0] - identify).abs() <= 1e-6 * identify,
+        "{} vs {identify}",
+        design[0]
+    );
+}
+
+#[test]
 fn counts_beyond_the_candidates_say_why_and_bad_input_is_refused() {
     let out = legwise_succeeds(&[
         "how-many",
