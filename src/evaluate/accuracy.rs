@@ -12,7 +12,8 @@ use super::observed_frame::{observed_frame_error, ObservedFrameError};
 use crate::error::{Error, Result};
 use crate::identify::estimate::StrategyResult;
 use crate::kinematics::chain::{attachment_on, platform_transform, ChainFrames};
-use crate::kinematics::inverse::{predict_reading, reading_value, solve_warm, Joints, MAX_JOINTS};
+use crate::kinematics::inverse::{predict_reading, reading_value, Joints, MAX_JOINTS};
+use crate::kinematics::kernel::LegInverse;
 use crate::kinematics::platform::{forward, Configuration, ForwardKinematics};
 use crate::model::leg::LegGeometry;
 use crate::model::Mechanism;
@@ -248,6 +249,13 @@ pub fn commanded(
         .map(|(leg, phi)| leg.geometry(phi))
         .collect();
     let frames: Vec<ChainFrames<f64>> = geometries.iter().map(ChainFrames::new).collect();
+    // Each leg's closed-form kernel where its chain has one (the generic chain otherwise).
+    let inverses: Vec<LegInverse<'_>> = mechanism
+        .legs
+        .iter()
+        .zip(geometries.iter().zip(&frames))
+        .map(|(leg, (geometry, frames))| LegInverse::new(leg, geometry, frames))
+        .collect();
     let legs = mechanism.legs.len();
     if joints.len() != targets.len() * legs {
         *joints = vec![None; targets.len() * legs];
@@ -268,10 +276,7 @@ pub fn commanded(
             };
             for (l, leg) in mechanism.legs.iter().enumerate() {
                 let attachment = attachment_on(&platform, &geometries[l].attachment);
-                let solution = solve_warm(
-                    leg,
-                    &geometries[l],
-                    &frames[l],
+                let solution = inverses[l].solve_warm(
                     (target, &attachment),
                     home,
                     solutions[i * legs + l]

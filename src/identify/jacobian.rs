@@ -25,9 +25,9 @@ use crate::kinematics::chain::{
     TipChain, Transform,
 };
 use crate::kinematics::inverse::{
-    joints, reading_at_tip, reading_value, solve_warm, Joints, LegSolution, Solution,
+    joints, reading_at_tip, reading_value, Joints, LegSolution, Solution,
 };
-use crate::kinematics::kernel::{LegKernel, PreparedKernel};
+use crate::kinematics::kernel::{LegInverse, LegKernel, PreparedKernel};
 use crate::model::leg::{LegGeometry, LegModel};
 use crate::model::params::ParamTarget;
 
@@ -255,18 +255,7 @@ impl<'a> PreparedLeg<'a> {
         seed: Option<&Joints>,
     ) -> Result<Solution, KinematicsError> {
         let target = attachment_on(platform, &self.geometry.attachment);
-        if let Some(kernel) = &self.kernel {
-            let seed = seed
-                .copied()
-                .unwrap_or_else(|| joints(&self.leg.home_joints));
-            if let Some(solution) = kernel.solve(&target, &seed) {
-                return Ok(solution);
-            }
-        }
-        solve_warm(
-            self.leg,
-            &self.geometry,
-            &self.frames,
+        LegInverse::with_kernel(self.leg, &self.geometry, &self.frames, self.kernel).solve_warm(
             (pose, &target),
             home_pose,
             seed,

@@ -10,8 +10,10 @@
 
 use nalgebra::Vector3;
 
+use super::chain::ChainFrames;
 use super::dyad::{Dyad, DyadFrame};
-use super::inverse::{Joints, Solution};
+use super::inverse::{joints, solve_warm, Joints, Solution};
+use crate::error::KinematicsError;
 use crate::model::leg::{LegGeometry, LegModel};
 use crate::scalar::Scalar;
 
@@ -60,6 +62,77 @@ impl PreparedKernel<f64> {
         match (&self.kernel, &self.frame) {
             (LegKernel::Dyad(dyad), KernelFrame::Dyad(frame)) => dyad.solve(frame, target, seed),
         }
+    }
+}
+
+/// A leg's inverse kinematics at one parameter vector: its closed-form kernel when its chain
+/// has one, the generic chain's Newton solve for every pose the kernel leaves to it (and for
+/// every pose of a leg without a kernel). The same solutions either way, to round-off.
+#[derive(Debug, Clone)]
+pub struct LegInverse<'a> {
+    leg: &'a LegModel,
+    geometry: &'a LegGeometry<f64>,
+    frames: &'a ChainFrames<f64>,
+    kernel: Option<PreparedKernel<f64>>,
+}
+
+impl<'a> LegInverse<'a> {
+    /// `leg`'s inverse kinematics at `geometry` (its chain `frames`, [`ChainFrames::new`] of
+    /// it), with the closed-form kernel its chain matches, if any.
+    pub fn new(
+        leg: &'a LegModel,
+        geometry: &'a LegGeometry<f64>,
+        frames: &'a ChainFrames<f64>,
+    ) -> Self {
+        let kernel = LegKernel::recognise(leg).map(|kernel| kernel.prepare(geometry));
+        Self::with_kernel(leg, geometry, frames, kernel)
+    }
+
+    /// As [`Self::new`] with the kernel already prepared at `geometry` (or none: the generic
+    /// chain alone).
+    pub fn with_kernel(
+        leg: &'a LegModel,
+        geometry: &'a LegGeometry<f64>,
+        frames: &'a ChainFrames<f64>,
+        kernel: Option<PreparedKernel<f64>>,
+    ) -> Self {
+        Self {
+            leg,
+            geometry,
+            frames,
+            kernel,
+        }
+    }
+
+    /// The leg's joints at `pose` (`target`: the world position of its attachment there),
+    /// warm-started from `seed` when given: the kernel's closed form on the turn of `seed` (of
+    /// the home joints without one), else [`solve_warm`] on the generic chain. Allocates
+    /// nothing.
+    ///
+    /// # Errors
+    /// As [`solve_warm`]: the leg cannot reach the pose on its home branch.
+    pub fn solve_warm(
+        &self,
+        (pose, target): (&[f64; 6], &Vector3<f64>),
+        home_pose: &[f64; 6],
+        seed: Option<&Joints>,
+    ) -> Result<Solution, KinematicsError> {
+        if let Some(kernel) = &self.kernel {
+            let seed = seed
+                .copied()
+                .unwrap_or_else(|| joints(&self.leg.home_joints));
+            if let Some(solution) = kernel.solve(target, &seed) {
+                return Ok(solution);
+            }
+        }
+        solve_warm(
+            self.leg,
+            self.geometry,
+            self.frames,
+            (pose, target),
+            home_pose,
+            seed,
+        )
     }
 }
 
