@@ -191,7 +191,12 @@ impl Dyad {
         for (k, value) in q.iter_mut().take(2).enumerate() {
             let rotation = self.signs[k] * Self::rotation(frame, &elbow, k);
             let difference = rotation - seed[k];
-            let turns = ((difference - wrap_angle(difference)) / TAU).round();
+            // No turn when the difference is well inside (−π, π) (no call to `round`).
+            let turns = if difference.abs() < 3.0 {
+                0.0
+            } else {
+                ((difference - wrap_angle(difference)) / TAU).round()
+            };
             *value = if turns != 0.0 {
                 rotation - turns * TAU
             } else {

@@ -4,6 +4,8 @@ pub mod chain;
 pub mod dyad;
 pub mod inverse;
 pub mod kernel;
+mod kernel_forward;
 mod newton_stop;
 pub mod platform;
+mod pose_derivative;
 pub mod singularity;
