@@ -8,4 +8,5 @@ mod kernel_forward;
 mod newton_stop;
 pub mod platform;
 mod pose_derivative;
+pub mod reading;
 pub mod singularity;
