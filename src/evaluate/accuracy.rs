@@ -225,8 +225,8 @@ pub fn reached_poses_from(
     commanded(mechanism, commanding, targets, joints)
         .into_iter()
         .map(|command| {
-            let (readings, mut start) = command?;
-            real.solve_near(&readings, &mut start).ok()
+            let (readings, start) = command?;
+            real.solve_near_pose(&readings, &start).ok()
         })
         .collect()
 }

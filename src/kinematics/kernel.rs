@@ -63,6 +63,16 @@ impl PreparedKernel<f64> {
             (LegKernel::Dyad(dyad), KernelFrame::Dyad(frame)) => dyad.solve(frame, target, seed),
         }
     }
+
+    /// The actuated joint's value reaching `target` (up to whole turns) and the actuated row
+    /// of the closure Jacobian's inverse there, without the passive joints: what a forward
+    /// solve needs from a leg. `None` where [`Self::solve`] would leave the pose to the generic
+    /// solve.
+    pub fn actuated_row(&self, target: &Vector3<f64>) -> Option<(f64, [f64; 3])> {
+        match (&self.kernel, &self.frame) {
+            (LegKernel::Dyad(dyad), KernelFrame::Dyad(frame)) => dyad.actuated_row(frame, target),
+        }
+    }
 }
 
 /// A leg's inverse kinematics at one parameter vector: its closed-form kernel when its chain

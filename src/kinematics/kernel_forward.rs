@@ -106,20 +106,21 @@ impl KernelForward {
     }
 
     /// Newton on the measured coordinates of `pose` (updated in place, the others kept) for
-    /// `readings` (one per leg), every leg's joints written into `joints`; `size` is the
-    /// mechanism's size (the step limit's length scale). Returns the column-normalised
-    /// determinant of the reduced Jacobian at the solution (its sign is the assembly mode, see
-    /// the module), or `None` where the stacked solve must decide; `pose` and `joints` are
-    /// then partly moved and must not be used.
+    /// `readings` (one per leg), every leg's joints written into `joints` when given (else
+    /// only the actuated joints are solved: one arc tangent a leg); `size` is the mechanism's
+    /// size (the step limit's length scale). Returns the column-normalised determinant of the
+    /// reduced Jacobian at the solution (its sign is the assembly mode, see the module), or
+    /// `None` where the stacked solve must decide; `pose` and `joints` are then partly moved
+    /// and must not be used.
     pub(crate) fn newton(
         &self,
         readings: &[f64],
         pose: &mut [f64; 6],
-        joints: &mut [Joints],
+        mut joints: Option<&mut [Joints]>,
         size: f64,
     ) -> Option<f64> {
         let m = self.measured.len();
-        if readings.len() != m || joints.len() != m {
+        if readings.len() != m || joints.as_ref().is_some_and(|j| j.len() != m) {
             return None;
         }
         let mut previous = f64::INFINITY;
@@ -138,10 +139,19 @@ impl KernelForward {
             let mut residual = [0.0; 6];
             for (l, leg) in self.legs.iter().enumerate() {
                 let target = attachment_on(&platform, &leg.attachment);
-                let solution = leg.kernel.solve(&target, &leg.home)?;
                 let (a, revolute) = leg.actuated;
                 let wanted = leg.actuator.0 * readings[l] + leg.actuator.1;
-                let difference = solution.q[a] - wanted;
+                let (actuated, row) = match joints.as_deref_mut() {
+                    Some(joints) => {
+                        let solution = leg.kernel.solve(&target, &leg.home)?;
+                        joints[l] = solution.q;
+                        joints[l][a] = wanted;
+                        let inverse = &solution.closure_inverse;
+                        (solution.q[a], [0, 1, 2].map(|d| inverse[(a, d)]))
+                    }
+                    None => leg.kernel.actuated_row(&target)?,
+                };
+                let difference = actuated - wanted;
                 residual[l] = if revolute {
                     wrap_angle(difference)
                 } else {
@@ -149,12 +159,8 @@ impl KernelForward {
                 };
                 for (k, derivative) in derivatives.iter().take(m).enumerate() {
                     let moved = derivative.of(&Vector3::from(leg.attachment));
-                    jacobian[l][k] = (0..3)
-                        .map(|d| solution.closure_inverse[(a, d)] * moved[d])
-                        .sum();
+                    jacobian[l][k] = (0..3).map(|d| row[d] * moved[d]).sum();
                 }
-                joints[l] = solution.q;
-                joints[l][a] = wanted;
             }
             let (step, determinant) = solve_small(jacobian, residual, m)?;
             // The step in units of the mechanism's size (lengths) and radians (angles).

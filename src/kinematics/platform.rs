@@ -175,7 +175,8 @@ impl<'m> ForwardKinematics<'m> {
         let (home_readings, _) = self.home.as_ref().ok()?;
         let kernel = KernelForward::new(self.mechanism, &self.geometries)?;
         let mut start = self.home_configuration();
-        let determinant = kernel.newton(home_readings, &mut start.pose, &mut start.joints, size)?;
+        let joints = Some(start.joints.as_mut_slice());
+        let determinant = kernel.newton(home_readings, &mut start.pose, joints, size)?;
         Some((kernel, determinant.signum()))
     }
 
@@ -236,7 +237,7 @@ impl<'m> ForwardKinematics<'m> {
         if let Some((kernel, kernel_home_sign)) = &self.kernel {
             let (mut pose, mut joints) = (start.pose, start.joints.clone());
             let size = 1e3 * self.smallest_size;
-            if let Some(sign) = kernel.newton(readings, &mut pose, &mut joints, size) {
+            if let Some(sign) = kernel.newton(readings, &mut pose, Some(&mut joints), size) {
                 if same_mode(sign, *kernel_home_sign) {
                     start.pose = pose;
                     start.joints = joints;
@@ -252,6 +253,30 @@ impl<'m> ForwardKinematics<'m> {
             }
         }
         self.solve(readings)
+    }
+
+    /// The pose reached for `readings` from `start`, as [`Self::solve_near`] finds it, without
+    /// handing back the configuration: through the legs' kernels only their actuated joints
+    /// are solved (an accuracy map's forward step).
+    ///
+    /// # Errors
+    /// As [`forward`].
+    pub fn solve_near_pose(
+        &self,
+        readings: &[f64],
+        start: &Configuration,
+    ) -> Result<[f64; 6], KinematicsError> {
+        self.home.as_ref().map_err(Clone::clone)?;
+        if let Some((kernel, kernel_home_sign)) = &self.kernel {
+            let mut pose = start.pose;
+            let size = 1e3 * self.smallest_size;
+            if let Some(sign) = kernel.newton(readings, &mut pose, None, size) {
+                if same_mode(sign, *kernel_home_sign) {
+                    return Ok(pose);
+                }
+            }
+        }
+        self.solve_near(readings, &mut start.clone())
     }
 
     /// Newton on the stacked closures from `configuration` (updated in place); returns the
