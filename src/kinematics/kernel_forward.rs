@@ -198,11 +198,12 @@ impl KernelForward {
 /// partial pivoting, in fixed storage) and the determinant of `a`'s block with its columns
 /// scaled to unit norm; `None` if the block is singular or the solution not finite.
 fn solve_small(mut a: [[f64; 6]; 6], mut b: [f64; 6], m: usize) -> Option<([f64; 6], f64)> {
-    let mut scales = 1.0;
-    for k in 0..m {
-        let norm = (0..m).map(|i| a[i][k] * a[i][k]).sum::<f64>().sqrt();
-        scales *= norm.max(f64::MIN_POSITIVE);
-    }
+    let scales: f64 = (0..m)
+        .map(|k| {
+            let norm = a[..m].iter().map(|row| row[k] * row[k]).sum::<f64>().sqrt();
+            norm.max(f64::MIN_POSITIVE)
+        })
+        .product();
     let mut determinant = 1.0;
     for k in 0..m {
         let pivot = (k..m).max_by(|&i, &j| a[i][k].abs().total_cmp(&a[j][k].abs()))?;
@@ -215,10 +216,11 @@ fn solve_small(mut a: [[f64; 6]; 6], mut b: [f64; 6], m: usize) -> Option<([f64;
             determinant = -determinant;
         }
         determinant *= a[k][k];
+        let pivot_row = a[k];
         for i in k + 1..m {
-            let factor = a[i][k] / a[k][k];
-            for j in k..m {
-                a[i][j] -= factor * a[k][j];
+            let factor = a[i][k] / pivot_row[k];
+            for (value, &above) in a[i][k..m].iter_mut().zip(&pivot_row[k..m]) {
+                *value -= factor * above;
             }
             b[i] -= factor * b[k];
         }
