@@ -276,13 +276,22 @@ pub fn commanded(
             };
             for (l, leg) in mechanism.legs.iter().enumerate() {
                 let attachment = attachment_on(&platform, &geometries[l].attachment);
-                let solution = inverses[l].solve_warm(
-                    (target, &attachment),
-                    home,
-                    solutions[i * legs + l]
-                        .as_ref()
-                        .or_else(|| seed.and_then(|s| solutions[s * legs + l].as_ref())),
-                );
+                let warm = solutions[i * legs + l]
+                    .as_ref()
+                    .or_else(|| seed.and_then(|s| solutions[s * legs + l].as_ref()));
+                // Through a kernel, the actuated joint alone (the reading's): the passive
+                // joints keep their warm starts' values, the forward step's start.
+                if let Some(actuated) = inverses[l].actuated(&attachment, warm) {
+                    let home_joints = || crate::kinematics::inverse::joints(&leg.home_joints);
+                    let mut q = warm.copied().unwrap_or_else(home_joints);
+                    q[leg.actuated] = actuated;
+                    let geometry = &geometries[l];
+                    readings[l] = (actuated - geometry.offset) / geometry.gain;
+                    configuration.joints[l] = q;
+                    solutions[i * legs + l] = Some(q);
+                    continue;
+                }
+                let solution = inverses[l].solve_warm((target, &attachment), home, warm);
                 match solution {
                     Ok(solution) => {
                         readings[l] = reading_value(leg, &geometries[l], &solution);

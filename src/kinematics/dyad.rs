@@ -190,18 +190,7 @@ impl Dyad {
         let mut q = [0.0; 3];
         for (k, value) in q.iter_mut().take(2).enumerate() {
             let rotation = self.signs[k] * Self::rotation(frame, &elbow, k);
-            let difference = rotation - seed[k];
-            // No turn when the difference is well inside (−π, π) (no call to `round`).
-            let turns = if difference.abs() < 3.0 {
-                0.0
-            } else {
-                ((difference - wrap_angle(difference)) / TAU).round()
-            };
-            *value = if turns != 0.0 {
-                rotation - turns * TAU
-            } else {
-                rotation
-            };
+            *value = on_turn_of(rotation, seed[k]);
         }
         // The closure Jacobian's columns sₖ z × (tip − pivotₖ) at tip = target: the pivots
         // are the base and the elbow.
@@ -291,4 +280,21 @@ impl Dyad {
 fn rotated<T: Scalar>(angle: T, w: [T; 2]) -> [T; 2] {
     let (s, c) = angle.sin_cos();
     [c * w[0] - s * w[1], s * w[0] + c * w[1]]
+}
+
+/// `rotation` (in (−π, π]) moved by whole turns into the 2π window centred on `seed`: the
+/// turn Newton's method from `seed` converges to.
+pub(crate) fn on_turn_of(rotation: f64, seed: f64) -> f64 {
+    let difference = rotation - seed;
+    // No turn when the difference is well inside (−π, π) (no call to `round`).
+    let turns = if difference.abs() < 3.0 {
+        0.0
+    } else {
+        ((difference - wrap_angle(difference)) / TAU).round()
+    };
+    if turns != 0.0 {
+        rotation - turns * TAU
+    } else {
+        rotation
+    }
 }

@@ -11,7 +11,7 @@
 use nalgebra::Vector3;
 
 use super::chain::ChainFrames;
-use super::dyad::{Dyad, DyadFrame};
+use super::dyad::{on_turn_of, Dyad, DyadFrame};
 use super::inverse::{joints, solve_warm, Joints, Solution};
 use crate::error::KinematicsError;
 use crate::model::leg::{LegGeometry, LegModel};
@@ -143,6 +143,19 @@ impl<'a> LegInverse<'a> {
             home_pose,
             seed,
         )
+    }
+}
+
+impl LegInverse<'_> {
+    /// The actuated joint alone at `target` through the leg's kernel, on the turn of `seed`'s
+    /// (of the home joints' without one): the value [`Self::solve_warm`] gives it, without the
+    /// passive joints (one arc tangent). `None` for a leg without a kernel, or where the kernel
+    /// leaves the pose to the generic solve (then call [`Self::solve_warm`]).
+    pub fn actuated(&self, target: &Vector3<f64>, seed: Option<&Joints>) -> Option<f64> {
+        let (rotation, _) = self.kernel.as_ref()?.actuated_row(target)?;
+        let a = self.leg.actuated;
+        let seed = seed.map_or_else(|| self.leg.home_joints[a], |seed| seed[a]);
+        Some(on_turn_of(rotation, seed))
     }
 }
 
