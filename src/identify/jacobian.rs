@@ -312,14 +312,20 @@ impl<'a> PreparedLeg<'a> {
         solution: &Solution,
         measured: &[usize],
     ) -> [f64; 6] {
-        let seeded: [DualSVec64<6>; 6] =
-            std::array::from_fn(|c| DualSVec64::<6>::from_re(pose[c]).derivative(c));
-        let attachment = self.geometry.attachment.map(DualSVec64::<6>::from_re);
-        let target = attachment_world(&seeded, &attachment);
-        let lanes: [[f64; 6]; 3] = std::array::from_fn(|k| {
-            let eps = target[k].eps.unwrap_generic(Const::<6>, U1);
-            std::array::from_fn(|c| eps[c])
-        });
+        // The target's derivatives with respect to the position coordinates are the unit
+        // vectors (exactly the dual pass's values): the pass is needed for an angle only.
+        let lanes: [[f64; 6]; 3] = if measured.iter().all(|&c| c < 3) {
+            std::array::from_fn(|k| std::array::from_fn(|c| if c == k { 1.0 } else { 0.0 }))
+        } else {
+            let seeded: [DualSVec64<6>; 6] =
+                std::array::from_fn(|c| DualSVec64::<6>::from_re(pose[c]).derivative(c));
+            let attachment = self.geometry.attachment.map(DualSVec64::<6>::from_re);
+            let target = attachment_world(&seeded, &attachment);
+            std::array::from_fn(|k| {
+                let eps = target[k].eps.unwrap_generic(Const::<6>, U1);
+                std::array::from_fn(|c| eps[c])
+            })
+        };
         let mut gradient = [0.0; 6];
         for &c in measured {
             let mut actuated = 0.0;
