@@ -27,7 +27,7 @@ use crate::kinematics::chain::{
 use crate::kinematics::inverse::{
     joints, reading_at_tip, reading_value, Joints, LegSolution, Solution,
 };
-use crate::kinematics::kernel::{LegInverse, LegKernel, PreparedKernel};
+use crate::kinematics::kernel::{solve_warm_through, LegKernel, PreparedKernel};
 use crate::model::leg::{LegGeometry, LegModel};
 use crate::model::params::ParamTarget;
 
@@ -255,11 +255,8 @@ impl<'a> PreparedLeg<'a> {
         seed: Option<&Joints>,
     ) -> Result<Solution, KinematicsError> {
         let target = attachment_on(platform, &self.geometry.attachment);
-        LegInverse::with_kernel(self.leg, &self.geometry, &self.frames, self.kernel).solve_warm(
-            (pose, &target),
-            home_pose,
-            seed,
-        )
+        let leg = (self.leg, &self.geometry, &self.frames);
+        solve_warm_through(self.kernel.as_ref(), leg, (pose, &target), home_pose, seed)
     }
 
     /// The predicted reading (f64) at an already solved pose (no chain pass: from the closure

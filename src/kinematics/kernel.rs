@@ -94,56 +94,51 @@ impl<'a> LegInverse<'a> {
         geometry: &'a LegGeometry<f64>,
         frames: &'a ChainFrames<f64>,
     ) -> Self {
-        let kernel = LegKernel::recognise(leg).map(|kernel| kernel.prepare(geometry));
-        Self::with_kernel(leg, geometry, frames, kernel)
-    }
-
-    /// As [`Self::new`] with the kernel already prepared at `geometry` (or none: the generic
-    /// chain alone).
-    pub fn with_kernel(
-        leg: &'a LegModel,
-        geometry: &'a LegGeometry<f64>,
-        frames: &'a ChainFrames<f64>,
-        kernel: Option<PreparedKernel<f64>>,
-    ) -> Self {
         Self {
             leg,
             geometry,
             frames,
-            kernel,
+            kernel: LegKernel::recognise(leg).map(|kernel| kernel.prepare(geometry)),
         }
     }
 
     /// The leg's joints at `pose` (`target`: the world position of its attachment there),
-    /// warm-started from `seed` when given: the kernel's closed form on the turn of `seed` (of
-    /// the home joints without one), else [`solve_warm`] on the generic chain. Allocates
-    /// nothing.
+    /// warm-started from `seed` when given: [`solve_warm_through`] its kernel.
     ///
     /// # Errors
     /// As [`solve_warm`]: the leg cannot reach the pose on its home branch.
     pub fn solve_warm(
         &self,
-        (pose, target): (&[f64; 6], &Vector3<f64>),
+        at: (&[f64; 6], &Vector3<f64>),
         home_pose: &[f64; 6],
         seed: Option<&Joints>,
     ) -> Result<Solution, KinematicsError> {
-        if let Some(kernel) = &self.kernel {
-            let seed = seed
-                .copied()
-                .unwrap_or_else(|| joints(&self.leg.home_joints));
-            if let Some(solution) = kernel.solve(target, &seed) {
-                return Ok(solution);
-            }
-        }
-        solve_warm(
-            self.leg,
-            self.geometry,
-            self.frames,
-            (pose, target),
-            home_pose,
-            seed,
-        )
+        let leg = (self.leg, self.geometry, self.frames);
+        solve_warm_through(self.kernel.as_ref(), leg, at, home_pose, seed)
     }
+}
+
+/// A leg's joints at `pose` (`target`: the world position of its attachment there), warm-started
+/// from `seed` when given: the closed form of `kernel` (the leg's, prepared at `geometry`) on
+/// the turn of `seed` (of the home joints without one), else [`solve_warm`] on the generic
+/// chain (`frames` of `geometry`). Allocates nothing.
+///
+/// # Errors
+/// As [`solve_warm`]: the leg cannot reach the pose on its home branch.
+pub fn solve_warm_through(
+    kernel: Option<&PreparedKernel<f64>>,
+    (leg, geometry, frames): (&LegModel, &LegGeometry<f64>, &ChainFrames<f64>),
+    (pose, target): (&[f64; 6], &Vector3<f64>),
+    home_pose: &[f64; 6],
+    seed: Option<&Joints>,
+) -> Result<Solution, KinematicsError> {
+    if let Some(kernel) = kernel {
+        let seed = seed.copied().unwrap_or_else(|| joints(&leg.home_joints));
+        if let Some(solution) = kernel.solve(target, &seed) {
+            return Ok(solution);
+        }
+    }
+    solve_warm(leg, geometry, frames, (pose, target), home_pose, seed)
 }
 
 impl LegInverse<'_> {
