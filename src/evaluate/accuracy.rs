@@ -12,7 +12,8 @@ use super::observed_frame::{observed_frame_error, ObservedFrameError};
 use crate::error::{Error, Result};
 use crate::identify::estimate::StrategyResult;
 use crate::kinematics::chain::{attachment_on, platform_transform, ChainFrames};
-use crate::kinematics::inverse::{predict_reading, reading_value, solve_warm, Joints, MAX_JOINTS};
+use crate::kinematics::inverse::{predict_reading, reading_value, Joints, MAX_JOINTS};
+use crate::kinematics::kernel::LegInverse;
 use crate::kinematics::platform::{forward, Configuration, ForwardKinematics};
 use crate::model::leg::LegGeometry;
 use crate::model::Mechanism;
@@ -224,8 +225,8 @@ pub fn reached_poses_from(
     commanded(mechanism, commanding, targets, joints)
         .into_iter()
         .map(|command| {
-            let (readings, mut start) = command?;
-            real.solve_near(&readings, &mut start).ok()
+            let (readings, start) = command?;
+            real.solve_near_pose(&readings, &start).ok()
         })
         .collect()
 }
@@ -248,6 +249,13 @@ pub fn commanded(
         .map(|(leg, phi)| leg.geometry(phi))
         .collect();
     let frames: Vec<ChainFrames<f64>> = geometries.iter().map(ChainFrames::new).collect();
+    // Each leg's closed-form kernel where its chain has one (the generic chain otherwise).
+    let inverses: Vec<LegInverse<'_>> = mechanism
+        .legs
+        .iter()
+        .zip(geometries.iter().zip(&frames))
+        .map(|(leg, (geometry, frames))| LegInverse::new(leg, geometry, frames))
+        .collect();
     let legs = mechanism.legs.len();
     if joints.len() != targets.len() * legs {
         *joints = vec![None; targets.len() * legs];
@@ -268,16 +276,22 @@ pub fn commanded(
             };
             for (l, leg) in mechanism.legs.iter().enumerate() {
                 let attachment = attachment_on(&platform, &geometries[l].attachment);
-                let solution = solve_warm(
-                    leg,
-                    &geometries[l],
-                    &frames[l],
-                    (target, &attachment),
-                    home,
-                    solutions[i * legs + l]
-                        .as_ref()
-                        .or_else(|| seed.and_then(|s| solutions[s * legs + l].as_ref())),
-                );
+                let warm = solutions[i * legs + l]
+                    .as_ref()
+                    .or_else(|| seed.and_then(|s| solutions[s * legs + l].as_ref()));
+                // Through a kernel, the actuated joint alone (the reading's): the passive
+                // joints keep their warm starts' values, the forward step's start.
+                if let Some(actuated) = inverses[l].actuated(&attachment, warm) {
+                    let home_joints = || crate::kinematics::inverse::joints(&leg.home_joints);
+                    let mut q = warm.copied().unwrap_or_else(home_joints);
+                    q[leg.actuated] = actuated;
+                    let geometry = &geometries[l];
+                    readings[l] = (actuated - geometry.offset) / geometry.gain;
+                    configuration.joints[l] = q;
+                    solutions[i * legs + l] = Some(q);
+                    continue;
+                }
+                let solution = inverses[l].solve_warm((target, &attachment), home, warm);
                 match solution {
                     Ok(solution) => {
                         readings[l] = reading_value(leg, &geometries[l], &solution);

@@ -25,9 +25,9 @@ use crate::kinematics::chain::{
     TipChain, Transform,
 };
 use crate::kinematics::inverse::{
-    joints, reading_at_tip, reading_value, solve_warm, Joints, LegSolution, Solution,
+    joints, reading_at_tip, reading_value, Joints, LegSolution, Solution,
 };
-use crate::kinematics::kernel::{LegKernel, PreparedKernel};
+use crate::kinematics::kernel::{solve_warm_through, LegKernel, PreparedKernel};
 use crate::model::leg::{LegGeometry, LegModel};
 use crate::model::params::ParamTarget;
 
@@ -255,22 +255,8 @@ impl<'a> PreparedLeg<'a> {
         seed: Option<&Joints>,
     ) -> Result<Solution, KinematicsError> {
         let target = attachment_on(platform, &self.geometry.attachment);
-        if let Some(kernel) = &self.kernel {
-            let seed = seed
-                .copied()
-                .unwrap_or_else(|| joints(&self.leg.home_joints));
-            if let Some(solution) = kernel.solve(&target, &seed) {
-                return Ok(solution);
-            }
-        }
-        solve_warm(
-            self.leg,
-            &self.geometry,
-            &self.frames,
-            (pose, &target),
-            home_pose,
-            seed,
-        )
+        let leg = (self.leg, &self.geometry, &self.frames);
+        solve_warm_through(self.kernel.as_ref(), leg, (pose, &target), home_pose, seed)
     }
 
     /// The predicted reading (f64) at an already solved pose (no chain pass: from the closure
@@ -323,14 +309,20 @@ impl<'a> PreparedLeg<'a> {
         solution: &Solution,
         measured: &[usize],
     ) -> [f64; 6] {
-        let seeded: [DualSVec64<6>; 6] =
-            std::array::from_fn(|c| DualSVec64::<6>::from_re(pose[c]).derivative(c));
-        let attachment = self.geometry.attachment.map(DualSVec64::<6>::from_re);
-        let target = attachment_world(&seeded, &attachment);
-        let lanes: [[f64; 6]; 3] = std::array::from_fn(|k| {
-            let eps = target[k].eps.unwrap_generic(Const::<6>, U1);
-            std::array::from_fn(|c| eps[c])
-        });
+        // The target's derivatives with respect to the position coordinates are the unit
+        // vectors (exactly the dual pass's values): the pass is needed for an angle only.
+        let lanes: [[f64; 6]; 3] = if measured.iter().all(|&c| c < 3) {
+            std::array::from_fn(|k| std::array::from_fn(|c| if c == k { 1.0 } else { 0.0 }))
+        } else {
+            let seeded: [DualSVec64<6>; 6] =
+                std::array::from_fn(|c| DualSVec64::<6>::from_re(pose[c]).derivative(c));
+            let attachment = self.geometry.attachment.map(DualSVec64::<6>::from_re);
+            let target = attachment_world(&seeded, &attachment);
+            std::array::from_fn(|k| {
+                let eps = target[k].eps.unwrap_generic(Const::<6>, U1);
+                std::array::from_fn(|c| eps[c])
+            })
+        };
         let mut gradient = [0.0; 6];
         for &c in measured {
             let mut actuated = 0.0;

@@ -190,13 +190,7 @@ impl Dyad {
         let mut q = [0.0; 3];
         for (k, value) in q.iter_mut().take(2).enumerate() {
             let rotation = self.signs[k] * Self::rotation(frame, &elbow, k);
-            let difference = rotation - seed[k];
-            let turns = ((difference - wrap_angle(difference)) / TAU).round();
-            *value = if turns != 0.0 {
-                rotation - turns * TAU
-            } else {
-                rotation
-            };
+            *value = on_turn_of(rotation, seed[k]);
         }
         // The closure Jacobian's columns sₖ z × (tip − pivotₖ) at tip = target: the pivots
         // are the base and the elbow.
@@ -227,6 +221,43 @@ impl Dyad {
         })
     }
 
+    /// The actuated joint's rotation reaching `target` on the working mode (in (−π, π] times
+    /// its axis sign, before any whole turn) and the actuated row of the closure Jacobian's
+    /// inverse there (its third entry zero): what a forward solve needs from a leg, with one
+    /// arc tangent instead of [`Self::solve`]'s two. `None` where [`Self::solve`] leaves the
+    /// pose to the generic solve (the circles do not meet, a reach limit, the other mode).
+    pub fn actuated_row(
+        &self,
+        frame: &DyadFrame<f64>,
+        target: &Vector3<f64>,
+    ) -> Option<(f64, [f64; 3])> {
+        let elbow = self.elbow(frame, [target[0], target[1]])?;
+        let k = self.actuated;
+        let rotation = self.signs[k] * Self::rotation(frame, &elbow, k);
+        // The closure Jacobian as in `solve`: columns sₖ z × (tip − pivotₖ).
+        let arms = [
+            [elbow[0][0] + elbow[1][0], elbow[0][1] + elbow[1][1]],
+            elbow[1],
+        ];
+        let columns = [0, 1].map(|c| [-self.signs[c] * arms[c][1], self.signs[c] * arms[c][0]]);
+        let determinant = columns[0][0] * columns[1][1] - columns[1][0] * columns[0][1];
+        let norm = |c: [f64; 2]| (c[0] * c[0] + c[1] * c[1]).sqrt().max(f64::MIN_POSITIVE);
+        let normalised = determinant / (norm(columns[0]) * norm(columns[1]));
+        let near_limit = normalised.abs() <= SINGULAR_DETERMINANT;
+        if near_limit || normalised.is_sign_positive() != self.home_positive {
+            return None;
+        }
+        // Row k of the 2 × 2 inverse: the other column turned, over the determinant.
+        let other = columns[1 - k];
+        let sign = if k == 0 { 1.0 } else { -1.0 };
+        let row = [
+            sign * other[1] / determinant,
+            -sign * other[0] / determinant,
+            0.0,
+        ];
+        (rotation.is_finite() && row.iter().all(|v| v.is_finite())).then_some((rotation, row))
+    }
+
     /// The actuated joint's value reaching `target` (in `T`: exact derivatives with respect
     /// to whatever the frame and the target carry), on the turn of the f64 `solution` (the
     /// same pose solved): its value part is the solution's joint to round-off. `None` if the
@@ -249,4 +280,21 @@ impl Dyad {
 fn rotated<T: Scalar>(angle: T, w: [T; 2]) -> [T; 2] {
     let (s, c) = angle.sin_cos();
     [c * w[0] - s * w[1], s * w[0] + c * w[1]]
+}
+
+/// `rotation` (in (−π, π]) moved by whole turns into the 2π window centred on `seed`: the
+/// turn Newton's method from `seed` converges to.
+pub(crate) fn on_turn_of(rotation: f64, seed: f64) -> f64 {
+    let difference = rotation - seed;
+    // No turn when the difference is well inside (−π, π) (no call to `round`).
+    let turns = if difference.abs() < 3.0 {
+        0.0
+    } else {
+        ((difference - wrap_angle(difference)) / TAU).round()
+    };
+    if turns != 0.0 {
+        rotation - turns * TAU
+    } else {
+        rotation
+    }
 }

@@ -579,6 +579,11 @@ pub(crate) fn normalised_determinant(jacobian: &Matrix3<f64>, dims: usize) -> f6
 
 /// Wraps an angle into (−π, π].
 pub fn wrap_angle(angle: f64) -> f64 {
+    // Already in the window (well inside it, away from the rounding at ±π): the same value
+    // as below (`angle − 0`, a zero of either sign made +0), without the call to `round`.
+    if angle.abs() < 3.0 {
+        return angle + 0.0;
+    }
     let two_pi = std::f64::consts::TAU;
     let wrapped = angle - two_pi * (angle / two_pi).round();
     if wrapped <= -std::f64::consts::PI {

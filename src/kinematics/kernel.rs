@@ -10,8 +10,10 @@
 
 use nalgebra::Vector3;
 
-use super::dyad::{Dyad, DyadFrame};
-use super::inverse::{Joints, Solution};
+use super::chain::ChainFrames;
+use super::dyad::{on_turn_of, Dyad, DyadFrame};
+use super::inverse::{joints, solve_warm, Joints, Solution};
+use crate::error::KinematicsError;
 use crate::model::leg::{LegGeometry, LegModel};
 use crate::scalar::Scalar;
 
@@ -60,6 +62,95 @@ impl PreparedKernel<f64> {
         match (&self.kernel, &self.frame) {
             (LegKernel::Dyad(dyad), KernelFrame::Dyad(frame)) => dyad.solve(frame, target, seed),
         }
+    }
+
+    /// The actuated joint's value reaching `target` (up to whole turns) and the actuated row
+    /// of the closure Jacobian's inverse there, without the passive joints: what a forward
+    /// solve needs from a leg. `None` where [`Self::solve`] would leave the pose to the generic
+    /// solve.
+    pub fn actuated_row(&self, target: &Vector3<f64>) -> Option<(f64, [f64; 3])> {
+        match (&self.kernel, &self.frame) {
+            (LegKernel::Dyad(dyad), KernelFrame::Dyad(frame)) => dyad.actuated_row(frame, target),
+        }
+    }
+}
+
+/// A leg's inverse kinematics at one parameter vector: its closed-form kernel when its chain
+/// has one, the generic chain's Newton solve for every pose the kernel leaves to it (and for
+/// every pose of a leg without a kernel). The same solutions either way, to round-off.
+#[derive(Debug, Clone)]
+pub struct LegInverse<'a> {
+    leg: &'a LegModel,
+    geometry: &'a LegGeometry<f64>,
+    frames: &'a ChainFrames<f64>,
+    kernel: Option<PreparedKernel<f64>>,
+}
+
+impl<'a> LegInverse<'a> {
+    /// `leg`'s inverse kinematics at `geometry` (its chain `frames`, [`ChainFrames::new`] of
+    /// it), with the closed-form kernel its chain matches, if any.
+    pub fn new(
+        leg: &'a LegModel,
+        geometry: &'a LegGeometry<f64>,
+        frames: &'a ChainFrames<f64>,
+    ) -> Self {
+        Self {
+            leg,
+            geometry,
+            frames,
+            kernel: LegKernel::recognise(leg).map(|kernel| kernel.prepare(geometry)),
+        }
+    }
+
+    /// The leg's joints at `pose` (`target`: the world position of its attachment there),
+    /// warm-started from `seed` when given: [`solve_warm_through`] its kernel.
+    ///
+    /// # Errors
+    /// As [`solve_warm`]: the leg cannot reach the pose on its home branch.
+    pub fn solve_warm(
+        &self,
+        at: (&[f64; 6], &Vector3<f64>),
+        home_pose: &[f64; 6],
+        seed: Option<&Joints>,
+    ) -> Result<Solution, KinematicsError> {
+        let leg = (self.leg, self.geometry, self.frames);
+        solve_warm_through(self.kernel.as_ref(), leg, at, home_pose, seed)
+    }
+}
+
+/// A leg's joints at `pose` (`target`: the world position of its attachment there), warm-started
+/// from `seed` when given: the closed form of `kernel` (the leg's, prepared at `geometry`) on
+/// the turn of `seed` (of the home joints without one), else [`solve_warm`] on the generic
+/// chain (`frames` of `geometry`). Allocates nothing.
+///
+/// # Errors
+/// As [`solve_warm`]: the leg cannot reach the pose on its home branch.
+pub fn solve_warm_through(
+    kernel: Option<&PreparedKernel<f64>>,
+    (leg, geometry, frames): (&LegModel, &LegGeometry<f64>, &ChainFrames<f64>),
+    (pose, target): (&[f64; 6], &Vector3<f64>),
+    home_pose: &[f64; 6],
+    seed: Option<&Joints>,
+) -> Result<Solution, KinematicsError> {
+    if let Some(kernel) = kernel {
+        let seed = seed.copied().unwrap_or_else(|| joints(&leg.home_joints));
+        if let Some(solution) = kernel.solve(target, &seed) {
+            return Ok(solution);
+        }
+    }
+    solve_warm(leg, geometry, frames, (pose, target), home_pose, seed)
+}
+
+impl LegInverse<'_> {
+    /// The actuated joint alone at `target` through the leg's kernel, on the turn of `seed`'s
+    /// (of the home joints' without one): the value [`Self::solve_warm`] gives it, without the
+    /// passive joints (one arc tangent). `None` for a leg without a kernel, or where the kernel
+    /// leaves the pose to the generic solve (then call [`Self::solve_warm`]).
+    pub fn actuated(&self, target: &Vector3<f64>, seed: Option<&Joints>) -> Option<f64> {
+        let (rotation, _) = self.kernel.as_ref()?.actuated_row(target)?;
+        let a = self.leg.actuated;
+        let seed = seed.map_or_else(|| self.leg.home_joints[a], |seed| seed[a]);
+        Some(on_turn_of(rotation, seed))
     }
 }
 

@@ -5,12 +5,13 @@
 //! Unknowns: the measured pose coordinates and every leg's passive joints; equations: every
 //! leg's closure with its actuated joint at `gain·reading + offset`.
 
-use nalgebra::{DMatrix, DVector, Matrix3, Vector3};
-use num_dual::Dual64;
+use nalgebra::{DMatrix, DVector, Vector3};
 
 use super::chain::{attachment_on, platform_transform, ChainFrames};
 use super::inverse::{joints, predict_reading, wrap_angle, Joints};
+use super::kernel_forward::KernelForward;
 use super::newton_stop::converged;
+use super::pose_derivative::pose_derivatives;
 use crate::error::KinematicsError;
 use crate::model::joint::JointKind;
 use crate::model::leg::LegGeometry;
@@ -109,6 +110,10 @@ pub struct ForwardKinematics<'m> {
     smallest_size: f64,
     /// The home readings and the sign of the home assembly mode, or why they do not exist.
     home: Result<(Vec<f64>, f64), KinematicsError>,
+    /// The forward kinematics through the legs' closed-form kernels, when every leg has one,
+    /// with the sign of its determinant at home ([`KernelForward`]): tried first by
+    /// [`Self::solve_near`].
+    kernel: Option<(KernelForward, f64)>,
 }
 
 impl<'m> ForwardKinematics<'m> {
@@ -143,8 +148,10 @@ impl<'m> ForwardKinematics<'m> {
             home: Err(KinematicsError::NotAssemblable {
                 residual: f64::INFINITY,
             }),
+            kernel: None,
         };
         solver.home = solver.home_assembly(params);
+        solver.kernel = solver.kernel_assembly(longest);
         solver
     }
 
@@ -160,6 +167,17 @@ impl<'m> ForwardKinematics<'m> {
         let mut start = self.home_configuration();
         let sign = self.newton(&home_readings, &mut start)?.signum();
         Ok((home_readings, sign))
+    }
+
+    /// The reduced forward kinematics through the legs' kernels, if the mechanism has it and
+    /// it closes at home (with the sign of its determinant there); `size` is the longest leg.
+    fn kernel_assembly(&self, size: f64) -> Option<(KernelForward, f64)> {
+        let (home_readings, _) = self.home.as_ref().ok()?;
+        let kernel = KernelForward::new(self.mechanism, &self.geometries)?;
+        let mut start = self.home_configuration();
+        let joints = Some(start.joints.as_mut_slice());
+        let determinant = kernel.newton(home_readings, &mut start.pose, joints, size)?;
+        Some((kernel, determinant.signum()))
     }
 
     /// The home pose with every leg's home joints.
@@ -216,6 +234,17 @@ impl<'m> ForwardKinematics<'m> {
         start: &mut Configuration,
     ) -> Result<[f64; 6], KinematicsError> {
         let (_, home_sign) = self.home.as_ref().map_err(Clone::clone)?;
+        if let Some((kernel, kernel_home_sign)) = &self.kernel {
+            let (mut pose, mut joints) = (start.pose, start.joints.clone());
+            let size = 1e3 * self.smallest_size;
+            if let Some(sign) = kernel.newton(readings, &mut pose, Some(&mut joints), size) {
+                if same_mode(sign, *kernel_home_sign) {
+                    start.pose = pose;
+                    start.joints = joints;
+                    return Ok(pose);
+                }
+            }
+        }
         if start.joints.len() == self.mechanism.legs.len() {
             if let Ok(sign) = self.newton(readings, start) {
                 if same_mode(sign, *home_sign) {
@@ -224,6 +253,30 @@ impl<'m> ForwardKinematics<'m> {
             }
         }
         self.solve(readings)
+    }
+
+    /// The pose reached for `readings` from `start`, as [`Self::solve_near`] finds it, without
+    /// handing back the configuration: through the legs' kernels only their actuated joints
+    /// are solved (an accuracy map's forward step).
+    ///
+    /// # Errors
+    /// As [`forward`].
+    pub fn solve_near_pose(
+        &self,
+        readings: &[f64],
+        start: &Configuration,
+    ) -> Result<[f64; 6], KinematicsError> {
+        self.home.as_ref().map_err(Clone::clone)?;
+        if let Some((kernel, kernel_home_sign)) = &self.kernel {
+            let mut pose = start.pose;
+            let size = 1e3 * self.smallest_size;
+            if let Some(sign) = kernel.newton(readings, &mut pose, None, size) {
+                if same_mode(sign, *kernel_home_sign) {
+                    return Ok(pose);
+                }
+            }
+        }
+        self.solve_near(readings, &mut start.clone())
     }
 
     /// Newton on the stacked closures from `configuration` (updated in place); returns the
@@ -402,37 +455,6 @@ impl<'m> ForwardKinematics<'m> {
 /// Are two assembly-mode determinants of the same sign?
 fn same_mode(determinant: f64, home: f64) -> bool {
     determinant.is_sign_positive() == home.is_sign_positive()
-}
-
-/// The derivative of the platform transform with respect to one pose coordinate: a point `a`
-/// of the platform moves at `rotation · a + translation`.
-struct PoseDerivative {
-    rotation: Matrix3<f64>,
-    translation: Vector3<f64>,
-}
-
-/// The platform transform's derivatives with respect to the pose coordinates `columns` (the
-/// first `columns.len()` entries): a unit translation for a position, forward-mode dual numbers
-/// for an angle.
-fn pose_derivatives(pose: &[f64; 6], columns: &[usize]) -> [PoseDerivative; 6] {
-    std::array::from_fn(|k| {
-        let mut derivative = PoseDerivative {
-            rotation: Matrix3::zeros(),
-            translation: Vector3::zeros(),
-        };
-        match columns.get(k) {
-            Some(&c) if c < 3 => derivative.translation[c] = 1.0,
-            Some(&c) => {
-                let mut seeded = pose.map(Dual64::from);
-                seeded[c].eps = 1.0;
-                let transform = platform_transform(&seeded);
-                derivative.rotation = transform.rotation.matrix().map(|v| v.eps);
-                derivative.translation = transform.translation.vector.map(|v| v.eps);
-            }
-            None => {}
-        }
-        derivative
-    })
 }
 
 /// Determinant of `a` with its columns scaled to unit norm (scale-free, in [−1, 1]); a zero

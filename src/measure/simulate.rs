@@ -15,6 +15,7 @@ use rand_distr::{Distribution, Normal};
 use super::{MeasuredPose, MeasurementSet};
 use crate::error::{Error, Result};
 use crate::kinematics::inverse::predict_reading;
+use crate::kinematics::reading::ReadingPredictor;
 use crate::model::mechanism::Simulation;
 use crate::model::params::{ParamTarget, Parameter, Unit};
 use crate::model::Mechanism;
@@ -165,15 +166,24 @@ pub fn simulate_at(
         .map(|(l, poses)| (Some(l), poses))
         .chain([(None, &sets.shared)]);
     let mut poses = MeasurementSet::new(None, legs);
+    // Each real leg's geometry built once for every pose (the same readings, bit for bit).
+    let predictors: Vec<ReadingPredictor<'_>> = mechanism
+        .legs
+        .iter()
+        .zip(&real)
+        .map(|(leg, real)| ReadingPredictor::new(leg, real))
+        .collect();
     for (group, true_poses) in groups {
         for true_pose in true_poses {
-            let readings = mechanism.legs.iter().zip(&real).map(|(leg, real)| {
-                predict_reading(leg, real, true_pose, &mechanism.home_pose).map_err(|err| {
-                    Error::Invalid(format!(
-                        "simulation: with its real parameters, {err} (pose {})",
-                        mechanism.pose_text(true_pose)
-                    ))
-                })
+            let readings = predictors.iter().map(|predictor| {
+                predictor
+                    .predict(true_pose, &mechanism.home_pose)
+                    .map_err(|err| {
+                        Error::Invalid(format!(
+                            "simulation: with its real parameters, {err} (pose {})",
+                            mechanism.pose_text(true_pose)
+                        ))
+                    })
             });
             let readings = readings.collect::<Result<Vec<f64>>>()?;
             if let Some(l) = readings.iter().position(|r| !r.is_finite()) {

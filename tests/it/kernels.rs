@@ -254,6 +254,12 @@ proptest! {
                 continue;
             };
             compared += 1;
+            // The forward solve's lean evaluation: the same actuated joint (up to whole
+            // turns) and the same actuated row of the closure inverse.
+            let (actuated, row) = closed.actuated_row(&world).expect("solved above");
+            let a = leg.actuated;
+            let turns = ((actuated - mine.q[a]) / std::f64::consts::TAU).round();
+            prop_assert!(close(actuated - turns * std::f64::consts::TAU, mine.q[a], 1.0, 1e-12));
             let actuator = leg.geometry(&phi);
             let reading = closed.reading(&actuator, &world, &mine);
             prop_assert_eq!(reading, Some(kernel.reading_of(&mine)));
@@ -275,6 +281,13 @@ proptest! {
                 prop_assert!(
                     close(*a, *b, inverse_scale * conditioning, 1e-12),
                     "{mine:?} vs {theirs:?}"
+                );
+            }
+            for k in 0..3 {
+                let generic_row = theirs.closure_inverse[(a, k)];
+                prop_assert!(
+                    close(row[k], generic_row, inverse_scale * conditioning, 1e-12),
+                    "actuated row {row:?} vs {theirs:?}"
                 );
             }
             let mut g_mine = vec![0.0; columns.len()];

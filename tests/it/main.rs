@@ -42,6 +42,7 @@ mod instrument_support;
 mod instrument_trust;
 mod inverse_kinematics;
 mod jacobian;
+mod kernel_forward;
 mod kernels;
 mod kinematics;
 mod klipper_printer;

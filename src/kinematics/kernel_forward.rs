@@ -1,0 +1,264 @@
+//! Forward kinematics through the legs' closed-form kernels: for a mechanism whose every leg
+//! has one ([`LegKernel::recognise`]) and as many measured pose coordinates as legs, Newton's
+//! method on the pose alone, each leg's actuated joint from its closed form and its pose
+//! gradient from the kernel's closure Jacobian (implicit function theorem). The passive joints
+//! are eliminated: a 2 × 2 solve per iteration for a planar two-leg mechanism instead of the
+//! stacked closures over every joint. Recognised from the legs' chains and the measured
+//! coordinates, never from a mechanism's name.
+//!
+//! It solves the same equations as the stacked Newton ([`super::platform`]): every leg's
+//! actuated joint at `gain·reading + offset`, every passive joint on its leg's working mode.
+//! The assembly mode is read from the reduced Jacobian's determinant: with every leg on its
+//! home working mode (the kernel's own check) the stacked Jacobian's determinant is this one's
+//! times the legs' closure determinants (of fixed signs) and a constant sign, so comparing it
+//! with its sign at home is the stacked check. Whatever the kernel cannot settle cleanly (a
+//! leg out of reach, a large step, a near-singular or unconverged pose) is left to the stacked
+//! Newton: `None`.
+
+use nalgebra::Vector3;
+
+use super::chain::{attachment_on, platform_transform_f64};
+use super::inverse::{joints, wrap_angle, Joints};
+use super::kernel::{LegKernel, PreparedKernel};
+use super::newton_stop::beyond_round_off;
+use super::pose_derivative::{pose_derivatives, PoseDerivative};
+use crate::model::joint::JointKind;
+use crate::model::leg::LegGeometry;
+use crate::model::Mechanism;
+
+/// Newton iterations before the pose is left to the stacked solve.
+const MAX_ITERATIONS: usize = 30;
+
+/// A reduced Jacobian whose column-normalised determinant is below this in magnitude is left
+/// to the stacked solve (which decides a parallel singularity itself).
+const NEAR_SINGULAR: f64 = 1e-6;
+
+/// Largest step accepted: angles within this many radians, lengths within this fraction of the
+/// mechanism's size; a larger step is left to the stacked solve's limited steps.
+const MAX_STEP: f64 = 0.5;
+
+/// A step of at most this (in the mechanism's size, or radians) may have landed …
+const LANDING: f64 = 1e-6;
+
+/// … when the next step it predicts is at most this: round-off in the pose.
+const LANDED: f64 = 1e-16;
+
+/// One leg as the reduced forward kinematics sees it.
+#[derive(Debug, Clone)]
+struct KernelLeg {
+    kernel: PreparedKernel<f64>,
+    /// The platform attachment point (platform coordinates).
+    attachment: [f64; 3],
+    /// `gain` and `offset` of the actuator: the actuated joint is `gain·reading + offset`.
+    actuator: (f64, f64),
+    /// Index of the actuated joint among the moving joints, and whether it turns.
+    actuated: (usize, bool),
+    /// The home joints: the 2π window of every passive revolute is centred on them, as the
+    /// stacked Newton wraps them.
+    home: Joints,
+}
+
+/// The reduced forward kinematics of a mechanism at one parameter vector.
+#[derive(Debug, Clone)]
+pub(crate) struct KernelForward {
+    legs: Vec<KernelLeg>,
+    /// The measured pose coordinates: the unknowns.
+    measured: Vec<usize>,
+    /// The platform transform's derivatives with respect to them when they are all positions
+    /// (the same at every pose).
+    derivatives: Option<[PoseDerivative; 6]>,
+}
+
+impl KernelForward {
+    /// The reduced forward kinematics of `mechanism` at `geometries` (one per leg), if every
+    /// leg's chain has a closed-form kernel and the measured coordinates are as many as the
+    /// legs (at most six).
+    pub(crate) fn new(mechanism: &Mechanism, geometries: &[LegGeometry<f64>]) -> Option<Self> {
+        let measured = mechanism.measured.clone();
+        if measured.len() != mechanism.legs.len() || measured.len() > 6 {
+            return None;
+        }
+        let legs = mechanism
+            .legs
+            .iter()
+            .zip(geometries)
+            .map(|(leg, geometry)| {
+                let kernel = LegKernel::recognise(leg)?.prepare(geometry);
+                let revolute = leg.joints[leg.moving[leg.actuated]].kind == JointKind::Revolute;
+                Some(KernelLeg {
+                    kernel,
+                    attachment: geometry.attachment,
+                    actuator: (geometry.gain, geometry.offset),
+                    actuated: (leg.actuated, revolute),
+                    home: joints(&leg.home_joints),
+                })
+            })
+            .collect::<Option<Vec<_>>>()?;
+        let derivatives = measured
+            .iter()
+            .all(|&c| c < 3)
+            .then(|| pose_derivatives(&[0.0; 6], &measured));
+        Some(Self {
+            legs,
+            measured,
+            derivatives,
+        })
+    }
+
+    /// Newton on the measured coordinates of `pose` (updated in place, the others kept) for
+    /// `readings` (one per leg), every leg's joints written into `joints` when given (else
+    /// only the actuated joints are solved: one arc tangent a leg); `size` is the mechanism's
+    /// size (the step limit's length scale). Returns the column-normalised determinant of the
+    /// reduced Jacobian at the solution (its sign is the assembly mode, see the module), or
+    /// `None` where the stacked solve must decide; `pose` and `joints` are then partly moved
+    /// and must not be used.
+    pub(crate) fn newton(
+        &self,
+        readings: &[f64],
+        pose: &mut [f64; 6],
+        mut joints: Option<&mut [Joints]>,
+        size: f64,
+    ) -> Option<f64> {
+        let m = self.measured.len();
+        if readings.len() != m || joints.as_ref().is_some_and(|j| j.len() != m) {
+            return None;
+        }
+        let mut previous = f64::INFINITY;
+        for _ in 0..MAX_ITERATIONS {
+            let platform = platform_transform_f64(pose);
+            // The platform's derivatives: constant unless an angle is measured.
+            let varying;
+            let derivatives = match &self.derivatives {
+                Some(constant) => constant,
+                None => {
+                    varying = pose_derivatives(pose, &self.measured);
+                    &varying
+                }
+            };
+            let mut jacobian = [[0.0; 6]; 6];
+            let mut residual = [0.0; 6];
+            for (l, leg) in self.legs.iter().enumerate() {
+                let target = attachment_on(&platform, &leg.attachment);
+                let (a, revolute) = leg.actuated;
+                let wanted = leg.actuator.0 * readings[l] + leg.actuator.1;
+                let (actuated, row) = match joints.as_deref_mut() {
+                    Some(joints) => {
+                        let solution = leg.kernel.solve(&target, &leg.home)?;
+                        joints[l] = solution.q;
+                        joints[l][a] = wanted;
+                        let inverse = &solution.closure_inverse;
+                        (solution.q[a], [0, 1, 2].map(|d| inverse[(a, d)]))
+                    }
+                    None => leg.kernel.actuated_row(&target)?,
+                };
+                let difference = actuated - wanted;
+                residual[l] = if revolute {
+                    wrap_angle(difference)
+                } else {
+                    difference
+                };
+                for (k, derivative) in derivatives.iter().take(m).enumerate() {
+                    let moved = derivative.of(&Vector3::from(leg.attachment));
+                    jacobian[l][k] = (0..3).map(|d| row[d] * moved[d]).sum();
+                }
+            }
+            let (step, determinant) = solve_small(jacobian, residual, m)?;
+            // The step in units of the mechanism's size (lengths) and radians (angles).
+            let mut unknowns = [0.0; 6];
+            let mut largest = 0.0f64;
+            for (k, &c) in self.measured.iter().enumerate() {
+                unknowns[k] = pose[c];
+                let unit = if c < 3 { size } else { 1.0 };
+                largest = largest.max(step[k].abs() / unit);
+            }
+            if largest > MAX_STEP {
+                return None;
+            }
+            let accepted = (determinant.abs() > NEAR_SINGULAR).then_some(determinant);
+            if !beyond_round_off(&unknowns[..m], &step[..m]) {
+                return accepted;
+            }
+            for (k, &c) in self.measured.iter().enumerate() {
+                pose[c] -= step[k];
+            }
+            // Converging quadratically, the next step would be about (this / previous²) ×
+            // this²: at round-off, this step has landed (the joints and the determinant are
+            // the last evaluation's, a round-off step away).
+            let next = largest * largest * (largest / (previous * previous));
+            if largest <= LANDING && next <= LANDED {
+                return accepted;
+            }
+            previous = largest;
+        }
+        None
+    }
+}
+
+/// The solution `x` of `a x = b` over the first `m` rows and columns (Gaussian elimination with
+/// partial pivoting, in fixed storage) and the determinant of `a`'s block with its columns
+/// scaled to unit norm; `None` if the block is singular or the solution not finite.
+fn solve_small(mut a: [[f64; 6]; 6], mut b: [f64; 6], m: usize) -> Option<([f64; 6], f64)> {
+    let scales: f64 = (0..m)
+        .map(|k| {
+            let norm = a[..m].iter().map(|row| row[k] * row[k]).sum::<f64>().sqrt();
+            norm.max(f64::MIN_POSITIVE)
+        })
+        .product();
+    let mut determinant = 1.0;
+    for k in 0..m {
+        let pivot = (k..m).max_by(|&i, &j| a[i][k].abs().total_cmp(&a[j][k].abs()))?;
+        if a[pivot][k] == 0.0 {
+            return None;
+        }
+        if pivot != k {
+            a.swap(pivot, k);
+            b.swap(pivot, k);
+            determinant = -determinant;
+        }
+        determinant *= a[k][k];
+        let pivot_row = a[k];
+        for i in k + 1..m {
+            let factor = a[i][k] / pivot_row[k];
+            for (value, &above) in a[i][k..m].iter_mut().zip(&pivot_row[k..m]) {
+                *value -= factor * above;
+            }
+            b[i] -= factor * b[k];
+        }
+    }
+    let mut x = [0.0; 6];
+    for k in (0..m).rev() {
+        let sum: f64 = (k + 1..m).map(|j| a[k][j] * x[j]).sum();
+        x[k] = (b[k] - sum) / a[k][k];
+    }
+    x.iter()
+        .all(|v| v.is_finite())
+        .then_some((x, determinant / scales))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::solve_small;
+
+    #[test]
+    fn a_small_system_is_solved_with_its_column_normalised_determinant() {
+        // [[0, 2], [3, 4]] x = [2, 10]: x = [2, 1]; det −6 over column norms 3 and √20.
+        let mut a = [[0.0; 6]; 6];
+        a[0][1] = 2.0;
+        a[1][0] = 3.0;
+        a[1][1] = 4.0;
+        let mut b = [0.0; 6];
+        b[0] = 2.0;
+        b[1] = 10.0;
+        let (x, determinant) = solve_small(a, b, 2).unwrap();
+        assert!(
+            (x[0] - 2.0).abs() < 1e-15 && (x[1] - 1.0).abs() < 1e-15,
+            "{x:?}"
+        );
+        let expected = -6.0 / (3.0 * 20f64.sqrt());
+        assert!((determinant - expected).abs() < 1e-15, "{determinant}");
+        // A singular block: no solution.
+        a[1][0] = 0.0;
+        a[1][1] = 0.0;
+        assert!(solve_small(a, b, 2).is_none());
+    }
+}
