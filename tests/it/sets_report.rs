@@ -50,11 +50,20 @@ fn each_rows_residual_after_the_fit_is_the_fits_own() {
             set.name,
             fit.rms
         );
-        // Every touch on the probed disc (Klipper's radius 120 mm) and at its line.
+        // Every touch on the probed disc (Klipper's radius 120 mm) and at its line; rows made
+        // in memory (no line) are numbered as a file's would be.
         for (k, row) in rows.iter().enumerate() {
             assert!(row.at[0].hypot(row.at[1]) <= 0.12, "{row:?}");
             assert_eq!(row.line, k + 2);
         }
+        let mut unnumbered = observations.clone();
+        unnumbered.rows.iter_mut().for_each(|r| r.line = None);
+        let lines: Vec<usize> = row_residuals(&fitted, &unnumbered)
+            .unwrap()
+            .iter()
+            .map(|r| r.line)
+            .collect();
+        assert_eq!(lines, (2..9).collect::<Vec<_>>());
     }
 }
 
@@ -127,6 +136,9 @@ fn what_next_states_the_figures_it_rests_on() {
         plots.to_str().unwrap(),
     ]);
     let stdout = text(&out.stdout).replace("\n    ", " ");
+    // Seven touches leave one beyond six factors: AICc cannot judge the six, shown as inf.
+    let model_row = stdout.lines().find(|l| l.starts_with("model ")).unwrap();
+    assert!(model_row.contains(" inf "), "{model_row}");
     for expected in [
         "The residual (RMS 7.188e-5) is 19.0 times the declared σ",
         "Only 1 row(s) beyond the 6 factors: a row left out of the fit is predicted to 7.557e-4 RMS, 10.5 times the residual",
