@@ -75,6 +75,15 @@ mod tests {
             Some(1),
             "a tie goes to the fewer factors"
         );
+        // Equal to 1e-9 of the score, not of 1: large scores tie at their round-off.
+        let sets = [candidate(1000.0, 9), candidate(1000.0 + 1e-7, 6)];
+        assert_eq!(recommended(&sets), Some(1));
+        let sets = [candidate(1000.0, 9), candidate(1000.0 + 1e-5, 6)];
+        assert_eq!(
+            recommended(&sets),
+            Some(0),
+            "1e-8 of the score is a real difference"
+        );
         let sets = [candidate(20.0, 6), candidate(20.0, 6)];
         assert_eq!(
             recommended(&sets),
