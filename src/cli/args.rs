@@ -75,6 +75,12 @@ pub struct HowManyArgs {
     /// Also write the table as JSON to this file (`-`: standard output).
     #[arg(long)]
     pub json: Option<PathBuf>,
+    /// Directory for the picture (created if missing): the predicted σ against the rows.
+    #[arg(long, value_name = "DIR")]
+    pub plots: Option<PathBuf>,
+    /// Draw the picture as PNG instead of SVG.
+    #[arg(long)]
+    pub png: bool,
 }
 
 /// Options of `legwise sets`.

@@ -9,6 +9,8 @@ use super::outputs::model_inputs;
 use super::verdict::Verdict;
 use crate::files::Output;
 use crate::model::Mechanism;
+use crate::report::plots::count_curve::{CountCurve, CountSeries};
+use crate::report::plots::render;
 use crate::study::how_many::{default_counts, predicted_by_count, CountPoint};
 
 /// Most rows asked for at one count.
@@ -26,6 +28,9 @@ pub(super) fn run(args: &HowManyArgs) -> anyhow::Result<Verdict> {
     let mechanism = Mechanism::load(&args.model)?;
     let inputs = model_inputs(&args.model, &mechanism);
     let json = Output::prepare_optional("--json", args.json.as_deref(), &inputs)?;
+    checks::png_needs_plots(args.png, args.plots.as_deref())?;
+    let format = crate::files::format(args.png);
+    let pictures = crate::files::prepare(args.plots.as_deref(), &[PICTURE], format, &inputs)?;
     let counts = match counts.is_empty() {
         true => default_counts(mechanism.selection.poses_per_leg),
         false => counts,
@@ -36,11 +41,51 @@ pub(super) fn run(args: &HowManyArgs) -> anyhow::Result<Verdict> {
         let text = serde_json::to_string_pretty(&table_json(&points))? + "\n";
         json.write("JSON table", text.as_bytes())?;
     }
+    if let Some(output) = pictures.first() {
+        output.write("picture", &render(&curve(&mechanism, &points), format)?)?;
+    }
     console.print(&table_text(&mechanism, &points))?;
     if let Some(json) = &json {
         console.line(format_args!("JSON table written to {}", json.name()))?;
     }
+    for output in &pictures {
+        console.line(format_args!("picture written to {}", output.name()))?;
+    }
     Ok(Verdict::from_reasons(mechanism.warnings.clone()))
+}
+
+/// The picture's file name (without extension).
+const PICTURE: &str = "how-many";
+
+/// The curves: the design's RMS and max, identify's RMS, at every count that has them.
+fn curve(mechanism: &Mechanism, points: &[CountPoint]) -> CountCurve {
+    let of = |f: &dyn Fn(&CountPoint) -> Option<f64>| -> Vec<(usize, f64)> {
+        points
+            .iter()
+            .filter_map(|p| f(p).map(|v| (p.count, v)))
+            .collect()
+    };
+    CountCurve {
+        title: format!(
+            "{}: predicted σ over the workspace against the rows",
+            mechanism.name
+        ),
+        model_count: Some(mechanism.selection.poses_per_leg),
+        series: vec![
+            CountSeries {
+                name: "design σ, RMS".into(),
+                points: of(&|p| p.design.as_ref().map(|d| d.rms)),
+            },
+            CountSeries {
+                name: "design σ, max".into(),
+                points: of(&|p| p.design.as_ref().map(|d| d.max)),
+            },
+            CountSeries {
+                name: "identify's σ, RMS".into(),
+                points: of(&|p| p.predicted.as_ref().ok().map(|d| d.rms)),
+            },
+        ],
+    }
 }
 
 /// The table as JSON: per count, the predicted σ or why there is none.

@@ -13,6 +13,7 @@
 //! * [`slices`] — slices of a spatial workspace side by side;
 //! * [`files`] — which pictures `identify --plots` and `evaluate --plots` write, and where.
 pub mod canvas;
+pub mod count_curve;
 pub mod distribution;
 pub mod error_map;
 pub mod files;
