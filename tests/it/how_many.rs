@@ -82,3 +82,22 @@ fn counts_beyond_the_candidates_say_why_and_bad_input_is_refused() {
         "legwise: models/5r.yaml: field `instrument.kinematics`: the predicted σ over the workspace is a forward fit's: expected a model seen through the forward kinematics (`instrument.kinematics: forward`), found none",
     );
 }
+
+#[test]
+fn the_curve_has_a_marker_per_count_and_series() {
+    let dir = tempfile::tempdir().unwrap();
+    let plots = dir.path().join("pictures");
+    legwise_succeeds(&[
+        "how-many",
+        "--model",
+        "models/delta-probe.yaml",
+        "--counts",
+        "9,18,37",
+        "--plots",
+        plots.to_str().unwrap(),
+    ]);
+    let svg = std::fs::read_to_string(plots.join("how-many.svg")).unwrap();
+    // Three counts, three series (the design's RMS and max, identify's RMS).
+    assert_eq!(svg.matches("<circle").count(), 9);
+    assert!(svg.contains("design σ, RMS") && svg.contains("identify&apos;s σ, RMS"));
+}
