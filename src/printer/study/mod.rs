@@ -28,7 +28,7 @@ use rand_chacha::ChaCha8Rng;
 use rayon::prelude::*;
 
 use crate::error::{Error, Result};
-use crate::evaluate::accuracy::{map_slice, reached_poses_from, result_parameters};
+use crate::evaluate::accuracy::{reached_poses_from, result_parameters};
 use crate::evaluate::observed_frame::observed_frame_error;
 use crate::identify::estimate::FitOptions;
 use crate::identify::factor_set::fit_factor_set;
@@ -40,8 +40,6 @@ use crate::measure::simulate::{gaussian, simulate_at, SimulationOptions};
 use crate::measure::Measurements;
 use crate::model::mechanism::Simulation;
 use crate::model::params::Unit;
-use crate::model::quantities::FactorSet;
-use crate::model::region::Region;
 use crate::model::with_values::with_values;
 use crate::model::Mechanism;
 use crate::pipeline::{identify_one, measured};
@@ -49,11 +47,19 @@ use crate::selection::forward_design::select_forward;
 use crate::solver::SolverKind;
 use crate::study::montecarlo::trial_seed;
 
-use super::export::{fit_delta, DeltaFit, FirmwareTerms};
+use super::export::fit_delta;
 
+mod bed;
 mod choice;
+mod firmware;
+mod summary;
 
+pub use bed::{print_map, MAP_LAYERS};
 pub use choice::{recommended, SetOutcome};
+pub use firmware::{
+    firmware_quantities, klipper_calibration, FirmwareCalibration, KLIPPER_SCATTER,
+};
+pub use summary::{median, ChoiceSummary, PrinterStudySummary, SetSummary};
 
 /// How far the simulated printers are from the imported model: Gaussian standard deviations by
 /// kind of parameter.
@@ -76,113 +82,6 @@ impl Default for Spread {
             angle: 1e-3,
             gain: 1e-3,
         }
-    }
-}
-
-/// A firmware's own calibration: where it probes and which factors it fits.
-#[derive(Debug, Clone, PartialEq)]
-pub struct FirmwareCalibration {
-    /// Its name in reports (`Klipper DELTA_CALIBRATE`).
-    pub name: String,
-    /// The nozzle's points it probes, (x, y) in the firmware's frame, m.
-    pub points: Vec<[f64; 2]>,
-    /// The factor set it fits (one of the model's `factor_sets`).
-    pub set: FactorSet,
-    /// What its parameters can express (the export of legwise's fit).
-    pub terms: FirmwareTerms,
-}
-
-/// Scatter of Klipper's six outer `DELTA_CALIBRATE` points, as fractions of its `radius`:
-/// Klipper probes the centre and six points at 90° + 60° k, not all at the same distance.
-pub const KLIPPER_SCATTER: [f64; 6] = [0.95, 0.90, 0.85, 0.70, 0.75, 0.80];
-
-/// Klipper's `DELTA_CALIBRATE` on `mechanism` (a model imported from Klipper): its seven
-/// default points at the `[delta_calibrate] radius` (the model's workspace radius) and its set
-/// `klipper-6`.
-///
-/// # Errors
-/// The model has no `klipper-6` set or no cylinder workspace (not imported from Klipper).
-pub fn klipper_calibration(mechanism: &Mechanism) -> Result<FirmwareCalibration> {
-    let set = named_set(mechanism, "klipper-6")?;
-    let radius = bed_radius(mechanism)?;
-    let mut points = vec![[0.0, 0.0]];
-    points.extend(KLIPPER_SCATTER.iter().enumerate().map(|(k, s)| {
-        let angle = (90.0 + 60.0 * k as f64).to_radians();
-        [radius * s * angle.cos(), radius * s * angle.sin()]
-    }));
-    Ok(FirmwareCalibration {
-        name: "Klipper DELTA_CALIBRATE".into(),
-        points,
-        set,
-        terms: super::export::KLIPPER_TERMS,
-    })
-}
-
-/// The model's factor set called `name`.
-fn named_set(mechanism: &Mechanism, name: &str) -> Result<FactorSet> {
-    mechanism
-        .factor_sets
-        .iter()
-        .find(|s| s.name == name)
-        .cloned()
-        .ok_or_else(|| Error::Model {
-            path: mechanism.model_path.clone(),
-            field: "factor_sets".into(),
-            message: format!(
-                "expected the set `{name}` of a printer imported by `legwise printer import`, \
-                 found {}",
-                if mechanism.factor_sets.is_empty() {
-                    "none".to_string()
-                } else {
-                    let names: Vec<&str> = mechanism
-                        .factor_sets
-                        .iter()
-                        .map(|s| s.name.as_str())
-                        .collect();
-                    names.join(", ")
-                }
-            ),
-        })
-}
-
-/// Heights of the print map's layers, as fractions of the workspace cylinder's height from its
-/// bottom (the bed): near the bed, half-way, near the top.
-pub const MAP_LAYERS: [f64; 3] = [0.05, 0.5, 0.95];
-
-/// The print-error map of an imported printer: the workspace cylinder's disc at each of
-/// [`MAP_LAYERS`], on a lattice of `grid` (m).
-///
-/// # Errors
-/// Not a cylinder workspace; a grid [`map_slice`] refuses.
-pub fn print_map(mechanism: &Mechanism, grid: f64) -> Result<Vec<[f64; 6]>> {
-    let (centre, _, height) = cylinder(mechanism)?;
-    let mut map = Vec::new();
-    for layer in MAP_LAYERS {
-        let z = centre[2] + (layer - 0.5) * height;
-        map.extend(map_slice(mechanism, grid, 1.0, (z, z))?);
-    }
-    Ok(map)
-}
-
-/// The radius of an imported printer's bed disc: its workspace cylinder's.
-fn bed_radius(mechanism: &Mechanism) -> Result<f64> {
-    cylinder(mechanism).map(|(_, radius, _)| radius)
-}
-
-/// An imported printer's workspace cylinder: its centre, radius and height (m).
-fn cylinder(mechanism: &Mechanism) -> Result<([f64; 3], f64, f64)> {
-    match mechanism.workspace.region {
-        Region::Cylinder {
-            centre,
-            radius,
-            height,
-        } => Ok((centre, radius, height)),
-        _ => Err(Error::Model {
-            path: mechanism.model_path.clone(),
-            field: "workspace.region".into(),
-            message: "expected the cylinder of a printer imported by `legwise printer import`"
-                .into(),
-        }),
     }
 }
 
@@ -335,7 +234,7 @@ impl PrinterStudy {
             selected,
             firmware_poses,
             map,
-            bed_radius: bed_radius(mechanism)?,
+            bed_radius: bed::bed_radius(mechanism)?,
         })
     }
 
@@ -567,186 +466,4 @@ fn with_parameters(
             }
         }
     })
-}
-
-/// A firmware fit as the values of `mechanism`'s quantities: `radius`, each tower's `angle_t`,
-/// its rod (`arm_t`, or one `rod`) and `endstop_t`, the towers' letters read from the model's
-/// `angle_*` quantities in order.
-///
-/// # Errors
-/// The model does not name three tower angles.
-pub fn firmware_quantities(mechanism: &Mechanism, fit: &DeltaFit) -> Result<Vec<(String, f64)>> {
-    let towers: Vec<&str> = mechanism
-        .quantities
-        .iter()
-        .filter_map(|q| q.name.strip_prefix("angle_"))
-        .collect();
-    if towers.len() != 3 {
-        return Err(Error::Model {
-            path: mechanism.model_path.clone(),
-            field: "quantities".into(),
-            message: format!(
-                "expected the three tower angles `angle_*` of an imported printer, found {}",
-                towers.len()
-            ),
-        });
-    }
-    let has = |name: &str| mechanism.quantities.iter().any(|q| q.name == name);
-    let mut values = vec![("radius".to_string(), fit.radius)];
-    for (i, t) in towers.iter().enumerate() {
-        values.push((format!("angle_{t}"), fit.angles[i]));
-        values.push((format!("endstop_{t}"), fit.endstop(i)));
-        if has(&format!("arm_{t}")) {
-            values.push((format!("arm_{t}"), fit.arms[i]));
-        }
-    }
-    if has("rod") {
-        values.push(("rod".to_string(), fit.arms[0]));
-    }
-    Ok(values)
-}
-
-/// The study's figures over the printers that succeeded.
-#[derive(Debug, Clone, PartialEq, serde::Serialize)]
-pub struct PrinterStudySummary {
-    /// Printers whose both workflows ran.
-    pub succeeded: usize,
-    /// Median print error with the imported values, m.
-    pub nominal_median: f64,
-    /// Median print error after the firmware's calibration, m.
-    pub firmware_median: f64,
-    /// Median print error of legwise's calibrated model itself, m.
-    pub legwise_model_median: f64,
-    /// Median print error of legwise's calibration exported through the firmware, m.
-    pub legwise_median: f64,
-    /// `legwise_median / firmware_median`.
-    pub ratio: f64,
-    /// Fraction of the printers where legwise's exported calibration prints better.
-    pub legwise_better: f64,
-    /// Median of the export's loss (RMS over the bed), m.
-    pub export_loss_median: f64,
-    /// Largest export loss, m.
-    pub export_loss_max: f64,
-}
-
-impl PrinterStudyResult {
-    /// The figures over the printers that succeeded (`None` if none did).
-    pub fn summary(&self) -> Option<PrinterStudySummary> {
-        let ok: Vec<&PrinterErrors> = self
-            .printers
-            .iter()
-            .filter_map(|p| p.outcome.as_ref().ok().map(|o| &o.errors))
-            .collect();
-        if ok.is_empty() {
-            return None;
-        }
-        let median_of = |f: fn(&PrinterErrors) -> f64| median(ok.iter().map(|e| f(e)).collect());
-        let firmware_median = median_of(|e| e.firmware);
-        let legwise_median = median_of(|e| e.legwise);
-        Some(PrinterStudySummary {
-            succeeded: ok.len(),
-            nominal_median: median_of(|e| e.nominal),
-            firmware_median,
-            legwise_model_median: median_of(|e| e.legwise_model),
-            legwise_median,
-            ratio: legwise_median / firmware_median,
-            legwise_better: ok.iter().filter(|e| e.legwise < e.firmware).count() as f64
-                / ok.len() as f64,
-            export_loss_median: median_of(|e| e.export_loss),
-            export_loss_max: ok.iter().map(|e| e.export_loss).fold(0.0, f64::max),
-        })
-    }
-}
-
-/// One set's figures over the printers.
-#[derive(Debug, Clone, PartialEq, serde::Serialize)]
-pub struct SetSummary {
-    /// The set's name.
-    pub name: String,
-    /// Its factors.
-    pub factors: usize,
-    /// Printers whose touches determined it.
-    pub determined: usize,
-    /// Median print error over those printers, m.
-    pub median_print_error_m: f64,
-    /// Printers on which the rule recommended it.
-    pub recommended: usize,
-}
-
-/// How the recommendation did over the printers.
-#[derive(Debug, Clone, PartialEq, serde::Serialize)]
-pub struct ChoiceSummary {
-    /// Per set.
-    pub sets: Vec<SetSummary>,
-    /// Median over the printers of the recommended set's print error, m.
-    pub recommended_median_m: f64,
-    /// Median over the printers of the best set's in hindsight (the smallest print error of
-    /// the determined sets), m.
-    pub best_median_m: f64,
-    /// `recommended_median_m / best_median_m`.
-    pub ratio: f64,
-}
-
-impl PrinterStudyResult {
-    /// The recommendation's figures (`None` without [`PrinterStudyOptions::compare_sets`] or
-    /// a printer that succeeded).
-    pub fn choice(&self) -> Option<ChoiceSummary> {
-        let printers: Vec<&[SetOutcome]> = self
-            .printers
-            .iter()
-            .filter_map(|p| p.outcome.as_ref().ok())
-            .map(|o| o.sets.as_slice())
-            .filter(|sets| !sets.is_empty())
-            .collect();
-        let first = printers.first()?;
-        let picks: Vec<Option<usize>> = printers.iter().map(|sets| recommended(sets)).collect();
-        let sets = first
-            .iter()
-            .enumerate()
-            .map(|(k, set)| {
-                let errors: Vec<f64> = printers
-                    .iter()
-                    .filter_map(|sets| sets.get(k).and_then(|s| s.print_error_m))
-                    .collect();
-                SetSummary {
-                    name: set.name.clone(),
-                    factors: set.factors,
-                    determined: errors.len(),
-                    median_print_error_m: median(errors),
-                    recommended: picks.iter().filter(|p| **p == Some(k)).count(),
-                }
-            })
-            .collect();
-        let chosen: Vec<f64> = printers
-            .iter()
-            .zip(&picks)
-            .filter_map(|(sets, pick)| pick.and_then(|k| sets[k].print_error_m))
-            .collect();
-        let best: Vec<f64> = printers
-            .iter()
-            .filter_map(|sets| {
-                sets.iter()
-                    .filter_map(|s| s.print_error_m)
-                    .min_by(f64::total_cmp)
-            })
-            .collect();
-        let (recommended_median_m, best_median_m) = (median(chosen), median(best));
-        Some(ChoiceSummary {
-            sets,
-            recommended_median_m,
-            best_median_m,
-            ratio: recommended_median_m / best_median_m,
-        })
-    }
-}
-
-/// The median of `values` (the mean of the middle two for an even count).
-pub fn median(mut values: Vec<f64>) -> f64 {
-    values.sort_by(f64::total_cmp);
-    let n = values.len();
-    match n {
-        0 => f64::NAN,
-        _ if n % 2 == 1 => values[n / 2],
-        _ => 0.5 * (values[n / 2 - 1] + values[n / 2]),
-    }
 }
