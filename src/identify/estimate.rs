@@ -86,6 +86,23 @@ pub fn identify_with(
             )))
         }
     };
+    let prior = mechanism
+        .identified_legs()
+        .iter()
+        .flat_map(|&l| &mechanism.legs[l].params)
+        .find(|p| p.identified && p.prior.is_some());
+    if let Some(p) = prior {
+        return Err(Error::Model {
+            path: mechanism.model_path.clone(),
+            field: format!("parameter `{}`: prior", p.name),
+            message: format!(
+                "the {} strategy fits each leg's readings at measured poses without priors; \
+                 priors are taken by the joint fit through an instrument and by `legwise sets`: \
+                 remove the prior, or hold the parameter (`identify: false`)",
+                strategy.name()
+            ),
+        });
+    }
     let mut result = StrategyResult {
         strategy,
         solver,
@@ -509,6 +526,14 @@ pub(super) fn leg_estimate(
                 std: column.and_then(|k| covariance.as_ref().map(|v| v[(k, k)].max(0.0).sqrt())),
                 identified: p.identified,
                 degrees_of_freedom: column.and(covariance.as_ref()).and(dof),
+                prior: column.and_then(|k| {
+                    let at = slot.offset + k;
+                    problem
+                        .prior_rows()
+                        .iter()
+                        .find(|r| r.column == at)
+                        .map(|r| r.sigma)
+                }),
             }
         })
         .collect();
@@ -557,7 +582,8 @@ fn dropped((mut estimates, run): Fitted, first: Vec<LegEstimate>) -> Fitted {
             .iter()
             .map(|o| {
                 format!(
-                    "leg {}: dropped {} (reading {}, studentized residual t = {} in the first fit) and refitted",
+                    "leg {}: dropped {} (reading {}, studentized residual t = {} in the first \
+                     fit) and refitted",
                     estimate.leg,
                     o.place(),
                     o.reading,

@@ -37,6 +37,9 @@ pub struct Observability {
     pub scaled_condition: f64,
     /// The least observable direction (column-scaled), e.g. `0.71 k1 + 0.70 gamma1`.
     pub weakest_direction: String,
+    /// With priors: the directions the data alone cannot see (null-space directions of the
+    /// data's rows, column-scaled), which rest on the priors; empty without.
+    pub resting_on_prior: Vec<String>,
 }
 
 impl Observability {
@@ -92,6 +95,7 @@ pub fn analyse(c: &DMatrix<f64>, names: &[String]) -> Observability {
         null_directions,
         scaled_condition,
         weakest_direction,
+        resting_on_prior: Vec::new(),
     }
 }
 

@@ -123,6 +123,11 @@ pub fn check_rank(
             observability.weakest_direction, m.weakest
         );
     }
+    if !problem.prior_rows().is_empty() {
+        // What the data alone cannot see rests on the priors.
+        let (_, data) = dense(&problem.without_priors(), &x0)?;
+        observability.resting_on_prior = analyse(&data, &names).null_directions;
+    }
     Ok(observability)
 }
 
@@ -156,7 +161,8 @@ pub fn identify_shared(
             mechanism.model_path.display()
         )));
     }
-    let problem = IdentificationProblem::through_instrument(mechanism, observations)?;
+    let problem = IdentificationProblem::through_instrument(mechanism, observations)?.with_priors();
+    refuse_priors_without_weights(mechanism, &problem, strategy, options)?;
     let observability = check_rank(&problem, observations)?;
     let started = std::time::Instant::now();
     let noise = options.expected_noise(mechanism);
@@ -271,6 +277,16 @@ pub fn identify_shared(
         }
         scales = fitted_scales;
         noise_weighted = by_noise;
+        if !noise_weighted && !problem.prior_rows().is_empty() {
+            return Err(Error::Model {
+                path: mechanism.model_path.clone(),
+                field: "noise".into(),
+                message: "a prior is weighed against the data by the declared noise, and some \
+                          row's declared variance is zero: declare a non-zero noise for every \
+                          measured coordinate"
+                    .into(),
+            });
+        }
         (problem, outcome, None)
     } else {
         let registration = problem.with_legs_fixed().with_rows(REGISTRATION_ROWS);
@@ -411,14 +427,16 @@ pub fn identify_shared(
         })
         .collect();
     let names: Vec<String> = legs.iter().map(|l| l.leg.clone()).collect();
+    // The priors' rows come last and are always kept: the data's are the others.
+    let data_rows = m - problem.prior_rows().len();
     let instrument = InstrumentEstimate {
         parameters: match &registration_sigmas {
             Some((sigmas, dof)) => registered_parameters(&problem, sigmas, *dof),
             None => instrument_parameters(&problem, &outcome.x, sigmas.as_deref(), dof),
         },
-        rows: m,
+        rows: data_rows,
         unknowns: n,
-        rms: (kept_r.norm_squared() / m.max(1) as f64).sqrt(),
+        rms: (kept_r.rows(0, data_rows).norm_squared() / data_rows.max(1) as f64).sqrt(),
         observability,
         noise_test,
         outliers,
@@ -450,6 +468,47 @@ pub fn identify_shared(
         warnings,
         instrument: Some(instrument),
     })
+}
+
+/// A prior is weighed against the data by the declared noise: refused when the fit is not the
+/// joint least-squares one weighted by it.
+fn refuse_priors_without_weights(
+    mechanism: &Mechanism,
+    problem: &IdentificationProblem<'_>,
+    strategy: Strategy,
+    options: FitOptions,
+) -> Result<()> {
+    let Some(first) = problem.prior_rows().first() else {
+        return Ok(());
+    };
+    let why = if strategy != Strategy::Joint {
+        Some(format!(
+            "the {} strategy fits without priors",
+            strategy.name()
+        ))
+    } else if options.weights == Weighting::Unweighted {
+        Some("--weights none leaves nothing to weigh the prior against".to_string())
+    } else if let Some(loss) = options.robust {
+        Some(format!(
+            "--robust {} would bend the prior's row as it bends an outlier's",
+            loss.name()
+        ))
+    } else if options.expected_noise(mechanism).is_none() {
+        Some("the model declares no measurement noise (`noise:`) to weigh it against".into())
+    } else {
+        None
+    };
+    match why {
+        Some(why) => Err(Error::Model {
+            path: mechanism.model_path.clone(),
+            field: format!("parameter `{}`: prior", first.name),
+            message: format!(
+                "a fit with priors is the joint least-squares one weighted by the declared noise \
+                 (the maximum a posteriori estimate); {why}"
+            ),
+        }),
+        None => Ok(()),
+    }
 }
 
 /// The warnings naming the outlier rows of a fit through the instrument (weighed down by
@@ -521,6 +580,7 @@ fn instrument_parameters(
                 std,
                 identified: p.identified,
                 degrees_of_freedom: std.and(dof),
+                prior: None,
             }
         })
         .collect()

@@ -71,6 +71,8 @@ pub fn outliers(
         .iter()
         .enumerate()
         .filter_map(|(k, tk)| tk.map(|v| (k, v)))
+        // A prior's row is no measurement: it takes part in the leverages, is never flagged.
+        .filter(|(k, _)| !places[kept[*k]].prior)
         .filter(|(_, v)| threshold.is_some_and(|limit| v.abs() > limit))
         .map(|(k, v)| {
             let place = &places[kept[k]];

@@ -283,6 +283,7 @@ mod tests {
             std,
             identified,
             degrees_of_freedom: std.map(|_| 10),
+            prior: None,
         }
     }
 
@@ -297,6 +298,7 @@ mod tests {
             null_directions: Vec::new(),
             scaled_condition: 1.0,
             weakest_direction: "l1".into(),
+            resting_on_prior: Vec::new(),
         };
         StrategyResult {
             strategy: Strategy::DivideAndConquer,

@@ -147,6 +147,11 @@ pub struct ParameterEntry {
     /// model's own fit does with it).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub value: Option<String>,
+    /// The standard deviation of what is known of the parameter before any measurement (a
+    /// tolerance around its nominal value, SI units): a fit that frees it is the maximum a
+    /// posteriori one, the prior one residual row of its own.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub prior: Option<f64>,
 }
 
 /// A named quantity.
@@ -159,6 +164,10 @@ pub struct QuantityEntry {
     pub value: f64,
     /// Its unit: `m`, `rad` or `1` (dimensionless).
     pub unit: String,
+    /// The standard deviation of what is known of it before any measurement (SI units), as a
+    /// parameter's `prior`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub prior: Option<f64>,
 }
 
 /// A named set of factors to fit together.

@@ -62,4 +62,7 @@ pub struct Parameter {
     /// For a derived parameter, the expression of the model's quantities it equals: it follows
     /// them in a factor set that fits one of them; elsewhere `identified` says what it is.
     pub derived: Option<Expression>,
+    /// The standard deviation of what is known of it before any measurement, around
+    /// `nominal` (model file `prior:`), SI units.
+    pub prior: Option<f64>,
 }

@@ -18,6 +18,9 @@ pub struct Quantity {
     pub nominal: f64,
     /// SI unit.
     pub unit: Unit,
+    /// The standard deviation of what is known of it before any measurement, around
+    /// `nominal` (model file `prior:`), SI units.
+    pub prior: Option<f64>,
 }
 
 /// A named set of factors to fit together (model file `factor_sets:`): quantities, leg

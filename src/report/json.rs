@@ -247,6 +247,12 @@ struct ParameterJson<'a> {
     real: Option<f64>,
     error_before: Option<f64>,
     error_after: Option<f64>,
+    /// The prior's σ, when the fit took one.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    prior: Option<f64>,
+    /// `1 − σ²/σ_prior²`: the share of the parameter's information from the data.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    data_share: Option<f64>,
 }
 
 impl<'a> ParameterJson<'a> {
@@ -265,6 +271,8 @@ impl<'a> ParameterJson<'a> {
             real: (real),
             error_before: (real.map(|r| p.nominal - r)),
             error_after: (real.map(|r| p.estimate - r)),
+            prior: p.prior,
+            data_share: p.data_share(),
         }
     }
 }

@@ -135,6 +135,12 @@ fn table_row(p: &ParameterEstimate, real: Option<f64>) -> String {
             scientific(Some(p.estimate - real), 11)
         );
     }
+    if let Some(prior) = p.prior {
+        let share = p.data_share().map_or(String::new(), |s| {
+            format!(", {:.0} % from the data", 100.0 * s)
+        });
+        let _ = write!(row, "  (prior ±{}{share})", figure(prior));
+    }
     format!("{row}{fixed}")
 }
 
@@ -186,6 +192,24 @@ fn render_instrument(out: &mut String, report: &Report<'_>, instrument: &Instrum
             test.degrees_of_freedom,
             test.p_value,
             if test.rejected { " (REJECTED)" } else { "" }
+        );
+    }
+    let priors = result_parameters_of(report, instrument)
+        .filter(|p| p.prior.is_some())
+        .count();
+    if priors > 0 {
+        let unseen = &instrument.observability.resting_on_prior;
+        let _ = writeln!(
+            out,
+            "  priors: {priors} rows (the fit is the maximum a posteriori one; the noise test \
+             counts them){}",
+            match unseen.is_empty() {
+                true => String::new(),
+                false => format!(
+                    "; the data alone cannot see {}: it rests on the priors",
+                    unseen.join("; ")
+                ),
+            }
         );
     }
     if let (Some(limit), Some(largest)) = (

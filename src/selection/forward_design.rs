@@ -101,9 +101,11 @@ pub fn select_forward(
     let options = selection_options(count, criterion);
     // With measured poses beside the rows, the rows need only see what they can: selected on
     // the combinations of the (column-scaled) unknowns the pool identifies.
-    let pool = match instrument.poses {
-        Some(_) => seen_combinations(&jacobian),
-        None => jacobian.clone(),
+    // Likewise with priors: what the rows cannot see rests on them.
+    let priors = problem.with_priors().prior_rows().len();
+    let pool = match (&instrument.poses, priors) {
+        (None, 0) => jacobian.clone(),
+        _ => seen_combinations(&jacobian),
     };
     let selection =
         select_columns(pool.transpose(), width, &options).map_err(|error| match error {

@@ -129,6 +129,7 @@ fn leg_model(d: &Dyad, tilt: f64) -> LegModel {
                 identified: true,
                 unit,
                 derived: None,
+                prior: None,
             });
         }
     }
@@ -139,6 +140,7 @@ fn leg_model(d: &Dyad, tilt: f64) -> LegModel {
         identified: true,
         unit,
         derived: None,
+        prior: None,
     };
     params.push(scalar("gain", ParamTarget::Gain, d.gain, Unit::One));
     params.push(scalar(
@@ -398,6 +400,7 @@ fn only_exact_patterns_are_recognised() {
         identified: true,
         unit: Unit::Radian,
         derived: None,
+        prior: None,
     });
     assert!(LegKernel::recognise(&rolled).is_none());
 }

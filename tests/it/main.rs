@@ -57,6 +57,7 @@ mod parallel_measure;
 mod pipeline;
 mod plots;
 mod printer_study;
+mod priors;
 mod recovery;
 mod report_schema;
 mod robust_stationarity;

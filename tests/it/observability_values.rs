@@ -219,6 +219,7 @@ fn the_weak_design_warning_starts_strictly_above_the_threshold() {
         null_directions: Vec::new(),
         scaled_condition,
         weakest_direction: "1.000 p0".into(),
+        resting_on_prior: Vec::new(),
     };
     assert_eq!(at(WEAK_CONDITION).warning(), None);
     assert_eq!(at(1.0).warning(), None);

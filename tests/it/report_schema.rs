@@ -296,6 +296,7 @@ fn intervals_use_student_s_t_on_the_residual_degrees_of_freedom() {
         std: Some(1e-3),
         identified: true,
         degrees_of_freedom: Some(12),
+        prior: None,
     };
     assert!((p.half_width95().unwrap() - 2.178_813e-3).abs() < 1e-9);
     assert_eq!(
@@ -310,6 +311,7 @@ fn intervals_use_student_s_t_on_the_residual_degrees_of_freedom() {
     // the normal quantile.
     let declared = ParameterEstimate {
         degrees_of_freedom: None,
+        prior: None,
         ..p
     };
     assert!(declared.std_from_declared_noise());

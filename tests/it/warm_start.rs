@@ -144,6 +144,7 @@ fn every_quantity(leg: &LegModel) -> LegModel {
                     Unit::Radian
                 },
                 derived: None,
+                prior: None,
             });
         }
     }
@@ -155,6 +156,7 @@ fn every_quantity(leg: &LegModel) -> LegModel {
             identified: true,
             unit: Unit::Metre,
             derived: None,
+            prior: None,
         });
     }
     for (name, target, nominal) in [
@@ -168,6 +170,7 @@ fn every_quantity(leg: &LegModel) -> LegModel {
             identified: true,
             unit: Unit::One,
             derived: None,
+            prior: None,
         });
     }
     wide

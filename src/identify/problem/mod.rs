@@ -32,6 +32,7 @@ mod forward_problem;
 mod forward_rows;
 mod noise;
 mod places;
+mod prior_rows;
 mod reached_points;
 mod residuals;
 mod sighted;
@@ -40,6 +41,7 @@ mod state;
 
 use forward_rows::Forward;
 pub use places::ResidualPlace;
+pub use prior_rows::PriorRow;
 pub use reached_points::ReachedPoint;
 use sighted::{Sighted, Sighting};
 use state::{Evaluations, KEPT_SOLUTION_ROWS};
@@ -93,8 +95,11 @@ pub struct IdentificationProblem<'a> {
     /// Through an instrument seen by forward kinematics: the rows of every leg's reading and
     /// what the instrument saw there (`problem/forward.rs`), after the blocks in row order.
     forward: Option<Forward>,
-    /// `√w_i` per block, if weighted.
+    /// `√w_i` per residual (the blocks', the forward rows', the priors'), if weighted.
     row_scales: Option<Vec<f64>>,
+    /// The identified parameters' priors, one residual row each after the data's
+    /// (`problem/prior_rows.rs`).
+    priors: Arc<[PriorRow]>,
     /// Each block's platform transform (its pose's trigonometry done once), for problems of
     /// measured poses of at most [`KEPT_SOLUTION_ROWS`] blocks (96 bytes a row); empty for
     /// larger ones, whose rows compute theirs at each evaluation, and through an instrument.
@@ -128,7 +133,8 @@ impl Placed {
 
 impl<'a> IdentificationProblem<'a> {
     /// A problem identifying the legs `legs` from `blocks` at their measured poses (blocks of
-    /// other legs are ignored).
+    /// other legs are ignored). Its rows are the data's alone (priors are added by
+    /// [`Self::with_priors`]).
     pub fn new(mechanism: &'a Mechanism, legs: &[usize], blocks: Vec<ResidualBlock>) -> Self {
         Self::assemble(mechanism, legs, blocks, None)
     }
@@ -137,7 +143,8 @@ impl<'a> IdentificationProblem<'a> {
     /// `observations` (a leg's labelled rows, or the shared rows, as divide and conquer picks
     /// them), each leg's rows one group in model order. Unknowns:
     /// `x = [own₀ | own₁ | … | shared]`, each leg's identified parameters in model order, then
-    /// the identified shared parameters in the instrument's order.
+    /// the identified shared parameters in the instrument's order. Its rows are the data's
+    /// alone (priors are added by [`Self::with_priors`]).
     ///
     /// # Errors
     /// [`Error::Model`] if the model has no instrument; [`Error::Invalid`] if a leg has no row.
@@ -236,6 +243,7 @@ impl<'a> IdentificationProblem<'a> {
         let state = Evaluations::new(blocks.len(), stride);
         let measured = sighted.is_none() && blocks.len() <= KEPT_SOLUTION_ROWS;
         Self {
+            priors: Vec::new().into(),
             platforms: if measured {
                 let platform = |b: &ResidualBlock| platform_transform_f64(&b.pose);
                 blocks.iter().map(platform).collect()
@@ -300,6 +308,7 @@ impl<'a> IdentificationProblem<'a> {
         let slots = self.slots.iter().map(|s| (s.leg, s.columns.clone()));
         let mut problem = Self::with_slots(self.mechanism, slots.collect(), blocks, sighted);
         problem.forward = self.forward.as_ref().map(|f| f.renewed(&keep));
+        problem.priors = self.priors.clone();
         problem
     }
 
@@ -346,6 +355,8 @@ impl<'a> IdentificationProblem<'a> {
         let blocks = self.blocks.to_vec();
         let mut problem = Self::with_slots(self.mechanism, slots, blocks, self.sighted.clone());
         problem.forward = self.forward.as_ref().map(|f| f.renewed(|_| true));
+        // No leg unknown is left: no leg prior either.
+        problem.priors = Vec::new().into();
         problem
     }
 

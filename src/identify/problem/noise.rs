@@ -20,7 +20,41 @@ impl IdentificationProblem<'_> {
     ///
     /// # Errors
     /// A problem without an instrument; a leg cannot reach a fitted pose.
+    ///
+    /// The prior rows follow the data's, each a measurement of its own loading its σ alone
+    /// (the readings' own noise is then carried as a loading of each data row: it is not the
+    /// priors').
     pub fn noise_loadings(
+        &self,
+        x: &DVector<f64>,
+        noise: &MeasurementNoise,
+    ) -> Result<NoiseLoadings, ArgminError> {
+        let data = self.data_noise_loadings(x, noise)?;
+        if self.priors.is_empty() {
+            return Ok(data);
+        }
+        // `scaled` by 1 moves `σ_q` into a loading of each data row's own.
+        let mut loadings = if data.reading == 0.0 {
+            data
+        } else {
+            data.scaled(&[])
+        };
+        let fresh = loadings
+            .rows
+            .iter()
+            .map(|(m, _)| *m)
+            .chain(loadings.also.iter().map(|(_, m, _)| *m))
+            .max()
+            .map_or(0, |m| m + 1);
+        let priors = self.priors.iter().enumerate();
+        loadings
+            .rows
+            .extend(priors.map(|(k, p)| (fresh + k, vec![p.sigma])));
+        Ok(loadings)
+    }
+
+    /// The data rows' loadings (of [`Self::noise_loadings`]).
+    fn data_noise_loadings(
         &self,
         x: &DVector<f64>,
         noise: &MeasurementNoise,

@@ -14,6 +14,8 @@ pub struct ResidualPlace {
     pub what: String,
     /// The measurement it belongs to (an index shared by the residuals of one row).
     pub measurement: usize,
+    /// Whether it is a prior's row (no measurement: never an outlier, never dropped).
+    pub prior: bool,
 }
 
 impl ResidualPlace {
@@ -29,7 +31,7 @@ impl ResidualPlace {
 impl IdentificationProblem<'_> {
     /// Where each residual comes from, in the problem's row order: the blocks (a leg's reading
     /// at a measured or sighted pose), then a forward problem's rows (each reported target
-    /// coordinate) and distances.
+    /// coordinate) and distances, then the priors' rows.
     pub fn residual_places(&self) -> Vec<ResidualPlace> {
         let mut places: Vec<ResidualPlace> = self
             .blocks
@@ -45,24 +47,33 @@ impl IdentificationProblem<'_> {
                     line: block.line,
                     what: format!("leg `{}`'s reading", self.mechanism.legs[block.leg].name),
                     measurement,
+                    prior: false,
                 }
             })
             .collect();
-        let (Some(forward), Some(sighted)) = (&self.forward, &self.sighted) else {
-            return places;
-        };
-        let columns = sighted.instrument.columns();
-        for row in forward.rows.iter().filter(|r| !r.observed.is_empty()) {
-            places.extend(columns.iter().map(|c| ResidualPlace {
-                line: row.line,
-                what: format!("`{c}`"),
-                measurement: row.source,
+        if let (Some(forward), Some(sighted)) = (&self.forward, &self.sighted) {
+            let columns = sighted.instrument.columns();
+            for row in forward.rows.iter().filter(|r| !r.observed.is_empty()) {
+                places.extend(columns.iter().map(|c| ResidualPlace {
+                    line: row.line,
+                    what: format!("`{c}`"),
+                    measurement: row.source,
+                    prior: false,
+                }));
+            }
+            places.extend(forward.distances.iter().map(|d| ResidualPlace {
+                line: d.line,
+                what: "distance".into(),
+                measurement: d.source,
+                prior: false,
             }));
         }
-        places.extend(forward.distances.iter().map(|d| ResidualPlace {
-            line: d.line,
-            what: "distance".into(),
-            measurement: d.source,
+        let fresh = places.iter().map(|p| p.measurement + 1).max().unwrap_or(0);
+        places.extend(self.priors.iter().enumerate().map(|(k, p)| ResidualPlace {
+            line: None,
+            what: format!("the prior of `{}`", p.name),
+            measurement: fresh + k,
+            prior: true,
         }));
         places
     }

@@ -96,11 +96,18 @@ impl<'a> IdentificationProblem<'a> {
     }
 
     /// Residuals `predicted − measured` reading (matched modulo one turn, times `√w_i` if
-    /// weighted), one per block.
+    /// weighted), one per block, then a forward problem's rows, then the priors' rows
+    /// (`problem/prior_rows.rs`).
     ///
     /// # Errors
     /// The first block whose leg cannot reach its pose.
     pub fn residuals(&self, x: &DVector<f64>) -> Result<DVector<f64>, BlockError> {
+        let data = self.data_residuals(x)?;
+        Ok(self.with_prior_residuals(data, x))
+    }
+
+    /// The data's residuals (of [`Self::residuals`]): the blocks', then the forward rows'.
+    fn data_residuals(&self, x: &DVector<f64>) -> Result<DVector<f64>, BlockError> {
         let blocks = self.block_residuals(x)?;
         if self.forward.is_none() {
             return Ok(blocks);
@@ -190,11 +197,20 @@ impl<'a> IdentificationProblem<'a> {
 
     /// Residuals and the identification Jacobian ∂r/∂x (block-structured: a block's row is
     /// non-zero only in its own leg's columns and the shared ones), from one dual pass per
-    /// block.
+    /// block; the rows as [`Self::residuals`]'.
     ///
     /// # Errors
     /// The first block whose leg cannot reach its pose.
     pub fn residuals_and_jacobian(
+        &self,
+        x: &DVector<f64>,
+    ) -> Result<(DVector<f64>, DMatrix<f64>), BlockError> {
+        let data = self.data_residuals_and_jacobian(x)?;
+        Ok(self.with_prior_rows(data, x))
+    }
+
+    /// The data's residuals and Jacobian (of [`Self::residuals_and_jacobian`]).
+    fn data_residuals_and_jacobian(
         &self,
         x: &DVector<f64>,
     ) -> Result<(DVector<f64>, DMatrix<f64>), BlockError> {

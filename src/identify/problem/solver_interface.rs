@@ -54,6 +54,18 @@ impl BorderedLeastSquares for IdentificationProblem<'_> {
                             Column::Shared(k) => shared[(row, k)] = g,
                         });
                 }
+                // The leg's priors: rows of its own group, after its data's.
+                let priors = self.slot_prior_rows(slot, x, self.blocks.len());
+                if !priors.is_empty() {
+                    let (m, count) = (rows.len(), rows.len() + priors.len());
+                    block.residuals = block.residuals.clone().resize_vertically(count, 0.0);
+                    block.own = block.own.clone().resize_vertically(count, 0.0);
+                    block.shared = block.shared.clone().resize_vertically(count, 0.0);
+                    for (k, (column, residual, derivative)) in priors.into_iter().enumerate() {
+                        block.residuals[m + k] = residual;
+                        block.own[(m + k, column)] = derivative;
+                    }
+                }
                 block
             };
             self.slots.iter().map(block).collect()

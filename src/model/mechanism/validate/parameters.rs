@@ -74,9 +74,26 @@ impl Builder<'_> {
                 identified: entry.identify,
                 unit,
                 derived: None,
+                prior: self.prior_sigma(entry.prior, &field)?,
             });
         }
         Ok(())
+    }
+
+    /// The prior standard deviation of the entry at `field`, if given: finite and positive
+    /// (a zero σ is a held parameter, `identify: false`).
+    pub(super) fn prior_sigma(&self, prior: Option<f64>, field: &str) -> Result<Option<f64>> {
+        match prior {
+            Some(sigma) if !(sigma > 0.0 && sigma.is_finite()) => Err(self.error(
+                format!("{field}.prior"),
+                format!(
+                    "expected the prior's standard deviation, a finite positive number in SI \
+                     units (metres, radians, or 1 for a gain), found {sigma}; a parameter known \
+                     exactly is held (`identify: false`)"
+                ),
+            )),
+            _ => Ok(prior),
+        }
     }
 
     fn target(
@@ -101,27 +118,45 @@ impl Builder<'_> {
                 )
             })
         };
-        match (&entry.joint, &entry.origin, &entry.leg, &entry.actuator, &entry.attachment) {
+        match (
+            &entry.joint,
+            &entry.origin,
+            &entry.leg,
+            &entry.actuator,
+            &entry.attachment,
+        ) {
             (Some(joint), Some(origin), None, None, None) => {
                 let component = component(origin, "origin", &ORIGIN_COMPONENTS)?;
                 for (l, leg) in legs.iter().enumerate() {
                     if let Some(j) = leg.joints.iter().position(|j| &j.name == joint) {
-                        return Ok((l, ParamTarget::JointOrigin { joint: j, component }));
+                        return Ok((
+                            l,
+                            ParamTarget::JointOrigin {
+                                joint: j,
+                                component,
+                            },
+                        ));
                     }
                 }
                 let known = self.robot.joints.iter().any(|j| &j.name == joint);
-                Err(self.error(format!("{field}.joint"), if known {
-                    format!("joint `{joint}` is in no leg's chain")
-                } else {
-                    format!("joint `{joint}` is not in the URDF `{}`", self.urdf_name())
-                }))
+                Err(self.error(
+                    format!("{field}.joint"),
+                    if known {
+                        format!("joint `{joint}` is in no leg's chain")
+                    } else {
+                        format!("joint `{joint}` is not in the URDF `{}`", self.urdf_name())
+                    },
+                ))
             }
             (None, None, Some(leg), Some(term), None) => {
                 let leg = leg_named(leg, "leg")?;
                 match term.as_str() {
                     "gain" => Ok((leg, ParamTarget::Gain)),
                     "offset" => Ok((leg, ParamTarget::Offset)),
-                    other => Err(self.error(format!("{field}.actuator"), format!("`{other}` is not one of gain, offset"))),
+                    other => Err(self.error(
+                        format!("{field}.actuator"),
+                        format!("`{other}` is not one of gain, offset"),
+                    )),
                 }
             }
             (None, None, Some(leg), None, Some(axis)) => {
@@ -129,10 +164,14 @@ impl Builder<'_> {
                 let component = component(axis, "attachment", &ORIGIN_COMPONENTS[..3])?;
                 Ok((leg, ParamTarget::Attachment { component }))
             }
-            _ => Err(self.error(field, format!(
-                "parameter `{}` needs exactly one target: `joint` + `origin`, `leg` + `actuator`, or `leg` + `attachment`",
+            _ => Err(self.error(
+                field,
+                format!(
+                "parameter `{}` needs exactly one target: `joint` + `origin`, `leg` + `actuator`, \
+                 or `leg` + `attachment`",
                 entry.name
-            ))),
+            ),
+            )),
         }
     }
 }

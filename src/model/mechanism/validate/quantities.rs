@@ -70,6 +70,7 @@ impl Builder<'_> {
                 name: name.to_string(),
                 nominal: entry.value,
                 unit,
+                prior: self.prior_sigma(entry.prior, &field)?,
             });
         }
         let names: Vec<&str> = quantities.iter().map(|q| q.name.as_str()).collect();
