@@ -219,13 +219,15 @@ pub struct PrinterPointsArgs {
 
 /// Options of `legwise printer study`.
 #[derive(Debug, clap::Args)]
-#[command(group(clap::ArgGroup::new("firmware").required(true).args(["klipper"])))]
 pub struct PrinterStudyArgs {
     /// Against Klipper's DELTA_CALIBRATE: its seven points at the model's bed radius (its
     /// [delta_calibrate] radius), the set `klipper-6`; legwise's fit exported as Klipper values.
+    /// Without it, legwise's fit (and with --sets the model's factor sets) alone.
     #[arg(long)]
     pub klipper: bool,
-    /// The imported model (`legwise printer import --out DIR`: DIR/printer.yaml).
+    /// The printer's model: imported (`legwise printer import --out DIR`: DIR/printer.yaml),
+    /// or any model seen through a probe (`instrument.kinematics: forward`) with a cylinder
+    /// workspace.
     #[arg(long, value_name = "printer.yaml")]
     pub model: PathBuf,
     /// Number of simulated printers (1 to 100000).

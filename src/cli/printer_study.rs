@@ -29,7 +29,10 @@ pub(super) fn run(args: &PrinterStudyArgs) -> anyhow::Result<Verdict> {
     let mechanism = Mechanism::load(&args.model)?;
     let inputs = model_inputs(&args.model, &mechanism);
     let json = Output::prepare_optional("--json", args.json.as_deref(), &inputs)?;
-    let firmware = klipper_calibration(&mechanism)?;
+    let firmware = match args.klipper {
+        true => Some(klipper_calibration(&mechanism)?),
+        false => None,
+    };
     let options = PrinterStudyOptions {
         touches,
         spread,
@@ -132,42 +135,54 @@ fn study_text(result: &PrinterStudyResult) -> Result<String, Error> {
         um(s.nominal_median)
     )
     .map_err(w)?;
+    if let (Some(name), Some(firmware)) = (&result.firmware, s.firmware_median) {
+        writeln!(
+            t,
+            "    {} ({} touches)  {:>8.1}",
+            name,
+            result.firmware_touches,
+            um(firmware)
+        )
+        .map_err(w)?;
+    }
+    if let Some(legwise) = s.legwise_median {
+        writeln!(
+            t,
+            "    legwise ({} touches), exported             {:>8.1}",
+            result.legwise_touches,
+            um(legwise)
+        )
+        .map_err(w)?;
+    }
     writeln!(
         t,
-        "    {} ({} touches)  {:>8.1}",
-        result.firmware,
-        result.firmware_touches,
-        um(s.firmware_median)
+        "    legwise's calibrated model itself        {:>8.1}{}",
+        um(s.legwise_model_median),
+        match result.firmware {
+            Some(_) => String::new(),
+            None => format!(" ({} touches)", result.legwise_touches),
+        }
     )
     .map_err(w)?;
-    writeln!(
-        t,
-        "    legwise ({} touches), exported             {:>8.1}",
-        result.legwise_touches,
-        um(s.legwise_median)
-    )
-    .map_err(w)?;
-    writeln!(
-        t,
-        "    legwise's calibrated model itself        {:>8.1}",
-        um(s.legwise_model_median)
-    )
-    .map_err(w)?;
-    writeln!(
-        t,
-        "  legwise / firmware: {:.3} (median against median); legwise better on {:.0} % of the printers",
-        s.ratio,
-        100.0 * s.legwise_better
-    )
-    .map_err(w)?;
-    writeln!(
-        t,
-        "  lost in the export (the calibrated model against the firmware values closest to it, RMS over \
-         the bed): median {:.2} µm, max {:.2} µm",
-        um(s.export_loss_median),
-        um(s.export_loss_max)
-    )
-    .map_err(w)?;
+    if let (Some(ratio), Some(better)) = (s.ratio, s.legwise_better) {
+        writeln!(
+            t,
+            "  legwise / firmware: {:.3} (median against median); legwise better on {:.0} % of the printers",
+            ratio,
+            100.0 * better
+        )
+        .map_err(w)?;
+    }
+    if let (Some(median), Some(max)) = (s.export_loss_median, s.export_loss_max) {
+        writeln!(
+            t,
+            "  lost in the export (the calibrated model against the firmware values closest to it, RMS over \
+             the bed): median {:.2} µm, max {:.2} µm",
+            um(median),
+            um(max)
+        )
+        .map_err(w)?;
+    }
     if let Some(choice) = result.choice() {
         writeln!(
             t,
@@ -186,6 +201,14 @@ fn study_text(result: &PrinterStudyResult) -> Result<String, Error> {
                 set.recommended
             )
             .map_err(w)?;
+            if !set.spread_over_sigma.is_empty() {
+                let each: Vec<String> = set
+                    .spread_over_sigma
+                    .iter()
+                    .map(|(name, ratio)| format!("{name} {ratio:.2}"))
+                    .collect();
+                writeln!(t, "      spread/σ of the errors: {}", each.join(", ")).map_err(w)?;
+            }
         }
         writeln!(
             t,

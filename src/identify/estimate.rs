@@ -534,6 +534,8 @@ pub(super) fn leg_estimate(
                         .find(|r| r.column == at)
                         .map(|r| r.sigma)
                 }),
+                // Set by the fit that took the prior (`shared_estimate`).
+                data_share: None,
             }
         })
         .collect();

@@ -40,6 +40,20 @@ pub struct FactorEstimate {
     pub sigma: f64,
     /// SI unit.
     pub unit: Unit,
+    /// Its prior's standard deviation (model file `prior:` on the parameter or quantity), if
+    /// any: the set's fit is then the maximum a posteriori one.
+    pub prior: Option<f64>,
+}
+
+impl FactorEstimate {
+    /// The share of the factor's information that comes from the data, `1 − σ²/σ_prior²` in
+    /// `[0, 1]`; `None` without a prior or a σ.
+    pub fn data_share(&self) -> Option<f64> {
+        let prior = self.prior?;
+        self.sigma
+            .is_finite()
+            .then(|| (1.0_f64 - (self.sigma / prior).powi(2)).clamp(0.0, 1.0))
+    }
 }
 
 /// A factor set fitted.
@@ -69,9 +83,16 @@ pub struct FactorSetFit {
     /// of the weighted Jacobian; exact for a linear model, to first order here). `None` when a
     /// row is the only one to see some factor (`h_ii` = 1) or the set is rank-deficient.
     pub leave_one_out: Option<f64>,
-    /// Akaike's information criterion with the declared noise: `χ² + 2 k` (`k` the factors the
-    /// data determine); `NaN` without a declared noise. Lower is better, between sets fitted on
-    /// the same rows.
+    /// The factors the data determine, `k`: their number (the rank), or with priors the trace
+    /// of the data's rows' hat matrix (a factor resting on its prior counts for the share the
+    /// data give it).
+    pub effective_factors: f64,
+    /// The directions of the factors the data alone cannot see, which rest on the priors
+    /// (column-scaled); empty without priors or when the data see every factor.
+    pub resting_on_prior: Vec<String>,
+    /// Akaike's information criterion with the declared noise: `χ² + 2 k` (`k` the
+    /// [`Self::effective_factors`]); `NaN` without a declared noise. Lower is better, between
+    /// sets fitted on the same rows.
     pub information: f64,
     /// Akaike's criterion corrected for few rows (Hurvich and Tsai's AICc): `χ² + 2k +
     /// 2k(k + 1)/(n − k − 1)` over `n` rows; infinite when `n ≤ k + 1` (the rows cannot judge
@@ -83,9 +104,13 @@ pub struct FactorSetFit {
 }
 
 impl FactorSetFit {
-    /// `√(χ² / dof)`: the residual's scale against the declared noise (1 when they agree).
+    /// `√(χ² / dof)`: the residual's scale against the declared noise (1 when they agree);
+    /// with priors `dof` is the rows less the effective factors.
     pub fn scale(&self) -> f64 {
-        (self.chi_square / self.degrees_of_freedom as f64).sqrt()
+        match self.factors.iter().any(|f| f.prior.is_some()) {
+            false => (self.chi_square / self.degrees_of_freedom as f64).sqrt(),
+            true => (self.chi_square / (self.rows as f64 - self.effective_factors)).sqrt(),
+        }
     }
 }
 
@@ -173,11 +198,44 @@ impl Unknowns {
     }
 }
 
-/// The set's problem seen in its factors: residuals `r(g(θ))`, Jacobian `∂r/∂x · ∂g/∂θ`.
+/// A factor's prior: factor `k` is `mean ± sigma` before any measurement.
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct FactorPrior {
+    factor: usize,
+    mean: f64,
+    sigma: f64,
+}
+
+/// The set's problem seen in its factors: residuals `r(g(θ))`, Jacobian `∂r/∂x · ∂g/∂θ`, then
+/// a row `(θ_k − μ_k)/σ_k` per prior (the data's rows weighted by the declared noise: the fit
+/// is the maximum a posteriori one).
 #[derive(Debug, Clone)]
 struct InFactors<'p, 'm> {
     problem: &'p IdentificationProblem<'m>,
     unknowns: &'p Unknowns,
+    priors: &'p [FactorPrior],
+}
+
+impl InFactors<'_, '_> {
+    /// `r` (the data's rows) with the priors' rows at `theta` after them.
+    fn with_prior_rows(&self, r: DVector<f64>, theta: &DVector<f64>) -> DVector<f64> {
+        let m = r.len();
+        let mut all = r.resize_vertically(m + self.priors.len(), 0.0);
+        for (k, p) in self.priors.iter().enumerate() {
+            all[m + k] = (theta[p.factor] - p.mean) / p.sigma;
+        }
+        all
+    }
+
+    /// `c` (the data's Jacobian in the factors) with the priors' rows after them.
+    fn with_prior_jacobian(&self, c: DMatrix<f64>) -> DMatrix<f64> {
+        let m = c.nrows();
+        let mut all = c.resize_vertically(m + self.priors.len(), 0.0);
+        for (k, p) in self.priors.iter().enumerate() {
+            all[(m + k, p.factor)] = 1.0 / p.sigma;
+        }
+        all
+    }
 }
 
 impl argmin::core::Operator for InFactors<'_, '_> {
@@ -185,7 +243,8 @@ impl argmin::core::Operator for InFactors<'_, '_> {
     type Output = DVector<f64>;
 
     fn apply(&self, theta: &Self::Param) -> std::result::Result<Self::Output, argmin::core::Error> {
-        Ok(self.problem.residuals(&self.unknowns.finite_x(theta)?)?)
+        let r = self.problem.residuals(&self.unknowns.finite_x(theta)?)?;
+        Ok(self.with_prior_rows(r, theta))
     }
 }
 
@@ -200,7 +259,7 @@ impl argmin::core::Jacobian for InFactors<'_, '_> {
         let (_, c) = self
             .problem
             .residuals_and_jacobian(&self.unknowns.finite_x(theta)?)?;
-        Ok(c * self.unknowns.jacobian(theta))
+        Ok(self.with_prior_jacobian(c * self.unknowns.jacobian(theta)))
     }
 }
 
@@ -271,6 +330,28 @@ pub fn fit_factor_set(
     let factors = set_factors(&inner, set);
     let theta0 = DVector::from_iterator(factors.len(), factors.iter().map(|f| f.nominal));
     let noise = FitOptions::default().expected_noise(&inner);
+    let priors: Vec<FactorPrior> = factors
+        .iter()
+        .enumerate()
+        .filter_map(|(k, f)| {
+            f.prior.map(|sigma| FactorPrior {
+                factor: k,
+                mean: f.nominal,
+                sigma,
+            })
+        })
+        .collect();
+    if let (Some(first), None) = (factors.iter().find(|f| f.prior.is_some()), &noise) {
+        return Err(Error::Model {
+            path: mechanism.model_path.clone(),
+            field: format!("`{}`: prior", first.name),
+            message: format!(
+                "factor set `{}`: a prior is weighed against the data by the declared noise, \
+                 and the model declares none (`noise:`)",
+                set.name
+            ),
+        });
+    }
     let solver_error = |e: argmin::core::Error| {
         Error::Invalid(format!("factor set `{}`: the solver failed: {e}", set.name))
     };
@@ -302,6 +383,7 @@ pub fn fit_factor_set(
         let view = InFactors {
             problem: &current,
             unknowns: &unknowns,
+            priors: &priors,
         };
         theta = solve(&view, theta, SolverKind::LevenbergMarquardt)
             .map_err(solver_error)?
@@ -324,16 +406,32 @@ pub fn fit_factor_set(
     let x = unknowns.x(&theta);
     let g = unknowns.jacobian(&theta);
     let raw = problem.residuals(&x).map_err(block)?;
-    let (weighted_r, c) = current.residuals_and_jacobian(&x).map_err(block)?;
-    let c = c * &g;
+    let (weighted_r, data_c) = current.residuals_and_jacobian(&x).map_err(block)?;
+    let data_c = data_c * &g;
+    let view = InFactors {
+        problem: &current,
+        unknowns: &unknowns,
+        priors: &priors,
+    };
+    let c = view.with_prior_jacobian(data_c.clone());
     let factor_names: Vec<String> = set.factors.clone();
     let observability = analyse(&c, &factor_names);
     let rows = raw.len();
     let full_rank = observability.rank == factors.len();
+    let resting_on_prior = match priors.is_empty() {
+        true => Vec::new(),
+        false => analyse(&data_c, &factor_names).null_directions,
+    };
     // σ and χ² need every row weighted by its declared variance (none zero).
     let covariance = match (full_rank, &weights) {
         (true, Some(_)) => (c.transpose() * &c).try_inverse(),
         _ => None,
+    };
+    // Each data row's leverage (with priors, in the fit with their rows).
+    let data_leverages: Vec<f64> = leverages(&c).into_iter().take(rows).collect();
+    let effective_factors = match priors.is_empty() {
+        true => observability.rank as f64,
+        false => data_leverages.iter().sum(),
     };
     let factors = factors
         .into_iter()
@@ -363,7 +461,7 @@ pub fn fit_factor_set(
         predicted_position_of(&inner, (&params, &shared), &named, &covariance)
     });
     let leave_one_out = full_rank
-        .then(|| leave_one_out_rms(raw.as_slice(), &leverages(&c)))
+        .then(|| leave_one_out_rms(raw.as_slice(), &data_leverages))
         .flatten();
     let chi_square = match weights {
         Some(_) => weighted_r.norm_squared(),
@@ -372,8 +470,10 @@ pub fn fit_factor_set(
     Ok(FactorSetFit {
         leave_one_out,
         weightings,
-        information: chi_square + 2.0 * observability.rank as f64,
-        information_corrected: corrected_information(chi_square, observability.rank, rows),
+        effective_factors,
+        resting_on_prior,
+        information: chi_square + 2.0 * effective_factors,
+        information_corrected: corrected_information(chi_square, effective_factors, rows),
         name: set.name.clone(),
         note: set.note.clone(),
         factors,
@@ -386,9 +486,10 @@ pub fn fit_factor_set(
     })
 }
 
-/// AICc: `χ² + 2k + 2k(k + 1)/(n − k − 1)`, infinite for `n ≤ k + 1`.
-pub fn corrected_information(chi_square: f64, k: usize, n: usize) -> f64 {
-    let (k, n) = (k as f64, n as f64);
+/// AICc: `χ² + 2k + 2k(k + 1)/(n − k − 1)`, infinite for `n ≤ k + 1` (`k` may be an
+/// effective number of factors, [`FactorSetFit::effective_factors`]).
+pub fn corrected_information(chi_square: f64, k: f64, n: usize) -> f64 {
+    let n = n as f64;
     let room = n - k - 1.0;
     match room > 0.0 {
         true => chi_square + 2.0 * k + 2.0 * k * (k + 1.0) / room,
@@ -427,10 +528,10 @@ fn set_factors(mechanism: &Mechanism, set: &FactorSet) -> Vec<FactorEstimate> {
                 .instrument
                 .as_ref()
                 .and_then(|i| i.parameters.iter().find(|p| &p.name == name));
-            let (nominal, unit) = match (quantity, parameter, shared) {
-                (Some(q), _, _) => (q.nominal, q.unit),
-                (_, Some(p), _) => (p.nominal, p.unit),
-                (_, _, Some(s)) => (s.nominal, s.unit),
+            let (nominal, unit, prior) = match (quantity, parameter, shared) {
+                (Some(q), _, _) => (q.nominal, q.unit, q.prior),
+                (_, Some(p), _) => (p.nominal, p.unit, p.prior),
+                (_, _, Some(s)) => (s.nominal, s.unit, None),
                 _ => unreachable!("the model's factor sets name what it has"),
             };
             FactorEstimate {
@@ -439,6 +540,7 @@ fn set_factors(mechanism: &Mechanism, set: &FactorSet) -> Vec<FactorEstimate> {
                 estimate: nominal,
                 sigma: f64::NAN,
                 unit,
+                prior,
             }
         })
         .collect()

@@ -71,17 +71,13 @@ pub struct ParameterEstimate {
     /// The prior's standard deviation, when the fit took one for the parameter (model file
     /// `prior:`).
     pub prior: Option<f64>,
+    /// With a prior, the share of the parameter's information that comes from the data, `1 −
+    /// σ_d²/σ_prior²` in `[0, 1]` (`σ_d` the declared noise's σ, not scaled by ŝ): 0 when the
+    /// estimate rests on its prior alone, near 1 when the data determine it far better.
+    pub data_share: Option<f64>,
 }
 
 impl ParameterEstimate {
-    /// The share of the parameter's information that comes from the data, `1 − σ²/σ_prior²`
-    /// in `[0, 1]`: 0 when the estimate rests on its prior alone, near 1 when the data
-    /// determine it far better than the prior did. `None` without a prior or a σ.
-    pub fn data_share(&self) -> Option<f64> {
-        let (std, prior) = (self.std?, self.prior?);
-        Some((1.0_f64 - (std / prior).powi(2)).clamp(0.0, 1.0))
-    }
-
     /// Half the width of the two-sided 95 % interval, `t(0.975, ν) · std` with Student's t on
     /// the [`degrees_of_freedom`](Self::degrees_of_freedom) ν (σ̂ is estimated from the
     /// residuals, so the normal 1.96 would make the interval too short), or `1.96 · std` for a

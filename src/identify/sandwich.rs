@@ -193,6 +193,16 @@ pub fn reported_covariance(
     sandwich(r, jacobian, loadings, by_residuals)
 }
 
+/// The declared noise's covariance `A (Jᵀ V J) A` (not scaled by ŝ), as [`covariance`]
+/// otherwise: what the data determine whatever their residuals say of the noise level.
+pub fn declared_covariance(
+    r: &DVector<f64>,
+    jacobian: &DMatrix<f64>,
+    loadings: Option<&NoiseLoadings>,
+) -> Option<DMatrix<f64>> {
+    sandwich(r, jacobian, loadings, false)
+}
+
 /// A residual's loading on one measurement: the residual, the loading, and whether the
 /// measurement is the residual's own (its reading's own noise `σ_q` counted there).
 type Loading<'a> = (usize, &'a [f64], bool);

@@ -23,7 +23,7 @@ use super::result::{
     StrategyResult, Weighting,
 };
 use super::robust::{self, RobustError, RobustFit, RobustLoss};
-use super::sandwich::{self, reported_covariance};
+use super::sandwich::{self, declared_covariance, reported_covariance};
 use super::shared_outliers;
 use super::shared_weights::weighted_joint_fit;
 use super::statistics::{self, FitKind};
@@ -362,12 +362,22 @@ pub fn identify_shared(
         .filter(|&d| loadings.is_none() || sandwich::scaled_by_residuals(d));
     // The joint fit's sandwich (on the weighted rows when weighted); the two-stage one's
     // propagates the registration's error.
+    // With priors, the declared noise's covariance (not scaled by ŝ) says how much of each
+    // parameter's information comes from the data.
+    let mut declared = None;
     let (covariance, registration) = match registered {
         None => match (&scales, &loadings) {
             (Some(s), Some(l)) if noise_weighted => {
                 let weighted_r = DVector::from_fn(m, |i, _| s[i] * kept_r[i]);
                 let weighted_jacobian = DMatrix::from_fn(m, n, |i, j| s[i] * kept_jacobian[(i, j)]);
                 let weighted_loadings = l.scaled(s);
+                if !problem.prior_rows().is_empty() {
+                    declared = declared_covariance(
+                        &weighted_r,
+                        &weighted_jacobian,
+                        Some(&weighted_loadings),
+                    );
+                }
                 (
                     reported_covariance(&weighted_r, &weighted_jacobian, Some(&weighted_loadings)),
                     None,
@@ -426,6 +436,10 @@ pub fn identify_shared(
             leg_estimate(mechanism, &problem, slot, &fit, None, (block, dof))
         })
         .collect();
+    let mut legs = legs;
+    if let Some(declared) = &declared {
+        set_data_shares(&problem, declared, &mut legs);
+    }
     let names: Vec<String> = legs.iter().map(|l| l.leg.clone()).collect();
     // The priors' rows come last and are always kept: the data's are the others.
     let data_rows = m - problem.prior_rows().len();
@@ -468,6 +482,26 @@ pub fn identify_shared(
         warnings,
         instrument: Some(instrument),
     })
+}
+
+/// Each prior's data share, `1 − σ_d²/σ_prior²` from the declared noise's covariance
+/// `declared` of the problem's unknowns, written into the legs' parameter estimates.
+fn set_data_shares(
+    problem: &IdentificationProblem<'_>,
+    declared: &DMatrix<f64>,
+    legs: &mut [LegEstimate],
+) {
+    for prior in problem.prior_rows() {
+        let variance = declared[(prior.column, prior.column)].max(0.0);
+        let share = (1.0 - variance / prior.sigma.powi(2)).clamp(0.0, 1.0);
+        let parameters = legs.iter_mut().flat_map(|l| l.parameters.iter_mut());
+        if let Some(p) = parameters
+            .filter(|p| p.identified)
+            .find(|p| p.name == prior.name)
+        {
+            p.data_share = Some(share);
+        }
+    }
 }
 
 /// A prior is weighed against the data by the declared noise: refused when the fit is not the
@@ -581,6 +615,7 @@ fn instrument_parameters(
                 identified: p.identified,
                 degrees_of_freedom: std.and(dof),
                 prior: None,
+                data_share: None,
             }
         })
         .collect()

@@ -284,6 +284,7 @@ mod tests {
             identified,
             degrees_of_freedom: std.map(|_| 10),
             prior: None,
+            data_share: None,
         }
     }
 

@@ -65,15 +65,30 @@ pub fn factor_sets_text(title: &str, fits: &[FactorSetFit]) -> String {
             .map_or(String::new(), |n| format!(" ({n})"));
         let _ = writeln!(out, "\n{}{note}:", fit.name);
         for f in &fit.factors {
+            let prior = f.prior.map_or(String::new(), |sigma| {
+                let share = f.data_share().map_or(String::new(), |s| {
+                    format!(", {:.0} % of its information from the data", 100.0 * s)
+                });
+                format!(", prior ±{sigma:.2e}{share}")
+            });
             let _ = writeln!(
                 out,
-                "  {:<14} {:>16.9e} ± {:<10} {}  (nominal {:.9e}, moved {:.3e})",
+                "  {:<14} {:>16.9e} ± {:<10} {}  (nominal {:.9e}, moved {:.3e}{prior})",
                 f.name,
                 f.estimate,
                 number(f.sigma, 2),
                 f.unit,
                 f.nominal,
                 f.estimate - f.nominal
+            );
+        }
+        if !fit.resting_on_prior.is_empty() {
+            let _ = writeln!(
+                out,
+                "  the data alone cannot see {}: it rests on the priors (k = {:.2} effective \
+                 factors)",
+                fit.resting_on_prior.join("; "),
+                fit.effective_factors
             );
         }
     }
@@ -129,7 +144,11 @@ pub fn factor_sets_json(fits: &[FactorSetFit]) -> Value {
                         "nominal": f.nominal,
                         "estimate": f.estimate,
                         "sigma": finite(f.sigma),
+                        "prior": f.prior,
+                        "data_share": f.data_share(),
                     })).collect::<Vec<_>>(),
+                    "effective_factors": fit.effective_factors,
+                    "resting_on_prior": fit.resting_on_prior,
                 })
             })
             .collect(),

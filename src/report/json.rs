@@ -272,7 +272,7 @@ impl<'a> ParameterJson<'a> {
             error_before: (real.map(|r| p.nominal - r)),
             error_after: (real.map(|r| p.estimate - r)),
             prior: p.prior,
-            data_share: p.data_share(),
+            data_share: p.data_share,
         }
     }
 }

@@ -136,7 +136,7 @@ fn table_row(p: &ParameterEstimate, real: Option<f64>) -> String {
         );
     }
     if let Some(prior) = p.prior {
-        let share = p.data_share().map_or(String::new(), |s| {
+        let share = p.data_share.map_or(String::new(), |s| {
             format!(", {:.0} % from the data", 100.0 * s)
         });
         let _ = write!(row, "  (prior ±{}{share})", figure(prior));

@@ -15,6 +15,7 @@ use legwise::Mechanism;
 use nalgebra::{Matrix3, Rotation3, Vector3};
 
 use crate::cli::{assert_fails_with, legwise_succeeds, text};
+use crate::support::crate_path;
 
 const CFG: &str = "tests/data/klipper/printer.cfg";
 
@@ -153,7 +154,7 @@ fn each_print_error_is_the_real_printers_under_the_values_reported() {
     let mechanism = imported(dir.path());
     let firmware = klipper_calibration(&mechanism).unwrap();
     let study =
-        PrinterStudy::prepare(&mechanism, firmware, PrinterStudyOptions::new(3, 7)).unwrap();
+        PrinterStudy::prepare(&mechanism, Some(firmware), PrinterStudyOptions::new(3, 7)).unwrap();
     let nominal: BTreeMap<String, f64> = mechanism
         .quantities
         .iter()
@@ -170,8 +171,8 @@ fn each_print_error_is_the_real_printers_under_the_values_reported() {
         let e = outcome.errors;
         for (name, reported, values) in [
             ("nominal", e.nominal, &nominal),
-            ("firmware", e.firmware, &firmware),
-            ("legwise", e.legwise, &legwise),
+            ("firmware", e.firmware.unwrap(), &firmware),
+            ("legwise", e.legwise.unwrap(), &legwise),
         ] {
             let independent = print_error(values, real, study.map());
             // The alignment's motions are taken at the commanded points here and in legwise:
@@ -185,7 +186,8 @@ fn each_print_error_is_the_real_printers_under_the_values_reported() {
         // quantity, equal to Klipper's six on legwise's own set (exactly expressible).
         assert_eq!(outcome.firmware_values.len(), 6);
         assert_eq!(outcome.legwise_values.len(), 10);
-        assert!(e.export_loss < 1e-9, "export loss {:e}", e.export_loss);
+        let loss = e.export_loss.unwrap();
+        assert!(loss < 1e-9, "export loss {loss:e}");
     }
 }
 
@@ -236,15 +238,16 @@ fn a_printer_equal_to_its_model_prints_at_the_probes_noise() {
         },
         ..PrinterStudyOptions::new(4, 1)
     };
-    let study = PrinterStudy::prepare(&mechanism, firmware, options).unwrap();
+    let study = PrinterStudy::prepare(&mechanism, Some(firmware), options).unwrap();
     let result = study.run();
     for printer in &result.printers {
         let e = printer.outcome.as_ref().unwrap().errors;
         assert!(e.nominal < 1e-12, "{e:?}");
         // The probe's 10 µm noise through either fit, and nothing else: Klipper's seven
         // points amplify it (about 0.1 mm over the volume), legwise's 18 less.
-        assert!(e.firmware > 0.0 && e.firmware < 5e-4, "{e:?}");
-        assert!(e.legwise > 0.0 && e.legwise < e.firmware, "{e:?}");
+        let (firmware, legwise) = (e.firmware.unwrap(), e.legwise.unwrap());
+        assert!(firmware > 0.0 && firmware < 5e-4, "{e:?}");
+        assert!(legwise > 0.0 && legwise < firmware, "{e:?}");
     }
 }
 
@@ -326,7 +329,7 @@ fn bad_studies_are_refused_by_name() {
             "models/delta-probe.yaml",
         ],
         "legwise: models/delta-probe.yaml: field `factor_sets`: expected the set `klipper-6` of \
-         a printer imported by `legwise printer import`, found none",
+         a printer imported by `legwise printer import`, found rods",
     );
 }
 
@@ -357,7 +360,7 @@ fn the_recommended_set_is_the_lowest_corrected_criterion_and_never_frees_rods_or
             touches: Some(touches),
             ..PrinterStudyOptions::new(6, 3)
         };
-        let study = PrinterStudy::prepare(&mechanism, firmware, options).unwrap();
+        let study = PrinterStudy::prepare(&mechanism, Some(firmware), options).unwrap();
         let result = study.run();
         let choice = result.choice().unwrap();
         let picked: usize = choice.sets.iter().map(|s| s.recommended).sum();
@@ -385,4 +388,79 @@ fn the_recommended_set_is_the_lowest_corrected_criterion_and_never_frees_rods_or
         }
         assert!(choice.best_median_m <= choice.recommended_median_m);
     }
+}
+
+/// Without a firmware the study runs legwise's fit and the model's sets on any model seen
+/// through its probe (models/delta-probe.yaml, whose set `rods` frees the rods on their
+/// prior): no firmware figure, and each set's spread/σ is the RMS over the printers of its
+/// factors' standardized errors, each `(estimate − real)/σ` against the printer's drawn value.
+#[test]
+fn without_a_firmware_the_sets_spread_over_sigma_is_their_standardized_errors_rms() {
+    let mechanism = Mechanism::load(&crate_path("models/delta-probe.yaml")).unwrap();
+    let options = PrinterStudyOptions {
+        compare_sets: true,
+        ..PrinterStudyOptions::new(5, 2)
+    };
+    let study = PrinterStudy::prepare(&mechanism, None, options).unwrap();
+    let result = study.run();
+    assert_eq!(result.firmware, None);
+    let summary = result.summary().unwrap();
+    assert!(summary.firmware_median.is_none() && summary.ratio.is_none());
+    let choice = result.choice().unwrap();
+    let names: Vec<&str> = choice.sets.iter().map(|s| s.name.as_str()).collect();
+    assert_eq!(names, ["model", "rods"]);
+    for (k, set) in choice.sets.iter().enumerate() {
+        assert_eq!(set.determined, 5, "{}", set.name);
+        for (name, ratio) in &set.spread_over_sigma {
+            let mut squares = Vec::new();
+            for printer in &result.printers {
+                let outcome = printer.outcome.as_ref().unwrap();
+                let z = &outcome.sets[k].standardized_errors;
+                squares.push(z.iter().find(|(n, _)| n == name).unwrap().1.powi(2));
+            }
+            let expected = (squares.iter().sum::<f64>() / squares.len() as f64).sqrt();
+            assert!(
+                (ratio - expected).abs() < 1e-12,
+                "{name}: {ratio} vs {expected}"
+            );
+        }
+        let factors: Vec<&str> = set
+            .spread_over_sigma
+            .iter()
+            .map(|(n, _)| n.as_str())
+            .collect();
+        assert_eq!(factors.len(), set.factors, "{factors:?}");
+    }
+    for printer in &result.printers {
+        let outcome = printer.outcome.as_ref().unwrap();
+        assert!(outcome.firmware_values.is_empty() && outcome.errors.firmware.is_none());
+        // The rods' standardized errors against the printer's drawn rods, recomputed.
+        let real = study.real_printer(printer.index);
+        let drawn = &real.simulation.as_ref().unwrap().real;
+        let rods = &outcome.sets[1].standardized_errors;
+        for (name, z) in rods.iter().filter(|(n, _)| n.starts_with('L')) {
+            assert!(
+                drawn.contains_key(name) && z.is_finite() && z.abs() < 6.0,
+                "{name} {z}"
+            );
+        }
+    }
+    let out = legwise_succeeds(&[
+        "printer",
+        "study",
+        "--model",
+        crate_path("models/delta-probe.yaml").to_str().unwrap(),
+        "--printers",
+        "3",
+        "--sets",
+    ]);
+    let report = text(&out.stdout);
+    assert!(
+        !report.contains("Klipper") && !report.contains("firmware"),
+        "{report}"
+    );
+    assert!(
+        report.contains("rods") && report.contains("spread/σ of the errors"),
+        "{report}"
+    );
 }

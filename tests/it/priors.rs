@@ -26,21 +26,20 @@ const PROBE_SIGMA: f64 = 1e-5;
 /// given.
 fn rods_with_priors(tower_prior: Option<f64>) -> Mechanism {
     let mut text = std::fs::read_to_string(crate_path("models/delta-probe.yaml")).unwrap();
-    let mut free = |held: String, sigma: f64| {
-        assert!(text.contains(&held), "{held}");
-        let freed = held.replace("identify: false", &format!("prior: {sigma:e}"));
-        text = text.replace(&held, &freed);
-    };
+    // The model's rods carry their prior already: identified, they take it.
     for i in 1..=3 {
-        free(
-            format!("{{name: L{i}, joint: R{i}, origin: x, identify: false}}"),
-            ROD_PRIOR,
+        let held = format!(
+            "{{name: L{i}, joint: R{i}, origin: x, identify: false, prior: {ROD_PRIOR:.1e}}}"
         );
+        assert!(text.contains(&held), "{held}");
+        text = text.replace(&held, &held.replace("identify: false, ", ""));
     }
     if let Some(sigma) = tower_prior {
         for (name, joint, axis) in [("t1x", "C1", "x"), ("t1y", "C1", "y"), ("t2x", "C2", "x")] {
             let held = format!("{{name: {name}, joint: {joint}, origin: {axis}, identify: false}}");
-            free(held, sigma);
+            assert!(text.contains(&held), "{held}");
+            let freed = held.replace("identify: false", &format!("prior: {sigma:e}"));
+            text = text.replace(&held, &freed);
         }
     }
     parse_model(&text).expect("the model with priors loads")
@@ -173,11 +172,18 @@ fn the_fit_with_priors_is_the_least_squares_optimum_of_the_rows_augmented_with_t
         let is_rod = priors.iter().any(|p| p.0 == j);
         assert_eq!(prior.is_some(), is_rod, "{}", names[j]);
     }
+    // Each rod's data share, from the declared noise's covariance (not scaled by ŝ).
+    let declared = (a.transpose() * &a).try_inverse().unwrap();
     let rods = result.legs.iter().flat_map(|l| &l.parameters);
-    for p in rods.filter(|p| p.prior.is_some()) {
-        let share = p.data_share().unwrap();
-        let expected = 1.0 - (p.std.unwrap() / ROD_PRIOR).powi(2);
-        assert!((share - expected).abs() < 1e-12 && share > 0.0 && share < 1.0);
+    for (p, &(j, _, _)) in rods.filter(|p| p.prior.is_some()).zip(&priors) {
+        let share = p.data_share.unwrap();
+        let expected = 1.0 - declared[(j, j)] / ROD_PRIOR.powi(2);
+        assert!(
+            (share - expected).abs() < 1e-6,
+            "{}: {share} vs {expected}",
+            p.name
+        );
+        assert!(share > 0.0 && share < 1.0);
     }
     // The report counts the data's rows; its RMS is theirs alone.
     let instrument = result.instrument.as_ref().unwrap();
@@ -228,7 +234,7 @@ fn what_the_data_cannot_see_rests_on_the_priors_and_is_named() {
         p.clone()
             .find(|p| p.name == name)
             .unwrap()
-            .data_share()
+            .data_share
             .unwrap()
     };
     assert!(share("L1") < 0.9, "{}", share("L1"));
@@ -271,9 +277,10 @@ fn priors_without_the_declared_noise_to_weigh_them_are_refused() {
     let text = std::fs::read_to_string(crate_path("models/delta-probe.yaml")).unwrap();
     for bad in ["0.0", "-1.0e-4", ".nan", ".inf"] {
         let edited = text.replace(
-            "{name: L1, joint: R1, origin: x, identify: false}",
+            "{name: L1, joint: R1, origin: x, identify: false, prior: 2.0e-4}",
             &format!("{{name: L1, joint: R1, origin: x, prior: {bad}}}"),
         );
+        assert_ne!(edited, text);
         let error = parse_model(&edited).unwrap_err().to_string();
         assert!(
             error.contains("parameters[2].prior") && error.contains("finite positive"),
@@ -325,4 +332,67 @@ fn a_leg_fit_at_measured_poses_refuses_a_prior_rather_than_dropping_it() {
         error.contains(&format!("parameter `{first}`: prior")),
         "{error}"
     );
+}
+
+/// The set `rods` of models/delta-probe.yaml (its six and the rods, each rod on its 0.2 mm
+/// prior) fitted in its factors and the joint fit of the model with the rods identified: two
+/// ways of adding the prior rows (to the set's factors, to the problem's unknowns), one optimum.
+/// The estimates agree to 1e-6 of their σ; the joint fit's σ are the set's (the declared
+/// noise's) times one common scale ŝ. The set's effective factors are the trace of the data's
+/// hat matrix, which is also `n − Σ σ²/σ_prior²` over the priors: the six factors without a
+/// prior count 1 each, a rod its data share.
+#[test]
+fn a_factor_set_on_priors_fits_what_the_joint_fit_with_the_same_priors_fits() {
+    let mechanism = Mechanism::load(&crate_path("models/delta-probe.yaml")).unwrap();
+    let (observations, _, _) = experiment_at(&mechanism, 1.0, PoseSource::Selected, Some(11));
+    let data = Measurements::Targets(observations.clone());
+    let set = mechanism
+        .factor_sets
+        .iter()
+        .find(|s| s.name == "rods")
+        .unwrap();
+    let fit = legwise::identify::factor_set::fit_factor_set(&mechanism, &data, set).unwrap();
+    let freed = crate::support::with_identified(&mechanism, &["L1", "L2", "L3"], true);
+    let joint = fit_joint(&freed, &observations);
+    let by_name = |name: &str| {
+        let mut all = joint.legs.iter().flat_map(|l| &l.parameters);
+        all.find(|p| p.name == name).unwrap().clone()
+    };
+    let mut scales = Vec::new();
+    for f in &fit.factors {
+        let p = by_name(&f.name);
+        let sigma = p.std.unwrap();
+        assert!(
+            (p.estimate - f.estimate).abs() < 1e-6 * sigma,
+            "{}: joint {} vs set {}",
+            f.name,
+            p.estimate,
+            f.estimate
+        );
+        assert_eq!(p.prior, f.prior, "{}", f.name);
+        scales.push(sigma / f.sigma);
+    }
+    let first = scales[0];
+    assert!(
+        scales.iter().all(|s| (s / first - 1.0).abs() < 1e-6),
+        "{scales:?}"
+    );
+    let shares: f64 = fit
+        .factors
+        .iter()
+        .map(|f| f.data_share().unwrap_or(1.0))
+        .sum();
+    assert!(
+        (fit.effective_factors - shares).abs() < 1e-9,
+        "{} vs {shares}",
+        fit.effective_factors
+    );
+    assert!(fit.effective_factors > 6.0 && fit.effective_factors < 9.0);
+    let expected = fit.chi_square + 2.0 * fit.effective_factors;
+    assert!((fit.information - expected).abs() < 1e-9);
+}
+
+/// The joint fit with the default options.
+fn fit_joint(mechanism: &Mechanism, observations: &Observations) -> StrategyResult {
+    fit(mechanism, observations, FitOptions::default())
 }

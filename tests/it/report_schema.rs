@@ -297,6 +297,7 @@ fn intervals_use_student_s_t_on_the_residual_degrees_of_freedom() {
         identified: true,
         degrees_of_freedom: Some(12),
         prior: None,
+        data_share: None,
     };
     assert!((p.half_width95().unwrap() - 2.178_813e-3).abs() < 1e-9);
     assert_eq!(
@@ -312,6 +313,7 @@ fn intervals_use_student_s_t_on_the_residual_degrees_of_freedom() {
     let declared = ParameterEstimate {
         degrees_of_freedom: None,
         prior: None,
+        data_share: None,
         ..p
     };
     assert!(declared.std_from_declared_noise());

@@ -157,3 +157,13 @@ pub(crate) fn with_identified(
         }
     })
 }
+
+/// `mechanism` without any prior (every parameter's `prior:` removed): a freed parameter is
+/// then fitted on the data alone.
+pub(crate) fn without_priors(mechanism: &Mechanism) -> Mechanism {
+    mechanism.edited(|parts| {
+        for p in parts.legs.iter_mut().flat_map(|l| l.params.iter_mut()) {
+            p.prior = None;
+        }
+    })
+}

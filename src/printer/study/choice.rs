@@ -12,6 +12,7 @@ use crate::identify::set_choice::{self, Candidate};
 use crate::kinematics::platform::ForwardKinematics;
 use crate::measure::Measurements;
 use crate::model::with_values::with_values;
+use crate::model::Mechanism;
 
 /// One set on one printer.
 #[derive(Debug, Clone, PartialEq, Serialize)]
@@ -31,6 +32,10 @@ pub struct SetOutcome {
     pub information_corrected: Option<f64>,
     /// The print error of the fitted model commanding the printer (m), when determined.
     pub print_error_m: Option<f64>,
+    /// Each factor's error over its σ, `(estimate − real)/σ`, by name: the factors that are
+    /// parameters of the printer (a quantity has no real value of its own), when determined.
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub standardized_errors: Vec<(String, f64)>,
 }
 
 /// The index of the set legwise recommends among `sets` ([`set_choice::recommended`]).
@@ -48,13 +53,15 @@ pub fn recommended(sets: &[SetOutcome]) -> Option<usize> {
 
 impl PrinterStudy {
     /// Every set of the model fitted on `data` (legwise's touches of a printer), with the
-    /// print error each leaves on it (`real`: its forward kinematics; `real_shared`: its bed).
+    /// print error each leaves on it (`real`: its forward kinematics; `real_shared`: its bed;
+    /// `printer`: the drawn printer, its simulation block's `real` values).
     pub(super) fn set_outcomes(
         &self,
         data: &Measurements,
-        real: &ForwardKinematics<'_>,
-        real_shared: &[f64],
+        (real, real_shared): (&ForwardKinematics<'_>, &[f64]),
+        printer: &Mechanism,
     ) -> Result<Vec<SetOutcome>> {
+        let truth = printer.simulation.as_ref().map(|s| &s.real);
         model_sets(&self.mechanism)
             .iter()
             .map(|set| {
@@ -64,6 +71,15 @@ impl PrinterStudy {
                     true => Some(self.print_error(&fitted(self, &fit)?, real, real_shared)?),
                     false => None,
                 };
+                let standardized_errors = fit
+                    .factors
+                    .iter()
+                    .filter(|_| determined)
+                    .filter_map(|f| {
+                        let value = truth?.get(&f.name)?;
+                        (f.sigma > 0.0).then(|| (f.name.clone(), (f.estimate - value) / f.sigma))
+                    })
+                    .collect();
                 Ok(SetOutcome {
                     name: fit.name.clone(),
                     factors: fit.factors.len(),
@@ -75,6 +91,7 @@ impl PrinterStudy {
                         .is_finite()
                         .then_some(fit.information_corrected),
                     print_error_m,
+                    standardized_errors,
                 })
             })
             .collect()
@@ -82,7 +99,7 @@ impl PrinterStudy {
 }
 
 /// The model at a set's estimates.
-fn fitted(study: &PrinterStudy, fit: &FactorSetFit) -> Result<crate::model::Mechanism> {
+fn fitted(study: &PrinterStudy, fit: &FactorSetFit) -> Result<Mechanism> {
     let values: Vec<(String, f64)> = fit
         .factors
         .iter()
@@ -104,6 +121,7 @@ mod tests {
             information: None,
             information_corrected: score,
             print_error_m: None,
+            standardized_errors: Vec::new(),
         }
     }
 

@@ -123,15 +123,19 @@ impl PrinterStudyOptions {
 pub struct PrinterErrors {
     /// With the imported (nominal) values.
     pub nominal: f64,
-    /// After the firmware's own calibration.
-    pub firmware: f64,
+    /// After the firmware's own calibration (a study against a firmware).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub firmware: Option<f64>,
     /// legwise's calibrated model itself commanding (what a firmware with its terms would do).
     pub legwise_model: f64,
-    /// legwise's calibration exported through the firmware's parameters.
-    pub legwise: f64,
+    /// legwise's calibration exported through the firmware's parameters (a study against a
+    /// firmware).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub legwise: Option<f64>,
     /// The export's loss: RMS over the bed of the nozzle's distance between the exported
-    /// firmware values and legwise's calibrated model, m.
-    pub export_loss: f64,
+    /// firmware values and legwise's calibrated model, m (a study against a firmware).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub export_loss: Option<f64>,
 }
 
 /// What one printer's two calibrations gave.
@@ -140,9 +144,13 @@ pub struct PrinterOutcome {
     /// The print errors.
     #[serde(rename = "print_error_m")]
     pub errors: PrinterErrors,
-    /// The firmware's values after its own calibration (the model's quantities it fits, SI).
+    /// The firmware's values after its own calibration (the model's quantities it fits, SI;
+    /// empty without a firmware).
+    #[serde(skip_serializing_if = "BTreeMap::is_empty")]
     pub firmware_values: BTreeMap<String, f64>,
-    /// legwise's calibration exported as the firmware's values (the model's quantities, SI).
+    /// legwise's calibration exported as the firmware's values (the model's quantities, SI;
+    /// empty without a firmware).
+    #[serde(skip_serializing_if = "BTreeMap::is_empty")]
     pub legwise_values: BTreeMap<String, f64>,
     /// With [`PrinterStudyOptions::compare_sets`]: every set of the model on legwise's
     /// touches (the model's own first).
@@ -166,7 +174,8 @@ pub struct PrinterTrial {
 #[derive(Debug, Clone)]
 pub struct PrinterStudy {
     mechanism: Mechanism,
-    firmware: FirmwareCalibration,
+    /// The firmware compared with, if any.
+    firmware: Option<FirmwareCalibration>,
     options: PrinterStudyOptions,
     /// legwise's selected touches (commanded poses).
     selected: Vec<[f64; 6]>,
@@ -181,8 +190,8 @@ pub struct PrinterStudy {
 pub struct PrinterStudyResult {
     /// The options it ran with.
     pub options: PrinterStudyOptions,
-    /// The firmware's calibration's name.
-    pub firmware: String,
+    /// The firmware's calibration's name (`None`: legwise's fit and sets alone).
+    pub firmware: Option<String>,
     /// The firmware's touches.
     pub firmware_touches: usize,
     /// legwise's touches.
@@ -194,20 +203,23 @@ pub struct PrinterStudyResult {
 }
 
 impl PrinterStudy {
-    /// Selects legwise's touches, places the firmware's and builds the map.
+    /// Selects legwise's touches, places the firmware's (if compared with one) and builds the
+    /// map.
     ///
     /// # Errors
-    /// Not an imported printer (no forward instrument, no set); the selection's errors; a
-    /// firmware point off the nominal bed; an empty map.
+    /// Not a printer (no forward instrument); the selection's errors; a firmware point off the
+    /// nominal bed; an empty map.
     pub fn prepare(
         mechanism: &Mechanism,
-        firmware: FirmwareCalibration,
+        firmware: Option<FirmwareCalibration>,
         options: PrinterStudyOptions,
     ) -> Result<Self> {
         let instrument = mechanism.forward_instrument().ok_or_else(|| Error::Model {
             path: mechanism.model_path.clone(),
             field: "instrument.kinematics".into(),
-            message: "expected an imported printer (a forward model), found none".into(),
+            message: "expected a printer seen through its probe (a forward model, \
+                      `instrument.kinematics: forward`), found none"
+                .into(),
         })?;
         if options.printers == 0 {
             return Err(Error::Invalid("a printer study needs printers".into()));
@@ -216,9 +228,8 @@ impl PrinterStudy {
         let criterion = mechanism.selection.criterion;
         let selected = select_forward(mechanism, None, count, criterion)?.commanded();
         let nominal_shared = instrument.nominal();
-        let firmware_poses = firmware
-            .points
-            .iter()
+        let points = firmware.iter().flat_map(|f| &f.points);
+        let firmware_poses = points
             .map(|&[x, y]| {
                 let mut pose = mechanism.home_pose;
                 pose[0] = x;
@@ -250,7 +261,7 @@ impl PrinterStudy {
             .collect();
         PrinterStudyResult {
             options: self.options,
-            firmware: self.firmware.name.clone(),
+            firmware: self.firmware.as_ref().map(|f| f.name.clone()),
             firmware_touches: self.firmware_poses.len(),
             legwise_touches: self.selected.len(),
             map_points: self.map.len(),
@@ -270,14 +281,19 @@ impl PrinterStudy {
         let kinematics = ForwardKinematics::new(&real, &legs);
         let error = |model: &Mechanism| self.print_error(model, &kinematics, &shared);
 
-        let firmware_data = self.touches(&real, &self.firmware_poses, seed)?;
-        let set = fit_factor_set(&self.mechanism, &firmware_data, &self.firmware.set)?;
-        let values: Vec<(String, f64)> = set
-            .factors
-            .iter()
-            .map(|f| (f.name.clone(), f.estimate))
-            .collect();
-        let firmware = with_values(&self.mechanism, &values)?;
+        let firmware = match &self.firmware {
+            Some(calibration) => {
+                let firmware_data = self.touches(&real, &self.firmware_poses, seed)?;
+                let set = fit_factor_set(&self.mechanism, &firmware_data, &calibration.set)?;
+                let values: Vec<(String, f64)> = set
+                    .factors
+                    .iter()
+                    .map(|f| (f.name.clone(), f.estimate))
+                    .collect();
+                Some((with_values(&self.mechanism, &values)?, values))
+            }
+            None => None,
+        };
 
         let data = self.touches(&real, &self.selected, seed ^ 0x7e11)?;
         let result = identify_one(
@@ -301,24 +317,32 @@ impl PrinterStudy {
                 .as_ref()
                 .map(|i| i.parameters.iter().map(|p| p.estimate).collect()),
         );
-        let export = fit_delta(&calibrated, self.bed_radius, self.firmware.terms)?;
-        let legwise_values = firmware_quantities(&self.mechanism, &export)?;
-        let exported = with_values(&self.mechanism, &legwise_values)?;
-        let errors = PrinterErrors {
+        let mut errors = PrinterErrors {
             nominal: error(&self.mechanism)?,
-            firmware: error(&firmware)?,
+            firmware: None,
             legwise_model: error(&calibrated)?,
-            legwise: error(&exported)?,
-            export_loss: export.rms_loss,
+            legwise: None,
+            export_loss: None,
         };
+        let (mut firmware_values, mut legwise_values) = (BTreeMap::new(), BTreeMap::new());
+        if let (Some(calibration), Some((firmware, values))) = (&self.firmware, firmware) {
+            let export = fit_delta(&calibrated, self.bed_radius, calibration.terms)?;
+            let exported_values = firmware_quantities(&self.mechanism, &export)?;
+            let exported = with_values(&self.mechanism, &exported_values)?;
+            errors.firmware = Some(error(&firmware)?);
+            errors.legwise = Some(error(&exported)?);
+            errors.export_loss = Some(export.rms_loss);
+            firmware_values = values.into_iter().collect();
+            legwise_values = exported_values.into_iter().collect();
+        }
         let sets = match self.options.compare_sets {
-            true => self.set_outcomes(&data, &kinematics, &shared)?,
+            true => self.set_outcomes(&data, (&kinematics, &shared), &real)?,
             false => Vec::new(),
         };
         Ok(PrinterOutcome {
             errors,
-            firmware_values: values.into_iter().collect(),
-            legwise_values: legwise_values.into_iter().collect(),
+            firmware_values,
+            legwise_values,
             sets,
         })
     }

@@ -6,24 +6,30 @@ use super::{recommended, PrinterErrors, PrinterStudyResult, SetOutcome};
 /// The study's figures over the printers that succeeded.
 #[derive(Debug, Clone, PartialEq, serde::Serialize)]
 pub struct PrinterStudySummary {
-    /// Printers whose both workflows ran.
+    /// Printers whose workflows ran.
     pub succeeded: usize,
     /// Median print error with the imported values, m.
     pub nominal_median: f64,
-    /// Median print error after the firmware's calibration, m.
-    pub firmware_median: f64,
+    /// Median print error after the firmware's calibration, m (a study against a firmware).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub firmware_median: Option<f64>,
     /// Median print error of legwise's calibrated model itself, m.
     pub legwise_model_median: f64,
     /// Median print error of legwise's calibration exported through the firmware, m.
-    pub legwise_median: f64,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub legwise_median: Option<f64>,
     /// `legwise_median / firmware_median`.
-    pub ratio: f64,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub ratio: Option<f64>,
     /// Fraction of the printers where legwise's exported calibration prints better.
-    pub legwise_better: f64,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub legwise_better: Option<f64>,
     /// Median of the export's loss (RMS over the bed), m.
-    pub export_loss_median: f64,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub export_loss_median: Option<f64>,
     /// Largest export loss, m.
-    pub export_loss_max: f64,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub export_loss_max: Option<f64>,
 }
 
 impl PrinterStudyResult {
@@ -38,19 +44,28 @@ impl PrinterStudyResult {
             return None;
         }
         let median_of = |f: fn(&PrinterErrors) -> f64| median(ok.iter().map(|e| f(e)).collect());
-        let firmware_median = median_of(|e| e.firmware);
-        let legwise_median = median_of(|e| e.legwise);
+        // Against a firmware: every printer has its figures.
+        let compared: Option<Vec<[f64; 3]>> = ok
+            .iter()
+            .map(|e| Some([e.firmware?, e.legwise?, e.export_loss?]))
+            .collect();
+        let column = |rows: &[[f64; 3]], k: usize| median(rows.iter().map(|r| r[k]).collect());
+        let firmware_median = compared.as_ref().map(|c| column(c, 0));
+        let legwise_median = compared.as_ref().map(|c| column(c, 1));
         Some(PrinterStudySummary {
             succeeded: ok.len(),
             nominal_median: median_of(|e| e.nominal),
             firmware_median,
             legwise_model_median: median_of(|e| e.legwise_model),
             legwise_median,
-            ratio: legwise_median / firmware_median,
-            legwise_better: ok.iter().filter(|e| e.legwise < e.firmware).count() as f64
-                / ok.len() as f64,
-            export_loss_median: median_of(|e| e.export_loss),
-            export_loss_max: ok.iter().map(|e| e.export_loss).fold(0.0, f64::max),
+            ratio: legwise_median.zip(firmware_median).map(|(l, f)| l / f),
+            legwise_better: compared
+                .as_ref()
+                .map(|c| c.iter().filter(|r| r[1] < r[0]).count() as f64 / ok.len() as f64),
+            export_loss_median: compared.as_ref().map(|c| column(c, 2)),
+            export_loss_max: compared
+                .as_ref()
+                .map(|c| c.iter().map(|r| r[2]).fold(0.0, f64::max)),
         })
     }
 }
@@ -68,6 +83,10 @@ pub struct SetSummary {
     pub median_print_error_m: f64,
     /// Printers on which the rule recommended it.
     pub recommended: usize,
+    /// Per factor that is a parameter of the printers, the spread of its errors over its σ:
+    /// `√(mean ((estimate − real)/σ)²)` over the printers that determined the set (1 when the
+    /// σ are honest).
+    pub spread_over_sigma: Vec<(String, f64)>,
 }
 
 /// How the recommendation did over the printers.
@@ -111,6 +130,9 @@ impl PrinterStudyResult {
                     determined: errors.len(),
                     median_print_error_m: median(errors),
                     recommended: picks.iter().filter(|p| **p == Some(k)).count(),
+                    spread_over_sigma: spread_over_sigma(
+                        printers.iter().filter_map(|sets| sets.get(k)),
+                    ),
                 }
             })
             .collect();
@@ -135,6 +157,26 @@ impl PrinterStudyResult {
             ratio: recommended_median_m / best_median_m,
         })
     }
+}
+
+/// Per factor named in `outcomes`' standardized errors, `√(mean z²)` over the outcomes, in
+/// the order the factors first appear.
+fn spread_over_sigma<'o>(outcomes: impl Iterator<Item = &'o SetOutcome>) -> Vec<(String, f64)> {
+    let mut sums: Vec<(String, f64, usize)> = Vec::new();
+    for outcome in outcomes {
+        for (name, z) in &outcome.standardized_errors {
+            match sums.iter_mut().find(|(n, _, _)| n == name) {
+                Some(entry) => {
+                    entry.1 += z * z;
+                    entry.2 += 1;
+                }
+                None => sums.push((name.clone(), z * z, 1)),
+            }
+        }
+    }
+    sums.into_iter()
+        .map(|(name, sum, count)| (name, (sum / count as f64).sqrt()))
+        .collect()
 }
 
 /// The median of `values` (the mean of the middle two for an even count).
