@@ -103,6 +103,19 @@ pub struct SetsArgs {
     /// Draw the pictures as PNG instead of SVG.
     #[arg(long)]
     pub png: bool,
+    /// Check the choice on this many simulated experiments (1 to 100000): each set's true
+    /// error over the workspace, how often the rows recommend it, against the best in
+    /// hindsight.
+    #[arg(long, allow_negative_numbers = true, conflicts_with_all = ["measurements", "plots"])]
+    pub trials: Option<i64>,
+    /// Seed of the --trials study, 0 to 2^64 − 1; trial i's draws derive from it and i.
+    #[arg(
+        long,
+        default_value_t = 1,
+        allow_negative_numbers = true,
+        requires = "trials"
+    )]
+    pub seed: i128,
 }
 
 /// Options of `legwise printer`.

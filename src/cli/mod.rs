@@ -16,6 +16,7 @@ mod printer;
 mod printer_study;
 mod select;
 mod sets;
+mod sets_study;
 mod simulate;
 mod usage;
 mod verdict;

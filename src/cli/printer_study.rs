@@ -187,17 +187,20 @@ fn study_text(result: &PrinterStudyResult) -> Result<String, Error> {
         writeln!(
             t,
             "  every set on legwise's touches (median print error over the printers whose touches \
-             determine it; how often legwise recommends it: the lowest AICc of the sets the touches determine):"
+             determine it; how often legwise recommends it: the lowest AICc of the sets the touches determine within the tolerance):"
         )
         .map_err(w)?;
         for set in &choice.sets {
             writeln!(
                 t,
-                "    {:<14} {:>2} factors  determined {:>5}  {:>8.1} µm  recommended {:>5}",
+                "    {:<14} {:>2} factors  determined {:>5}  {:>8} µm  recommended {:>5}",
                 set.name,
                 set.factors,
                 set.determined,
-                um(set.median_print_error_m),
+                // `-` for a set no printer determined.
+                Some(um(set.median_true_error_m))
+                    .filter(|v| v.is_finite())
+                    .map_or("-".to_string(), |v| format!("{v:.1}")),
                 set.recommended
             )
             .map_err(w)?;
@@ -212,10 +215,14 @@ fn study_text(result: &PrinterStudyResult) -> Result<String, Error> {
         }
         writeln!(
             t,
-            "  the recommended set: median {:.1} µm; the best set in hindsight: {:.1} µm; ratio {:.3}",
+            "  the recommended set: median {:.1} µm; the best candidate in hindsight (`{}`): {:.1} \
+             µm; ratio {:.3}; the best set of each printer (an oracle): {:.1} µm, ratio {:.3}",
             um(choice.recommended_median_m),
-            um(choice.best_median_m),
-            choice.ratio
+            choice.best_set,
+            um(choice.best_set_median_m),
+            choice.ratio,
+            um(choice.oracle_median_m),
+            choice.oracle_ratio
         )
         .map_err(w)?;
     }

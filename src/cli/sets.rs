@@ -17,6 +17,9 @@ use crate::report::plots::render;
 use crate::report::plots::row_residuals::{ResidualFigure, ResidualPanel};
 
 pub(super) fn run(args: &SetsArgs) -> anyhow::Result<Verdict> {
+    if let Some(trials) = args.trials {
+        return super::sets_study::run(args, trials);
+    }
     let mechanism = Mechanism::load(&args.model)?;
     let mut inputs = model_inputs(&args.model, &mechanism);
     inputs.extend(

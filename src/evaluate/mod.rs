@@ -9,13 +9,14 @@
 //!   the instrument saw it;
 //! * [`observed_frame`] — a forward model's map error in the frame its observations define;
 //! * [`predicted_position`] — a forward fit's covariance carried to its target over the
-//!   workspace;
+//!   workspace; [`predicted_pose`] — a fit from measured poses' to the end effector's position;
 //! * their terminal (mm, mrad) and JSON renderings are [`crate::report::evaluation`]'s.
 pub mod accuracy;
 pub(crate) mod commanded_rows;
 mod error_stats;
 pub mod held_out;
 pub mod observed_frame;
+pub mod predicted_pose;
 pub mod predicted_position;
 pub mod row_residuals;
 pub mod through_instrument;

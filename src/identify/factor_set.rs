@@ -18,6 +18,7 @@ use super::problem::IdentificationProblem;
 use super::result::FitOptions;
 use super::statistics::leverages;
 use crate::error::{Error, Result};
+use crate::evaluate::predicted_pose::predicted_pose_sigma;
 use crate::evaluate::predicted_position::predicted_position_of;
 use crate::identify::result::PredictedPosition;
 use crate::measure::Measurements;
@@ -67,7 +68,8 @@ pub struct FactorSetFit {
     pub factors: Vec<FactorEstimate>,
     /// Residuals of the fit.
     pub rows: usize,
-    /// Residuals minus the factors the data determine.
+    /// Residuals minus the factors the data determine (their rank; with priors the
+    /// [`Self::effective_factors`], rounded).
     pub degrees_of_freedom: usize,
     /// RMS of the residuals (measurement units: metres, radians).
     pub rms: f64,
@@ -76,7 +78,8 @@ pub struct FactorSetFit {
     /// The rank answer at the estimate (in the factors).
     pub observability: Observability,
     /// The predicted σ of the first target's position over the workspace (forward
-    /// instruments with a `workspace.grid`).
+    /// instruments with a `workspace.grid`), or of the end effector's from measured poses
+    /// (no instrument).
     pub predicted: Option<PredictedPosition>,
     /// RMS of each row's leave-one-out prediction error, measurement units: the residual the
     /// row would have if the set were fitted without it, `r_i / (1 − h_ii)` (`h` the leverages
@@ -458,7 +461,10 @@ pub fn fit_factor_set(
             .zip(x.iter().copied())
             .collect();
         let covariance = &g * cov * g.transpose();
-        predicted_position_of(&inner, (&params, &shared), &named, &covariance)
+        match inner.instrument {
+            Some(_) => predicted_position_of(&inner, (&params, &shared), &named, &covariance),
+            None => predicted_pose_sigma(&inner, &params, &covariance),
+        }
     });
     let leave_one_out = full_rank
         .then(|| leave_one_out_rms(raw.as_slice(), &data_leverages))
@@ -478,7 +484,8 @@ pub fn fit_factor_set(
         note: set.note.clone(),
         factors,
         rows,
-        degrees_of_freedom: rows.saturating_sub(observability.rank),
+        // With priors, the rows less the effective factors (rounded).
+        degrees_of_freedom: rows.saturating_sub(effective_factors.round() as usize),
         rms: (raw.norm_squared() / rows.max(1) as f64).sqrt(),
         chi_square,
         observability,

@@ -112,10 +112,30 @@ pub fn next_steps(fits: &[FactorSetFit]) -> Vec<String> {
             true => String::new(),
             false => format!(" (as well: {})", equal.join(", ")),
         };
-        let mut sentence = format!(
-            "Recommended: `{}`, the lowest AICc of the sets the rows determine ({score:.1}){also}.",
-            fits[best].name
-        );
+        let mut sentence = match score.is_finite() {
+            true => format!(
+                "Recommended: `{}`, the lowest AICc of the sets the rows determine ({score:.1}){also}.",
+                fits[best].name
+            ),
+            false => format!(
+                "Recommended: `{}`, the determined set with the fewest factors: each set the rows \
+                 determine leaves at most one row beyond its factors (its AICc is infinite); more \
+                 rows let the rows choose.",
+                fits[best].name
+            ),
+        };
+        let beyond: Vec<String> = (0..fits.len())
+            .filter(|&k| candidates[k].determined && !candidates[k].within_tolerance)
+            .filter(|&k| candidates[k].score < score)
+            .map(|k| format!("`{}`", fits[k].name))
+            .collect();
+        if !beyond.is_empty() {
+            sentence.push_str(&format!(
+                " {} scores lower, but its predicted σ over the workspace is above the model's \
+                 tolerance.",
+                beyond.join(", ")
+            ));
+        }
         let worse: Vec<String> = (0..fits.len())
             .filter(|&k| {
                 candidates[k].determined && candidates[k].factors > candidates[best].factors
@@ -130,12 +150,6 @@ pub fn next_steps(fits: &[FactorSetFit]) -> Vec<String> {
             ));
         }
         out.push(sentence);
-    } else if candidates.iter().any(|c| c.determined) {
-        out.push(
-            "No set can be recommended from these rows: each set they determine leaves at most \
-             one row beyond its factors (its AICc is infinite). More rows let the rows choose."
-                .to_string(),
-        );
     }
     out
 }

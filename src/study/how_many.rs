@@ -8,7 +8,11 @@ use serde::Serialize;
 
 use crate::error::{Error, Result};
 use crate::identify::factor_set::{fit_factor_set, model_sets};
-use crate::identify::result::PredictedPosition;
+use nalgebra::DMatrix;
+
+use crate::evaluate::accuracy::result_parameters;
+use crate::evaluate::predicted_pose::predicted_pose_sigma;
+use crate::identify::result::{PredictedPosition, StrategyResult};
 use crate::measure::simulate::SimulationOptions;
 use crate::model::mechanism::Simulation;
 use crate::model::Mechanism;
@@ -44,20 +48,21 @@ pub fn default_counts(n: usize) -> Vec<usize> {
 /// its declared noise (seed 1).
 ///
 /// # Errors
-/// The model is not seen through the forward kinematics (its predicted σ over the workspace is
-/// a forward fit's).
+/// A model whose instrument measures the platform's pose (its predicted σ over the workspace is
+/// a forward fit's, or one from measured poses without an instrument).
 pub fn predicted_by_count(
     mechanism: &Mechanism,
     counts: &[usize],
     seed: Option<u64>,
 ) -> Result<Vec<CountPoint>> {
-    if mechanism.forward_instrument().is_none() {
+    if mechanism.instrument.is_some() && mechanism.forward_instrument().is_none() {
         return Err(Error::Model {
             path: mechanism.model_path.clone(),
             field: "instrument.kinematics".into(),
-            message: "the predicted σ over the workspace is a forward fit's: expected a model \
-                      seen through the forward kinematics (`instrument.kinematics: forward`), \
-                      found none"
+            message: "the predicted σ over the workspace is a forward fit's or one from measured \
+                      poses: expected a model seen through the forward kinematics \
+                      (`instrument.kinematics: forward`) or without an instrument, found an \
+                      instrument that measures the platform's pose"
                 .into(),
         });
     }
@@ -106,7 +111,10 @@ pub fn predicted_by_count(
                 report
                     .results
                     .iter()
-                    .find_map(|r| r.instrument.as_ref()?.predicted_position.clone())
+                    .find_map(|r| match &r.instrument {
+                        Some(instrument) => instrument.predicted_position.clone(),
+                        None => measured_pose_prediction(mechanism, r),
+                    })
                     .ok_or_else(|| {
                         "no predicted σ: the rows do not determine every unknown".to_string()
                     })
@@ -118,4 +126,39 @@ pub fn predicted_by_count(
             }
         })
         .collect())
+}
+
+/// A fit from measured poses carried to the end effector's position over the workspace: its
+/// legs' covariances (each leg fitted on its own: the blocks of one covariance) at its
+/// estimates ([`predicted_pose_sigma`]).
+fn measured_pose_prediction(
+    mechanism: &Mechanism,
+    result: &StrategyResult,
+) -> Option<PredictedPosition> {
+    let blocks: Vec<&DMatrix<f64>> = mechanism
+        .identified_legs()
+        .iter()
+        .map(|&l| {
+            let name = &mechanism.legs[l].name;
+            result
+                .legs
+                .iter()
+                .find(|e| &e.leg == name)?
+                .covariance
+                .as_ref()
+        })
+        .collect::<Option<_>>()?;
+    let n: usize = blocks.iter().map(|b| b.nrows()).sum();
+    let mut covariance = DMatrix::zeros(n, n);
+    let mut at = 0;
+    for block in blocks {
+        let k = block.nrows();
+        covariance.view_mut((at, at), (k, k)).copy_from(block);
+        at += k;
+    }
+    predicted_pose_sigma(
+        mechanism,
+        &result_parameters(mechanism, result),
+        &covariance,
+    )
 }

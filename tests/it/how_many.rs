@@ -78,8 +78,8 @@ fn counts_beyond_the_candidates_say_why_and_bad_input_is_refused() {
         "legwise: --counts: expected between 1 and 100000, found 0",
     );
     assert_fails_with(
-        &["how-many", "--model", "models/5r.yaml"],
-        "legwise: models/5r.yaml: field `instrument.kinematics`: the predicted σ over the workspace is a forward fit's: expected a model seen through the forward kinematics (`instrument.kinematics: forward`), found none",
+        &["how-many", "--model", "models/5r-tracker.yaml"],
+        "legwise: models/5r-tracker.yaml: field `instrument.kinematics`: the predicted σ over the workspace is a forward fit's or one from measured poses: expected a model seen through the forward kinematics (`instrument.kinematics: forward`) or without an instrument, found an instrument that measures the platform's pose",
     );
 }
 
@@ -100,4 +100,72 @@ fn the_curve_has_a_marker_per_count_and_series() {
     // Three counts, three series (the design's RMS and max, identify's RMS).
     assert_eq!(svg.matches("<circle").count(), 9);
     assert!(svg.contains("design σ, RMS") && svg.contains("identify&apos;s σ, RMS"));
+}
+
+/// On the 5R (poses measured, no instrument) the curve's identify column at the model's own
+/// count is the default fit's covariance carried to the end effector over the workspace,
+/// recomputed here with the closed-form 5R: each parameter's effect on the position the real
+/// 5R reaches at the commanded readings by central differences of its forward kinematics,
+/// `σ² = tr(G C Gᵀ)` per grid point, their RMS over the points to 1e-6.
+#[test]
+fn on_the_5r_the_curve_is_the_legs_covariance_carried_to_the_end_effector() {
+    use legwise::evaluate::accuracy::{map_grid, result_parameters};
+    use legwise::measure::simulate::SimulationOptions;
+    use legwise::pipeline::{run, Settings, SimulationSettings};
+    use legwise::study::how_many::predicted_by_count;
+    use nalgebra::DMatrix;
+
+    use crate::accuracy_map::{five_bar_fk, five_bar_ik};
+
+    let mechanism = crate::support::bundled("5r.yaml");
+    let points = predicted_by_count(&mechanism, &[9, 18], None).unwrap();
+    let predicted = points[1].predicted.as_ref().unwrap();
+    let settings = Settings {
+        simulation: SimulationSettings {
+            options: SimulationOptions {
+                poses_per_leg: Some(18),
+                ..SimulationOptions::default()
+            },
+            ..SimulationSettings::default()
+        },
+        ..Settings::default()
+    };
+    let report = run(&mechanism, &settings).unwrap();
+    let result = &report.results[0];
+    let params = result_parameters(&mechanism, result);
+    let mut covariance = DMatrix::zeros(12, 12);
+    for (l, leg) in result.legs.iter().enumerate() {
+        covariance
+            .view_mut((6 * l, 6 * l), (6, 6))
+            .copy_from(leg.covariance.as_ref().unwrap());
+    }
+    let grid = map_grid(&mechanism, mechanism.workspace.grid.unwrap(), 0.95).unwrap();
+    let mut squares = Vec::new();
+    for pose in &grid {
+        let Some(readings) = five_bar_ik(&params, pose[0], pose[1]) else {
+            continue;
+        };
+        let mut g = DMatrix::zeros(2, 12);
+        for j in 0..12 {
+            let h = 1e-7;
+            let moved = |step: f64| {
+                let mut phi = params.clone();
+                phi[j / 6][j % 6] += step;
+                five_bar_fk(&phi, readings).unwrap()
+            };
+            let (up, down) = (moved(h), moved(-h));
+            g[(0, j)] = (up[0] - down[0]) / (2.0 * h);
+            g[(1, j)] = (up[1] - down[1]) / (2.0 * h);
+        }
+        squares.push((&g * &covariance * g.transpose()).trace());
+    }
+    assert_eq!(predicted.points, squares.len());
+    let rms = (squares.iter().sum::<f64>() / squares.len() as f64).sqrt();
+    assert!(
+        (predicted.rms / rms - 1.0).abs() < 1e-6,
+        "{} vs closed form {rms}",
+        predicted.rms
+    );
+    // Half the rows: a larger σ.
+    assert!(points[0].predicted.as_ref().unwrap().rms > predicted.rms);
 }

@@ -63,6 +63,7 @@ mod report_schema;
 mod robust_stationarity;
 mod schur;
 mod selection;
+mod set_study;
 mod sets_report;
 mod sigma_calibration;
 mod silent_inputs;

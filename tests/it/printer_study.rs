@@ -329,7 +329,7 @@ fn bad_studies_are_refused_by_name() {
             "models/delta-probe.yaml",
         ],
         "legwise: models/delta-probe.yaml: field `factor_sets`: expected the set `klipper-6` of \
-         a printer imported by `legwise printer import`, found rods",
+         a printer imported by `legwise printer import`, found rods, tilts, gains, everything",
     );
 }
 
@@ -367,11 +367,13 @@ fn the_recommended_set_is_the_lowest_corrected_criterion_and_never_frees_rods_or
         assert_eq!(picked, 6, "one set a printer at {touches} touches");
         for printer in &result.printers {
             let sets = &printer.outcome.as_ref().unwrap().sets;
-            // Recomputed here: the lowest finite AICc of the determined sets, fewer factors
-            // first among equal scores.
+            // Recomputed here: the lowest finite AICc of the determined sets within the
+            // model's tolerance (all of them when none is), fewer factors first among equal
+            // scores.
+            let within = sets.iter().any(|s| s.determined && s.within_tolerance);
             let best = sets
                 .iter()
-                .filter(|s| s.determined)
+                .filter(|s| s.determined && (s.within_tolerance || !within))
                 .filter_map(|s| s.information_corrected.map(|v| (v, s.factors, &s.name)))
                 .min_by(|a, b| {
                     let same = (a.0 - b.0).abs() <= 1e-9 * a.0.abs().max(1.0);
@@ -386,7 +388,20 @@ fn the_recommended_set_is_the_lowest_corrected_criterion_and_never_frees_rods_or
             assert!(!["tilts", "rods", "klipper-9"].contains(&sets[k].name.as_str()));
             assert!(sets[k].factors <= 6, "{touches} touches: {}", sets[k].name);
         }
-        assert!(choice.best_median_m <= choice.recommended_median_m);
+        assert!(choice.oracle_median_m <= choice.recommended_median_m);
+        // The best candidate in hindsight: the smallest median of the sets every printer
+        // determined.
+        let best = choice
+            .sets
+            .iter()
+            .filter(|s| s.determined == 6)
+            .min_by(|a, b| a.median_true_error_m.total_cmp(&b.median_true_error_m))
+            .unwrap();
+        assert_eq!(choice.best_set, best.name);
+        assert!((choice.best_set_median_m - best.median_true_error_m).abs() < 1e-15);
+        let ratio = choice.recommended_median_m / best.median_true_error_m;
+        assert!((choice.ratio - ratio).abs() < 1e-12);
+        assert!(choice.oracle_median_m <= choice.best_set_median_m);
     }
 }
 
@@ -408,7 +423,7 @@ fn without_a_firmware_the_sets_spread_over_sigma_is_their_standardized_errors_rm
     assert!(summary.firmware_median.is_none() && summary.ratio.is_none());
     let choice = result.choice().unwrap();
     let names: Vec<&str> = choice.sets.iter().map(|s| s.name.as_str()).collect();
-    assert_eq!(names, ["model", "rods"]);
+    assert_eq!(names, ["model", "rods", "tilts", "gains", "everything"]);
     for (k, set) in choice.sets.iter().enumerate() {
         assert_eq!(set.determined, 5, "{}", set.name);
         for (name, ratio) in &set.spread_over_sigma {

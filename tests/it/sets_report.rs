@@ -143,7 +143,7 @@ fn what_next_states_the_figures_it_rests_on() {
         "The residual (RMS 7.188e-5) is 19.0 times the declared σ",
         "Only 1 row(s) beyond the 6 factors: a row left out of the fit is predicted to 7.557e-4 RMS, 10.5 times the residual",
         "`klipper-9` cannot be determined by these rows",
-        "No set can be recommended from these rows: each set they determine leaves at most one row beyond its factors",
+        "Recommended: `model`, the determined set with the fewest factors: each set the rows determine leaves at most one row beyond its factors (its AICc is infinite); more rows let the rows choose.",
     ] {
         assert!(stdout.contains(expected), "{expected}\n{stdout}");
     }

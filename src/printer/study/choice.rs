@@ -3,53 +3,15 @@
 //! each judged by its true print error, and the set legwise recommends from what the fit
 //! itself shows (no truth: [`crate::identify::set_choice`]).
 
-use serde::Serialize;
-
 use super::PrinterStudy;
 use crate::error::Result;
 use crate::identify::factor_set::{fit_factor_set, model_sets, FactorSetFit};
-use crate::identify::set_choice::{self, Candidate};
+use crate::identify::set_choice;
 use crate::kinematics::platform::ForwardKinematics;
 use crate::measure::Measurements;
 use crate::model::with_values::with_values;
 use crate::model::Mechanism;
-
-/// One set on one printer.
-#[derive(Debug, Clone, PartialEq, Serialize)]
-pub struct SetOutcome {
-    /// The set's name (`model` for the model's own).
-    pub name: String,
-    /// Its factors.
-    pub factors: usize,
-    /// Whether the touches determine every factor.
-    pub determined: bool,
-    /// RMS of the touches' leave-one-out prediction errors (m), when determined.
-    pub left_out_m: Option<f64>,
-    /// Akaike's criterion `χ² + 2k`.
-    pub information: Option<f64>,
-    /// The same corrected for few rows (AICc), the recommendation's score; `None` where the
-    /// rows are too few to judge the set.
-    pub information_corrected: Option<f64>,
-    /// The print error of the fitted model commanding the printer (m), when determined.
-    pub print_error_m: Option<f64>,
-    /// Each factor's error over its σ, `(estimate − real)/σ`, by name: the factors that are
-    /// parameters of the printer (a quantity has no real value of its own), when determined.
-    #[serde(skip_serializing_if = "Vec::is_empty")]
-    pub standardized_errors: Vec<(String, f64)>,
-}
-
-/// The index of the set legwise recommends among `sets` ([`set_choice::recommended`]).
-pub fn recommended(sets: &[SetOutcome]) -> Option<usize> {
-    let candidates: Vec<Candidate> = sets
-        .iter()
-        .map(|s| Candidate {
-            determined: s.determined,
-            score: s.information_corrected.unwrap_or(f64::INFINITY),
-            factors: s.factors,
-        })
-        .collect();
-    set_choice::recommended(&candidates)
-}
+use crate::study::set_outcomes::SetOutcome;
 
 impl PrinterStudy {
     /// Every set of the model fitted on `data` (legwise's touches of a printer), with the
@@ -67,7 +29,7 @@ impl PrinterStudy {
             .map(|set| {
                 let fit = fit_factor_set(&self.mechanism, data, set)?;
                 let determined = fit.observability.rank == fit.factors.len();
-                let print_error_m = match determined {
+                let true_error_m = match determined {
                     true => Some(self.print_error(&fitted(self, &fit)?, real, real_shared)?),
                     false => None,
                 };
@@ -84,13 +46,14 @@ impl PrinterStudy {
                     name: fit.name.clone(),
                     factors: fit.factors.len(),
                     determined,
+                    within_tolerance: set_choice::within_tolerance(&fit),
                     left_out_m: fit.leave_one_out.filter(|_| determined),
                     information: fit.information.is_finite().then_some(fit.information),
                     information_corrected: fit
                         .information_corrected
                         .is_finite()
                         .then_some(fit.information_corrected),
-                    print_error_m,
+                    true_error_m,
                     standardized_errors,
                 })
             })
@@ -106,36 +69,4 @@ fn fitted(study: &PrinterStudy, fit: &FactorSetFit) -> Result<Mechanism> {
         .map(|f| (f.name.clone(), f.estimate))
         .collect();
     with_values(&study.mechanism, &values)
-}
-
-#[cfg(test)]
-mod tests {
-    use super::{recommended, SetOutcome};
-
-    fn set(name: &str, factors: usize, score: Option<f64>) -> SetOutcome {
-        SetOutcome {
-            name: name.into(),
-            factors,
-            determined: score.is_some(),
-            left_out_m: None,
-            information: None,
-            information_corrected: score,
-            print_error_m: None,
-            standardized_errors: Vec::new(),
-        }
-    }
-
-    #[test]
-    fn a_printer_set_is_recommended_by_its_corrected_criterion() {
-        let sets = [
-            set("model", 6, Some(30.0)),
-            set("klipper-6", 6, Some(30.0)),
-            set("rods", 9, Some(29.0)),
-            set("blind", 12, None),
-        ];
-        assert_eq!(recommended(&sets), Some(2));
-        let sets = [set("model", 6, Some(30.0)), set("four", 4, Some(30.0))];
-        assert_eq!(recommended(&sets), Some(1));
-        assert_eq!(recommended(&[set("blind", 12, None)]), None);
-    }
 }

@@ -54,12 +54,14 @@ mod choice;
 mod firmware;
 mod summary;
 
+pub use crate::study::set_outcomes::{
+    choice_summary, median, recommended, ChoiceSummary, SetOutcome, SetSummary,
+};
 pub use bed::{print_map, MAP_LAYERS};
-pub use choice::{recommended, SetOutcome};
 pub use firmware::{
     firmware_quantities, klipper_calibration, FirmwareCalibration, KLIPPER_SCATTER,
 };
-pub use summary::{median, ChoiceSummary, PrinterStudySummary, SetSummary};
+pub use summary::PrinterStudySummary;
 
 /// How far the simulated printers are from the imported model: Gaussian standard deviations by
 /// kind of parameter.

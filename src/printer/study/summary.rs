@@ -1,7 +1,8 @@
 //! A printer study's figures over its printers: the medians of each calibration's print error,
 //! and how the recommended factor set did against the best in hindsight.
 
-use super::{recommended, PrinterErrors, PrinterStudyResult, SetOutcome};
+use super::{PrinterErrors, PrinterStudyResult};
+use crate::study::set_outcomes::{choice_summary, median, ChoiceSummary, SetOutcome};
 
 /// The study's figures over the printers that succeeded.
 #[derive(Debug, Clone, PartialEq, serde::Serialize)]
@@ -70,42 +71,11 @@ impl PrinterStudyResult {
     }
 }
 
-/// One set's figures over the printers.
-#[derive(Debug, Clone, PartialEq, serde::Serialize)]
-pub struct SetSummary {
-    /// The set's name.
-    pub name: String,
-    /// Its factors.
-    pub factors: usize,
-    /// Printers whose touches determined it.
-    pub determined: usize,
-    /// Median print error over those printers, m.
-    pub median_print_error_m: f64,
-    /// Printers on which the rule recommended it.
-    pub recommended: usize,
-    /// Per factor that is a parameter of the printers, the spread of its errors over its σ:
-    /// `√(mean ((estimate − real)/σ)²)` over the printers that determined the set (1 when the
-    /// σ are honest).
-    pub spread_over_sigma: Vec<(String, f64)>,
-}
-
-/// How the recommendation did over the printers.
-#[derive(Debug, Clone, PartialEq, serde::Serialize)]
-pub struct ChoiceSummary {
-    /// Per set.
-    pub sets: Vec<SetSummary>,
-    /// Median over the printers of the recommended set's print error, m.
-    pub recommended_median_m: f64,
-    /// Median over the printers of the best set's in hindsight (the smallest print error of
-    /// the determined sets), m.
-    pub best_median_m: f64,
-    /// `recommended_median_m / best_median_m`.
-    pub ratio: f64,
-}
-
 impl PrinterStudyResult {
     /// The recommendation's figures (`None` without [`PrinterStudyOptions::compare_sets`] or
     /// a printer that succeeded).
+    ///
+    /// [`PrinterStudyOptions::compare_sets`]: super::PrinterStudyOptions::compare_sets
     pub fn choice(&self) -> Option<ChoiceSummary> {
         let printers: Vec<&[SetOutcome]> = self
             .printers
@@ -114,78 +84,6 @@ impl PrinterStudyResult {
             .map(|o| o.sets.as_slice())
             .filter(|sets| !sets.is_empty())
             .collect();
-        let first = printers.first()?;
-        let picks: Vec<Option<usize>> = printers.iter().map(|sets| recommended(sets)).collect();
-        let sets = first
-            .iter()
-            .enumerate()
-            .map(|(k, set)| {
-                let errors: Vec<f64> = printers
-                    .iter()
-                    .filter_map(|sets| sets.get(k).and_then(|s| s.print_error_m))
-                    .collect();
-                SetSummary {
-                    name: set.name.clone(),
-                    factors: set.factors,
-                    determined: errors.len(),
-                    median_print_error_m: median(errors),
-                    recommended: picks.iter().filter(|p| **p == Some(k)).count(),
-                    spread_over_sigma: spread_over_sigma(
-                        printers.iter().filter_map(|sets| sets.get(k)),
-                    ),
-                }
-            })
-            .collect();
-        let chosen: Vec<f64> = printers
-            .iter()
-            .zip(&picks)
-            .filter_map(|(sets, pick)| pick.and_then(|k| sets[k].print_error_m))
-            .collect();
-        let best: Vec<f64> = printers
-            .iter()
-            .filter_map(|sets| {
-                sets.iter()
-                    .filter_map(|s| s.print_error_m)
-                    .min_by(f64::total_cmp)
-            })
-            .collect();
-        let (recommended_median_m, best_median_m) = (median(chosen), median(best));
-        Some(ChoiceSummary {
-            sets,
-            recommended_median_m,
-            best_median_m,
-            ratio: recommended_median_m / best_median_m,
-        })
-    }
-}
-
-/// Per factor named in `outcomes`' standardized errors, `√(mean z²)` over the outcomes, in
-/// the order the factors first appear.
-fn spread_over_sigma<'o>(outcomes: impl Iterator<Item = &'o SetOutcome>) -> Vec<(String, f64)> {
-    let mut sums: Vec<(String, f64, usize)> = Vec::new();
-    for outcome in outcomes {
-        for (name, z) in &outcome.standardized_errors {
-            match sums.iter_mut().find(|(n, _, _)| n == name) {
-                Some(entry) => {
-                    entry.1 += z * z;
-                    entry.2 += 1;
-                }
-                None => sums.push((name.clone(), z * z, 1)),
-            }
-        }
-    }
-    sums.into_iter()
-        .map(|(name, sum, count)| (name, (sum / count as f64).sqrt()))
-        .collect()
-}
-
-/// The median of `values` (the mean of the middle two for an even count).
-pub fn median(mut values: Vec<f64>) -> f64 {
-    values.sort_by(f64::total_cmp);
-    let n = values.len();
-    match n {
-        0 => f64::NAN,
-        _ if n % 2 == 1 => values[n / 2],
-        _ => 0.5 * (values[n / 2 - 1] + values[n / 2]),
+        choice_summary(&printers)
     }
 }
