@@ -406,6 +406,10 @@ pub struct IdentifyArgs {
     /// file, and its URDF beside it (same name, extension `urdf`).
     #[arg(long, value_name = "OUT.yaml")]
     pub calibrated: Option<PathBuf>,
+    /// A previous calibration as the prior of this fit: the estimates and covariance a
+    /// calibrated model written by --calibrated carries (the joint fit through an instrument).
+    #[arg(long, value_name = "CAL.yaml")]
+    pub prior: Option<PathBuf>,
     /// Simulation only: the accuracy map (model IK commands, real mechanism moves) over a grid
     /// of this spacing (metres), before and after identification.
     #[arg(long, value_name = "GRID_M", allow_negative_numbers = true)]

@@ -12,6 +12,7 @@ use crate::files::{Input, Output};
 use crate::identify::estimate::{FitOptions, Strategy, Weighting};
 use crate::identify::robust::RobustLoss;
 use crate::measure::{Measurements, STDIN_NAME};
+use crate::model::prior_covariance::PriorCovariance;
 use crate::model::Mechanism;
 use crate::pipeline::{self, MapSettings, Settings, SimulationSettings};
 use crate::report::calibrated::CalibratedModel;
@@ -68,7 +69,10 @@ pub(super) fn prepared(args: &IdentifyArgs) -> anyhow::Result<(Mechanism, Settin
             path.display()
         );
     }
-    let mechanism = Mechanism::load(&args.model)?;
+    let mut mechanism = Mechanism::load(&args.model)?;
+    if let Some(path) = &args.prior {
+        mechanism = PriorCovariance::read(path)?.applied_to(&mechanism)?;
+    }
     if mechanism.instrument.is_some() {
         refuse_unsupported(args)?;
     }
@@ -136,6 +140,11 @@ fn identify_inputs<'a>(args: &'a IdentifyArgs, mechanism: &'a Mechanism) -> Vec<
     let measurements = args.measurements.as_deref().filter(|p| !is_stdin(p));
     let mut inputs = model_inputs(&args.model, mechanism);
     inputs.extend(measurements.map(|path| input("measurement file", path)));
+    inputs.extend(
+        args.prior
+            .as_deref()
+            .map(|path| input("prior calibration", path)),
+    );
     inputs
 }
 

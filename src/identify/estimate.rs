@@ -91,6 +91,14 @@ pub fn identify_with(
         .iter()
         .flat_map(|&l| &mechanism.legs[l].params)
         .find(|p| p.identified && p.prior.is_some());
+    if let Some(calibration) = &mechanism.prior_covariance {
+        return Err(Error::Invalid(format!(
+            "--prior {}: the {} strategy fits each leg's readings at measured poses without \
+             priors; a previous calibration is taken by the joint fit through an instrument",
+            calibration.source.display(),
+            strategy.name()
+        )));
+    }
     if let Some(p) = prior {
         return Err(Error::Model {
             path: mechanism.model_path.clone(),
@@ -526,14 +534,7 @@ pub(super) fn leg_estimate(
                 std: column.and_then(|k| covariance.as_ref().map(|v| v[(k, k)].max(0.0).sqrt())),
                 identified: p.identified,
                 degrees_of_freedom: column.and(covariance.as_ref()).and(dof),
-                prior: column.and_then(|k| {
-                    let at = slot.offset + k;
-                    problem
-                        .prior_rows()
-                        .iter()
-                        .find(|r| r.column == at)
-                        .map(|r| r.sigma)
-                }),
+                prior: column.and_then(|k| problem.prior_sigma(slot.offset + k)),
                 // Set by the fit that took the prior (`shared_estimate`).
                 data_share: None,
             }

@@ -290,6 +290,58 @@ pub struct StrategyResult {
 }
 
 impl StrategyResult {
+    /// The covariance of every identified parameter in one matrix, with their names (rows and
+    /// columns in that order): through an instrument, the joint fit's matrix (the legs'
+    /// identified parameters in the order of the result's legs, then the instrument's);
+    /// otherwise the legs' blocks on the diagonal, the cross terms between legs zero (each
+    /// leg's rows depend on its own parameters alone and are fitted apart, or as separable
+    /// blocks of one problem). `None` when a fitted leg or the instrument has none.
+    pub fn full_covariance(&self) -> Option<(Vec<String>, DMatrix<f64>)> {
+        self.full_covariance_of(false)
+    }
+
+    /// [`Self::full_covariance`], through an instrument from the declared noise alone when the
+    /// fit has it ([`InstrumentEstimate::declared_covariance`]): the information a next
+    /// calibration's prior takes.
+    pub fn declared_full_covariance(&self) -> Option<(Vec<String>, DMatrix<f64>)> {
+        self.full_covariance_of(true)
+    }
+
+    /// The full covariance, the declared noise's through an instrument if `declared` and known.
+    fn full_covariance_of(&self, declared: bool) -> Option<(Vec<String>, DMatrix<f64>)> {
+        let identified = |ps: &[ParameterEstimate]| -> Vec<String> {
+            ps.iter()
+                .filter(|p| p.identified)
+                .map(|p| p.name.clone())
+                .collect()
+        };
+        let mut parameters: Vec<String> = self
+            .legs
+            .iter()
+            .flat_map(|l| identified(&l.parameters))
+            .collect();
+        if let Some(instrument) = &self.instrument {
+            parameters.extend(identified(&instrument.parameters));
+            let matrix = match (declared, &instrument.declared_covariance) {
+                (true, Some(matrix)) => matrix,
+                _ => instrument.covariance.as_ref()?,
+            };
+            return (matrix.nrows() == parameters.len()).then(|| (parameters, matrix.clone()));
+        }
+        let n = parameters.len();
+        let mut full = DMatrix::zeros(n, n);
+        let mut at = 0;
+        for leg in &self.legs {
+            let block = leg.covariance.as_ref()?;
+            if at + block.nrows() > n {
+                return None;
+            }
+            full.view_mut((at, at), block.shape()).copy_from(block);
+            at += block.nrows();
+        }
+        (at == n).then_some((parameters, full))
+    }
+
     /// Every warning of the result: the data's, then each leg's statistics'.
     pub fn all_warnings(&self) -> Vec<String> {
         let legs = self
@@ -337,6 +389,10 @@ pub struct InstrumentEstimate {
     /// The covariance of every unknown of the fit (the legs' identified parameters in model
     /// order, then the instrument's identified ones), when it has one (the joint strategy).
     pub covariance: Option<nalgebra::DMatrix<f64>>,
+    /// The same from the declared noise alone, not scaled by the residuals' ŝ (the joint fit
+    /// weighted by the declared noise): what the data determine, the prior a next calibration
+    /// takes (`identify --prior`).
+    pub declared_covariance: Option<nalgebra::DMatrix<f64>>,
     /// Seen through the forward kinematics: the predicted σ of the first target's position over
     /// the workspace, propagated from [`Self::covariance`].
     pub predicted_position: Option<PredictedPosition>,

@@ -161,7 +161,9 @@ pub fn identify_shared(
             mechanism.model_path.display()
         )));
     }
-    let problem = IdentificationProblem::through_instrument(mechanism, observations)?.with_priors();
+    let problem = IdentificationProblem::through_instrument(mechanism, observations)?
+        .with_priors()
+        .map_err(Error::Invalid)?;
     refuse_priors_without_weights(mechanism, &problem, strategy, options)?;
     let observability = check_rank(&problem, observations)?;
     let started = std::time::Instant::now();
@@ -362,7 +364,8 @@ pub fn identify_shared(
         .filter(|&d| loadings.is_none() || sandwich::scaled_by_residuals(d));
     // The joint fit's sandwich (on the weighted rows when weighted); the two-stage one's
     // propagates the registration's error.
-    // With priors, the declared noise's covariance (not scaled by ŝ) says how much of each
+    // The declared noise's covariance (not scaled by ŝ): what the data determine, the prior a
+    // next calibration takes (`identify --prior`); with priors it says how much of each
     // parameter's information comes from the data.
     let mut declared = None;
     let (covariance, registration) = match registered {
@@ -371,13 +374,8 @@ pub fn identify_shared(
                 let weighted_r = DVector::from_fn(m, |i, _| s[i] * kept_r[i]);
                 let weighted_jacobian = DMatrix::from_fn(m, n, |i, j| s[i] * kept_jacobian[(i, j)]);
                 let weighted_loadings = l.scaled(s);
-                if !problem.prior_rows().is_empty() {
-                    declared = declared_covariance(
-                        &weighted_r,
-                        &weighted_jacobian,
-                        Some(&weighted_loadings),
-                    );
-                }
+                declared =
+                    declared_covariance(&weighted_r, &weighted_jacobian, Some(&weighted_loadings));
                 (
                     reported_covariance(&weighted_r, &weighted_jacobian, Some(&weighted_loadings)),
                     None,
@@ -437,7 +435,10 @@ pub fn identify_shared(
         })
         .collect();
     let mut legs = legs;
-    if let Some(declared) = &declared {
+    if let Some(declared) = declared
+        .as_ref()
+        .filter(|_| !problem.prior_rows().is_empty())
+    {
         set_data_shares(&problem, declared, &mut legs);
     }
     let names: Vec<String> = legs.iter().map(|l| l.leg.clone()).collect();
@@ -459,6 +460,7 @@ pub fn identify_shared(
         held_frame: None,
         // The two-stage covariance is the legs' alone.
         covariance: covariance.clone().filter(|_| strategy == Strategy::Joint),
+        declared_covariance: declared.filter(|_| strategy == Strategy::Joint && robust.is_none()),
         predicted_position: None,
     };
     let run = SolverRun::new(names, &outcome, (&r0, &r), seconds);
@@ -491,13 +493,16 @@ fn set_data_shares(
     declared: &DMatrix<f64>,
     legs: &mut [LegEstimate],
 ) {
-    for prior in problem.prior_rows() {
-        let variance = declared[(prior.column, prior.column)].max(0.0);
-        let share = (1.0 - variance / prior.sigma.powi(2)).clamp(0.0, 1.0);
+    for (column, name) in problem.names().iter().enumerate() {
+        let Some(sigma) = problem.prior_sigma(column) else {
+            continue;
+        };
+        let variance = declared[(column, column)].max(0.0);
+        let share = (1.0 - variance / sigma.powi(2)).clamp(0.0, 1.0);
         let parameters = legs.iter_mut().flat_map(|l| l.parameters.iter_mut());
         if let Some(p) = parameters
             .filter(|p| p.identified)
-            .find(|p| p.name == prior.name)
+            .find(|p| &p.name == name)
         {
             p.data_share = Some(share);
         }
@@ -535,7 +540,7 @@ fn refuse_priors_without_weights(
     match why {
         Some(why) => Err(Error::Model {
             path: mechanism.model_path.clone(),
-            field: format!("parameter `{}`: prior", first.name),
+            field: format!("prior of {}", first.name),
             message: format!(
                 "a fit with priors is the joint least-squares one weighted by the declared noise \
                  (the maximum a posteriori estimate); {why}"

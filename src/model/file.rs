@@ -54,6 +54,23 @@ pub struct ModelFile {
     /// are platform poses in the base frame).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub instrument: Option<super::instrument::InstrumentEntry>,
+    /// What a calibrated model was calibrated to (written by `identify --calibrated`): the
+    /// identified parameters, their estimates and covariance. Unused by the model itself;
+    /// `identify --prior FILE` takes it as the prior of a new fit.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub calibration: Option<CalibrationEntry>,
+}
+
+/// A calibration's estimates and their covariance (model file `calibration:`).
+#[derive(Debug, Clone, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct CalibrationEntry {
+    /// The identified parameters, by name (legs' and instrument's).
+    pub parameters: Vec<String>,
+    /// Their estimates, SI units, in the same order.
+    pub estimates: Vec<f64>,
+    /// Their covariance, one row per parameter, SI units.
+    pub covariance: Vec<Vec<f64>>,
 }
 
 /// Pose selection set-up.

@@ -46,6 +46,13 @@ impl Mechanism {
         &mut self.parts
     }
 
+    /// Whether a fit of the model takes priors: an identified parameter with a `prior:`, or a
+    /// previous calibration (`identify --prior`).
+    pub fn has_priors(&self) -> bool {
+        let mut legs = self.legs.iter().flat_map(|l| &l.params);
+        self.prior_covariance.is_some() || legs.any(|p| p.identified && p.prior.is_some())
+    }
+
     /// A copy of this mechanism with `edit` applied to its parts, this one unchanged: for
     /// studies and tests that vary one thing of a loaded model (the declared noise, which
     /// parameters are identified, the simulation's noise). The copy is not validated again.
@@ -88,6 +95,9 @@ pub struct MechanismParts {
     pub quantities: Vec<Quantity>,
     /// Named sets of factors to fit (model file `factor_sets:`).
     pub factor_sets: Vec<FactorSet>,
+    /// A previous calibration taken as the prior of the fit (`identify --prior FILE`): never
+    /// from the model file itself.
+    pub prior_covariance: Option<super::prior_covariance::PriorCovariance>,
     /// What the model file holds that is accepted but implausible (an angle beyond ±2π rad:
     /// degrees?), one line each naming the file and the field; every command's result is then
     /// untrusted.

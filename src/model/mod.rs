@@ -7,6 +7,7 @@ pub mod leg;
 pub mod load;
 pub mod mechanism;
 pub mod params;
+pub mod prior_covariance;
 pub mod quantities;
 pub mod region;
 pub mod source;

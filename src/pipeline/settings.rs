@@ -72,8 +72,11 @@ impl Settings {
         } else if mechanism.forward_instrument().is_some() {
             // Forward rows couple every leg: identified together, or not at all.
             vec![Strategy::Joint]
-        } else if mechanism.instrument.is_some() {
+        } else if mechanism.instrument.is_some() && !mechanism.has_priors() {
             vec![Strategy::Joint, Strategy::TwoStage]
+        } else if mechanism.instrument.is_some() {
+            // The two-stage comparison fits without priors: the joint fit alone.
+            vec![Strategy::Joint]
         } else {
             vec![Strategy::DivideAndConquer]
         }

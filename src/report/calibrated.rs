@@ -13,7 +13,7 @@ use std::path::{Path, PathBuf};
 
 use crate::error::{Error, Result};
 use crate::identify::estimate::StrategyResult;
-use crate::model::file::ModelFile;
+use crate::model::file::{CalibrationEntry, ModelFile};
 use crate::model::instrument::Instrument;
 use crate::model::joint::ORIGIN_COMPONENTS;
 use crate::model::params::ParamTarget;
@@ -332,6 +332,7 @@ fn calibrated_yaml(
         simulation.real = values;
         simulation.perturbation = None;
     }
+    file.calibration = calibration_entry(calibration.result);
     let body = serde_saphyr::to_string(&file).map_err(|e| Error::Yaml {
         path: mechanism.model_path.clone(),
         message: format!("cannot write the calibrated model: {e}"),
@@ -450,4 +451,32 @@ fn uncertainty(std: f64, dof: Option<usize>, unit: impl std::fmt::Display) -> St
         }
         None => format!("σ = {std:.3e} {unit}"),
     }
+}
+
+/// What the result calibrated: every identified parameter's estimate and their covariance
+/// (through an instrument the declared noise's, not scaled by the residuals' ŝ:
+/// [`StrategyResult::declared_full_covariance`]), for `identify --prior` to take as a prior;
+/// `None` without a covariance.
+fn calibration_entry(result: &StrategyResult) -> Option<CalibrationEntry> {
+    let (parameters, covariance) = result.declared_full_covariance()?;
+    let legs = result.legs.iter().flat_map(|l| &l.parameters);
+    let all: Vec<_> = legs
+        .chain(result.instrument.iter().flat_map(|i| &i.parameters))
+        .collect();
+    let estimates = parameters
+        .iter()
+        .map(|name| {
+            all.iter()
+                .find(|p| p.identified && &p.name == name)
+                .map(|p| p.estimate)
+        })
+        .collect::<Option<Vec<f64>>>()?;
+    let rows = (0..covariance.nrows())
+        .map(|i| covariance.row(i).iter().copied().collect())
+        .collect();
+    Some(CalibrationEntry {
+        parameters,
+        estimates,
+        covariance: rows,
+    })
 }

@@ -144,43 +144,11 @@ struct FullCovarianceJson {
     matrix: Vec<Vec<f64>>,
 }
 
-/// The full covariance of `result`'s identified parameters: through an instrument, the joint
-/// fit's matrix (the legs' identified parameters in the order of the result's legs, then the
-/// instrument's); otherwise the legs' blocks on the diagonal, the cross terms between legs
-/// zero (each leg's rows depend on its own parameters alone and are fitted apart, or as
-/// separable blocks of one problem). `None` when a fitted leg or the instrument has none.
+/// The full covariance of `result`'s identified parameters
+/// ([`StrategyResult::full_covariance`]).
 fn full_covariance(result: &StrategyResult) -> Option<FullCovarianceJson> {
-    let identified = |ps: &[ParameterEstimate]| -> Vec<String> {
-        ps.iter()
-            .filter(|p| p.identified)
-            .map(|p| p.name.clone())
-            .collect()
-    };
-    let mut parameters: Vec<String> = result
-        .legs
-        .iter()
-        .flat_map(|l| identified(&l.parameters))
-        .collect();
-    if let Some(instrument) = &result.instrument {
-        parameters.extend(identified(&instrument.parameters));
-        let matrix = instrument.covariance.as_ref()?;
-        return (matrix.nrows() == parameters.len()).then(|| FullCovarianceJson {
-            parameters,
-            matrix: self::matrix(matrix),
-        });
-    }
-    let n = parameters.len();
-    let mut full = DMatrix::zeros(n, n);
-    let mut at = 0;
-    for leg in &result.legs {
-        let block = leg.covariance.as_ref()?;
-        if at + block.nrows() > n {
-            return None;
-        }
-        full.view_mut((at, at), block.shape()).copy_from(block);
-        at += block.nrows();
-    }
-    (at == n).then(|| FullCovarianceJson {
+    let (parameters, full) = result.full_covariance()?;
+    Some(FullCovarianceJson {
         parameters,
         matrix: matrix(&full),
     })

@@ -102,7 +102,7 @@ pub fn select_forward(
     // With measured poses beside the rows, the rows need only see what they can: selected on
     // the combinations of the (column-scaled) unknowns the pool identifies.
     // Likewise with priors: what the rows cannot see rests on them.
-    let priors = problem.with_priors().prior_rows().len();
+    let priors = problem.with_priors().map_or(1, |p| p.prior_rows().len());
     let pool = match (&instrument.poses, priors) {
         (None, 0) => jacobian.clone(),
         _ => seen_combinations(&jacobian),

@@ -255,7 +255,7 @@ fn priors_without_the_declared_noise_to_weigh_them_are_refused() {
         .unwrap_err()
         .to_string();
     assert!(
-        error.contains("parameter `L1`: prior") && error.contains("--weights none"),
+        error.contains("prior of `L1`") && error.contains("--weights none"),
         "{error}"
     );
     let robust = FitOptions {
@@ -395,4 +395,184 @@ fn a_factor_set_on_priors_fits_what_the_joint_fit_with_the_same_priors_fits() {
 /// The joint fit with the default options.
 fn fit_joint(mechanism: &Mechanism, observations: &Observations) -> StrategyResult {
     fit(mechanism, observations, FitOptions::default())
+}
+
+/// The estimates of every identified parameter of a JSON report, by name: (estimate, σ).
+fn json_estimates(path: &std::path::Path) -> Vec<(String, f64, f64)> {
+    let report: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(path).unwrap()).unwrap();
+    let legs = report["results"][0]["legs"].as_array().unwrap();
+    legs.iter()
+        .flat_map(|l| l["parameters"].as_array().unwrap())
+        .filter(|p| !p["fixed"].as_bool().unwrap())
+        .map(|p| {
+            let name = p["name"].as_str().unwrap().to_string();
+            (
+                name,
+                p["identified"].as_f64().unwrap(),
+                p["std"].as_f64().unwrap(),
+            )
+        })
+        .collect()
+}
+
+/// A previous calibration as the prior (`identify --prior CAL.yaml`, CAL written by
+/// `--calibrated` with its estimates and the declared noise's covariance): calibrating on a
+/// first set of touches, then on a second with the first's calibration as the prior, gives the
+/// fit of both sets together, to 1e-3 of a σ (the rest is the model's curvature between the
+/// two linearisations). The prior is the fit's; the report names its rows.
+#[test]
+fn a_calibration_then_its_prior_on_new_touches_is_the_fit_of_both() {
+    use crate::cli::{legwise, legwise_succeeds, text};
+    let dir = tempfile::tempdir().unwrap();
+    let path = |name: &str| dir.path().join(name);
+    let arg = |name: &str| path(name).to_str().unwrap().to_string();
+    let model = "models/delta-probe.yaml";
+    for (seed, out) in [("5", "a.csv"), ("6", "b.csv")] {
+        legwise_succeeds(&[
+            "simulate",
+            "--model",
+            model,
+            "--seed",
+            seed,
+            "--out",
+            &arg(out),
+        ]);
+    }
+    let a = std::fs::read_to_string(path("a.csv")).unwrap();
+    let b = std::fs::read_to_string(path("b.csv")).unwrap();
+    // Both sets in one file, the second's row ids renamed (ids are unique in a file).
+    let second: Vec<String> = b
+        .lines()
+        .skip(1)
+        .map(|l| l.replace(",t", ",second-t"))
+        .collect();
+    std::fs::write(path("ab.csv"), format!("{a}{}\n", second.join("\n"))).unwrap();
+    let (cal, ab) = (arg("cal.yaml"), arg("ab.csv"));
+    legwise_succeeds(&[
+        "identify",
+        "--model",
+        model,
+        "--measurements",
+        &arg("a.csv"),
+        "--calibrated",
+        &cal,
+    ]);
+    let calibrated = std::fs::read_to_string(&cal).unwrap();
+    assert!(calibrated.contains("calibration:") && calibrated.contains("covariance:"));
+    let out = legwise_succeeds(&[
+        "identify",
+        "--model",
+        model,
+        "--measurements",
+        &arg("b.csv"),
+        "--prior",
+        &cal,
+        "--json",
+        &arg("seq.json"),
+    ]);
+    assert!(
+        text(&out.stdout).contains("priors: 6 rows"),
+        "{}",
+        text(&out.stdout)
+    );
+    legwise_succeeds(&[
+        "identify",
+        "--model",
+        model,
+        "--measurements",
+        &ab,
+        "--json",
+        &arg("ab.json"),
+    ]);
+    let (sequential, joint) = (
+        json_estimates(&path("seq.json")),
+        json_estimates(&path("ab.json")),
+    );
+    assert_eq!(sequential.len(), 6);
+    for ((name, s, _), (other, j, sigma)) in sequential.iter().zip(&joint) {
+        assert_eq!(name, other);
+        assert!(
+            (s - j).abs() < 1e-3 * sigma,
+            "{name}: {s} vs {j} (σ {sigma})"
+        );
+    }
+    // Without the calibration block, or naming a parameter the model lacks: refused by field.
+    let bare = std::fs::read_to_string("models/delta-probe.yaml").unwrap();
+    std::fs::write(path("bare.yaml"), bare).unwrap();
+    let out = legwise(&[
+        "identify",
+        "--model",
+        model,
+        "--measurements",
+        &ab,
+        "--prior",
+        &arg("bare.yaml"),
+    ]);
+    assert_eq!(out.status.code(), Some(2));
+    assert!(
+        text(&out.stderr).contains("field `calibration`"),
+        "{}",
+        text(&out.stderr)
+    );
+    std::fs::write(
+        path("other.yaml"),
+        calibrated.replace("- h0_1\n", "- h0_9\n"),
+    )
+    .unwrap();
+    let out = legwise(&[
+        "identify",
+        "--model",
+        model,
+        "--measurements",
+        &ab,
+        "--prior",
+        &arg("other.yaml"),
+    ]);
+    assert!(
+        text(&out.stderr).contains("calibration.parameters[0]")
+            && text(&out.stderr).contains("`h0_9`"),
+        "{}",
+        text(&out.stderr)
+    );
+    // A leg fitted on its own takes no prior: the 5R's own calibration refused as one.
+    let five = arg("5r-cal.yaml");
+    legwise_succeeds(&[
+        "identify",
+        "--model",
+        "models/5r.yaml",
+        "--calibrated",
+        &five,
+    ]);
+    let out = legwise(&["identify", "--model", "models/5r.yaml", "--prior", &five]);
+    assert_eq!(out.status.code(), Some(2));
+    assert!(
+        text(&out.stderr).contains("--prior"),
+        "{}",
+        text(&out.stderr)
+    );
+}
+
+/// Through a tracker (legs in groups of their own, the frame the border), a previous
+/// calibration's rows couple the legs: the problem becomes one group and the fit still goes
+/// through, its estimates within a σ of the fit without the prior.
+#[test]
+fn a_calibration_prior_through_a_tracker_couples_the_legs() {
+    use crate::cli::{legwise_succeeds, text};
+    let dir = tempfile::tempdir().unwrap();
+    let arg = |name: &str| dir.path().join(name).to_str().unwrap().to_string();
+    let model = "models/5r-tracker.yaml";
+    legwise_succeeds(&[
+        "identify",
+        "--model",
+        model,
+        "--calibrated",
+        &arg("cal.yaml"),
+    ]);
+    let out = legwise_succeeds(&["identify", "--model", model, "--prior", &arg("cal.yaml")]);
+    let report = text(&out.stdout);
+    assert!(
+        report.contains("priors:") && !report.contains("two-stage"),
+        "{report}"
+    );
 }

@@ -42,9 +42,17 @@ mod state;
 use forward_rows::Forward;
 pub use places::ResidualPlace;
 pub use prior_rows::PriorRow;
+use prior_rows::PriorSigma;
 pub use reached_points::ReachedPoint;
 use sighted::{Sighted, Sighting};
 use state::{Evaluations, KEPT_SOLUTION_ROWS};
+
+/// A problem's priors: their rows, and each unknown's prior σ.
+#[derive(Debug, Clone, Default)]
+struct Priors {
+    rows: Vec<PriorRow>,
+    sigmas: Vec<PriorSigma>,
+}
 
 /// Where one leg's identified parameters sit in the problem's parameter vector.
 #[derive(Debug, Clone)]
@@ -97,9 +105,9 @@ pub struct IdentificationProblem<'a> {
     forward: Option<Forward>,
     /// `√w_i` per residual (the blocks', the forward rows', the priors'), if weighted.
     row_scales: Option<Vec<f64>>,
-    /// The identified parameters' priors, one residual row each after the data's
+    /// The priors' residual rows after the data's, and each unknown's prior σ
     /// (`problem/prior_rows.rs`).
-    priors: Arc<[PriorRow]>,
+    priors: Arc<Priors>,
     /// Each block's platform transform (its pose's trigonometry done once), for problems of
     /// measured poses of at most [`KEPT_SOLUTION_ROWS`] blocks (96 bytes a row); empty for
     /// larger ones, whose rows compute theirs at each evaluation, and through an instrument.
@@ -243,7 +251,7 @@ impl<'a> IdentificationProblem<'a> {
         let state = Evaluations::new(blocks.len(), stride);
         let measured = sighted.is_none() && blocks.len() <= KEPT_SOLUTION_ROWS;
         Self {
-            priors: Vec::new().into(),
+            priors: Default::default(),
             platforms: if measured {
                 let platform = |b: &ResidualBlock| platform_transform_f64(&b.pose);
                 blocks.iter().map(platform).collect()
@@ -356,7 +364,7 @@ impl<'a> IdentificationProblem<'a> {
         let mut problem = Self::with_slots(self.mechanism, slots, blocks, self.sighted.clone());
         problem.forward = self.forward.as_ref().map(|f| f.renewed(|_| true));
         // No leg unknown is left: no leg prior either.
-        problem.priors = Vec::new().into();
+        problem.priors = Default::default();
         problem
     }
 

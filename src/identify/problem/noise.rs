@@ -30,7 +30,7 @@ impl IdentificationProblem<'_> {
         noise: &MeasurementNoise,
     ) -> Result<NoiseLoadings, ArgminError> {
         let data = self.data_noise_loadings(x, noise)?;
-        if self.priors.is_empty() {
+        if self.prior_rows().is_empty() {
             return Ok(data);
         }
         // `scaled` by 1 moves `σ_q` into a loading of each data row's own.
@@ -46,7 +46,7 @@ impl IdentificationProblem<'_> {
             .chain(loadings.also.iter().map(|(_, m, _)| *m))
             .max()
             .map_or(0, |m| m + 1);
-        let priors = self.priors.iter().enumerate();
+        let priors = self.prior_rows().iter().enumerate();
         loadings
             .rows
             .extend(priors.map(|(k, p)| (fresh + k, vec![p.sigma])));

@@ -69,12 +69,17 @@ impl IdentificationProblem<'_> {
             }));
         }
         let fresh = places.iter().map(|p| p.measurement + 1).max().unwrap_or(0);
-        places.extend(self.priors.iter().enumerate().map(|(k, p)| ResidualPlace {
-            line: None,
-            what: format!("the prior of `{}`", p.name),
-            measurement: fresh + k,
-            prior: true,
-        }));
+        places.extend(
+            self.prior_rows()
+                .iter()
+                .enumerate()
+                .map(|(k, p)| ResidualPlace {
+                    line: None,
+                    what: format!("the prior of {}", p.name),
+                    measurement: fresh + k,
+                    prior: true,
+                }),
+        );
         places
     }
 }

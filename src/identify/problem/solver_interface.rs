@@ -11,8 +11,9 @@ use crate::solver::bordered::{BorderedBlock, BorderedLayout, BorderedLeastSquare
 
 impl BorderedLeastSquares for IdentificationProblem<'_> {
     fn layout(&self) -> BorderedLayout {
-        if self.forward.is_some() {
-            // Every forward row couples every leg: one group of all the legs' columns.
+        if self.forward.is_some() || self.priors_couple_groups() {
+            // Every forward row couples every leg (as a prior row may): one group of all the
+            // legs' columns.
             return BorderedLayout {
                 own: vec![self.own_columns()],
                 shared: self.shared_columns().len(),
@@ -27,7 +28,7 @@ impl BorderedLeastSquares for IdentificationProblem<'_> {
     /// Each slot's rows: their residuals, their derivatives with respect to the slot's own
     /// columns and to the shared ones.
     fn bordered(&self, x: &DVector<f64>) -> std::result::Result<Vec<BorderedBlock>, ArgminError> {
-        if self.forward.is_some() {
+        if self.forward.is_some() || self.priors_couple_groups() {
             let (r, jacobian) = self.residuals_and_jacobian(x)?;
             let own = self.own_columns();
             return Ok(vec![BorderedBlock {
@@ -39,7 +40,7 @@ impl BorderedLeastSquares for IdentificationProblem<'_> {
         let matches = self.turn_matches(x);
         let s = self.shared_columns().len();
         let blocks = self.evaluated(x, true, |evaluation| {
-            let block = |slot: &LegSlot| {
+            let block = |(group, slot): (usize, &LegSlot)| {
                 let rows = self.rows_of(slot);
                 let mut block = BorderedBlock {
                     residuals: DVector::zeros(rows.len()),
@@ -55,20 +56,25 @@ impl BorderedLeastSquares for IdentificationProblem<'_> {
                         });
                 }
                 // The leg's priors: rows of its own group, after its data's.
-                let priors = self.slot_prior_rows(slot, x, self.blocks.len());
+                let priors = self.group_prior_rows(group, x, self.blocks.len());
                 if !priors.is_empty() {
                     let (m, count) = (rows.len(), rows.len() + priors.len());
                     block.residuals = block.residuals.clone().resize_vertically(count, 0.0);
                     block.own = block.own.clone().resize_vertically(count, 0.0);
                     block.shared = block.shared.clone().resize_vertically(count, 0.0);
-                    for (k, (column, residual, derivative)) in priors.into_iter().enumerate() {
+                    for (k, (own, shared, residual)) in priors.into_iter().enumerate() {
                         block.residuals[m + k] = residual;
-                        block.own[(m + k, column)] = derivative;
+                        for (column, derivative) in own {
+                            block.own[(m + k, column)] = derivative;
+                        }
+                        for (column, derivative) in shared {
+                            block.shared[(m + k, column)] = derivative;
+                        }
                     }
                 }
                 block
             };
-            self.slots.iter().map(block).collect()
+            self.slots.iter().enumerate().map(block).collect()
         })?;
         Ok(blocks)
     }

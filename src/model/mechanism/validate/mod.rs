@@ -108,6 +108,7 @@ impl Builder<'_> {
             instrument,
             quantities,
             factor_sets,
+            prior_covariance: None,
             warnings,
         });
         Ok(mechanism)
