@@ -102,7 +102,7 @@ pub fn identify_with(
     if let Some(p) = prior {
         return Err(Error::Model {
             path: mechanism.model_path.clone(),
-            field: format!("parameter `{}`: prior", p.name),
+            field: format!("prior of `{}`", p.name),
             message: format!(
                 "the {} strategy fits each leg's readings at measured poses without priors; \
                  priors are taken by the joint fit through an instrument and by `legwise sets`: \

@@ -347,7 +347,7 @@ pub fn fit_factor_set(
     if let (Some(first), None) = (factors.iter().find(|f| f.prior.is_some()), &noise) {
         return Err(Error::Model {
             path: mechanism.model_path.clone(),
-            field: format!("`{}`: prior", first.name),
+            field: format!("prior of `{}`", first.name),
             message: format!(
                 "factor set `{}`: a prior is weighed against the data by the declared noise, \
                  and the model declares none (`noise:`)",

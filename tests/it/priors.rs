@@ -328,10 +328,7 @@ fn a_leg_fit_at_measured_poses_refuses_a_prior_rather_than_dropping_it() {
     )
     .unwrap_err()
     .to_string();
-    assert!(
-        error.contains(&format!("parameter `{first}`: prior")),
-        "{error}"
-    );
+    assert!(error.contains(&format!("prior of `{first}`")), "{error}");
 }
 
 /// The set `rods` of models/delta-probe.yaml (its six and the rods, each rod on its 0.2 mm
