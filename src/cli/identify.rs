@@ -13,6 +13,7 @@ use crate::identify::estimate::{FitOptions, Strategy, Weighting};
 use crate::identify::robust::RobustLoss;
 use crate::measure::{Measurements, STDIN_NAME};
 use crate::model::prior_covariance::PriorCovariance;
+use crate::model::with_prior::with_prior;
 use crate::model::Mechanism;
 use crate::pipeline::{self, MapSettings, Settings, SimulationSettings};
 use crate::report::calibrated::CalibratedModel;
@@ -71,7 +72,7 @@ pub(super) fn prepared(args: &IdentifyArgs) -> anyhow::Result<(Mechanism, Settin
     }
     let mut mechanism = Mechanism::load(&args.model)?;
     if let Some(path) = &args.prior {
-        mechanism = PriorCovariance::read(path)?.applied_to(&mechanism)?;
+        mechanism = with_prior(&mechanism, &PriorCovariance::read(path)?)?;
     }
     if mechanism.instrument.is_some() {
         refuse_unsupported(args)?;

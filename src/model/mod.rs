@@ -13,6 +13,7 @@ pub mod region;
 pub mod source;
 pub mod urdf;
 mod urdf_scan;
+pub mod with_prior;
 pub mod with_values;
 pub mod workspace;
 mod yaml_errors;

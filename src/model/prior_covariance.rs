@@ -7,7 +7,6 @@ use std::path::{Path, PathBuf};
 use nalgebra::DMatrix;
 
 use super::file::ModelFile;
-use super::Mechanism;
 use crate::error::{Error, Result};
 
 /// Relative asymmetry `|Σ_ij − Σ_ji|` (of the larger diagonal term) a covariance may have.
@@ -108,33 +107,5 @@ impl PriorCovariance {
             estimates: block.estimates,
             covariance,
         })
-    }
-
-    /// `mechanism` with this calibration as the prior of its fit.
-    ///
-    /// # Errors
-    /// A parameter the calibration names that the model does not have.
-    pub fn applied_to(&self, mechanism: &Mechanism) -> Result<Mechanism> {
-        let legs = mechanism.legs.iter().flat_map(|l| &l.params);
-        let mut known = legs.map(|p| p.name.as_str()).collect::<Vec<_>>();
-        if let Some(instrument) = &mechanism.instrument {
-            known.extend(instrument.parameters.iter().map(|p| p.name.as_str()));
-        }
-        if let Some((i, name)) = self
-            .parameters
-            .iter()
-            .enumerate()
-            .find(|(_, n)| !known.contains(&n.as_str()))
-        {
-            return Err(Error::Model {
-                path: self.source.clone(),
-                field: format!("calibration.parameters[{i}]"),
-                message: format!(
-                    "`{name}` is not a parameter of {}: a prior from another model",
-                    mechanism.model_path.display()
-                ),
-            });
-        }
-        Ok(mechanism.edited(|parts| parts.prior_covariance = Some(self.clone())))
     }
 }

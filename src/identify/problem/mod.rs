@@ -33,6 +33,7 @@ mod forward_rows;
 mod noise;
 mod places;
 mod prior_rows;
+mod priors;
 mod reached_points;
 mod residuals;
 mod sighted;
@@ -41,18 +42,11 @@ mod state;
 
 use forward_rows::Forward;
 pub use places::ResidualPlace;
-pub use prior_rows::PriorRow;
-use prior_rows::PriorSigma;
+pub use priors::PriorRow;
+use priors::Priors;
 pub use reached_points::ReachedPoint;
 use sighted::{Sighted, Sighting};
 use state::{Evaluations, KEPT_SOLUTION_ROWS};
-
-/// A problem's priors: their rows, and each unknown's prior σ.
-#[derive(Debug, Clone, Default)]
-struct Priors {
-    rows: Vec<PriorRow>,
-    sigmas: Vec<PriorSigma>,
-}
 
 /// Where one leg's identified parameters sit in the problem's parameter vector.
 #[derive(Debug, Clone)]

@@ -9,32 +9,10 @@
 
 use nalgebra::{DMatrix, DVector};
 
+use super::priors::{GroupPriorRow, PriorRow, PriorSigma, Priors};
 use super::{IdentificationProblem, LegSlot};
 use crate::model::prior_covariance::PriorCovariance;
 use crate::model::Mechanism;
-
-/// One prior row: `Σ w_j (x_j − μ_j)` over its terms, of standard deviation `sigma`.
-#[derive(Debug, Clone, PartialEq)]
-pub struct PriorRow {
-    /// `(column, w_j, μ_j)`: the unknown's index in the problem's parameter vector, its weight
-    /// and the prior's mean.
-    pub terms: Vec<(usize, f64, f64)>,
-    /// The row's standard deviation (a parameter's prior σ; 1 for a whitened calibration).
-    pub sigma: f64,
-    /// What the row is the prior of, for messages: the parameter, or the calibration file.
-    pub name: String,
-}
-
-/// A prior row in a Schur group: its derivatives by the group's own columns and by the shared
-/// ones, `(column, derivative)`, and its residual.
-pub(super) type GroupPriorRow = (Vec<(usize, f64)>, Vec<(usize, f64)>, f64);
-
-/// One unknown's prior σ (a parameter's own, or the calibration's `√Σ_jj`).
-#[derive(Debug, Clone, PartialEq)]
-pub(super) struct PriorSigma {
-    pub(super) column: usize,
-    pub(super) sigma: f64,
-}
 
 /// The prior rows of the problem's unknowns (`names`, in order; `slots` the legs'): the
 /// calibration's rows over the unknowns it names, each other unknown's own `prior:` row.
@@ -153,7 +131,7 @@ impl IdentificationProblem<'_> {
     pub fn with_priors(&self) -> Result<Self, String> {
         let (rows, sigmas) = priors_of(self.mechanism, &self.slots, &self.names())?;
         Ok(Self {
-            priors: super::Priors { rows, sigmas }.into(),
+            priors: Priors { rows, sigmas }.into(),
             ..self.clone()
         })
     }
