@@ -13,6 +13,7 @@ use crate::report::selection::{
 };
 use crate::selection::design::ExperimentDesign;
 use crate::selection::forward_design::select_forward;
+use crate::study::how_many::design_sigma;
 
 pub(super) fn run(args: &SelectArgs) -> anyhow::Result<Verdict> {
     let (poses_per_leg, mechanism) = checked(args)?;
@@ -87,9 +88,10 @@ pub(super) fn selected(
                 mechanism.measured_names().join(", ")
             ),
         };
+        let promise = design_text(mechanism, count, criterion, args.grid);
         return Ok(Selection {
             csv: forward_pose_file(mechanism, &design)?,
-            text: forward_selection_text(mechanism, &design, criterion),
+            text: forward_selection_text(mechanism, &design, criterion) + &promise,
             advice: format!(
                 "command the pose.* columns and fill in what the instrument reports{measured}; \
                  leave the readings empty to take the nominal model's at the commanded pose, or \
@@ -102,11 +104,35 @@ pub(super) fn selected(
         per_leg: args.strategy != StrategyArg::Traditional,
         shared,
     };
-    let text = selection_text(mechanism, &design, (count, criterion), sets);
+    let mut text = selection_text(mechanism, &design, (count, criterion), sets);
+    if args.strategy == StrategyArg::Dc {
+        text.push_str(&design_text(mechanism, count, criterion, args.grid));
+    }
     let (csv, fill) = pose_file(mechanism, &design, sets)?;
     Ok(Selection {
         csv,
         text,
         advice: format!("{fill}, then `legwise identify --measurements`"),
+    })
+}
+
+/// The selected rows' promise: the design's predicted σ over the workspace from the declared
+/// noise ([`design_sigma`]), a line; empty when there is none.
+fn design_text(
+    mechanism: &Mechanism,
+    count: usize,
+    criterion: SelectionCriterion,
+    grid: Option<f64>,
+) -> String {
+    design_sigma(mechanism, count, criterion, grid).map_or(String::new(), |p| {
+        format!(
+            "design: the predicted σ of `{}`'s position over the workspace ({} points) after the \
+             model's own fit on these rows, from the declared noise: RMS {:.4} mm, max {:.4} mm \
+             (`legwise how-many` for other counts)\n",
+            p.target,
+            p.points,
+            p.rms * 1e3,
+            p.max * 1e3
+        )
     })
 }

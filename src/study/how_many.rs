@@ -14,9 +14,10 @@ use crate::evaluate::accuracy::result_parameters;
 use crate::evaluate::predicted_pose::predicted_pose_sigma;
 use crate::identify::result::{PredictedPosition, StrategyResult};
 use crate::measure::simulate::SimulationOptions;
+use crate::model::mechanism::SelectionCriterion;
 use crate::model::mechanism::Simulation;
 use crate::model::Mechanism;
-use crate::pipeline::{run, Settings, SimulationSettings};
+use crate::pipeline::{run, simulate, Settings, SimulationSettings};
 
 /// One count's outcome.
 #[derive(Debug, Clone, PartialEq, Serialize)]
@@ -126,6 +127,45 @@ pub fn predicted_by_count(
             }
         })
         .collect())
+}
+
+/// The design's predicted σ over the workspace of `count` rows selected by `criterion` on a
+/// candidate grid of spacing `grid` (the model's when `None`): the model's own set fitted on
+/// those rows simulated at the nominal model without noise, its σ from the declared noise alone
+/// (what `legwise select`'s rows promise; how-many's design column at the model's values).
+/// `None` without a declared noise, or when the rows do not determine the set.
+pub fn design_sigma(
+    mechanism: &Mechanism,
+    count: usize,
+    criterion: SelectionCriterion,
+    grid: Option<f64>,
+) -> Option<PredictedPosition> {
+    let noise = mechanism.noise?;
+    let nominal = mechanism.edited(|parts| {
+        parts.selection.criterion = criterion;
+        parts.simulation = Some(Simulation {
+            real: Default::default(),
+            perturbation: None,
+            pose_noise: noise.pose,
+            reading_noise: noise.reading,
+            poses_per_leg: count,
+            seed: 1,
+        });
+    });
+    let settings = SimulationSettings {
+        options: SimulationOptions {
+            noise_scale: 0.0,
+            poses_per_leg: Some(count),
+            ..SimulationOptions::default()
+        },
+        grid,
+        ..SimulationSettings::default()
+    };
+    let simulated = simulate(&nominal, &settings).ok()?;
+    let own = model_sets(&nominal).into_iter().next()?;
+    fit_factor_set(&nominal, &simulated.measurements, &own)
+        .ok()?
+        .predicted
 }
 
 /// A fit from measured poses carried to the end effector's position over the workspace: its

@@ -169,3 +169,39 @@ fn on_the_5r_the_curve_is_the_legs_covariance_carried_to_the_end_effector() {
     // Half the rows: a larger σ.
     assert!(points[0].predicted.as_ref().unwrap().rms > predicted.rms);
 }
+
+/// `legwise select` prints what its rows promise: the design's predicted σ over the workspace
+/// from the declared noise, the model's own set fitted on them at the nominal model
+/// (`design_sigma`); at the model's count it is how-many's design column to the percent (which
+/// fits the simulated, noisy experiment instead of the nominal one).
+#[test]
+fn select_prints_the_design_sigma_how_many_gives_at_its_count() {
+    use legwise::study::how_many::{design_sigma, predicted_by_count};
+    let mechanism = crate::support::bundled("delta-probe.yaml");
+    let criterion = mechanism.selection.criterion;
+    let design = design_sigma(&mechanism, 37, criterion, None).unwrap();
+    let curve = predicted_by_count(&mechanism, &[37], None).unwrap();
+    let from_curve = curve[0].design.as_ref().unwrap();
+    for (a, b) in [(design.rms, from_curve.rms), (design.max, from_curve.max)] {
+        assert!((a / b - 1.0).abs() < 1e-2, "{a} vs {b}");
+    }
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("poses.csv");
+    let printed = legwise_succeeds(&[
+        "select",
+        "--model",
+        "models/delta-probe.yaml",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    let expected = format!(
+        "RMS {:.4} mm, max {:.4} mm",
+        design.rms * 1e3,
+        design.max * 1e3
+    );
+    assert!(
+        text(&printed.stdout).contains(&expected),
+        "{expected}: {}",
+        text(&printed.stdout)
+    );
+}
