@@ -34,24 +34,52 @@ pub fn predicted_pose_sigma(
     params: &[Vec<f64>],
     covariance: &DMatrix<f64>,
 ) -> Option<PredictedPosition> {
+    let grid = map_grid(mechanism, mechanism.workspace.grid?, SCALE).ok()?;
+    let sigmas = position_sigmas(mechanism, params, covariance, &grid)?;
+    let reached: Vec<f64> = sigmas.into_iter().flatten().collect();
+    if reached.is_empty() {
+        return None;
+    }
+    let rms = (reached.iter().map(|s| s * s).sum::<f64>() / reached.len() as f64).sqrt();
+    Some(PredictedPosition {
+        target: "end effector".into(),
+        points: reached.len(),
+        rms,
+        max: reached.iter().copied().fold(0.0, f64::max),
+        tolerance: None,
+    })
+}
+
+/// The predicted σ of the end effector's position at each of `targets` (`None` where a leg
+/// cannot reach it), as [`predicted_pose_sigma`] takes them; `None` with an instrument,
+/// without a measured position coordinate, or with a covariance of another size.
+pub fn position_sigmas(
+    mechanism: &Mechanism,
+    params: &[Vec<f64>],
+    covariance: &DMatrix<f64>,
+    targets: &[[f64; 6]],
+) -> Option<Vec<Option<f64>>> {
     if mechanism.instrument.is_some() {
         return None;
     }
     let measured = &mechanism.measured;
-    let positions: Vec<usize> = (0..measured.len()).filter(|&k| measured[k] < 3).collect();
+    // The measured coordinates that are positions (x, y, z: indices 0 to 2).
+    let positions: Vec<usize> = (0..measured.len()).filter(|&k| measured[k] <= 2).collect();
     if positions.is_empty() {
         return None;
     }
-    let grid = map_grid(mechanism, mechanism.workspace.grid?, SCALE).ok()?;
+    let grid = targets;
     let home = &mechanism.home_pose;
     // The grid poses every leg reaches, a block per leg there (its reading the commanded one).
     let mut poses = Vec::new();
     let mut blocks = Vec::new();
-    for pose in &grid {
+    let mut indices = Vec::new();
+    for (index, pose) in grid.iter().enumerate() {
         let readings: Option<Vec<f64>> = (0..mechanism.legs.len())
             .map(|l| predict_reading(&mechanism.legs[l], &params[l], pose, home).ok())
             .collect();
         let Some(readings) = readings else { continue };
+        indices.push(index);
         poses.push(*pose);
         blocks.extend((0..mechanism.legs.len()).map(|leg| ResidualBlock {
             leg,
@@ -61,13 +89,13 @@ pub fn predicted_pose_sigma(
         }));
     }
     if poses.is_empty() {
-        return None;
+        return Some(vec![None; grid.len()]);
     }
     let every: Vec<usize> = (0..mechanism.legs.len()).collect();
     // Every leg's rows (the pose gradients need them all); the unknowns the identified legs'.
     let problem = IdentificationProblem::new(mechanism, &every, blocks);
     let x = unknowns(&problem, params);
-    if covariance.nrows() != x.len() || covariance.ncols() != x.len() {
+    if covariance.shape() != (x.len(), x.len()) {
         return None;
     }
     let (_, jacobian) = problem.residuals_and_jacobian(&x).ok()?;
@@ -81,25 +109,24 @@ pub fn predicted_pose_sigma(
     let mut sigmas = Vec::with_capacity(poses.len());
     for i in 0..poses.len() {
         // ∂ψ/∂P over the measured coordinates, ∂ψ/∂φ, the legs' rows at this pose.
-        let rows = i * width..(i + 1) * width;
+        let first = i * width;
         let d_pose = DMatrix::from_fn(width, measured.len(), |r, k| {
-            gradients.rows[rows.start + r].1[measured[k]]
+            gradients.rows[first + r].1[measured[k]]
         });
-        let d_params = jacobian.rows(rows.start, width).into_owned();
+        let d_params = jacobian.rows(first, width).into_owned();
         let pseudo = d_pose.pseudo_inverse(1e-12).ok()?;
-        let moved = -(pseudo * d_params);
+        // δP = −(∂ψ/∂P)⁺ ∂ψ/∂φ δφ; the sign does not reach the σ.
+        let moved = pseudo * d_params;
         let position = DMatrix::from_fn(positions.len(), x.len(), |r, j| moved[(positions[r], j)]);
         let variance = (&position * covariance * position.transpose()).trace();
         sigmas.push(variance.max(0.0).sqrt());
     }
-    let rms = (sigmas.iter().map(|s| s * s).sum::<f64>() / sigmas.len() as f64).sqrt();
-    Some(PredictedPosition {
-        target: "end effector".into(),
-        points: poses.len(),
-        rms,
-        max: sigmas.iter().copied().fold(0.0, f64::max),
-        tolerance: None,
-    })
+    // Back to the targets, `None` where a leg could not reach one.
+    let mut all = vec![None; grid.len()];
+    for (index, sigma) in indices.into_iter().zip(sigmas) {
+        all[index] = Some(sigma);
+    }
+    Some(all)
 }
 
 /// The problem's unknowns at `params` (its slots' identified parameters).

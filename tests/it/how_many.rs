@@ -205,3 +205,66 @@ fn select_prints_the_design_sigma_how_many_gives_at_its_count() {
         text(&printed.stdout)
     );
 }
+
+/// On the hexapod (all six coordinates measured, no instrument), the end effector's position σ
+/// at a pose is the covariance carried by central differences of where the real hexapod goes
+/// (`reached_pose`: the model's readings at the pose, the forward kinematics of a hexapod with
+/// one parameter moved): its position's rows only (x, y, z), not the orientation's, to 1e-5.
+#[test]
+fn the_position_sigma_of_a_hexapod_is_its_forward_kinematics_carried_covariance() {
+    use legwise::evaluate::accuracy::reached_pose;
+    use legwise::evaluate::predicted_pose::position_sigmas;
+    use nalgebra::DMatrix;
+
+    let mechanism = crate::support::bundled("hexapod.yaml");
+    let params = mechanism.nominal_parameters();
+    let unknowns: Vec<(usize, usize)> = mechanism
+        .identified_legs()
+        .into_iter()
+        .flat_map(|l| {
+            mechanism.legs[l]
+                .identified()
+                .into_iter()
+                .map(move |c| (l, c))
+        })
+        .collect();
+    let n = unknowns.len();
+    // Different σ per unknown, and a correlation between the first two.
+    let mut covariance = DMatrix::from_fn(n, n, |i, j| {
+        if i == j {
+            (1e-4 * (1.0 + 0.1 * i as f64)).powi(2)
+        } else {
+            0.0
+        }
+    });
+    covariance[(0, 1)] = 0.5 * covariance[(0, 0)].sqrt() * covariance[(1, 1)].sqrt();
+    covariance[(1, 0)] = covariance[(0, 1)];
+    let home = mechanism.home_pose;
+    let mut moved = home;
+    moved[0] += 0.02;
+    moved[1] -= 0.01;
+    moved[3] += 0.02;
+    let targets = [home, moved];
+    let sigmas = position_sigmas(&mechanism, &params, &covariance, &targets).unwrap();
+    for (target, sigma) in targets.iter().zip(&sigmas) {
+        let mut g = DMatrix::zeros(3, n);
+        for (j, &(leg, column)) in unknowns.iter().enumerate() {
+            let h = 1e-6;
+            let at = |step: f64| {
+                let mut real = params.clone();
+                real[leg][column] += step;
+                reached_pose(&mechanism, &params, &real, target).unwrap()
+            };
+            let (up, down) = (at(h), at(-h));
+            for k in 0..3 {
+                g[(k, j)] = (up[k] - down[k]) / (2.0 * h);
+            }
+        }
+        let expected = (&g * &covariance * g.transpose()).trace().sqrt();
+        let sigma = sigma.unwrap();
+        assert!(
+            (sigma / expected - 1.0).abs() < 1e-5,
+            "{sigma} vs {expected}"
+        );
+    }
+}
