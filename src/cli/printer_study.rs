@@ -204,13 +204,8 @@ fn study_text(result: &PrinterStudyResult) -> Result<String, Error> {
                 set.recommended
             )
             .map_err(w)?;
-            if !set.spread_over_sigma.is_empty() {
-                let each: Vec<String> = set
-                    .spread_over_sigma
-                    .iter()
-                    .map(|(name, ratio)| format!("{name} {ratio:.2}"))
-                    .collect();
-                writeln!(t, "      spread/σ of the errors: {}", each.join(", ")).map_err(w)?;
+            if let Some(line) = set.spread_line() {
+                writeln!(t, "{line}").map_err(w)?;
             }
         }
         writeln!(

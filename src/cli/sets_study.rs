@@ -74,13 +74,8 @@ fn study_text(mechanism: &Mechanism, result: &SetStudyResult) -> String {
                     .map_or("-".to_string(), |v| format!("{v:.4}")),
                 set.recommended
             );
-            if !set.spread_over_sigma.is_empty() {
-                let each: Vec<String> = set
-                    .spread_over_sigma
-                    .iter()
-                    .map(|(name, ratio)| format!("{name} {ratio:.2}"))
-                    .collect();
-                let _ = writeln!(t, "      spread/σ of the errors: {}", each.join(", "));
+            if let Some(line) = set.spread_line() {
+                let _ = writeln!(t, "{line}");
             }
         }
         let _ = writeln!(

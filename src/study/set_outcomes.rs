@@ -6,6 +6,7 @@
 
 use serde::Serialize;
 
+use crate::identify::factor_set::FactorSetFit;
 use crate::identify::set_choice::{self, Candidate};
 
 /// One factor set fitted on one simulated experiment, judged by the truth.
@@ -34,6 +35,49 @@ pub struct SetOutcome {
     /// parameters of the printer (a quantity has no real value of its own), when determined.
     #[serde(skip_serializing_if = "Vec::is_empty")]
     pub standardized_errors: Vec<(String, f64)>,
+}
+
+impl SetOutcome {
+    /// The outcome of `fit`, judged by the truth: `true_error` its true error when the rows
+    /// determine it (called only then), `truth` a parameter's real value by name (its factors'
+    /// standardized errors).
+    ///
+    /// # Errors
+    /// The true error's.
+    pub fn of<E>(
+        fit: &FactorSetFit,
+        true_error: impl FnOnce(&FactorSetFit) -> Result<f64, E>,
+        truth: impl Fn(&str) -> Option<f64>,
+    ) -> Result<Self, E> {
+        let determined = fit.observability.rank == fit.factors.len();
+        let true_error_m = match determined {
+            true => Some(true_error(fit)?),
+            false => None,
+        };
+        let standardized_errors = fit
+            .factors
+            .iter()
+            .filter(|_| determined)
+            .filter_map(|f| {
+                let value = truth(&f.name)?;
+                (f.sigma > 0.0).then(|| (f.name.clone(), (f.estimate - value) / f.sigma))
+            })
+            .collect();
+        Ok(SetOutcome {
+            name: fit.name.clone(),
+            factors: fit.factors.len(),
+            determined,
+            within_tolerance: set_choice::within_tolerance(fit),
+            left_out_m: fit.leave_one_out.filter(|_| determined),
+            information: fit.information.is_finite().then_some(fit.information),
+            information_corrected: fit
+                .information_corrected
+                .is_finite()
+                .then_some(fit.information_corrected),
+            true_error_m,
+            standardized_errors,
+        })
+    }
 }
 
 /// The index of the set legwise recommends among `sets` ([`set_choice::recommended`]).
@@ -67,6 +111,19 @@ pub struct SetSummary {
     /// `√(mean ((estimate − real)/σ)²)` over the experiments that determined the set (1 when
     /// the σ are honest).
     pub spread_over_sigma: Vec<(String, f64)>,
+}
+
+impl SetSummary {
+    /// The report's line of its factors' spread/σ (`      spread/σ of the errors: L1 0.95, …`),
+    /// `None` without any.
+    pub fn spread_line(&self) -> Option<String> {
+        let each: Vec<String> = self
+            .spread_over_sigma
+            .iter()
+            .map(|(name, ratio)| format!("{name} {ratio:.2}"))
+            .collect();
+        (!each.is_empty()).then(|| format!("      spread/σ of the errors: {}", each.join(", ")))
+    }
 }
 
 /// How the recommendation did over the experiments.

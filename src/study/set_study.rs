@@ -18,7 +18,6 @@ use crate::error::{Error, Result};
 use crate::evaluate::accuracy::{map_grid, position_error, reached_poses};
 use crate::evaluate::observed_frame::observed_frame_error;
 use crate::identify::factor_set::{fit_factor_set, model_sets, FactorSetFit};
-use crate::identify::set_choice;
 use crate::kinematics::platform::ForwardKinematics;
 use crate::measure::simulate::SimulationOptions;
 use crate::model::with_values::with_values;
@@ -113,34 +112,11 @@ fn trial(mechanism: &Mechanism, seed: u64, map: &[[f64; 6]]) -> Result<Vec<SetOu
         .iter()
         .map(|set| {
             let fit = fit_factor_set(mechanism, &simulated.measurements, set)?;
-            let determined = fit.observability.rank == fit.factors.len();
-            let true_error_m = match determined {
-                true => Some(true_error(mechanism, &fit, (&kinematics, real), map)?),
-                false => None,
-            };
-            let standardized_errors = fit
-                .factors
-                .iter()
-                .filter(|_| determined)
-                .filter_map(|f| {
-                    let value = truth.iter().find(|(n, _)| n == &f.name)?.1;
-                    (f.sigma > 0.0).then(|| (f.name.clone(), (f.estimate - value) / f.sigma))
-                })
-                .collect();
-            Ok(SetOutcome {
-                name: fit.name.clone(),
-                factors: fit.factors.len(),
-                determined,
-                within_tolerance: set_choice::within_tolerance(&fit),
-                left_out_m: fit.leave_one_out.filter(|_| determined),
-                information: fit.information.is_finite().then_some(fit.information),
-                information_corrected: fit
-                    .information_corrected
-                    .is_finite()
-                    .then_some(fit.information_corrected),
-                true_error_m,
-                standardized_errors,
-            })
+            SetOutcome::of(
+                &fit,
+                |fit| true_error(mechanism, fit, (&kinematics, real), map),
+                |name| truth.iter().find(|(n, _)| n == name).map(|(_, v)| *v),
+            )
         })
         .collect()
 }

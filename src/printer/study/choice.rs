@@ -6,7 +6,6 @@
 use super::PrinterStudy;
 use crate::error::Result;
 use crate::identify::factor_set::{fit_factor_set, model_sets, FactorSetFit};
-use crate::identify::set_choice;
 use crate::kinematics::platform::ForwardKinematics;
 use crate::measure::Measurements;
 use crate::model::with_values::with_values;
@@ -28,34 +27,11 @@ impl PrinterStudy {
             .iter()
             .map(|set| {
                 let fit = fit_factor_set(&self.mechanism, data, set)?;
-                let determined = fit.observability.rank == fit.factors.len();
-                let true_error_m = match determined {
-                    true => Some(self.print_error(&fitted(self, &fit)?, real, real_shared)?),
-                    false => None,
-                };
-                let standardized_errors = fit
-                    .factors
-                    .iter()
-                    .filter(|_| determined)
-                    .filter_map(|f| {
-                        let value = truth?.get(&f.name)?;
-                        (f.sigma > 0.0).then(|| (f.name.clone(), (f.estimate - value) / f.sigma))
-                    })
-                    .collect();
-                Ok(SetOutcome {
-                    name: fit.name.clone(),
-                    factors: fit.factors.len(),
-                    determined,
-                    within_tolerance: set_choice::within_tolerance(&fit),
-                    left_out_m: fit.leave_one_out.filter(|_| determined),
-                    information: fit.information.is_finite().then_some(fit.information),
-                    information_corrected: fit
-                        .information_corrected
-                        .is_finite()
-                        .then_some(fit.information_corrected),
-                    true_error_m,
-                    standardized_errors,
-                })
+                SetOutcome::of(
+                    &fit,
+                    |fit| self.print_error(&fitted(self, fit)?, real, real_shared),
+                    |name| truth?.get(name).copied(),
+                )
             })
             .collect()
     }
