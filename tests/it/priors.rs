@@ -387,6 +387,19 @@ fn a_factor_set_on_priors_fits_what_the_joint_fit_with_the_same_priors_fits() {
     assert!(fit.effective_factors > 6.0 && fit.effective_factors < 9.0);
     let expected = fit.chi_square + 2.0 * fit.effective_factors;
     assert!((fit.information - expected).abs() < 1e-9);
+    // The scale: the heights' RMS in the probe's σ over the rows the data leave free.
+    let rows = fit.rows as f64;
+    let chi_square = rows * (fit.rms / PROBE_SIGMA).powi(2);
+    let scale = (chi_square / (rows - fit.effective_factors)).sqrt();
+    assert!(
+        (fit.scale() / scale - 1.0).abs() < 1e-9,
+        "{} vs {scale}",
+        fit.scale()
+    );
+    assert_eq!(
+        fit.degrees_of_freedom,
+        fit.rows - fit.effective_factors.round() as usize
+    );
 }
 
 /// The joint fit with the default options.
