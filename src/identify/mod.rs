@@ -2,6 +2,7 @@
 //! the statistics of each fit, robust losses and the trust verdict.
 pub mod estimate;
 pub mod factor_set;
+mod factor_unknowns;
 mod fit;
 pub mod gauges;
 pub mod held_test;
@@ -15,6 +16,7 @@ pub mod sandwich;
 pub mod set_choice;
 pub mod shared_estimate;
 pub mod shared_outliers;
+mod shared_priors;
 pub mod shared_weights;
 mod solve_from;
 pub mod statistics;
