@@ -458,7 +458,21 @@ pub fn model_sets(mechanism: &Mechanism) -> Vec<FactorSet> {
 
 #[cfg(test)]
 mod tests {
-    use super::leave_one_out_rms;
+    use super::{corrected_information, leave_one_out_rms};
+
+    /// AICc at known numbers (χ² 10, k 3, n 10: 10 + 6 + 24/6 = 20); with rows too few to judge
+    /// the set (n ≤ k + 1) it is +∞ whatever χ², never −∞ or NaN (which would make the
+    /// unjudgeable set the best); an effective k need not be whole.
+    #[test]
+    fn the_corrected_criterion_is_infinite_without_room() {
+        assert!((corrected_information(10.0, 3.0, 10) - 20.0).abs() < 1e-12);
+        let half = corrected_information(4.0, 2.5, 7);
+        assert!((half - (4.0 + 5.0 + 2.0 * 2.5 * 3.5 / 3.5)).abs() < 1e-12);
+        for (k, n) in [(6.0, 7), (6.0, 6), (6.5, 7)] {
+            let v = corrected_information(1.0, k, n);
+            assert!(v.is_infinite() && v > 0.0, "k {k}, n {n}: {v}");
+        }
+    }
 
     /// A mean fitted to 0, 1, 2, 5: residuals −2, −1, 0, 3, each leverage 1/4, so each row
     /// left out is predicted with error r·4/3; the RMS of those against the formula. A leverage
