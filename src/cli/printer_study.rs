@@ -208,18 +208,7 @@ fn study_text(result: &PrinterStudyResult) -> Result<String, Error> {
                 writeln!(t, "{line}").map_err(w)?;
             }
         }
-        writeln!(
-            t,
-            "  the recommended set: median {:.1} µm; the best candidate in hindsight (`{}`): {:.1} \
-             µm; ratio {:.3}; the best set of each printer (an oracle): {:.1} µm, ratio {:.3}",
-            um(choice.recommended_median_m),
-            choice.best_set,
-            um(choice.best_set_median_m),
-            choice.ratio,
-            um(choice.oracle_median_m),
-            choice.oracle_ratio
-        )
-        .map_err(w)?;
+        writeln!(t, "{}", choice.comparison_line("µm", "printer")).map_err(w)?;
     }
     for p in &result.printers {
         if let Err(reason) = &p.outcome {

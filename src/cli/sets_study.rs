@@ -78,18 +78,7 @@ fn study_text(mechanism: &Mechanism, result: &SetStudyResult) -> String {
                 let _ = writeln!(t, "{line}");
             }
         }
-        let _ = writeln!(
-            t,
-            "  the recommended set: median {:.4} mm; the best candidate in hindsight (`{}`): \
-             {:.4} mm; ratio {:.3}; the best set of each experiment (an oracle): {:.4} mm, ratio \
-             {:.3}",
-            choice.recommended_median_m * 1e3,
-            choice.best_set,
-            choice.best_set_median_m * 1e3,
-            choice.ratio,
-            choice.oracle_median_m * 1e3,
-            choice.oracle_ratio
-        );
+        let _ = writeln!(t, "{}", choice.comparison_line("mm", "experiment"));
     }
     for trial in &result.trials {
         if let Err(reason) = &trial.outcome {

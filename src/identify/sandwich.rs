@@ -81,13 +81,7 @@ impl NoiseLoadings {
             .map(|(r, m, w)| (*r, *m, times(w, scale(*r))))
             .collect();
         if self.reading != 0.0 {
-            let fresh = self
-                .rows
-                .iter()
-                .map(|(m, _)| *m)
-                .chain(self.also.iter().map(|(_, m, _)| *m))
-                .max()
-                .map_or(0, |m| m + 1);
+            let fresh = self.fresh_measurement();
             for i in 0..self.rows.len() {
                 also.push((i, fresh + i, vec![self.reading * scale(i)]));
             }
@@ -102,6 +96,13 @@ impl NoiseLoadings {
                 .collect(),
             also,
         }
+    }
+
+    /// The first measurement index no residual loads on (one past the largest).
+    pub fn fresh_measurement(&self) -> usize {
+        let own = self.rows.iter().map(|(m, _)| *m);
+        let others = self.also.iter().map(|(_, m, _)| *m);
+        own.chain(others).max().map_or(0, |m| m + 1)
     }
 
     /// The same noise on the residuals `kept` only (in that order; a dropped row's residuals
@@ -193,14 +194,26 @@ pub fn reported_covariance(
     sandwich(r, jacobian, loadings, by_residuals)
 }
 
-/// The declared noise's covariance `A (Jᵀ V J) A` (not scaled by ŝ), as [`covariance`]
-/// otherwise: what the data determine whatever their residuals say of the noise level.
-pub fn declared_covariance(
+/// [`reported_covariance`] and, beside it, the declared noise's covariance `A (Jᵀ V J) A` (not
+/// scaled by ŝ: what the data determine whatever their residuals say of the noise level), from
+/// one sandwich: `(reported, declared)`; `None` as [`covariance`].
+pub fn reported_and_declared_covariance(
     r: &DVector<f64>,
     jacobian: &DMatrix<f64>,
-    loadings: Option<&NoiseLoadings>,
-) -> Option<DMatrix<f64>> {
-    sandwich(r, jacobian, loadings, false)
+    loadings: &NoiseLoadings,
+) -> Option<(DMatrix<f64>, DMatrix<f64>)> {
+    let (m, n) = jacobian.shape();
+    if m <= n || loadings.rows.len() != m {
+        return None;
+    }
+    let (declared, scale) = declared_sandwich(r, jacobian, loadings)?;
+    let reported = &declared
+        * if scaled_by_residuals(m - n) {
+            scale
+        } else {
+            1.0
+        };
+    Some((reported, declared))
 }
 
 /// A residual's loading on one measurement: the residual, the loading, and whether the
@@ -235,18 +248,25 @@ fn sandwich(
     let Some(loadings) = loadings else {
         return Some(inverse * (r.norm_squared() / (m - n) as f64));
     };
+    let (declared, scale) = declared_sandwich(r, jacobian, loadings)?;
+    Some(declared * if by_residuals { scale } else { 1.0 })
+}
+
+/// The declared noise's sandwich `A (Jᵀ V J) A` and the residuals' scale `ŝ² = ‖r‖² / tr((I −
+/// H) V)`; `None` with a singular `JᵀJ` or an expected sum of squares that is not positive.
+fn declared_sandwich(
+    r: &DVector<f64>,
+    jacobian: &DMatrix<f64>,
+    loadings: &NoiseLoadings,
+) -> Option<(DMatrix<f64>, f64)> {
+    let inverse = jacobian.tr_mul(jacobian).try_inverse()?;
     let meat = loadings.meat(jacobian);
     // tr((I − H) V) = tr V − tr(A Jᵀ V J).
     let expected = loadings.variances().iter().sum::<f64>() - (&inverse * &meat).trace();
     if !(expected > 0.0 && expected.is_finite()) {
         return None;
     }
-    let scale = if by_residuals {
-        r.norm_squared() / expected
-    } else {
-        1.0
-    };
-    Some(&inverse * meat * &inverse * scale)
+    Some((&inverse * meat * &inverse, r.norm_squared() / expected))
 }
 
 #[cfg(test)]

@@ -23,7 +23,7 @@ use super::result::{
     StrategyResult, Weighting,
 };
 use super::robust::{self, RobustError, RobustFit, RobustLoss};
-use super::sandwich::{self, declared_covariance, reported_covariance};
+use super::sandwich::{self, reported_and_declared_covariance, reported_covariance};
 use super::shared_outliers;
 use super::shared_priors::{refuse_priors_without_weights, set_data_shares};
 use super::shared_weights::weighted_joint_fit;
@@ -364,8 +364,7 @@ pub fn identify_shared(
         .filter(|&d| d > 0)
         .filter(|&d| loadings.is_none() || sandwich::scaled_by_residuals(d));
     // The joint fit's sandwich (on the weighted rows when weighted); the two-stage one's
-    // propagates the registration's error.
-    // The declared noise's covariance (not scaled by ŝ): what the data determine, the prior a
+    // propagates the registration's error. The declared noise's covariance (not scaled by ŝ): what the data determine, the prior a
     // next calibration takes (`identify --prior`); with priors it says how much of each
     // parameter's information comes from the data.
     let mut declared = None;
@@ -375,12 +374,15 @@ pub fn identify_shared(
                 let weighted_r = DVector::from_fn(m, |i, _| s[i] * kept_r[i]);
                 let weighted_jacobian = DMatrix::from_fn(m, n, |i, j| s[i] * kept_jacobian[(i, j)]);
                 let weighted_loadings = l.scaled(s);
-                declared =
-                    declared_covariance(&weighted_r, &weighted_jacobian, Some(&weighted_loadings));
-                (
-                    reported_covariance(&weighted_r, &weighted_jacobian, Some(&weighted_loadings)),
-                    None,
-                )
+                // One sandwich for both.
+                let both = reported_and_declared_covariance(
+                    &weighted_r,
+                    &weighted_jacobian,
+                    &weighted_loadings,
+                );
+                let (reported, from_noise) = both.unzip();
+                declared = from_noise;
+                (reported, None)
             }
             _ => (
                 reported_covariance(&kept_r, &kept_jacobian, loadings.as_ref()),

@@ -149,6 +149,34 @@ pub struct ChoiceSummary {
     pub oracle_ratio: f64,
 }
 
+impl ChoiceSummary {
+    /// The report's line comparing the recommended set with the best candidate in hindsight
+    /// and the oracle, the errors in `unit` (`"µm"`: 1e6 and one decimal, else mm: 1e3 and
+    /// four), each experiment called `each`; `-` for a figure there is none of (no set every
+    /// experiment determines, no recommendation).
+    pub fn comparison_line(&self, unit: &str, each: &str) -> String {
+        let (scale, digits) = match unit {
+            "µm" => (1e6, 1),
+            _ => (1e3, 4),
+        };
+        let figure = |v: f64, digits: usize| match v.is_finite() {
+            true => format!("{v:.digits$}"),
+            false => "-".to_string(),
+        };
+        let error = |m: f64| figure(m * scale, digits);
+        format!(
+            "  the recommended set: median {} {unit}; the best candidate in hindsight (`{}`): {} \
+             {unit}; ratio {}; the best set of each {each} (an oracle): {} {unit}, ratio {}",
+            error(self.recommended_median_m),
+            self.best_set,
+            error(self.best_set_median_m),
+            figure(self.ratio, 3),
+            error(self.oracle_median_m),
+            figure(self.oracle_ratio, 3)
+        )
+    }
+}
+
 /// How the recommendation did over `experiments` (each one's sets, in the same order; `None`
 /// without any).
 pub fn choice_summary(experiments: &[&[SetOutcome]]) -> Option<ChoiceSummary> {

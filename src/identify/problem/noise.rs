@@ -39,13 +39,7 @@ impl IdentificationProblem<'_> {
         } else {
             data.scaled(&[])
         };
-        let fresh = loadings
-            .rows
-            .iter()
-            .map(|(m, _)| *m)
-            .chain(loadings.also.iter().map(|(_, m, _)| *m))
-            .max()
-            .map_or(0, |m| m + 1);
+        let fresh = loadings.fresh_measurement();
         let priors = self.prior_rows().iter().enumerate();
         loadings
             .rows
