@@ -578,11 +578,31 @@ fn a_calibration_prior_through_a_tracker_couples_the_legs() {
         model,
         "--calibrated",
         &arg("cal.yaml"),
+        "--json",
+        &arg("a.json"),
     ]);
-    let out = legwise_succeeds(&["identify", "--model", model, "--prior", &arg("cal.yaml")]);
+    let out = legwise_succeeds(&[
+        "identify",
+        "--model",
+        model,
+        "--prior",
+        &arg("cal.yaml"),
+        "--json",
+        &arg("b.json"),
+    ]);
     let report = text(&out.stdout);
     assert!(
         report.contains("priors:") && !report.contains("two-stage"),
         "{report}"
     );
+    // The same rows again with their own calibration as the prior: within a σ of it.
+    let (alone, with_prior) = (
+        json_estimates(&dir.path().join("a.json")),
+        json_estimates(&dir.path().join("b.json")),
+    );
+    assert!(!alone.is_empty());
+    for ((name, a, sigma), (other, b, _)) in alone.iter().zip(&with_prior) {
+        assert_eq!(name, other);
+        assert!((a - b).abs() < *sigma, "{name}: {a} vs {b} (σ {sigma})");
+    }
 }
