@@ -177,6 +177,14 @@ pub struct PrinterImportArgs {
     /// σ of a DELTA_ANALYZE distance, m (with distances in the file).
     #[arg(long, default_value_t = crate::printer::delta_model::DEFAULT_DISTANCE_NOISE, allow_negative_numbers = true)]
     pub distance_noise: f64,
+    /// Prior σ of each rod's length, m: heights alone identify the rods on it (0 holds them;
+    /// with distances in the file they are identified without a prior).
+    #[arg(long, default_value_t = crate::printer::delta_model::DEFAULT_ROD_PRIOR, allow_negative_numbers = true)]
+    pub rod_prior: f64,
+    /// Prior σ of each carriage's gain (its travel per step against the firmware's step
+    /// setting), identified on it where the file gives the step settings (0 holds them).
+    #[arg(long, default_value_t = crate::printer::delta_model::DEFAULT_GAIN_PRIOR, allow_negative_numbers = true)]
+    pub gain_prior: f64,
 }
 
 /// Options of `legwise printer export`.
@@ -201,6 +209,11 @@ pub struct PrinterExportArgs {
     /// Radius of the bed disc the fit covers, m (default: the model's workspace radius).
     #[arg(long, allow_negative_numbers = true)]
     pub bed_radius: Option<f64>,
+    /// The firmware file the printer was imported from (printer.cfg, config.g or the M503
+    /// report): its step settings (`rotation_distance`, `M92`) are written scaled by the
+    /// calibrated gains. Without it the gains cannot be exported and count in the loss.
+    #[arg(long, value_name = "FILE")]
+    pub firmware_config: Option<PathBuf>,
 }
 
 /// Options of `legwise printer points`.

@@ -10,7 +10,7 @@ use crate::error::Error;
 use crate::model::region::Region;
 use crate::model::Mechanism;
 use crate::printer::delta_model::{printer_files, DeltaGeometry, ModelOptions};
-use crate::printer::export::{fit_delta, fit_klipper, save_config_block};
+use crate::printer::export::{calibrated_gains, fit_delta, fit_klipper, save_config_block};
 use crate::printer::klipper::{KlipperConfig, KlipperDelta};
 use crate::printer::marlin::{self, MarlinDelta, MarlinValues};
 use crate::printer::points::{klipper_section, marlin_g30, read_selected, rrf_bed_g};
@@ -48,6 +48,17 @@ fn import(args: &PrinterImportArgs) -> anyhow::Result<Verdict> {
         ))
         .into());
     }
+    for (option, value) in [
+        ("--rod-prior", args.rod_prior),
+        ("--gain-prior", args.gain_prior),
+    ] {
+        if !(value.is_finite() && value >= 0.0) {
+            return Err(Error::Invalid(format!(
+                "{option}: expected a σ ≥ 0 (0 holds the factor), found {value}"
+            ))
+            .into());
+        }
+    }
     let geometry = read_geometry(args)?;
     std::fs::create_dir_all(&args.out).map_err(|error| Error::Io {
         path: args.out.clone(),
@@ -56,6 +67,8 @@ fn import(args: &PrinterImportArgs) -> anyhow::Result<Verdict> {
     let options = ModelOptions {
         probe_noise: args.probe_noise,
         distance_noise: args.distance_noise,
+        rod_prior: args.rod_prior,
+        gain_prior: args.gain_prior,
     };
     let files = printer_files(&geometry, &options, "printer.urdf");
     write(&args.out.join("printer.yaml"), &files.yaml)?;
@@ -170,24 +183,38 @@ fn export(args: &PrinterExportArgs) -> anyhow::Result<Verdict> {
             }
         },
     };
+    let steps = match &args.firmware_config {
+        Some(path) => Some(firmware_steps(args, path)?),
+        None => None,
+    };
+    if steps.is_none() {
+        note_unexported_gains(&mechanism)?;
+    }
     if args.klipper {
-        return export_klipper(args, &mechanism, bed_radius);
+        return export_klipper(args, &mechanism, bed_radius, steps);
     }
     let (terms, name) = if args.rrf {
         (rrf::TERMS, "RepRapFirmware")
     } else {
         (marlin::TERMS, "Marlin")
     };
-    let fit = fit_delta(&mechanism, bed_radius, terms)?;
+    let fit = fit_delta(&mechanism, bed_radius, terms.with_gains(steps.is_some()))?;
+    let gains = if steps.is_some() { "" } else { "gains, " };
     let (lines, summary, lost) = if args.rrf {
-        let v = RrfValues::from_fit(&fit);
+        let v = RrfValues::from_fit(&fit, steps);
         (
             v.lines(),
             format!(
-                "M665 L {:.6?} R {:.6} H {:.6} X Y Z {:.6?} deg; M666 X Y Z {:.6?} mm, A B {:.6?} %",
-                v.rods, v.radius, v.height, v.corrections, v.adjustments, v.tilt
+                "M665 L {:.6?} R {:.6} H {:.6} X Y Z {:.6?} deg; M666 X Y Z {:.6?} mm, A B {:.6?} %{}",
+                v.rods,
+                v.radius,
+                v.height,
+                v.corrections,
+                v.adjustments,
+                v.tilt,
+                steps_text(v.steps_per_mm)
             ),
-            "gains, a bed tilt beyond the firmware's shear",
+            format!("{gains}a bed tilt beyond the firmware's shear"),
         )
     } else {
         // Marlin's H counts from the probe's M851 Z: the model keeps it as the nozzle's touch
@@ -198,14 +225,21 @@ fn export(args: &PrinterExportArgs) -> anyhow::Result<Verdict> {
             .and_then(|i| i.targets.first())
             .and_then(|t| t.touch)
             .unwrap_or(0.0);
-        let v = MarlinValues::from_fit(&fit, -touch * 1e3);
+        let v = MarlinValues::from_fit(&fit, -touch * 1e3, steps);
         (
             v.lines(),
             format!(
-                "M665 L {:.6} R {:.6} H {:.6} X Y Z {:.6?} deg A B C {:.6?} mm; M666 X Y Z {:.6?} mm (M851 Z {:.6} mm)",
-                v.rod, v.radius, v.height, v.trims, v.rod_trims, v.adjustments, -touch * 1e3
+                "M665 L {:.6} R {:.6} H {:.6} X Y Z {:.6?} deg A B C {:.6?} mm; M666 X Y Z {:.6?} mm (M851 Z {:.6} mm){}",
+                v.rod,
+                v.radius,
+                v.height,
+                v.trims,
+                v.rod_trims,
+                v.adjustments,
+                -touch * 1e3,
+                steps_text(v.steps_per_mm)
             ),
-            "gains, a bed tilt",
+            format!("{gains}a bed tilt"),
         )
     };
     if args.out.as_os_str() == "-" {
@@ -237,12 +271,56 @@ fn export(args: &PrinterExportArgs) -> anyhow::Result<Verdict> {
     Ok(Verdict::Trusted)
 }
 
+/// The step settings of the firmware file `path` the printer was imported from: Klipper's
+/// steppers' `rotation_distance` (mm), or `M92 X Y Z` (steps per mm).
+fn firmware_steps(args: &PrinterExportArgs, path: &Path) -> Result<[f64; 3], Error> {
+    if args.klipper {
+        let config = KlipperConfig::read(path)?;
+        let mut out = [0.0; 3];
+        for (i, tower) in crate::printer::klipper::TOWERS.iter().enumerate() {
+            out[i] = config.require_float(tower, "rotation_distance", "mm per motor turn")?;
+        }
+        return Ok(out);
+    }
+    let steps = if args.rrf {
+        RrfDelta::read(path, None, None)?.steps_per_mm
+    } else {
+        MarlinDelta::read(path, None)?.steps_per_mm
+    };
+    steps.ok_or_else(|| {
+        Error::Invalid(format!(
+            "{}: expected `M92 X Y Z` (steps per mm) to write the calibrated gains, found none",
+            path.display()
+        ))
+    })
+}
+
+/// Says so when the calibrated model's gains differ from 1 and no firmware file was given to
+/// write them.
+fn note_unexported_gains(mechanism: &Mechanism) -> Result<(), Error> {
+    let gains = calibrated_gains(mechanism)?;
+    if gains.iter().any(|g| (g - 1.0).abs() > 1e-12) {
+        eprintln!(
+            "note: the calibrated gains {gains:.6?} are not exported (they count in the loss): give \
+             --firmware-config with the file the printer was imported from to write them as its \
+             step settings"
+        );
+    }
+    Ok(())
+}
+
+/// The new step settings in words, if any.
+fn steps_text(steps: Option<[f64; 3]>) -> String {
+    steps.map_or_else(String::new, |s| format!("; M92 X Y Z {s:.6?} steps/mm"))
+}
+
 fn export_klipper(
     args: &PrinterExportArgs,
     mechanism: &Mechanism,
     bed_radius: f64,
+    rotation_distances: Option<[f64; 3]>,
 ) -> anyhow::Result<Verdict> {
-    let fit = fit_klipper(mechanism, bed_radius)?;
+    let fit = fit_klipper(mechanism, bed_radius, rotation_distances)?;
     let block = save_config_block(&fit.values);
     if args.out.as_os_str() == "-" {
         print!("{block}");
@@ -252,7 +330,7 @@ fn export_klipper(
     let v = &fit.values;
     eprintln!(
         "Klipper values closest to {} over the bed (r <= {:.1} mm, {} points at 0 and {:.1} mm): \
-         delta_radius {:.6} mm, angle {:.6?} deg, arm_length {:.6?} mm, position_endstop {:.6?} mm",
+         delta_radius {:.6} mm, angle {:.6?} deg, arm_length {:.6?} mm, position_endstop {:.6?} mm{}",
         args.calibrated.display(),
         bed_radius * 1e3,
         fit.points,
@@ -260,11 +338,14 @@ fn export_klipper(
         v.radius,
         v.angles,
         v.arms,
-        v.endstops
+        v.endstops,
+        v.rotation_distances
+            .map_or_else(String::new, |r| format!(", rotation_distance {r:.6?} mm"))
     );
     eprintln!(
-        "lost in the export (what Klipper cannot express: gains, a bed tilt): {:.3} µm RMS, {:.3} µm max \
+        "lost in the export (what Klipper cannot express: {}a bed tilt): {:.3} µm RMS, {:.3} µm max \
          of the nozzle's position over the bed; Klipper's origin at ({:.4}, {:.4}) mm of the bed frame",
+        if v.rotation_distances.is_some() { "" } else { "gains, " },
         fit.rms_loss * 1e6,
         fit.max_loss * 1e6,
         fit.origin[0] * 1e3,

@@ -92,6 +92,10 @@ pub struct DeltaGeometry {
     pub touches: Vec<Touch>,
     /// Measured distances (Klipper's `DELTA_ANALYZE`).
     pub distances: Vec<Distance>,
+    /// Whether the file gives each carriage's step setting (Klipper's `rotation_distance`,
+    /// `M92`): then `printer export --firmware-config` can write calibrated gains, and the model
+    /// identifies them (on their prior).
+    pub steps_known: bool,
 }
 
 impl DeltaGeometry {
@@ -144,6 +148,12 @@ pub const DEFAULT_PROBE_NOISE: f64 = 1.0e-5;
 /// Default σ of a `DELTA_ANALYZE` distance, m (calipers on a printed part).
 pub const DEFAULT_DISTANCE_NOISE: f64 = 2.0e-5;
 
+/// Default prior σ of each rod's length, m (rods cut or printed to a jig).
+pub const DEFAULT_ROD_PRIOR: f64 = 2.0e-4;
+/// Default prior σ of each carriage's gain (belt pitch and pulley against the firmware's step
+/// setting).
+pub const DEFAULT_GAIN_PRIOR: f64 = 1.0e-3;
+
 /// Options of the generated model.
 #[derive(Debug, Clone, Copy)]
 pub struct ModelOptions {
@@ -151,6 +161,24 @@ pub struct ModelOptions {
     pub probe_noise: f64,
     /// σ of a measured distance, m (`instrument.distances.noise`, with distances only).
     pub distance_noise: f64,
+    /// Prior σ of each rod, m: the rods are identified on it from heights alone (0: held; with
+    /// distances they are identified without a prior).
+    pub rod_prior: f64,
+    /// Prior σ of each carriage's gain: identified on it where the file gives the step settings
+    /// (0: held).
+    pub gain_prior: f64,
+}
+
+impl ModelOptions {
+    /// The firmware's own factors only (Klipper's six, RepRapFirmware's and Marlin's): rods and
+    /// gains held, as `--rod-prior 0 --gain-prior 0`.
+    pub fn firmware_factors() -> Self {
+        ModelOptions {
+            rod_prior: 0.0,
+            gain_prior: 0.0,
+            ..ModelOptions::default()
+        }
+    }
 }
 
 impl Default for ModelOptions {
@@ -158,6 +186,8 @@ impl Default for ModelOptions {
         ModelOptions {
             probe_noise: DEFAULT_PROBE_NOISE,
             distance_noise: DEFAULT_DISTANCE_NOISE,
+            rod_prior: DEFAULT_ROD_PRIOR,
+            gain_prior: DEFAULT_GAIN_PRIOR,
         }
     }
 }
@@ -312,19 +342,13 @@ fn yaml(delta: &DeltaGeometry, options: &ModelOptions, urdf_name: &str) -> Strin
     let names = FirmwareNames::of(delta);
     out.push('\n');
     out.push_str(&names.quantities_yaml(delta));
-    out.push_str(if with_distances {
-        "\n# phi_i = [t_ix, t_iy, L_i, k_i, h0_i]: Klipper's enhanced factors (six + three rods) in\n\
-         # legwise's coordinates. A probe cannot see where the printer stands in x, y nor its turn\n\
-         # about z: tower c (leg3) and t1x are held. The distances see scale: the rods are\n\
-         # identified. Gains and effector joints are held; the bed's height and tilts are held.\n\
-         parameters:\n"
-    } else {
-        "\n# phi_i = [t_ix, t_iy, L_i, k_i, h0_i]: Klipper's six factors in legwise's coordinates.\n\
-         # A probe cannot see where the printer stands in x, y nor its turn about z: tower c\n\
-         # (leg3) and t1x are held. Rods, gains and the effector joints are held (heights alone\n\
-         # cannot see scale); the bed's height and tilts are held (the offsets take them).\n\
-         parameters:\n"
-    });
+    let rods_on_prior = !with_distances && options.rod_prior > 0.0;
+    let gains_on_prior = delta.steps_known && options.gain_prior > 0.0;
+    out.push_str(&parameters_comment(
+        with_distances,
+        rods_on_prior,
+        gains_on_prior,
+    ));
     for i in 0..3 {
         let n = i + 1;
         let tower_held = |c: &str| i == 2 || (i == 0 && c == "x");
@@ -341,18 +365,25 @@ fn yaml(delta: &DeltaGeometry, options: &ModelOptions, urdf_name: &str) -> Strin
             );
         }
         let rod_held = if with_distances {
-            ""
+            String::new()
+        } else if rods_on_prior {
+            format!(", prior: {}", num(options.rod_prior))
         } else {
-            ", identify: false"
+            ", identify: false".to_string()
         };
         let rod = names.rod(i);
         let _ = writeln!(
             out,
             "  - {{name: L{n}, joint: R{n}, origin: x{rod_held}, value: \"{rod}\"}}"
         );
+        let gain = if gains_on_prior {
+            format!("prior: {}", num(options.gain_prior))
+        } else {
+            "identify: false".to_string()
+        };
         let _ = writeln!(
             out,
-            "  - {{name: k{n}, leg: leg{n}, actuator: gain, identify: false}}"
+            "  - {{name: k{n}, leg: leg{n}, actuator: gain, {gain}}}"
         );
         let offset = names.offset(i);
         let _ = writeln!(
@@ -393,6 +424,31 @@ fn yaml(delta: &DeltaGeometry, options: &ModelOptions, urdf_name: &str) -> Strin
             num(options.distance_noise)
         );
     }
+    out
+}
+
+/// The comment over the model's `parameters:` (and the key): what is identified and why.
+fn parameters_comment(with_distances: bool, rods_on_prior: bool, gains_on_prior: bool) -> String {
+    let mut out = String::from(
+        "\n# phi_i = [t_ix, t_iy, L_i, k_i, h0_i] in legwise's coordinates: the firmware's six factors\n\
+         # (three endstops, the radius, two tower angles) are t1y, t2x, t2y and the offsets. A probe\n\
+         # cannot see where the printer stands in x, y nor its turn about z: tower c (leg3) and t1x\n\
+         # are held; the bed's height and tilts are held (the offsets take them).\n",
+    );
+    out.push_str(if with_distances {
+        "# The distances see scale: the rods are identified.\n"
+    } else if rods_on_prior {
+        "# Heights alone hardly see the rods: they are identified on their prior (--rod-prior).\n"
+    } else {
+        "# The rods are held (heights alone cannot see scale).\n"
+    });
+    out.push_str(if gains_on_prior {
+        "# The gains (travel per step against the firmware's step setting) are identified on their\n\
+         # prior (--gain-prior); `printer export --firmware-config` writes them back as the step setting.\n"
+    } else {
+        "# The gains are held.\n"
+    });
+    out.push_str("# The effector joints are held (no firmware can take them).\nparameters:\n");
     out
 }
 

@@ -34,6 +34,9 @@ pub struct KlipperValues {
     pub arms: [f64; 3],
     /// Each tower's `position_endstop`, mm.
     pub endstops: [f64; 3],
+    /// Each stepper's `rotation_distance`, mm: the current one scaled by the calibrated gain,
+    /// when the export was given the current ones.
+    pub rotation_distances: Option<[f64; 3]>,
 }
 
 /// The export of a calibrated model.
@@ -78,6 +81,25 @@ fn value(mechanism: &Mechanism, leg: usize, name: &str) -> Result<f64> {
         })
 }
 
+/// The gains `k1 k2 k3` of an imported (calibrated) model.
+///
+/// # Errors
+/// A leg without its gain parameter (not an imported printer).
+pub fn calibrated_gains(mechanism: &Mechanism) -> Result<[f64; 3]> {
+    if mechanism.legs.len() != 3 {
+        return Err(Error::Invalid(format!(
+            "{}: expected the three legs of a linear delta, found {}",
+            mechanism.model_path.display(),
+            mechanism.legs.len()
+        )));
+    }
+    let mut gains = [1.0; 3];
+    for (i, gain) in gains.iter_mut().enumerate() {
+        *gain = value(mechanism, i, &format!("k{}", i + 1))?;
+    }
+    Ok(gains)
+}
+
 /// What a firmware's parameters can express beyond the common ones (a radius, three tower
 /// angles, three endstop heights, an origin).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -86,12 +108,24 @@ pub struct FirmwareTerms {
     pub one_rod: bool,
     /// A bed tilt: the carriage heights add `a x + b y` (RepRapFirmware's `M666 A B`).
     pub tilt: bool,
+    /// Each carriage's travel per step (Klipper's per-stepper `rotation_distance`, the others'
+    /// `M92 X Y Z`): the carriage heights are `A_i + g_i s_i` rather than `A_i + s_i`. Only
+    /// when the export knows the firmware's current step settings (`--firmware-config`).
+    pub gains: bool,
 }
 
-/// Klipper: three rods, no tilt.
+impl FirmwareTerms {
+    /// The same terms with the gains expressible (`gains`) or not.
+    pub fn with_gains(self, gains: bool) -> Self {
+        FirmwareTerms { gains, ..self }
+    }
+}
+
+/// Klipper: three rods, no tilt; the gains through `rotation_distance` when the export knows it.
 pub const KLIPPER_TERMS: FirmwareTerms = FirmwareTerms {
     one_rod: false,
     tilt: false,
+    gains: false,
 };
 
 /// A firmware-neutral fit, in SI units: the closest delta a firmware with [`FirmwareTerms`] can
@@ -108,6 +142,9 @@ pub struct DeltaFit {
     pub carriage_tops: [f64; 3],
     /// The tilt `[a, b]` (0 without [`FirmwareTerms::tilt`]).
     pub tilt: [f64; 2],
+    /// Each carriage's travel per step relative to the step setting the readings were taken
+    /// with (1 without [`FirmwareTerms::gains`]): the firmware's step setting is scaled by it.
+    pub gains: [f64; 3],
     /// The firmware's origin in the bed frame (x, y), m.
     pub origin: [f64; 2],
     /// RMS over the grid of the nozzle's distance between the firmware's and the calibrated
@@ -131,16 +168,26 @@ impl DeltaFit {
 
 /// Fits Klipper's values to `mechanism` (a model from `legwise printer import`, calibrated or
 /// not) over the bed disc of radius `bed_radius` (m), at the bed and `bed_radius / 2` above it.
+/// With the steppers' current `rotation_distance`s (mm, the ones the model's readings were taken
+/// with), the gains are fitted too and written as new `rotation_distance`s; without, they are
+/// held at 1 and what they carry is part of the loss.
 ///
 /// # Errors
 /// As [`fit_delta`].
-pub fn fit_klipper(mechanism: &Mechanism, bed_radius: f64) -> Result<KlipperExport> {
-    let fit = fit_delta(mechanism, bed_radius, KLIPPER_TERMS)?;
+pub fn fit_klipper(
+    mechanism: &Mechanism,
+    bed_radius: f64,
+    rotation_distances: Option<[f64; 3]>,
+) -> Result<KlipperExport> {
+    let terms = KLIPPER_TERMS.with_gains(rotation_distances.is_some());
+    let fit = fit_delta(mechanism, bed_radius, terms)?;
     let values = KlipperValues {
         radius: fit.radius * 1e3,
         angles: std::array::from_fn(|i| fit.angles[i].to_degrees().rem_euclid(360.0)),
         arms: std::array::from_fn(|i| fit.arms[i] * 1e3),
         endstops: std::array::from_fn(|i| fit.endstop(i) * 1e3),
+        rotation_distances: rotation_distances
+            .map(|r| std::array::from_fn(|i| r[i] * fit.gains[i])),
     };
     Ok(KlipperExport {
         values,
@@ -184,9 +231,9 @@ pub fn fit_delta(mechanism: &Mechanism, bed_radius: f64, terms: FirmwareTerms) -
     let params = mechanism.nominal_parameters();
 
     // The closed-form start: q = [cx, cy, radius, angles (3), rods (3), carriage tops (3),
-    // tilt a, b].
+    // tilt a, b, gains (3)].
     let mut towers = [[0.0; 2]; 3];
-    let mut q = DVector::zeros(14);
+    let mut q = DVector::zeros(17);
     for (i, tower) in towers.iter_mut().enumerate() {
         let n = i + 1;
         *tower = [
@@ -199,6 +246,11 @@ pub fn fit_delta(mechanism: &Mechanism, bed_radius: f64, terms: FirmwareTerms) -
         ];
         q[6 + i] = value(mechanism, i, &format!("L{n}"))?;
         q[9 + i] = value(mechanism, i, &format!("h0_{n}"))? - frame[2] - nozzle_offset.z;
+        q[14 + i] = if terms.gains {
+            value(mechanism, i, &format!("k{n}"))?
+        } else {
+            1.0
+        };
     }
     let (centre, radius) = circumcircle(&towers).ok_or_else(|| {
         Error::Invalid(format!(
@@ -227,6 +279,9 @@ pub fn fit_delta(mechanism: &Mechanism, bed_radius: f64, terms: FirmwareTerms) -
     free.extend(9..12);
     if terms.tilt {
         free.extend([12, 13]);
+    }
+    if terms.gains {
+        free.extend(14..17);
     }
     if terms.one_rod {
         let mean = (q[6] + q[7] + q[8]) / 3.0;
@@ -298,6 +353,7 @@ pub fn fit_delta(mechanism: &Mechanism, bed_radius: f64, terms: FirmwareTerms) -
     for _ in 0..50 {
         let mut jacobian = DMatrix::zeros(r.len(), p.len());
         for (k, &j) in free.iter().enumerate() {
+            // Angles, tilts and gains are dimensionless: an absolute step.
             let h = if (3..6).contains(&j) || j >= 12 {
                 1e-7
             } else {
@@ -336,6 +392,7 @@ pub fn fit_delta(mechanism: &Mechanism, bed_radius: f64, terms: FirmwareTerms) -
         arms: [q[6], q[7], q[8]],
         carriage_tops: [q[9], q[10], q[11]],
         tilt: [q[12], q[13]],
+        gains: [q[14], q[15], q[16]],
         origin: [q[0], q[1]],
         rms_loss: rms(&r, samples.len()),
         max_loss: distances.iter().copied().fold(0.0, f64::max),
@@ -350,15 +407,15 @@ fn rms(r: &DVector<f64>, points: usize) -> f64 {
 }
 
 /// The firmware's nozzle position for readings `s` with values `q` = [cx, cy, radius, angles
-/// (rad), rods, endstop carriage heights, tilt a, b] (m): the point below the carriages at each
-/// rod's length from its carriage `(radius cos θ_i, radius sin θ_i, h_i = A_i + s_i)`, lowered
-/// by the tilt `a x + b y`. `None` out of reach.
+/// (rad), rods, endstop carriage heights, tilt a, b, gains] (m): the point below the carriages at
+/// each rod's length from its carriage `(radius cos θ_i, radius sin θ_i, h_i = A_i + g_i s_i)`,
+/// lowered by the tilt `a x + b y`. `None` out of reach.
 fn firmware_forward(q: &DVector<f64>, s: &[f64; 3]) -> Option<Vector3<f64>> {
     let centres: [Vector3<f64>; 3] = std::array::from_fn(|i| {
         Vector3::new(
             q[2] * q[3 + i].cos(),
             q[2] * q[3 + i].sin(),
-            q[9 + i] + s[i],
+            q[9 + i] + q[14 + i] * s[i],
         )
     });
     let p = trilaterate(&centres, &[q[6], q[7], q[8]])?;
@@ -418,9 +475,13 @@ pub fn save_config_block(values: &KlipperValues) -> String {
     for (i, tower) in TOWERS.iter().enumerate() {
         let _ = writeln!(
             out,
-            "#*# [{tower}]\n#*# angle = {:.9}\n#*# arm_length = {:.9}\n#*# position_endstop = {:.9}\n#*#",
+            "#*# [{tower}]\n#*# angle = {:.9}\n#*# arm_length = {:.9}\n#*# position_endstop = {:.9}",
             values.angles[i], values.arms[i], values.endstops[i]
         );
+        if let Some(r) = values.rotation_distances {
+            let _ = writeln!(out, "#*# rotation_distance = {:.9}", r[i]);
+        }
+        out.push_str("#*#\n");
     }
     out
 }

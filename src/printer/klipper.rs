@@ -434,6 +434,7 @@ impl KlipperDelta {
                     readings_mm: [readings(&d.steps[0]), readings(&d.steps[1])],
                 })
                 .collect(),
+            steps_known: true,
         }
     }
 

@@ -31,13 +31,15 @@ conventions (Marlin linear delta; docs/printers.md):
   reading: s_i = h_i - h0_i at the nozzle's stopped position (m; 0 at the endstop, down negative)
   probe: 'Bed X: x Y: y Z: z' (G30, G29 V3+) = the probe at (x, y), the nozzle at
     (x - M851 X, y - M851 Y, z - M851 Z) and -M851 Z above the bed; G33's report has no points
-  M92: steps per mm, not needed (the log's heights are already the stopped motor positions)
+  M92: steps per mm, not needed for the readings (the log's heights are already the stopped motor
+    positions); `printer export --firmware-config` writes it divided by the calibrated gains
   units: mm -> m, degrees -> rad";
 
 /// What Marlin's parameters express: three rods (`L` and the trims `A B C`), no tilt.
 pub const TERMS: FirmwareTerms = FirmwareTerms {
     one_rod: false,
     tilt: false,
+    gains: false,
 };
 
 /// The commands read from the `M503` report.
@@ -143,6 +145,7 @@ impl MarlinDelta {
             calibrate_radius: None,
             touches: Vec::new(),
             distances: Vec::new(),
+            steps_known: steps_per_mm.is_some(),
         };
         if let Some(log) = probes {
             let stops = read_log(log, probe_offset)?;
@@ -211,11 +214,15 @@ pub struct MarlinValues {
     pub trims: [f64; 3],
     /// `M666 X Y Z`, mm (the largest 0, as Marlin's G33 normalises them).
     pub adjustments: [f64; 3],
+    /// `M92 X Y Z`, steps per mm: the current ones divided by the calibrated gains, when the
+    /// export was given them.
+    pub steps_per_mm: Option<[f64; 3]>,
 }
 
 impl MarlinValues {
-    /// The values of `fit` for a probe whose `M851 Z` is `offset_z` (mm).
-    pub fn from_fit(fit: &DeltaFit, offset_z: f64) -> Self {
+    /// The values of `fit` for a probe whose `M851 Z` is `offset_z` (mm); with the current `M92
+    /// X Y Z` (`steps_per_mm`), the new ones.
+    pub fn from_fit(fit: &DeltaFit, offset_z: f64, steps_per_mm: Option<[f64; 3]>) -> Self {
         // The nozzle's height at the centre with the carriages at their endstops:
         // H − M851 Z − M666_i.
         let bases: [f64; 3] = std::array::from_fn(|i| fit.endstop(i) * 1e3);
@@ -230,6 +237,7 @@ impl MarlinValues {
             height: lowest + offset_z,
             trims: std::array::from_fn(|i| correction(fit.angles[i], nominal[i])),
             adjustments: bases.map(|b| lowest - b + 0.0),
+            steps_per_mm: steps_per_mm.map(|s| std::array::from_fn(|i| s[i] / fit.gains[i])),
         }
     }
 
@@ -253,9 +261,13 @@ impl MarlinValues {
         );
         let _ = writeln!(
             out,
-            "M666 X{:.9} Y{:.9} Z{:.9}\nM500",
+            "M666 X{:.9} Y{:.9} Z{:.9}",
             self.adjustments[0], self.adjustments[1], self.adjustments[2]
         );
+        if let Some(s) = self.steps_per_mm {
+            let _ = writeln!(out, "M92 X{:.9} Y{:.9} Z{:.9}", s[0], s[1], s[2]);
+        }
+        out.push_str("M500\n");
         out
     }
 }

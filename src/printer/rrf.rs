@@ -31,13 +31,15 @@ conventions (RepRapFirmware linear delta; docs/printers.md):
     from the nozzle. G30 P.. X Y Z-99999 [H] probes with the probe at (X, Y): the nozzle stops at
     (X - G31 X, Y - G31 Y, e + G31 Z + H), e the height the S-1 reply lists for that point;
     G30 S-1 [H] stops the nozzle at the last G0/G1 X Y and height h + H ('Stopped at height h mm')
-  M92: steps per mm, not needed (the log's heights are already the stopped motor positions)
+  M92: steps per mm, not needed for the readings (the log's heights are already the stopped motor
+    positions); `printer export --firmware-config` writes it divided by the calibrated gains
   units: mm -> m, degrees -> rad, percent -> fraction";
 
 /// What RepRapFirmware's parameters express: three rods, a bed tilt.
 pub const TERMS: FirmwareTerms = FirmwareTerms {
     one_rod: false,
     tilt: true,
+    gains: false,
 };
 
 /// The commands read from `config.g` / `config-override.g`.
@@ -141,6 +143,7 @@ impl RrfDelta {
             calibrate_radius: settings.number("M665", 'B')?,
             touches: Vec::new(),
             distances: Vec::new(),
+            steps_known: steps_per_mm.is_some(),
         };
         if let Some(log) = probes {
             let trigger = trigger.ok_or_else(|| {
@@ -366,6 +369,9 @@ pub struct RrfValues {
     pub adjustments: [f64; 3],
     /// `M666 A B`, percent.
     pub tilt: [f64; 2],
+    /// `M92 X Y Z`, steps per mm: the current ones divided by the calibrated gains, when the
+    /// export was given them.
+    pub steps_per_mm: Option<[f64; 3]>,
 }
 
 /// An angle's difference from `nominal`, degrees, in (−180, 180].
@@ -379,8 +385,9 @@ pub(crate) fn correction(angle: f64, nominal: f64) -> f64 {
 }
 
 impl RrfValues {
-    /// The values of `fit` (its endstop heights split into `H` and corrections of mean 0).
-    pub fn from_fit(fit: &DeltaFit) -> Self {
+    /// The values of `fit` (its endstop heights split into `H` and corrections of mean 0); with
+    /// the current `M92 X Y Z` (`steps_per_mm`), the new ones.
+    pub fn from_fit(fit: &DeltaFit, steps_per_mm: Option<[f64; 3]>) -> Self {
         let bases: [f64; 3] = std::array::from_fn(|i| fit.endstop(i) * 1e3);
         let height = (bases[0] + bases[1] + bases[2]) / 3.0;
         let nominal = [210.0, 330.0, 90.0];
@@ -391,6 +398,7 @@ impl RrfValues {
             corrections: std::array::from_fn(|i| correction(fit.angles[i], nominal[i])),
             adjustments: bases.map(|b| b - height + 0.0),
             tilt: fit.tilt.map(|t| t * 100.0 + 0.0),
+            steps_per_mm: steps_per_mm.map(|s| std::array::from_fn(|i| s[i] / fit.gains[i])),
         }
     }
 
@@ -422,6 +430,9 @@ impl RrfValues {
             self.tilt[0],
             self.tilt[1]
         );
+        if let Some(s) = self.steps_per_mm {
+            let _ = writeln!(out, "M92 X{:.9} Y{:.9} Z{:.9}", s[0], s[1], s[2]);
+        }
         out
     }
 }

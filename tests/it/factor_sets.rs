@@ -23,7 +23,7 @@ const REAL_ENDSTOPS: [f64; 3] = [297.36, 296.93, 297.10];
 pub(crate) fn model_of(dir: &Path, delta: &DeltaGeometry, noise: f64) -> (Mechanism, Measurements) {
     let options = ModelOptions {
         probe_noise: noise,
-        ..ModelOptions::default()
+        ..ModelOptions::firmware_factors()
     };
     let files = printer_files(delta, &options, "printer.urdf");
     std::fs::write(dir.join("printer.yaml"), &files.yaml).unwrap();
@@ -492,4 +492,58 @@ fn bad_quantities_expressions_and_sets_name_the_field() {
         );
         assert!(message.contains("copy.yaml"), "{message}");
     }
+}
+
+#[test]
+fn the_import_identifies_rods_and_gains_on_their_priors_where_the_firmware_takes_them() {
+    let rows = |delta: &DeltaGeometry, options: &ModelOptions| -> Vec<String> {
+        let yaml = printer_files(delta, options, "printer.urdf").yaml;
+        yaml.lines()
+            .filter(|l| l.contains("{name: L1,") || l.contains("{name: k1,"))
+            .map(str::to_string)
+            .collect()
+    };
+    let klipper = klipper_cfg();
+    assert!(klipper.steps_known);
+    assert_eq!(
+        rows(&klipper, &ModelOptions::default()),
+        [
+            "  - {name: L1, joint: R1, origin: x, prior: 0.0002, value: \"arm_a\"}",
+            "  - {name: k1, leg: leg1, actuator: gain, prior: 0.001}"
+        ]
+    );
+    // Step settings unknown (an M92 missing): the gains are held, the rods still on priors.
+    let unknown = DeltaGeometry {
+        steps_known: false,
+        ..klipper.clone()
+    };
+    let held = rows(&unknown, &ModelOptions::default());
+    assert_eq!(
+        held[1],
+        "  - {name: k1, leg: leg1, actuator: gain, identify: false}"
+    );
+    // A prior of 0 holds the factor: the firmware's own six.
+    let six = rows(&klipper, &ModelOptions::firmware_factors());
+    assert_eq!(
+        six,
+        [
+            "  - {name: L1, joint: R1, origin: x, identify: false, value: \"arm_a\"}",
+            "  - {name: k1, leg: leg1, actuator: gain, identify: false}"
+        ]
+    );
+    // The identification on the priors: the data's rows and one prior row for each rod and
+    // gain.
+    let dir = tempfile::tempdir().unwrap();
+    let files = printer_files(&klipper, &ModelOptions::default(), "printer.urdf");
+    std::fs::write(dir.path().join("printer.yaml"), &files.yaml).unwrap();
+    std::fs::write(dir.path().join("printer.urdf"), &files.urdf).unwrap();
+    let mechanism = Mechanism::load(&dir.path().join("printer.yaml")).unwrap();
+    let priors: Vec<&str> = mechanism
+        .legs
+        .iter()
+        .flat_map(|l| &l.params)
+        .filter(|p| p.prior.is_some() && p.identified)
+        .map(|p| p.name.as_str())
+        .collect();
+    assert_eq!(priors, ["L1", "k1", "L2", "k2", "L3", "k3"]);
 }

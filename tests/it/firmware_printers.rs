@@ -25,7 +25,7 @@ const MARLIN_LOG: &str = "tests/data/marlin/g30.log";
 
 /// Writes the model files of `geometry` in `dir` and loads the model.
 fn model(dir: &Path, geometry: &DeltaGeometry) -> Mechanism {
-    let files = printer_files(geometry, &ModelOptions::default(), "printer.urdf");
+    let files = printer_files(geometry, &ModelOptions::firmware_factors(), "printer.urdf");
     std::fs::write(dir.join("printer.yaml"), &files.yaml).unwrap();
     std::fs::write(dir.join("printer.urdf"), &files.urdf).unwrap();
     std::fs::write(dir.join("probe.csv"), &files.csv).unwrap();
@@ -260,7 +260,7 @@ fn rrf_import_export_import_gives_the_same_model() {
     );
     let fit = fit_delta(&first, 0.1, rrf::TERMS).unwrap();
     assert!(fit.rms_loss < 1e-10, "{}", fit.rms_loss);
-    let values = RrfValues::from_fit(&fit);
+    let values = RrfValues::from_fit(&fit, None);
     assert!((values.radius - 180.5).abs() < 1e-9);
     for i in 0..3 {
         assert!((values.rods[i] - [360.5, 359.25, 361.0][i]).abs() < 1e-9);
@@ -293,6 +293,7 @@ fn rrf_import_export_import_gives_the_same_model() {
         legwise::printer::export::FirmwareTerms {
             one_rod: true,
             tilt: false,
+            gains: false,
         },
     )
     .unwrap();
@@ -311,7 +312,7 @@ fn an_rrf_bed_tilt_is_exported_and_its_shear_is_the_loss() {
     assert_eq!(geometry.tilt, [0.0012, -0.0007000000000000001]);
     let first = model(dir.path(), &geometry);
     let fit = fit_delta(&first, 0.1, rrf::TERMS).unwrap();
-    let values = RrfValues::from_fit(&fit);
+    let values = RrfValues::from_fit(&fit, None);
     assert!((values.tilt[0] - 0.12).abs() < 1e-4, "{:?}", values.tilt);
     assert!((values.tilt[1] + 0.07).abs() < 1e-4, "{:?}", values.tilt);
     // A shift of w · tilt at w = 50 mm above the bed: tens of µm, no more.
@@ -336,6 +337,7 @@ fn an_rrf_bed_tilt_is_exported_and_its_shear_is_the_loss() {
         legwise::printer::export::FirmwareTerms {
             one_rod: false,
             tilt: false,
+            gains: false,
         },
     )
     .unwrap();
@@ -363,7 +365,7 @@ fn marlin_import_export_import_gives_the_same_model() {
     );
     let fit = fit_delta(&first, 0.07, marlin::TERMS).unwrap();
     assert!(fit.rms_loss < 1e-10, "{}", fit.rms_loss);
-    let values = MarlinValues::from_fit(&fit, -0.6);
+    let values = MarlinValues::from_fit(&fit, -0.6, None);
     for i in 0..3 {
         let rod = values.rod + values.rod_trims[i];
         assert!((rod - (217.0 + [0.5, -0.25, 0.0][i])).abs() < 1e-9, "{rod}");
@@ -392,7 +394,17 @@ fn import_identify_export(import: &[&str], firmware: &str, dir: &Path) -> (Strin
     let d = dir.to_str().unwrap();
     let mut args = vec!["printer", "import"];
     args.extend_from_slice(import);
-    args.extend_from_slice(&["--out", d, "--probe-noise", "1e-6"]);
+    // The firmware's own factors (rods and gains held): what its touches are meant to carry.
+    args.extend_from_slice(&[
+        "--out",
+        d,
+        "--probe-noise",
+        "1e-6",
+        "--rod-prior",
+        "0",
+        "--gain-prior",
+        "0",
+    ]);
     let imported = text(&legwise_succeeds(&args).stdout);
     let (model, csv, cal, out) = (
         format!("{d}/printer.yaml"),

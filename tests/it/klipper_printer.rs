@@ -96,7 +96,11 @@ fn import(dir: &Path, name: &str, text: &str) -> (KlipperDelta, Mechanism) {
     let path = dir.join(name);
     std::fs::write(&path, text).unwrap();
     let delta = KlipperDelta::from_config(&KlipperConfig::read(&path).unwrap()).unwrap();
-    let files = printer_files(&delta.geometry(), &ModelOptions::default(), "printer.urdf");
+    let files = printer_files(
+        &delta.geometry(),
+        &ModelOptions::firmware_factors(),
+        "printer.urdf",
+    );
     std::fs::write(dir.join("printer.yaml"), &files.yaml).unwrap();
     std::fs::write(dir.join("printer.urdf"), &files.urdf).unwrap();
     std::fs::write(dir.join("probe.csv"), &files.csv).unwrap();
@@ -178,7 +182,7 @@ fn assert_same_model(a: &Mechanism, b: &Mechanism, tol: f64) {
 fn import_export_import_gives_the_same_model() {
     let dir = tempfile::tempdir().unwrap();
     let (_, first) = import(dir.path(), "odd.cfg", ODD);
-    let fit = fit_klipper(&first, 0.08).unwrap();
+    let fit = fit_klipper(&first, 0.08, None).unwrap();
     assert!(fit.rms_loss < 1e-10, "{}", fit.rms_loss);
     assert!(fit.origin[0].abs() < 1e-12 && fit.origin[1].abs() < 1e-12);
     let block = legwise::printer::export::save_config_block(&fit.values);
@@ -207,7 +211,7 @@ fn the_export_prints_what_klipper_cannot_express() {
     assert_ne!(edited, yaml);
     std::fs::write(dir.path().join("odd-gain.yaml"), edited).unwrap();
     let mechanism = Mechanism::load(&dir.path().join("odd-gain.yaml")).unwrap();
-    let fit = fit_klipper(&mechanism, 0.08).unwrap();
+    let fit = fit_klipper(&mechanism, 0.08, None).unwrap();
     assert!(
         fit.rms_loss > 1e-6 && fit.rms_loss < 0.5 * fit.start_rms_loss,
         "loss {} start {}",
@@ -236,6 +240,102 @@ fn the_export_prints_what_klipper_cannot_express() {
     );
 }
 
+#[test]
+fn the_gains_go_out_as_rotation_distance_and_come_back() {
+    let dir = tempfile::tempdir().unwrap();
+    let (delta, _) = import(dir.path(), "odd.cfg", ODD);
+    std::fs::write(dir.path().join("odd.cfg"), ODD).unwrap();
+    let yaml = std::fs::read_to_string(dir.path().join("printer.yaml")).unwrap();
+    // A calibrated printer whose carriages a and c travel 1e-3 more and 5e-4 less per step
+    // than Klipper's rotation_distance says.
+    let edited = yaml
+        .replace("{joint: C1, gain: 1.0,", "{joint: C1, gain: 1.001,")
+        .replace("{joint: C3, gain: 1.0,", "{joint: C3, gain: 0.9995,");
+    assert_eq!(edited.matches("gain: 1.001").count(), 1, "{edited}");
+    assert_eq!(edited.matches("gain: 0.9995").count(), 1, "{edited}");
+    let path = dir.path().join("cal.yaml");
+    std::fs::write(&path, edited).unwrap();
+    let calibrated = Mechanism::load(&path).unwrap();
+    let rotation = [40.0, 40.0, 32.0];
+    let fit = fit_klipper(&calibrated, 0.08, Some(rotation)).unwrap();
+    assert!(fit.rms_loss < 1e-10, "loss {:e}", fit.rms_loss);
+    let written = fit.values.rotation_distances.unwrap();
+    for (i, gain) in [1.001, 1.0, 0.9995].into_iter().enumerate() {
+        assert!(
+            (written[i] - rotation[i] * gain).abs() < 1e-9,
+            "{written:?}"
+        );
+    }
+    // Without the firmware's step settings the gains are lost and the command says so.
+    let held = fit_klipper(&calibrated, 0.08, None).unwrap();
+    assert!(held.rms_loss > 1e-6, "{:e}", held.rms_loss);
+    let cfg = dir.path().join("odd.cfg");
+    let out = legwise_succeeds(&[
+        "printer",
+        "export",
+        "--klipper",
+        "--calibrated",
+        path.to_str().unwrap(),
+        "--bed-radius",
+        "0.08",
+        "--firmware-config",
+        cfg.to_str().unwrap(),
+        "--out",
+        "-",
+    ]);
+    let block = text(&out.stdout);
+    assert!(
+        block.contains("#*# [stepper_a]\n")
+            && block.contains(&format!(
+                "#*# rotation_distance = {:.9}\n",
+                rotation[0] * 1.001
+            )),
+        "{block}"
+    );
+    assert!(
+        text(&out.stderr).contains("0.000 µm RMS"),
+        "{}",
+        text(&out.stderr)
+    );
+    let out = legwise_succeeds(&[
+        "printer",
+        "export",
+        "--klipper",
+        "--calibrated",
+        path.to_str().unwrap(),
+        "--bed-radius",
+        "0.08",
+        "--out",
+        "-",
+    ]);
+    assert!(
+        text(&out.stderr)
+            .contains("note: the calibrated gains [1.001000, 1.000000, 0.999500] are not exported"),
+        "{}",
+        text(&out.stderr)
+    );
+    // Imported again with the block: Klipper's new step distances take the gains, and for
+    // every nozzle position the new model asks for the same step counts as the calibrated one.
+    let again_dir = tempfile::tempdir().unwrap();
+    let (again_delta, again) = import(again_dir.path(), "again.cfg", &format!("{ODD}\n{block}"));
+    let (p_cal, p_new) = (calibrated.nominal_parameters(), again.nominal_parameters());
+    for p in [[0.0, 0.0, 0.0], [0.05, -0.03, 0.0], [-0.06, 0.02, 0.04]] {
+        let pose = [p[0], p[1], p[2], 0.0, 0.0, 0.0];
+        for i in 0..3 {
+            let steps = |m: &Mechanism, params: &[Vec<f64>], step: f64| {
+                -predict_reading::<f64>(&m.legs[i], &params[i], &pose, &m.home_pose).unwrap()
+                    / (step * 1e-3)
+            };
+            let before = steps(&calibrated, &p_cal, delta.step_distances[i]);
+            let after = steps(&again, &p_new, again_delta.step_distances[i]);
+            assert!(
+                (before - after).abs() < 1e-6,
+                "{p:?} tower {i}: {before} steps calibrated, {after} re-imported"
+            );
+        }
+    }
+}
+
 /// The values of a SAVE_CONFIG block, read back by the importer's reader.
 fn exported(path: &Path) -> KlipperConfig {
     KlipperConfig::read(path).unwrap()
@@ -245,7 +345,11 @@ fn exported(path: &Path) -> KlipperConfig {
 fn import_identify_export_recovers_the_printer_behind_the_touches() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path().to_str().unwrap();
-    let out = legwise_succeeds(&["printer", "import", "--klipper", CFG, "--out", d]);
+    // Klipper's six alone (rods and gains held): what DELTA_CALIBRATE's seven touches carry.
+    let six = ["--rod-prior", "0", "--gain-prior", "0"];
+    let mut args = vec!["printer", "import", "--klipper", CFG, "--out", d];
+    args.extend(six);
+    let out = legwise_succeeds(&args);
     let stdout = text(&out.stdout);
     assert!(
         stdout.contains("leg1 = stepper_a (angle default 210 deg)"),
@@ -262,16 +366,10 @@ fn import_identify_export_recovers_the_printer_behind_the_touches() {
         .contains("reaches 0.1166 mm (RMS 0.0852 mm), above the model's tolerance"));
     // The touches are exact to Klipper's 0.001 step: with a 1 µm probe the fit is trusted, and
     // its export is the real printer of make_printer_cfg.py.
-    legwise_succeeds(&[
-        "printer",
-        "import",
-        "--klipper",
-        CFG,
-        "--out",
-        d,
-        "--probe-noise",
-        "1e-6",
-    ]);
+    let mut args = vec!["printer", "import", "--klipper", CFG, "--out", d];
+    args.extend(["--probe-noise", "1e-6"]);
+    args.extend(six);
+    legwise_succeeds(&args);
     let cal = format!("{d}/cal.yaml");
     legwise_succeeds(&[
         "identify",

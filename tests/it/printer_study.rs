@@ -19,11 +19,17 @@ use crate::support::crate_path;
 
 const CFG: &str = "tests/data/klipper/printer.cfg";
 
-/// The model `legwise printer import --klipper` writes for the test printer.cfg.
+/// The model `legwise printer import --klipper --rod-prior 0 --gain-prior 0` writes for the
+/// test printer.cfg (Klipper's six factors).
 fn imported(dir: &Path) -> Mechanism {
+    imported_with(dir, &ModelOptions::firmware_factors())
+}
+
+/// The model `legwise printer import --klipper` writes for the test printer.cfg with `options`.
+fn imported_with(dir: &Path, options: &ModelOptions) -> Mechanism {
     let config = KlipperConfig::read(Path::new(CFG)).unwrap();
     let delta = KlipperDelta::from_config(&config).unwrap().geometry();
-    let files = printer_files(&delta, &ModelOptions::default(), "printer.urdf");
+    let files = printer_files(&delta, options, "printer.urdf");
     std::fs::write(dir.join("printer.yaml"), &files.yaml).unwrap();
     std::fs::write(dir.join("printer.urdf"), &files.urdf).unwrap();
     Mechanism::load(&dir.join("printer.yaml")).unwrap()
@@ -49,16 +55,17 @@ impl Tower {
     }
 }
 
-/// Klipper's towers from its values (SI): `tower = radius (cos a, sin a)`, rods `arm`, gains 1,
-/// `h0 = endstop + sqrt(arm² − radius²)`, the effector joints at the nozzle.
+/// Klipper's towers from its values (SI): `tower = radius (cos a, sin a)`, rods `arm`, gains
+/// `k1…k3` where the values scale `rotation_distance` (else 1), `h0 = endstop + sqrt(arm² −
+/// radius²)`, the effector joints at the nozzle.
 fn klipper_towers(v: &BTreeMap<String, f64>) -> [Tower; 3] {
     let r = v["radius"];
-    ["a", "b", "c"].map(|t| {
+    [(1, "a"), (2, "b"), (3, "c")].map(|(n, t)| {
         let (a, l) = (v[&format!("angle_{t}")], v[&format!("arm_{t}")]);
         Tower {
             t: [r * a.cos(), r * a.sin()],
             l,
-            k: 1.0,
+            k: v.get(&format!("k{n}")).copied().unwrap_or(1.0),
             h0: v[&format!("endstop_{t}")] + (l * l - r * r).sqrt(),
             e: [0.0, 0.0],
         }
@@ -117,7 +124,9 @@ fn print_error(
     for pose in map {
         let x = Vector3::new(pose[0], pose[1], pose[2]);
         let h = [0, 1, 2].map(|i| {
-            let reading = commanding[i].height(x) - commanding[i].h0;
+            // Klipper's steps for the height, in the model's reading: its travel over the
+            // step setting's scale.
+            let reading = (commanding[i].height(x) - commanding[i].h0) / commanding[i].k;
             towers[i].k * reading + towers[i].h0
         });
         let p = nozzle(&towers, h, x);
@@ -151,7 +160,9 @@ fn print_error(
 #[test]
 fn each_print_error_is_the_real_printers_under_the_values_reported() {
     let dir = tempfile::tempdir().unwrap();
-    let mechanism = imported(dir.path());
+    // The default import: rods and gains identified on their priors, the gains exported as
+    // `rotation_distance`.
+    let mechanism = imported_with(dir.path(), &ModelOptions::default());
     let firmware = klipper_calibration(&mechanism).unwrap();
     let study =
         PrinterStudy::prepare(&mechanism, Some(firmware), PrinterStudyOptions::new(3, 7)).unwrap();
@@ -183,11 +194,17 @@ fn each_print_error_is_the_real_printers_under_the_values_reported() {
             );
         }
         // Klipper's six factors fitted, the others at the model's; the export sets every
-        // quantity, equal to Klipper's six on legwise's own set (exactly expressible).
+        // quantity and the three gains (as `rotation_distance`), equal to legwise's own set
+        // (exactly expressible).
         assert_eq!(outcome.firmware_values.len(), 6);
-        assert_eq!(outcome.legwise_values.len(), 10);
+        assert_eq!(outcome.legwise_values.len(), 13);
         let loss = e.export_loss.unwrap();
         assert!(loss < 1e-9, "export loss {loss:e}");
+        // The fit moved the gains and rods off their nominal values: the check covers them.
+        for n in 1..=3 {
+            let gain = outcome.legwise_values[&format!("k{n}")];
+            assert!((gain - 1.0).abs() > 1e-7, "k{n} = {gain}");
+        }
     }
 }
 

@@ -171,6 +171,11 @@ fn the_sets_with_more_factors_than_the_rows_support_are_named() {
         "tests/data/rrf/bed-probe.log",
         "--out",
         out.to_str().unwrap(),
+        // RepRapFirmware's own factors: the model set is `rrf-6` in other coordinates.
+        "--rod-prior",
+        "0",
+        "--gain-prior",
+        "0",
     ]);
     let model = out.join("printer.yaml");
     let probe = out.join("probe.csv");

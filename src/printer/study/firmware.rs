@@ -27,7 +27,8 @@ pub const KLIPPER_SCATTER: [f64; 6] = [0.95, 0.90, 0.85, 0.70, 0.75, 0.80];
 
 /// Klipper's `DELTA_CALIBRATE` on `mechanism` (a model imported from Klipper): its seven
 /// default points at the `[delta_calibrate] radius` (the model's workspace radius) and its set
-/// `klipper-6`.
+/// `klipper-6`; legwise's export writes the gains as `rotation_distance` (the owner gives
+/// `printer export --firmware-config printer.cfg`).
 ///
 /// # Errors
 /// The model has no `klipper-6` set or no cylinder workspace (not imported from Klipper).
@@ -43,7 +44,7 @@ pub fn klipper_calibration(mechanism: &Mechanism) -> Result<FirmwareCalibration>
         name: "Klipper DELTA_CALIBRATE".into(),
         points,
         set,
-        terms: crate::printer::export::KLIPPER_TERMS,
+        terms: crate::printer::export::KLIPPER_TERMS.with_gains(true),
     })
 }
 
@@ -76,11 +77,15 @@ fn named_set(mechanism: &Mechanism, name: &str) -> Result<FactorSet> {
 
 /// A firmware fit as the values of `mechanism`'s quantities: `radius`, each tower's `angle_t`,
 /// its rod (`arm_t`, or one `rod`) and `endstop_t`, the towers' letters read from the model's
-/// `angle_*` quantities in order.
+/// `angle_*` quantities in order; a fit with [`FirmwareTerms::gains`] sets the gain parameters `k1 k2 k3` too.
 ///
 /// # Errors
 /// The model does not name three tower angles.
-pub fn firmware_quantities(mechanism: &Mechanism, fit: &DeltaFit) -> Result<Vec<(String, f64)>> {
+pub fn firmware_quantities(
+    mechanism: &Mechanism,
+    fit: &DeltaFit,
+    terms: FirmwareTerms,
+) -> Result<Vec<(String, f64)>> {
     let towers: Vec<&str> = mechanism
         .quantities
         .iter()
@@ -107,6 +112,9 @@ pub fn firmware_quantities(mechanism: &Mechanism, fit: &DeltaFit) -> Result<Vec<
     }
     if has("rod") {
         values.push(("rod".to_string(), fit.arms[0]));
+    }
+    if terms.gains {
+        values.extend((0..3).map(|i| (format!("k{}", i + 1), fit.gains[i])));
     }
     Ok(values)
 }

@@ -329,7 +329,7 @@ impl PrinterStudy {
         let (mut firmware_values, mut legwise_values) = (BTreeMap::new(), BTreeMap::new());
         if let (Some(calibration), Some((firmware, values))) = (&self.firmware, firmware) {
             let export = fit_delta(&calibrated, self.bed_radius, calibration.terms)?;
-            let exported_values = firmware_quantities(&self.mechanism, &export)?;
+            let exported_values = firmware_quantities(&self.mechanism, &export, calibration.terms)?;
             let exported = with_values(&self.mechanism, &exported_values)?;
             errors.firmware = Some(error(&firmware)?);
             errors.legwise = Some(error(&exported)?);
