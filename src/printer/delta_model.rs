@@ -148,6 +148,11 @@ pub const DEFAULT_PROBE_NOISE: f64 = 1.0e-5;
 /// Default σ of a `DELTA_ANALYZE` distance, m (calipers on a printed part).
 pub const DEFAULT_DISTANCE_NOISE: f64 = 2.0e-5;
 
+/// Touches `legwise select` picks for an imported printer: with the rods and gains on their
+/// priors, 37 of the 49 candidates leave a lower print error than 18 on both the example printer
+/// and a larger real geometry (docs/printers.md §10).
+pub const SELECTED_TOUCHES: usize = 37;
+
 /// Default prior σ of each rod's length, m (rods cut or printed to a jig).
 pub const DEFAULT_ROD_PRIOR: f64 = 2.0e-4;
 /// Default prior σ of each carriage's gain (belt pitch and pulley against the firmware's step
@@ -402,6 +407,8 @@ fn yaml(delta: &DeltaGeometry, options: &ModelOptions, urdf_name: &str) -> Strin
         out,
         "\nworkspace:\n  region: {{cylinder: {{centre: [0.0, 0.0, {}], radius: {}, height: {}}}}}\n  \
          margin: 0.0\n  grid: {}\n\n\
+         # The touches `legwise select` picks (of the grid's candidates over the bed).\n\
+         selection:\n  poses_per_leg: {SELECTED_TOUCHES}\n\n\
          # The probe's height sigma (--probe-noise); the carriage readings are step counts, exact.\n\
          noise: {{z: {}, readings: 0.0}}\n\n\
          # The bed is the instrument frame; the nozzle touches it at the probe's z_offset.\n\

@@ -253,19 +253,29 @@ fn a_printer_equal_to_its_model_prints_at_the_probes_noise() {
             angle: 0.0,
             gain: 0.0,
         },
-        ..PrinterStudyOptions::new(4, 1)
+        ..PrinterStudyOptions::new(12, 1)
     };
     let study = PrinterStudy::prepare(&mechanism, Some(firmware), options).unwrap();
     let result = study.run();
+    let (mut firmware_sq, mut legwise_sq) = (0.0, 0.0);
     for printer in &result.printers {
         let e = printer.outcome.as_ref().unwrap().errors;
         assert!(e.nominal < 1e-12, "{e:?}");
         // The probe's 10 µm noise through either fit, and nothing else: Klipper's seven
-        // points amplify it (about 0.1 mm over the volume), legwise's 18 less.
+        // points amplify it (about 0.1 mm over the volume), legwise's 37 less (on one printer
+        // the draws can favour the seven: the RMS over the printers is compared).
         let (firmware, legwise) = (e.firmware.unwrap(), e.legwise.unwrap());
         assert!(firmware > 0.0 && firmware < 5e-4, "{e:?}");
-        assert!(legwise > 0.0 && legwise < firmware, "{e:?}");
+        assert!(legwise > 0.0 && legwise < 5e-4, "{e:?}");
+        firmware_sq += firmware * firmware;
+        legwise_sq += legwise * legwise;
     }
+    assert!(
+        legwise_sq < 0.5 * firmware_sq,
+        "RMS over the printers: legwise {:e} m, Klipper {:e} m",
+        (legwise_sq / 12.0).sqrt(),
+        (firmware_sq / 12.0).sqrt()
+    );
 }
 
 #[test]
