@@ -16,6 +16,7 @@ from ._columns import Columns, read_csv_text
 from ._commands import Measurements, Model, evaluate, identify, select, sets, simulate
 from ._errors import LegwiseError
 from ._mechanism import Mechanism, Parameter
+from ._printer import ImportedPrinter, PrinterExport, export_printer, import_printer
 from ._reports import Evaluation, FactorSets, Report
 
 __all__ = [
@@ -24,12 +25,16 @@ __all__ = [
     "select",
     "evaluate",
     "sets",
+    "import_printer",
+    "export_printer",
     "read_csv_text",
     "Mechanism",
     "Parameter",
     "Report",
     "Evaluation",
     "FactorSets",
+    "ImportedPrinter",
+    "PrinterExport",
     "Columns",
     "LegwiseError",
     "Measurements",

@@ -44,3 +44,11 @@ def describe(path: str) -> str:
 def sets(arguments: List[str], csv: Optional[str] = None) -> Tuple[str, str]:
     """`legwise sets` with the command's arguments (after `sets`) on the CSV text `csv` if
     given: (JSON table, terminal table)."""
+
+def printer_import(arguments: List[str]) -> str:
+    """`legwise printer import` with the command's arguments (after `printer import`): writes
+    the model files into `--out`'s directory; what the command prints."""
+
+def printer_export(arguments: List[str]) -> Tuple[str, str]:
+    """`legwise printer export` with the command's arguments (after `printer export`, without
+    `--out`): (the firmware's lines, the command's report)."""

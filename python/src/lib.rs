@@ -124,6 +124,23 @@ fn sets(py: Python<'_>, arguments: Vec<String>, csv: Option<String>) -> PyResult
     })
 }
 
+/// `legwise printer import` with the command's arguments `arguments` (after `printer import`):
+/// writes the model, its URDF and the probe CSV into `--out`'s directory; what the command
+/// prints.
+#[pyfunction]
+fn printer_import(py: Python<'_>, arguments: Vec<String>) -> PyResult<String> {
+    guarded(py, || legwise::cli::printer_import_in_memory(&arguments))
+}
+
+/// `legwise printer export` with the command's arguments `arguments` (after `printer export`,
+/// without `--out`): `(values, summary)`, the firmware's lines and what the command reports.
+#[pyfunction]
+fn printer_export(py: Python<'_>, arguments: Vec<String>) -> PyResult<(String, String)> {
+    guarded(py, || {
+        legwise::cli::printer_export_in_memory(&arguments).map(|o| (o.values, o.summary))
+    })
+}
+
 /// The CSV text of the columns `columns` named `names` (numbers at full precision, NaN as an
 /// empty cell; text as it is), for `identify` and `evaluate`.
 #[pyfunction]
@@ -150,6 +167,8 @@ fn _native(module: &Bound<'_, PyModule>) -> PyResult<()> {
     module.add_function(wrap_pyfunction!(evaluate, module)?)?;
     module.add_function(wrap_pyfunction!(sets, module)?)?;
     module.add_function(wrap_pyfunction!(describe, module)?)?;
+    module.add_function(wrap_pyfunction!(printer_import, module)?)?;
+    module.add_function(wrap_pyfunction!(printer_export, module)?)?;
     module.add_function(wrap_pyfunction!(columns_csv, module)?)?;
     module.add_class::<Identification>()?;
     module.add("LegwiseError", module.py().get_type::<LegwiseError>())?;

@@ -1,5 +1,5 @@
 """The `python` blocks of docs/python.md run as written: in order, as one script, in a scratch
-directory holding the repository's models/ and examples/ and the measurements.csv the README's
+directory holding the repository's models/, examples/ and tests/data/klipper/ and the measurements.csv the README's
 `legwise simulate --model models/5r.yaml --out measurements.csv` writes."""
 
 import os
@@ -17,7 +17,7 @@ def blocks(path):
 def test_the_python_blocks_of_docs_python_md_run(tmp_path, monkeypatch, capsys):
     code = blocks(ROOT / "docs" / "python.md")
     assert len(code) >= 5
-    for directory in ("models", "examples"):
+    for directory in ("models", "examples", "tests/data/klipper"):
         shutil.copytree(ROOT / directory, tmp_path / directory)
     status, _, err = command(
         "simulate", "--model", "models/5r.yaml", "--out", "measurements.csv", cwd=tmp_path

@@ -4,10 +4,11 @@
 
 use std::path::{Path, PathBuf};
 
-use super::args::{Cli, Command};
+use super::args::{Cli, Command, PrinterArgs, PrinterCommand};
 use super::evaluate::Models;
 use super::identify::{check_map, prepared, read, write_calibrated};
 use super::outputs::{input, model_inputs};
+use super::printer_export::ExportOutputs;
 use super::usage::usage_line;
 use crate::files::Output;
 use crate::measure::Measurements;
@@ -260,4 +261,37 @@ pub fn sets_in_memory(arguments: &[String], csv: Option<&str>) -> anyhow::Result
         json + "\n",
         crate::report::factor_sets::factor_sets_text(&title, &fits),
     ))
+}
+
+/// `legwise printer import` with the command's arguments `arguments` (those after `printer
+/// import`): writes the model, its URDF and the probe CSV into `--out`'s directory, as the
+/// command does, and returns what the command prints (conventions, values read, files written).
+///
+/// # Errors
+/// As the command: a usage error, bad firmware files (named by file, line and field), a
+/// directory that cannot be written.
+pub fn printer_import_in_memory(arguments: &[String]) -> anyhow::Result<String> {
+    let Command::Printer(PrinterArgs {
+        command: PrinterCommand::Import(args),
+    }) = parsed(&["printer", "import"], arguments)?
+    else {
+        anyhow::bail!("not a printer import");
+    };
+    super::printer::imported(&args)
+}
+
+/// `legwise printer export` with the command's arguments `arguments` (those after `printer
+/// export`, without `--out`): the firmware's lines and what the command reports about them.
+///
+/// # Errors
+/// As the command: a usage error, a calibrated model that is not an imported printer, a firmware
+/// file without its step settings, a fit that fails.
+pub fn printer_export_in_memory(arguments: &[String]) -> anyhow::Result<ExportOutputs> {
+    let Command::Printer(PrinterArgs {
+        command: PrinterCommand::Export(args),
+    }) = parsed(&["printer", "export", "--out", "-"], arguments)?
+    else {
+        anyhow::bail!("not a printer export");
+    };
+    super::printer_export::exported(&args)
 }

@@ -13,6 +13,7 @@ mod in_memory;
 mod montecarlo;
 mod outputs;
 mod printer;
+mod printer_export;
 mod printer_study;
 mod select;
 mod sets;
@@ -24,9 +25,11 @@ mod workspace;
 
 pub use args::*;
 pub use in_memory::{
-    evaluate_in_memory, identify_in_memory, select_in_memory, sets_in_memory, simulate_in_memory,
-    EvaluateOutputs, IdentifyOutputs, MEMORY_NAME,
+    evaluate_in_memory, identify_in_memory, printer_export_in_memory, printer_import_in_memory,
+    select_in_memory, sets_in_memory, simulate_in_memory, EvaluateOutputs, IdentifyOutputs,
+    MEMORY_NAME,
 };
+pub use printer_export::ExportOutputs;
 pub use usage::{command_name, usage_line};
 pub use verdict::Verdict;
 
