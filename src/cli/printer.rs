@@ -102,7 +102,7 @@ fn read_geometry(args: &PrinterImportArgs, out: &mut String) -> anyhow::Result<D
         let config = KlipperConfig::read(path)?;
         let delta = KlipperDelta::from_config(&config)?;
         let _ = writeln!(out, "{CONVENTIONS}");
-        let _ = writeln!(out, 
+        let _ = writeln!(out,
             "read {}: delta_radius {} mm, angles {:?} deg, arm_length {:?} mm, position_endstop {:?} mm, \
              step distance {:?} mm, probe z_offset {}",
             path.display(),
@@ -116,7 +116,7 @@ fn read_geometry(args: &PrinterImportArgs, out: &mut String) -> anyhow::Result<D
                 .map_or("none".to_string(), |z| format!("{z} mm"))
         );
         for include in config.section_names().filter(|s| s.starts_with("include ")) {
-            let _ = writeln!(out, 
+            let _ = writeln!(out,
                 "[{include}]: included files are not read (import the file with the delta's sections)"
             );
         }
@@ -125,7 +125,7 @@ fn read_geometry(args: &PrinterImportArgs, out: &mut String) -> anyhow::Result<D
         }
         if !delta.distances.is_empty() {
             let _ =
-                writeln!(out, 
+                writeln!(out,
                 "{} distances of DELTA_ANALYZE imported (sigma {} m): the rods are identified too",
                 delta.distances.len(),
                 args.distance_noise
@@ -152,7 +152,7 @@ fn read_geometry(args: &PrinterImportArgs, out: &mut String) -> anyhow::Result<D
     } else {
         unreachable!("clap requires one of --klipper, --rrf, --marlin")
     };
-    let _ = writeln!(out, 
+    let _ = writeln!(out,
         "read {files}: radius {} mm, tower angles {:?} deg, rods {:?} mm, nozzle heights at the endstops \
          {:?} mm, tilt {:?}, probe trigger height {}, M92 {}",
         geometry.radius,
@@ -166,7 +166,7 @@ fn read_geometry(args: &PrinterImportArgs, out: &mut String) -> anyhow::Result<D
         steps.map_or("not given".to_string(), |s| format!("{s:?} steps/mm"))
     );
     let _ = match &args.probes {
-        Some(log) if geometry.touches.is_empty() => writeln!(out, 
+        Some(log) if geometry.touches.is_empty() => writeln!(out,
             "{}: no probed heights found: probe.csv has no rows (docs/printers.md lists the lines read)",
             log.display()
         ),
