@@ -455,7 +455,10 @@ fn parameters_comment(with_distances: bool, rods_on_prior: bool, gains_on_prior:
     } else {
         "# The gains are held.\n"
     });
-    out.push_str("# The effector joints are held (no firmware can take them).\nparameters:\n");
+    out.push_str(
+        "# The effector joints are held: parallel rods keep the effector level, so a joint off the\n\
+         # nozzle is a tower moved by as much, which the towers take.\nparameters:\n",
+    );
     out
 }
 
