@@ -633,3 +633,61 @@ fn firmware_inputs_that_are_not_regular_files_are_refused() {
         );
     }
 }
+
+#[test]
+fn the_gains_go_out_as_m92_divided_by_them() {
+    // The bundled RepRapFirmware and Marlin printers, calibrated with carriage X travelling
+    // 1e-3 more and Z 5e-4 less per motor millimetre than the firmware believes: the export with
+    // the firmware's file writes `M92` divided by the gains (80 steps/mm in both files) and
+    // loses nothing; without it the loss is the gains'.
+    for (firmware, import, file) in [
+        ("--rrf", vec!["--rrf", RRF_CONFIG], RRF_CONFIG),
+        ("--marlin", vec!["--marlin", MARLIN_M503], MARLIN_M503),
+    ] {
+        let dir = tempfile::tempdir().unwrap();
+        let d = dir.path().to_str().unwrap();
+        let mut args = vec!["printer", "import"];
+        args.extend(&import);
+        args.extend(["--out", d]);
+        legwise_succeeds(&args);
+        let yaml = std::fs::read_to_string(dir.path().join("printer.yaml")).unwrap();
+        assert!(
+            yaml.contains("{name: k1, leg: leg1, actuator: gain, prior: 0.001}"),
+            "{yaml}"
+        );
+        let edited = yaml
+            .replace("{joint: C1, gain: 1.0,", "{joint: C1, gain: 1.001,")
+            .replace("{joint: C3, gain: 1.0,", "{joint: C3, gain: 0.9995,");
+        let cal = dir.path().join("cal.yaml");
+        std::fs::write(&cal, edited).unwrap();
+        let cal = cal.to_str().unwrap();
+        let export = |extra: &[&str]| {
+            let mut args = vec!["printer", "export", firmware, "--calibrated", cal];
+            args.extend(extra);
+            args.extend(["--out", "-"]);
+            legwise_succeeds(&args)
+        };
+        let out = export(&["--firmware-config", file]);
+        let lines = text(&out.stdout);
+        let steps = param(&lines, "M92", 'X')[0];
+        assert!((steps - 80.0 / 1.001).abs() < 1e-8, "{firmware}: {lines}");
+        assert!(
+            (param(&lines, "M92", 'Z')[0] - 80.0 / 0.9995).abs() < 1e-8,
+            "{firmware}: {lines}"
+        );
+        assert!(
+            (param(&lines, "M92", 'Y')[0] - 80.0).abs() < 1e-8,
+            "{lines}"
+        );
+        assert!(
+            text(&out.stderr).contains(" 0.000 µm RMS"),
+            "{}",
+            text(&out.stderr)
+        );
+        let out = export(&[]);
+        assert!(!text(&out.stdout).contains("M92"), "{}", text(&out.stdout));
+        let stderr = text(&out.stderr);
+        assert!(stderr.contains("note: the calibrated gains"), "{stderr}");
+        assert!(!stderr.contains(" 0.000 µm RMS"), "{stderr}");
+    }
+}
