@@ -51,7 +51,7 @@ def test_import_identify_export_is_the_command_lines(tmp_path):
     exported = legwise.export_printer(py_cal, "klipper", firmware_config=CFG)
     assert exported.values == values
     assert exported.summary == summary.replace(str(cal), str(py_cal))
-    assert "#*# rotation_distance = 40.000000000" in exported.values
+    assert "#   [stepper_a] rotation_distance: 40.000000000" in exported.values
     assert "0.000 µm RMS" in exported.summary
     # The firmware's factor sets beside the model's own, on the same touches.
     table = legwise.sets(imported.model, imported.probes)

@@ -115,6 +115,24 @@ fn read_geometry(args: &PrinterImportArgs, out: &mut String) -> anyhow::Result<D
                 .z_offset
                 .map_or("none".to_string(), |z| format!("{z} mm"))
         );
+        for s in &config.shadowed {
+            let used = config
+                .get(&s.section, &s.key)
+                .map_or("", |v| v.value.as_str());
+            let same = match (s.value.parse::<f64>(), used.parse::<f64>()) {
+                (Ok(a), Ok(b)) => a.total_cmp(&b).is_eq(),
+                _ => s.value == used,
+            };
+            if !same {
+                let _ = writeln!(
+                    out,
+                    "[{}] {}: the SAVE_CONFIG block's {} (line {}) is not used: line {} above \
+                     sets {used}, and Klipper reads that one (SAVE_CONFIG comments it out when it \
+                     saves the key)",
+                    s.section, s.key, s.value, s.line, s.used_line
+                );
+            }
+        }
         for include in config.section_names().filter(|s| s.starts_with("include ")) {
             let _ = writeln!(out,
                 "[{include}]: included files are not read (import the file with the delta's sections)"
@@ -189,7 +207,8 @@ fn export(args: &PrinterExportArgs) -> anyhow::Result<Verdict> {
             "wrote {}: {}",
             args.out.display(),
             if args.klipper {
-                "paste its lines over the same keys of printer.cfg's SAVE_CONFIG block"
+                "paste its block's lines over the same keys of printer.cfg's SAVE_CONFIG block \
+                 (and set the rotation_distance lines above it, if any, in the stepper sections)"
             } else {
                 "send its lines to the printer (or put them in its configuration)"
             }

@@ -9,7 +9,9 @@ use super::args::PrinterExportArgs;
 use crate::error::Error;
 use crate::model::region::Region;
 use crate::model::Mechanism;
-use crate::printer::export::{calibrated_gains, fit_delta, fit_klipper, save_config_block};
+use crate::printer::export::{
+    calibrated_gains, fit_delta, fit_klipper, save_config_block, stepper_settings,
+};
 use crate::printer::klipper::{KlipperConfig, TOWERS};
 use crate::printer::marlin::{self, MarlinDelta, MarlinValues};
 use crate::printer::rrf::{self, RrfDelta, RrfValues};
@@ -100,7 +102,7 @@ pub(crate) fn exported(args: &PrinterExportArgs) -> anyhow::Result<ExportOutputs
             fit.origin[1] * 1e3
         );
         return Ok(ExportOutputs {
-            values: save_config_block(&fit.values),
+            values: stepper_settings(&fit.values) + &save_config_block(&fit.values),
             summary,
         });
     }

@@ -475,13 +475,26 @@ pub fn save_config_block(values: &KlipperValues) -> String {
     for (i, tower) in TOWERS.iter().enumerate() {
         let _ = writeln!(
             out,
-            "#*# [{tower}]\n#*# angle = {:.9}\n#*# arm_length = {:.9}\n#*# position_endstop = {:.9}",
+            "#*# [{tower}]\n#*# angle = {:.9}\n#*# arm_length = {:.9}\n#*# position_endstop = {:.9}\n#*#",
             values.angles[i], values.arms[i], values.endstops[i]
         );
-        if let Some(r) = values.rotation_distances {
-            let _ = writeln!(out, "#*# rotation_distance = {:.9}", r[i]);
-        }
-        out.push_str("#*#\n");
+    }
+    out
+}
+
+/// The steppers' new `rotation_distance`s, if any, as the lines to set in printer.cfg's
+/// `[stepper_a|b|c]` sections (comments: a SAVE_CONFIG block's value does not override a
+/// section's, and every stepper section holds its `rotation_distance`).
+pub fn stepper_settings(values: &KlipperValues) -> String {
+    let Some(r) = values.rotation_distances else {
+        return String::new();
+    };
+    let mut out = String::from(
+        "# Set in printer.cfg's stepper sections, not in the SAVE_CONFIG block (Klipper reads a\n\
+         # section's own value over the block's):\n",
+    );
+    for (i, tower) in TOWERS.iter().enumerate() {
+        let _ = writeln!(out, "#   [{tower}] rotation_distance: {:.9}", r[i]);
     }
     out
 }

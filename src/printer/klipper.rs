@@ -28,13 +28,33 @@ pub struct ConfigValue {
     pub saved: bool,
 }
 
-/// A parsed `printer.cfg`: sections of keys, the SAVE_CONFIG block applied over the rest.
+/// A value of the SAVE_CONFIG block that the sections above also define: Klipper comments the
+/// block's value out when it reads the file (the sections win; `SAVE_CONFIG` comments out the
+/// sections' value when it writes one), and so does this reader.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ShadowedValue {
+    /// The section.
+    pub section: String,
+    /// The key.
+    pub key: String,
+    /// The block's value, not used.
+    pub value: String,
+    /// Its line.
+    pub line: usize,
+    /// The line of the sections' value, used.
+    pub used_line: usize,
+}
+
+/// A parsed `printer.cfg`: sections of keys, the SAVE_CONFIG block's values where the sections
+/// above do not define the same key (as Klipper reads it).
 #[derive(Debug, Clone)]
 pub struct KlipperConfig {
     /// The file (for messages).
     pub path: PathBuf,
     sections: BTreeMap<String, BTreeMap<String, ConfigValue>>,
     section_lines: BTreeMap<String, usize>,
+    /// The block's values the sections above shadow.
+    pub shadowed: Vec<ShadowedValue>,
 }
 
 impl KlipperConfig {
@@ -57,6 +77,7 @@ impl KlipperConfig {
             path: path.to_path_buf(),
             sections: BTreeMap::new(),
             section_lines: BTreeMap::new(),
+            shadowed: Vec::new(),
         };
         let mut saved = false;
         let mut section: Option<String> = None;
@@ -115,11 +136,19 @@ impl KlipperConfig {
             };
             let key = stripped[..split].trim().to_lowercase();
             let value = stripped[split + 1..].trim().to_string();
-            config
-                .sections
-                .entry(name.clone())
-                .or_default()
-                .insert(key, ConfigValue { value, line, saved });
+            let values = config.sections.entry(name.clone()).or_default();
+            match values.get(&key) {
+                Some(above) if saved && !above.saved => config.shadowed.push(ShadowedValue {
+                    section: name.clone(),
+                    key,
+                    value,
+                    line,
+                    used_line: above.line,
+                }),
+                _ => {
+                    values.insert(key, ConfigValue { value, line, saved });
+                }
+            }
         }
         Ok(config)
     }

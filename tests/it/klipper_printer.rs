@@ -11,6 +11,7 @@ use legwise::printer::export::fit_klipper;
 use legwise::printer::klipper::{KlipperConfig, KlipperDelta};
 use legwise::Mechanism;
 
+use crate::cli::text as text_of;
 use crate::cli::{assert_fails_with, legwise, legwise_succeeds, text};
 
 const CFG: &str = "tests/data/klipper/printer.cfg";
@@ -186,8 +187,10 @@ fn import_export_import_gives_the_same_model() {
     assert!(fit.rms_loss < 1e-10, "{}", fit.rms_loss);
     assert!(fit.origin[0].abs() < 1e-12 && fit.origin[1].abs() < 1e-12);
     let block = legwise::printer::export::save_config_block(&fit.values);
-    // The exported block overrides a config holding other values.
-    let stale = ODD.replace("delta_radius: 140.0", "delta_radius: 141.0");
+    // The exported block replaces the values of a config whose sections' own were commented
+    // out by Klipper's SAVE_CONFIG.
+    let stale = ODD.replace("delta_radius: 140.0", "#delta_radius: 141.0");
+    assert_ne!(stale, ODD);
     let again_dir = tempfile::tempdir().unwrap();
     let (delta, again) = import(again_dir.path(), "again.cfg", &format!("{stale}\n{block}"));
     assert!((delta.radius - fit.values.radius).abs() < 1e-9);
@@ -197,6 +200,52 @@ fn import_export_import_gives_the_same_model() {
         assert!((fit.values.arms[i] - ODD_ARMS[i]).abs() < 1e-9);
         assert!((fit.values.endstops[i] - ODD_ENDSTOPS[i]).abs() < 1e-9);
     }
+}
+
+#[test]
+fn a_block_value_under_a_live_section_value_is_not_used_as_klipper_reads_it() {
+    // Klipper comments out a SAVE_CONFIG value whose key the sections above still set (they
+    // win): the reader does the same, and the import says so.
+    let dir = tempfile::tempdir().unwrap();
+    let text = format!(
+        "{}\n{}\n#*# DO NOT EDIT THIS BLOCK OR BELOW. The contents are auto-generated.\n#*#\n\
+         #*# [printer]\n#*# delta_radius = 141.0\n#*#\n#*# [stepper_a]\n#*# microsteps = 16\n",
+        ODD,
+        legwise::printer::klipper::SAVE_CONFIG_MARKER
+    );
+    let cfg = dir.path().join("live.cfg");
+    std::fs::write(&cfg, &text).unwrap();
+    let config = KlipperConfig::read(&cfg).unwrap();
+    assert_eq!(
+        config.get("printer", "delta_radius").unwrap().value,
+        "140.0"
+    );
+    assert_eq!(config.shadowed.len(), 2, "{:?}", config.shadowed);
+    let out_dir = dir.path().join("out");
+    let out = legwise_succeeds(&[
+        "printer",
+        "import",
+        "--klipper",
+        cfg.to_str().unwrap(),
+        "--out",
+        out_dir.to_str().unwrap(),
+    ]);
+    let stdout = text_of(&out.stdout);
+    let expected = format!(
+        "[printer] delta_radius: the SAVE_CONFIG block's 141.0 (line {}) is not used: line {} \
+         above sets 140.0",
+        line_of(&text, "#*# delta_radius = 141.0"),
+        line_of(&text, "delta_radius: 140.0")
+    );
+    assert!(stdout.contains(&expected), "{stdout}");
+    // The same value in both (microsteps 16): nothing to say.
+    assert!(!stdout.contains("[stepper_a] microsteps"), "{stdout}");
+    assert!(stdout.contains("delta_radius 140 mm"), "{stdout}");
+}
+
+/// The 1-based line of `text` that contains `needle`.
+fn line_of(text: &str, needle: &str) -> usize {
+    text.lines().position(|l| l.contains(needle)).unwrap() + 1
 }
 
 #[test]
@@ -283,15 +332,28 @@ fn the_gains_go_out_as_rotation_distance_and_come_back() {
         "--out",
         "-",
     ]);
-    let block = text(&out.stdout);
-    assert!(
-        block.contains("#*# [stepper_a]\n")
-            && block.contains(&format!(
-                "#*# rotation_distance = {:.9}\n",
-                rotation[0] * 1.001
-            )),
-        "{block}"
-    );
+    let values = text(&out.stdout);
+    // Not in the block: Klipper reads a stepper section's own rotation_distance over the
+    // block's. The lines to set there come first.
+    let settings: Vec<&str> = values
+        .lines()
+        .filter(|l| l.contains("rotation_distance"))
+        .collect();
+    let expected = [
+        format!(
+            "#   [stepper_a] rotation_distance: {:.9}",
+            rotation[0] * 1.001
+        ),
+        "#   [stepper_b] rotation_distance: 40.000000000".to_string(),
+        format!(
+            "#   [stepper_c] rotation_distance: {:.9}",
+            rotation[2] * 0.9995
+        ),
+    ];
+    assert_eq!(settings, expected, "{values}");
+    let block = &values[values
+        .find(legwise::printer::klipper::SAVE_CONFIG_MARKER)
+        .unwrap()..];
     assert!(
         text(&out.stderr).contains("0.000 µm RMS"),
         "{}",
@@ -314,10 +376,29 @@ fn the_gains_go_out_as_rotation_distance_and_come_back() {
         "{}",
         text(&out.stderr)
     );
-    // Imported again with the block: Klipper's new step distances take the gains, and for
-    // every nozzle position the new model asks for the same step counts as the calibrated one.
+    // The owner sets the new rotation_distances in the stepper sections and pastes the block:
+    // Klipper's new step distances take the gains, and for every nozzle position the
+    // re-imported model asks for the same step counts as the calibrated one.
+    let mut sections = ODD.to_string();
+    for (old, new) in [
+        (
+            "microsteps: 16\nrotation_distance: 40\n",
+            format!("microsteps: 16\nrotation_distance: {:.9}\n", 40.0 * 1.001),
+        ),
+        (
+            "rotation_distance: 32",
+            format!("rotation_distance: {:.9}", 32.0 * 0.9995),
+        ),
+    ] {
+        assert_eq!(sections.matches(old).count(), 1, "{old}");
+        sections = sections.replacen(old, &new, 1);
+    }
     let again_dir = tempfile::tempdir().unwrap();
-    let (again_delta, again) = import(again_dir.path(), "again.cfg", &format!("{ODD}\n{block}"));
+    let (again_delta, again) = import(
+        again_dir.path(),
+        "again.cfg",
+        &format!("{sections}\n{block}"),
+    );
     let (p_cal, p_new) = (calibrated.nominal_parameters(), again.nominal_parameters());
     for p in [[0.0, 0.0, 0.0], [0.05, -0.03, 0.0], [-0.06, 0.02, 0.04]] {
         let pose = [p[0], p[1], p[2], 0.0, 0.0, 0.0];
