@@ -656,3 +656,46 @@ fn delta_analyze_distances_free_the_rods() {
     let radius = block.float("printer", "delta_radius").unwrap().unwrap();
     assert!((radius - ODD_R).abs() < 1e-5, "{radius}");
 }
+
+#[test]
+fn a_bed_radius_that_is_not_a_positive_length_is_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    import(dir.path(), "odd.cfg", ODD);
+    let model = dir.path().join("printer.yaml");
+    for radius in ["0", "-0.05", "NaN", "inf"] {
+        let shown = match radius {
+            "NaN" => "NaN".to_string(),
+            "inf" => "inf".to_string(),
+            r => r.parse::<f64>().unwrap().to_string(),
+        };
+        let out = legwise(&[
+            "printer",
+            "export",
+            "--klipper",
+            "--calibrated",
+            model.to_str().unwrap(),
+            "--bed-radius",
+            radius,
+            "--out",
+            "-",
+        ]);
+        assert_eq!(out.status.code(), Some(2), "{radius}");
+        assert_eq!(
+            text(&out.stderr),
+            format!("legwise: --bed-radius: expected a positive radius in metres, found {shown}\n"),
+            "{radius}"
+        );
+    }
+    // A small positive radius is a disc like any other.
+    legwise_succeeds(&[
+        "printer",
+        "export",
+        "--klipper",
+        "--calibrated",
+        model.to_str().unwrap(),
+        "--bed-radius",
+        "0.01",
+        "--out",
+        "-",
+    ]);
+}
