@@ -678,10 +678,11 @@ fn the_gains_go_out_as_m92_divided_by_them() {
             (param(&lines, "M92", 'Y')[0] - 80.0).abs() < 1e-8,
             "{lines}"
         );
+        let stderr = text(&out.stderr);
+        assert!(stderr.contains(" 0.000 µm RMS"), "{stderr}");
         assert!(
-            text(&out.stderr).contains(" 0.000 µm RMS"),
-            "{}",
-            text(&out.stderr)
+            stderr.contains("; M92 X Y Z [79.920080, 80.000000, 80.040020] steps/mm"),
+            "{stderr}"
         );
         let out = export(&[]);
         assert!(!text(&out.stdout).contains("M92"), "{}", text(&out.stdout));
