@@ -64,8 +64,17 @@ pub fn next_steps(fits: &[FactorSetFit]) -> Vec<String> {
     }
     if let Some(left_out) = own.leave_one_out {
         if dof < k || left_out > OVERFIT * own.rms {
+            // With priors the rows carry fewer factors than the set frees.
+            let factors = if own.effective_factors < k as f64 - 0.05 {
+                format!(
+                    "{:.1} factors the rows carry (of {k}, the rest resting on their priors)",
+                    own.effective_factors
+                )
+            } else {
+                format!("{k} factors")
+            };
             out.push(format!(
-                "Only {dof} row(s) beyond the {k} factors: a row left out of the fit is \
+                "Only {dof} row(s) beyond the {factors}: a row left out of the fit is \
                  predicted to {left_out:.3e} RMS, {:.1} times the residual. The residual is no \
                  measure of accuracy here; more rows, placed by `legwise select`, bring the two \
                  together.",

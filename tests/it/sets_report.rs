@@ -216,3 +216,37 @@ fn the_residual_picture_needs_an_instrument() {
         "legwise: --png: draws the pictures of --plots DIR as PNG, but no --plots is given; add --plots DIR or drop --png",
     );
 }
+
+#[test]
+fn what_next_counts_the_factors_the_rows_carry_when_priors_carry_the_rest() {
+    // The FLSUN imported with its rods and gains on their priors: twelve factors on seven
+    // touches, about six of them carried by the touches.
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("flsun");
+    legwise_succeeds(&[
+        "printer",
+        "import",
+        "--klipper",
+        FLSUN,
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    let stdout = text(
+        &legwise_succeeds(&[
+            "sets",
+            "--model",
+            out.join("printer.yaml").to_str().unwrap(),
+            "--measurements",
+            out.join("probe.csv").to_str().unwrap(),
+        ])
+        .stdout,
+    )
+    .replace("\n    ", " ");
+    assert!(
+        stdout.contains(
+            "Only 1 row(s) beyond the 6.1 factors the rows carry (of 12, the rest resting on \
+             their priors)"
+        ),
+        "{stdout}"
+    );
+}
