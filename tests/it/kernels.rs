@@ -6,7 +6,9 @@
 //! chains that match a pattern exactly are recognised.
 use legwise::identify::jacobian::PreparedLeg;
 use legwise::kinematics::chain::{attachment_world, tip_and_jacobian};
+use legwise::kinematics::inverse::predict_reading;
 use legwise::kinematics::kernel::LegKernel;
+use legwise::kinematics::reading::ReadingPredictor;
 use legwise::model::joint::{JointKind, JointModel};
 use legwise::model::leg::LegModel;
 use legwise::model::params::{ParamTarget, Parameter, Unit};
@@ -298,6 +300,14 @@ proptest! {
             let r_theirs = generic.reading_and_gradient_of(&pose, &theirs, &mut g_theirs);
             prop_assert!(close(r_mine, r_theirs, r_theirs.abs(), 1e-12), "{r_mine} vs {r_theirs}");
             prop_assert!(close(kernel.reading_of(&mine), r_theirs, r_theirs.abs(), 1e-12));
+            // A simulation's reading (the kernel's actuated joint on the home turn) is the
+            // generic chain's from home.
+            let simulated = ReadingPredictor::new(&leg, &phi).predict(&pose, &home);
+            let generic_reading = predict_reading::<f64>(&leg, &phi, &pose, &home);
+            prop_assert!(
+                close(simulated.clone().unwrap(), generic_reading.clone().unwrap(), r_theirs.abs(), 1e-12),
+                "simulated {simulated:?} vs {generic_reading:?}"
+            );
             let scale = g_theirs.iter().fold(0.0f64, |m, g| m.max(g.abs()));
             for (j, (a, b)) in g_mine.iter().zip(&g_theirs).enumerate() {
                 prop_assert!(close(*a, *b, scale, 1e-12), "∂ψ/∂{}: {a} vs {b}", leg.params[j].name);
@@ -348,6 +358,13 @@ proptest! {
             return Err(TestCaseError::fail("an unreachable pose was solved"));
         };
         prop_assert_eq!(std::mem::discriminant(&mine), std::mem::discriminant(&theirs));
+        // A simulation refuses it as the generic chain does.
+        let simulated = ReadingPredictor::new(&leg, &phi).predict(&pose, &home);
+        let generic = predict_reading::<f64>(&leg, &phi, &pose, &home);
+        let (Err(simulated), Err(generic)) = (simulated, generic) else {
+            return Err(TestCaseError::fail("an unreachable pose was simulated"));
+        };
+        prop_assert_eq!(std::mem::discriminant(&simulated), std::mem::discriminant(&generic));
     }
 }
 
