@@ -249,8 +249,19 @@ where
         let Ok(jacobian) = problem.jacobian(&refinement.x) else {
             break;
         };
-        let Ok(step) = jacobian.svd(true, true).solve(&r, f64::EPSILON) else {
-            break;
+        // Householder QR where the Jacobian is well conditioned (the same step to round-off);
+        // the SVD otherwise, on the Jacobian asked for again (the QR consumed it).
+        let step = match qr_step::qr_step(jacobian, &r) {
+            Some(step) => step,
+            None => {
+                let Ok(jacobian) = problem.jacobian(&refinement.x) else {
+                    break;
+                };
+                let Ok(step) = jacobian.svd(true, true).solve(&r, f64::EPSILON) else {
+                    break;
+                };
+                step
+            }
         };
         let length = step.norm();
         if !(length.is_finite() && length <= limit) {
@@ -362,6 +373,7 @@ pub mod gauss_newton;
 pub mod levenberg_marquardt;
 #[cfg(test)]
 mod observed;
+pub mod qr_step;
 pub mod schur;
 mod settings;
 pub mod stop;
