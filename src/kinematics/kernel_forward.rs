@@ -58,6 +58,17 @@ struct KernelLeg {
     home: Joints,
 }
 
+/// Every leg's actuated joint and the actuated row of its closure inverse at one pose (what
+/// [`KernelForward::newton`] evaluates first when it starts there), `None` for a leg the
+/// kernel leaves to the stacked solve there. Evaluated once, it serves every Newton solve
+/// started at that pose (e.g. one accuracy-map point commanded by several models).
+#[derive(Debug, Clone, Copy)]
+pub struct KernelRows {
+    /// The pose they were evaluated at.
+    pose: [f64; 6],
+    rows: [Option<(f64, [f64; 3])>; 6],
+}
+
 /// The reduced forward kinematics of a mechanism at one parameter vector.
 #[derive(Debug, Clone)]
 pub(crate) struct KernelForward {
@@ -105,24 +116,48 @@ impl KernelForward {
         })
     }
 
+    /// Every leg's actuated joint and actuated row at `pose` ([`KernelRows`]).
+    pub(crate) fn rows_at(&self, pose: &[f64; 6]) -> KernelRows {
+        let platform = platform_transform_f64(pose);
+        let mut rows = [None; 6];
+        for (row, leg) in rows.iter_mut().zip(&self.legs) {
+            *row = leg
+                .kernel
+                .actuated_row(&attachment_on(&platform, &leg.attachment));
+        }
+        KernelRows { pose: *pose, rows }
+    }
+
     /// Newton on the measured coordinates of `pose` (updated in place, the others kept) for
     /// `readings` (one per leg), every leg's joints written into `joints` when given (else
     /// only the actuated joints are solved: one arc tangent a leg); `size` is the mechanism's
     /// size (the step limit's length scale). Returns the column-normalised determinant of the
     /// reduced Jacobian at the solution (its sign is the assembly mode, see the module), or
     /// `None` where the stacked solve must decide; `pose` and `joints` are then partly moved
-    /// and must not be used.
+    /// and must not be used. `first`: the legs' rows at the start (the same numbers
+    /// [`Self::rows_at`] gives there), used for the first iteration when they were evaluated
+    /// at exactly `pose` and the joints are not asked for.
     pub(crate) fn newton(
         &self,
         readings: &[f64],
         pose: &mut [f64; 6],
         mut joints: Option<&mut [Joints]>,
         size: f64,
+        first: Option<&KernelRows>,
     ) -> Option<f64> {
         let m = self.measured.len();
         if readings.len() != m || joints.as_ref().is_some_and(|j| j.len() != m) {
             return None;
         }
+        let same_start = |rows: &&KernelRows| {
+            joints.is_none()
+                && rows
+                    .pose
+                    .iter()
+                    .zip(pose.iter())
+                    .all(|(a, b)| a.to_bits() == b.to_bits())
+        };
+        let mut first = first.filter(same_start);
         let mut previous = f64::INFINITY;
         for _ in 0..MAX_ITERATIONS {
             let platform = platform_transform_f64(pose);
@@ -149,7 +184,10 @@ impl KernelForward {
                         let inverse = &solution.closure_inverse;
                         (solution.q[a], [0, 1, 2].map(|d| inverse[(a, d)]))
                     }
-                    None => leg.kernel.actuated_row(&target)?,
+                    None => match first {
+                        Some(rows) => rows.rows[l]?,
+                        None => leg.kernel.actuated_row(&target)?,
+                    },
                 };
                 let difference = actuated - wanted;
                 residual[l] = if revolute {
@@ -162,6 +200,7 @@ impl KernelForward {
                     jacobian[l][k] = (0..3).map(|d| row[d] * moved[d]).sum();
                 }
             }
+            first = None;
             let (step, determinant) = solve_small(jacobian, residual, m)?;
             // The step in units of the mechanism's size (lengths) and radians (angles).
             let mut unknowns = [0.0; 6];

@@ -5,6 +5,7 @@ pub mod dyad;
 pub mod inverse;
 pub mod kernel;
 mod kernel_forward;
+pub use kernel_forward::KernelRows;
 mod newton_stop;
 pub mod platform;
 mod pose_derivative;
