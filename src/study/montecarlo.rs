@@ -31,7 +31,7 @@ use super::stats::{self, Estimate};
 pub use super::verdict::{millimetres, verdict_sentence};
 use crate::error::{Error, Result};
 use crate::evaluate::accuracy::{
-    commanded, map_grid, position_error, reached_poses_from, result_parameters,
+    commanded_each, map_grid, position_error, reached_poses_from, result_parameters,
 };
 use crate::evaluate::observed_frame::observed_frame_error;
 use crate::identify::estimate::{FitOptions, StrategyResult};

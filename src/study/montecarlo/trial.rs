@@ -188,16 +188,19 @@ impl Study {
     ) -> Result<f64> {
         let mut sum = 0.0;
         let mut count = 0usize;
-        let reached: Vec<Option<[f64; 6]>> =
-            commanded(&self.mechanism, commanding, &self.map, joints)
-                .into_iter()
-                .enumerate()
-                .map(|(i, command)| {
-                    let (readings, start) = command?;
+        let mut reached: Vec<Option<[f64; 6]>> = Vec::with_capacity(self.map.len());
+        commanded_each(
+            &self.mechanism,
+            commanding,
+            &self.map,
+            joints,
+            |i, command| {
+                reached.push(command.and_then(|(readings, start)| {
                     let first = first.get(i).and_then(Option::as_ref);
-                    real.solve_near_pose_from(&readings, &start, first).ok()
-                })
-                .collect();
+                    real.solve_near_pose_from(readings, start, first).ok()
+                }));
+            },
+        );
         let forward = self.mechanism.forward_instrument();
         if let (Some(instrument), Some(shared)) = (forward, shared) {
             // In the frame the observations define.
