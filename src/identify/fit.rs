@@ -201,8 +201,15 @@ fn gauss_newton_step(
     let Ok(r_next) = problem.residuals(&next) else {
         return Ok(None);
     };
-    Ok((r_next.norm_squared() < r.norm_squared()).then_some(next))
+    // Lower, or the same to round-off: near the consistent weights the step and the cost's
+    // decrease are at round-off, and a step refused on the cost's last bits costs a full solve.
+    let (before, after) = (r.norm_squared(), r_next.norm_squared());
+    Ok((after < before || after <= before * (1.0 + COST_ROUND_OFF)).then_some(next))
 }
+
+/// Relative rise of the cost a reweighting round's Gauss–Newton step may make and still be
+/// taken: round-off of the cost (a sum of squares of `m` rows).
+const COST_ROUND_OFF: f64 = 1e-12;
 
 /// `1 / v` for every variance, if all are positive and finite.
 pub(super) fn inverse(variances: &[f64]) -> Option<Vec<f64>> {

@@ -297,6 +297,11 @@ proptest! {
             let mut g_mine = vec![0.0; columns.len()];
             let mut g_theirs = vec![0.0; columns.len()];
             let r_mine = kernel.reading_and_gradient_of(&pose, &mine, &mut g_mine);
+            // The gradient pass's reading (the kernel's f64 partials chained with the inputs'
+            // lanes) is the f64 closed form's to a few ulps (the target's world position is
+            // computed by two routes).
+            let closed_reading = reading.expect("solved above");
+            prop_assert!(close(r_mine, closed_reading, closed_reading.abs(), 1e-15), "{r_mine} vs {closed_reading}");
             let r_theirs = generic.reading_and_gradient_of(&pose, &theirs, &mut g_theirs);
             prop_assert!(close(r_mine, r_theirs, r_theirs.abs(), 1e-12), "{r_mine} vs {r_theirs}");
             prop_assert!(close(kernel.reading_of(&mine), r_theirs, r_theirs.abs(), 1e-12));
