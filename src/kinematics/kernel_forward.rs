@@ -78,6 +78,9 @@ pub(crate) struct KernelForward {
     /// The platform transform's derivatives with respect to them when they are all positions
     /// (the same at every pose).
     derivatives: Option<[PoseDerivative; 6]>,
+    /// With those constant derivatives, each leg's attachment point moved by each of them (the
+    /// same at every pose and iteration): computed once.
+    moved: Vec<[[f64; 3]; 6]>,
 }
 
 impl KernelForward {
@@ -109,10 +112,21 @@ impl KernelForward {
             .iter()
             .all(|&c| c < 3)
             .then(|| pose_derivatives(&[0.0; 6], &measured));
+        let moved = match &derivatives {
+            Some(constant) => legs
+                .iter()
+                .map(|leg| {
+                    let point = Vector3::from(leg.attachment);
+                    std::array::from_fn(|k| constant[k].of(&point).into())
+                })
+                .collect(),
+            None => Vec::new(),
+        };
         Some(Self {
             legs,
             measured,
             derivatives,
+            moved,
         })
     }
 
@@ -196,7 +210,10 @@ impl KernelForward {
                     difference
                 };
                 for (k, derivative) in derivatives.iter().take(m).enumerate() {
-                    let moved = derivative.of(&Vector3::from(leg.attachment));
+                    let moved: [f64; 3] = match self.moved.get(l) {
+                        Some(moved) => moved[k],
+                        None => derivative.of(&Vector3::from(leg.attachment)).into(),
+                    };
                     jacobian[l][k] = (0..3).map(|d| row[d] * moved[d]).sum();
                 }
             }

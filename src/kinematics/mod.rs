@@ -1,4 +1,5 @@
 //! Kinematics as free functions over the immutable model, generic over the scalar.
+mod arc_tangent;
 pub mod assembly;
 pub mod chain;
 pub mod dyad;

@@ -266,7 +266,10 @@ proptest! {
             prop_assert!(close(actuated - turns * std::f64::consts::TAU, mine.q[a], 1.0, 1e-12));
             let actuator = leg.geometry(&phi);
             let reading = closed.reading(&actuator, &world, &mine);
-            prop_assert_eq!(reading, Some(kernel.reading_of(&mine)));
+            // The generic closed form (libm's arc tangent in any scalar) and the f64 solve's (the
+            // kernels' own arc tangent): the same reading to a few ulp.
+            let solved = kernel.reading_of(&mine);
+            prop_assert!(close(reading.expect("solved"), solved, solved.abs(), 1e-15), "{reading:?} vs {solved}");
             for k in 0..2 {
                 prop_assert!(close(mine.q[k], theirs.q[k], 1.0, 1e-12), "q{k}: {mine:?} vs {theirs:?}");
             }
