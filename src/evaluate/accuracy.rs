@@ -241,6 +241,25 @@ pub fn commanded(
     targets: &[[f64; 6]],
     joints: &mut Vec<Option<Joints>>,
 ) -> Vec<Option<(Vec<f64>, Configuration)>> {
+    let mut all = Vec::with_capacity(targets.len());
+    commanded_each(mechanism, commanding, targets, joints, |_, command| {
+        all.push(
+            command.map(|(readings, configuration)| (readings.to_vec(), configuration.clone())),
+        );
+    });
+    all
+}
+
+/// [`commanded`] handed to `each` target by target (its index, then its readings and
+/// configuration, or `None`) in one reused buffer: the same numbers without a vector a target
+/// (an accuracy map's hundreds of points, in every Monte Carlo trial).
+pub fn commanded_each(
+    mechanism: &Mechanism,
+    commanding: &[Vec<f64>],
+    targets: &[[f64; 6]],
+    joints: &mut Vec<Option<Joints>>,
+    mut each: impl FnMut(usize, Option<(&[f64], &Configuration)>),
+) {
     let home = &mechanism.home_pose;
     let geometries: Vec<LegGeometry<f64>> = mechanism
         .legs
@@ -263,50 +282,47 @@ pub fn commanded(
     // Every target's joints, leg after leg (`None` where a leg could not reach it).
     let solutions = joints;
     let seeds = warm_start_order(targets);
-    targets
-        .iter()
-        .zip(seeds)
-        .enumerate()
-        .map(|(i, (target, seed))| {
-            let platform = platform_transform(target);
-            let mut readings = vec![0.0; legs];
-            let mut configuration = Configuration {
-                pose: *target,
-                joints: vec![[0.0; MAX_JOINTS]; legs],
-            };
-            for (l, leg) in mechanism.legs.iter().enumerate() {
-                let attachment = attachment_on(&platform, &geometries[l].attachment);
-                let warm = solutions[i * legs + l]
-                    .as_ref()
-                    .or_else(|| seed.and_then(|s| solutions[s * legs + l].as_ref()));
-                // Through a kernel, the actuated joint alone (the reading's): the passive
-                // joints keep their warm starts' values, the forward step's start.
-                if let Some(actuated) = inverses[l].actuated(&attachment, warm) {
-                    let home_joints = || crate::kinematics::inverse::joints(&leg.home_joints);
-                    let mut q = warm.copied().unwrap_or_else(home_joints);
-                    q[leg.actuated] = actuated;
-                    let geometry = &geometries[l];
-                    readings[l] = (actuated - geometry.offset) / geometry.gain;
-                    configuration.joints[l] = q;
-                    solutions[i * legs + l] = Some(q);
-                    continue;
+    let mut readings = vec![0.0; legs];
+    let mut configuration = Configuration {
+        pose: [0.0; 6],
+        joints: vec![[0.0; MAX_JOINTS]; legs],
+    };
+    'targets: for (i, (target, seed)) in targets.iter().zip(seeds).enumerate() {
+        let platform = platform_transform(target);
+        configuration.pose = *target;
+        for (l, leg) in mechanism.legs.iter().enumerate() {
+            let attachment = attachment_on(&platform, &geometries[l].attachment);
+            let warm = solutions[i * legs + l]
+                .as_ref()
+                .or_else(|| seed.and_then(|s| solutions[s * legs + l].as_ref()));
+            // Through a kernel, the actuated joint alone (the reading's): the passive
+            // joints keep their warm starts' values, the forward step's start.
+            if let Some(actuated) = inverses[l].actuated(&attachment, warm) {
+                let home_joints = || crate::kinematics::inverse::joints(&leg.home_joints);
+                let mut q = warm.copied().unwrap_or_else(home_joints);
+                q[leg.actuated] = actuated;
+                let geometry = &geometries[l];
+                readings[l] = (actuated - geometry.offset) / geometry.gain;
+                configuration.joints[l] = q;
+                solutions[i * legs + l] = Some(q);
+                continue;
+            }
+            let solution = inverses[l].solve_warm((target, &attachment), home, warm);
+            match solution {
+                Ok(solution) => {
+                    readings[l] = reading_value(leg, &geometries[l], &solution);
+                    configuration.joints[l] = solution.q;
+                    solutions[i * legs + l] = Some(solution.q);
                 }
-                let solution = inverses[l].solve_warm((target, &attachment), home, warm);
-                match solution {
-                    Ok(solution) => {
-                        readings[l] = reading_value(leg, &geometries[l], &solution);
-                        configuration.joints[l] = solution.q;
-                        solutions[i * legs + l] = Some(solution.q);
-                    }
-                    Err(_) => {
-                        solutions[i * legs + l] = None;
-                        return None;
-                    }
+                Err(_) => {
+                    solutions[i * legs + l] = None;
+                    each(i, None);
+                    continue 'targets;
                 }
             }
-            Some((readings, configuration))
-        })
-        .collect()
+        }
+        each(i, Some((&readings, &configuration)));
+    }
 }
 
 /// For each target, the earlier target whose joints seed its inverse kinematics: the previous

@@ -11,7 +11,7 @@ use nalgebra::{DMatrix, DVector};
 use rayon::prelude::*;
 
 use super::fit;
-use super::observability::{analyse, Observability};
+use super::observability::{analyse, scaled_rank, Observability};
 use super::problem::{BlockError, IdentificationProblem, LegSlot};
 use super::sandwich::{self, NoiseLoadings};
 use super::solve_from::FitError;
@@ -279,8 +279,13 @@ fn estimate_problem(
     // fitted problem's initial cost without solving every row at the start again.
     let r0_unweighted = (!problem.is_weighted()).then_some(r0_start);
     for slot in problem.slots() {
-        let observability = leg_observability(mechanism, problem, slot, &c0);
         let n = slot.columns.len();
+        let jacobian = problem.slot_jacobian(slot, &c0);
+        // The rank alone first: the full analysis only names what a deficient leg misses.
+        if scaled_rank(&jacobian).is_some_and(|rank| rank >= n) {
+            continue;
+        }
+        let observability = analyse(&jacobian, &mechanism.legs[slot.leg].identified_names());
         if observability.rank < n {
             let rows = problem.rows_of(slot).len();
             let mut params = observability.unidentifiable.join(", ");

@@ -10,6 +10,7 @@ use super::robust::{self, RobustError};
 use super::solve_from::{solve_from, FitError};
 use super::statistics::{row_variances, FitKind};
 use crate::model::mechanism::MeasurementNoise;
+use crate::solver::qr_step::qr_step;
 use crate::solver::{SolverKind, SolverOutcome};
 
 /// A fitted problem.
@@ -160,10 +161,10 @@ fn consistent_weights<'a>(
     Ok((weighted, outcome))
 }
 
-/// One Gauss–Newton step of `problem` from `x` (the step `C⁺r` from the SVD of the Jacobian,
-/// without its `m × n` factor `U`), if it lowers the cost; `None` if it does not, if the
-/// Jacobian is rank-deficient or a row cannot be solved at the step's end (a full solve then
-/// handles the round).
+/// One Gauss–Newton step of `problem` from `x` (the step `C⁺r` by Householder QR, or from the
+/// SVD of an ill-conditioned Jacobian without its `m × n` factor `U`), if it lowers the cost;
+/// `None` if it does not, if the Jacobian is rank-deficient or a row cannot be solved at the
+/// step's end (a full solve then handles the round).
 ///
 /// # Errors
 /// A block whose leg cannot reach its pose at `x`.
@@ -172,27 +173,43 @@ fn gauss_newton_step(
     x: &DVector<f64>,
 ) -> Result<Option<DVector<f64>>, FitError> {
     let (r, jacobian) = problem.residuals_and_jacobian(x).map_err(FitError::Block)?;
-    let gradient = jacobian.tr_mul(&r);
-    let svd = jacobian.svd(false, true);
-    let (Some(v_t), s) = (svd.v_t, &svd.singular_values) else {
-        return Ok(None);
+    // Householder QR where the Jacobian is well conditioned (the same step to round-off); the
+    // SVD otherwise, on the Jacobian asked for again (kept by the problem).
+    let step = match qr_step(jacobian, &r) {
+        Some(step) => step,
+        None => {
+            let (_, jacobian) = problem.residuals_and_jacobian(x).map_err(FitError::Block)?;
+            let gradient = jacobian.tr_mul(&r);
+            let svd = jacobian.svd(false, true);
+            let (Some(v_t), s) = (svd.v_t, &svd.singular_values) else {
+                return Ok(None);
+            };
+            if s.iter().any(|&value| value <= f64::EPSILON * s.max()) {
+                return Ok(None);
+            }
+            let mut projected = &v_t * gradient;
+            for (value, &s) in projected.iter_mut().zip(s.iter()) {
+                *value /= s * s;
+            }
+            v_t.tr_mul(&projected)
+        }
     };
-    if s.iter().any(|&value| value <= f64::EPSILON * s.max()) {
-        return Ok(None);
-    }
-    let mut projected = &v_t * gradient;
-    for (value, &s) in projected.iter_mut().zip(s.iter()) {
-        *value /= s * s;
-    }
-    let next = x - v_t.tr_mul(&projected);
+    let next = x - step;
     if !next.iter().all(|v| v.is_finite()) {
         return Ok(None);
     }
     let Ok(r_next) = problem.residuals(&next) else {
         return Ok(None);
     };
-    Ok((r_next.norm_squared() < r.norm_squared()).then_some(next))
+    // Lower, or the same to round-off: near the consistent weights the step and the cost's
+    // decrease are at round-off, and a step refused on the cost's last bits costs a full solve.
+    let (before, after) = (r.norm_squared(), r_next.norm_squared());
+    Ok((after < before || after <= before * (1.0 + COST_ROUND_OFF)).then_some(next))
 }
+
+/// Relative rise of the cost a reweighting round's Gauss–Newton step may make and still be
+/// taken: round-off of the cost (a sum of squares of `m` rows).
+const COST_ROUND_OFF: f64 = 1e-12;
 
 /// `1 / v` for every variance, if all are positive and finite.
 pub(super) fn inverse(variances: &[f64]) -> Option<Vec<f64>> {

@@ -67,6 +67,80 @@ struct DualPass<const N: usize> {
     geometry: LegGeometry<DualSVec64<N>>,
     /// The closed-form kernel in duals: the reading's derivatives from its closed form.
     kernel: Option<PreparedKernel<DualSVec64<N>>>,
+    /// The kernel's inputs split into values and lanes: the reading's derivatives by the
+    /// chain rule on the kernel's f64 partials ([`PreparedKernel::actuated_partials`]).
+    lanes: Option<KernelLanes<N>>,
+}
+
+/// A value and its `N` derivative lanes.
+type Lanes<const N: usize> = (f64, [f64; N]);
+
+/// What a kernel's reading depends on, each as a value and its derivatives with respect to the
+/// pass's columns (fixed for the pass's parameter vector).
+#[derive(Debug)]
+struct KernelLanes<const N: usize> {
+    /// The kernel frame's numbers ([`PreparedKernel::frame_scalars`]).
+    frame: [Lanes<N>; 8],
+    /// The platform attachment point (platform coordinates).
+    attachment: [Lanes<N>; 3],
+    gain: Lanes<N>,
+    offset: Lanes<N>,
+}
+
+/// `x`'s value and its `N` derivative lanes.
+fn split<const N: usize>(x: &DualSVec64<N>) -> Lanes<N> {
+    let lanes = x.eps.unwrap_generic(Const::<N>, U1);
+    (x.re(), std::array::from_fn(|j| lanes[j]))
+}
+
+impl<const N: usize> KernelLanes<N> {
+    fn new(kernel: &PreparedKernel<DualSVec64<N>>, geometry: &LegGeometry<DualSVec64<N>>) -> Self {
+        Self {
+            frame: kernel.frame_scalars().map(|x| split(&x)),
+            attachment: geometry.attachment.map(|x| split(&x)),
+            gain: split(&geometry.gain),
+            offset: split(&geometry.offset),
+        }
+    }
+
+    /// The reading `(q_a − offset) / gain` at the platform transform `platform` and its
+    /// derivatives (written into `gradient`): the kernel's f64 partials chained with the
+    /// inputs' lanes. The target's value is [`attachment_on_constant`]'s, bit for bit; `None`
+    /// where the closed form fails.
+    fn reading(
+        &self,
+        kernel: &PreparedKernel<DualSVec64<N>>,
+        platform: &Transform<f64>,
+        solution: &Solution,
+        gradient: &mut [f64],
+    ) -> Option<f64> {
+        let m = platform.rotation.matrix();
+        let t = &platform.translation.vector;
+        let a = self.attachment.map(|(value, _)| value);
+        let row = |i: usize| a[0] * m[(i, 0)] + a[1] * m[(i, 1)] + a[2] * m[(i, 2)] + t[i];
+        let frame = self.frame.map(|(value, _)| value);
+        let (actuated, partials) = kernel.actuated_partials(&frame, [row(0), row(1)], solution)?;
+        let ((gain, d_gain), (offset, d_offset)) = (&self.gain, &self.offset);
+        // The quotient as the duals' division forms it (times the reciprocal; an overflowing
+        // gain gives a non-finite derivative, as it did there).
+        let (difference, inverse) = (actuated - offset, gain.recip());
+        let reading = difference * inverse;
+        for (j, out) in gradient.iter_mut().enumerate().take(N) {
+            let mut d = 0.0;
+            for ((_, lanes), p) in self.frame.iter().zip(&partials) {
+                d += p * lanes[j];
+            }
+            for (i, p) in partials[8..].iter().enumerate() {
+                let lanes = &self.attachment;
+                d += p
+                    * (lanes[0].1[j] * m[(i, 0)]
+                        + lanes[1].1[j] * m[(i, 1)]
+                        + lanes[2].1[j] * m[(i, 2)]);
+            }
+            *out = ((d - d_offset[j]) * gain - d_gain[j] * difference) * inverse * inverse;
+        }
+        Some(reading)
+    }
 }
 
 impl<const N: usize> DualPass<N> {
@@ -86,10 +160,12 @@ impl<const N: usize> DualPass<N> {
             }
         }
         let geometry = leg.geometry(&phi_dual);
+        let kernel = kernel.map(|kernel| kernel.prepare(&geometry));
         Self {
             first,
             chain: TipChain::new(&geometry, &variable_angles),
-            kernel: kernel.map(|kernel| kernel.prepare(&geometry)),
+            lanes: kernel.as_ref().map(|k| KernelLanes::new(k, &geometry)),
+            kernel,
             geometry,
         }
     }
@@ -103,6 +179,12 @@ impl<const N: usize> GradientPass for DualPass<N> {
         solution: &Solution,
         gradient: &mut [f64],
     ) -> f64 {
+        if let (Some(kernel), Some(lanes)) = (&self.kernel, &self.lanes) {
+            let own = &mut gradient[self.first..self.first + N];
+            if let Some(reading) = lanes.reading(kernel, platform, solution, own) {
+                return reading;
+            }
+        }
         let target = attachment_on_constant(platform, &self.geometry.attachment);
         let closed_form = self.kernel.as_ref();
         let reading = match closed_form.and_then(|k| k.reading(&self.geometry, &target, solution)) {

@@ -99,6 +99,26 @@ pub fn analyse(c: &DMatrix<f64>, names: &[String]) -> Observability {
     }
 }
 
+/// The rank [`analyse`] finds in `c` (its column-scaled singular values above
+/// [`RANK_TOLERANCE`] times the largest), from the singular values alone: no right singular
+/// vectors, no directions or indices, for a check that needs only the rank. `None` for a
+/// matrix with a non-finite entry (then [`analyse`] decides).
+pub fn scaled_rank(c: &DMatrix<f64>) -> Option<usize> {
+    if c.iter().any(|v| !v.is_finite()) {
+        return None;
+    }
+    let values = with_a_row_per_column(unit_columns(c))
+        .svd(false, false)
+        .singular_values;
+    let largest = values.max();
+    Some(
+        values
+            .iter()
+            .filter(|&&s| s > RANK_TOLERANCE * largest)
+            .count(),
+    )
+}
+
 /// `c` with zero rows appended up to one row per column. A thin SVD of fewer rows than
 /// columns has a right singular vector per row only: the directions it leaves out (singular
 /// value 0, the null space's completion) would be missing from the null directions and the

@@ -5,6 +5,7 @@
 use nalgebra::{DMatrix, DVector};
 
 use super::problem::{BlockError, IdentificationProblem};
+use crate::solver::qr_step::qr_step;
 use crate::solver::{solve, SolverKind, SolverOutcome, StopReason};
 
 /// Why a fit failed.
@@ -31,9 +32,11 @@ pub(super) fn solve_from(
     let (r0, c0) = problem
         .residuals_and_jacobian(x0)
         .map_err(FitError::Block)?;
-    // The Jacobian goes into the SVD and is not kept through the solve (a large problem's is
-    // tens of megabytes).
-    let minimal = already_minimal(x0, &r0, c0);
+    // The Jacobian goes into the factorisation and is not kept through the solve (a large
+    // problem's is tens of megabytes); asked for again (kept by the problem) if the QR hands
+    // it to the SVD.
+    let again = || problem.residuals_and_jacobian(x0).ok().map(|(_, c)| c);
+    let minimal = already_minimal(x0, &r0, c0, again);
     match minimal {
         Some(outcome) => Ok(outcome),
         None => solve(problem, x0.clone(), solver).map_err(|e| FitError::Solver(e.to_string())),
@@ -47,26 +50,20 @@ const STATIONARY_STEP: f64 = 1e-12;
 /// Gauss–Newton step, solved by SVD, is shorter than [`STATIONARY_STEP`]`·(‖x0‖ + 1)`), e.g.
 /// when identifying again from a calibrated model on the same measurements.
 ///
-/// The step `C⁺r = V Σ⁻¹ Uᵀr` is taken as `V Σ⁻² Vᵀ (Cᵀr)` (singular values up to machine
-/// epsilon count as zero), without the SVD's `m × n` factor `U` (a large problem's Jacobian is
-/// tens of megabytes).
+/// The step `C⁺r` is solved by Householder QR where `C` is well conditioned
+/// ([`qr_step`]); otherwise (`C` asked for again from `again`) as `V Σ⁻² Vᵀ (Cᵀr)` from the
+/// SVD (singular values up to machine epsilon count as zero), without its `m × n` factor `U`
+/// (a large problem's Jacobian is tens of megabytes).
 fn already_minimal(
     x0: &DVector<f64>,
     r0: &DVector<f64>,
     c0: DMatrix<f64>,
+    again: impl FnOnce() -> Option<DMatrix<f64>>,
 ) -> Option<SolverOutcome> {
-    let gradient = c0.tr_mul(r0);
-    let svd = c0.svd(false, true);
-    let v_t = svd.v_t?;
-    let mut projected = &v_t * gradient;
-    for (value, &s) in projected.iter_mut().zip(svd.singular_values.iter()) {
-        *value = if s > f64::EPSILON {
-            *value / (s * s)
-        } else {
-            0.0
-        };
-    }
-    let step = v_t.tr_mul(&projected);
+    let step = match qr_step(c0, r0) {
+        Some(step) => step,
+        None => svd_step(again()?, r0)?,
+    };
     let length = step.norm();
     (length.is_finite() && length <= STATIONARY_STEP * (x0.norm() + 1.0)).then(|| SolverOutcome {
         x: x0.clone(),
@@ -77,6 +74,23 @@ fn already_minimal(
         residual_evaluations: 1,
         jacobian_evaluations: 1,
     })
+}
+
+/// `C⁺r` as `V Σ⁻² Vᵀ (Cᵀr)` from the SVD of `c` without `U` (singular values up to machine
+/// epsilon count as zero).
+fn svd_step(c: DMatrix<f64>, r: &DVector<f64>) -> Option<DVector<f64>> {
+    let gradient = c.tr_mul(r);
+    let svd = c.svd(false, true);
+    let v_t = svd.v_t?;
+    let mut projected = &v_t * gradient;
+    for (value, &s) in projected.iter_mut().zip(svd.singular_values.iter()) {
+        *value = if s > f64::EPSILON {
+            *value / (s * s)
+        } else {
+            0.0
+        };
+    }
+    Some(v_t.tr_mul(&projected))
 }
 
 #[cfg(test)]
@@ -93,7 +107,10 @@ mod tests {
         let x0 = DVector::from_vec(vec![0.0, 3.0, 0.0]);
         let bound = STATIONARY_STEP * (3.0 + 1.0);
         let along = |length: f64| DVector::from_vec(vec![length * 0.6, 0.0, length * 0.8]);
-        let minimal = |length: f64| already_minimal(&x0, &along(length), DMatrix::identity(3, 3));
+        let minimal = |length: f64| {
+            let identity = || Some(DMatrix::identity(3, 3));
+            already_minimal(&x0, &along(length), DMatrix::identity(3, 3), identity)
+        };
         let below = minimal(0.975 * bound).expect("a step below the bound");
         assert_eq!(below.x, x0);
         assert_eq!(below.iterations, 0);
@@ -102,7 +119,8 @@ mod tests {
         // A zero start keeps an absolute bound of 1e-12.
         let origin = DVector::zeros(3);
         let at_origin = |length: f64| {
-            already_minimal(&origin, &along(length), DMatrix::identity(3, 3)).is_some()
+            let identity = || Some(DMatrix::identity(3, 3));
+            already_minimal(&origin, &along(length), DMatrix::identity(3, 3), identity).is_some()
         };
         assert!(at_origin(0.975 * STATIONARY_STEP));
         assert!(!at_origin(1.025 * STATIONARY_STEP));
@@ -123,7 +141,7 @@ mod tests {
         let direction = DVector::from_vec(vec![0.48, -0.6, 0.64]);
         let minimal = |length: f64| {
             let r = &c * (&direction * length);
-            already_minimal(&x0, &r, c.clone()).is_some()
+            already_minimal(&x0, &r, c.clone(), || Some(c.clone())).is_some()
         };
         assert!(minimal(0.975 * bound));
         assert!(!minimal(1.025 * bound));

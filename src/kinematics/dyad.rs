@@ -17,6 +17,7 @@ use std::f64::consts::TAU;
 
 use nalgebra::{Matrix3, Vector3};
 
+use super::arc_tangent;
 use super::inverse::{
     invert, normalised_determinant, wrap_angle, Joints, Solution, SINGULAR_DETERMINANT,
 };
@@ -174,6 +175,21 @@ impl Dyad {
         cross.atan2(dot)
     }
 
+    /// [`Self::rotation`] in f64 with the kernels' arc tangent ([`super::arc_tangent::atan2`]:
+    /// the same angle to a few ulp, without libm's rounding-mode switches).
+    fn rotation_f64(frame: &DyadFrame<f64>, elbow: &[[f64; 2]; 2], which: usize) -> f64 {
+        let (reference, link) = if which == 0 {
+            (frame.inner_direction, elbow[0])
+        } else {
+            let [c, s] = frame.outer_turn;
+            let b = elbow[0];
+            ([c * b[0] - s * b[1], s * b[0] + c * b[1]], elbow[1])
+        };
+        let cross = reference[0] * link[1] - reference[1] * link[0];
+        let dot = reference[0] * link[0] + reference[1] * link[1];
+        arc_tangent::atan2(cross, dot)
+    }
+
     /// The joints reaching `target` (world `(x, y)`; the leg's attachment at the pose), in the
     /// 2π window centred on `seed` (as Newton's solution from `seed` is), with the closure
     /// Jacobian's inverse and normalised determinant at them: the [`Solution`] Newton's method
@@ -189,7 +205,7 @@ impl Dyad {
         let elbow = self.elbow(frame, [target[0], target[1]])?;
         let mut q = [0.0; 3];
         for (k, value) in q.iter_mut().take(2).enumerate() {
-            let rotation = self.signs[k] * Self::rotation(frame, &elbow, k);
+            let rotation = self.signs[k] * Self::rotation_f64(frame, &elbow, k);
             *value = on_turn_of(rotation, seed[k]);
         }
         // The closure Jacobian's columns sₖ z × (tip − pivotₖ) at tip = target: the pivots
@@ -233,7 +249,7 @@ impl Dyad {
     ) -> Option<(f64, [f64; 3])> {
         let elbow = self.elbow(frame, [target[0], target[1]])?;
         let k = self.actuated;
-        let rotation = self.signs[k] * Self::rotation(frame, &elbow, k);
+        let rotation = self.signs[k] * Self::rotation_f64(frame, &elbow, k);
         // The closure Jacobian as in `solve`: columns sₖ z × (tip − pivotₖ).
         let arms = [
             [elbow[0][0] + elbow[1][0], elbow[0][1] + elbow[1][1]],
@@ -241,10 +257,16 @@ impl Dyad {
         ];
         let columns = [0, 1].map(|c| [-self.signs[c] * arms[c][1], self.signs[c] * arms[c][0]]);
         let determinant = columns[0][0] * columns[1][1] - columns[1][0] * columns[0][1];
-        let norm = |c: [f64; 2]| (c[0] * c[0] + c[1] * c[1]).sqrt().max(f64::MIN_POSITIVE);
-        let normalised = determinant / (norm(columns[0]) * norm(columns[1]));
-        let near_limit = normalised.abs() <= SINGULAR_DETERMINANT;
-        if near_limit || normalised.is_sign_positive() != self.home_positive {
+        // |normalised determinant| ≤ the threshold, squared (no square roots): the same test
+        // but within round-off of the threshold itself.
+        let squared = |c: [f64; 2]| (c[0] * c[0] + c[1] * c[1]).max(f64::MIN_POSITIVE);
+        let scale = squared(columns[0]) * squared(columns[1]);
+        let near_limit =
+            determinant * determinant <= SINGULAR_DETERMINANT * SINGULAR_DETERMINANT * scale;
+        if near_limit
+            || determinant.is_nan()
+            || determinant.is_sign_positive() != self.home_positive
+        {
             return None;
         }
         // Row k of the 2 × 2 inverse: the other column turned, over the determinant.
@@ -273,6 +295,104 @@ impl Dyad {
         let value = Self::rotation(frame, &elbow, k) * lift::<T>(self.signs[k]);
         let turns = ((solution.q[k] - value.re()) / TAU).round();
         Some(value + lift::<T>(turns * TAU))
+    }
+}
+
+impl<T: Scalar> DyadFrame<T> {
+    /// The frame's eight numbers, the inputs [`Dyad::actuated_partials`] differentiates by:
+    /// the base point `A` (x, y), `|u|²`, `|v|²`, the inner direction (cos, sin) and the outer
+    /// turn (cos, sin).
+    pub fn scalars(&self) -> [T; 8] {
+        let [b0, b1] = self.base;
+        let [l2, o2] = self.squared_lengths;
+        let [i0, i1] = self.inner_direction;
+        let [c, s] = self.outer_turn;
+        [b0, b1, l2, o2, i0, i1, c, s]
+    }
+}
+
+impl Dyad {
+    /// [`Self::actuated`] in f64 from the frame's numbers `frame` ([`DyadFrame::scalars`]) and
+    /// the target's world `(x, y)`, with its partial derivatives with respect to those ten
+    /// inputs (the eight of the frame, then the target's two) by the chain rule written out
+    /// backwards through the circle intersection and the arc tangent: the value of
+    /// [`Self::solve`]'s actuated joint (the same operations and arc tangent) and, to round-off,
+    /// [`Self::actuated`]'s value and derivatives, without dual numbers. `None` where the
+    /// circles do not meet.
+    pub fn actuated_partials(
+        &self,
+        frame: &[f64; 8],
+        target: [f64; 2],
+        solution: &Solution,
+    ) -> Option<(f64, [f64; 10])> {
+        let [b0, b1, l2, o2, i0, i1, c, s] = *frame;
+        // Forward, as `elbow` and `rotation`.
+        let e = [target[0] - b0, target[1] - b1];
+        let d2 = e[0] * e[0] + e[1] * e[1];
+        let along = (l2 - o2 + d2) / (2.0 * d2);
+        let across2 = l2 / d2 - along * along;
+        if across2.is_nan() || across2 <= 0.0 {
+            return None;
+        }
+        let root = across2.sqrt();
+        let across = root * self.side;
+        let b = [along * e[0] - across * e[1], along * e[1] + across * e[0]];
+        let k = self.actuated;
+        let (r, l) = if k == 0 {
+            ([i0, i1], b)
+        } else {
+            (
+                [c * b[0] - s * b[1], s * b[0] + c * b[1]],
+                [e[0] - b[0], e[1] - b[1]],
+            )
+        };
+        let cross = r[0] * l[1] - r[1] * l[0];
+        let dot = r[0] * l[0] + r[1] * l[1];
+        let value = arc_tangent::atan2(cross, dot) * self.signs[k];
+        let turns = ((solution.q[k] - value) / TAU).round();
+        // Backwards: ∂θ/∂(cross, dot), then through r and l to the elbow and the inputs.
+        let n2 = cross * cross + dot * dot;
+        let (g_cross, g_dot) = (dot / n2, -cross / n2);
+        let g_r = [
+            g_cross * l[1] + g_dot * l[0],
+            -g_cross * l[0] + g_dot * l[1],
+        ];
+        let g_l = [
+            -g_cross * r[1] + g_dot * r[0],
+            g_cross * r[0] + g_dot * r[1],
+        ];
+        let mut p = [0.0; 10];
+        let mut g_e = [0.0; 2];
+        let g_b = if k == 0 {
+            p[4] = g_r[0];
+            p[5] = g_r[1];
+            g_l
+        } else {
+            p[6] = g_r[0] * b[0] + g_r[1] * b[1];
+            p[7] = -g_r[0] * b[1] + g_r[1] * b[0];
+            g_e = g_l;
+            [
+                g_r[0] * c + g_r[1] * s - g_l[0],
+                -g_r[0] * s + g_r[1] * c - g_l[1],
+            ]
+        };
+        let mut g_along = g_b[0] * e[0] + g_b[1] * e[1];
+        let g_across = -g_b[0] * e[1] + g_b[1] * e[0];
+        g_e[0] += g_b[0] * along + g_b[1] * across;
+        g_e[1] += -g_b[0] * across + g_b[1] * along;
+        let g_across2 = g_across * self.side / (2.0 * root);
+        let mut g_l2 = g_across2 / d2;
+        let mut g_d2 = -g_across2 * l2 / (d2 * d2);
+        g_along += -2.0 * along * g_across2;
+        g_l2 += g_along / (2.0 * d2);
+        let g_o2 = -g_along / (2.0 * d2);
+        g_d2 += g_along * (1.0 - 2.0 * along) / (2.0 * d2);
+        g_e[0] += 2.0 * e[0] * g_d2;
+        g_e[1] += 2.0 * e[1] * g_d2;
+        (p[0], p[1], p[2], p[3]) = (-g_e[0], -g_e[1], g_l2, g_o2);
+        (p[8], p[9]) = (g_e[0], g_e[1]);
+        let sign = self.signs[k];
+        Some((value + turns * TAU, p.map(|v| v * sign)))
     }
 }
 

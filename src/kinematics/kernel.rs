@@ -155,6 +155,29 @@ impl LegInverse<'_> {
 }
 
 impl<T: Scalar> PreparedKernel<T> {
+    /// The numbers the kernel's frame holds (in `T`): the inputs
+    /// [`PreparedKernel::actuated_partials`] differentiates by ([`super::dyad::DyadFrame::scalars`]).
+    pub fn frame_scalars(&self) -> [T; 8] {
+        match &self.frame {
+            KernelFrame::Dyad(frame) => frame.scalars(),
+        }
+    }
+
+    /// The actuated joint at the world `(x, y)` `target` from the frame's numbers `frame`
+    /// (the value parts of [`Self::frame_scalars`]), on the turn of `solution`, with its
+    /// partial derivatives with respect to the frame's numbers and the target's two
+    /// ([`Dyad::actuated_partials`]); `None` where the closed form fails.
+    pub fn actuated_partials(
+        &self,
+        frame: &[f64; 8],
+        target: [f64; 2],
+        solution: &Solution,
+    ) -> Option<(f64, [f64; 10])> {
+        match &self.kernel {
+            LegKernel::Dyad(dyad) => dyad.actuated_partials(frame, target, solution),
+        }
+    }
+
     /// The predicted reading `(q_actuated − offset) / gain` at `target` (in `T`), on the turn
     /// of `solution` (the f64 solution of the same pose); `None` if the closed form fails in
     /// `T`'s value part (the caller then takes the generic derivative step).

@@ -58,6 +58,17 @@ struct KernelLeg {
     home: Joints,
 }
 
+/// Every leg's actuated joint and the actuated row of its closure inverse at one pose (what
+/// [`KernelForward::newton`] evaluates first when it starts there), `None` for a leg the
+/// kernel leaves to the stacked solve there. Evaluated once, it serves every Newton solve
+/// started at that pose (e.g. one accuracy-map point commanded by several models).
+#[derive(Debug, Clone, Copy)]
+pub struct KernelRows {
+    /// The pose they were evaluated at.
+    pose: [f64; 6],
+    rows: [Option<(f64, [f64; 3])>; 6],
+}
+
 /// The reduced forward kinematics of a mechanism at one parameter vector.
 #[derive(Debug, Clone)]
 pub(crate) struct KernelForward {
@@ -67,6 +78,9 @@ pub(crate) struct KernelForward {
     /// The platform transform's derivatives with respect to them when they are all positions
     /// (the same at every pose).
     derivatives: Option<[PoseDerivative; 6]>,
+    /// With those constant derivatives, each leg's attachment point moved by each of them (the
+    /// same at every pose and iteration): computed once.
+    moved: Vec<[[f64; 3]; 6]>,
 }
 
 impl KernelForward {
@@ -98,11 +112,34 @@ impl KernelForward {
             .iter()
             .all(|&c| c < 3)
             .then(|| pose_derivatives(&[0.0; 6], &measured));
+        let moved = match &derivatives {
+            Some(constant) => legs
+                .iter()
+                .map(|leg| {
+                    let point = Vector3::from(leg.attachment);
+                    std::array::from_fn(|k| constant[k].of(&point).into())
+                })
+                .collect(),
+            None => Vec::new(),
+        };
         Some(Self {
             legs,
             measured,
             derivatives,
+            moved,
         })
+    }
+
+    /// Every leg's actuated joint and actuated row at `pose` ([`KernelRows`]).
+    pub(crate) fn rows_at(&self, pose: &[f64; 6]) -> KernelRows {
+        let platform = platform_transform_f64(pose);
+        let mut rows = [None; 6];
+        for (row, leg) in rows.iter_mut().zip(&self.legs) {
+            *row = leg
+                .kernel
+                .actuated_row(&attachment_on(&platform, &leg.attachment));
+        }
+        KernelRows { pose: *pose, rows }
     }
 
     /// Newton on the measured coordinates of `pose` (updated in place, the others kept) for
@@ -111,18 +148,30 @@ impl KernelForward {
     /// size (the step limit's length scale). Returns the column-normalised determinant of the
     /// reduced Jacobian at the solution (its sign is the assembly mode, see the module), or
     /// `None` where the stacked solve must decide; `pose` and `joints` are then partly moved
-    /// and must not be used.
+    /// and must not be used. `first`: the legs' rows at the start (the same numbers
+    /// [`Self::rows_at`] gives there), used for the first iteration when they were evaluated
+    /// at exactly `pose` and the joints are not asked for.
     pub(crate) fn newton(
         &self,
         readings: &[f64],
         pose: &mut [f64; 6],
         mut joints: Option<&mut [Joints]>,
         size: f64,
+        first: Option<&KernelRows>,
     ) -> Option<f64> {
         let m = self.measured.len();
         if readings.len() != m || joints.as_ref().is_some_and(|j| j.len() != m) {
             return None;
         }
+        let same_start = |rows: &&KernelRows| {
+            joints.is_none()
+                && rows
+                    .pose
+                    .iter()
+                    .zip(pose.iter())
+                    .all(|(a, b)| a.to_bits() == b.to_bits())
+        };
+        let mut first = first.filter(same_start);
         let mut previous = f64::INFINITY;
         for _ in 0..MAX_ITERATIONS {
             let platform = platform_transform_f64(pose);
@@ -149,7 +198,10 @@ impl KernelForward {
                         let inverse = &solution.closure_inverse;
                         (solution.q[a], [0, 1, 2].map(|d| inverse[(a, d)]))
                     }
-                    None => leg.kernel.actuated_row(&target)?,
+                    None => match first {
+                        Some(rows) => rows.rows[l]?,
+                        None => leg.kernel.actuated_row(&target)?,
+                    },
                 };
                 let difference = actuated - wanted;
                 residual[l] = if revolute {
@@ -158,10 +210,14 @@ impl KernelForward {
                     difference
                 };
                 for (k, derivative) in derivatives.iter().take(m).enumerate() {
-                    let moved = derivative.of(&Vector3::from(leg.attachment));
+                    let moved: [f64; 3] = match self.moved.get(l) {
+                        Some(moved) => moved[k],
+                        None => derivative.of(&Vector3::from(leg.attachment)).into(),
+                    };
                     jacobian[l][k] = (0..3).map(|d| row[d] * moved[d]).sum();
                 }
             }
+            first = None;
             let (step, determinant) = solve_small(jacobian, residual, m)?;
             // The step in units of the mechanism's size (lengths) and radians (angles).
             let mut unknowns = [0.0; 6];

@@ -1,10 +1,12 @@
 //! Kinematics as free functions over the immutable model, generic over the scalar.
+mod arc_tangent;
 pub mod assembly;
 pub mod chain;
 pub mod dyad;
 pub mod inverse;
 pub mod kernel;
 mod kernel_forward;
+pub use kernel_forward::KernelRows;
 mod newton_stop;
 pub mod platform;
 mod pose_derivative;

@@ -9,7 +9,7 @@ use nalgebra::{DMatrix, DVector, Vector3};
 
 use super::chain::{attachment_on, platform_transform, ChainFrames};
 use super::inverse::{joints, predict_reading, wrap_angle, Joints};
-use super::kernel_forward::KernelForward;
+use super::kernel_forward::{KernelForward, KernelRows};
 use super::newton_stop::converged;
 use super::pose_derivative::pose_derivatives;
 use crate::error::KinematicsError;
@@ -176,7 +176,7 @@ impl<'m> ForwardKinematics<'m> {
         let kernel = KernelForward::new(self.mechanism, &self.geometries)?;
         let mut start = self.home_configuration();
         let joints = Some(start.joints.as_mut_slice());
-        let determinant = kernel.newton(home_readings, &mut start.pose, joints, size)?;
+        let determinant = kernel.newton(home_readings, &mut start.pose, joints, size, None)?;
         Some((kernel, determinant.signum()))
     }
 
@@ -237,7 +237,7 @@ impl<'m> ForwardKinematics<'m> {
         if let Some((kernel, kernel_home_sign)) = &self.kernel {
             let (mut pose, mut joints) = (start.pose, start.joints.clone());
             let size = 1e3 * self.smallest_size;
-            if let Some(sign) = kernel.newton(readings, &mut pose, Some(&mut joints), size) {
+            if let Some(sign) = kernel.newton(readings, &mut pose, Some(&mut joints), size, None) {
                 if same_mode(sign, *kernel_home_sign) {
                     start.pose = pose;
                     start.joints = joints;
@@ -266,11 +266,34 @@ impl<'m> ForwardKinematics<'m> {
         readings: &[f64],
         start: &Configuration,
     ) -> Result<[f64; 6], KinematicsError> {
+        self.solve_near_pose_from(readings, start, None)
+    }
+
+    /// The legs' kernel rows at `pose` ([`KernelRows`]: each leg's actuated joint and its
+    /// closure inverse's actuated row), when the mechanism's forward kinematics goes through
+    /// its legs' kernels: the first evaluation of every [`Self::solve_near_pose_from`] started
+    /// at `pose`, computed once.
+    pub fn kernel_rows_at(&self, pose: &[f64; 6]) -> Option<KernelRows> {
+        self.kernel.as_ref().map(|(kernel, _)| kernel.rows_at(pose))
+    }
+
+    /// [`Self::solve_near_pose`] with the legs' kernel rows at the start pose evaluated
+    /// beforehand (`first`, [`Self::kernel_rows_at`] of the start's pose; ignored if they were
+    /// evaluated elsewhere): the same pose, bit for bit, one kernel evaluation fewer.
+    ///
+    /// # Errors
+    /// As [`forward`].
+    pub fn solve_near_pose_from(
+        &self,
+        readings: &[f64],
+        start: &Configuration,
+        first: Option<&KernelRows>,
+    ) -> Result<[f64; 6], KinematicsError> {
         self.home.as_ref().map_err(Clone::clone)?;
         if let Some((kernel, kernel_home_sign)) = &self.kernel {
             let mut pose = start.pose;
             let size = 1e3 * self.smallest_size;
-            if let Some(sign) = kernel.newton(readings, &mut pose, None, size) {
+            if let Some(sign) = kernel.newton(readings, &mut pose, None, size, first) {
                 if same_mode(sign, *kernel_home_sign) {
                     return Ok(pose);
                 }

@@ -1,9 +1,11 @@
 //! A leg's predicted reading at many poses for one parameter vector (a simulation's real
-//! legs): [`super::inverse::predict_reading`] in f64 with the leg's geometry and chain frames built
-//! once instead of at every pose. The same solve and the same arithmetic, so the same bits.
+//! legs): [`super::inverse::predict_reading`] in f64 with the leg's geometry, chain frames and
+//! closed-form kernel built once instead of at every pose.
 
 use super::chain::{attachment_world, ChainFrames};
+use super::dyad::on_turn_of;
 use super::inverse::{reading_at, solve_from_home};
+use super::kernel::{LegKernel, PreparedKernel};
 use crate::error::KinematicsError;
 use crate::model::leg::{LegGeometry, LegModel};
 
@@ -13,6 +15,8 @@ pub struct ReadingPredictor<'a> {
     leg: &'a LegModel,
     geometry: LegGeometry<f64>,
     frames: ChainFrames<f64>,
+    /// The leg's closed-form kernel at these parameters, when its chain has one.
+    kernel: Option<PreparedKernel<f64>>,
 }
 
 impl<'a> ReadingPredictor<'a> {
@@ -20,23 +24,33 @@ impl<'a> ReadingPredictor<'a> {
     pub fn new(leg: &'a LegModel, phi: &[f64]) -> Self {
         let geometry = leg.geometry(phi);
         let frames = ChainFrames::new(&geometry);
+        let kernel = LegKernel::recognise(leg).map(|kernel| kernel.prepare(&geometry));
         Self {
             leg,
             geometry,
             frames,
+            kernel,
         }
     }
 
-    /// The predicted reading at `pose`: `inverse::predict_reading(leg, phi, pose, home_pose)`,
-    /// bit for bit (the inverse kinematics from home on the generic chain, then one Newton
-    /// step's correction of the actuated joint).
+    /// The predicted reading at `pose`: `inverse::predict_reading(leg, phi, pose, home_pose)`.
+    /// A leg with a closed-form kernel takes its actuated joint from it (on the turn of the home
+    /// joints, where Newton's method from home lands): the same reading to round-off (about
+    /// 1e-15 relative), one arc tangent instead of the generic chain's Newton solve. Every pose
+    /// the kernel leaves to the generic solve (out of reach, near a reach limit, the other
+    /// working mode) and every leg without a kernel take the generic chain: the inverse
+    /// kinematics from home, then one Newton step's correction of the actuated joint.
     ///
     /// # Errors
     /// As [`super::inverse::predict_reading`].
     pub fn predict(&self, pose: &[f64; 6], home_pose: &[f64; 6]) -> Result<f64, KinematicsError> {
         let (leg, geometry) = (self.leg, &self.geometry);
-        let solution = solve_from_home(leg, geometry, &self.frames, pose, home_pose)?;
         let target = attachment_world(pose, &geometry.attachment);
+        if let Some((rotation, _)) = self.kernel.and_then(|k| k.actuated_row(&target)) {
+            let actuated = on_turn_of(rotation, leg.home_joints[leg.actuated]);
+            return Ok((actuated - geometry.offset) / geometry.gain);
+        }
+        let solution = solve_from_home(leg, geometry, &self.frames, pose, home_pose)?;
         Ok(reading_at(leg, &self.frames, geometry, &target, &solution))
     }
 }

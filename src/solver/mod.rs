@@ -249,8 +249,14 @@ where
         let Ok(jacobian) = problem.jacobian(&refinement.x) else {
             break;
         };
-        let Ok(step) = jacobian.svd(true, true).solve(&r, f64::EPSILON) else {
-            break;
+        // Householder QR where the Jacobian is well conditioned (the same step to round-off),
+        // the SVD otherwise (the QR's copy is the size of the SVD's factor U).
+        let step = match qr_step::qr_step(jacobian.clone(), &r) {
+            Some(step) => step,
+            None => match jacobian.svd(true, true).solve(&r, f64::EPSILON) {
+                Ok(step) => step,
+                Err(_) => break,
+            },
         };
         let length = step.norm();
         if !(length.is_finite() && length <= limit) {
@@ -362,6 +368,7 @@ pub mod gauss_newton;
 pub mod levenberg_marquardt;
 #[cfg(test)]
 mod observed;
+pub mod qr_step;
 pub mod schur;
 mod settings;
 pub mod stop;

@@ -30,11 +30,14 @@ pub use super::arm::{Arm, ARMS, INSTRUMENT_ARMS};
 use super::stats::{self, Estimate};
 pub use super::verdict::{millimetres, verdict_sentence};
 use crate::error::{Error, Result};
-use crate::evaluate::accuracy::{map_grid, position_error, reached_poses_from, result_parameters};
+use crate::evaluate::accuracy::{
+    commanded_each, map_grid, position_error, reached_poses_from, result_parameters,
+};
 use crate::evaluate::observed_frame::observed_frame_error;
 use crate::identify::estimate::{FitOptions, StrategyResult};
 use crate::kinematics::inverse::Joints;
 use crate::kinematics::platform::ForwardKinematics;
+use crate::kinematics::KernelRows;
 use crate::measure::forward_simulate::forward_pose_sets;
 use crate::measure::observe_simulate::simulated_poses;
 use crate::measure::simulate::{real_parameters, simulate_at, PoseSets, SimulationOptions};

@@ -6,7 +6,9 @@
 //! chains that match a pattern exactly are recognised.
 use legwise::identify::jacobian::PreparedLeg;
 use legwise::kinematics::chain::{attachment_world, tip_and_jacobian};
+use legwise::kinematics::inverse::predict_reading;
 use legwise::kinematics::kernel::LegKernel;
+use legwise::kinematics::reading::ReadingPredictor;
 use legwise::model::joint::{JointKind, JointModel};
 use legwise::model::leg::LegModel;
 use legwise::model::params::{ParamTarget, Parameter, Unit};
@@ -264,7 +266,10 @@ proptest! {
             prop_assert!(close(actuated - turns * std::f64::consts::TAU, mine.q[a], 1.0, 1e-12));
             let actuator = leg.geometry(&phi);
             let reading = closed.reading(&actuator, &world, &mine);
-            prop_assert_eq!(reading, Some(kernel.reading_of(&mine)));
+            // The generic closed form (libm's arc tangent in any scalar) and the f64 solve's (the
+            // kernels' own arc tangent): the same reading to a few ulp.
+            let solved = kernel.reading_of(&mine);
+            prop_assert!(close(reading.expect("solved"), solved, solved.abs(), 1e-15), "{reading:?} vs {solved}");
             for k in 0..2 {
                 prop_assert!(close(mine.q[k], theirs.q[k], 1.0, 1e-12), "q{k}: {mine:?} vs {theirs:?}");
             }
@@ -295,9 +300,22 @@ proptest! {
             let mut g_mine = vec![0.0; columns.len()];
             let mut g_theirs = vec![0.0; columns.len()];
             let r_mine = kernel.reading_and_gradient_of(&pose, &mine, &mut g_mine);
+            // The gradient pass's reading (the kernel's f64 partials chained with the inputs'
+            // lanes) is the f64 closed form's to a few ulps (the target's world position is
+            // computed by two routes).
+            let closed_reading = reading.expect("solved above");
+            prop_assert!(close(r_mine, closed_reading, closed_reading.abs(), 1e-15), "{r_mine} vs {closed_reading}");
             let r_theirs = generic.reading_and_gradient_of(&pose, &theirs, &mut g_theirs);
             prop_assert!(close(r_mine, r_theirs, r_theirs.abs(), 1e-12), "{r_mine} vs {r_theirs}");
             prop_assert!(close(kernel.reading_of(&mine), r_theirs, r_theirs.abs(), 1e-12));
+            // A simulation's reading (the kernel's actuated joint on the home turn) is the
+            // generic chain's from home.
+            let simulated = ReadingPredictor::new(&leg, &phi).predict(&pose, &home);
+            let generic_reading = predict_reading::<f64>(&leg, &phi, &pose, &home);
+            prop_assert!(
+                close(simulated.clone().unwrap(), generic_reading.clone().unwrap(), r_theirs.abs(), 1e-12),
+                "simulated {simulated:?} vs {generic_reading:?}"
+            );
             let scale = g_theirs.iter().fold(0.0f64, |m, g| m.max(g.abs()));
             for (j, (a, b)) in g_mine.iter().zip(&g_theirs).enumerate() {
                 prop_assert!(close(*a, *b, scale, 1e-12), "∂ψ/∂{}: {a} vs {b}", leg.params[j].name);
@@ -348,6 +366,13 @@ proptest! {
             return Err(TestCaseError::fail("an unreachable pose was solved"));
         };
         prop_assert_eq!(std::mem::discriminant(&mine), std::mem::discriminant(&theirs));
+        // A simulation refuses it as the generic chain does.
+        let simulated = ReadingPredictor::new(&leg, &phi).predict(&pose, &home);
+        let generic = predict_reading::<f64>(&leg, &phi, &pose, &home);
+        let (Err(simulated), Err(generic)) = (simulated, generic) else {
+            return Err(TestCaseError::fail("an unreachable pose was simulated"));
+        };
+        prop_assert_eq!(std::mem::discriminant(&simulated), std::mem::discriminant(&generic));
     }
 }
 

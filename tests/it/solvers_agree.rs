@@ -114,9 +114,12 @@ impl levenberg_marquardt::LeastSquaresProblem<f64, Dyn, Dyn> for MinpackLeg<'_> 
 /// Agreement with MINPACK on the model's seeded noisy experiment, both legs.
 ///
 /// Both solvers stop by cost-ratio tests whose decisions, near this flat minimum, rest on a
-/// cost known only to ~1e-11 relative: MINPACK's own stopping point can lie up to ~3e-10 from
-/// the stationary point Jᵀr = 0 on other seeds (ours is refined onto it, see
-/// `solver::refine`). On the seeded problem MINPACK stops on it, and the two agree to 1e-10.
+/// cost known only to ~1e-11 relative: MINPACK's own stopping point can lie up to about
+/// √(ε·cost)/s_min ≈ 1e-9 from the stationary point Jᵀr = 0 (ours is refined onto it, see
+/// `solver::refine`), and where in that band depends on the data's round-off: since the
+/// simulation's readings come from the closed-form kernel (1e-15 away from the generic
+/// chain's) MINPACK stops 4.8e-10 and 1.0e-9 from ours on leg 0 (on it before): the two agree
+/// to 2e-9.
 /// Where exactly MINPACK stops depends on the round-off of each of its evaluations, and so on
 /// the evaluations made before (warm starts, kept values): it runs on a problem of its own,
 /// the same blocks with no history.
@@ -145,7 +148,7 @@ fn levenberg_marquardt_agrees_with_the_minpack_port_on_the_noisy_5r_leg() {
         );
         for (a, b) in ours.x.iter().zip(minpack.x.iter()) {
             assert!(
-                (a - b).abs() <= 1e-10 * (1.0 + b.abs()),
+                (a - b).abs() <= 2e-9 * (1.0 + b.abs()),
                 "leg {leg}: LM {a} vs MINPACK {b}"
             );
         }

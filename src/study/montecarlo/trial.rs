@@ -25,6 +25,13 @@ impl Study {
         let real_kinematics = ForwardKinematics::new(&self.mechanism, &real.legs);
         let real_shared = real.instrument.as_deref();
         let nominal_map_rms = self.nominal_map_rms((&real.legs, real_shared), &real_kinematics)?;
+        // Each map point's first forward evaluation on the real legs (through their kernels),
+        // the same for every arm's map: evaluated once.
+        let first: Vec<Option<KernelRows>> = self
+            .map
+            .iter()
+            .map(|target| real_kinematics.kernel_rows_at(target))
+            .collect();
         // The commanding joints of the last map, the warm starts of the next one.
         let mut joints = self.nominal_joints.clone();
         let mut arms = Vec::with_capacity(self.arms.len());
@@ -37,7 +44,8 @@ impl Study {
                     message: format!("did not converge: {}", run.stop_reason),
                 });
             }
-            arms.push(self.arm_trial(&result, &real, &real_kinematics, &mut joints)?);
+            let real_kinematics = (&real_kinematics, first.as_slice());
+            arms.push(self.arm_trial(&result, &real, real_kinematics, &mut joints)?);
         }
         Ok(TrialValues {
             nominal_map_rms,
@@ -112,7 +120,7 @@ impl Study {
                 let nominal = self.mechanism.instrument.as_ref().map(|i| i.nominal());
                 self.map_rms(
                     &self.mechanism.nominal_parameters(),
-                    real_kinematics,
+                    (real_kinematics, &[]),
                     &mut self.nominal_joints.clone(),
                     nominal.as_deref().zip(real_shared),
                 )
@@ -121,12 +129,13 @@ impl Study {
     }
 
     /// One arm's values from `result`: each study parameter's error against `real` and its
-    /// predicted σ, and the RMS map error of the identified legs commanding the real ones.
+    /// predicted σ, and the RMS map error of the identified legs commanding the real ones
+    /// (their forward kinematics and each map point's first evaluation, as [`Self::map_rms`]).
     fn arm_trial(
         &self,
         result: &StrategyResult,
         real: &RealValues,
-        real_kinematics: &ForwardKinematics<'_>,
+        real_kinematics: (&ForwardKinematics<'_>, &[Option<KernelRows>]),
         joints: &mut Vec<Option<Joints>>,
     ) -> Result<ArmTrial> {
         let values = self.real_values(real);
@@ -165,19 +174,33 @@ impl Study {
     }
 
     /// RMS position error over the map with `commanding` commanding the real mechanism (its
-    /// forward kinematics `real`, prepared once per trial for every map); `joints` are the
-    /// commanding joints of an earlier map, the warm starts of this one's inverse kinematics
-    /// (then this map's).
+    /// forward kinematics `real`, prepared once per trial for every map, with the first
+    /// evaluation at each map point when computed beforehand, [`ForwardKinematics::kernel_rows_at`]:
+    /// the same poses as [`crate::evaluate::accuracy::reached_poses_from`], bit for bit);
+    /// `joints` are the commanding joints of an earlier map, the warm starts of this one's
+    /// inverse kinematics (then this map's).
     fn map_rms(
         &self,
         commanding: &[Vec<f64>],
-        real: &ForwardKinematics<'_>,
+        (real, first): (&ForwardKinematics<'_>, &[Option<KernelRows>]),
         joints: &mut Vec<Option<Joints>>,
         shared: Option<(&[f64], &[f64])>,
     ) -> Result<f64> {
         let mut sum = 0.0;
         let mut count = 0usize;
-        let reached = reached_poses_from(&self.mechanism, commanding, real, &self.map, joints);
+        let mut reached: Vec<Option<[f64; 6]>> = Vec::with_capacity(self.map.len());
+        commanded_each(
+            &self.mechanism,
+            commanding,
+            &self.map,
+            joints,
+            |i, command| {
+                reached.push(command.and_then(|(readings, start)| {
+                    let first = first.get(i).and_then(Option::as_ref);
+                    real.solve_near_pose_from(readings, start, first).ok()
+                }));
+            },
+        );
         let forward = self.mechanism.forward_instrument();
         if let (Some(instrument), Some(shared)) = (forward, shared) {
             // In the frame the observations define.
