@@ -4,7 +4,10 @@
 //! comments (`#`, `;`) and inline ones (`#`, `;` after a blank), indented continuation lines
 //! (a macro's g-code; kept out of the values read here). Below the line
 //! `#*# <---------------------- SAVE_CONFIG ---------------------->` every line starts `#*# `
-//! and holds sections and values that override the ones above (Klipper's SAVE_CONFIG block).
+//! and holds sections and values (Klipper's SAVE_CONFIG block) that apply where the sections above
+//! do not set the same key: Klipper comments out a block value whose key a section still sets
+//! when it reads the file, and a section's value of each key it saves when it writes the block.
+//! (The Kalico fork reads the block over the sections; this reader follows Klipper.)
 //! Keys are case-insensitive (read in lower case), as Klipper reads them.
 
 use std::collections::BTreeMap;

@@ -3,7 +3,9 @@
 //! measurement CSV, and export a calibrated model as the firmware's values.
 //!
 //! * [`klipper`]: the `printer.cfg` reader (sections, `key: value` / `key = value`, comments,
-//!   the `#*#` SAVE_CONFIG block overriding the sections above it) and the delta it describes;
+//!   the `#*#` SAVE_CONFIG block's values where the sections above do not set the key, as
+//!   Klipper reads it) and the delta it describes;
+//! * [`geometry`]: a delta in the firmwares' common terms, with its touches and distances;
 //! * [`delta_model`]: the legwise model (YAML + URDF) and probe CSV written for that geometry;
 //! * [`export`]: the firmware values whose kinematics come closest to a calibrated model;
 //! * [`gcode`]: G-code lines (RepRapFirmware's and Marlin's files and logs);
@@ -16,6 +18,7 @@
 pub mod delta_model;
 pub mod export;
 pub mod gcode;
+pub mod geometry;
 pub mod klipper;
 pub mod marlin;
 pub mod points;
