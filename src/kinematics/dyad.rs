@@ -162,22 +162,24 @@ impl Dyad {
     /// The rotation `θ₁` or `θ₂` (`which`, before its axis sign and turns) of the solved dyad
     /// `elbow` ([`Self::elbow`]), in (−π, π].
     fn rotation<T: Scalar>(frame: &DyadFrame<T>, elbow: &[[T; 2]; 2], which: usize) -> T {
-        // The link's direction at a zero rotation, and where the solution puts it.
-        let (reference, link) = if which == 0 {
-            (frame.inner_direction, elbow[0])
-        } else {
-            let [c, s] = frame.outer_turn;
-            let b = elbow[0];
-            ([c * b[0] - s * b[1], s * b[0] + c * b[1]], elbow[1])
-        };
-        let cross = reference[0] * link[1] - reference[1] * link[0];
-        let dot = reference[0] * link[0] + reference[1] * link[1];
+        let (cross, dot) = Self::rotation_sides(frame, elbow, which);
         cross.atan2(dot)
     }
 
     /// [`Self::rotation`] in f64 with the kernels' arc tangent ([`super::arc_tangent::atan2`]:
     /// the same angle to a few ulp, without libm's rounding-mode switches).
     fn rotation_f64(frame: &DyadFrame<f64>, elbow: &[[f64; 2]; 2], which: usize) -> f64 {
+        let (cross, dot) = Self::rotation_sides(frame, elbow, which);
+        arc_tangent::atan2(cross, dot)
+    }
+
+    /// The cross and dot products of the link's direction at a zero rotation with where the
+    /// solution puts it: the rotation is their arc tangent.
+    fn rotation_sides<T: Scalar>(
+        frame: &DyadFrame<T>,
+        elbow: &[[T; 2]; 2],
+        which: usize,
+    ) -> (T, T) {
         let (reference, link) = if which == 0 {
             (frame.inner_direction, elbow[0])
         } else {
@@ -187,7 +189,7 @@ impl Dyad {
         };
         let cross = reference[0] * link[1] - reference[1] * link[0];
         let dot = reference[0] * link[0] + reference[1] * link[1];
-        arc_tangent::atan2(cross, dot)
+        (cross, dot)
     }
 
     /// The joints reaching `target` (world `(x, y)`; the leg's attachment at the pose), in the
