@@ -14,7 +14,7 @@
 //! platform's transform and every origin rotation that no seeded parameter moves as f64
 //! constants: most of its products are f64 × dual, not dual × dual.
 
-use std::sync::Arc;
+use std::sync::{Arc, OnceLock};
 
 use nalgebra::{Const, U1};
 use num_dual::{DualSVec64, DualStruct};
@@ -63,7 +63,11 @@ trait GradientPass: std::fmt::Debug + Send + Sync {
 #[derive(Debug)]
 struct DualPass<const N: usize> {
     first: usize,
-    chain: TipChain<DualSVec64<N>>,
+    /// The chain for the generic derivative step, built on first use: a leg whose kernel
+    /// gives every row's derivatives never needs it.
+    chain: OnceLock<TipChain<DualSVec64<N>>>,
+    /// Which joints' origin angles carry derivatives (for the chain).
+    variable_angles: Vec<bool>,
     geometry: LegGeometry<DualSVec64<N>>,
     /// The closed-form kernel in duals: the reading's derivatives from its closed form.
     kernel: Option<PreparedKernel<DualSVec64<N>>>,
@@ -163,7 +167,8 @@ impl<const N: usize> DualPass<N> {
         let kernel = kernel.map(|kernel| kernel.prepare(&geometry));
         Self {
             first,
-            chain: TipChain::new(&geometry, &variable_angles),
+            chain: OnceLock::new(),
+            variable_angles,
             lanes: kernel.as_ref().map(|k| KernelLanes::new(k, &geometry)),
             kernel,
             geometry,
@@ -190,7 +195,10 @@ impl<const N: usize> GradientPass for DualPass<N> {
         let reading = match closed_form.and_then(|k| k.reading(&self.geometry, &target, solution)) {
             Some(reading) => reading,
             None => {
-                let tip = self.chain.tip(leg, &solution.q[..leg.moving.len()]);
+                let chain = self
+                    .chain
+                    .get_or_init(|| TipChain::new(&self.geometry, &self.variable_angles));
+                let tip = chain.tip(leg, &solution.q[..leg.moving.len()]);
                 reading_at_tip(leg, &tip, &self.geometry, &target, solution)
             }
         };

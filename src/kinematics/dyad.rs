@@ -300,6 +300,31 @@ impl Dyad {
     }
 }
 
+impl Dyad {
+    /// Where the actuated joint's value `actuated` puts the elbow when the actuated revolute is
+    /// the first one (at the base): the elbow's world `(x, y)` and the length `|v|` from it to
+    /// the leg's tip, the radius of the circle the tip is on. `None` when the actuated joint is
+    /// the elbow's own (the elbow then depends on the passive joint).
+    pub(crate) fn elbow_circle(
+        &self,
+        frame: &DyadFrame<f64>,
+        actuated: f64,
+    ) -> Option<([f64; 2], f64)> {
+        if self.actuated != 0 {
+            return None;
+        }
+        // The rotation from the inner direction is the joint value times its axis' sign.
+        let (s, c) = (self.signs[0] * actuated).sin_cos();
+        let [i0, i1] = frame.inner_direction;
+        let length = frame.squared_lengths[0].sqrt();
+        let elbow = [
+            frame.base[0] + length * (c * i0 - s * i1),
+            frame.base[1] + length * (s * i0 + c * i1),
+        ];
+        Some((elbow, frame.squared_lengths[1].sqrt()))
+    }
+}
+
 impl<T: Scalar> DyadFrame<T> {
     /// The frame's eight numbers, the inputs [`Dyad::actuated_partials`] differentiates by:
     /// the base point `A` (x, y), `|u|²`, `|v|²`, the inner direction (cos, sin) and the outer

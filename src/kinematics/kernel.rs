@@ -75,6 +75,17 @@ impl PreparedKernel<f64> {
     }
 }
 
+impl PreparedKernel<f64> {
+    /// For a dyad actuated at its base, the circle its tip is on when its actuated joint is
+    /// at `actuated`: the elbow's world `(x, y)` and the distal link's length
+    /// ([`Dyad::elbow_circle`]); `None` for any other kernel.
+    pub(crate) fn tip_circle(&self, actuated: f64) -> Option<([f64; 2], f64)> {
+        match (&self.kernel, &self.frame) {
+            (LegKernel::Dyad(dyad), KernelFrame::Dyad(frame)) => dyad.elbow_circle(frame, actuated),
+        }
+    }
+}
+
 /// A leg's inverse kinematics at one parameter vector: its closed-form kernel when its chain
 /// has one, the generic chain's Newton solve for every pose the kernel leaves to it (and for
 /// every pose of a leg without a kernel). The same solutions either way, to round-off.

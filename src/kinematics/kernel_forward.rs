@@ -18,6 +18,7 @@
 use nalgebra::Vector3;
 
 use super::chain::{attachment_on, platform_transform_f64};
+use super::circle_intersection::nearest_intersection;
 use super::inverse::{joints, wrap_angle, Joints};
 use super::kernel::{LegKernel, PreparedKernel};
 use super::newton_stop::beyond_round_off;
@@ -81,6 +82,9 @@ pub(crate) struct KernelForward {
     /// With those constant derivatives, each leg's attachment point moved by each of them (the
     /// same at every pose and iteration): computed once.
     moved: Vec<[[f64; 3]; 6]>,
+    /// Whether the solve starts from the closed form ([`Self::circle_start`]): two legs whose
+    /// tips lie on circles once their actuators are set, the platform's `x` and `y` measured.
+    circles: bool,
 }
 
 impl KernelForward {
@@ -122,12 +126,44 @@ impl KernelForward {
                 .collect(),
             None => Vec::new(),
         };
+        let circles = measured == [0, 1]
+            && legs.len() == 2
+            && legs.iter().all(|leg| leg.kernel.tip_circle(0.0).is_some());
         Some(Self {
             legs,
             measured,
             derivatives,
             moved,
+            circles,
         })
+    }
+
+    /// Whether [`Self::newton`] starts from the closed form (two circles' intersection) where
+    /// it has one, rather than from the pose it is given.
+    pub(crate) fn starts_in_closed_form(&self) -> bool {
+        self.circles
+    }
+
+    /// The platform's `(x, y)` reaching `readings` in closed form, for two legs each actuated
+    /// at its base elbow's joint: each leg's tip is on the circle about its elbow, the platform
+    /// point on that circle moved by the attachment's offset (the platform's angles are not
+    /// measured: fixed at `pose`'s). The intersection nearest `pose`, where it is clearly the
+    /// nearer (Newton's method from `pose` would go there) and within a Newton step's limit of
+    /// it; `None` otherwise.
+    fn circle_start(&self, readings: &[f64], pose: &[f64; 6], size: f64) -> Option<[f64; 2]> {
+        let platform = platform_transform_f64(pose);
+        let mut centres = [[0.0; 2]; 2];
+        let mut radii = [0.0; 2];
+        for (l, leg) in self.legs.iter().enumerate().take(2) {
+            let wanted = leg.actuator.0 * readings[l] + leg.actuator.1;
+            let (elbow, radius) = leg.kernel.tip_circle(wanted)?;
+            let tip = attachment_on(&platform, &leg.attachment);
+            centres[l] = [elbow[0] - (tip[0] - pose[0]), elbow[1] - (tip[1] - pose[1])];
+            radii[l] = radius;
+        }
+        let reached = nearest_intersection(centres, radii, [pose[0], pose[1]])?;
+        let moved = (reached[0] - pose[0]).hypot(reached[1] - pose[1]);
+        (moved <= MAX_STEP * size).then_some(reached)
     }
 
     /// Every leg's actuated joint and actuated row at `pose` ([`KernelRows`]).
@@ -162,6 +198,13 @@ impl KernelForward {
         let m = self.measured.len();
         if readings.len() != m || joints.as_ref().is_some_and(|j| j.len() != m) {
             return None;
+        }
+        if self.circles {
+            if let Some(reached) = self.circle_start(readings, pose, size) {
+                // Newton from there lands at once: the kernels' rows at the reached pose
+                // confirm it (and give the assembly mode), as at the end of the iterations.
+                (pose[0], pose[1]) = (reached[0], reached[1]);
+            }
         }
         let same_start = |rows: &&KernelRows| {
             joints.is_none()
@@ -293,7 +336,41 @@ fn solve_small(mut a: [[f64; 6]; 6], mut b: [f64; 6], m: usize) -> Option<([f64;
 
 #[cfg(test)]
 mod tests {
-    use super::solve_small;
+    use super::{solve_small, KernelForward};
+    use crate::kinematics::inverse::predict_reading;
+    use crate::model::Mechanism;
+
+    #[test]
+    fn the_five_bar_starts_at_its_circles_intersection() {
+        let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("models/5r.yaml");
+        let mechanism = Mechanism::load(&path).unwrap();
+        let parameters = mechanism.nominal_parameters();
+        let geometries: Vec<_> = mechanism
+            .legs
+            .iter()
+            .zip(&parameters)
+            .map(|(leg, phi)| leg.geometry(phi))
+            .collect();
+        let forward = KernelForward::new(&mechanism, &geometries).unwrap();
+        assert!(forward.starts_in_closed_form());
+        let home = mechanism.home_pose;
+        for (dx, dy) in [(0.0, 0.0), (0.02, -0.01), (-0.03, 0.015)] {
+            let mut pose = home;
+            (pose[0], pose[1]) = (home[0] + dx, home[1] + dy);
+            let readings: Vec<f64> = mechanism
+                .legs
+                .iter()
+                .zip(&parameters)
+                .map(|(leg, phi)| predict_reading(leg, phi, &pose, &home).unwrap())
+                .collect();
+            // From a start 1 mm away: the pose itself, to round-off.
+            let mut start = pose;
+            start[0] += 1e-3;
+            let reached = forward.circle_start(&readings, &start, 1.0).unwrap();
+            let miss = (reached[0] - pose[0]).hypot(reached[1] - pose[1]);
+            assert!(miss < 1e-15, "{miss:e} at ({dx}, {dy})");
+        }
+    }
 
     #[test]
     fn a_small_system_is_solved_with_its_column_normalised_determinant() {

@@ -2,6 +2,7 @@
 mod arc_tangent;
 pub mod assembly;
 pub mod chain;
+mod circle_intersection;
 pub mod dyad;
 pub mod inverse;
 pub mod kernel;

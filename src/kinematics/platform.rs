@@ -273,8 +273,11 @@ impl<'m> ForwardKinematics<'m> {
     /// closure inverse's actuated row), when the mechanism's forward kinematics goes through
     /// its legs' kernels: the first evaluation of every [`Self::solve_near_pose_from`] started
     /// at `pose`, computed once.
+    /// `None` also where the solve starts from a closed form instead (nothing to share).
     pub fn kernel_rows_at(&self, pose: &[f64; 6]) -> Option<KernelRows> {
-        self.kernel.as_ref().map(|(kernel, _)| kernel.rows_at(pose))
+        let kernel = self.kernel.as_ref().map(|(kernel, _)| kernel);
+        let shared = kernel.filter(|kernel| !kernel.starts_in_closed_form());
+        shared.map(|kernel| kernel.rows_at(pose))
     }
 
     /// [`Self::solve_near_pose`] with the legs' kernel rows at the start pose evaluated
