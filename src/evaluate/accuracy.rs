@@ -11,7 +11,7 @@ pub use super::error_stats::ErrorStats;
 use super::observed_frame::{observed_frame_error, ObservedFrameError};
 use crate::error::{Error, Result};
 use crate::identify::estimate::StrategyResult;
-use crate::kinematics::chain::{attachment_on, platform_transform, ChainFrames};
+use crate::kinematics::chain::{attachment_on, platform_transform_f64, ChainFrames};
 use crate::kinematics::inverse::{predict_reading, reading_value, Joints, MAX_JOINTS};
 use crate::kinematics::kernel::LegInverse;
 use crate::kinematics::platform::{forward, Configuration, ForwardKinematics};
@@ -288,7 +288,7 @@ pub fn commanded_each(
         joints: vec![[0.0; MAX_JOINTS]; legs],
     };
     'targets: for (i, (target, seed)) in targets.iter().zip(seeds).enumerate() {
-        let platform = platform_transform(target);
+        let platform = platform_transform_f64(target);
         configuration.pose = *target;
         for (l, leg) in mechanism.legs.iter().enumerate() {
             let attachment = attachment_on(&platform, &geometries[l].attachment);
