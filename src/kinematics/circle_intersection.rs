@@ -14,10 +14,8 @@ pub(crate) fn nearest_intersection(
     near: [f64; 2],
 ) -> Option<[f64; 2]> {
     let e = [centres[1][0] - centres[0][0], centres[1][1] - centres[0][1]];
+    // Concentric or non-finite centres make `across2` below NaN.
     let d2 = e[0] * e[0] + e[1] * e[1];
-    if !(d2 > 0.0 && d2.is_finite()) {
-        return None;
-    }
     // The intersections' projection on the line of the centres and their distance from it,
     // both over the centres' distance d.
     let along = (radii[0] * radii[0] - radii[1] * radii[1] + d2) / (2.0 * d2);
@@ -71,6 +69,12 @@ mod tests {
         assert!(nearest_intersection(centres, [3.0, 3.0], [4.0, 0.0]).is_none());
         assert!(nearest_intersection(centres, [4.0, 4.0], [4.0, 0.0]).is_none());
         assert!(nearest_intersection([[1.0, 1.0]; 2], [1.0, 1.0], [0.0, 0.0]).is_none());
+        assert!(nearest_intersection([[1.0, 1.0]; 2], [1.0, 2.0], [0.0, 0.0]).is_none());
+        // A centre not finite.
+        let far = [[0.0, 0.0], [f64::INFINITY, 0.0]];
+        assert!(nearest_intersection(far, [5.0, 5.0], [4.0, 1.0]).is_none());
+        let nan = [[0.0, 0.0], [f64::NAN, 0.0]];
+        assert!(nearest_intersection(nan, [5.0, 5.0], [4.0, 1.0]).is_none());
         // On the line of the centres, both intersections are as far.
         assert!(nearest_intersection(centres, [5.0, 5.0], [4.0, 0.0]).is_none());
         // Nearer to one, but not twice as near to it.
