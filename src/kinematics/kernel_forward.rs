@@ -297,6 +297,9 @@ impl KernelForward {
 /// partial pivoting, in fixed storage) and the determinant of `a`'s block with its columns
 /// scaled to unit norm; `None` if the block is singular or the solution not finite.
 fn solve_small(mut a: [[f64; 6]; 6], mut b: [f64; 6], m: usize) -> Option<([f64; 6], f64)> {
+    if m == 2 {
+        return solve_two(&a, &b);
+    }
     let scales: f64 = (0..m)
         .map(|k| {
             let norm = a[..m].iter().map(|row| row[k] * row[k]).sum::<f64>().sqrt();
@@ -329,6 +332,25 @@ fn solve_small(mut a: [[f64; 6]; 6], mut b: [f64; 6], m: usize) -> Option<([f64;
         let sum: f64 = (k + 1..m).map(|j| a[k][j] * x[j]).sum();
         x[k] = (b[k] - sum) / a[k][k];
     }
+    x.iter()
+        .all(|v| v.is_finite())
+        .then_some((x, determinant / scales))
+}
+
+/// [`solve_small`] of two rows and columns, by Cramer's rule (the pose of a planar two-leg
+/// mechanism: a block near enough to singular for Cramer's rule to lose accuracy is left to the
+/// stacked solve anyway, [`NEAR_SINGULAR`]).
+fn solve_two(a: &[[f64; 6]; 6], b: &[f64; 6]) -> Option<([f64; 6], f64)> {
+    let ([a00, a01], [a10, a11]) = ([a[0][0], a[0][1]], [a[1][0], a[1][1]]);
+    let determinant = a00 * a11 - a01 * a10;
+    if determinant == 0.0 {
+        return None;
+    }
+    let mut x = [0.0; 6];
+    x[0] = (b[0] * a11 - a01 * b[1]) / determinant;
+    x[1] = (a00 * b[1] - a10 * b[0]) / determinant;
+    let norm = |p: f64, q: f64| (p * p + q * q).sqrt().max(f64::MIN_POSITIVE);
+    let scales = norm(a00, a10) * norm(a01, a11);
     x.iter()
         .all(|v| v.is_finite())
         .then_some((x, determinant / scales))
@@ -393,5 +415,16 @@ mod tests {
         a[1][0] = 0.0;
         a[1][1] = 0.0;
         assert!(solve_small(a, b, 2).is_none());
+        // Three rows, by elimination with pivoting: [[0, 1, 0], [2, 0, 0], [0, 0, 4]] x =
+        // [1, 4, 8]: x = [2, 1, 2]; det −8 over column norms 2, 1 and 4.
+        let mut a = [[0.0; 6]; 6];
+        (a[0][1], a[1][0], a[2][2]) = (1.0, 2.0, 4.0);
+        let mut b = [0.0; 6];
+        (b[0], b[1], b[2]) = (1.0, 4.0, 8.0);
+        let (x, determinant) = solve_small(a, b, 3).unwrap();
+        assert_eq!(&x[..3], &[2.0, 1.0, 2.0]);
+        assert!((determinant + 1.0).abs() < 1e-15, "{determinant}");
+        a[2][2] = 0.0;
+        assert!(solve_small(a, b, 3).is_none());
     }
 }
