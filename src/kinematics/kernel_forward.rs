@@ -239,9 +239,13 @@ impl KernelForward {
             }
             // Converging quadratically, the next step would be about (this / previous²) ×
             // this²: at round-off, this step has landed (the joints and the determinant are
-            // the last evaluation's, a round-off step away).
+            // the last evaluation's, a round-off step away). The first step has no previous
+            // one to predict from: it may land only in the lean evaluation (an accuracy map's,
+            // started at the pose itself); a configuration handed back (a forward row's, whose
+            // derivatives are taken there) is closed until a step is at round-off.
             let next = largest * largest * (largest / (previous * previous));
-            if largest <= LANDING && next <= LANDED {
+            let predicted = previous.is_finite() || joints.is_none();
+            if largest <= LANDING && next <= LANDED && predicted {
                 return accepted;
             }
             previous = largest;

@@ -1,7 +1,9 @@
 //! Kinematics as free functions over the immutable model, generic over the scalar.
 mod arc_tangent;
 pub mod assembly;
+pub mod carriage_leg;
 pub mod chain;
+pub mod distance_leg;
 pub mod dyad;
 pub mod inverse;
 pub mod kernel;
@@ -9,6 +11,7 @@ mod kernel_forward;
 pub use kernel_forward::KernelRows;
 mod newton_stop;
 pub mod platform;
+pub mod pointing;
 mod pose_derivative;
 pub mod reading;
 pub mod singularity;

@@ -58,6 +58,7 @@ mod pipeline;
 mod plots;
 mod printer_study;
 mod priors;
+mod prismatic_kernels;
 mod recovery;
 mod report_schema;
 mod robust_stationarity;
