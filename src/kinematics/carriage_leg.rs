@@ -57,8 +57,6 @@ pub struct CarriageFrame<T> {
 struct Solved {
     /// The carriage.
     q: f64,
-    /// The rod `P − K(q)`.
-    rod: Vector3<f64>,
     pointed: Pointed,
     jacobian: Matrix3<f64>,
     determinant: f64,
@@ -177,7 +175,6 @@ impl CarriageLeg {
         }
         Some(Solved {
             q,
-            rod,
             pointed,
             jacobian,
             determinant,
@@ -214,18 +211,24 @@ impl CarriageLeg {
     }
 
     /// The carriage `q` at `target` and the actuated row of the closure Jacobian's inverse
-    /// there (`r / (r·v)`, `r` the rod); `None` where [`Self::solve`] leaves the pose to the
-    /// generic solve.
+    /// there (`r / (r·v)`, `r` the rod), without the universal joint's angles: the reach-limit
+    /// test on the normalised determinant's magnitude `|v·u|` times
+    /// [`Pointing::conditioning`] (on the working mode by construction: the side is picked
+    /// for it). `None` where [`Self::solve`] leaves the pose to the generic solve (to
+    /// round-off at the threshold).
     pub fn actuated_row(
         &self,
         frame: &CarriageFrame<f64>,
         target: &Vector3<f64>,
     ) -> Option<(f64, [f64; 3])> {
-        let Solved { q, rod, .. } = self.solved(frame, target)?;
+        let (q, e) = self.carriage(frame, target)?;
         let v = Vector3::from(frame.direction);
-        let row = rod / rod.dot(&v);
-        row.iter()
-            .all(|x| x.is_finite())
+        let rod = Vector3::from(e) - v * q;
+        let along = rod.dot(&v);
+        let u = rod / frame.squared_rod.sqrt();
+        let conditioning = frame.pointing.conditioning(&u)? * u.dot(&v).abs();
+        let row = rod / along;
+        (conditioning > SINGULAR_DETERMINANT && row.iter().all(|x| x.is_finite()))
             .then_some((q, [row[0], row[1], row[2]]))
     }
 

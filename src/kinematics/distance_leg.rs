@@ -240,16 +240,22 @@ impl DistanceLeg {
     }
 
     /// The actuated joint `ρ` at `target` and the actuated row of the closure Jacobian's
-    /// inverse there (`σ (P − C) / |P − C|`: the prismatic axis' world direction); `None` where
-    /// [`Self::solve`] leaves the pose to the generic solve.
+    /// inverse there (`σ (P − C) / |P − C|`: the prismatic axis' world direction), without the
+    /// passive joints: the reach-limit test on the normalised determinant's magnitude
+    /// ([`Pointing::conditioning`]; on the working mode by construction: its sign is the
+    /// side's). `None` where [`Self::solve`] leaves the pose to the generic solve (to
+    /// round-off at the threshold).
     pub fn actuated_row(
         &self,
         frame: &DistanceFrame<f64>,
         target: &Vector3<f64>,
     ) -> Option<(f64, [f64; 3])> {
-        let (length, _, jacobian, _) = self.solved(frame, target)?;
-        let u = jacobian.column(self.dims() - 1);
-        Some((length, [u[0], u[1], u[2]]))
+        let (e, distance) = self.reach(frame, target)?;
+        let u = Vector3::from(e) * (self.sigma / distance);
+        let length = self.sigma * distance - frame.offset;
+        let conditioning = frame.pointing.conditioning(&u)?;
+        (conditioning > SINGULAR_DETERMINANT && length.is_finite())
+            .then_some((length, [u[0], u[1], u[2]]))
     }
 
     /// `ρ = σ |P − C| − s` in `T` (exact derivatives with respect to whatever the frame and the

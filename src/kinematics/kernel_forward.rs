@@ -155,7 +155,7 @@ impl KernelForward {
         &self,
         readings: &[f64],
         pose: &mut [f64; 6],
-        mut joints: Option<&mut [Joints]>,
+        joints: Option<&mut [Joints]>,
         size: f64,
         first: Option<&KernelRows>,
     ) -> Option<f64> {
@@ -173,6 +173,9 @@ impl KernelForward {
         };
         let mut first = first.filter(same_start);
         let mut previous = f64::INFINITY;
+        // The legs' attachment points at the last evaluation: where the joints handed back
+        // are solved (a round-off step from the pose returned).
+        let mut targets = [Vector3::zeros(); 6];
         for _ in 0..MAX_ITERATIONS {
             let platform = platform_transform_f64(pose);
             // The platform's derivatives: constant unless an angle is measured.
@@ -188,21 +191,13 @@ impl KernelForward {
             let mut residual = [0.0; 6];
             for (l, leg) in self.legs.iter().enumerate() {
                 let target = attachment_on(&platform, &leg.attachment);
-                let (a, revolute) = leg.actuated;
+                let (_, revolute) = leg.actuated;
                 let wanted = leg.actuator.0 * readings[l] + leg.actuator.1;
-                let (actuated, row) = match joints.as_deref_mut() {
-                    Some(joints) => {
-                        let solution = leg.kernel.solve(&target, &leg.home)?;
-                        joints[l] = solution.q;
-                        joints[l][a] = wanted;
-                        let inverse = &solution.closure_inverse;
-                        (solution.q[a], [0, 1, 2].map(|d| inverse[(a, d)]))
-                    }
-                    None => match first {
-                        Some(rows) => rows.rows[l]?,
-                        None => leg.kernel.actuated_row(&target)?,
-                    },
+                let (actuated, row) = match first {
+                    Some(rows) => rows.rows[l]?,
+                    None => leg.kernel.actuated_row(&target)?,
                 };
+                targets[l] = target;
                 let difference = actuated - wanted;
                 residual[l] = if revolute {
                     wrap_angle(difference)
@@ -232,7 +227,7 @@ impl KernelForward {
             }
             let accepted = (determinant.abs() > NEAR_SINGULAR).then_some(determinant);
             if !beyond_round_off(&unknowns[..m], &step[..m]) {
-                return accepted;
+                return self.with_joints(accepted?, readings, &targets, joints);
             }
             for (k, &c) in self.measured.iter().enumerate() {
                 pose[c] -= step[k];
@@ -246,11 +241,33 @@ impl KernelForward {
             let next = largest * largest * (largest / (previous * previous));
             let predicted = previous.is_finite() || joints.is_none();
             if largest <= LANDING && next <= LANDED && predicted {
-                return accepted;
+                return self.with_joints(accepted?, readings, &targets, joints);
             }
             previous = largest;
         }
         None
+    }
+}
+
+impl KernelForward {
+    /// `determinant`, with every leg's joints solved at its attachment point `targets[l]`
+    /// written into `joints` when asked for (the actuated joint at its reading's value);
+    /// `None` if a leg's kernel leaves its target to the generic solve.
+    fn with_joints(
+        &self,
+        determinant: f64,
+        readings: &[f64],
+        targets: &[Vector3<f64>; 6],
+        joints: Option<&mut [Joints]>,
+    ) -> Option<f64> {
+        if let Some(joints) = joints {
+            for (l, leg) in self.legs.iter().enumerate() {
+                let solution = leg.kernel.solve(&targets[l], &leg.home)?;
+                joints[l] = solution.q;
+                joints[l][leg.actuated.0] = leg.actuator.0 * readings[l] + leg.actuator.1;
+            }
+        }
+        Some(determinant)
     }
 }
 

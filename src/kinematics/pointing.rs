@@ -104,6 +104,35 @@ impl Pointing {
         };
         (angles.iter().all(|a| a.is_finite()) && h > 0.0).then_some(pointed)
     }
+
+    /// How far the revolutes are from losing a direction of motion when the link points along
+    /// the world unit `direction`: `|γ| |w₁ × w₂|² / (|w₁ × u| |w₂ × u|)` with two revolutes
+    /// (the magnitude of the normalised determinant of the columns `ωₖ × u` and `u`, whichever
+    /// side [`Self::solve`] takes: a universal joint's singularity at zero), 1 with one
+    /// revolute in the plane (its column is across the link). The same numbers as
+    /// [`Self::solve`] without its angles; `None` where it finds none.
+    pub fn conditioning(&self, direction: &Vector3<f64>) -> Option<f64> {
+        let Some(w2) = self.second else {
+            return Some(1.0);
+        };
+        let wanted = self.frame.tr_mul(direction);
+        let w1 = self.first;
+        let k = w1.dot(&w2);
+        let n = 1.0 - k * k;
+        if n.is_nan() || n <= PARALLEL_AXES {
+            return None;
+        }
+        let (p1, p2) = (w1.dot(&wanted), w2.dot(&self.pointer));
+        let alpha = (p1 - k * p2) / n;
+        let beta = (p2 - k * p1) / n;
+        let across2 = (1.0 - alpha * alpha - beta * beta - 2.0 * alpha * beta * k) / n;
+        // |ωₖ × u|² = 1 − (ωₖ · u)²: ω₁ · u = w₁ · wanted, ω₂ · u = w₂ · c = w₂ · pointer.
+        let sines = (1.0 - p1 * p1) * (1.0 - p2 * p2);
+        if across2.is_nan() || across2 <= 0.0 || sines.is_nan() || sines <= 0.0 {
+            return None;
+        }
+        Some((across2 / sines).sqrt() * n)
+    }
 }
 
 /// The sine and cosine sides (unnormalised) of the angle turning `from` onto `to` about the
