@@ -43,6 +43,7 @@ mod instrument_trust;
 mod inverse_kinematics;
 mod jacobian;
 mod kernel_forward;
+mod kernel_forward_spatial;
 mod kernels;
 mod kinematics;
 mod klipper_printer;
