@@ -150,13 +150,15 @@ impl KernelForward {
     /// `None` where the stacked solve must decide; `pose` and `joints` are then partly moved
     /// and must not be used. `first`: the legs' rows at the start (the same numbers
     /// [`Self::rows_at`] gives there), used for the first iteration when they were evaluated
-    /// at exactly `pose` and the joints are not asked for.
+    /// at exactly `pose` and the joints are not asked for. `exact`: without the joints too,
+    /// closed as when they are (no landing on the first step: a forward row's pose, whose
+    /// derivatives are taken there).
     pub(crate) fn newton(
         &self,
         readings: &[f64],
         pose: &mut [f64; 6],
         joints: Option<&mut [Joints]>,
-        size: f64,
+        (size, exact): (f64, bool),
         first: Option<&KernelRows>,
     ) -> Option<f64> {
         let m = self.measured.len();
@@ -239,7 +241,7 @@ impl KernelForward {
             // started at the pose itself); a configuration handed back (a forward row's, whose
             // derivatives are taken there) is closed until a step is at round-off.
             let next = largest * largest * (largest / (previous * previous));
-            let predicted = previous.is_finite() || joints.is_none();
+            let predicted = previous.is_finite() || (joints.is_none() && !exact);
             if largest <= LANDING && next <= LANDED && predicted {
                 return self.with_joints(accepted?, readings, &targets, joints);
             }
