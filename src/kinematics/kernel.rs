@@ -73,6 +73,7 @@ impl LegKernel {
 impl PreparedKernel<f64> {
     /// The solution reaching `target` (the world position of the leg's attachment at the
     /// pose), joints in the 2π window centred on `seed`; `None`: left to the generic solve.
+    #[inline]
     pub fn solve(&self, target: &Vector3<f64>, seed: &Joints) -> Option<Solution> {
         match (&self.kernel, &self.frame) {
             (LegKernel::Dyad(dyad), KernelFrame::Dyad(frame)) => dyad.solve(frame, target, seed),
@@ -90,6 +91,7 @@ impl PreparedKernel<f64> {
     /// of the closure Jacobian's inverse there, without the passive joints: what a forward
     /// solve needs from a leg. `None` where [`Self::solve`] would leave the pose to the generic
     /// solve.
+    #[inline]
     pub fn actuated_row(&self, target: &Vector3<f64>) -> Option<(f64, [f64; 3])> {
         match (&self.kernel, &self.frame) {
             (LegKernel::Dyad(dyad), KernelFrame::Dyad(frame)) => dyad.actuated_row(frame, target),
@@ -190,6 +192,7 @@ impl<T: Scalar> PreparedKernel<T> {
     /// The numbers the kernel's frame holds (in `T`): the inputs
     /// [`PreparedKernel::actuated_partials`] differentiates by ([`super::dyad::DyadFrame::scalars`],
     /// [`super::distance_leg::DistanceFrame::scalars`]; zeros for a kernel without partials).
+    #[inline]
     pub fn frame_scalars(&self) -> [T; 8] {
         match &self.frame {
             KernelFrame::Dyad(frame) => frame.scalars(),
@@ -204,6 +207,7 @@ impl<T: Scalar> PreparedKernel<T> {
     /// ([`Dyad::actuated_partials`], [`DistanceLeg::actuated_partials`]); `None` where the
     /// closed form fails or the kernel has no such partials (a spatial kernel: the target's z
     /// is not among the inputs), then the caller takes [`Self::reading`] in its scalar.
+    #[inline]
     pub fn actuated_partials(
         &self,
         frame: &[f64; 8],
@@ -220,6 +224,7 @@ impl<T: Scalar> PreparedKernel<T> {
     /// The predicted reading `(q_actuated − offset) / gain` at `target` (in `T`), on the turn
     /// of `solution` (the f64 solution of the same pose); `None` if the closed form fails in
     /// `T`'s value part (the caller then takes the generic derivative step).
+    #[inline]
     pub fn reading(
         &self,
         actuator: &LegGeometry<T>,
