@@ -544,6 +544,7 @@ fn closure_error(tip: &Vector3<f64>, target: &Vector3<f64>, dims: usize) -> Vect
 }
 
 /// Inverse of the top-left `dims × dims` block (zero elsewhere), or None if singular.
+#[inline]
 pub(crate) fn invert(jacobian: &Matrix3<f64>, dims: usize) -> Option<Matrix3<f64>> {
     let mut inverse = Matrix3::zeros();
     match dims {
@@ -561,6 +562,7 @@ pub(crate) fn invert(jacobian: &Matrix3<f64>, dims: usize) -> Option<Matrix3<f64
 
 /// Determinant of the `dims × dims` block with unit-norm columns (scale-free, in [−1, 1]), as
 /// the determinant of that block completed by the identity (no heap).
+#[inline]
 pub(crate) fn normalised_determinant(jacobian: &Matrix3<f64>, dims: usize) -> f64 {
     let mut block = Matrix3::identity();
     for c in 0..dims {

@@ -10,18 +10,26 @@
 
 use nalgebra::Vector3;
 
+use super::carriage_leg::{CarriageFrame, CarriageLeg};
 use super::chain::ChainFrames;
+use super::distance_leg::{DistanceFrame, DistanceLeg};
 use super::dyad::{on_turn_of, Dyad, DyadFrame};
 use super::inverse::{joints, solve_warm, Joints, Solution};
 use crate::error::KinematicsError;
 use crate::model::leg::{LegGeometry, LegModel};
-use crate::scalar::Scalar;
+use crate::scalar::{lift, Scalar};
 
 /// A recognised closed-form pattern.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub enum LegKernel {
     /// A planar two-revolute dyad reaching a point ([`super::dyad`]).
     Dyad(Dyad),
+    /// Revolutes meeting at a base point, then the actuated prismatic joint through it: a
+    /// distance ([`super::distance_leg`]).
+    Distance(DistanceLeg),
+    /// The actuated carriage, then a universal joint and a rod: a square root
+    /// ([`super::carriage_leg`]).
+    Carriage(CarriageLeg),
 }
 
 /// A kernel prepared at one parameter vector, in scalar `T`.
@@ -35,18 +43,25 @@ pub struct PreparedKernel<T> {
 #[derive(Debug, Clone, Copy)]
 enum KernelFrame<T> {
     Dyad(DyadFrame<T>),
+    Distance(DistanceFrame<T>),
+    Carriage(CarriageFrame<T>),
 }
 
 impl LegKernel {
     /// The closed-form pattern `leg`'s chain matches exactly, if any.
     pub fn recognise(leg: &LegModel) -> Option<Self> {
-        Dyad::recognise(leg).map(Self::Dyad)
+        Dyad::recognise(leg)
+            .map(Self::Dyad)
+            .or_else(|| DistanceLeg::recognise(leg).map(Self::Distance))
+            .or_else(|| CarriageLeg::recognise(leg).map(Self::Carriage))
     }
 
     /// The kernel prepared at `geometry` (the leg's geometry at one parameter vector).
     pub fn prepare<T: Scalar>(&self, geometry: &LegGeometry<T>) -> PreparedKernel<T> {
         let frame = match self {
             Self::Dyad(dyad) => KernelFrame::Dyad(dyad.frame(geometry)),
+            Self::Distance(leg) => KernelFrame::Distance(leg.frame(geometry)),
+            Self::Carriage(leg) => KernelFrame::Carriage(leg.frame(geometry)),
         };
         PreparedKernel {
             kernel: *self,
@@ -58,9 +73,17 @@ impl LegKernel {
 impl PreparedKernel<f64> {
     /// The solution reaching `target` (the world position of the leg's attachment at the
     /// pose), joints in the 2π window centred on `seed`; `None`: left to the generic solve.
+    #[inline]
     pub fn solve(&self, target: &Vector3<f64>, seed: &Joints) -> Option<Solution> {
         match (&self.kernel, &self.frame) {
             (LegKernel::Dyad(dyad), KernelFrame::Dyad(frame)) => dyad.solve(frame, target, seed),
+            (LegKernel::Distance(leg), KernelFrame::Distance(frame)) => {
+                leg.solve(frame, target, seed)
+            }
+            (LegKernel::Carriage(leg), KernelFrame::Carriage(frame)) => {
+                leg.solve(frame, target, seed)
+            }
+            _ => None,
         }
     }
 
@@ -68,9 +91,17 @@ impl PreparedKernel<f64> {
     /// of the closure Jacobian's inverse there, without the passive joints: what a forward
     /// solve needs from a leg. `None` where [`Self::solve`] would leave the pose to the generic
     /// solve.
+    #[inline]
     pub fn actuated_row(&self, target: &Vector3<f64>) -> Option<(f64, [f64; 3])> {
         match (&self.kernel, &self.frame) {
             (LegKernel::Dyad(dyad), KernelFrame::Dyad(frame)) => dyad.actuated_row(frame, target),
+            (LegKernel::Distance(leg), KernelFrame::Distance(frame)) => {
+                leg.actuated_row(frame, target)
+            }
+            (LegKernel::Carriage(leg), KernelFrame::Carriage(frame)) => {
+                leg.actuated_row(frame, target)
+            }
+            _ => None,
         }
     }
 }
@@ -82,6 +113,7 @@ impl PreparedKernel<f64> {
     pub(crate) fn tip_circle(&self, actuated: f64) -> Option<([f64; 2], f64)> {
         match (&self.kernel, &self.frame) {
             (LegKernel::Dyad(dyad), KernelFrame::Dyad(frame)) => dyad.elbow_circle(frame, actuated),
+            _ => None,
         }
     }
 }
@@ -158,26 +190,36 @@ impl LegInverse<'_> {
     /// passive joints (one arc tangent). `None` for a leg without a kernel, or where the kernel
     /// leaves the pose to the generic solve (then call [`Self::solve_warm`]).
     pub fn actuated(&self, target: &Vector3<f64>, seed: Option<&Joints>) -> Option<f64> {
-        let (rotation, _) = self.kernel.as_ref()?.actuated_row(target)?;
+        let (value, _) = self.kernel.as_ref()?.actuated_row(target)?;
+        if !self.leg.actuated_is_revolute() {
+            return Some(value);
+        }
         let a = self.leg.actuated;
         let seed = seed.map_or_else(|| self.leg.home_joints[a], |seed| seed[a]);
-        Some(on_turn_of(rotation, seed))
+        Some(on_turn_of(value, seed))
     }
 }
 
 impl<T: Scalar> PreparedKernel<T> {
     /// The numbers the kernel's frame holds (in `T`): the inputs
-    /// [`PreparedKernel::actuated_partials`] differentiates by ([`super::dyad::DyadFrame::scalars`]).
+    /// [`PreparedKernel::actuated_partials`] differentiates by ([`super::dyad::DyadFrame::scalars`],
+    /// [`super::distance_leg::DistanceFrame::scalars`]; zeros for a kernel without partials).
+    #[inline]
     pub fn frame_scalars(&self) -> [T; 8] {
         match &self.frame {
             KernelFrame::Dyad(frame) => frame.scalars(),
+            KernelFrame::Distance(frame) => frame.scalars(),
+            KernelFrame::Carriage(_) => [lift::<T>(0.0); 8],
         }
     }
 
     /// The actuated joint at the world `(x, y)` `target` from the frame's numbers `frame`
     /// (the value parts of [`Self::frame_scalars`]), on the turn of `solution`, with its
     /// partial derivatives with respect to the frame's numbers and the target's two
-    /// ([`Dyad::actuated_partials`]); `None` where the closed form fails.
+    /// ([`Dyad::actuated_partials`], [`DistanceLeg::actuated_partials`]); `None` where the
+    /// closed form fails or the kernel has no such partials (a spatial kernel: the target's z
+    /// is not among the inputs), then the caller takes [`Self::reading`] in its scalar.
+    #[inline]
     pub fn actuated_partials(
         &self,
         frame: &[f64; 8],
@@ -186,12 +228,15 @@ impl<T: Scalar> PreparedKernel<T> {
     ) -> Option<(f64, [f64; 10])> {
         match &self.kernel {
             LegKernel::Dyad(dyad) => dyad.actuated_partials(frame, target, solution),
+            LegKernel::Distance(leg) => leg.actuated_partials(frame, target),
+            LegKernel::Carriage(_) => None,
         }
     }
 
     /// The predicted reading `(q_actuated − offset) / gain` at `target` (in `T`), on the turn
     /// of `solution` (the f64 solution of the same pose); `None` if the closed form fails in
     /// `T`'s value part (the caller then takes the generic derivative step).
+    #[inline]
     pub fn reading(
         &self,
         actuator: &LegGeometry<T>,
@@ -202,6 +247,13 @@ impl<T: Scalar> PreparedKernel<T> {
             (LegKernel::Dyad(dyad), KernelFrame::Dyad(frame)) => {
                 dyad.actuated(frame, target, solution)?
             }
+            (LegKernel::Distance(leg), KernelFrame::Distance(frame)) => {
+                leg.actuated(frame, target)?
+            }
+            (LegKernel::Carriage(leg), KernelFrame::Carriage(frame)) => {
+                leg.actuated(frame, target)?
+            }
+            _ => return None,
         };
         Some((actuated - actuator.offset) / actuator.gain)
     }

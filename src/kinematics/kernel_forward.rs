@@ -186,13 +186,15 @@ impl KernelForward {
     /// `None` where the stacked solve must decide; `pose` and `joints` are then partly moved
     /// and must not be used. `first`: the legs' rows at the start (the same numbers
     /// [`Self::rows_at`] gives there), used for the first iteration when they were evaluated
-    /// at exactly `pose` and the joints are not asked for.
+    /// at exactly `pose` and the joints are not asked for. `exact`: without the joints too,
+    /// closed as when they are (no landing on the first step: a forward row's pose, whose
+    /// derivatives are taken there).
     pub(crate) fn newton(
         &self,
         readings: &[f64],
         pose: &mut [f64; 6],
-        mut joints: Option<&mut [Joints]>,
-        size: f64,
+        joints: Option<&mut [Joints]>,
+        (size, exact): (f64, bool),
         first: Option<&KernelRows>,
     ) -> Option<f64> {
         let m = self.measured.len();
@@ -216,6 +218,9 @@ impl KernelForward {
         };
         let mut first = first.filter(same_start);
         let mut previous = f64::INFINITY;
+        // The legs' attachment points at the last evaluation: where the joints handed back
+        // are solved (a round-off step from the pose returned).
+        let mut targets = [Vector3::zeros(); 6];
         for _ in 0..MAX_ITERATIONS {
             let platform = platform_transform_f64(pose);
             // The platform's derivatives: constant unless an angle is measured.
@@ -231,21 +236,13 @@ impl KernelForward {
             let mut residual = [0.0; 6];
             for (l, leg) in self.legs.iter().enumerate() {
                 let target = attachment_on(&platform, &leg.attachment);
-                let (a, revolute) = leg.actuated;
+                let (_, revolute) = leg.actuated;
                 let wanted = leg.actuator.0 * readings[l] + leg.actuator.1;
-                let (actuated, row) = match joints.as_deref_mut() {
-                    Some(joints) => {
-                        let solution = leg.kernel.solve(&target, &leg.home)?;
-                        joints[l] = solution.q;
-                        joints[l][a] = wanted;
-                        let inverse = &solution.closure_inverse;
-                        (solution.q[a], [0, 1, 2].map(|d| inverse[(a, d)]))
-                    }
-                    None => match first {
-                        Some(rows) => rows.rows[l]?,
-                        None => leg.kernel.actuated_row(&target)?,
-                    },
+                let (actuated, row) = match first {
+                    Some(rows) => rows.rows[l]?,
+                    None => leg.kernel.actuated_row(&target)?,
                 };
+                targets[l] = target;
                 let difference = actuated - wanted;
                 residual[l] = if revolute {
                     wrap_angle(difference)
@@ -275,21 +272,47 @@ impl KernelForward {
             }
             let accepted = (determinant.abs() > NEAR_SINGULAR).then_some(determinant);
             if !beyond_round_off(&unknowns[..m], &step[..m]) {
-                return accepted;
+                return self.with_joints(accepted?, readings, &targets, joints);
             }
             for (k, &c) in self.measured.iter().enumerate() {
                 pose[c] -= step[k];
             }
             // Converging quadratically, the next step would be about (this / previous²) ×
             // this²: at round-off, this step has landed (the joints and the determinant are
-            // the last evaluation's, a round-off step away).
+            // the last evaluation's, a round-off step away). The first step has no previous
+            // one to predict from: it may land only in the lean evaluation (an accuracy map's,
+            // started at the pose itself); a configuration handed back (a forward row's, whose
+            // derivatives are taken there) is closed until a step is at round-off.
             let next = largest * largest * (largest / (previous * previous));
-            if largest <= LANDING && next <= LANDED {
-                return accepted;
+            let predicted = previous.is_finite() || (joints.is_none() && !exact);
+            if largest <= LANDING && next <= LANDED && predicted {
+                return self.with_joints(accepted?, readings, &targets, joints);
             }
             previous = largest;
         }
         None
+    }
+}
+
+impl KernelForward {
+    /// `determinant`, with every leg's joints solved at its attachment point `targets[l]`
+    /// written into `joints` when asked for (the actuated joint at its reading's value);
+    /// `None` if a leg's kernel leaves its target to the generic solve.
+    fn with_joints(
+        &self,
+        determinant: f64,
+        readings: &[f64],
+        targets: &[Vector3<f64>; 6],
+        joints: Option<&mut [Joints]>,
+    ) -> Option<f64> {
+        if let Some(joints) = joints {
+            for (l, leg) in self.legs.iter().enumerate() {
+                let solution = leg.kernel.solve(&targets[l], &leg.home)?;
+                joints[l] = solution.q;
+                joints[l][leg.actuated.0] = leg.actuator.0 * readings[l] + leg.actuator.1;
+            }
+        }
+        Some(determinant)
     }
 }
 

@@ -8,10 +8,11 @@
 use nalgebra::{DMatrix, DVector, Vector3};
 
 use super::chain::{attachment_on, platform_transform, ChainFrames};
-use super::inverse::{joints, predict_reading, wrap_angle, Joints};
+use super::inverse::{joints, wrap_angle, Joints};
 use super::kernel_forward::{KernelForward, KernelRows};
 use super::newton_stop::converged;
 use super::pose_derivative::pose_derivatives;
+use super::reading::ReadingPredictor;
 use crate::error::KinematicsError;
 use crate::model::joint::JointKind;
 use crate::model::leg::LegGeometry;
@@ -162,7 +163,9 @@ impl<'m> ForwardKinematics<'m> {
             .legs
             .iter()
             .zip(params)
-            .map(|(leg, phi)| predict_reading(leg, phi, &home, &home))
+            // Through a leg's kernel where it has one (the generic chain's reading to
+            // round-off), as a simulation predicts it.
+            .map(|(leg, phi)| ReadingPredictor::new(leg, phi).predict(&home, &home))
             .collect::<Result<_, _>>()?;
         let mut start = self.home_configuration();
         let sign = self.newton(&home_readings, &mut start)?.signum();
@@ -176,7 +179,8 @@ impl<'m> ForwardKinematics<'m> {
         let kernel = KernelForward::new(self.mechanism, &self.geometries)?;
         let mut start = self.home_configuration();
         let joints = Some(start.joints.as_mut_slice());
-        let determinant = kernel.newton(home_readings, &mut start.pose, joints, size, None)?;
+        let determinant =
+            kernel.newton(home_readings, &mut start.pose, joints, (size, false), None)?;
         Some((kernel, determinant.signum()))
     }
 
@@ -237,7 +241,9 @@ impl<'m> ForwardKinematics<'m> {
         if let Some((kernel, kernel_home_sign)) = &self.kernel {
             let (mut pose, mut joints) = (start.pose, start.joints.clone());
             let size = 1e3 * self.smallest_size;
-            if let Some(sign) = kernel.newton(readings, &mut pose, Some(&mut joints), size, None) {
+            if let Some(sign) =
+                kernel.newton(readings, &mut pose, Some(&mut joints), (size, false), None)
+            {
                 if same_mode(sign, *kernel_home_sign) {
                     start.pose = pose;
                     start.joints = joints;
@@ -253,6 +259,33 @@ impl<'m> ForwardKinematics<'m> {
             }
         }
         self.solve(readings)
+    }
+
+    /// The pose reached for `readings` from `start`, as [`Self::solve_near`] finds it (the
+    /// same pose, bit for bit), left in `start`: through the legs' kernels only the pose is
+    /// closed and `start`'s joints are kept (the seed of a later stacked solve); through the
+    /// stacked Newton the configuration is handed back as [`Self::solve_near`] does. A forward
+    /// row's solve, whose legs are solved again at the pose for their derivatives.
+    ///
+    /// # Errors
+    /// As [`forward`].
+    pub fn solve_near_closed(
+        &self,
+        readings: &[f64],
+        start: &mut Configuration,
+    ) -> Result<[f64; 6], KinematicsError> {
+        self.home.as_ref().map_err(Clone::clone)?;
+        if let Some((kernel, kernel_home_sign)) = &self.kernel {
+            let mut pose = start.pose;
+            let size = 1e3 * self.smallest_size;
+            if let Some(sign) = kernel.newton(readings, &mut pose, None, (size, true), None) {
+                if same_mode(sign, *kernel_home_sign) {
+                    start.pose = pose;
+                    return Ok(pose);
+                }
+            }
+        }
+        self.solve_near(readings, start)
     }
 
     /// The pose reached for `readings` from `start`, as [`Self::solve_near`] finds it, without
@@ -296,7 +329,7 @@ impl<'m> ForwardKinematics<'m> {
         if let Some((kernel, kernel_home_sign)) = &self.kernel {
             let mut pose = start.pose;
             let size = 1e3 * self.smallest_size;
-            if let Some(sign) = kernel.newton(readings, &mut pose, None, size, first) {
+            if let Some(sign) = kernel.newton(readings, &mut pose, None, (size, false), first) {
                 if same_mode(sign, *kernel_home_sign) {
                     return Ok(pose);
                 }

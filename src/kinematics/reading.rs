@@ -46,8 +46,13 @@ impl<'a> ReadingPredictor<'a> {
     pub fn predict(&self, pose: &[f64; 6], home_pose: &[f64; 6]) -> Result<f64, KinematicsError> {
         let (leg, geometry) = (self.leg, &self.geometry);
         let target = attachment_world(pose, &geometry.attachment);
-        if let Some((rotation, _)) = self.kernel.and_then(|k| k.actuated_row(&target)) {
-            let actuated = on_turn_of(rotation, leg.home_joints[leg.actuated]);
+        if let Some((value, _)) = self.kernel.and_then(|k| k.actuated_row(&target)) {
+            // A revolute's angle on the home turn; a prismatic joint's length as it is.
+            let actuated = if leg.actuated_is_revolute() {
+                on_turn_of(value, leg.home_joints[leg.actuated])
+            } else {
+                value
+            };
             return Ok((actuated - geometry.offset) / geometry.gain);
         }
         let solution = solve_from_home(leg, geometry, &self.frames, pose, home_pose)?;

@@ -257,12 +257,20 @@ fn a_problem_is_weighted_only_with_weights() {
 /// Each row's solve is warm-started from its solution at the previous evaluation: the problem's
 /// solutions at x₂ after x₁ are, bit for bit, Newton's from the x₁ solutions; from home they
 /// differ in the last bits on some rows (the start leaves its trace at round-off). On a leg of
-/// the generic chain (the 3-RPR's): the 5R's legs are solved in closed form, where the start
-/// picks only the joints' turn (`tests/it/kernels.rs`).
+/// the generic chain: every bundled leg is solved in closed form, where the start picks only
+/// the joints' turn (`tests/it/kernels.rs`), so the 3-RPR's prismatic lines are moved 1 mm
+/// beside their base revolutes (no kernel's pattern).
 #[test]
 fn each_row_is_warm_started_from_its_previous_solution() {
     use legwise::identify::jacobian::PreparedLeg;
-    let mech = bundled("3rpr.yaml");
+    use legwise::kinematics::kernel::LegKernel;
+    let mech = bundled("3rpr.yaml").edited(|parts| {
+        for leg in &mut parts.legs {
+            let prismatic = leg.moving[1];
+            leg.joints[prismatic].origin[1] = 1e-3;
+        }
+    });
+    assert!(mech.legs.iter().all(|l| LegKernel::recognise(l).is_none()));
     let problem = leg_problem(&mech, 30, 1);
     let [x1, x2, _] = three_points(&problem);
     problem.residuals(&x1).unwrap();

@@ -214,7 +214,10 @@ fn the_json_full_covariance_reproduces_every_std_and_a_derived_sigma() {
                 matrix[(i, i)].sqrt()
             );
         }
-        assert!((&matrix - matrix.transpose()).amax() <= 1e-12 * matrix.amax());
+        // Symmetric to round-off: 6.9e-13 of its largest entry on the delta's design of main
+        // c16f3c2, 1.2e-12 on its mirror image (x → −x), which the D-optimal selection picks
+        // since the delta's legs are solved in closed form (a tie broken by round-off).
+        assert!((&matrix - matrix.transpose()).amax() <= 4e-12 * matrix.amax());
         // A derived quantity: the difference of the first two parameters, its σ from the
         // matrix against the report's own covariance of the fit.
         let fit = report.results[0]

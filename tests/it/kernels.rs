@@ -198,7 +198,7 @@ fn close(a: f64, b: f64, scale: f64, tolerance: f64) -> bool {
 /// The property tests' set-up: `LEGWISE_KERNEL_CASES` cases (256), drawn from the fixed seed
 /// `LEGWISE_KERNEL_SEED` (1), so that a CI run is the run a developer repeats; another seed
 /// explores other dyads.
-fn config() -> Config {
+pub(crate) fn config() -> Config {
     let cases = std::env::var("LEGWISE_KERNEL_CASES")
         .ok()
         .and_then(|v| v.parse().ok())
@@ -376,28 +376,70 @@ proptest! {
     }
 }
 
-/// Only exact patterns are recognised: the bundled 5R's legs are dyads, no leg of another
-/// bundled model is (a prismatic joint, three moving joints), and a dyad with a tilted elbow
-/// (a non-planar chain) or a parameter on an origin's roll is not.
+/// Only exact patterns are recognised: every bundled leg has a kernel (the 5R's legs are dyads,
+/// the 3-RPR's and the hexapod's distance legs, the delta's carriage legs), and a dyad with a
+/// tilted elbow (a non-planar chain) or a parameter on an origin's roll is not; nor is a
+/// distance leg with an offset between its revolute and its prismatic joint or a parameter
+/// across its line, nor a carriage leg whose revolutes do not meet.
 #[test]
 fn only_exact_patterns_are_recognised() {
-    for mechanism in bundled_models() {
+    let models = bundled_models();
+    for mechanism in &models {
         for leg in &mechanism.legs {
-            let recognised = LegKernel::recognise(leg).is_some();
-            let planar_dyad = leg.closure_dims == 2
-                && leg.moving.len() == 2
-                && leg
-                    .moving
-                    .iter()
-                    .all(|&j| leg.joints[j].kind == JointKind::Revolute);
-            assert_eq!(recognised, planar_dyad, "{} {}", mechanism.name, leg.name);
+            let kinds: Vec<JointKind> = leg.moving.iter().map(|&j| leg.joints[j].kind).collect();
+            let recognised = LegKernel::recognise(leg);
+            let expected = if kinds.iter().all(|k| *k == JointKind::Revolute) {
+                matches!(recognised, Some(LegKernel::Dyad(_)))
+            } else if kinds.last() == Some(&JointKind::Prismatic) {
+                matches!(recognised, Some(LegKernel::Distance(_)))
+            } else {
+                matches!(recognised, Some(LegKernel::Carriage(_)))
+            };
+            assert!(expected, "{} {}: {recognised:?}", mechanism.name, leg.name);
         }
     }
-    let five_bar = bundled_models()
-        .into_iter()
-        .filter(|m| m.legs.iter().any(|l| LegKernel::recognise(l).is_some()))
-        .count();
-    assert!(five_bar >= 2, "the 5R and its tracker model");
+    let leg_of = |name: &str| {
+        let mechanism = models.iter().find(|m| m.name.contains(name)).expect(name);
+        mechanism.legs[0].clone()
+    };
+    // A 3-RPR leg whose prismatic joint's line misses the revolute (an offset across it).
+    let mut offset = leg_of("3-RPR");
+    let prismatic = offset.moving[1];
+    offset.joints[prismatic].origin[1] = 0.01;
+    assert!(LegKernel::recognise(&offset).is_none());
+    // A hexapod leg with a fixed offset after the prismatic joint: along its line, recognised;
+    // with a parameter across the line, not.
+    let mut along = leg_of("Gough");
+    along.joints.push(JointModel {
+        name: "end".into(),
+        kind: JointKind::Fixed,
+        axis: Vector3::z(),
+        origin: [0.05, 0.0, 0.0, 0.0, 0.0, 0.0],
+        limits: None,
+    });
+    assert!(matches!(
+        LegKernel::recognise(&along),
+        Some(LegKernel::Distance(_))
+    ));
+    let end = along.joints.len() - 1;
+    along.params.push(Parameter {
+        name: "across".into(),
+        target: ParamTarget::JointOrigin {
+            joint: end,
+            component: 1,
+        },
+        nominal: 0.0,
+        identified: true,
+        unit: Unit::Metre,
+        derived: None,
+        prior: None,
+    });
+    assert!(LegKernel::recognise(&along).is_none());
+    // A delta leg whose second revolute sits off the first's axis.
+    let mut apart = leg_of("delta");
+    let second = apart.moving[2];
+    apart.joints[second].origin[0] = 0.01;
+    assert!(LegKernel::recognise(&apart).is_none());
     let d = Dyad {
         joints: vec![
             (JointKind::Revolute, [-0.5, 0.0, 0.0, 0.0]),

@@ -473,7 +473,10 @@ fn the_study_scales_the_declared_noise_by_the_noise_scale() {
 
 /// Failed trials: the first five are listed with their reason, then one line counts them all
 /// when there are more; the statistics leave them out and the run exits 3. A 3-RPR whose real
-/// mechanism is drawn 0.3 m / 0.3 rad / 0.3 away from the nominal one fails 8 of 12 trials.
+/// mechanism is drawn 0.3 m / 0.3 rad / 0.3 away from the nominal one fails 7 of 12 trials
+/// (8 when its legs took the generic chain's Newton from the nominal home joints, which lands
+/// on the other working mode at some of the simulated poses that the closed form reaches on
+/// the home one).
 #[test]
 fn failed_trials_are_listed_five_at_most_then_counted() {
     let dir = tempfile::tempdir().unwrap();
@@ -508,7 +511,7 @@ fn failed_trials_are_listed_five_at_most_then_counted() {
         "{stderr}"
     );
     assert!(
-        stderr.contains("legwise: warning: 8 of 12 trials failed in all"),
+        stderr.contains("legwise: warning: 7 of 12 trials failed in all"),
         "{stderr}"
     );
 }

@@ -5,7 +5,7 @@
 //! (a probe's height, one reflector's position). At the unknowns `φ` (every leg's identified
 //! parameters) and the shared ones `θ` (the instrument frame, or the bed plane, and the target
 //! offsets), the platform pose `P(s, φ)` is the one that closes every leg in the model's
-//! assembly mode ([`ForwardKinematics::solve_near`], warm-started from the row's last
+//! assembly mode ([`ForwardKinematics::solve_near_closed`], warm-started from the row's last
 //! configuration), and the residual is `h(P, θ) − y`, `h` the instrument's report
 //! ([`observe_in`]).
 //!
@@ -295,7 +295,7 @@ impl IdentificationProblem<'_> {
             let pose = match (known, &kinematics) {
                 (Some(poses), _) => poses[index],
                 (None, Some(kinematics)) => kinematics
-                    .solve_near(&row.readings, configuration)
+                    .solve_near_closed(&row.readings, configuration)
                     .map_err(fail)?,
                 (None, None) => {
                     return Err(fail(KinematicsError::NotAssemblable {
@@ -303,7 +303,7 @@ impl IdentificationProblem<'_> {
                     }))
                 }
             };
-            // solve_near may fall back to a continuation from home: keep where it closed.
+            // solve_near_closed may fall back to a continuation from home: keep where it closed.
             configuration.pose = pose;
             let moves = match moves {
                 true => Some(

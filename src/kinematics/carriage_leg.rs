@@ -1,0 +1,240 @@
+//! The closed-form inverse kinematics of a carriage leg (a linear delta's): the actuated
+//! prismatic joint first (the carriage, moving the point `K(q) = K₀ + q v` along the unit
+//! world direction `v`), then two passive revolutes whose axes meet at `K(q)` (a universal
+//! joint), then a fixed rod of length `L` to the tip. The tip is on the sphere of radius `L`
+//! about `K(q)`, so the carriage reaching the target `P` solves `|P − K₀ − q v| = L`:
+//! `q = v·e + σ √((v·e)² − |e|² + L²)` with `e = P − K₀`, the sign `σ` the home
+//! configuration's (the rod's side of the carriage along `v`); the universal joint's two
+//! solutions are told apart by the working mode ([`super::pointing`]).
+//!
+//! The pattern, recognised from the chain alone ([`CarriageLeg::recognise`]): a spatial leg
+//! (`closure_dims` 3) whose moving joints are the actuated prismatic joint then two revolutes,
+//! with no translation from the first revolute to the second (their origins' translations
+//! zero, no parameter on them). Everything else is free: fixed joints and origins before the
+//! carriage (its line), between it and the first revolute (the joint's offset from the
+//! carriage), after the second revolute (the rod, any rigid offset).
+
+use nalgebra::{Matrix3, Vector3};
+
+use super::chain::tip_position;
+use super::inverse::{invert, normalised_determinant, Joints, Solution, SINGULAR_DETERMINANT};
+use super::pointing::{composed, rotation_value, still, vector_value, Pointed, Pointing};
+use crate::model::joint::JointKind;
+use crate::model::leg::{LegGeometry, LegModel};
+use crate::scalar::{lift, Scalar};
+
+/// A leg recognised as a carriage leg.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct CarriageLeg {
+    /// Chain indices of the prismatic joint and of the two revolutes.
+    joints: [usize; 3],
+    /// The prismatic joint's and the revolutes' unit axes (in their joint frames).
+    axes: [[f64; 3]; 3],
+    /// `σ`: the sign of `q − v·e`, the rod's side of the carriage (minus the sign of `v`
+    /// along the rod) at home.
+    sigma: f64,
+    /// The universal joint's solution on the working mode ([`Pointing::solve`]'s `side`): the
+    /// closure Jacobian's determinant is `L² (v·u) γ |w₁ × w₂|²`, `u` the rod's direction.
+    side: f64,
+    /// Whether the working mode's determinant is positive.
+    home_positive: bool,
+}
+
+/// A carriage leg's geometry at one parameter vector: the carriage line and the rod's length
+/// in `T`, the revolutes' frame in f64 (the passive joints are solved in f64 only).
+#[derive(Debug, Clone, Copy)]
+pub struct CarriageFrame<T> {
+    /// `K₀`: the revolutes' common point at a zero carriage (world).
+    start: [T; 3],
+    /// `v`: the carriage's world direction (unit).
+    direction: [T; 3],
+    /// `L²`.
+    squared_rod: T,
+    pointing: Pointing,
+}
+
+/// A carriage leg solved at one target.
+struct Solved {
+    /// The carriage.
+    q: f64,
+    pointed: Pointed,
+    jacobian: Matrix3<f64>,
+    determinant: f64,
+}
+
+impl CarriageLeg {
+    /// The carriage-leg pattern of `leg`, if its chain is one exactly (see the module).
+    pub fn recognise(leg: &LegModel) -> Option<Self> {
+        if leg.closure_dims != 3 || leg.moving.len() != 3 || leg.actuated != 0 {
+            return None;
+        }
+        let [p, r1, r2] = [leg.moving[0], leg.moving[1], leg.moving[2]];
+        let kinds = [
+            JointKind::Prismatic,
+            JointKind::Revolute,
+            JointKind::Revolute,
+        ];
+        if [p, r1, r2]
+            .iter()
+            .zip(kinds)
+            .any(|(&j, kind)| leg.joints[j].kind != kind)
+        {
+            return None;
+        }
+        if !(r1 + 1..=r2).all(|j| still(leg, j, 0..3)) {
+            return None;
+        }
+        let home_positive = leg.branch_sign.is_sign_positive();
+        let mut kernel = Self {
+            joints: [p, r1, r2],
+            axes: [p, r1, r2].map(|j| leg.joints[j].axis.into()),
+            sigma: 1.0,
+            side: 1.0,
+            home_positive,
+        };
+        // The rod's side of the carriage at home, on the nominal geometry.
+        let geometry = leg.geometry(&leg.nominal());
+        let frame = kernel.frame(&geometry);
+        let home = leg.home_joints.first()?;
+        let tip = tip_position(leg, &geometry, &leg.home_joints);
+        let v = Vector3::from(frame.direction);
+        let rod = tip - Vector3::from(frame.start) - v * *home;
+        let along = v.dot(&rod);
+        if !(along != 0.0 && along.is_finite()) {
+            return None;
+        }
+        kernel.sigma = -along.signum();
+        let branch = if home_positive { 1.0 } else { -1.0 };
+        kernel.side = -kernel.sigma * branch;
+        Some(kernel)
+    }
+
+    /// The leg's geometry at `geometry`.
+    pub fn frame<T: Scalar>(&self, geometry: &LegGeometry<T>) -> CarriageFrame<T> {
+        let [p, r1, r2] = self.joints;
+        let carriage = composed(geometry, 0..p + 1);
+        let [a, w1, w2] = self.axes.map(Vector3::from);
+        let direction = carriage.rotation.matrix() * a.map(lift::<T>);
+        let base = carriage * composed(geometry, p + 1..r1 + 1);
+        let to_second = rotation_value(&composed(geometry, r1 + 1..r2 + 1));
+        let rod = composed(geometry, r2 + 1..geometry.origins.len())
+            .translation
+            .vector;
+        let t = &base.translation.vector;
+        CarriageFrame {
+            start: [t[0], t[1], t[2]],
+            direction: [direction[0], direction[1], direction[2]],
+            squared_rod: rod.dot(&rod),
+            pointing: Pointing::new(
+                rotation_value(&base),
+                w1,
+                Some(to_second * w2),
+                to_second * vector_value(&rod),
+            ),
+        }
+    }
+
+    /// The carriage `q` reaching `target` on the home side and the target from the start
+    /// `e = P − K₀`; `None` where the sphere misses the carriage line or touches it (a reach
+    /// limit) or a number is not finite.
+    fn carriage<T: Scalar>(
+        &self,
+        frame: &CarriageFrame<T>,
+        target: &Vector3<T>,
+    ) -> Option<(T, [T; 3])> {
+        let (k, v) = (&frame.start, &frame.direction);
+        let e = [target[0] - k[0], target[1] - k[1], target[2] - k[2]];
+        let along = v[0] * e[0] + v[1] * e[1] + v[2] * e[2];
+        let discriminant =
+            along * along - (e[0] * e[0] + e[1] * e[1] + e[2] * e[2]) + frame.squared_rod;
+        let value = discriminant.re();
+        if !(value > 0.0 && value.is_finite()) {
+            return None;
+        }
+        Some((along + discriminant.sqrt() * lift::<T>(self.sigma), e))
+    }
+
+    /// The solved leg at `target`: the carriage, the rod `P − K(q)`, the revolutes' angles
+    /// and world axes, the closure Jacobian and its normalised determinant; `None` where the
+    /// generic solve must decide.
+    fn solved(&self, frame: &CarriageFrame<f64>, target: &Vector3<f64>) -> Option<Solved> {
+        let (q, e) = self.carriage(frame, target)?;
+        let v = Vector3::from(frame.direction);
+        let rod = Vector3::from(e) - v * q;
+        let length = frame.squared_rod.sqrt();
+        let pointed = frame.pointing.solve(&(rod / length), self.side)?;
+        let mut jacobian = Matrix3::zeros();
+        jacobian.set_column(0, &v);
+        for (k, axis) in pointed.axes.iter().enumerate() {
+            jacobian.set_column(k + 1, &axis.cross(&rod));
+        }
+        let determinant = normalised_determinant(&jacobian, 3);
+        let near_limit = determinant.abs() <= SINGULAR_DETERMINANT;
+        if near_limit || determinant.is_sign_positive() != self.home_positive || !q.is_finite() {
+            return None;
+        }
+        Some(Solved {
+            q,
+            pointed,
+            jacobian,
+            determinant,
+        })
+    }
+
+    /// The joints reaching `target` (world), revolutes in the 2π window centred on `seed`, with
+    /// the closure Jacobian's inverse and normalised determinant: the [`Solution`] Newton's
+    /// method converges to, to round-off; `None` where the generic solve must decide.
+    pub fn solve(
+        &self,
+        frame: &CarriageFrame<f64>,
+        target: &Vector3<f64>,
+        seed: &Joints,
+    ) -> Option<Solution> {
+        let Solved {
+            q,
+            pointed,
+            jacobian,
+            determinant,
+            ..
+        } = self.solved(frame, target)?;
+        let mut joints = [q, 0.0, 0.0];
+        for k in 0..2 {
+            joints[k + 1] = super::dyad::on_turn_of(pointed.angles[k], seed[k + 1]);
+        }
+        let closure_inverse = invert(&jacobian, 3)?;
+        Some(Solution {
+            q: joints,
+            closure: Vector3::zeros(),
+            closure_inverse,
+            normalised_determinant: determinant,
+        })
+    }
+
+    /// The carriage `q` at `target` and the actuated row of the closure Jacobian's inverse
+    /// there (`r / (r·v)`, `r` the rod), without the universal joint's angles: the reach-limit
+    /// test on the normalised determinant's magnitude `|v·u|` times
+    /// [`Pointing::conditioning`] (on the working mode by construction: the side is picked
+    /// for it). `None` where [`Self::solve`] leaves the pose to the generic solve (to
+    /// round-off at the threshold).
+    pub fn actuated_row(
+        &self,
+        frame: &CarriageFrame<f64>,
+        target: &Vector3<f64>,
+    ) -> Option<(f64, [f64; 3])> {
+        let (q, e) = self.carriage(frame, target)?;
+        let v = Vector3::from(frame.direction);
+        let rod = Vector3::from(e) - v * q;
+        let along = rod.dot(&v);
+        let u = rod / frame.squared_rod.sqrt();
+        let conditioning = frame.pointing.conditioning(&u)? * u.dot(&v).abs();
+        let row = rod / along;
+        (conditioning > SINGULAR_DETERMINANT && row.iter().all(|x| x.is_finite()))
+            .then_some((q, [row[0], row[1], row[2]]))
+    }
+
+    /// The carriage `q` at `target` in `T` (exact derivatives with respect to whatever the
+    /// frame and the target carry); `None` where the sphere misses the line.
+    pub fn actuated<T: Scalar>(&self, frame: &CarriageFrame<T>, target: &Vector3<T>) -> Option<T> {
+        self.carriage(frame, target).map(|(q, _)| q)
+    }
+}

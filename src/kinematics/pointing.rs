@@ -1,0 +1,200 @@
+//! Passive revolutes about axes through one point turning a link onto a wanted direction: the
+//! passive joints of the prismatic legs' kernels ([`super::distance_leg`],
+//! [`super::carriage_leg`]). One revolute about `±z` in the plane (an angle between two
+//! directions), two in space (a universal joint: Paden–Kahan's second subproblem, the working
+//! mode picking one of its two solutions); and what the kernels' recognition and preparation
+//! share: which joints' origins must stay still, and the chain's origins composed.
+
+use nalgebra::{Matrix3, Vector3};
+
+use super::arc_tangent;
+use super::chain::{origin_transform, Transform};
+use crate::model::leg::{LegGeometry, LegModel};
+use crate::model::params::ParamTarget;
+use crate::scalar::Scalar;
+
+/// Below this `1 − (w₁·w₂)²` the two revolutes' axes are taken as parallel: no universal joint.
+const PARALLEL_AXES: f64 = 1e-12;
+
+/// Where the revolutes are and what they turn, at one parameter vector (f64), in the world
+/// frame's terms: the link's world direction is `frame · R(w₁, θ₁) · R(w₂, θ₂) · pointer`.
+#[derive(Debug, Clone, Copy)]
+pub struct Pointing {
+    /// The world rotation of the first revolute's joint frame.
+    frame: Matrix3<f64>,
+    /// The first revolute's unit axis (in its joint frame).
+    first: Vector3<f64>,
+    /// The second revolute's unit axis at `θ₁ = 0` (in the first's joint frame); `None`: one
+    /// revolute (in the plane).
+    second: Option<Vector3<f64>>,
+    /// The link's unit direction at zero angles (in the first's joint frame).
+    pointer: Vector3<f64>,
+}
+
+/// The revolutes' angles turning the link onto a direction, and their world axes there.
+#[derive(Debug, Clone, Copy)]
+pub struct Pointed {
+    /// `θ₁` and `θ₂` (the second zero for one revolute), in (−π, π].
+    pub angles: [f64; 2],
+    /// The revolutes' world axes at the solution.
+    pub axes: [Vector3<f64>; 2],
+}
+
+impl Pointing {
+    /// The revolutes of rotation `frame` (world, of the first's joint frame), axes `first` and
+    /// `second` (see the fields), turning the link direction `pointer` (any length).
+    pub fn new(
+        frame: Matrix3<f64>,
+        first: Vector3<f64>,
+        second: Option<Vector3<f64>>,
+        pointer: Vector3<f64>,
+    ) -> Self {
+        Self {
+            frame,
+            first,
+            second,
+            pointer: pointer / pointer.norm(),
+        }
+    }
+
+    /// The angles turning the link onto the world unit `direction`, with two revolutes on the
+    /// side `side` (±1: the sign of the component of the first axis' turned cone point along
+    /// `w₁ × w₂`, which the working mode fixes); `None` if no angle reaches it (a direction off
+    /// the second revolute's cone, parallel axes) or the solution is degenerate.
+    pub fn solve(&self, direction: &Vector3<f64>, side: f64) -> Option<Pointed> {
+        let wanted = self.frame.tr_mul(direction);
+        let w1 = self.first;
+        let world_first = self.frame * w1;
+        let Some(w2) = self.second else {
+            let (y, x) = turn_sides(&w1, &self.pointer, &wanted);
+            let angle = arc_tangent::atan2(y, x);
+            return angle.is_finite().then_some(Pointed {
+                angles: [angle, 0.0],
+                axes: [world_first, Vector3::zeros()],
+            });
+        };
+        // The direction `c` the second revolute turns the pointer to: on its cone about w₂
+        // (w₂·c = w₂·pointer) and on the first's cone through the wanted direction
+        // (w₁·c = w₁·wanted).
+        let k = w1.dot(&w2);
+        let n = 1.0 - k * k;
+        if n.is_nan() || n <= PARALLEL_AXES {
+            return None;
+        }
+        let (p1, p2) = (w1.dot(&wanted), w2.dot(&self.pointer));
+        let alpha = (p1 - k * p2) / n;
+        let beta = (p2 - k * p1) / n;
+        let across2 = (1.0 - alpha * alpha - beta * beta - 2.0 * alpha * beta * k) / n;
+        if across2.is_nan() || across2 <= 0.0 {
+            return None;
+        }
+        let normal = w1.cross(&w2);
+        let c = w1 * alpha + w2 * beta + normal * (side * across2.sqrt());
+        let (y2, x2) = turn_sides(&w2, &self.pointer, &c);
+        let (y1, x1) = turn_sides(&w1, &c, &wanted);
+        let angles = [arc_tangent::atan2(y1, x1), arc_tangent::atan2(y2, x2)];
+        // The second axis turned by θ₁ about the first (Rodrigues, from the arc tangent's
+        // sides: no sine or cosine call).
+        let h = (x1 * x1 + y1 * y1).sqrt();
+        let (cos, sin) = (x1 / h, y1 / h);
+        let turned = w2 * cos + normal * sin + w1 * (k * (1.0 - cos));
+        let pointed = Pointed {
+            angles,
+            axes: [world_first, self.frame * turned],
+        };
+        (angles.iter().all(|a| a.is_finite()) && h > 0.0).then_some(pointed)
+    }
+
+    /// How far the revolutes are from losing a direction of motion when the link points along
+    /// the world unit `direction`: `|γ| |w₁ × w₂|² / (|w₁ × u| |w₂ × u|)` with two revolutes
+    /// (the magnitude of the normalised determinant of the columns `ωₖ × u` and `u`, whichever
+    /// side [`Self::solve`] takes: a universal joint's singularity at zero), 1 with one
+    /// revolute in the plane (its column is across the link). The same numbers as
+    /// [`Self::solve`] without its angles; `None` where it finds none.
+    pub fn conditioning(&self, direction: &Vector3<f64>) -> Option<f64> {
+        let Some(w2) = self.second else {
+            return Some(1.0);
+        };
+        let wanted = self.frame.tr_mul(direction);
+        let w1 = self.first;
+        let k = w1.dot(&w2);
+        let n = 1.0 - k * k;
+        if n.is_nan() || n <= PARALLEL_AXES {
+            return None;
+        }
+        let (p1, p2) = (w1.dot(&wanted), w2.dot(&self.pointer));
+        let alpha = (p1 - k * p2) / n;
+        let beta = (p2 - k * p1) / n;
+        let across2 = (1.0 - alpha * alpha - beta * beta - 2.0 * alpha * beta * k) / n;
+        // |ωₖ × u|² = 1 − (ωₖ · u)²: ω₁ · u = w₁ · wanted, ω₂ · u = w₂ · c = w₂ · pointer.
+        let sines = (1.0 - p1 * p1) * (1.0 - p2 * p2);
+        if across2.is_nan() || across2 <= 0.0 || sines.is_nan() || sines <= 0.0 {
+            return None;
+        }
+        Some((across2 / sines).sqrt() * n)
+    }
+}
+
+/// The sine and cosine sides (unnormalised) of the angle turning `from` onto `to` about the
+/// unit `axis`: `(axis · (from × to), from⊥ · to⊥)`, ⊥ the parts across the axis.
+fn turn_sides(axis: &Vector3<f64>, from: &Vector3<f64>, to: &Vector3<f64>) -> (f64, f64) {
+    let y = axis.dot(&from.cross(to));
+    let x = from.dot(to) - axis.dot(from) * axis.dot(to);
+    (y, x)
+}
+
+/// Whether chain joint `j`'s origin components `components` are zero and no parameter moves
+/// them.
+pub fn still(leg: &LegModel, j: usize, components: std::ops::Range<usize>) -> bool {
+    let zero = components
+        .clone()
+        .all(|c| leg.joints[j].origin[c].to_bits() == 0.0f64.to_bits());
+    let moved = leg.params.iter().any(|p| {
+        matches!(p.target, ParamTarget::JointOrigin { joint, component }
+            if joint == j && components.contains(&component))
+    });
+    zero && !moved
+}
+
+/// Whether chain joint `j`'s origin translation lies on the line along the unit `axis` (its
+/// cross product with the axis zero to round-off: a few ulp of its length, as a direction
+/// written in decimals allows), for every value of the parameters on it: a parameter may move
+/// only the component along a coordinate axis `axis` is.
+pub fn on_line(leg: &LegModel, j: usize, axis: &Vector3<f64>) -> bool {
+    let t = Vector3::new(
+        leg.joints[j].origin[0],
+        leg.joints[j].origin[1],
+        leg.joints[j].origin[2],
+    );
+    let cross = t.cross(axis);
+    let along = cross.norm() <= 4.0 * f64::EPSILON * t.norm();
+    let movable = leg.params.iter().all(|p| match p.target {
+        ParamTarget::JointOrigin { joint, component } if joint == j && component < 3 => {
+            (0..3).all(|c| c == component || axis[c] == 0.0)
+        }
+        _ => true,
+    });
+    along && movable
+}
+
+/// The composed origin transforms of chain joints `joints` (moving joints at zero).
+pub fn composed<T: Scalar>(
+    geometry: &LegGeometry<T>,
+    joints: std::ops::Range<usize>,
+) -> Transform<T> {
+    let mut transform = Transform::<T>::identity();
+    for j in joints {
+        transform *= origin_transform(&geometry.origins[j]);
+    }
+    transform
+}
+
+/// The f64 value of a rotation in `T`.
+pub fn rotation_value<T: Scalar>(transform: &Transform<T>) -> Matrix3<f64> {
+    transform.rotation.matrix().map(|v| v.re())
+}
+
+/// The f64 value of a vector in `T`.
+pub fn vector_value<T: Scalar>(v: &Vector3<T>) -> Vector3<f64> {
+    v.map(|x| x.re())
+}
