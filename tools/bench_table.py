@@ -114,13 +114,22 @@ def criterion_row(directory, command, stamp):
     return figure, f"| {figure} | {measured} | `{command}` | {stamp} |"
 
 
-def criterion_results(since=None):
-    """Directories of criterion results (…/new) written at or after `since` (all if None)."""
-    found = []
-    for path in glob.glob(os.path.join(ROOT, "target", "criterion", "**", "new", "estimates.json"), recursive=True):
-        if since is None or os.path.getmtime(path) >= since:
-            found.append(os.path.dirname(path))
-    return sorted(found)
+def criterion_stamps():
+    """Every criterion result (…/new/estimates.json) and the time it was written."""
+    pattern = os.path.join(ROOT, "target", "criterion", "**", "new", "estimates.json")
+    return {path: os.path.getmtime(path) for path in glob.glob(pattern, recursive=True)}
+
+
+def criterion_results(before=None):
+    """Directories of criterion results (…/new) written since the stamps `before` were taken
+    (new or rewritten: not merely recent, so a bench run right after another does not take the
+    other's last results); all of them if None."""
+    stamps = criterion_stamps()
+    return sorted(
+        os.path.dirname(path)
+        for path, written in stamps.items()
+        if before is None or before.get(path) != written
+    )
 
 
 def run_bench(spec, no_run, rows):
@@ -137,14 +146,14 @@ def run_bench(spec, no_run, rows):
     stamp = f"{now()}, load {load()}, {commit()}"
     if no_run:
         pattern = re.compile(filter_) if filter_ else None
-        since = None
+        before = None
     else:
-        since = time.time() - 1
+        before = criterion_stamps()
         done = subprocess.run(["cargo", "bench", "--bench", name, "--"] + args, cwd=ROOT)
         if done.returncode != 0:
             fail(f"`{shown}` failed (exit {done.returncode})", 1)
         pattern = None
-    for directory in criterion_results(since):
+    for directory in criterion_results(before):
         if no_run:
             # Read back: the date of the result, the load of its run unknown.
             written = os.path.getmtime(os.path.join(directory, "estimates.json"))
