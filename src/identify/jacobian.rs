@@ -123,7 +123,8 @@ impl<const N: usize> KernelLanes<N> {
         let a = self.attachment.map(|(value, _)| value);
         let row = |i: usize| a[0] * m[(i, 0)] + a[1] * m[(i, 1)] + a[2] * m[(i, 2)] + t[i];
         let frame = self.frame.map(|(value, _)| value);
-        let (actuated, partials) = kernel.actuated_partials(&frame, [row(0), row(1)], solution)?;
+        let target = [row(0), row(1), row(2)];
+        let (actuated, partials) = kernel.actuated_partials(&frame, target, solution)?;
         let ((gain, d_gain), (offset, d_offset)) = (&self.gain, &self.offset);
         // The quotient as the duals' division forms it (times the reciprocal; an overflowing
         // gain gives a non-finite derivative, as it did there).

@@ -265,37 +265,39 @@ impl DistanceLeg {
         Some(distance * lift::<T>(self.sigma) - frame.offset)
     }
 
-    /// In the plane, [`Self::actuated`] in f64 from the frame's numbers `frame`
-    /// ([`DistanceFrame::scalars`]: `C`'s x and y, `s`) and the target's world `(x, y)`, with
-    /// its partial derivatives with respect to the frame's eight numbers and the target's two;
-    /// `None` in space (the target's z is needed) or for a target at `C`.
+    /// [`Self::actuated`] in f64 from the frame's numbers `frame` ([`DistanceFrame::scalars`]:
+    /// `C`'s x and y, `s`, `C`'s z) and the target's world `(x, y, z)`, with its partial
+    /// derivatives with respect to the frame's eight numbers and the target's three (in the
+    /// plane the z's are not closure coordinates: their partials are zero); `None` for a target
+    /// at `C`.
     pub fn actuated_partials(
         &self,
         frame: &[f64; 8],
-        target: [f64; 2],
-    ) -> Option<(f64, [f64; 10])> {
-        if self.second.is_some() {
-            return None;
-        }
-        let e = [target[0] - frame[0], target[1] - frame[1], 0.0];
+        target: [f64; 3],
+    ) -> Option<(f64, [f64; 11])> {
+        let across = match self.second {
+            Some(_) => target[2] - frame[3],
+            None => 0.0,
+        };
+        let e = [target[0] - frame[0], target[1] - frame[1], across];
         let distance = (e[0] * e[0] + e[1] * e[1] + e[2] * e[2]).sqrt();
         if !(distance > 0.0 && distance.is_finite()) {
             return None;
         }
         let value = distance * self.sigma - frame[2];
-        let (dx, dy) = (self.sigma * e[0] / distance, self.sigma * e[1] / distance);
-        let mut p = [0.0; 10];
-        (p[0], p[1], p[2], p[8], p[9]) = (-dx, -dy, -1.0, dx, dy);
+        let d = e.map(|v| self.sigma * v / distance);
+        let mut p = [0.0; 11];
+        (p[0], p[1], p[2], p[3]) = (-d[0], -d[1], -1.0, -d[2]);
+        (p[8], p[9], p[10]) = (d[0], d[1], d[2]);
         Some((value, p))
     }
 }
 
 impl<T: Scalar> DistanceFrame<T> {
-    /// The frame's numbers the reading depends on in the plane: `C`'s x and y and `s` (the
-    /// rest zero).
+    /// The frame's numbers the reading depends on: `C`'s x and y, `s`, `C`'s z (the rest zero).
     pub fn scalars(&self) -> [T; 8] {
         let zero = lift::<T>(0.0);
-        let [x, y, _] = self.centre;
-        [x, y, self.offset, zero, zero, zero, zero, zero]
+        let [x, y, z] = self.centre;
+        [x, y, self.offset, z, zero, zero, zero, zero]
     }
 }

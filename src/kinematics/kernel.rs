@@ -213,21 +213,27 @@ impl<T: Scalar> PreparedKernel<T> {
         }
     }
 
-    /// The actuated joint at the world `(x, y)` `target` from the frame's numbers `frame`
-    /// (the value parts of [`Self::frame_scalars`]), on the turn of `solution`, with its
-    /// partial derivatives with respect to the frame's numbers and the target's two
-    /// ([`Dyad::actuated_partials`], [`DistanceLeg::actuated_partials`]); `None` where the
-    /// closed form fails or the kernel has no such partials (a spatial kernel: the target's z
-    /// is not among the inputs), then the caller takes [`Self::reading`] in its scalar.
+    /// The actuated joint at the world `target` from the frame's numbers `frame` (the value
+    /// parts of [`Self::frame_scalars`]), on the turn of `solution`, with its partial
+    /// derivatives with respect to the frame's eight numbers and the target's three
+    /// ([`Dyad::actuated_partials`], [`DistanceLeg::actuated_partials`]; a planar kernel's
+    /// partial along z is zero); `None` where the closed form fails or the kernel has no such
+    /// partials (the carriage leg), then the caller takes [`Self::reading`] in its scalar.
     #[inline]
     pub fn actuated_partials(
         &self,
         frame: &[f64; 8],
-        target: [f64; 2],
+        target: [f64; 3],
         solution: &Solution,
-    ) -> Option<(f64, [f64; 10])> {
+    ) -> Option<(f64, [f64; 11])> {
         match &self.kernel {
-            LegKernel::Dyad(dyad) => dyad.actuated_partials(frame, target, solution),
+            LegKernel::Dyad(dyad) => {
+                let (value, planar) =
+                    dyad.actuated_partials(frame, [target[0], target[1]], solution)?;
+                let mut partials = [0.0; 11];
+                partials[..10].copy_from_slice(&planar);
+                Some((value, partials))
+            }
             LegKernel::Distance(leg) => leg.actuated_partials(frame, target),
             LegKernel::Carriage(_) => None,
         }
