@@ -17,7 +17,7 @@
 use nalgebra::{Matrix3, Vector3};
 
 use super::chain::tip_position;
-use super::inverse::{invert, normalised_determinant, Joints, Solution, SINGULAR_DETERMINANT};
+use super::inverse::{normalised_determinant, Joints, Solution, SINGULAR_DETERMINANT};
 use super::pointing::{composed, rotation_value, still, vector_value, Pointed, Pointing};
 use crate::model::joint::JointKind;
 use crate::model::leg::{LegGeometry, LegModel};
@@ -201,13 +201,7 @@ impl CarriageLeg {
         for k in 0..2 {
             joints[k + 1] = super::dyad::on_turn_of(pointed.angles[k], seed[k + 1]);
         }
-        let closure_inverse = invert(&jacobian, 3)?;
-        Some(Solution {
-            q: joints,
-            closure: Vector3::zeros(),
-            closure_inverse,
-            normalised_determinant: determinant,
-        })
+        Solution::closed(joints, &jacobian, 3, determinant)
     }
 
     /// The carriage `q` at `target` and the actuated row of the closure Jacobian's inverse

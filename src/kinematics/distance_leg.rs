@@ -19,7 +19,7 @@
 
 use nalgebra::{Matrix3, Vector3};
 
-use super::inverse::{invert, normalised_determinant, Joints, Solution, SINGULAR_DETERMINANT};
+use super::inverse::{normalised_determinant, Joints, Solution, SINGULAR_DETERMINANT};
 use super::pointing::{composed, on_line, rotation_value, still, Pointed, Pointing};
 use crate::model::joint::JointKind;
 use crate::model::leg::{LegGeometry, LegModel};
@@ -230,13 +230,7 @@ impl DistanceLeg {
             q[k] = super::dyad::on_turn_of(pointed.angles[k], seed[k]);
         }
         q[dims - 1] = length;
-        let closure_inverse = invert(&jacobian, dims)?;
-        Some(Solution {
-            q,
-            closure: Vector3::zeros(),
-            closure_inverse,
-            normalised_determinant: determinant,
-        })
+        Solution::closed(q, &jacobian, dims, determinant)
     }
 
     /// The actuated joint `ρ` at `target` and the actuated row of the closure Jacobian's

@@ -18,9 +18,7 @@ use std::f64::consts::TAU;
 use nalgebra::{Matrix3, Vector3};
 
 use super::arc_tangent;
-use super::inverse::{
-    invert, normalised_determinant, wrap_angle, Joints, Solution, SINGULAR_DETERMINANT,
-};
+use super::inverse::{normalised_determinant, wrap_angle, Joints, Solution, SINGULAR_DETERMINANT};
 use crate::model::joint::JointKind;
 use crate::model::leg::{LegGeometry, LegModel};
 use crate::model::params::ParamTarget;
@@ -230,13 +228,7 @@ impl Dyad {
         if near_limit || !on_branch || !q.iter().all(|v| v.is_finite()) {
             return None;
         }
-        let closure_inverse = invert(&jacobian, 2)?;
-        Some(Solution {
-            q,
-            closure: Vector3::zeros(),
-            closure_inverse,
-            normalised_determinant: determinant,
-        })
+        Solution::closed(q, &jacobian, 2, determinant)
     }
 
     /// The actuated joint's rotation reaching `target` on the working mode (in (−π, π] times

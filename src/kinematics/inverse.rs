@@ -73,6 +73,23 @@ pub struct Solution {
 }
 
 impl Solution {
+    /// A closed-form solution: the joints `q` closing the leg exactly, with the closure
+    /// Jacobian `jacobian`'s inverse (its `dims × dims` block) and `determinant`, its
+    /// column-normalised determinant; `None` if the block cannot be inverted.
+    pub(crate) fn closed(
+        q: Joints,
+        jacobian: &Matrix3<f64>,
+        dims: usize,
+        determinant: f64,
+    ) -> Option<Self> {
+        Some(Self {
+            q,
+            closure: Vector3::zeros(),
+            closure_inverse: invert(jacobian, dims)?,
+            normalised_determinant: determinant,
+        })
+    }
+
     /// The same solution with the joints of `leg` in a `Vec`.
     pub fn to_leg_solution(&self, leg: &LegModel) -> LegSolution {
         LegSolution {
