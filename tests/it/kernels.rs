@@ -5,7 +5,9 @@
 //! on the same branch; unreachable poses are refused with the same error kind; and only the
 //! chains that match a pattern exactly are recognised.
 use legwise::identify::jacobian::PreparedLeg;
+use legwise::kinematics::carriage_leg::CarriageLeg;
 use legwise::kinematics::chain::{attachment_world, tip_and_jacobian};
+use legwise::kinematics::distance_leg::DistanceLeg;
 use legwise::kinematics::inverse::predict_reading;
 use legwise::kinematics::kernel::LegKernel;
 use legwise::kinematics::reading::ReadingPredictor;
@@ -396,6 +398,19 @@ fn only_exact_patterns_are_recognised() {
                 matches!(recognised, Some(LegKernel::Carriage(_)))
             };
             assert!(expected, "{} {}: {recognised:?}", mechanism.name, leg.name);
+            // Each pattern on its own refuses every other kind of leg (whatever order
+            // LegKernel::recognise tries them in).
+            let own = [
+                legwise::kinematics::dyad::Dyad::recognise(leg).is_some(),
+                DistanceLeg::recognise(leg).is_some(),
+                CarriageLeg::recognise(leg).is_some(),
+            ];
+            assert_eq!(
+                own.iter().filter(|&&b| b).count(),
+                1,
+                "{}: {own:?}",
+                leg.name
+            );
         }
     }
     let leg_of = |name: &str| {
@@ -440,6 +455,13 @@ fn only_exact_patterns_are_recognised() {
     let second = apart.moving[2];
     apart.joints[second].origin[0] = 0.01;
     assert!(LegKernel::recognise(&apart).is_none());
+    // A delta leg closing in the plane only, or driven at its universal joint: no carriage.
+    let mut planar = leg_of("delta");
+    planar.closure_dims = 2;
+    assert!(CarriageLeg::recognise(&planar).is_none());
+    let mut driven_above = leg_of("delta");
+    driven_above.actuated = 1;
+    assert!(CarriageLeg::recognise(&driven_above).is_none());
     let d = Dyad {
         joints: vec![
             (JointKind::Revolute, [-0.5, 0.0, 0.0, 0.0]),
