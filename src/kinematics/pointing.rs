@@ -73,21 +73,13 @@ impl Pointing {
                 axes: [world_first, Vector3::zeros()],
             });
         };
-        // The direction `c` the second revolute turns the pointer to: on its cone about w₂
-        // (w₂·c = w₂·pointer) and on the first's cone through the wanted direction
-        // (w₁·c = w₁·wanted).
-        let k = w1.dot(&w2);
-        let n = 1.0 - k * k;
-        if n.is_nan() || n <= PARALLEL_AXES {
-            return None;
-        }
-        let (p1, p2) = (w1.dot(&wanted), w2.dot(&self.pointer));
-        let alpha = (p1 - k * p2) / n;
-        let beta = (p2 - k * p1) / n;
-        let across2 = (1.0 - alpha * alpha - beta * beta - 2.0 * alpha * beta * k) / n;
-        if across2.is_nan() || across2 <= 0.0 {
-            return None;
-        }
+        let Cone {
+            k,
+            alpha,
+            beta,
+            across2,
+            ..
+        } = self.cone(&w2, &wanted)?;
         let normal = w1.cross(&w2);
         let c = w1 * alpha + w2 * beta + normal * (side * across2.sqrt());
         let (y2, x2) = turn_sides(&w2, &self.pointer, &c);
@@ -116,23 +108,59 @@ impl Pointing {
             return Some(1.0);
         };
         let wanted = self.frame.tr_mul(direction);
-        let w1 = self.first;
-        let k = w1.dot(&w2);
-        let n = 1.0 - k * k;
-        if n.is_nan() || n <= PARALLEL_AXES {
-            return None;
-        }
-        let (p1, p2) = (w1.dot(&wanted), w2.dot(&self.pointer));
-        let alpha = (p1 - k * p2) / n;
-        let beta = (p2 - k * p1) / n;
-        let across2 = (1.0 - alpha * alpha - beta * beta - 2.0 * alpha * beta * k) / n;
+        let Cone {
+            n, p1, p2, across2, ..
+        } = self.cone(&w2, &wanted)?;
         // |ωₖ × u|² = 1 − (ωₖ · u)²: ω₁ · u = w₁ · wanted, ω₂ · u = w₂ · c = w₂ · pointer.
         let sines = (1.0 - p1 * p1) * (1.0 - p2 * p2);
-        if across2.is_nan() || across2 <= 0.0 || sines.is_nan() || sines <= 0.0 {
+        if sines.is_nan() || sines <= 0.0 {
             return None;
         }
         Some((across2 / sines).sqrt() * n)
     }
+
+    /// The direction `c` the second revolute (axis `w2`) turns the pointer to, for the link to
+    /// point along `wanted` (in the first's joint frame): on its cone about `w₂`
+    /// (`w₂·c = w₂·pointer`) and on the first's cone through `wanted` (`w₁·c = w₁·wanted`),
+    /// `c = α w₁ + β w₂ ± √(across2) w₁ × w₂`. `None` for parallel axes or cones that do not
+    /// meet.
+    fn cone(&self, w2: &Vector3<f64>, wanted: &Vector3<f64>) -> Option<Cone> {
+        let w1 = self.first;
+        let k = w1.dot(w2);
+        let n = 1.0 - k * k;
+        if n.is_nan() || n <= PARALLEL_AXES {
+            return None;
+        }
+        let (p1, p2) = (w1.dot(wanted), w2.dot(&self.pointer));
+        let alpha = (p1 - k * p2) / n;
+        let beta = (p2 - k * p1) / n;
+        let across2 = (1.0 - alpha * alpha - beta * beta - 2.0 * alpha * beta * k) / n;
+        if across2.is_nan() || across2 <= 0.0 {
+            return None;
+        }
+        Some(Cone {
+            k,
+            n,
+            p1,
+            p2,
+            alpha,
+            beta,
+            across2,
+        })
+    }
+}
+
+/// What [`Pointing::cone`] finds: `k = w₁·w₂`, `n = 1 − k²`, `p₁ = w₁·wanted`,
+/// `p₂ = w₂·pointer`, and `c`'s coefficients `α`, `β` and squared `across2`.
+#[derive(Debug, Clone, Copy)]
+struct Cone {
+    k: f64,
+    n: f64,
+    p1: f64,
+    p2: f64,
+    alpha: f64,
+    beta: f64,
+    across2: f64,
 }
 
 /// The sine and cosine sides (unnormalised) of the angle turning `from` onto `to` about the
