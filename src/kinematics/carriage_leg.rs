@@ -231,4 +231,50 @@ impl CarriageLeg {
     pub fn actuated<T: Scalar>(&self, frame: &CarriageFrame<T>, target: &Vector3<T>) -> Option<T> {
         self.carriage(frame, target).map(|(q, _)| q)
     }
+
+    /// [`Self::actuated`] in f64 from the frame's numbers `frame` ([`CarriageFrame::scalars`]:
+    /// `K₀`, `v`, `L²`) and the target's world `(x, y, z)`, with its partial derivatives with
+    /// respect to the frame's eight numbers and the target's three: with `e = P − K₀`,
+    /// `a = v·e` and `D = a² − |e|² + L²`, `∂q/∂P = −∂q/∂K₀ = v + σ (a v − e)/√D`,
+    /// `∂q/∂v = e (1 + σ a/√D)` and `∂q/∂L² = σ/(2√D)`. The value is [`Self::actuated`]'s bit
+    /// for bit; `None` where the sphere misses the line.
+    pub fn actuated_partials(
+        &self,
+        frame: &[f64; 8],
+        target: [f64; 3],
+    ) -> Option<(f64, [f64; 11])> {
+        let (k, v, squared_rod) = (
+            [frame[0], frame[1], frame[2]],
+            [frame[3], frame[4], frame[5]],
+            frame[6],
+        );
+        let e = [target[0] - k[0], target[1] - k[1], target[2] - k[2]];
+        let along = v[0] * e[0] + v[1] * e[1] + v[2] * e[2];
+        let discriminant = along * along - (e[0] * e[0] + e[1] * e[1] + e[2] * e[2]) + squared_rod;
+        if !(discriminant > 0.0 && discriminant.is_finite()) {
+            return None;
+        }
+        let root = discriminant.sqrt();
+        let value = along + root * self.sigma;
+        let by_target: [f64; 3] =
+            std::array::from_fn(|i| v[i] + self.sigma * (along * v[i] - e[i]) / root);
+        let stretch = 1.0 + self.sigma * along / root;
+        let mut p = [0.0; 11];
+        for i in 0..3 {
+            p[i] = -by_target[i];
+            p[3 + i] = e[i] * stretch;
+            p[8 + i] = by_target[i];
+        }
+        p[6] = self.sigma / (2.0 * root);
+        Some((value, p))
+    }
+}
+
+impl<T: Scalar> CarriageFrame<T> {
+    /// The frame's numbers the reading depends on: `K₀`, `v`, `L²` (the last zero).
+    pub fn scalars(&self) -> [T; 8] {
+        let [kx, ky, kz] = self.start;
+        let [vx, vy, vz] = self.direction;
+        [kx, ky, kz, vx, vy, vz, self.squared_rod, lift::<T>(0.0)]
+    }
 }

@@ -17,7 +17,7 @@ use super::dyad::{on_turn_of, Dyad, DyadFrame};
 use super::inverse::{joints, solve_warm, Joints, Solution};
 use crate::error::KinematicsError;
 use crate::model::leg::{LegGeometry, LegModel};
-use crate::scalar::{lift, Scalar};
+use crate::scalar::Scalar;
 
 /// A recognised closed-form pattern.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -203,22 +203,23 @@ impl LegInverse<'_> {
 impl<T: Scalar> PreparedKernel<T> {
     /// The numbers the kernel's frame holds (in `T`): the inputs
     /// [`PreparedKernel::actuated_partials`] differentiates by ([`super::dyad::DyadFrame::scalars`],
-    /// [`super::distance_leg::DistanceFrame::scalars`]; zeros for a kernel without partials).
+    /// [`super::distance_leg::DistanceFrame::scalars`],
+    /// [`super::carriage_leg::CarriageFrame::scalars`]).
     #[inline]
     pub fn frame_scalars(&self) -> [T; 8] {
         match &self.frame {
             KernelFrame::Dyad(frame) => frame.scalars(),
             KernelFrame::Distance(frame) => frame.scalars(),
-            KernelFrame::Carriage(_) => [lift::<T>(0.0); 8],
+            KernelFrame::Carriage(frame) => frame.scalars(),
         }
     }
 
     /// The actuated joint at the world `target` from the frame's numbers `frame` (the value
     /// parts of [`Self::frame_scalars`]), on the turn of `solution`, with its partial
     /// derivatives with respect to the frame's eight numbers and the target's three
-    /// ([`Dyad::actuated_partials`], [`DistanceLeg::actuated_partials`]; a planar kernel's
-    /// partial along z is zero); `None` where the closed form fails or the kernel has no such
-    /// partials (the carriage leg), then the caller takes [`Self::reading`] in its scalar.
+    /// ([`Dyad::actuated_partials`], [`DistanceLeg::actuated_partials`],
+    /// [`CarriageLeg::actuated_partials`]; a planar kernel's partial along z is zero); `None`
+    /// where the closed form fails, then the caller takes [`Self::reading`] in its scalar.
     #[inline]
     pub fn actuated_partials(
         &self,
@@ -235,7 +236,7 @@ impl<T: Scalar> PreparedKernel<T> {
                 Some((value, partials))
             }
             LegKernel::Distance(leg) => leg.actuated_partials(frame, target),
-            LegKernel::Carriage(_) => None,
+            LegKernel::Carriage(leg) => leg.actuated_partials(frame, target),
         }
     }
 

@@ -89,19 +89,25 @@ pub(crate) struct KernelForward {
 
 impl KernelForward {
     /// The reduced forward kinematics of `mechanism` at `geometries` (one per leg), if every
-    /// leg's chain has a closed-form kernel and the measured coordinates are as many as the
-    /// legs (at most six).
-    pub(crate) fn new(mechanism: &Mechanism, geometries: &[LegGeometry<f64>]) -> Option<Self> {
+    /// leg's chain has a closed-form kernel (`kernels`, one per leg: [`LegKernel::recognise`]
+    /// of it) and the measured coordinates are as many as the legs (at most six).
+    pub(crate) fn new(
+        mechanism: &Mechanism,
+        geometries: &[LegGeometry<f64>],
+        kernels: &[Option<LegKernel>],
+    ) -> Option<Self> {
         let measured = mechanism.measured.clone();
-        if measured.len() != mechanism.legs.len() || measured.len() > 6 {
+        let legs = mechanism.legs.len();
+        if measured.len() != legs || measured.len() > 6 || kernels.len() != legs {
             return None;
         }
         let legs = mechanism
             .legs
             .iter()
             .zip(geometries)
-            .map(|(leg, geometry)| {
-                let kernel = LegKernel::recognise(leg)?.prepare(geometry);
+            .zip(kernels)
+            .map(|((leg, geometry), kernel)| {
+                let kernel = kernel.as_ref()?.prepare(geometry);
                 let revolute = leg.joints[leg.moving[leg.actuated]].kind == JointKind::Revolute;
                 Some(KernelLeg {
                     kernel,
@@ -381,7 +387,7 @@ fn solve_two(a: &[[f64; 6]; 6], b: &[f64; 6]) -> Option<([f64; 6], f64)> {
 
 #[cfg(test)]
 mod tests {
-    use super::{solve_small, KernelForward};
+    use super::{solve_small, KernelForward, LegKernel};
     use crate::kinematics::inverse::predict_reading;
     use crate::model::Mechanism;
 
@@ -396,7 +402,8 @@ mod tests {
             .zip(&parameters)
             .map(|(leg, phi)| leg.geometry(phi))
             .collect();
-        let forward = KernelForward::new(&mechanism, &geometries).unwrap();
+        let kernels: Vec<_> = mechanism.legs.iter().map(LegKernel::recognise).collect();
+        let forward = KernelForward::new(&mechanism, &geometries, &kernels).unwrap();
         assert!(forward.starts_in_closed_form());
         let home = mechanism.home_pose;
         for (dx, dy) in [(0.0, 0.0), (0.02, -0.01), (-0.03, 0.015)] {

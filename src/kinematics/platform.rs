@@ -11,6 +11,7 @@ use nalgebra::Vector3;
 
 use super::chain::ChainFrames;
 use super::inverse::{joints, Joints};
+use super::kernel::LegKernel;
 use super::kernel_forward::{KernelForward, KernelRows};
 use super::reading::ReadingPredictor;
 use crate::error::KinematicsError;
@@ -113,6 +114,18 @@ impl<'m> ForwardKinematics<'m> {
     /// per leg). A failure at home (a leg that cannot reach the home pose, a home that does not
     /// assemble) is returned by every solve.
     pub fn new(mechanism: &'m Mechanism, params: &[Vec<f64>]) -> Self {
+        let kernels: Vec<_> = mechanism.legs.iter().map(LegKernel::recognise).collect();
+        Self::with_kernels(mechanism, params, &kernels)
+    }
+
+    /// As [`Self::new`], with every leg's closed-form kernel already recognised (`kernels`, one
+    /// per leg: [`LegKernel::recognise`] of it; a problem evaluated at many parameter vectors
+    /// recognises them once).
+    pub fn with_kernels(
+        mechanism: &'m Mechanism,
+        params: &[Vec<f64>],
+        kernels: &[Option<LegKernel>],
+    ) -> Self {
         let geometries: Vec<LegGeometry<f64>> = mechanism
             .legs
             .iter()
@@ -142,37 +155,61 @@ impl<'m> ForwardKinematics<'m> {
             }),
             kernel: None,
         };
-        solver.home = solver.home_assembly(params);
-        solver.kernel = solver.kernel_assembly(longest);
+        let readings = solver.home_readings(params, kernels);
+        // The kernels' home first: the stacked home check starts where they closed.
+        let kernel = readings
+            .as_ref()
+            .ok()
+            .and_then(|r| solver.kernel_assembly(r, longest, kernels));
+        solver.home = readings.and_then(|readings| {
+            let start = kernel.as_ref().map(|(_, _, start)| start.clone());
+            let mut start = start.unwrap_or_else(|| solver.home_configuration());
+            let sign = solver.newton(&readings, &mut start)?.signum();
+            Ok((readings, sign))
+        });
+        solver.kernel = kernel
+            .filter(|_| solver.home.is_ok())
+            .map(|(kernel, sign, _)| (kernel, sign));
         solver
     }
 
-    fn home_assembly(&self, params: &[Vec<f64>]) -> Result<(Vec<f64>, f64), KinematicsError> {
+    /// Every leg's reading at the home pose.
+    fn home_readings(
+        &self,
+        params: &[Vec<f64>],
+        kernels: &[Option<LegKernel>],
+    ) -> Result<Vec<f64>, KinematicsError> {
         let home = self.mechanism.home_pose;
         let home_readings: Vec<f64> = self
             .mechanism
             .legs
             .iter()
             .zip(params)
+            .zip(kernels.iter().chain(std::iter::repeat(&None)))
             // Through a leg's kernel where it has one (the generic chain's reading to
             // round-off), as a simulation predicts it.
-            .map(|(leg, phi)| ReadingPredictor::new(leg, phi).predict(&home, &home))
+            .map(|((leg, phi), kernel)| {
+                ReadingPredictor::with_kernel(leg, phi, *kernel).predict(&home, &home)
+            })
             .collect::<Result<_, _>>()?;
-        let mut start = self.home_configuration();
-        let sign = self.newton(&home_readings, &mut start)?.signum();
-        Ok((home_readings, sign))
+        Ok(home_readings)
     }
 
     /// The reduced forward kinematics through the legs' kernels, if the mechanism has it and
-    /// it closes at home (with the sign of its determinant there); `size` is the longest leg.
-    fn kernel_assembly(&self, size: f64) -> Option<(KernelForward, f64)> {
-        let (home_readings, _) = self.home.as_ref().ok()?;
-        let kernel = KernelForward::new(self.mechanism, &self.geometries)?;
+    /// it closes at home for `home_readings` (with the sign of its determinant there, and the
+    /// configuration it closed at); `size` is the longest leg.
+    fn kernel_assembly(
+        &self,
+        home_readings: &[f64],
+        size: f64,
+        kernels: &[Option<LegKernel>],
+    ) -> Option<(KernelForward, f64, Configuration)> {
+        let kernel = KernelForward::new(self.mechanism, &self.geometries, kernels)?;
         let mut start = self.home_configuration();
         let joints = Some(start.joints.as_mut_slice());
         let determinant =
             kernel.newton(home_readings, &mut start.pose, joints, (size, false), None)?;
-        Some((kernel, determinant.signum()))
+        Some((kernel, determinant.signum(), start))
     }
 
     /// The home pose with every leg's home joints.

@@ -22,9 +22,14 @@ pub struct ReadingPredictor<'a> {
 impl<'a> ReadingPredictor<'a> {
     /// `leg` at parameters `phi` (all the leg's parameters).
     pub fn new(leg: &'a LegModel, phi: &[f64]) -> Self {
+        Self::with_kernel(leg, phi, LegKernel::recognise(leg))
+    }
+
+    /// As [`Self::new`], with `leg`'s kernel already recognised ([`LegKernel::recognise`]).
+    pub fn with_kernel(leg: &'a LegModel, phi: &[f64], kernel: Option<LegKernel>) -> Self {
         let geometry = leg.geometry(phi);
         let frames = ChainFrames::new(&geometry);
-        let kernel = LegKernel::recognise(leg).map(|kernel| kernel.prepare(&geometry));
+        let kernel = kernel.map(|kernel| kernel.prepare(&geometry));
         Self {
             leg,
             geometry,

@@ -7,15 +7,17 @@
 //! offsets), the platform pose `P(s, φ)` is the one that closes every leg in the model's
 //! assembly mode ([`ForwardKinematics::solve_near_closed`], warm-started from the row's last
 //! configuration), and the residual is `h(P, θ) − y`, `h` the instrument's report
-//! ([`observe_in`]).
+//! ([`crate::measure::targets::observe_in`]).
 //!
 //! Derivatives by the implicit function theorem, never through Newton's iterations: at the
 //! closed pose every leg's inverse kinematics gives back its reading, `ψ_l(P, φ_l) = s_l`, so
 //! with `A = ∂ψ/∂P` (one row per leg, over the measured pose coordinates) `∂P/∂φ_l =
 //! −A⁻¹ e_l ∂ψ_l/∂φ_l` and `∂P/∂s = A⁻¹`. `∂ψ_l/∂φ_l` is the inverse rows' own dual pass
 //! ([`PreparedLeg::reading_and_gradient_of`]), `∂ψ_l/∂P` their pose gradient
-//! ([`PreparedLeg::pose_gradient_of`]), and `∂h/∂P`, `∂h/∂θ` one dual pass of [`observe_in`]
-//! per column. So `∂r/∂φ_l = −G e_l ∂ψ_l/∂φ_l` and `∂r/∂s = G` with `G = ∂h/∂P A⁻¹`.
+//! ([`PreparedLeg::pose_gradient_of`]), and `∂h/∂P`, `∂h/∂θ` multi-lane dual passes of
+//! [`observe_in`](crate::measure::targets::observe_in), every column on its own lane
+//! (`problem/instrument_derivatives.rs`). So `∂r/∂φ_l = −G e_l ∂ψ_l/∂φ_l` and `∂r/∂s = G` with
+//! `G = ∂h/∂P A⁻¹`.
 //!
 //! A distance row (`instrument.distances`) joins one target's base-frame positions `X_a`, `X_b`
 //! at two rows (each row's own pose): residual `|X_a − X_b| − d`, derivatives by the same chain
@@ -24,17 +26,16 @@
 //! and no coordinates when only distances name it.
 
 use nalgebra::{DMatrix, DVector};
-use num_dual::Dual64;
 use rayon::prelude::*;
 
 use super::forward_rows::{Forward, ForwardEvaluation, ForwardRow, Latest};
+use super::instrument_derivatives::{derivatives, PoseFunction};
 use super::noise::coordinate_sigmas;
 use super::{BlockError, IdentificationProblem};
 use crate::error::KinematicsError;
 use crate::identify::jacobian::PreparedLeg;
 use crate::kinematics::inverse::Joints;
 use crate::kinematics::platform::{Configuration, ForwardKinematics};
-use crate::measure::targets::{observe_in, target_position};
 use crate::model::mechanism::MeasurementNoise;
 
 /// Forward rows closed by one task at least (a row is a few microseconds: fewer would spend
@@ -50,40 +51,6 @@ const PARALLEL_ROWS: usize = 64;
 pub(super) struct Closed {
     pub(super) pose: [f64; 6],
     pub(super) moves: Option<(DMatrix<f64>, DMatrix<f64>)>,
-}
-
-/// The values of a function `f(P, θ)` evaluated by dual numbers and, when `columns`, `∂f/∂P`
-/// (rows of `f`, 6 columns) and `∂f/∂θ` over the identified shared parameters, one pass per
-/// column (zero without `columns`: a residual-only evaluation needs none).
-pub(super) fn derivatives(
-    f: impl Fn(&[Dual64], &[Dual64; 6]) -> Vec<Dual64>,
-    (shared, identified): (&[f64], &[usize]),
-    pose: &[f64; 6],
-    (measured, columns): (&[usize], bool),
-) -> (Vec<f64>, DMatrix<f64>, DMatrix<f64>) {
-    let lifted: Vec<Dual64> = shared.iter().map(|&v| Dual64::from(v)).collect();
-    let plain = pose.map(Dual64::from);
-    let values: Vec<f64> = f(&lifted, &plain).iter().map(|v| v.re).collect();
-    let mut by_pose = DMatrix::zeros(values.len(), 6);
-    let mut by_shared = DMatrix::zeros(values.len(), identified.len());
-    if !columns {
-        return (values, by_pose, by_shared);
-    }
-    for &c in measured {
-        let mut seeded = plain;
-        seeded[c] = seeded[c].derivative();
-        for (o, value) in f(&lifted, &seeded).iter().enumerate() {
-            by_pose[(o, c)] = value.eps;
-        }
-    }
-    for (j, &k) in identified.iter().enumerate() {
-        let mut seeded = lifted.clone();
-        seeded[k] = seeded[k].derivative();
-        for (o, value) in f(&seeded, &plain).iter().enumerate() {
-            by_shared[(o, j)] = value.eps;
-        }
-    }
-    (values, by_pose, by_shared)
 }
 
 impl IdentificationProblem<'_> {
@@ -202,9 +169,8 @@ impl IdentificationProblem<'_> {
             if row.observed.is_empty() {
                 continue;
             }
-            let report = |s: &[Dual64], pose: &[Dual64; 6]| observe_in(instrument, s, pose);
             let (values, by_pose, by_shared) = derivatives(
-                report,
+                PoseFunction::Report(instrument),
                 (&shared, &sighted.shared),
                 &closed[r].pose,
                 (measured, jacobian),
@@ -218,13 +184,10 @@ impl IdentificationProblem<'_> {
             }
         }
         if let Some(target) = instrument.distances.as_ref().map(|d| d.target) {
-            let position = |s: &[Dual64], pose: &[Dual64; 6]| {
-                target_position(instrument, s, target, pose).to_vec()
-            };
             for distance in forward.distances.iter() {
                 let [a, b] = distance.rows.map(|r| {
                     derivatives(
-                        position,
+                        PoseFunction::Position(instrument, target),
                         (&shared, &sighted.shared),
                         &closed[r].pose,
                         (measured, jacobian),
@@ -267,7 +230,11 @@ impl IdentificationProblem<'_> {
         // rows' starts).
         let kinematics = match known {
             Some(_) => None,
-            None => Some(ForwardKinematics::new(mechanism, params)),
+            None => Some(ForwardKinematics::with_kernels(
+                mechanism,
+                params,
+                &forward.kernels,
+            )),
         };
         let prepared: Vec<PreparedLeg<'_>> = if moves {
             mechanism
@@ -276,7 +243,7 @@ impl IdentificationProblem<'_> {
                 .enumerate()
                 .map(|(l, leg)| {
                     let columns = self.slot_of_leg[l].map_or(&[][..], |s| &self.slots[s].columns);
-                    PreparedLeg::new(leg, &params[l], columns)
+                    PreparedLeg::with_kernel(leg, &params[l], columns, forward.kernels[l])
                 })
                 .collect()
         } else {

@@ -10,6 +10,7 @@ use super::sighted::Sighted;
 use super::IdentificationProblem;
 use crate::error::{Error, Result};
 use crate::identify::residual::ResidualBlock;
+use crate::kinematics::kernel::LegKernel;
 use crate::measure::observations::{instrument_of, Observations};
 use crate::model::Mechanism;
 
@@ -105,7 +106,8 @@ impl<'a> IdentificationProblem<'a> {
             })
             .collect();
         let mut problem = Self::assemble(mechanism, legs, blocks, Some(sighted));
-        problem.forward = Some(Forward::new(rows, distances, block_sources));
+        let kernels = mechanism.legs.iter().map(LegKernel::recognise).collect();
+        problem.forward = Some(Forward::new(rows, distances, block_sources, kernels));
         Ok(problem)
     }
 }

@@ -7,6 +7,7 @@ use std::sync::{Arc, Mutex};
 
 use nalgebra::DMatrix;
 
+use crate::kinematics::kernel::LegKernel;
 use crate::kinematics::platform::Configuration;
 
 /// One forward row: every leg's reading and what the instrument reported there.
@@ -51,6 +52,8 @@ pub(super) struct Forward {
     /// The latest evaluation, keyed by the unknowns' bits: a solver asks for the Jacobian where
     /// it has just evaluated the residuals, and the statistics again at the estimate.
     pub(super) latest: Arc<Mutex<Option<Latest>>>,
+    /// Every leg's closed-form kernel ([`LegKernel::recognise`]), recognised once.
+    pub(super) kernels: Arc<Vec<Option<LegKernel>>>,
 }
 
 /// The latest evaluation of a problem's forward rows.
@@ -69,11 +72,12 @@ pub(super) struct Latest {
 
 impl Forward {
     /// The forward part of a problem over `rows` and `distances`, beside blocks of measured
-    /// poses from the rows `block_sources`.
+    /// poses from the rows `block_sources`, the mechanism's legs having the kernels `kernels`.
     pub(super) fn new(
         rows: Vec<ForwardRow>,
         distances: Vec<ForwardDistance>,
         block_sources: Vec<usize>,
+        kernels: Vec<Option<LegKernel>>,
     ) -> Self {
         let starts = vec![None; rows.len()];
         Self {
@@ -82,6 +86,7 @@ impl Forward {
             starts: Arc::new(Mutex::new(starts)),
             block_sources: Arc::new(block_sources),
             latest: Arc::new(Mutex::new(None)),
+            kernels: Arc::new(kernels),
         }
     }
 
@@ -90,7 +95,13 @@ impl Forward {
     pub(super) fn renewed(&self, keep: impl Fn(usize) -> bool) -> Self {
         let sources = (0..self.block_sources.len()).filter(|&i| keep(i));
         let sources = sources.map(|i| self.block_sources[i]).collect();
-        Self::new(self.rows.to_vec(), self.distances.to_vec(), sources)
+        let kernels = self.kernels.to_vec();
+        Self::new(
+            self.rows.to_vec(),
+            self.distances.to_vec(),
+            sources,
+            kernels,
+        )
     }
 }
 

@@ -30,6 +30,7 @@ mod evaluation;
 mod forward;
 mod forward_problem;
 mod forward_rows;
+mod instrument_derivatives;
 mod noise;
 mod places;
 mod prior_rows;

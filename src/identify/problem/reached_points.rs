@@ -4,9 +4,9 @@
 
 use nalgebra::{DMatrix, DVector};
 
-use super::forward::{derivatives, Closed};
+use super::forward::Closed;
+use super::instrument_derivatives::{derivatives, PoseFunction};
 use super::{BlockError, IdentificationProblem};
-use crate::measure::targets::target_position;
 
 /// One forward row's target point in the base frame and its derivative.
 #[derive(Debug, Clone)]
@@ -59,14 +59,11 @@ impl IdentificationProblem<'_> {
         let shared = sighted.values(x.as_slice());
         let p = self.parameter_count();
         let first_shared = p - sighted.shared.len();
-        let position = |s: &[num_dual::Dual64], pose: &[num_dual::Dual64; 6]| {
-            target_position(instrument, s, target, pose).to_vec()
-        };
         Ok(closed
             .iter()
             .map(|row| {
                 let (values, by_pose, by_shared) = derivatives(
-                    position,
+                    PoseFunction::Position(instrument, target),
                     (&shared, &sighted.shared),
                     &row.pose,
                     (&self.mechanism.measured, true),
