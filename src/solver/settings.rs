@@ -150,11 +150,19 @@ impl Trial {
         let eps = f64::EPSILON;
         let reduction_within =
             |tol: f64| self.actred.abs() <= tol && self.prered <= tol && self.ratio <= 2.0;
+        // A rejected trial (both solvers accept from a ratio of 1e-4) whose predicted reduction
+        // is below the double's resolution of the cost and whose actual change is within
+        // √ε (MINPACK's default ftol): that change, of either sign, is the round-off of the
+        // computed cost (about 1e-12 relative for residuals that are small differences of the
+        // kinematics' positions), and more damping only predicts less. Nothing further is
+        // resolvable from this point. (A failed or wild trial changes the cost by more.)
+        let unresolvable =
+            self.prered <= eps && self.ratio < 1e-4 && self.actred.abs() <= eps.sqrt();
         let progress = if reduction_within(ftol) {
             Some(StopReason::CostReduction)
         } else if self.step_converged {
             Some(StopReason::StepSize)
-        } else if reduction_within(eps) || self.step_at_precision {
+        } else if reduction_within(eps) || self.step_at_precision || unresolvable {
             Some(StopReason::ToleranceTooSmall)
         } else {
             None
@@ -305,6 +313,44 @@ mod tests {
             tiny.verdict(1e-20, || true),
             Some(StopReason::ToleranceTooSmall)
         );
+        // A rejected trial predicting less than the cost's resolution, its actual reduction
+        // the cost's round-off (a forward fit's last iteration): nothing left to resolve, a
+        // convergence at a stationary point only.
+        let noise = Trial {
+            actred: -1.5e-12,
+            prered: 4.5e-19,
+            ratio: -3.3e6,
+            ..quiet()
+        };
+        assert_eq!(
+            noise.verdict(1e-12, || true),
+            Some(StopReason::ToleranceTooSmall)
+        );
+        assert_eq!(noise.verdict(1e-12, || false), Some(StopReason::Stalled));
+        // The same prediction on an accepted trial, or a rejected one predicting more than ε:
+        // no stop.
+        let accepted = Trial {
+            ratio: 1e-4,
+            ..noise
+        };
+        assert_eq!(accepted.verdict(1e-12, || true), None);
+        let resolvable = Trial {
+            prered: 1e-15,
+            ..noise
+        };
+        assert_eq!(resolvable.verdict(1e-12, || true), None);
+        // A failed trial point (a large rise) is no round-off: the damping goes on.
+        let failed = Trial {
+            actred: -1.0,
+            ratio: -1.0 / 4.5e-19,
+            ..noise
+        };
+        assert_eq!(failed.verdict(1e-12, || true), None);
+        let beyond = Trial {
+            actred: -2e-8,
+            ..noise
+        };
+        assert_eq!(beyond.verdict(1e-12, || true), None);
     }
 
     #[test]

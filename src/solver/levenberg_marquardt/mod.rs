@@ -54,8 +54,9 @@ const P0001: f64 = 1.0e-4;
 /// [`TerminationReason::SolverExit`] and a readable message, and the state holds the last
 /// accepted point.
 ///
-/// The cost-reduction and step tests (and their machine-precision variants) only say that
-/// progress stopped. They count as convergence only at a *stationary* point, where one of:
+/// The cost-reduction and step tests (and their machine-precision variants, which include a
+/// rejected step predicting a relative reduction of at most ε whose actual change is within
+/// √ε: the round-off of the computed cost) only say that progress stopped. They count as convergence only at a *stationary* point, where one of:
 /// - MINPACK's scale-invariant gradient measure `max_j |cos(J e_j, r)|` is at most the
 ///   stationarity tolerance (default [`STATIONARITY_TOLERANCE`]);
 /// - the full Gauss–Newton step is negligible, `‖D p_GN‖ ≤ √ε (‖D x‖ + √ε)` (the point is a

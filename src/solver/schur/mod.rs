@@ -77,7 +77,9 @@ const MIN_DAMPING: f64 = f64::EPSILON * f64::EPSILON;
 ///   `ftol` (and `ρ ≤ 2`);
 /// - [`StopReason::StepSize`]: `‖D p‖ ≤ xtol·(‖D x‖ + xtol)` (the damped step plays the part of
 ///   the trust region), or a step that comes out exactly zero;
-/// - [`StopReason::ToleranceTooSmall`]: the same tests with ε in place of the tolerances;
+/// - [`StopReason::ToleranceTooSmall`]: the same tests with ε in place of the tolerances, or a
+///   rejected step predicting a relative reduction of at most ε whose actual change is within
+///   √ε (the round-off of the computed cost: nothing further is resolvable);
 /// - [`StopReason::Gradient`]: MINPACK's scale-invariant `max_j |cos(J e_j, r)|` at most `gtol`
 ///   (checked before the steps) or ε;
 /// - [`StopReason::NonFinite`]: the Jacobian blocks or the damping are not finite;
