@@ -155,21 +155,15 @@ impl<'m> ForwardKinematics<'m> {
             }),
             kernel: None,
         };
-        let readings = solver.home_readings(params, kernels);
-        // The kernels' home first: the stacked home check starts where they closed.
-        let kernel = readings
-            .as_ref()
-            .ok()
-            .and_then(|r| solver.kernel_assembly(r, longest, kernels));
-        solver.home = readings.and_then(|readings| {
-            let start = kernel.as_ref().map(|(_, _, start)| start.clone());
-            let mut start = start.unwrap_or_else(|| solver.home_configuration());
+        solver.home = solver.home_readings(params, kernels).and_then(|readings| {
+            let mut start = solver.home_configuration();
             let sign = solver.newton(&readings, &mut start)?.signum();
             Ok((readings, sign))
         });
-        solver.kernel = kernel
-            .filter(|_| solver.home.is_ok())
-            .map(|(kernel, sign, _)| (kernel, sign));
+        solver.kernel = match &solver.home {
+            Ok((readings, _)) => solver.kernel_assembly(readings, longest, kernels),
+            Err(_) => None,
+        };
         solver
     }
 
@@ -196,20 +190,20 @@ impl<'m> ForwardKinematics<'m> {
     }
 
     /// The reduced forward kinematics through the legs' kernels, if the mechanism has it and
-    /// it closes at home for `home_readings` (with the sign of its determinant there, and the
-    /// configuration it closed at); `size` is the longest leg.
+    /// it closes at home for `home_readings` (with the sign of its determinant there); `size`
+    /// is the longest leg.
     fn kernel_assembly(
         &self,
         home_readings: &[f64],
         size: f64,
         kernels: &[Option<LegKernel>],
-    ) -> Option<(KernelForward, f64, Configuration)> {
+    ) -> Option<(KernelForward, f64)> {
         let kernel = KernelForward::new(self.mechanism, &self.geometries, kernels)?;
         let mut start = self.home_configuration();
         let joints = Some(start.joints.as_mut_slice());
         let determinant =
             kernel.newton(home_readings, &mut start.pose, joints, (size, false), None)?;
-        Some((kernel, determinant.signum(), start))
+        Some((kernel, determinant.signum()))
     }
 
     /// The home pose with every leg's home joints.
