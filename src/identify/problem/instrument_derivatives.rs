@@ -23,6 +23,14 @@ pub(super) enum PoseFunction<'a> {
 }
 
 impl PoseFunction<'_> {
+    /// How many values [`Self::at`] gives.
+    fn len(&self) -> usize {
+        match *self {
+            Self::Report(instrument) => instrument.observed_len(),
+            Self::Position(..) => 3,
+        }
+    }
+
     fn at<T: Scalar>(&self, shared: &[T], pose: &[T; 6]) -> Vec<T> {
         match *self {
             Self::Report(instrument) => observe_in(instrument, shared, pose),
@@ -51,20 +59,12 @@ pub(super) fn derivatives(
     pose: &[f64; 6],
     (measured, columns): (&[usize], bool),
 ) -> (Vec<f64>, DMatrix<f64>, DMatrix<f64>) {
-    let seeds: Vec<Seed> = match columns {
-        true => measured
-            .iter()
-            .map(|&c| Seed::Pose(c))
-            .chain(
-                identified
-                    .iter()
-                    .enumerate()
-                    .map(|(j, &k)| Seed::Shared { j, k }),
-            )
-            .collect(),
-        false => Vec::new(),
+    let total = if columns {
+        measured.len() + identified.len()
+    } else {
+        0
     };
-    if seeds.is_empty() {
+    if total == 0 {
         let values = f.at(shared, pose);
         let n = values.len();
         return (
@@ -73,47 +73,62 @@ pub(super) fn derivatives(
             DMatrix::zeros(n, identified.len()),
         );
     }
-    let passes: Vec<_> = seeds
-        .chunks(LANES)
-        .map(|chunk| {
-            let at = (shared, pose);
-            let read = match chunk.len() {
-                1 => pass::<1>(f, at, chunk),
-                2 => pass::<2>(f, at, chunk),
-                3 => pass::<3>(f, at, chunk),
-                4 => pass::<4>(f, at, chunk),
-                5 => pass::<5>(f, at, chunk),
-                6 => pass::<6>(f, at, chunk),
-                7 => pass::<7>(f, at, chunk),
-                _ => pass::<LANES>(f, at, chunk),
-            };
-            (chunk, read)
-        })
-        .collect();
-    // Every pass's values are the same f64 operations: the first one's.
-    let values: Vec<f64> = passes[0].1.iter().map(|(value, _)| *value).collect();
-    let mut by_pose = DMatrix::zeros(values.len(), 6);
-    let mut by_shared = DMatrix::zeros(values.len(), identified.len());
-    for (chunk, read) in &passes {
-        for (o, (_, lanes)) in read.iter().enumerate() {
-            for (seed, &d) in chunk.iter().zip(lanes) {
+    let seed = |i: usize| match measured.get(i) {
+        Some(&c) => Seed::Pose(c),
+        None => {
+            let j = i - measured.len();
+            Seed::Shared {
+                j,
+                k: identified[j],
+            }
+        }
+    };
+    let n = f.len();
+    let mut values = Vec::with_capacity(n);
+    let mut by_pose = DMatrix::zeros(n, 6);
+    let mut by_shared = DMatrix::zeros(n, identified.len());
+    for first in (0..total).step_by(LANES) {
+        let count = (total - first).min(LANES);
+        let mut seeds = [Seed::Pose(0); LANES];
+        for (i, s) in seeds.iter_mut().enumerate().take(count) {
+            *s = seed(first + i);
+        }
+        let seeds = &seeds[..count];
+        // Every pass's values are the same f64 operations: the first one's are kept.
+        let mut write = |o: usize, value: f64, lanes: &[f64]| {
+            if first == 0 {
+                values.push(value);
+            }
+            for (seed, &d) in seeds.iter().zip(lanes) {
                 match *seed {
                     Seed::Pose(c) => by_pose[(o, c)] = d,
                     Seed::Shared { j, .. } => by_shared[(o, j)] = d,
                 }
             }
+        };
+        let at = (shared, pose);
+        match count {
+            1 => pass::<1>(f, at, seeds, &mut write),
+            2 => pass::<2>(f, at, seeds, &mut write),
+            3 => pass::<3>(f, at, seeds, &mut write),
+            4 => pass::<4>(f, at, seeds, &mut write),
+            5 => pass::<5>(f, at, seeds, &mut write),
+            6 => pass::<6>(f, at, seeds, &mut write),
+            7 => pass::<7>(f, at, seeds, &mut write),
+            _ => pass::<LANES>(f, at, seeds, &mut write),
         }
     }
     (values, by_pose, by_shared)
 }
 
-/// One pass of `f` with the columns `seeds` (at most `N`) on lanes `0..`: every output's value
-/// and its lanes.
+/// One pass of `f` with the columns `seeds` (at most `N`) on lanes `0..`: `write(o, value,
+/// lanes)` for every output `o`, at most [`PoseFunction::len`] of them.
 fn pass<const N: usize>(
     f: PoseFunction<'_>,
     (shared, pose): (&[f64], &[f64; 6]),
     seeds: &[Seed],
-) -> Vec<(f64, [f64; LANES])> {
+    write: &mut impl FnMut(usize, f64, &[f64]),
+) {
     let mut lifted: Vec<DualSVec64<N>> = shared.iter().map(|&v| DualSVec64::from_re(v)).collect();
     let mut seeded: [DualSVec64<N>; 6] = pose.map(DualSVec64::from_re);
     for (lane, seed) in seeds.iter().enumerate() {
@@ -122,13 +137,9 @@ fn pass<const N: usize>(
             Seed::Shared { k, .. } => lifted[k] = lifted[k].derivative(lane),
         }
     }
-    f.at(&lifted, &seeded)
-        .iter()
-        .map(|value| {
-            let eps = value.eps.unwrap_generic(Const::<N>, U1);
-            let mut lanes = [0.0; LANES];
-            lanes[..N].copy_from_slice(eps.as_slice());
-            (value.re(), lanes)
-        })
-        .collect()
+    let n = f.len();
+    for (o, value) in f.at(&lifted, &seeded).iter().enumerate().take(n) {
+        let eps = value.eps.unwrap_generic(Const::<N>, U1);
+        write(o, value.re(), eps.as_slice());
+    }
 }
