@@ -232,6 +232,14 @@ impl CarriageLeg {
         self.carriage(frame, target).map(|(q, _)| q)
     }
 
+    /// Where the carriage `actuated` puts the universal joint, `K(q) = K₀ + q v` (world), and the
+    /// rod's length `L`: the leg's tip is on the sphere of radius `L` about it.
+    pub(crate) fn tip_sphere(&self, frame: &CarriageFrame<f64>, actuated: f64) -> ([f64; 3], f64) {
+        let (k, v) = (frame.start, frame.direction);
+        let centre = [0, 1, 2].map(|i| k[i] + actuated * v[i]);
+        (centre, frame.squared_rod.sqrt())
+    }
+
     /// [`Self::actuated`] in f64 from the frame's numbers `frame` ([`CarriageFrame::scalars`]:
     /// `K₀`, `v`, `L²`) and the target's world `(x, y, z)`, with its partial derivatives with
     /// respect to the frame's eight numbers and the target's three: with `e = P − K₀`,

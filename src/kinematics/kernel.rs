@@ -107,6 +107,18 @@ impl PreparedKernel<f64> {
 }
 
 impl PreparedKernel<f64> {
+    /// For a carriage leg, the sphere its tip is on when its carriage is at `actuated`: the
+    /// universal joint's world position and the rod's length ([`CarriageLeg::tip_sphere`]);
+    /// `None` for any other kernel.
+    pub(crate) fn tip_sphere(&self, actuated: f64) -> Option<([f64; 3], f64)> {
+        match (&self.kernel, &self.frame) {
+            (LegKernel::Carriage(leg), KernelFrame::Carriage(frame)) => {
+                Some(leg.tip_sphere(frame, actuated))
+            }
+            _ => None,
+        }
+    }
+
     /// For a dyad actuated at its base, the circle its tip is on when its actuated joint is
     /// at `actuated`: the elbow's world `(x, y)` and the distal link's length
     /// ([`Dyad::elbow_circle`]); `None` for any other kernel.

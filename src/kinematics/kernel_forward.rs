@@ -23,6 +23,7 @@ use super::inverse::{joints, wrap_angle, Joints};
 use super::kernel::{LegKernel, PreparedKernel};
 use super::newton_stop::beyond_round_off;
 use super::pose_derivative::{pose_derivatives, PoseDerivative};
+use super::sphere_intersection;
 use crate::model::joint::JointKind;
 use crate::model::leg::LegGeometry;
 use crate::model::Mechanism;
@@ -85,6 +86,10 @@ pub(crate) struct KernelForward {
     /// Whether the solve starts from the closed form ([`Self::circle_start`]): two legs whose
     /// tips lie on circles once their actuators are set, the platform's `x` and `y` measured.
     circles: bool,
+    /// Whether the solve starts from the closed form ([`Self::sphere_start`]): three legs whose
+    /// tips lie on spheres once their actuators are set, the platform's `x`, `y` and `z`
+    /// measured (it translates only).
+    spheres: bool,
 }
 
 impl KernelForward {
@@ -135,19 +140,23 @@ impl KernelForward {
         let circles = measured == [0, 1]
             && legs.len() == 2
             && legs.iter().all(|leg| leg.kernel.tip_circle(0.0).is_some());
+        let spheres = measured == [0, 1, 2]
+            && legs.len() == 3
+            && legs.iter().all(|leg| leg.kernel.tip_sphere(0.0).is_some());
         Some(Self {
             legs,
             measured,
             derivatives,
             moved,
             circles,
+            spheres,
         })
     }
 
     /// Whether [`Self::newton`] starts from the closed form (two circles' intersection) where
     /// it has one, rather than from the pose it is given.
     pub(crate) fn starts_in_closed_form(&self) -> bool {
-        self.circles
+        self.circles || self.spheres
     }
 
     /// The platform's `(x, y)` reaching `readings` in closed form, for two legs each actuated
@@ -170,6 +179,29 @@ impl KernelForward {
         let reached = nearest_intersection(centres, radii, [pose[0], pose[1]])?;
         let moved = (reached[0] - pose[0]).hypot(reached[1] - pose[1]);
         (moved <= MAX_STEP * size).then_some(reached)
+    }
+
+    /// The platform's `(x, y, z)` reaching `readings` in closed form, for three carriage legs:
+    /// each leg's tip is on the sphere about its universal joint, the platform point on that
+    /// sphere moved by the attachment's offset (the platform's angles are not measured: fixed
+    /// at `pose`'s). The intersection nearest `pose`, where it is clearly the nearer (Newton's
+    /// method from `pose` would go there) and within a Newton step's limit of it; `None`
+    /// otherwise.
+    fn sphere_start(&self, readings: &[f64], pose: &[f64; 6], size: f64) -> Option<[f64; 3]> {
+        let platform = platform_transform_f64(pose);
+        let mut centres = [[0.0; 3]; 3];
+        let mut radii = [0.0; 3];
+        for (l, leg) in self.legs.iter().enumerate().take(3) {
+            let wanted = leg.actuator.0 * readings[l] + leg.actuator.1;
+            let (joint, radius) = leg.kernel.tip_sphere(wanted)?;
+            let tip = attachment_on(&platform, &leg.attachment);
+            centres[l] = [0, 1, 2].map(|k| joint[k] - (tip[k] - pose[k]));
+            radii[l] = radius;
+        }
+        let near = [pose[0], pose[1], pose[2]];
+        let reached = sphere_intersection::nearest_intersection(centres, radii, near)?;
+        let moved = (0..3).map(|k| (reached[k] - near[k]).powi(2)).sum::<f64>();
+        (moved.sqrt() <= MAX_STEP * size).then_some(reached)
     }
 
     /// Every leg's actuated joint and actuated row at `pose` ([`KernelRows`]).
@@ -207,11 +239,15 @@ impl KernelForward {
         if readings.len() != m || joints.as_ref().is_some_and(|j| j.len() != m) {
             return None;
         }
+        // Newton from a closed-form start lands at once: the kernels' rows at the reached pose
+        // confirm it (and give the assembly mode), as at the end of the iterations.
         if self.circles {
             if let Some(reached) = self.circle_start(readings, pose, size) {
-                // Newton from there lands at once: the kernels' rows at the reached pose
-                // confirm it (and give the assembly mode), as at the end of the iterations.
                 (pose[0], pose[1]) = (reached[0], reached[1]);
+            }
+        } else if self.spheres {
+            if let Some(reached) = self.sphere_start(readings, pose, size) {
+                pose[..3].copy_from_slice(&reached);
             }
         }
         let same_start = |rows: &&KernelRows| {
@@ -422,6 +458,57 @@ mod tests {
             let miss = (reached[0] - pose[0]).hypot(reached[1] - pose[1]);
             assert!(miss < 1e-15, "{miss:e} at ({dx}, {dy})");
         }
+    }
+
+    #[test]
+    fn the_delta_starts_at_its_spheres_intersection() {
+        let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("models/delta.yaml");
+        let mechanism = Mechanism::load(&path).unwrap();
+        let parameters = mechanism.nominal_parameters();
+        let geometries: Vec<_> = mechanism
+            .legs
+            .iter()
+            .zip(&parameters)
+            .map(|(leg, phi)| leg.geometry(phi))
+            .collect();
+        let kernels: Vec<_> = mechanism.legs.iter().map(LegKernel::recognise).collect();
+        let forward = KernelForward::new(&mechanism, &geometries, &kernels).unwrap();
+        assert!(forward.starts_in_closed_form() && !forward.circles);
+        let home = mechanism.home_pose;
+        for d in [[0.0, 0.0, 0.0], [0.02, -0.01, 0.01], [-0.03, 0.015, -0.02]] {
+            let mut pose = home;
+            for k in 0..3 {
+                pose[k] += d[k];
+            }
+            let readings: Vec<f64> = mechanism
+                .legs
+                .iter()
+                .zip(&parameters)
+                .map(|(leg, phi)| predict_reading(leg, phi, &pose, &home).unwrap())
+                .collect();
+            // From a start 1 mm away: the pose itself, to round-off.
+            let mut start = pose;
+            start[0] += 1e-3;
+            start[2] -= 1e-3;
+            let reached = forward.sphere_start(&readings, &start, 1.0).unwrap();
+            let miss = (0..3).map(|k| (reached[k] - pose[k]).powi(2)).sum::<f64>();
+            assert!(miss.sqrt() < 1e-15, "{:e} at {d:?}", miss.sqrt());
+            // Newton from there confirms it in one evaluation: the same pose.
+            let mut solved = start;
+            let size = (1.0, true);
+            forward
+                .newton(&readings, &mut solved, None, size, None)
+                .unwrap();
+            assert_eq!(&solved[..3], &reached[..]);
+        }
+        // A start beyond the step limit, or readings no platform reaches: no closed-form start.
+        let readings = vec![mechanism.legs[0].home_joints[0]; 3];
+        let mut far = home;
+        far[2] += 10.0;
+        assert!(forward.sphere_start(&readings, &far, 1e-3).is_none());
+        assert!(forward
+            .sphere_start(&[5.0, -5.0, 5.0], &home, 1.0)
+            .is_none());
     }
 
     #[test]

@@ -16,3 +16,4 @@ pub mod pointing;
 mod pose_derivative;
 pub mod reading;
 pub mod singularity;
+mod sphere_intersection;

@@ -6,7 +6,8 @@
 //! ([`ForwardKinematics::solve_near_pose`]), and the configuration handed back closes every
 //! leg at its reading. The first evaluation computed beforehand at the start
 //! ([`ForwardKinematics::kernel_rows_at`], shared by a Monte Carlo trial's maps) changes no bit;
-//! a planar two-leg mechanism starts from its closed form instead (no rows to share).
+//! a planar two-leg mechanism and a translating three-carriage one start from their closed
+//! forms instead (no rows to share).
 use legwise::kinematics::inverse::predict_reading;
 use legwise::kinematics::kernel::LegKernel;
 use legwise::kinematics::platform::{forward, Configuration, ForwardKinematics};
@@ -89,11 +90,21 @@ fn the_kernel_forward_kinematics_equals_the_stacked_newton() {
                 // With the first evaluation computed beforehand at the start: the same pose,
                 // bit for bit; computed at another pose, it is not taken for this start's.
                 // (None where the solve starts from a closed form: two legs on circles, the
-                // planar position measured.)
-                let circles = mechanism.legs.len() == 2 && mechanism.measured == [0, 1];
+                // planar position measured; three carriage legs on spheres, the position
+                // measured.)
+                let carriages = mechanism
+                    .legs
+                    .iter()
+                    .all(|leg| matches!(LegKernel::recognise(leg), Some(LegKernel::Carriage(_))));
+                let closed_form = (mechanism.legs.len() == 2 && mechanism.measured == [0, 1])
+                    || (mechanism.legs.len() == 3 && mechanism.measured == [0, 1, 2] && carriages);
                 match kinematics.kernel_rows_at(&start.pose) {
                     Some(first) => {
-                        assert!(!circles, "{}: rows for a closed-form start", mechanism.name);
+                        assert!(
+                            !closed_form,
+                            "{}: rows for a closed-form start",
+                            mechanism.name
+                        );
                         let shared =
                             kinematics.solve_near_pose_from(&readings, &start, Some(&first));
                         assert_eq!(
@@ -108,7 +119,7 @@ fn the_kernel_forward_kinematics_equals_the_stacked_newton() {
                             Ok(lean.map(f64::to_bits))
                         );
                     }
-                    None => assert!(circles, "{}: no kernel rows", mechanism.name),
+                    None => assert!(closed_form, "{}: no kernel rows", mechanism.name),
                 }
                 let mut configuration = start.clone();
                 let full = kinematics
