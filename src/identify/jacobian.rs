@@ -251,22 +251,40 @@ impl<'a> PreparedLeg<'a> {
         columns: &[usize],
         kernel: Option<LegKernel>,
     ) -> Self {
-        let passes = (0..columns.len())
-            .step_by(LANES)
-            .map(|first| {
-                let count = LANES.min(columns.len() - first);
-                pass(leg, (phi, columns, first), count, kernel.as_ref())
-            })
-            .collect();
         let geometry = leg.geometry(phi);
-        Self {
+        let mut prepared = Self {
             leg,
             frames: ChainFrames::new(&geometry),
             kernel: kernel.map(|kernel| kernel.prepare(&geometry)),
             geometry,
-            passes,
-            columns: columns.len(),
+            passes: Vec::new(),
+            columns: 0,
+        };
+        if !columns.is_empty() {
+            prepared.derive(phi, columns);
         }
+        prepared
+    }
+
+    /// Adds the derivative passes with respect to the parameters listed in `columns` to a leg
+    /// prepared without any ([`Self::columns`] zero) at the same full parameter vector `phi`:
+    /// the f64 geometry, its chain frames and kernel are kept, only the dual-number passes are
+    /// built. A leg prepared for residuals is thus reused for the Jacobian at the same
+    /// parameters.
+    pub fn derive(&mut self, phi: &[f64], columns: &[usize]) {
+        debug_assert!(
+            self.passes.is_empty(),
+            "the leg already has derivative passes"
+        );
+        let kernel = self.kernel.as_ref().map(PreparedKernel::kernel);
+        self.passes = (0..columns.len())
+            .step_by(LANES)
+            .map(|first| {
+                let count = LANES.min(columns.len() - first);
+                pass(self.leg, (phi, columns, first), count, kernel.as_ref())
+            })
+            .collect();
+        self.columns = columns.len();
     }
 
     /// Whether the leg is solved by a closed-form kernel.

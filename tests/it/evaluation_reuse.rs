@@ -392,3 +392,27 @@ fn the_gain_column_carries_the_turn_term_of_readings_on_another_turn() {
     let (_, jacobian) = moved.residuals_and_jacobian(&x).unwrap();
     assert_central_differences(&moved, &x, &jacobian, "gain 1.3");
 }
+
+/// A Jacobian where only the residuals were evaluated adds the derivative passes to the legs
+/// prepared for them (kept with the evaluation): the same Jacobian, bit for bit, as a new
+/// problem's evaluated with its derivatives at once, on either path (the kept solutions, or a
+/// large problem's seeds), and again after the gradients were released.
+#[test]
+fn a_jacobian_from_the_legs_prepared_for_the_residuals_is_a_fresh_ones() {
+    let mech = bundled("5r.yaml");
+    for copies in [1, 2200] {
+        let problem = leg_problem(&mech, 30, copies);
+        let fresh = leg_problem(&mech, 30, copies);
+        let [x1, x2, _] = three_points(&problem);
+        for x in [&x1, &x2] {
+            problem.residuals(x).unwrap();
+            let (_, derived) = problem.residuals_and_jacobian(x).unwrap();
+            let (_, direct) = fresh.residuals_and_jacobian(x).unwrap();
+            let bits = |j: &DMatrix<f64>| j.iter().map(|v| v.to_bits()).collect::<Vec<_>>();
+            assert_eq!(bits(&derived), bits(&direct), "{copies} copies");
+            problem.release_gradients();
+            let (_, again) = problem.residuals_and_jacobian(x).unwrap();
+            assert_eq!(bits(&again), bits(&direct), "{copies} copies, released");
+        }
+    }
+}

@@ -22,6 +22,7 @@ use nalgebra::{DMatrix, DVector};
 use super::residual::ResidualBlock;
 use crate::error::{Error, KinematicsError, Result};
 use crate::kinematics::chain::{platform_transform_f64, Transform};
+use crate::kinematics::kernel::LegKernel;
 use crate::measure::observations::{instrument_of, Observations};
 use crate::model::instrument::Instrument;
 use crate::model::Mechanism;
@@ -89,6 +90,9 @@ pub struct IdentificationProblem<'a> {
     mechanism: &'a Mechanism,
     slots: Vec<LegSlot>,
     slot_of_leg: Vec<Option<usize>>,
+    /// Each slot's closed-form kernel ([`LegKernel::recognise`] of its leg), recognised once
+    /// for the problem rather than at every evaluation.
+    kernels: Vec<Option<LegKernel>>,
     /// Shared by the problem's clones (a solver clones its problem).
     blocks: Arc<Vec<ResidualBlock>>,
     /// Through an instrument: the shared parameters and what it saw at each block (whose
@@ -111,7 +115,7 @@ pub struct IdentificationProblem<'a> {
     /// clones its problem, and refines the estimate on the original): a problem and its clones
     /// are evaluated one after the other, never at once. A problem derived with other rows,
     /// columns or held values starts its own.
-    state: Arc<Mutex<Evaluations>>,
+    state: Arc<Mutex<Evaluations<'a>>>,
 }
 
 /// A block's platform pose at one evaluation and its transform.
@@ -243,6 +247,10 @@ impl<'a> IdentificationProblem<'a> {
             .max()
             .unwrap_or(1);
         let state = Evaluations::new(blocks.len(), stride);
+        let kernels = slots
+            .iter()
+            .map(|slot| LegKernel::recognise(&mechanism.legs[slot.leg]))
+            .collect();
         let measured = sighted.is_none() && blocks.len() <= KEPT_SOLUTION_ROWS;
         Self {
             priors: Default::default(),
@@ -256,6 +264,7 @@ impl<'a> IdentificationProblem<'a> {
             mechanism,
             slots,
             slot_of_leg,
+            kernels,
             sighted,
             forward: None,
             row_scales: None,
