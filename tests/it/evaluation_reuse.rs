@@ -416,3 +416,35 @@ fn a_jacobian_from_the_legs_prepared_for_the_residuals_is_a_fresh_ones() {
         }
     }
 }
+
+/// A new evaluation is built in the buffers of the kept one it replaces: its residuals and
+/// Jacobian are a fresh problem's, bit for bit, whether the replaced one held gradients or
+/// not, and whether the new one is asked for them at once or later.
+#[test]
+fn an_evaluation_in_a_replaced_ones_buffers_has_a_fresh_ones_values() {
+    let mech = bundled("5r.yaml");
+    let problem = leg_problem(&mech, 30, 1);
+    let [x1, x2, x3] = three_points(&problem);
+    let bits = |v: &[f64]| v.iter().map(|v| v.to_bits()).collect::<Vec<_>>();
+    problem.residuals_and_jacobian(&x1).unwrap();
+    problem.residuals(&x2).unwrap();
+    // x3 replaces x1 (its gradients), then x1 replaces x2, then x2 replaces x3.
+    for (x, jacobian_at_once) in [(&x3, true), (&x1, false), (&x2, true)] {
+        let fresh = leg_problem(&mech, 30, 1);
+        let (r, j) = if jacobian_at_once {
+            problem.residuals_and_jacobian(x).unwrap()
+        } else {
+            let r = problem.residuals(x).unwrap();
+            (r, problem.residuals_and_jacobian(x).unwrap().1)
+        };
+        let (r_fresh, j_fresh) = if jacobian_at_once {
+            fresh.residuals_and_jacobian(x).unwrap()
+        } else {
+            let r = fresh.residuals(x).unwrap();
+            (r, fresh.residuals_and_jacobian(x).unwrap().1)
+        };
+        assert_eq!(bits(r.as_slice()), bits(r_fresh.as_slice()));
+        assert_eq!(bits(j.as_slice()), bits(j_fresh.as_slice()));
+        assert_eq!(problem.kept_evaluations().0, 2);
+    }
+}

@@ -14,10 +14,9 @@
 //! each residual and its Jacobian row are multiplied by `√w_i`); a revolute actuator's
 //! residual is matched modulo one turn of the joint ([`super::residual::turns`]).
 
-use std::borrow::Cow;
 use std::sync::{Arc, Mutex};
 
-use nalgebra::{DMatrix, DVector};
+use nalgebra::DVector;
 
 use super::residual::ResidualBlock;
 use crate::error::{Error, KinematicsError, Result};
@@ -90,8 +89,7 @@ pub struct IdentificationProblem<'a> {
     mechanism: &'a Mechanism,
     slots: Vec<LegSlot>,
     slot_of_leg: Vec<Option<usize>>,
-    /// Each slot's closed-form kernel ([`LegKernel::recognise`] of its leg), recognised once
-    /// for the problem rather than at every evaluation.
+    /// Each slot's closed-form kernel, recognised once (not at every evaluation).
     kernels: Vec<Option<LegKernel>>,
     /// Shared by the problem's clones (a solver clones its problem).
     blocks: Arc<Vec<ResidualBlock>>,
@@ -247,10 +245,8 @@ impl<'a> IdentificationProblem<'a> {
             .max()
             .unwrap_or(1);
         let state = Evaluations::new(blocks.len(), stride);
-        let kernels = slots
-            .iter()
-            .map(|slot| LegKernel::recognise(&mechanism.legs[slot.leg]))
-            .collect();
+        let kernel = |slot: &LegSlot| LegKernel::recognise(&mechanism.legs[slot.leg]);
+        let kernels = slots.iter().map(kernel).collect();
         let measured = sighted.is_none() && blocks.len() <= KEPT_SOLUTION_ROWS;
         Self {
             priors: Default::default(),
@@ -477,30 +473,5 @@ impl<'a> IdentificationProblem<'a> {
             phi[c] = x[slot.offset + k];
         }
         phi
-    }
-
-    /// The rows and columns of the leg in `slot` of the problem's Jacobian `c`: borrowed
-    /// when they are all of it (a problem of one leg, whose slot starts at column 0), else
-    /// copied.
-    pub fn slot_jacobian<'c>(&self, slot: &LegSlot, c: &'c DMatrix<f64>) -> Cow<'c, DMatrix<f64>> {
-        let n = slot.columns.len();
-        if self.slots.len() == 1 && c.ncols() == n {
-            return Cow::Borrowed(c);
-        }
-        // Forward rows are every leg's: all the rows.
-        let rows: Vec<usize> = match self.forward {
-            Some(_) => (0..c.nrows()).collect(),
-            None => self.rows_of(slot),
-        };
-        Cow::Owned(DMatrix::from_fn(rows.len(), n, |i, j| {
-            c[(rows[i], slot.offset + j)]
-        }))
-    }
-
-    /// Row indices of the blocks of the leg in `slot`.
-    pub fn rows_of(&self, slot: &LegSlot) -> Vec<usize> {
-        (0..self.blocks.len())
-            .filter(|&i| self.blocks[i].leg == slot.leg)
-            .collect()
     }
 }

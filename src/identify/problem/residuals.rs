@@ -209,7 +209,8 @@ impl<'a> IdentificationProblem<'a> {
     ) -> f64 {
         let block = &self.blocks[i];
         let s = self.slot_of_leg[block.leg].unwrap_or_default();
-        let width = self.gradient_stride();
+        let own = self.own_width();
+        let width = own + self.shared_columns().len();
         let gradient = &evaluation.gradients[i * width..(i + 1) * width];
         let predicted = evaluation.predicted[i];
         let tm = matches[s];
@@ -224,7 +225,7 @@ impl<'a> IdentificationProblem<'a> {
             }
             put(Column::Own(k), g * scale);
         }
-        for (j, &g) in gradient[self.own_width()..].iter().enumerate() {
+        for (j, &g) in gradient[own..].iter().enumerate() {
             put(Column::Shared(j), g * scale);
         }
         scale * (predicted - block.reading - n * turn)
@@ -288,6 +289,8 @@ impl<'a> IdentificationProblem<'a> {
         self.evaluated(x, true, |evaluation| {
             let mut r = DVector::zeros(m);
             let mut jacobian = DMatrix::zeros(m, p);
+            // Column-major: entry (i, j) at i + j·m.
+            let entries = jacobian.as_mut_slice();
             for (i, block) in self.blocks.iter().enumerate() {
                 let offset = self.slots[self.slot_of_leg[block.leg].unwrap_or_default()].offset;
                 r[i] = self.row_derivatives((i, evaluation, &matches), |column, g| {
@@ -295,7 +298,7 @@ impl<'a> IdentificationProblem<'a> {
                         Column::Own(k) => offset + k,
                         Column::Shared(k) => first + k,
                     };
-                    jacobian[(i, j)] = g;
+                    entries[i + j * m] = g;
                 });
             }
             (r, jacobian)
