@@ -120,9 +120,9 @@ impl<const N: usize> KernelLanes<N> {
     ) -> Option<f64> {
         let m = platform.rotation.matrix();
         let t = &platform.translation.vector;
-        let a = self.attachment.map(|(value, _)| value);
+        let a: [f64; 3] = std::array::from_fn(|k| self.attachment[k].0);
         let row = |i: usize| a[0] * m[(i, 0)] + a[1] * m[(i, 1)] + a[2] * m[(i, 2)] + t[i];
-        let frame = self.frame.map(|(value, _)| value);
+        let frame: [f64; 8] = std::array::from_fn(|k| self.frame[k].0);
         let target = [row(0), row(1), row(2)];
         let (actuated, partials) = kernel.actuated_partials(&frame, target, solution)?;
         let ((gain, d_gain), (offset, d_offset)) = (&self.gain, &self.offset);
@@ -130,19 +130,23 @@ impl<const N: usize> KernelLanes<N> {
         // gain gives a non-finite derivative, as it did there).
         let (difference, inverse) = (actuated - offset, gain.recip());
         let reading = difference * inverse;
+        // Every lane at once, each lane's sum in the same order as one lane alone: the frame's
+        // terms, then the target's three.
+        let mut d = [0.0; N];
+        for ((_, lanes), p) in self.frame.iter().zip(&partials) {
+            for (d, lane) in d.iter_mut().zip(lanes) {
+                *d += p * lane;
+            }
+        }
+        let [(_, a0), (_, a1), (_, a2)] = &self.attachment;
+        for (i, p) in partials[8..].iter().enumerate() {
+            let (m0, m1, m2) = (m[(i, 0)], m[(i, 1)], m[(i, 2)]);
+            for j in 0..N {
+                d[j] += p * (a0[j] * m0 + a1[j] * m1 + a2[j] * m2);
+            }
+        }
         for (j, out) in gradient.iter_mut().enumerate().take(N) {
-            let mut d = 0.0;
-            for ((_, lanes), p) in self.frame.iter().zip(&partials) {
-                d += p * lanes[j];
-            }
-            for (i, p) in partials[8..].iter().enumerate() {
-                let lanes = &self.attachment;
-                d += p
-                    * (lanes[0].1[j] * m[(i, 0)]
-                        + lanes[1].1[j] * m[(i, 1)]
-                        + lanes[2].1[j] * m[(i, 2)]);
-            }
-            *out = ((d - d_offset[j]) * gain - d_gain[j] * difference) * inverse * inverse;
+            *out = ((d[j] - d_offset[j]) * gain - d_gain[j] * difference) * inverse * inverse;
         }
         Some(reading)
     }
@@ -251,22 +255,40 @@ impl<'a> PreparedLeg<'a> {
         columns: &[usize],
         kernel: Option<LegKernel>,
     ) -> Self {
-        let passes = (0..columns.len())
-            .step_by(LANES)
-            .map(|first| {
-                let count = LANES.min(columns.len() - first);
-                pass(leg, (phi, columns, first), count, kernel.as_ref())
-            })
-            .collect();
         let geometry = leg.geometry(phi);
-        Self {
+        let mut prepared = Self {
             leg,
             frames: ChainFrames::new(&geometry),
             kernel: kernel.map(|kernel| kernel.prepare(&geometry)),
             geometry,
-            passes,
-            columns: columns.len(),
+            passes: Vec::new(),
+            columns: 0,
+        };
+        if !columns.is_empty() {
+            prepared.derive(phi, columns);
         }
+        prepared
+    }
+
+    /// Adds the derivative passes with respect to the parameters listed in `columns` to a leg
+    /// prepared without any ([`Self::columns`] zero) at the same full parameter vector `phi`:
+    /// the f64 geometry, its chain frames and kernel are kept, only the dual-number passes are
+    /// built. A leg prepared for residuals is thus reused for the Jacobian at the same
+    /// parameters.
+    pub fn derive(&mut self, phi: &[f64], columns: &[usize]) {
+        debug_assert!(
+            self.passes.is_empty(),
+            "the leg already has derivative passes"
+        );
+        let kernel = self.kernel.as_ref().map(PreparedKernel::kernel);
+        self.passes = (0..columns.len())
+            .step_by(LANES)
+            .map(|first| {
+                let count = LANES.min(columns.len() - first);
+                pass(self.leg, (phi, columns, first), count, kernel.as_ref())
+            })
+            .collect();
+        self.columns = columns.len();
     }
 
     /// Whether the leg is solved by a closed-form kernel.

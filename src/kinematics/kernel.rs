@@ -213,6 +213,12 @@ impl LegInverse<'_> {
 }
 
 impl<T: Scalar> PreparedKernel<T> {
+    /// The pattern this kernel was prepared from.
+    #[inline]
+    pub fn kernel(&self) -> LegKernel {
+        self.kernel
+    }
+
     /// The numbers the kernel's frame holds (in `T`): the inputs
     /// [`PreparedKernel::actuated_partials`] differentiates by ([`super::dyad::DyadFrame::scalars`],
     /// [`super::distance_leg::DistanceFrame::scalars`],

@@ -392,3 +392,59 @@ fn the_gain_column_carries_the_turn_term_of_readings_on_another_turn() {
     let (_, jacobian) = moved.residuals_and_jacobian(&x).unwrap();
     assert_central_differences(&moved, &x, &jacobian, "gain 1.3");
 }
+
+/// A Jacobian where only the residuals were evaluated adds the derivative passes to the legs
+/// prepared for them (kept with the evaluation): the same Jacobian, bit for bit, as a new
+/// problem's evaluated with its derivatives at once, on either path (the kept solutions, or a
+/// large problem's seeds), and again after the gradients were released.
+#[test]
+fn a_jacobian_from_the_legs_prepared_for_the_residuals_is_a_fresh_ones() {
+    let mech = bundled("5r.yaml");
+    for copies in [1, 2200] {
+        let problem = leg_problem(&mech, 30, copies);
+        let fresh = leg_problem(&mech, 30, copies);
+        let [x1, x2, _] = three_points(&problem);
+        for x in [&x1, &x2] {
+            problem.residuals(x).unwrap();
+            let (_, derived) = problem.residuals_and_jacobian(x).unwrap();
+            let (_, direct) = fresh.residuals_and_jacobian(x).unwrap();
+            let bits = |j: &DMatrix<f64>| j.iter().map(|v| v.to_bits()).collect::<Vec<_>>();
+            assert_eq!(bits(&derived), bits(&direct), "{copies} copies");
+            problem.release_gradients();
+            let (_, again) = problem.residuals_and_jacobian(x).unwrap();
+            assert_eq!(bits(&again), bits(&direct), "{copies} copies, released");
+        }
+    }
+}
+
+/// A new evaluation is built in the buffers of the kept one it replaces: its residuals and
+/// Jacobian are a fresh problem's, bit for bit, whether the replaced one held gradients or
+/// not, and whether the new one is asked for them at once or later.
+#[test]
+fn an_evaluation_in_a_replaced_ones_buffers_has_a_fresh_ones_values() {
+    let mech = bundled("5r.yaml");
+    let problem = leg_problem(&mech, 30, 1);
+    let [x1, x2, x3] = three_points(&problem);
+    let bits = |v: &[f64]| v.iter().map(|v| v.to_bits()).collect::<Vec<_>>();
+    problem.residuals_and_jacobian(&x1).unwrap();
+    problem.residuals(&x2).unwrap();
+    // x3 replaces x1 (its gradients), then x1 replaces x2, then x2 replaces x3.
+    for (x, jacobian_at_once) in [(&x3, true), (&x1, false), (&x2, true)] {
+        let fresh = leg_problem(&mech, 30, 1);
+        let (r, j) = if jacobian_at_once {
+            problem.residuals_and_jacobian(x).unwrap()
+        } else {
+            let r = problem.residuals(x).unwrap();
+            (r, problem.residuals_and_jacobian(x).unwrap().1)
+        };
+        let (r_fresh, j_fresh) = if jacobian_at_once {
+            fresh.residuals_and_jacobian(x).unwrap()
+        } else {
+            let r = fresh.residuals(x).unwrap();
+            (r, fresh.residuals_and_jacobian(x).unwrap().1)
+        };
+        assert_eq!(bits(r.as_slice()), bits(r_fresh.as_slice()));
+        assert_eq!(bits(j.as_slice()), bits(j_fresh.as_slice()));
+        assert_eq!(problem.kept_evaluations().0, 2);
+    }
+}

@@ -16,6 +16,7 @@ use super::state::{
 use super::{BlockError, IdentificationProblem, Placed};
 use crate::error::KinematicsError;
 use crate::identify::jacobian::PreparedLeg;
+use crate::kinematics::chain::Transform;
 use crate::kinematics::inverse::Solution;
 
 /// Rows per task: a problem with more rows is evaluated in parallel (rayon), in chunks of this
@@ -35,23 +36,39 @@ fn key(x: &DVector<f64>) -> Vec<u64> {
     x.iter().map(|v| v.to_bits()).collect()
 }
 
+/// Whether `key` is the bits of `x` ([`key`], without building it).
+fn same(key: &[u64], x: &DVector<f64>) -> bool {
+    key.len() == x.len() && key.iter().zip(x.iter()).all(|(&k, v)| k == v.to_bits())
+}
+
 impl<'a> IdentificationProblem<'a> {
     /// The evaluation state (shared with the problem's clones).
-    fn lock(&self) -> MutexGuard<'_, Evaluations> {
+    fn lock(&self) -> MutexGuard<'_, Evaluations<'a>> {
         self.state.lock().unwrap_or_else(|e| e.into_inner())
     }
 
     /// Each slot's leg prepared at the unknowns `x` (built once, reused at every pose), for
     /// the derivatives with respect to its identified parameters if `derivatives`.
     fn prepare(&self, x: &DVector<f64>, derivatives: bool) -> Vec<PreparedLeg<'a>> {
-        self.slots
-            .iter()
-            .map(|slot| {
-                let leg = &self.mechanism.legs[slot.leg];
-                let columns: &[usize] = if derivatives { &slot.columns } else { &[] };
-                PreparedLeg::new(leg, &self.leg_parameters(slot, x), columns)
-            })
-            .collect()
+        let mut prepared = Vec::with_capacity(self.slots.len());
+        self.prepare_into(&mut prepared, x, derivatives);
+        prepared
+    }
+
+    /// [`Self::prepare`] into `prepared` (whose legs are replaced).
+    fn prepare_into(
+        &self,
+        prepared: &mut Vec<PreparedLeg<'a>>,
+        x: &DVector<f64>,
+        derivatives: bool,
+    ) {
+        prepared.clear();
+        let kernels = self.kernels.iter().copied();
+        prepared.extend(self.slots.iter().zip(kernels).map(|(slot, kernel)| {
+            let leg = &self.mechanism.legs[slot.leg];
+            let columns: &[usize] = if derivatives { &slot.columns } else { &[] };
+            PreparedLeg::with_kernel(leg, &self.leg_parameters(slot, x), columns, kernel)
+        }));
     }
 
     /// Block `index`'s prepared leg among `prepared` (one per slot).
@@ -63,22 +80,23 @@ impl<'a> IdentificationProblem<'a> {
         &prepared[self.slot_of_leg[self.blocks[index].leg].unwrap_or_default()]
     }
 
-    /// Block `index`'s reading at its solved pose `placed`, its gradient written into
+    /// Block `index`'s reading at its solved pose `placed` (its pose and transform), its
+    /// gradient written into
     /// `gradient` ([`Self::gradient_stride`] values): with respect to its leg's identified
     /// parameters by the leg's dual passes, then to the identified shared parameters `shared`
     /// by the chain rule through the pose fit (problem/sighted.rs).
     fn reading_and_gradient(
         &self,
         (leg, index): (&PreparedLeg<'a>, usize),
-        (placed, solution): (&Placed, &Solution),
+        ((pose, platform), solution): ((&[f64; 6], &Transform<f64>), &Solution),
         shared: &[f64],
         gradient: &mut [f64],
     ) -> f64 {
         let own = self.own_width();
         let reading =
-            leg.reading_and_gradient_on(&placed.platform, solution, &mut gradient[..leg.columns()]);
+            leg.reading_and_gradient_on(platform, solution, &mut gradient[..leg.columns()]);
         if let Some(sighted) = self.sighting().filter(|s| !s.shared.is_empty()) {
-            let row = (sighted.rows[index].observed.as_slice(), &placed.pose);
+            let row = (sighted.rows[index].observed.as_slice(), pose);
             let home = &self.mechanism.home_pose;
             sighted.shared_gradient(leg, row, solution, (shared, home), &mut gradient[own..]);
         }
@@ -104,45 +122,48 @@ impl<'a> IdentificationProblem<'a> {
         &self,
         x: &DVector<f64>,
         derivatives: bool,
-        read: impl FnOnce(&Evaluation) -> R,
+        read: impl FnOnce(&Evaluation<'a>) -> R,
     ) -> Result<R, BlockError> {
-        let key = key(x);
         let mut state = self.lock();
-        let kept = state.recent.iter().position(|e| e.x == key);
+        let kept = state.recent.iter().position(|e| same(&e.x, x));
         let mut evaluation = match kept {
             Some(i) => state.recent.remove(i),
             None => {
                 // The oldest kept evaluation would go once this one is kept: it goes first
-                // (a large problem's evaluations are tens of megabytes).
+                // (a large problem's evaluations are tens of megabytes), its buffers the new
+                // one's.
+                let oldest = state.recent.len() >= KEPT_EVALUATIONS;
+                let spare = if oldest { state.recent.pop() } else { None };
                 state.recent.truncate(KEPT_EVALUATIONS - 1);
                 if derivatives {
                     release_older_gradients(&mut state);
                 }
-                self.solve_rows(x, key, derivatives, &mut state)?
+                self.solve_rows(x, spare.unwrap_or_default(), derivatives, &mut state)?
             }
         };
         if derivatives && evaluation.gradients.is_empty() && !self.blocks.is_empty() {
             release_older_gradients(&mut state);
             if !evaluation.solutions.is_empty() {
-                let solutions = std::mem::take(&mut evaluation.solutions);
-                let poses = std::mem::take(&mut evaluation.poses);
+                self.derive(&mut evaluation.prepared, x);
+                let (solutions, poses) = (&evaluation.solutions, &evaluation.poses);
                 let pose = |i: usize| poses.get(i).copied();
-                evaluation.gradients = self.gradients(x, |i| (solutions[i], pose(i)));
-                evaluation.solutions = solutions;
-                evaluation.poses = poses;
+                let gradients =
+                    self.gradients(x, &evaluation.prepared, |i| (solutions[i], pose(i)));
+                evaluation.gradients = gradients;
             } else if state.solved == evaluation.x {
                 // The seeds are this evaluation's solutions.
+                self.derive(&mut evaluation.prepared, x);
                 let seeds = &state.seeds;
                 let leg = |i: usize| &self.mechanism.legs[self.blocks[i].leg];
-                evaluation.gradients = self.gradients(x, |i| {
+                let gradients = self.gradients(x, &evaluation.prepared, |i| {
                     (
                         seed_solution(&seeds.values[i * seeds.stride..], leg(i)),
                         None,
                     )
                 });
+                evaluation.gradients = gradients;
             } else {
-                let key = std::mem::take(&mut evaluation.x);
-                evaluation = self.solve_rows(x, key, true, &mut state)?;
+                evaluation = self.solve_rows(x, evaluation, true, &mut state)?;
             }
         }
         let value = read(&evaluation);
@@ -151,21 +172,33 @@ impl<'a> IdentificationProblem<'a> {
         Ok(value)
     }
 
+    /// Adds to each slot's leg of `prepared` (prepared at the unknowns `x`) its derivative
+    /// passes, where it has none yet.
+    fn derive(&self, prepared: &mut [PreparedLeg<'a>], x: &DVector<f64>) {
+        for (leg, slot) in prepared.iter_mut().zip(&self.slots) {
+            if leg.columns() == 0 && !slot.columns.is_empty() {
+                leg.derive(&self.leg_parameters(slot, x), &slot.columns);
+            }
+        }
+    }
+
     /// Solves every block's inverse kinematics at the unknowns `x` (warm-started from the
     /// state's seeds, which then hold the new solutions) and evaluates the predicted readings
-    /// (and their gradients if `derivatives`). Large problems are evaluated in parallel chunks
-    /// of [`ROWS_PER_TASK`] rows.
+    /// (and their gradients if `derivatives`), in the buffers of `spare` (an evaluation no
+    /// longer kept, or an empty one; its values are all replaced). Large problems are evaluated
+    /// in parallel chunks of [`ROWS_PER_TASK`] rows; a problem of one chunk on the calling
+    /// thread.
     ///
     /// # Errors
     /// The first block (in row order) whose leg cannot reach its pose.
     fn solve_rows(
         &self,
         x: &DVector<f64>,
-        key: Vec<u64>,
+        spare: Evaluation<'a>,
         derivatives: bool,
-        state: &mut Evaluations,
-    ) -> Result<Evaluation, BlockError> {
-        state.solved = Vec::new();
+        state: &mut Evaluations<'a>,
+    ) -> Result<Evaluation<'a>, BlockError> {
+        state.solved.clear();
         let seed_stride = state.seeds.stride;
         let seeds = &mut state.seeds.values[..];
         let m = self.blocks.len();
@@ -174,31 +207,49 @@ impl<'a> IdentificationProblem<'a> {
         } else {
             0
         };
-        let prepared = self.prepare(x, derivatives);
+        let Evaluation {
+            x: mut key,
+            mut prepared,
+            solutions: mut kept_solutions,
+            poses: mut kept_poses,
+            mut predicted,
+            mut gradients,
+        } = spare;
+        key.clear();
+        key.extend(x.iter().map(|v| v.to_bits()));
+        self.prepare_into(&mut prepared, x, derivatives);
         let shared = self.shared_values(x);
         let home = &self.mechanism.home_pose;
         let keep = m <= KEPT_SOLUTION_ROWS;
         let keep_poses = keep && self.sighting().is_some();
-        let mut predicted = vec![0.0; m];
-        // Without derivatives, a placeholder column (the chunks of all three slices must pair).
-        let stride = width.max(1);
-        let mut gradients = vec![0.0; m * stride];
-        let task = |(chunk, ((seeds, predicted), gradients)): ChunkOfRows<'_>| {
-            let mut solutions = Vec::with_capacity(if keep { predicted.len() } else { 0 });
-            let mut poses = Vec::with_capacity(if keep_poses { predicted.len() } else { 0 });
+        predicted.clear();
+        predicted.resize(m, 0.0);
+        if derivatives {
+            gradients.clear();
+            gradients.resize(m * width, 0.0);
+        } else {
+            gradients = Vec::new();
+        }
+        kept_solutions.clear();
+        kept_poses.clear();
+        let task = |(chunk, ((seeds, predicted), gradients)): ChunkOfRows<'_>,
+                    (mut solutions, mut poses): (Vec<Solution>, Vec<[f64; 6]>)| {
+            solutions.reserve(if keep { predicted.len() } else { 0 });
+            poses.reserve(if keep_poses { predicted.len() } else { 0 });
             let rows = seeds.chunks_mut(seed_stride).zip(predicted.iter_mut());
             for (k, (seed, value)) in rows.enumerate() {
                 let index = chunk * ROWS_PER_TASK + k;
                 let leg = self.prepared_leg(&prepared, index);
-                let placed = self.placed(index, &shared);
+                let mut fitted = None;
+                let placed = self.placed_in(index, &shared, &mut fitted);
                 let warm = seed_joints(seed, leg.leg());
                 let solution = leg
-                    .solve_warm_on(&placed.platform, &placed.pose, home, warm.as_ref())
+                    .solve_warm_on(placed.1, placed.0, home, warm.as_ref())
                     .map_err(|source| (index, source))?;
                 store_seed(seed, leg.leg(), &solution);
                 *value = if derivatives {
                     let gradient = &mut gradients[k * width..(k + 1) * width];
-                    self.reading_and_gradient((leg, index), (&placed, &solution), &shared, gradient)
+                    self.reading_and_gradient((leg, index), (placed, &solution), &shared, gradient)
                 } else {
                     leg.reading_of(&solution)
                 };
@@ -206,37 +257,57 @@ impl<'a> IdentificationProblem<'a> {
                     solutions.push(solution);
                 }
                 if keep_poses {
-                    poses.push(placed.pose);
+                    poses.push(*placed.0);
                 }
             }
             Ok::<_, (usize, KinematicsError)>((solutions, poses))
         };
-        // One task a chunk of rows; rayon runs a single chunk on the calling thread.
-        let results: Vec<_> = seeds
-            .par_chunks_mut(ROWS_PER_TASK * seed_stride)
-            .zip(predicted.par_chunks_mut(ROWS_PER_TASK))
-            .zip(gradients.par_chunks_mut(ROWS_PER_TASK * stride))
-            .enumerate()
-            .map(task)
-            .collect();
-        let mut solutions = Vec::with_capacity(if keep { m } else { 0 });
-        let mut poses = Vec::with_capacity(if keep_poses { m } else { 0 });
-        for result in results {
-            match result {
-                Ok((mut chunk, mut chunk_poses)) => {
-                    solutions.append(&mut chunk);
-                    poses.append(&mut chunk_poses);
+        let (solutions, poses) = if m <= ROWS_PER_TASK {
+            // One chunk: its rows' vectors are the evaluation's own.
+            let rows = (seeds, &mut predicted[..]);
+            task(
+                (0, (rows, &mut gradients[..])),
+                (kept_solutions, kept_poses),
+            )
+            .map_err(|(index, source)| self.block_error(index, source, x))?
+        } else {
+            // Without derivatives, a placeholder column (the chunks of all three slices
+            // must pair).
+            let stride = width.max(1);
+            let mut placeholder = Vec::new();
+            let columns = if width == 0 {
+                placeholder.resize(m, 0.0);
+                &mut placeholder[..]
+            } else {
+                &mut gradients[..]
+            };
+            // One task a chunk of rows.
+            let results: Vec<_> = seeds
+                .par_chunks_mut(ROWS_PER_TASK * seed_stride)
+                .zip(predicted.par_chunks_mut(ROWS_PER_TASK))
+                .zip(columns.par_chunks_mut(ROWS_PER_TASK * stride))
+                .enumerate()
+                .map(|chunk| task(chunk, (Vec::new(), Vec::new())))
+                .collect();
+            let (mut solutions, mut poses) = (kept_solutions, kept_poses);
+            solutions.reserve(if keep { m } else { 0 });
+            poses.reserve(if keep_poses { m } else { 0 });
+            for result in results {
+                match result {
+                    Ok((mut chunk, mut chunk_poses)) => {
+                        solutions.append(&mut chunk);
+                        poses.append(&mut chunk_poses);
+                    }
+                    Err((index, source)) => return Err(self.block_error(index, source, x)),
                 }
-                Err((index, source)) => return Err(self.block_error(index, source, x)),
             }
-        }
+            (solutions, poses)
+        };
         state.row_solves += m as u64;
-        if width == 0 {
-            gradients = Vec::new();
-        }
         state.solved.clone_from(&key);
         Ok(Evaluation {
             x: key,
+            prepared,
             solutions,
             poses,
             predicted,
@@ -245,34 +316,39 @@ impl<'a> IdentificationProblem<'a> {
     }
 
     /// The gradients of an evaluation at the unknowns `x` whose solutions are known
-    /// (`solution(i)` of block `i`, with its fitted pose when kept): the derivative passes
-    /// only, no inverse kinematics; in parallel chunks of [`ROWS_PER_TASK`] rows for a large
-    /// problem.
+    /// (`solution(i)` of block `i`, with its fitted pose when kept), each slot's leg prepared
+    /// at `x` with its derivative passes in `prepared`: the derivative passes only, no inverse
+    /// kinematics; in parallel chunks of [`ROWS_PER_TASK`] rows for a large problem.
     fn gradients(
         &self,
         x: &DVector<f64>,
+        prepared: &[PreparedLeg<'a>],
         solution: impl Fn(usize) -> (Solution, Option<[f64; 6]>) + Sync,
     ) -> Vec<f64> {
         let width = self.gradient_stride();
-        let prepared = self.prepare(x, true);
         let shared = self.shared_values(x);
         let mut gradients = vec![0.0; self.blocks.len() * width];
         let task = |(chunk, rows): (usize, &mut [f64])| {
             for (k, gradient) in rows.chunks_mut(width).enumerate() {
                 let index = chunk * ROWS_PER_TASK + k;
-                let leg = self.prepared_leg(&prepared, index);
+                let leg = self.prepared_leg(prepared, index);
                 let (solution, pose) = solution(index);
-                let placed = match pose {
-                    Some(pose) => Placed::at(pose),
-                    None => self.placed(index, &shared),
+                let mut fitted = pose.map(Placed::at);
+                let placed = match &fitted {
+                    Some(placed) => (&placed.pose, &placed.platform),
+                    None => self.placed_in(index, &shared, &mut fitted),
                 };
-                self.reading_and_gradient((leg, index), (&placed, &solution), &shared, gradient);
+                self.reading_and_gradient((leg, index), (placed, &solution), &shared, gradient);
             }
         };
-        gradients
-            .par_chunks_mut(ROWS_PER_TASK * width)
-            .enumerate()
-            .for_each(task);
+        if self.blocks.len() <= ROWS_PER_TASK {
+            task((0, &mut gradients[..]));
+        } else {
+            gradients
+                .par_chunks_mut(ROWS_PER_TASK * width)
+                .enumerate()
+                .for_each(task);
+        }
         gradients
     }
 

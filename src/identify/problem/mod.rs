@@ -14,14 +14,14 @@
 //! each residual and its Jacobian row are multiplied by `√w_i`); a revolute actuator's
 //! residual is matched modulo one turn of the joint ([`super::residual::turns`]).
 
-use std::borrow::Cow;
 use std::sync::{Arc, Mutex};
 
-use nalgebra::{DMatrix, DVector};
+use nalgebra::DVector;
 
 use super::residual::ResidualBlock;
 use crate::error::{Error, KinematicsError, Result};
 use crate::kinematics::chain::{platform_transform_f64, Transform};
+use crate::kinematics::kernel::LegKernel;
 use crate::measure::observations::{instrument_of, Observations};
 use crate::model::instrument::Instrument;
 use crate::model::Mechanism;
@@ -90,6 +90,8 @@ pub struct IdentificationProblem<'a> {
     mechanism: &'a Mechanism,
     slots: Vec<LegSlot>,
     slot_of_leg: Vec<Option<usize>>,
+    /// Each slot's closed-form kernel, recognised once (not at every evaluation).
+    kernels: Vec<Option<LegKernel>>,
     /// Shared by the problem's clones (a solver clones its problem).
     blocks: Arc<Vec<ResidualBlock>>,
     /// Through an instrument: the shared parameters and what it saw at each block (whose
@@ -112,7 +114,7 @@ pub struct IdentificationProblem<'a> {
     /// clones its problem, and refines the estimate on the original): a problem and its clones
     /// are evaluated one after the other, never at once. A problem derived with other rows,
     /// columns or held values starts its own.
-    state: Arc<Mutex<Evaluations>>,
+    state: Arc<Mutex<Evaluations<'a>>>,
 }
 
 /// A block's platform pose at one evaluation and its transform.
@@ -244,6 +246,8 @@ impl<'a> IdentificationProblem<'a> {
             .max()
             .unwrap_or(1);
         let state = Evaluations::new(blocks.len(), stride);
+        let kernel = |slot: &LegSlot| LegKernel::recognise(&mechanism.legs[slot.leg]);
+        let kernels = slots.iter().map(kernel).collect();
         let measured = sighted.is_none() && blocks.len() <= KEPT_SOLUTION_ROWS;
         Self {
             priors: Default::default(),
@@ -257,6 +261,7 @@ impl<'a> IdentificationProblem<'a> {
             mechanism,
             slots,
             slot_of_leg,
+            kernels,
             sighted,
             forward: None,
             row_scales: None,
@@ -469,30 +474,5 @@ impl<'a> IdentificationProblem<'a> {
             phi[c] = x[slot.offset + k];
         }
         phi
-    }
-
-    /// The rows and columns of the leg in `slot` of the problem's Jacobian `c`: borrowed
-    /// when they are all of it (a problem of one leg, whose slot starts at column 0), else
-    /// copied.
-    pub fn slot_jacobian<'c>(&self, slot: &LegSlot, c: &'c DMatrix<f64>) -> Cow<'c, DMatrix<f64>> {
-        let n = slot.columns.len();
-        if self.slots.len() == 1 && c.ncols() == n {
-            return Cow::Borrowed(c);
-        }
-        // Forward rows are every leg's: all the rows.
-        let rows: Vec<usize> = match self.forward {
-            Some(_) => (0..c.nrows()).collect(),
-            None => self.rows_of(slot),
-        };
-        Cow::Owned(DMatrix::from_fn(rows.len(), n, |i, j| {
-            c[(rows[i], slot.offset + j)]
-        }))
-    }
-
-    /// Row indices of the blocks of the leg in `slot`.
-    pub fn rows_of(&self, slot: &LegSlot) -> Vec<usize> {
-        (0..self.blocks.len())
-            .filter(|&i| self.blocks[i].leg == slot.leg)
-            .collect()
     }
 }

@@ -6,9 +6,10 @@
 use nalgebra::{DMatrix, DVector};
 
 use super::state::Evaluation;
-use super::{BlockError, IdentificationProblem, Placed};
+use super::{BlockError, IdentificationProblem, LegSlot, Placed};
 use crate::error::{KinematicsError, Result};
 use crate::identify::residual::{turn_in_reading_units, turns};
+use crate::kinematics::chain::Transform;
 use crate::measure::targets::platform_pose;
 use crate::model::params::ParamTarget;
 
@@ -46,6 +47,23 @@ impl<'a> IdentificationProblem<'a> {
         }
     }
 
+    /// Block `index`'s platform pose and transform as [`Self::placed`] gives them: borrowed
+    /// where the problem keeps them (measured poses), else computed into `fitted`.
+    pub(super) fn placed_in<'p>(
+        &'p self,
+        index: usize,
+        shared: &[f64],
+        fitted: &'p mut Option<Placed>,
+    ) -> (&'p [f64; 6], &'p Transform<f64>) {
+        if self.sighting().is_none() {
+            if let Some(platform) = self.platforms.get(index) {
+                return (&self.blocks[index].pose, platform);
+            }
+        }
+        let placed = fitted.insert(self.placed(index, shared));
+        (&placed.pose, &placed.platform)
+    }
+
     /// Each slot's gain and whether its actuator turns, at the unknowns `x`.
     pub(super) fn turn_matches(&self, x: &DVector<f64>) -> Vec<TurnMatch> {
         self.slots
@@ -53,7 +71,7 @@ impl<'a> IdentificationProblem<'a> {
             .map(|slot| {
                 let leg = &self.mechanism.legs[slot.leg];
                 TurnMatch {
-                    gain: leg.geometry(&self.leg_parameters(slot, x)).gain,
+                    gain: self.gain_at(slot, x),
                     gain_column: slot
                         .columns
                         .iter()
@@ -62,6 +80,23 @@ impl<'a> IdentificationProblem<'a> {
                 }
             })
             .collect()
+    }
+
+    /// The actuator gain of the leg in `slot` at the unknowns `x`: the value
+    /// [`crate::model::leg::LegModel::geometry`] of [`Self::leg_parameters`] gives it (the last
+    /// gain parameter's, else the leg's own), without building the geometry.
+    pub(super) fn gain_at(&self, slot: &LegSlot, x: &DVector<f64>) -> f64 {
+        let leg = &self.mechanism.legs[slot.leg];
+        let mut gain = leg.gain;
+        for (c, param) in leg.params.iter().enumerate() {
+            if param.target == ParamTarget::Gain {
+                gain = match slot.columns.iter().rposition(|&k| k == c) {
+                    Some(k) => x[slot.offset + k],
+                    None => param.nominal,
+                };
+            }
+        }
+        gain
     }
 
     /// `√w` of row `row` (1 when unweighted).
@@ -174,7 +209,8 @@ impl<'a> IdentificationProblem<'a> {
     ) -> f64 {
         let block = &self.blocks[i];
         let s = self.slot_of_leg[block.leg].unwrap_or_default();
-        let width = self.gradient_stride();
+        let own = self.own_width();
+        let width = own + self.shared_columns().len();
         let gradient = &evaluation.gradients[i * width..(i + 1) * width];
         let predicted = evaluation.predicted[i];
         let tm = matches[s];
@@ -189,7 +225,7 @@ impl<'a> IdentificationProblem<'a> {
             }
             put(Column::Own(k), g * scale);
         }
-        for (j, &g) in gradient[self.own_width()..].iter().enumerate() {
+        for (j, &g) in gradient[own..].iter().enumerate() {
             put(Column::Shared(j), g * scale);
         }
         scale * (predicted - block.reading - n * turn)
@@ -253,6 +289,8 @@ impl<'a> IdentificationProblem<'a> {
         self.evaluated(x, true, |evaluation| {
             let mut r = DVector::zeros(m);
             let mut jacobian = DMatrix::zeros(m, p);
+            // Column-major: entry (i, j) at i + j·m.
+            let entries = jacobian.as_mut_slice();
             for (i, block) in self.blocks.iter().enumerate() {
                 let offset = self.slots[self.slot_of_leg[block.leg].unwrap_or_default()].offset;
                 r[i] = self.row_derivatives((i, evaluation, &matches), |column, g| {
@@ -260,7 +298,7 @@ impl<'a> IdentificationProblem<'a> {
                         Column::Own(k) => offset + k,
                         Column::Shared(k) => first + k,
                     };
-                    jacobian[(i, j)] = g;
+                    entries[i + j * m] = g;
                 });
             }
             (r, jacobian)
@@ -321,7 +359,59 @@ pub(super) enum Column {
 
 #[cfg(test)]
 mod tests {
+    use std::path::Path;
+
     use super::short;
+    use crate::identify::problem::IdentificationProblem;
+    use crate::model::params::ParamTarget;
+    use crate::model::Mechanism;
+
+    /// The gain turn matching takes is the leg geometry's at the same unknowns, whether the
+    /// gain is identified (its unknown's value) or held (its nominal value, or the leg's own
+    /// without a gain parameter).
+    #[test]
+    fn the_turn_matching_gain_is_the_geometrys() {
+        let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("models/5r.yaml");
+        let mechanism = Mechanism::load(&path).unwrap();
+        let params = &mechanism.legs[0].params;
+        let k = params.iter().position(|p| p.target == ParamTarget::Gain);
+        let k = k.expect("the 5R's legs have a gain parameter");
+        for (identified, nominal) in [(true, 1.0), (false, 1.25), (false, -0.75)] {
+            let mechanism = mechanism.edited(|parts| {
+                let param = &mut parts.legs[0].params[k];
+                (param.identified, param.nominal) = (identified, nominal);
+            });
+            let problem = IdentificationProblem::new(&mechanism, &[0], Vec::new());
+            let slot = &problem.slots()[0];
+            let x = problem.start().map(|v| v * 1.1 + 0.01);
+            let geometry = mechanism.legs[0].geometry(&problem.leg_parameters(slot, &x));
+            let value = problem.gain_at(slot, &x);
+            assert_eq!(
+                value.to_bits(),
+                geometry.gain.to_bits(),
+                "{identified} {nominal}"
+            );
+            let expected = match slot.columns.iter().position(|&c| c == k) {
+                Some(column) => x[column],
+                None => nominal,
+            };
+            assert_eq!(
+                value.to_bits(),
+                expected.to_bits(),
+                "{identified} {nominal}"
+            );
+            assert_ne!(value.to_bits(), 1.0f64.to_bits(), "{identified} {nominal}");
+        }
+        // Without a gain parameter: the leg's own gain.
+        let mechanism = mechanism.edited(|parts| {
+            parts.legs[0].gain = 0.5;
+            parts.legs[0].params.remove(k);
+        });
+        let problem = IdentificationProblem::new(&mechanism, &[0], Vec::new());
+        let x = problem.start();
+        let value = problem.gain_at(&problem.slots()[0], &x);
+        assert_eq!(value.to_bits(), 0.5f64.to_bits());
+    }
 
     #[test]
     fn message_values_have_six_decimals_or_an_exponent() {

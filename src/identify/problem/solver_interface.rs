@@ -1,8 +1,11 @@
 //! The problem as argmin and the Schur-complement solver take it: `Operator` (the residuals),
 //! `Jacobian` (dual numbers) and [`BorderedLeastSquares`] (each leg's rows one group, the shared
-//! parameters its border; forward rows couple every leg: one group of all the legs' columns).
+//! parameters its border; forward rows couple every leg: one group of all the legs' columns),
+//! and a leg's rows and columns of the Jacobian.
 
 use argmin::core::{Error as ArgminError, Jacobian, Operator};
+use std::borrow::Cow;
+
 use nalgebra::{DMatrix, DVector};
 
 use super::residuals::Column;
@@ -95,5 +98,32 @@ impl Jacobian for IdentificationProblem<'_> {
 
     fn jacobian(&self, x: &Self::Param) -> Result<Self::Jacobian, ArgminError> {
         Ok(self.residuals_and_jacobian(x)?.1)
+    }
+}
+
+impl IdentificationProblem<'_> {
+    /// The rows and columns of the leg in `slot` of the problem's Jacobian `c`: borrowed
+    /// when they are all of it (a problem of one leg, whose slot starts at column 0), else
+    /// copied.
+    pub fn slot_jacobian<'c>(&self, slot: &LegSlot, c: &'c DMatrix<f64>) -> Cow<'c, DMatrix<f64>> {
+        let n = slot.columns.len();
+        if self.slots.len() == 1 && c.ncols() == n {
+            return Cow::Borrowed(c);
+        }
+        // Forward rows are every leg's: all the rows.
+        let rows: Vec<usize> = match self.forward {
+            Some(_) => (0..c.nrows()).collect(),
+            None => self.rows_of(slot),
+        };
+        Cow::Owned(DMatrix::from_fn(rows.len(), n, |i, j| {
+            c[(rows[i], slot.offset + j)]
+        }))
+    }
+
+    /// Row indices of the blocks of the leg in `slot`.
+    pub fn rows_of(&self, slot: &LegSlot) -> Vec<usize> {
+        (0..self.blocks.len())
+            .filter(|&i| self.blocks[i].leg == slot.leg)
+            .collect()
     }
 }

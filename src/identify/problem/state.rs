@@ -4,6 +4,7 @@
 
 use nalgebra::{Matrix3, Vector3};
 
+use crate::identify::jacobian::PreparedLeg;
 use crate::kinematics::inverse::{joints, Joints, Solution};
 use crate::model::leg::LegModel;
 
@@ -16,7 +17,7 @@ pub(super) const KEPT_SOLUTION_ROWS: usize = 65_536;
 
 /// A problem's evaluation state.
 #[derive(Debug)]
-pub(super) struct Evaluations {
+pub(super) struct Evaluations<'a> {
     /// Each block's solution at its last solved evaluation, [`Seeds::stride`] values a block
     /// (NaN before the first): the warm start of its next inverse-kinematics solve, and what
     /// a derivative pass needs at that evaluation's unknowns ([`Evaluations::solved`]).
@@ -26,7 +27,7 @@ pub(super) struct Evaluations {
     /// passes only, even for a problem too large to keep its full solutions.
     pub(super) solved: Vec<u64>,
     /// The latest evaluations, newest first.
-    pub(super) recent: Vec<Evaluation>,
+    pub(super) recent: Vec<Evaluation<'a>>,
     /// Rows whose inverse kinematics were solved so far ([`IdentificationProblem::row_solves`]).
     pub(super) row_solves: u64,
 }
@@ -74,10 +75,13 @@ pub(super) fn seed_solution(seed: &[f64], leg: &LegModel) -> Solution {
 
 /// The values of one evaluation, before turn matching and row weights: what any evaluation
 /// at the same unknowns (bit for bit) returns without solving again.
-#[derive(Debug)]
-pub(super) struct Evaluation {
+#[derive(Debug, Default)]
+pub(super) struct Evaluation<'a> {
     /// The unknowns' bits.
     pub(super) x: Vec<u64>,
+    /// Each slot's leg prepared at these unknowns: with its derivative passes once the
+    /// gradients were asked for (a Jacobian at a kept evaluation builds only those).
+    pub(super) prepared: Vec<PreparedLeg<'a>>,
     /// Each block's inverse-kinematics solution (empty above [`KEPT_SOLUTION_ROWS`]).
     pub(super) solutions: Vec<Solution>,
     /// Each block's platform pose fitted from its targets (through an instrument, up to
@@ -91,7 +95,7 @@ pub(super) struct Evaluation {
     pub(super) gradients: Vec<f64>,
 }
 
-impl Evaluations {
+impl Evaluations<'_> {
     /// The state before the first evaluation of a problem of `blocks` blocks: one seed of
     /// `stride` values per block, NaN (no warm start yet).
     pub(super) fn new(blocks: usize, stride: usize) -> Self {
@@ -109,7 +113,7 @@ impl Evaluations {
 
 /// Frees the gradients of the kept evaluations (before the gradients of another one are
 /// computed).
-pub(super) fn release_older_gradients(state: &mut Evaluations) {
+pub(super) fn release_older_gradients(state: &mut Evaluations<'_>) {
     for older in &mut state.recent {
         older.gradients = Vec::new();
     }

@@ -68,7 +68,11 @@ impl Scratch {
     /// Jacobian's own storage (a large problem's Jacobian is tens of megabytes: no copy).
     pub(super) fn factorize(&mut self, jac: DMatrix<f64>, res: &DVector<f64>) {
         let (m, n) = jac.shape();
-        self.col_norms = DVector::from_iterator(n, jac.column_iter().map(|c| c.norm()));
+        // The buffers of the last iteration are reused (the same sizes at every iteration).
+        zeroed(&mut self.col_norms, n);
+        for (norm, column) in self.col_norms.iter_mut().zip(jac.column_iter()) {
+            *norm = column.norm();
+        }
         self.jq = if m >= n {
             jac
         } else {
@@ -76,17 +80,23 @@ impl Scratch {
             padded.view_mut((0, 0), (m, n)).copy_from(&jac);
             padded
         };
-        self.rhs = DVector::zeros(m.max(n));
+        zeroed(&mut self.rhs, m.max(n));
         self.rhs.rows_mut(0, m).copy_from(res);
-        self.perm = (0..n).collect();
+        self.perm.clear();
+        self.perm.extend(0..n);
         householder_qr(&mut self.jq, &mut self.rhs, Some(&mut self.perm));
-        self.qtr = self.rhs.rows(0, n).into_owned();
+        zeroed(&mut self.qtr, n);
+        self.qtr.copy_from(&self.rhs.rows(0, n));
         for v in [&mut self.z, &mut self.y, &mut self.step, &mut self.d_perm] {
-            *v = DVector::zeros(n);
+            zeroed(v, n);
         }
         self.gauss_newton_dnorm = f64::INFINITY;
-        self.damped = DMatrix::zeros(n, n);
-        self.damped_rhs = DVector::zeros(n);
+        if self.damped.shape() == (n, n) {
+            self.damped.fill(0.0);
+        } else {
+            self.damped = DMatrix::zeros(n, n);
+        }
+        zeroed(&mut self.damped_rhs, n);
     }
 
     /// `‖D p‖` for the permuted step `z`.
@@ -263,6 +273,15 @@ impl Scratch {
             self.step[self.perm[j]] = self.z[j];
         }
         Some((lambda, dxnorm))
+    }
+}
+
+/// `v` as `n` zeros, in its own storage when it has that length.
+fn zeroed(v: &mut DVector<f64>, n: usize) {
+    if v.len() == n {
+        v.fill(0.0);
+    } else {
+        *v = DVector::zeros(n);
     }
 }
 
