@@ -16,7 +16,6 @@ use super::state::{
 use super::{BlockError, IdentificationProblem, Placed};
 use crate::error::KinematicsError;
 use crate::identify::jacobian::PreparedLeg;
-use crate::kinematics::chain::Transform;
 use crate::kinematics::inverse::Solution;
 
 /// Rows per task: a problem with more rows is evaluated in parallel (rayon), in chunks of this
@@ -50,25 +49,16 @@ impl<'a> IdentificationProblem<'a> {
     /// Each slot's leg prepared at the unknowns `x` (built once, reused at every pose), for
     /// the derivatives with respect to its identified parameters if `derivatives`.
     fn prepare(&self, x: &DVector<f64>, derivatives: bool) -> Vec<PreparedLeg<'a>> {
-        let mut prepared = Vec::with_capacity(self.slots.len());
-        self.prepare_into(&mut prepared, x, derivatives);
-        prepared
-    }
-
-    /// [`Self::prepare`] into `prepared` (whose legs are replaced).
-    fn prepare_into(
-        &self,
-        prepared: &mut Vec<PreparedLeg<'a>>,
-        x: &DVector<f64>,
-        derivatives: bool,
-    ) {
-        prepared.clear();
         let kernels = self.kernels.iter().copied();
-        prepared.extend(self.slots.iter().zip(kernels).map(|(slot, kernel)| {
-            let leg = &self.mechanism.legs[slot.leg];
-            let columns: &[usize] = if derivatives { &slot.columns } else { &[] };
-            PreparedLeg::with_kernel(leg, &self.leg_parameters(slot, x), columns, kernel)
-        }));
+        self.slots
+            .iter()
+            .zip(kernels)
+            .map(|(slot, kernel)| {
+                let leg = &self.mechanism.legs[slot.leg];
+                let columns: &[usize] = if derivatives { &slot.columns } else { &[] };
+                PreparedLeg::with_kernel(leg, &self.leg_parameters(slot, x), columns, kernel)
+            })
+            .collect()
     }
 
     /// Block `index`'s prepared leg among `prepared` (one per slot).
@@ -80,23 +70,22 @@ impl<'a> IdentificationProblem<'a> {
         &prepared[self.slot_of_leg[self.blocks[index].leg].unwrap_or_default()]
     }
 
-    /// Block `index`'s reading at its solved pose `placed` (its pose and transform), its
-    /// gradient written into
+    /// Block `index`'s reading at its solved pose `placed`, its gradient written into
     /// `gradient` ([`Self::gradient_stride`] values): with respect to its leg's identified
     /// parameters by the leg's dual passes, then to the identified shared parameters `shared`
     /// by the chain rule through the pose fit (problem/sighted.rs).
     fn reading_and_gradient(
         &self,
         (leg, index): (&PreparedLeg<'a>, usize),
-        ((pose, platform), solution): ((&[f64; 6], &Transform<f64>), &Solution),
+        (placed, solution): (&Placed, &Solution),
         shared: &[f64],
         gradient: &mut [f64],
     ) -> f64 {
         let own = self.own_width();
         let reading =
-            leg.reading_and_gradient_on(platform, solution, &mut gradient[..leg.columns()]);
+            leg.reading_and_gradient_on(&placed.platform, solution, &mut gradient[..leg.columns()]);
         if let Some(sighted) = self.sighting().filter(|s| !s.shared.is_empty()) {
-            let row = (sighted.rows[index].observed.as_slice(), pose);
+            let row = (sighted.rows[index].observed.as_slice(), &placed.pose);
             let home = &self.mechanism.home_pose;
             sighted.shared_gradient(leg, row, solution, (shared, home), &mut gradient[own..]);
         }
@@ -130,15 +119,12 @@ impl<'a> IdentificationProblem<'a> {
             Some(i) => state.recent.remove(i),
             None => {
                 // The oldest kept evaluation would go once this one is kept: it goes first
-                // (a large problem's evaluations are tens of megabytes), its buffers the new
-                // one's.
-                let oldest = state.recent.len() >= KEPT_EVALUATIONS;
-                let spare = if oldest { state.recent.pop() } else { None };
+                // (a large problem's evaluations are tens of megabytes).
                 state.recent.truncate(KEPT_EVALUATIONS - 1);
                 if derivatives {
                     release_older_gradients(&mut state);
                 }
-                self.solve_rows(x, spare.unwrap_or_default(), derivatives, &mut state)?
+                self.solve_rows(x, key(x), derivatives, &mut state)?
             }
         };
         if derivatives && evaluation.gradients.is_empty() && !self.blocks.is_empty() {
@@ -163,7 +149,8 @@ impl<'a> IdentificationProblem<'a> {
                 });
                 evaluation.gradients = gradients;
             } else {
-                evaluation = self.solve_rows(x, evaluation, true, &mut state)?;
+                let key = std::mem::take(&mut evaluation.x);
+                evaluation = self.solve_rows(x, key, true, &mut state)?;
             }
         }
         let value = read(&evaluation);
@@ -184,17 +171,15 @@ impl<'a> IdentificationProblem<'a> {
 
     /// Solves every block's inverse kinematics at the unknowns `x` (warm-started from the
     /// state's seeds, which then hold the new solutions) and evaluates the predicted readings
-    /// (and their gradients if `derivatives`), in the buffers of `spare` (an evaluation no
-    /// longer kept, or an empty one; its values are all replaced). Large problems are evaluated
-    /// in parallel chunks of [`ROWS_PER_TASK`] rows; a problem of one chunk on the calling
-    /// thread.
+    /// (and their gradients if `derivatives`). Large problems are evaluated in parallel chunks
+    /// of [`ROWS_PER_TASK`] rows; a problem of one chunk on the calling thread.
     ///
     /// # Errors
     /// The first block (in row order) whose leg cannot reach its pose.
     fn solve_rows(
         &self,
         x: &DVector<f64>,
-        spare: Evaluation<'a>,
+        key: Vec<u64>,
         derivatives: bool,
         state: &mut Evaluations<'a>,
     ) -> Result<Evaluation<'a>, BlockError> {
@@ -207,49 +192,29 @@ impl<'a> IdentificationProblem<'a> {
         } else {
             0
         };
-        let Evaluation {
-            x: mut key,
-            mut prepared,
-            solutions: mut kept_solutions,
-            poses: mut kept_poses,
-            mut predicted,
-            mut gradients,
-        } = spare;
-        key.clear();
-        key.extend(x.iter().map(|v| v.to_bits()));
-        self.prepare_into(&mut prepared, x, derivatives);
+        let prepared = self.prepare(x, derivatives);
         let shared = self.shared_values(x);
         let home = &self.mechanism.home_pose;
         let keep = m <= KEPT_SOLUTION_ROWS;
         let keep_poses = keep && self.sighting().is_some();
-        predicted.clear();
-        predicted.resize(m, 0.0);
-        if derivatives {
-            gradients.clear();
-            gradients.resize(m * width, 0.0);
-        } else {
-            gradients = Vec::new();
-        }
-        kept_solutions.clear();
-        kept_poses.clear();
-        let task = |(chunk, ((seeds, predicted), gradients)): ChunkOfRows<'_>,
-                    (mut solutions, mut poses): (Vec<Solution>, Vec<[f64; 6]>)| {
-            solutions.reserve(if keep { predicted.len() } else { 0 });
-            poses.reserve(if keep_poses { predicted.len() } else { 0 });
+        let mut predicted = vec![0.0; m];
+        let mut gradients = vec![0.0; m * width];
+        let task = |(chunk, ((seeds, predicted), gradients)): ChunkOfRows<'_>| {
+            let mut solutions = Vec::with_capacity(if keep { predicted.len() } else { 0 });
+            let mut poses = Vec::with_capacity(if keep_poses { predicted.len() } else { 0 });
             let rows = seeds.chunks_mut(seed_stride).zip(predicted.iter_mut());
             for (k, (seed, value)) in rows.enumerate() {
                 let index = chunk * ROWS_PER_TASK + k;
                 let leg = self.prepared_leg(&prepared, index);
-                let mut fitted = None;
-                let placed = self.placed_in(index, &shared, &mut fitted);
+                let placed = self.placed(index, &shared);
                 let warm = seed_joints(seed, leg.leg());
                 let solution = leg
-                    .solve_warm_on(placed.1, placed.0, home, warm.as_ref())
+                    .solve_warm_on(&placed.platform, &placed.pose, home, warm.as_ref())
                     .map_err(|source| (index, source))?;
                 store_seed(seed, leg.leg(), &solution);
                 *value = if derivatives {
                     let gradient = &mut gradients[k * width..(k + 1) * width];
-                    self.reading_and_gradient((leg, index), (placed, &solution), &shared, gradient)
+                    self.reading_and_gradient((leg, index), (&placed, &solution), &shared, gradient)
                 } else {
                     leg.reading_of(&solution)
                 };
@@ -257,7 +222,7 @@ impl<'a> IdentificationProblem<'a> {
                     solutions.push(solution);
                 }
                 if keep_poses {
-                    poses.push(*placed.0);
+                    poses.push(placed.pose);
                 }
             }
             Ok::<_, (usize, KinematicsError)>((solutions, poses))
@@ -265,11 +230,8 @@ impl<'a> IdentificationProblem<'a> {
         let (solutions, poses) = if m <= ROWS_PER_TASK {
             // One chunk: its rows' vectors are the evaluation's own.
             let rows = (seeds, &mut predicted[..]);
-            task(
-                (0, (rows, &mut gradients[..])),
-                (kept_solutions, kept_poses),
-            )
-            .map_err(|(index, source)| self.block_error(index, source, x))?
+            task((0, (rows, &mut gradients[..])))
+                .map_err(|(index, source)| self.block_error(index, source, x))?
         } else {
             // Without derivatives, a placeholder column (the chunks of all three slices
             // must pair).
@@ -287,11 +249,10 @@ impl<'a> IdentificationProblem<'a> {
                 .zip(predicted.par_chunks_mut(ROWS_PER_TASK))
                 .zip(columns.par_chunks_mut(ROWS_PER_TASK * stride))
                 .enumerate()
-                .map(|chunk| task(chunk, (Vec::new(), Vec::new())))
+                .map(task)
                 .collect();
-            let (mut solutions, mut poses) = (kept_solutions, kept_poses);
-            solutions.reserve(if keep { m } else { 0 });
-            poses.reserve(if keep_poses { m } else { 0 });
+            let mut solutions = Vec::with_capacity(if keep { m } else { 0 });
+            let mut poses = Vec::with_capacity(if keep_poses { m } else { 0 });
             for result in results {
                 match result {
                     Ok((mut chunk, mut chunk_poses)) => {
@@ -333,12 +294,11 @@ impl<'a> IdentificationProblem<'a> {
                 let index = chunk * ROWS_PER_TASK + k;
                 let leg = self.prepared_leg(prepared, index);
                 let (solution, pose) = solution(index);
-                let mut fitted = pose.map(Placed::at);
-                let placed = match &fitted {
-                    Some(placed) => (&placed.pose, &placed.platform),
-                    None => self.placed_in(index, &shared, &mut fitted),
+                let placed = match pose {
+                    Some(pose) => Placed::at(pose),
+                    None => self.placed(index, &shared),
                 };
-                self.reading_and_gradient((leg, index), (placed, &solution), &shared, gradient);
+                self.reading_and_gradient((leg, index), (&placed, &solution), &shared, gradient);
             }
         };
         if self.blocks.len() <= ROWS_PER_TASK {

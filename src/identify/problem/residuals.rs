@@ -9,7 +9,6 @@ use super::state::Evaluation;
 use super::{BlockError, IdentificationProblem, LegSlot, Placed};
 use crate::error::{KinematicsError, Result};
 use crate::identify::residual::{turn_in_reading_units, turns};
-use crate::kinematics::chain::Transform;
 use crate::measure::targets::platform_pose;
 use crate::model::params::ParamTarget;
 
@@ -45,23 +44,6 @@ impl<'a> IdentificationProblem<'a> {
                 }
             }
         }
-    }
-
-    /// Block `index`'s platform pose and transform as [`Self::placed`] gives them: borrowed
-    /// where the problem keeps them (measured poses), else computed into `fitted`.
-    pub(super) fn placed_in<'p>(
-        &'p self,
-        index: usize,
-        shared: &[f64],
-        fitted: &'p mut Option<Placed>,
-    ) -> (&'p [f64; 6], &'p Transform<f64>) {
-        if self.sighting().is_none() {
-            if let Some(platform) = self.platforms.get(index) {
-                return (&self.blocks[index].pose, platform);
-            }
-        }
-        let placed = fitted.insert(self.placed(index, shared));
-        (&placed.pose, &placed.platform)
     }
 
     /// Each slot's gain and whether its actuator turns, at the unknowns `x`.

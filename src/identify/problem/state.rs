@@ -75,7 +75,7 @@ pub(super) fn seed_solution(seed: &[f64], leg: &LegModel) -> Solution {
 
 /// The values of one evaluation, before turn matching and row weights: what any evaluation
 /// at the same unknowns (bit for bit) returns without solving again.
-#[derive(Debug, Default)]
+#[derive(Debug)]
 pub(super) struct Evaluation<'a> {
     /// The unknowns' bits.
     pub(super) x: Vec<u64>,
