@@ -417,11 +417,11 @@ fn a_jacobian_from_the_legs_prepared_for_the_residuals_is_a_fresh_ones() {
     }
 }
 
-/// A new evaluation is built in the buffers of the kept one it replaces: its residuals and
-/// Jacobian are a fresh problem's, bit for bit, whether the replaced one held gradients or
+/// A new evaluation that replaces a kept one (the oldest of the two kept) has a fresh
+/// problem's residuals and Jacobian, bit for bit, whether the replaced one held gradients or
 /// not, and whether the new one is asked for them at once or later.
 #[test]
-fn an_evaluation_in_a_replaced_ones_buffers_has_a_fresh_ones_values() {
+fn an_evaluation_replacing_a_kept_one_has_a_fresh_ones_values() {
     let mech = bundled("5r.yaml");
     let problem = leg_problem(&mech, 30, 1);
     let [x1, x2, x3] = three_points(&problem);
