@@ -427,9 +427,11 @@ mod tests {
     use crate::kinematics::inverse::predict_reading;
     use crate::model::Mechanism;
 
-    #[test]
-    fn the_five_bar_starts_at_its_circles_intersection() {
-        let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("models/5r.yaml");
+    /// The bundled model `name` and its reduced forward kinematics at the nominal parameters.
+    fn nominal(name: &str) -> (Mechanism, KernelForward) {
+        let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+            .join("models")
+            .join(name);
         let mechanism = Mechanism::load(&path).unwrap();
         let parameters = mechanism.nominal_parameters();
         let geometries: Vec<_> = mechanism
@@ -440,17 +442,27 @@ mod tests {
             .collect();
         let kernels: Vec<_> = mechanism.legs.iter().map(LegKernel::recognise).collect();
         let forward = KernelForward::new(&mechanism, &geometries, &kernels).unwrap();
+        (mechanism, forward)
+    }
+
+    /// Every leg's nominal reading at `pose`.
+    fn readings_at(mechanism: &Mechanism, pose: &[f64; 6]) -> Vec<f64> {
+        let home = mechanism.home_pose;
+        let parameters = mechanism.nominal_parameters();
+        let legs = mechanism.legs.iter().zip(&parameters);
+        legs.map(|(leg, phi)| predict_reading(leg, phi, pose, &home).unwrap())
+            .collect()
+    }
+
+    #[test]
+    fn the_five_bar_starts_at_its_circles_intersection() {
+        let (mechanism, forward) = nominal("5r.yaml");
         assert!(forward.starts_in_closed_form());
         let home = mechanism.home_pose;
         for (dx, dy) in [(0.0, 0.0), (0.02, -0.01), (-0.03, 0.015)] {
             let mut pose = home;
             (pose[0], pose[1]) = (home[0] + dx, home[1] + dy);
-            let readings: Vec<f64> = mechanism
-                .legs
-                .iter()
-                .zip(&parameters)
-                .map(|(leg, phi)| predict_reading(leg, phi, &pose, &home).unwrap())
-                .collect();
+            let readings = readings_at(&mechanism, &pose);
             // From a start 1 mm away: the pose itself, to round-off.
             let mut start = pose;
             start[0] += 1e-3;
@@ -462,17 +474,7 @@ mod tests {
 
     #[test]
     fn the_delta_starts_at_its_spheres_intersection() {
-        let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("models/delta.yaml");
-        let mechanism = Mechanism::load(&path).unwrap();
-        let parameters = mechanism.nominal_parameters();
-        let geometries: Vec<_> = mechanism
-            .legs
-            .iter()
-            .zip(&parameters)
-            .map(|(leg, phi)| leg.geometry(phi))
-            .collect();
-        let kernels: Vec<_> = mechanism.legs.iter().map(LegKernel::recognise).collect();
-        let forward = KernelForward::new(&mechanism, &geometries, &kernels).unwrap();
+        let (mechanism, forward) = nominal("delta.yaml");
         assert!(forward.starts_in_closed_form() && !forward.circles);
         let home = mechanism.home_pose;
         for d in [[0.0, 0.0, 0.0], [0.02, -0.01, 0.01], [-0.03, 0.015, -0.02]] {
@@ -480,12 +482,7 @@ mod tests {
             for k in 0..3 {
                 pose[k] += d[k];
             }
-            let readings: Vec<f64> = mechanism
-                .legs
-                .iter()
-                .zip(&parameters)
-                .map(|(leg, phi)| predict_reading(leg, phi, &pose, &home).unwrap())
-                .collect();
+            let readings = readings_at(&mechanism, &pose);
             // From a start 1 mm away: the pose itself, to round-off.
             let mut start = pose;
             start[0] += 1e-3;
