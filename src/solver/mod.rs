@@ -222,8 +222,12 @@ pub struct Refinement {
 /// accepted if the cost does not rise by more than round-off (1e-8 relative) and the step is
 /// no longer than the one before. The refinement goes on while the cost decreases (or, at
 /// round-off level where the computed cost cannot tell, while the steps at least halve), and
-/// stops at a step of round-off length (1e-15 relative), after [`MAX_REFINEMENT_STEPS`], or when
-/// the budget is spent.
+/// stops at a step of round-off length (1e-15 relative), before one (the step times its ratio
+/// to the one before, what the next step is at most under quadratic or linear convergence, is
+/// of round-off length), after [`MAX_REFINEMENT_STEPS`], or when the budget is spent. The
+/// prediction saves the step that only moves the estimate within its round-off: on the 5R's
+/// leg the second step is 1e-14 relative after one of 1e-11, and a third would be round-off
+/// again.
 pub fn refine<P>(problem: &P, x0: &DVector<f64>, budget: u64) -> Refinement
 where
     P: LeastSquares,
@@ -278,7 +282,15 @@ where
         // longer resolves it) the step contracted at least twofold.
         let progress = cost_new < cost || length <= 0.5 * previous;
         (r, cost) = (r_new, cost_new);
-        if !progress || length <= 1e-15 * (refinement.x.norm() + 1e-15) {
+        // The next step, from this one's contraction (quadratic or linear convergence: at
+        // most this one times the ratio to the one before; none known after the first).
+        let next = if previous.is_finite() {
+            length * (length / previous)
+        } else {
+            length
+        };
+        let round_off = 1e-15 * (refinement.x.norm() + 1e-15);
+        if !progress || length <= round_off || next <= round_off {
             break;
         }
         (limit, previous) = (length, length);

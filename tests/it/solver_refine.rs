@@ -4,7 +4,8 @@
 //! resolved (c = 0) or lost in the constant (c = 1, the round-off regime where only the steps'
 //! contraction counts). The expected step counts follow from the documented rules:
 //! first step ≤ 1e-6 (‖x₀‖ + 1); each step no longer than the one before; progress while the
-//! cost falls or the step at least halves; stop at a step ≤ 1e-15 (‖x‖ + 1e-15), after
+//! cost falls or the step at least halves; stop at a step ≤ 1e-15 (‖x‖ + 1e-15), or at one
+//! whose length times its ratio to the one before (the next step's bound) is, after
 //! [`MAX_REFINEMENT_STEPS`] or when the budget of residual evaluations is spent.
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::Arc;
@@ -81,22 +82,22 @@ fn close(actual: f64, expected: f64) -> bool {
     (actual - expected).abs() <= 1e-12 * expected.abs()
 }
 
-/// p = 2, ‖x‖ ≈ 3: steps 2⁻²¹, 2⁻²², …; the first at most 2⁻⁴⁸ ≤ 1e-15·3 is 2⁻⁴⁹ (2⁻⁴⁸ ≈
-/// 3.6e-15 is not): 29 steps, with the cost falling (c = 0) or, unresolved under c = 1, the
-/// steps halving exactly.
+/// p = 2, ‖x‖ ≈ 3: steps 2⁻²¹, 2⁻²², …, each half the one before; the first whose half is
+/// ≤ 1e-15·3 is 2⁻⁴⁸ (its half 2⁻⁴⁹ ≈ 1.8e-15; 2⁻⁴⁸ ≈ 3.6e-15 is not): 28 steps, with the
+/// cost falling (c = 0) or, unresolved under c = 1, the steps halving exactly.
 #[test]
 fn refinement_stops_at_a_round_off_step() {
     for constant in [0.0, 1.0] {
         let problem = Power::new(2, 3.0, constant);
         let refined = refine(&problem, &start(0.5f64.powi(20), 3.0), 1000);
-        assert_eq!(refined.steps, 29, "c = {constant}");
-        assert!(close(refined.x[0], 0.5f64.powi(49)), "{}", refined.x[0]);
+        assert_eq!(refined.steps, 28, "c = {constant}");
+        assert!(close(refined.x[0], 0.5f64.powi(48)), "{}", refined.x[0]);
         assert!(close(refined.x[1], 3.0));
         assert_eq!(
             (refined.residual_evaluations, refined.jacobian_evaluations),
-            (30, 29)
+            (29, 28)
         );
-        assert_eq!(problem.counts(), (30, 29));
+        assert_eq!(problem.counts(), (29, 28));
     }
 }
 
@@ -115,7 +116,7 @@ fn refinement_only_starts_from_a_converged_point() {
     // 2⁻²¹ is above 1e-6/(‖x₀‖ + 1) = 2.5e-7 but below the bound: it is taken.
     assert_eq!(
         refine(&problem, &start(0.5f64.powi(20), 3.0), 1000).steps,
-        29
+        28
     );
 }
 
@@ -134,12 +135,12 @@ fn refinement_stops_after_its_step_cap_or_budget() {
         (51, 50)
     );
     // From 2⁻⁶⁰ (a = 2⁸⁰) the absolute part of the round-off bound, 1e-15·1e-15, is reached
-    // within the cap: 2⁻¹⁰⁰ ≈ 7.9e-31 ≤ 1e-30 < 2⁻⁹⁹, after 40 steps.
+    // within the cap: the step 2⁻⁹⁹'s half 2⁻¹⁰⁰ ≈ 7.9e-31 ≤ 1e-30 < 2⁻⁹⁹, after 39 steps.
     let mut tiny = Power::new(2, 0.0, 0.0);
     tiny.gain = 2f64.powi(80);
     let refined = refine(&tiny, &start(0.5f64.powi(60), 0.0), 1000);
-    assert_eq!(refined.steps, 40);
-    assert!(close(refined.x[0], 0.5f64.powi(100)), "{}", refined.x[0]);
+    assert_eq!(refined.steps, 39);
+    assert!(close(refined.x[0], 0.5f64.powi(99)), "{}", refined.x[0]);
     // A budget of 10 residual evaluations: the start and 9 steps.
     let refined = refine(&problem, &start(0.5f64.powi(20), 0.0), 10);
     assert_eq!(refined.steps, 9);
@@ -230,5 +231,44 @@ fn at_an_exact_zero_one_zero_step_is_taken() {
             refined.jacobian_evaluations
         ),
         (1, 2, 1)
+    );
+}
+
+/// r(x) = x² − 4 near its zero x = 2: Gauss–Newton (Newton here) converges quadratically,
+/// each error the square of the one before over 2x.
+#[derive(Clone)]
+struct Square;
+
+impl Operator for Square {
+    type Param = DVector<f64>;
+    type Output = DVector<f64>;
+    fn apply(&self, x: &DVector<f64>) -> Result<DVector<f64>, Error> {
+        Ok(DVector::from_column_slice(&[x[0] * x[0] - 4.0]))
+    }
+}
+
+impl Jacobian for Square {
+    type Param = DVector<f64>;
+    type Jacobian = DMatrix<f64>;
+    fn jacobian(&self, x: &DVector<f64>) -> Result<DMatrix<f64>, Error> {
+        Ok(DMatrix::from_element(1, 1, 2.0 * x[0]))
+    }
+}
+
+/// From 2 + 1e-7 the first step is 1e-7 and the second about 2.7e-15 (the error squared over
+/// 4, six ulps of 2): above the round-off bound 1e-15·(2 + 1e-15), so a refinement that only
+/// stopped at a round-off step would take a third (of zero length). Its bound, 2.7e-15 ×
+/// 2.7e-15/1e-7 ≈ 7e-23, is of round-off length: two steps, at x = 2 exactly.
+#[test]
+fn a_quadratic_refinement_stops_before_its_round_off_step() {
+    let refined = refine(&Square, &DVector::from_column_slice(&[2.0 + 1e-7]), 1000);
+    assert_eq!(refined.x[0], 2.0);
+    assert_eq!(
+        (
+            refined.steps,
+            refined.residual_evaluations,
+            refined.jacobian_evaluations
+        ),
+        (2, 3, 2)
     );
 }
