@@ -376,6 +376,7 @@ fn count(counts: &std::collections::HashMap<&'static str, u64>, key: &str) -> u6
 }
 
 pub mod bordered;
+mod column_dot;
 pub mod gauss_newton;
 pub mod levenberg_marquardt;
 #[cfg(test)]

@@ -3,6 +3,8 @@
 
 use nalgebra::{DMatrix, DVector};
 
+use crate::solver::column_dot::dot;
+
 /// MINPACK's `p1`: the step bound's relative tolerance here, and the step-control factor of
 /// the Levenberg–Marquardt iteration.
 pub(super) const P1: f64 = 0.1;
@@ -32,34 +34,48 @@ pub(super) struct Scratch {
 /// return the leading `n × n` upper triangle of `a` is `R` and everything below it is zero.
 fn householder_qr(a: &mut DMatrix<f64>, b: &mut DVector<f64>, mut perm: Option<&mut [usize]>) {
     let (m, n) = a.shape();
+    // Column-major: column j is `data[j·m..(j + 1)·m]`.
+    let data = a.as_mut_slice();
+    let b = b.as_mut_slice();
     for k in 0..n.min(m) {
         if let Some(p) = perm.as_deref_mut() {
-            let norms = (k..n).map(|j| (j, a.view((k, j), (m - k, 1)).norm()));
-            let best = norms
-                .fold((k, -1.0), |b, c| if c.1 > b.1 { c } else { b })
-                .0;
-            a.swap_columns(k, best);
+            let mut best = (k, -1.0);
+            for j in k..n {
+                let norm = dot(&data[j * m + k..(j + 1) * m], &data[j * m + k..(j + 1) * m]).sqrt();
+                if norm > best.1 {
+                    best = (j, norm);
+                }
+            }
+            let best = best.0;
+            if best != k {
+                let (left, right) = data.split_at_mut(best * m);
+                left[k * m..(k + 1) * m].swap_with_slice(&mut right[..m]);
+            }
             p.swap(k, best);
         }
-        let norm = a.view((k, k), (m - k, 1)).norm();
+        let (left, right) = data.split_at_mut((k + 1) * m);
+        let v = &mut left[k * m + k..];
+        let norm = dot(v, v).sqrt();
         if norm == 0.0 {
             continue;
         }
-        let alpha = if a[(k, k)] > 0.0 { -norm } else { norm };
-        a[(k, k)] -= alpha; // Householder vector v = x − α e₁, stored in column k.
-        let vtv = a.view((k, k), (m - k, 1)).norm_squared();
-        for j in k + 1..n {
-            let s = 2.0 * a.view((k, k), (m - k, 1)).dot(&a.view((k, j), (m - k, 1))) / vtv;
-            for i in k..m {
-                a[(i, j)] -= s * a[(i, k)];
+        let alpha = if v[0] > 0.0 { -norm } else { norm };
+        v[0] -= alpha; // Householder vector v = x − α e₁, stored in column k.
+        let vtv = dot(v, v);
+        for column in right.chunks_exact_mut(m) {
+            let column = &mut column[k..];
+            let s = 2.0 * dot(v, column) / vtv;
+            for (x, vi) in column.iter_mut().zip(v.iter()) {
+                *x -= s * vi;
             }
         }
-        let s = 2.0 * a.view((k, k), (m - k, 1)).dot(&b.rows(k, m - k)) / vtv;
-        for i in k..m {
-            b[i] -= s * a[(i, k)];
+        let tail = &mut b[k..m];
+        let s = 2.0 * dot(v, tail) / vtv;
+        for (x, vi) in tail.iter_mut().zip(v.iter()) {
+            *x -= s * vi;
         }
-        a[(k, k)] = alpha;
-        a.view_mut((k + 1, k), (m - k - 1, 1)).fill(0.0);
+        v[0] = alpha;
+        v[1..].fill(0.0);
     }
 }
 
@@ -302,7 +318,71 @@ fn givens(a: f64, b: f64) -> (f64, f64) {
 #[cfg(test)]
 mod tests {
     use super::householder_qr;
+    use crate::solver::column_dot::awkward;
     use nalgebra::{DMatrix, DVector};
+
+    /// The factorisation as first written, on nalgebra's column views: the reference the
+    /// slice version must match bit for bit.
+    fn on_views(a: &mut DMatrix<f64>, b: &mut DVector<f64>, p: &mut [usize]) {
+        let (m, n) = a.shape();
+        for k in 0..n.min(m) {
+            let norms = (k..n).map(|j| (j, a.view((k, j), (m - k, 1)).norm()));
+            let best = norms
+                .fold((k, -1.0), |b, c| if c.1 > b.1 { c } else { b })
+                .0;
+            a.swap_columns(k, best);
+            p.swap(k, best);
+            let norm = a.view((k, k), (m - k, 1)).norm();
+            if norm == 0.0 {
+                continue;
+            }
+            let alpha = if a[(k, k)] > 0.0 { -norm } else { norm };
+            a[(k, k)] -= alpha;
+            let vtv = a.view((k, k), (m - k, 1)).norm_squared();
+            for j in k + 1..n {
+                let s = 2.0 * a.view((k, k), (m - k, 1)).dot(&a.view((k, j), (m - k, 1))) / vtv;
+                for i in k..m {
+                    a[(i, j)] -= s * a[(i, k)];
+                }
+            }
+            let s = 2.0 * a.view((k, k), (m - k, 1)).dot(&b.rows(k, m - k)) / vtv;
+            for i in k..m {
+                b[i] -= s * a[(i, k)];
+            }
+            a[(k, k)] = alpha;
+            a.view_mut((k + 1, k), (m - k - 1, 1)).fill(0.0);
+        }
+    }
+
+    /// The factorisation on slices is the one on column views, bit for bit: tall, square and
+    /// wide shapes, a zero column and repeated columns (pivot ties).
+    #[test]
+    fn the_slice_factorisation_is_the_view_factorisation() {
+        for (m, n, seed) in [
+            (18, 6, 3),
+            (25, 5, 4),
+            (6, 6, 5),
+            (9, 1, 6),
+            (3, 5, 7),
+            (40, 7, 8),
+        ] {
+            let mut j = DMatrix::from_vec(m, n, awkward(m * n, seed));
+            if n > 2 {
+                j.column_mut(1).fill(0.0);
+                let first = j.column(0).into_owned();
+                j.column_mut(n - 1).copy_from(&first);
+            }
+            let rhs = DVector::from_vec(awkward(m.max(n), seed + 100));
+            let (mut a, mut b, mut p) = (j.clone(), rhs.clone(), (0..n).collect::<Vec<_>>());
+            householder_qr(&mut a, &mut b, Some(&mut p));
+            let (mut a0, mut b0, mut p0) = (j, rhs, (0..n).collect::<Vec<_>>());
+            on_views(&mut a0, &mut b0, &mut p0);
+            assert_eq!(p, p0, "{m}x{n}");
+            let bits = |v: &[f64]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+            assert_eq!(bits(a.as_slice()), bits(a0.as_slice()), "{m}x{n}");
+            assert_eq!(bits(b.as_slice()), bits(b0.as_slice()), "{m}x{n}");
+        }
+    }
 
     /// MINPACK's `qrfac` pivoting: the remaining column of largest norm moves forward, the
     /// first of equal norms keeping its place; `R` and `Qᵀb` reproduce `J P` and `b`'s norm.
