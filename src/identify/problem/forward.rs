@@ -31,10 +31,10 @@ use rayon::prelude::*;
 use super::forward_rows::{Forward, ForwardEvaluation, ForwardRow, Latest};
 use super::instrument_derivatives::{derivatives, PoseFunction};
 use super::noise::coordinate_sigmas;
+use super::pose_moves::Moves;
 use super::{BlockError, IdentificationProblem};
 use crate::error::KinematicsError;
 use crate::identify::jacobian::PreparedLeg;
-use crate::kinematics::inverse::Joints;
 use crate::kinematics::platform::{Configuration, ForwardKinematics};
 use crate::model::mechanism::MeasurementNoise;
 
@@ -46,11 +46,10 @@ const ROWS_PER_TASK: usize = 4;
 /// what a few dozen rows do (docs/benchmarks.md, the forward benches).
 const PARALLEL_ROWS: usize = 64;
 
-/// A row's closed pose and, for the Jacobian, how it moves: `∂P/∂x` (6 × unknowns, zero rows
-/// for the coordinates the model does not measure) and `∂P/∂s = A⁻¹` (6 × legs).
+/// A row's closed pose and, for the Jacobian, how it moves ([`Moves`]).
 pub(super) struct Closed {
     pub(super) pose: [f64; 6],
-    pub(super) moves: Option<(DMatrix<f64>, DMatrix<f64>)>,
+    pub(super) moves: Option<Moves>,
 }
 
 impl IdentificationProblem<'_> {
@@ -145,23 +144,21 @@ impl IdentificationProblem<'_> {
             + forward.distances.len();
         let mut matrix = jacobian.then(|| DMatrix::zeros(count, p));
         // One residual: its value, ∂r/∂P of each of its rows and its direct ∂r/∂θ.
-        let mut push = |value: f64,
-                        parts: &[(usize, nalgebra::RowDVector<f64>)],
-                        direct: nalgebra::RowDVector<f64>| {
+        let mut push = |value: f64, parts: &[(usize, [f64; 6])], direct: &[f64]| {
             let i = evaluation.residuals.len();
             evaluation.residuals.push(value);
             let Some(matrix) = matrix.as_mut() else {
                 return;
             };
-            let mut row = matrix.row_mut(i);
-            let mut readings = Vec::new();
+            let mut readings = Vec::with_capacity(parts.len() * self.mechanism.legs.len());
             for (r, by_pose) in parts {
-                let (dx, ds) = closed[*r].moves.as_ref().expect("derivatives asked for");
-                row += by_pose * dx;
-                readings.extend((by_pose * ds).iter().copied());
+                let moves = closed[*r].moves.as_ref().expect("derivatives asked for");
+                moves.chain(self, by_pose, &mut readings, |j, value| {
+                    matrix[(i, j)] += value;
+                });
             }
             for (j, &value) in direct.iter().enumerate() {
-                row[first_shared + j] += value;
+                matrix[(i, first_shared + j)] += value;
             }
             evaluation.reading_gradients.push(readings);
         };
@@ -176,10 +173,11 @@ impl IdentificationProblem<'_> {
                 (measured, jacobian),
             );
             for (o, (value, seen)) in values.iter().zip(&row.observed).enumerate() {
+                let direct: Vec<f64> = by_shared.row(o).iter().copied().collect();
                 push(
                     value - seen,
-                    &[(r, by_pose.row(o).into_owned())],
-                    by_shared.row(o).into_owned(),
+                    &[(r, std::array::from_fn(|c| by_pose[(o, c)]))],
+                    &direct,
                 );
             }
         }
@@ -199,11 +197,13 @@ impl IdentificationProblem<'_> {
                     3,
                     gap.iter().map(|g| g / length.max(f64::MIN_POSITIVE)),
                 );
+                let (by_a, by_b) = (&u * &a.1, -(&u * &b.1));
                 let parts = [
-                    (distance.rows[0], &u * &a.1),
-                    (distance.rows[1], -(&u * &b.1)),
+                    (distance.rows[0], std::array::from_fn(|c| by_a[c])),
+                    (distance.rows[1], std::array::from_fn(|c| by_b[c])),
                 ];
-                push(length - distance.value, &parts, &u * (&a.2 - &b.2));
+                let direct = &u * (&a.2 - &b.2);
+                push(length - distance.value, &parts, direct.as_slice());
             }
         }
         evaluation.jacobian = matrix;
@@ -300,55 +300,6 @@ impl IdentificationProblem<'_> {
                 .collect()
         };
         closed.into_iter().collect()
-    }
-
-    /// How a closed pose `pose` moves with the unknowns and the readings (see the module's
-    /// documentation): `(∂P/∂x, ∂P/∂s)`, 6 rows each, zero for unmeasured coordinates.
-    fn pose_moves(
-        &self,
-        prepared: &[PreparedLeg<'_>],
-        pose: &[f64; 6],
-        seeds: &[Joints],
-    ) -> Result<(DMatrix<f64>, DMatrix<f64>), KinematicsError> {
-        let mechanism = self.mechanism;
-        let measured = &mechanism.measured;
-        let (n, legs) = (measured.len(), mechanism.legs.len());
-        if legs != n {
-            return Err(KinematicsError::NotAssemblable {
-                residual: f64::INFINITY,
-            });
-        }
-        // A = ∂ψ/∂P over the measured coordinates, and each leg's ∂ψ_l/∂φ_l.
-        let mut a = DMatrix::zeros(legs, n);
-        let mut own: Vec<Vec<f64>> = Vec::with_capacity(legs);
-        let home = &mechanism.home_pose;
-        for (l, leg) in prepared.iter().enumerate() {
-            let solution = leg.solve_warm(pose, home, seeds.get(l))?;
-            let mut gradient = vec![0.0; leg.columns()];
-            leg.reading_and_gradient_of(pose, &solution, &mut gradient);
-            let d = leg.pose_gradient_of(pose, &solution, measured);
-            for (j, &c) in measured.iter().enumerate() {
-                a[(l, j)] = d[c];
-            }
-            own.push(gradient);
-        }
-        let inverse = a
-            .try_inverse()
-            .filter(|i| i.iter().all(|v| v.is_finite()))
-            .ok_or(KinematicsError::AssemblyModeChange)?;
-        let mut by_readings = DMatrix::zeros(6, legs);
-        let mut by_unknowns = DMatrix::zeros(6, self.parameter_count());
-        for (j, &c) in measured.iter().enumerate() {
-            for l in 0..legs {
-                by_readings[(c, l)] = inverse[(j, l)];
-            }
-            for slot in &self.slots {
-                for (k, &value) in own[slot.leg].iter().enumerate() {
-                    by_unknowns[(c, slot.offset + k)] = -inverse[(j, slot.leg)] * value;
-                }
-            }
-        }
-        Ok((by_unknowns, by_readings))
     }
 
     /// The error of forward row `index` at the unknowns `x`, located.

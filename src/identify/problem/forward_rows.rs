@@ -7,6 +7,7 @@ use std::sync::{Arc, Mutex};
 
 use nalgebra::DMatrix;
 
+use super::pose_moves::Moves;
 use crate::kinematics::kernel::LegKernel;
 use crate::kinematics::platform::Configuration;
 
@@ -63,8 +64,8 @@ pub(super) struct Latest {
     pub(super) key: Vec<u64>,
     /// Every row's closed pose there.
     pub(super) poses: Vec<[f64; 6]>,
-    /// Every row's `(∂P/∂x, ∂P/∂s)` there, if the Jacobian was asked for.
-    pub(super) moves: Option<Vec<(DMatrix<f64>, DMatrix<f64>)>>,
+    /// Every row's movements there ([`Moves`]), if the Jacobian was asked for.
+    pub(super) moves: Option<Vec<Moves>>,
     /// The evaluation (with its derivatives if they were asked for); `None` for poses closed
     /// elsewhere (known poses).
     pub(super) evaluation: Option<ForwardEvaluation>,

@@ -68,7 +68,11 @@ impl IdentificationProblem<'_> {
                     &row.pose,
                     (&self.mechanism.measured, true),
                 );
-                let (dx, _) = row.moves.as_ref().expect("moves asked for");
+                let dx = row
+                    .moves
+                    .as_ref()
+                    .expect("moves asked for")
+                    .by_unknowns(self);
                 let mut moves = by_pose * dx;
                 for (j, column) in by_shared.column_iter().enumerate() {
                     let mut target = moves.column_mut(first_shared + j);
