@@ -29,7 +29,7 @@ use nalgebra::{DMatrix, DVector};
 use rayon::prelude::*;
 
 use super::forward_rows::{Forward, ForwardEvaluation, ForwardRow, Latest};
-use super::instrument_derivatives::{derivatives, PoseFunction};
+use super::instrument_derivatives::{Derivatives, PoseFunction, PreparedFunction};
 use super::noise::coordinate_sigmas;
 use super::pose_moves::Moves;
 use super::{BlockError, IdentificationProblem};
@@ -162,48 +162,50 @@ impl IdentificationProblem<'_> {
             }
             evaluation.reading_gradients.push(readings);
         };
+        let report = PreparedFunction::new(
+            PoseFunction::Report(instrument),
+            (&shared, &sighted.shared),
+            (measured, jacobian),
+        );
+        let mut at = Derivatives::default();
         for (r, row) in forward.rows.iter().enumerate() {
             if row.observed.is_empty() {
                 continue;
             }
-            let (values, by_pose, by_shared) = derivatives(
-                PoseFunction::Report(instrument),
-                (&shared, &sighted.shared),
-                &closed[r].pose,
-                (measured, jacobian),
-            );
-            for (o, (value, seen)) in values.iter().zip(&row.observed).enumerate() {
-                let direct: Vec<f64> = by_shared.row(o).iter().copied().collect();
-                push(
-                    value - seen,
-                    &[(r, std::array::from_fn(|c| by_pose[(o, c)]))],
-                    &direct,
-                );
+            report.at(&closed[r].pose, &mut at);
+            for (o, (value, seen)) in at.values.iter().zip(&row.observed).enumerate() {
+                push(value - seen, &[(r, at.by_pose[o])], at.by_shared(o));
             }
         }
         if let Some(target) = instrument.distances.as_ref().map(|d| d.target) {
+            let position = PreparedFunction::new(
+                PoseFunction::Position(instrument, target),
+                (&shared, &sighted.shared),
+                (measured, jacobian),
+            );
+            let (mut a, mut b) = (Derivatives::default(), Derivatives::default());
+            let mut direct = vec![0.0; sighted.shared.len()];
             for distance in forward.distances.iter() {
-                let [a, b] = distance.rows.map(|r| {
-                    derivatives(
-                        PoseFunction::Position(instrument, target),
-                        (&shared, &sighted.shared),
-                        &closed[r].pose,
-                        (measured, jacobian),
-                    )
-                });
-                let gap: Vec<f64> = (0..3).map(|k| a.0[k] - b.0[k]).collect();
+                position.at(&closed[distance.rows[0]].pose, &mut a);
+                position.at(&closed[distance.rows[1]].pose, &mut b);
+                let gap: [f64; 3] = std::array::from_fn(|k| a.values[k] - b.values[k]);
                 let length = gap.iter().map(|g| g * g).sum::<f64>().sqrt();
-                let u = nalgebra::RowDVector::from_iterator(
-                    3,
-                    gap.iter().map(|g| g / length.max(f64::MIN_POSITIVE)),
-                );
-                let (by_a, by_b) = (&u * &a.1, -(&u * &b.1));
+                let u = gap.map(|g| g / length.max(f64::MIN_POSITIVE));
+                // u·∂X/∂P of each row (the second's negated) and u·(∂X_a/∂θ − ∂X_b/∂θ).
+                let along = |by_pose: &[[f64; 6]]| -> [f64; 6] {
+                    std::array::from_fn(|c| (0..3).map(|k| u[k] * by_pose[k][c]).sum())
+                };
+                let (by_a, by_b) = (along(&a.by_pose), along(&b.by_pose));
                 let parts = [
-                    (distance.rows[0], std::array::from_fn(|c| by_a[c])),
-                    (distance.rows[1], std::array::from_fn(|c| by_b[c])),
+                    (distance.rows[0], by_a),
+                    (distance.rows[1], by_b.map(|v| -v)),
                 ];
-                let direct = &u * (&a.2 - &b.2);
-                push(length - distance.value, &parts, direct.as_slice());
+                for (j, value) in direct.iter_mut().enumerate() {
+                    *value = (0..3)
+                        .map(|k| u[k] * (a.by_shared(k)[j] - b.by_shared(k)[j]))
+                        .sum();
+                }
+                push(length - distance.value, &parts, &direct);
             }
         }
         evaluation.jacobian = matrix;
