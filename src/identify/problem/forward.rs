@@ -110,6 +110,7 @@ impl IdentificationProblem<'_> {
             residuals: Vec::new(),
             jacobian: None,
             reading_gradients: Vec::new(),
+            reading_starts: Vec::new(),
         };
         let (Some(forward), Some(sighted)) = (&self.forward, &self.sighted) else {
             return Ok(evaluation);
@@ -143,6 +144,12 @@ impl IdentificationProblem<'_> {
             * instrument.observed_len()
             + forward.distances.len();
         let mut matrix = jacobian.then(|| DMatrix::zeros(count, p));
+        evaluation.residuals.reserve(count);
+        if jacobian {
+            let legs = self.mechanism.legs.len();
+            evaluation.reading_gradients.reserve(count * legs);
+            evaluation.reading_starts.reserve(count + 1);
+        }
         // One residual: its value, ∂r/∂P of each of its rows and its direct ∂r/∂θ.
         let mut push = |value: f64, parts: &[(usize, [f64; 6])], direct: &[f64]| {
             let i = evaluation.residuals.len();
@@ -150,17 +157,20 @@ impl IdentificationProblem<'_> {
             let Some(matrix) = matrix.as_mut() else {
                 return;
             };
-            let mut readings = Vec::with_capacity(parts.len() * self.mechanism.legs.len());
+            let readings = &mut evaluation.reading_gradients;
+            if evaluation.reading_starts.is_empty() {
+                evaluation.reading_starts.push(0);
+            }
             for (r, by_pose) in parts {
                 let moves = closed[*r].moves.as_ref().expect("derivatives asked for");
-                moves.chain(self, by_pose, &mut readings, |j, value| {
+                moves.chain(self, by_pose, readings, |j, value| {
                     matrix[(i, j)] += value;
                 });
             }
+            evaluation.reading_starts.push(readings.len());
             for (j, &value) in direct.iter().enumerate() {
                 matrix[(i, first_shared + j)] += value;
             }
-            evaluation.reading_gradients.push(readings);
         };
         let report = PreparedFunction::new(
             PoseFunction::Report(instrument),
@@ -364,7 +374,7 @@ impl IdentificationProblem<'_> {
         let (mut own, mut also) = (Vec::new(), Vec::new());
         let residuals = coordinates
             .chain(distances)
-            .zip(&evaluation.reading_gradients);
+            .zip((0..).map(|i| evaluation.reading_gradient(i)));
         for (residual, ((source, kind), readings)) in residuals.enumerate() {
             let reading_loadings = |gradient: &[f64]| {
                 let mut loading = vec![0.0; per_row + 1 + gradient.len()];

@@ -114,7 +114,20 @@ pub(super) struct ForwardEvaluation {
     pub(super) residuals: Vec<f64>,
     /// `∂r/∂x` (one row per residual), if asked for.
     pub(super) jacobian: Option<DMatrix<f64>>,
-    /// Per residual, `∂r/∂s` over the readings it depends on (its row's, one per leg; a
-    /// distance's two rows', one after the other), if the Jacobian was asked for.
-    pub(super) reading_gradients: Vec<Vec<f64>>,
+    /// Every residual's `∂r/∂s` over the readings it depends on (its row's, one per leg; a
+    /// distance's two rows', one after the other), residual after residual, if the Jacobian
+    /// was asked for ([`Self::reading_gradient`]).
+    pub(super) reading_gradients: Vec<f64>,
+    /// Where each residual's part of `reading_gradients` starts (and the last one ends).
+    pub(super) reading_starts: Vec<usize>,
+}
+
+impl ForwardEvaluation {
+    /// Residual `i`'s `∂r/∂s` (empty without the Jacobian).
+    pub(super) fn reading_gradient(&self, i: usize) -> &[f64] {
+        match (self.reading_starts.get(i), self.reading_starts.get(i + 1)) {
+            (Some(&start), Some(&end)) => &self.reading_gradients[start..end],
+            _ => &[],
+        }
+    }
 }
