@@ -97,7 +97,10 @@ impl IdentificationProblem<'_> {
             });
         }
         let platform = platform_transform(pose);
-        let derivatives = pose_derivatives(pose, measured);
+        // The platform's derivatives: a position's is a unit translation (moving every point
+        // by it exactly), an angle's a rotation's derivative.
+        let angles = measured.iter().any(|&c| c >= 3);
+        let derivatives = angles.then(|| pose_derivatives(pose, measured));
         let mut starts = [0; 7];
         for (l, leg) in prepared.iter().enumerate() {
             starts[l + 1] = starts[l] + leg.columns();
@@ -121,8 +124,11 @@ impl IdentificationProblem<'_> {
             };
             let attachment = Vector3::from(leg.geometry().attachment);
             let gain = leg.geometry().gain;
-            for (j, derivative) in derivatives.iter().take(n).enumerate() {
-                let moved = derivative.of(&attachment);
+            for (j, &c) in measured.iter().enumerate() {
+                let moved = match &derivatives {
+                    Some(derivatives) => derivatives[j].of(&attachment),
+                    None => Vector3::ith(c, 1.0),
+                };
                 let actuated: f64 = (0..3).map(|k| row[k] * moved[k]).sum();
                 a[l][j] = actuated / gain;
             }
