@@ -57,13 +57,6 @@ impl<T: Scalar> Frame<T> {
     }
 }
 
-/// `m v`, each row's sum in the order nalgebra's product sums it (column after column, each
-/// term `m_ij v_j`): the same numbers without its generic loops (a dual-number report's
-/// products are most of its work).
-fn times<T: Scalar>(m: &Matrix3<T>, v: &Vector3<T>) -> Vector3<T> {
-    Vector3::from_fn(|i, _| m[(i, 0)] * v[0] + m[(i, 1)] * v[1] + m[(i, 2)] * v[2])
-}
-
 /// The platform's rotation `R_P` at `pose` (its roll, pitch, yaw).
 pub fn platform_rotation<T: Scalar>(pose: &[T; 6]) -> Matrix3<T> {
     rotation(pose[3], pose[4], pose[5])
@@ -94,7 +87,7 @@ pub fn observe_framed<T: Scalar>(
     let p = vector(&pose[..]);
     for (k, target) in instrument.targets.iter().enumerate() {
         let t = vector(&shared[instrument.offset_index(k)..]);
-        let m = times(&frame.transposed, &(p + times(platform, &t) - frame.origin));
+        let m = frame.transposed * (p + platform * t - frame.origin);
         match target.measures {
             Measures::Coordinates(_) => {
                 observed.extend(target.pose_indices().iter().map(|&c| m[c]));
