@@ -31,6 +31,8 @@ use crate::kinematics::kernel::{solve_warm_through, LegKernel, PreparedKernel};
 use crate::model::leg::{LegGeometry, LegModel};
 use crate::model::params::ParamTarget;
 
+mod actuated;
+
 /// Most parameters carried by one dual pass.
 pub const LANES: usize = 8;
 
@@ -57,6 +59,15 @@ trait GradientPass: std::fmt::Debug + Send + Sync {
         solution: &Solution,
         gradient: &mut [f64],
     ) -> f64;
+
+    /// As [`Self::evaluate`], from the kernel's f64 partials alone (`solution`: only its
+    /// joints' turn is read); `None` without a kernel or where its closed form fails.
+    fn closed_form(
+        &self,
+        platform: &Transform<f64>,
+        solution: &Solution,
+        gradient: &mut [f64],
+    ) -> Option<f64>;
 }
 
 /// A pass seeding `N` consecutive prepared columns, from `first` on.
@@ -189,11 +200,8 @@ impl<const N: usize> GradientPass for DualPass<N> {
         solution: &Solution,
         gradient: &mut [f64],
     ) -> f64 {
-        if let (Some(kernel), Some(lanes)) = (&self.kernel, &self.lanes) {
-            let own = &mut gradient[self.first..self.first + N];
-            if let Some(reading) = lanes.reading(kernel, platform, solution, own) {
-                return reading;
-            }
+        if let Some(reading) = self.closed_form(platform, solution, gradient) {
+            return reading;
         }
         let target = attachment_on_constant(platform, &self.geometry.attachment);
         let closed_form = self.kernel.as_ref();
@@ -210,6 +218,17 @@ impl<const N: usize> GradientPass for DualPass<N> {
         let lanes = reading.eps.unwrap_generic(Const::<N>, U1);
         gradient[self.first..self.first + N].copy_from_slice(lanes.as_slice());
         reading.re()
+    }
+
+    fn closed_form(
+        &self,
+        platform: &Transform<f64>,
+        solution: &Solution,
+        gradient: &mut [f64],
+    ) -> Option<f64> {
+        let (kernel, lanes) = (self.kernel.as_ref()?, self.lanes.as_ref()?);
+        let own = &mut gradient[self.first..self.first + N];
+        lanes.reading(kernel, platform, solution, own)
     }
 }
 

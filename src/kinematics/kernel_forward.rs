@@ -292,8 +292,11 @@ impl KernelForward {
                     difference
                 };
                 for (k, derivative) in derivatives.iter().take(m).enumerate() {
+                    // A position moves every point by its unit translation exactly.
+                    let c = self.measured[k];
                     let moved: [f64; 3] = match self.moved.get(l) {
                         Some(moved) => moved[k],
+                        None if c < 3 => std::array::from_fn(|d| if d == c { 1.0 } else { 0.0 }),
                         None => derivative.of(&Vector3::from(leg.attachment)).into(),
                     };
                     jacobian[l][k] = (0..3).map(|d| row[d] * moved[d]).sum();

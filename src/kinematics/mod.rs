@@ -13,7 +13,7 @@ pub use kernel_forward::KernelRows;
 mod newton_stop;
 pub mod platform;
 pub mod pointing;
-mod pose_derivative;
+pub(crate) mod pose_derivative;
 pub mod reading;
 pub mod singularity;
 mod sphere_intersection;

@@ -21,6 +21,8 @@
 mod horn;
 mod spatial;
 
+pub use spatial::{observe_framed, platform_rotation, Frame as SpatialFrame};
+
 use crate::model::instrument::{Instrument, Measures};
 use crate::scalar::{lift, Scalar};
 

@@ -29,12 +29,12 @@ use nalgebra::{DMatrix, DVector};
 use rayon::prelude::*;
 
 use super::forward_rows::{Forward, ForwardEvaluation, ForwardRow, Latest};
-use super::instrument_derivatives::{derivatives, PoseFunction};
+use super::instrument_derivatives::{Derivatives, PoseFunction, PreparedFunction};
 use super::noise::coordinate_sigmas;
+use super::pose_moves::Moves;
 use super::{BlockError, IdentificationProblem};
 use crate::error::KinematicsError;
 use crate::identify::jacobian::PreparedLeg;
-use crate::kinematics::inverse::Joints;
 use crate::kinematics::platform::{Configuration, ForwardKinematics};
 use crate::model::mechanism::MeasurementNoise;
 
@@ -46,11 +46,10 @@ const ROWS_PER_TASK: usize = 4;
 /// what a few dozen rows do (docs/benchmarks.md, the forward benches).
 const PARALLEL_ROWS: usize = 64;
 
-/// A row's closed pose and, for the Jacobian, how it moves: `∂P/∂x` (6 × unknowns, zero rows
-/// for the coordinates the model does not measure) and `∂P/∂s = A⁻¹` (6 × legs).
+/// A row's closed pose and, for the Jacobian, how it moves ([`Moves`]).
 pub(super) struct Closed {
     pub(super) pose: [f64; 6],
-    pub(super) moves: Option<(DMatrix<f64>, DMatrix<f64>)>,
+    pub(super) moves: Option<Moves>,
 }
 
 impl IdentificationProblem<'_> {
@@ -111,6 +110,7 @@ impl IdentificationProblem<'_> {
             residuals: Vec::new(),
             jacobian: None,
             reading_gradients: Vec::new(),
+            reading_starts: Vec::new(),
         };
         let (Some(forward), Some(sighted)) = (&self.forward, &self.sighted) else {
             return Ok(evaluation);
@@ -144,66 +144,78 @@ impl IdentificationProblem<'_> {
             * instrument.observed_len()
             + forward.distances.len();
         let mut matrix = jacobian.then(|| DMatrix::zeros(count, p));
+        evaluation.residuals.reserve(count);
+        if jacobian {
+            let legs = self.mechanism.legs.len();
+            evaluation.reading_gradients.reserve(count * legs);
+            evaluation.reading_starts.reserve(count + 1);
+        }
         // One residual: its value, ∂r/∂P of each of its rows and its direct ∂r/∂θ.
-        let mut push = |value: f64,
-                        parts: &[(usize, nalgebra::RowDVector<f64>)],
-                        direct: nalgebra::RowDVector<f64>| {
+        let mut push = |value: f64, parts: &[(usize, [f64; 6])], direct: &[f64]| {
             let i = evaluation.residuals.len();
             evaluation.residuals.push(value);
             let Some(matrix) = matrix.as_mut() else {
                 return;
             };
-            let mut row = matrix.row_mut(i);
-            let mut readings = Vec::new();
+            let readings = &mut evaluation.reading_gradients;
+            if evaluation.reading_starts.is_empty() {
+                evaluation.reading_starts.push(0);
+            }
             for (r, by_pose) in parts {
-                let (dx, ds) = closed[*r].moves.as_ref().expect("derivatives asked for");
-                row += by_pose * dx;
-                readings.extend((by_pose * ds).iter().copied());
+                let moves = closed[*r].moves.as_ref().expect("derivatives asked for");
+                moves.chain(self, by_pose, readings, |j, value| {
+                    matrix[(i, j)] += value;
+                });
             }
+            evaluation.reading_starts.push(readings.len());
             for (j, &value) in direct.iter().enumerate() {
-                row[first_shared + j] += value;
+                matrix[(i, first_shared + j)] += value;
             }
-            evaluation.reading_gradients.push(readings);
         };
+        let report = PreparedFunction::new(
+            PoseFunction::Report(instrument),
+            (&shared, &sighted.shared),
+            (measured, jacobian),
+        );
+        let mut at = Derivatives::default();
         for (r, row) in forward.rows.iter().enumerate() {
             if row.observed.is_empty() {
                 continue;
             }
-            let (values, by_pose, by_shared) = derivatives(
-                PoseFunction::Report(instrument),
-                (&shared, &sighted.shared),
-                &closed[r].pose,
-                (measured, jacobian),
-            );
-            for (o, (value, seen)) in values.iter().zip(&row.observed).enumerate() {
-                push(
-                    value - seen,
-                    &[(r, by_pose.row(o).into_owned())],
-                    by_shared.row(o).into_owned(),
-                );
+            report.at(&closed[r].pose, &mut at);
+            for (o, (value, seen)) in at.values.iter().zip(&row.observed).enumerate() {
+                push(value - seen, &[(r, at.by_pose[o])], at.by_shared(o));
             }
         }
         if let Some(target) = instrument.distances.as_ref().map(|d| d.target) {
+            let position = PreparedFunction::new(
+                PoseFunction::Position(instrument, target),
+                (&shared, &sighted.shared),
+                (measured, jacobian),
+            );
+            let (mut a, mut b) = (Derivatives::default(), Derivatives::default());
+            let mut direct = vec![0.0; sighted.shared.len()];
             for distance in forward.distances.iter() {
-                let [a, b] = distance.rows.map(|r| {
-                    derivatives(
-                        PoseFunction::Position(instrument, target),
-                        (&shared, &sighted.shared),
-                        &closed[r].pose,
-                        (measured, jacobian),
-                    )
-                });
-                let gap: Vec<f64> = (0..3).map(|k| a.0[k] - b.0[k]).collect();
+                position.at(&closed[distance.rows[0]].pose, &mut a);
+                position.at(&closed[distance.rows[1]].pose, &mut b);
+                let gap: [f64; 3] = std::array::from_fn(|k| a.values[k] - b.values[k]);
                 let length = gap.iter().map(|g| g * g).sum::<f64>().sqrt();
-                let u = nalgebra::RowDVector::from_iterator(
-                    3,
-                    gap.iter().map(|g| g / length.max(f64::MIN_POSITIVE)),
-                );
+                let u = gap.map(|g| g / length.max(f64::MIN_POSITIVE));
+                // u·∂X/∂P of each row (the second's negated) and u·(∂X_a/∂θ − ∂X_b/∂θ).
+                let along = |by_pose: &[[f64; 6]]| -> [f64; 6] {
+                    std::array::from_fn(|c| (0..3).map(|k| u[k] * by_pose[k][c]).sum())
+                };
+                let (by_a, by_b) = (along(&a.by_pose), along(&b.by_pose));
                 let parts = [
-                    (distance.rows[0], &u * &a.1),
-                    (distance.rows[1], -(&u * &b.1)),
+                    (distance.rows[0], by_a),
+                    (distance.rows[1], by_b.map(|v| -v)),
                 ];
-                push(length - distance.value, &parts, &u * (&a.2 - &b.2));
+                for (j, value) in direct.iter_mut().enumerate() {
+                    *value = (0..3)
+                        .map(|k| u[k] * (a.by_shared(k)[j] - b.by_shared(k)[j]))
+                        .sum();
+                }
+                push(length - distance.value, &parts, &direct);
             }
         }
         evaluation.jacobian = matrix;
@@ -302,55 +314,6 @@ impl IdentificationProblem<'_> {
         closed.into_iter().collect()
     }
 
-    /// How a closed pose `pose` moves with the unknowns and the readings (see the module's
-    /// documentation): `(∂P/∂x, ∂P/∂s)`, 6 rows each, zero for unmeasured coordinates.
-    fn pose_moves(
-        &self,
-        prepared: &[PreparedLeg<'_>],
-        pose: &[f64; 6],
-        seeds: &[Joints],
-    ) -> Result<(DMatrix<f64>, DMatrix<f64>), KinematicsError> {
-        let mechanism = self.mechanism;
-        let measured = &mechanism.measured;
-        let (n, legs) = (measured.len(), mechanism.legs.len());
-        if legs != n {
-            return Err(KinematicsError::NotAssemblable {
-                residual: f64::INFINITY,
-            });
-        }
-        // A = ∂ψ/∂P over the measured coordinates, and each leg's ∂ψ_l/∂φ_l.
-        let mut a = DMatrix::zeros(legs, n);
-        let mut own: Vec<Vec<f64>> = Vec::with_capacity(legs);
-        let home = &mechanism.home_pose;
-        for (l, leg) in prepared.iter().enumerate() {
-            let solution = leg.solve_warm(pose, home, seeds.get(l))?;
-            let mut gradient = vec![0.0; leg.columns()];
-            leg.reading_and_gradient_of(pose, &solution, &mut gradient);
-            let d = leg.pose_gradient_of(pose, &solution, measured);
-            for (j, &c) in measured.iter().enumerate() {
-                a[(l, j)] = d[c];
-            }
-            own.push(gradient);
-        }
-        let inverse = a
-            .try_inverse()
-            .filter(|i| i.iter().all(|v| v.is_finite()))
-            .ok_or(KinematicsError::AssemblyModeChange)?;
-        let mut by_readings = DMatrix::zeros(6, legs);
-        let mut by_unknowns = DMatrix::zeros(6, self.parameter_count());
-        for (j, &c) in measured.iter().enumerate() {
-            for l in 0..legs {
-                by_readings[(c, l)] = inverse[(j, l)];
-            }
-            for slot in &self.slots {
-                for (k, &value) in own[slot.leg].iter().enumerate() {
-                    by_unknowns[(c, slot.offset + k)] = -inverse[(j, slot.leg)] * value;
-                }
-            }
-        }
-        Ok((by_unknowns, by_readings))
-    }
-
     /// The error of forward row `index` at the unknowns `x`, located.
     fn forward_error(&self, index: usize, source: KinematicsError, x: &DVector<f64>) -> BlockError {
         let row = self
@@ -411,7 +374,7 @@ impl IdentificationProblem<'_> {
         let (mut own, mut also) = (Vec::new(), Vec::new());
         let residuals = coordinates
             .chain(distances)
-            .zip(&evaluation.reading_gradients);
+            .zip((0..).map(|i| evaluation.reading_gradient(i)));
         for (residual, ((source, kind), readings)) in residuals.enumerate() {
             let reading_loadings = |gradient: &[f64]| {
                 let mut loading = vec![0.0; per_row + 1 + gradient.len()];

@@ -7,6 +7,7 @@ use std::sync::{Arc, Mutex};
 
 use nalgebra::DMatrix;
 
+use super::pose_moves::Moves;
 use crate::kinematics::kernel::LegKernel;
 use crate::kinematics::platform::Configuration;
 
@@ -63,8 +64,8 @@ pub(super) struct Latest {
     pub(super) key: Vec<u64>,
     /// Every row's closed pose there.
     pub(super) poses: Vec<[f64; 6]>,
-    /// Every row's `(∂P/∂x, ∂P/∂s)` there, if the Jacobian was asked for.
-    pub(super) moves: Option<Vec<(DMatrix<f64>, DMatrix<f64>)>>,
+    /// Every row's movements there ([`Moves`]), if the Jacobian was asked for.
+    pub(super) moves: Option<Vec<Moves>>,
     /// The evaluation (with its derivatives if they were asked for); `None` for poses closed
     /// elsewhere (known poses).
     pub(super) evaluation: Option<ForwardEvaluation>,
@@ -113,7 +114,20 @@ pub(super) struct ForwardEvaluation {
     pub(super) residuals: Vec<f64>,
     /// `∂r/∂x` (one row per residual), if asked for.
     pub(super) jacobian: Option<DMatrix<f64>>,
-    /// Per residual, `∂r/∂s` over the readings it depends on (its row's, one per leg; a
-    /// distance's two rows', one after the other), if the Jacobian was asked for.
-    pub(super) reading_gradients: Vec<Vec<f64>>,
+    /// Every residual's `∂r/∂s` over the readings it depends on (its row's, one per leg; a
+    /// distance's two rows', one after the other), residual after residual, if the Jacobian
+    /// was asked for ([`Self::reading_gradient`]).
+    pub(super) reading_gradients: Vec<f64>,
+    /// Where each residual's part of `reading_gradients` starts (and the last one ends).
+    pub(super) reading_starts: Vec<usize>,
+}
+
+impl ForwardEvaluation {
+    /// Residual `i`'s `∂r/∂s` (empty without the Jacobian).
+    pub(super) fn reading_gradient(&self, i: usize) -> &[f64] {
+        match (self.reading_starts.get(i), self.reading_starts.get(i + 1)) {
+            (Some(&start), Some(&end)) => &self.reading_gradients[start..end],
+            _ => &[],
+        }
+    }
 }

@@ -33,6 +33,7 @@ mod forward_rows;
 mod instrument_derivatives;
 mod noise;
 mod places;
+mod pose_moves;
 mod prior_rows;
 mod priors;
 mod reached_points;

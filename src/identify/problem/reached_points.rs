@@ -62,18 +62,25 @@ impl IdentificationProblem<'_> {
         Ok(closed
             .iter()
             .map(|row| {
-                let (values, by_pose, by_shared) = derivatives(
+                let at = derivatives(
                     PoseFunction::Position(instrument, target),
                     (&shared, &sighted.shared),
                     &row.pose,
                     (&self.mechanism.measured, true),
                 );
-                let (dx, _) = row.moves.as_ref().expect("moves asked for");
+                let dx = row
+                    .moves
+                    .as_ref()
+                    .expect("moves asked for")
+                    .by_unknowns(self);
+                let by_pose = DMatrix::from_fn(3, 6, |k, c| at.by_pose[k][c]);
                 let mut moves = by_pose * dx;
-                for (j, column) in by_shared.column_iter().enumerate() {
-                    let mut target = moves.column_mut(first_shared + j);
-                    target += column;
+                for k in 0..3 {
+                    for (j, &value) in at.by_shared(k).iter().enumerate() {
+                        moves[(k, first_shared + j)] += value;
+                    }
                 }
+                let values = &at.values;
                 ReachedPoint {
                     position: [values[0], values[1], values[2]],
                     moves,

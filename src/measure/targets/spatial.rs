@@ -33,20 +33,61 @@ fn vector<T: Scalar>(values: &[T]) -> Vector3<T> {
     Vector3::new(values[0], values[1], values[2])
 }
 
+/// The instrument frame's origin `f` and its rotation transposed, `R_fᵀ`, from the shared
+/// parameters: the part of [`observe`] that is the same at every pose (computed once for many
+/// rows).
+#[derive(Debug, Clone, Copy)]
+pub struct Frame<T: Scalar> {
+    origin: Vector3<T>,
+    transposed: Matrix3<T>,
+}
+
+impl<T: Scalar> Frame<T> {
+    /// The frame at the shared parameters `shared`.
+    pub fn new(shared: &[T]) -> Self {
+        let frame = rotation(
+            shared[Instrument::FRAME + 3],
+            shared[Instrument::FRAME + 4],
+            shared[Instrument::FRAME + 5],
+        );
+        Self {
+            origin: vector(&shared[Instrument::FRAME..]),
+            transposed: frame.transpose(),
+        }
+    }
+}
+
+/// The platform's rotation `R_P` at `pose` (its roll, pitch, yaw).
+pub fn platform_rotation<T: Scalar>(pose: &[T; 6]) -> Matrix3<T> {
+    rotation(pose[3], pose[4], pose[5])
+}
+
 /// The instrument's report of every target at `pose` (see [`super::observe_in`]).
 pub(super) fn observe<T: Scalar>(instrument: &Instrument, shared: &[T], pose: &[T; 6]) -> Vec<T> {
-    let f = vector(&shared[Instrument::FRAME..]);
-    let frame = rotation(
-        shared[Instrument::FRAME + 3],
-        shared[Instrument::FRAME + 4],
-        shared[Instrument::FRAME + 5],
-    );
-    let platform = rotation(pose[3], pose[4], pose[5]);
-    let p = vector(&pose[..]);
     let mut observed = Vec::with_capacity(instrument.observed_len());
+    let platform = platform_rotation(pose);
+    observe_framed(
+        instrument,
+        (shared, &Frame::new(shared)),
+        (&platform, pose),
+        &mut observed,
+    );
+    observed
+}
+
+/// [`observe`] with the frame `frame` of the shared parameters `shared` and the platform's
+/// rotation `platform` at `pose` computed beforehand, the report appended to `observed`: the
+/// same numbers, bit for bit.
+pub fn observe_framed<T: Scalar>(
+    instrument: &Instrument,
+    (shared, frame): (&[T], &Frame<T>),
+    (platform, pose): (&Matrix3<T>, &[T; 6]),
+    observed: &mut Vec<T>,
+) {
+    let p = vector(&pose[..]);
     for (k, target) in instrument.targets.iter().enumerate() {
         let t = vector(&shared[instrument.offset_index(k)..]);
-        let m = frame.transpose() * (p + platform * t - f);
+        let m = frame.transposed * (p + platform * t - frame.origin);
         match target.measures {
             Measures::Coordinates(_) => {
                 observed.extend(target.pose_indices().iter().map(|&c| m[c]));
@@ -54,10 +95,9 @@ pub(super) fn observe<T: Scalar>(instrument: &Instrument, shared: &[T], pose: &[
             _ => observed.extend(m.iter()),
         }
         if target.measures == Measures::Pose {
-            observed.extend(angles(&(frame.transpose() * platform)));
+            observed.extend(angles(&(frame.transposed * platform)));
         }
     }
-    observed
 }
 
 /// The platform pose from one row's target coordinates (see [`super::platform_pose_from`]).

@@ -1,0 +1,173 @@
+//! How a forward row's closed pose moves with the unknowns and the readings (the implicit
+//! function theorem of `problem/forward.rs`): `∂P/∂s = A⁻¹` and `∂P/∂φ_l = −A⁻¹ e_l ∂ψ_l/∂φ_l`,
+//! `A = ∂ψ/∂P` over the measured coordinates, kept in fixed storage as `A⁻¹` and each leg's
+//! `∂ψ_l/∂φ_l` (never as a 6 × unknowns matrix: a residual's row is chained through them
+//! directly).
+//!
+//! A leg whose closed-form kernel reaches the pose gives its row of `A` and its `∂ψ_l/∂φ_l`
+//! from the kernel's actuated row and f64 partials
+//! ([`PreparedLeg::actuated_gradients`]), without solving its passive joints again; any other
+//! leg is solved at the pose and differentiated at its solution.
+
+use nalgebra::{DMatrix, SMatrix, Vector3};
+
+use super::IdentificationProblem;
+use crate::error::KinematicsError;
+use crate::identify::jacobian::PreparedLeg;
+use crate::kinematics::chain::platform_transform;
+use crate::kinematics::inverse::Joints;
+use crate::kinematics::pose_derivative::pose_derivatives;
+
+/// How one closed pose moves (see the module).
+#[derive(Debug, Clone)]
+pub(super) struct Moves {
+    /// The measured coordinates' count `n` (as many as legs, at most six).
+    n: usize,
+    /// `A⁻¹`: row `j` the `j`-th measured coordinate, column `l` leg `l`.
+    inverse: [[f64; 6]; 6],
+    /// Every leg's `∂ψ_l/∂φ_l` over its prepared columns, leg after leg.
+    own: Vec<f64>,
+    /// Where each leg's part of `own` starts (and the last one ends).
+    starts: [usize; 7],
+}
+
+impl Moves {
+    /// A residual's `∂r/∂s` (one value per leg) for its `∂r/∂P` `by_pose` (over the six pose
+    /// coordinates; the `measured` ones read), appended to `readings`, and its `∂r/∂x` through
+    /// the pose, `add(column, value)` for each identified leg parameter.
+    pub(super) fn chain(
+        &self,
+        problem: &IdentificationProblem<'_>,
+        by_pose: &[f64; 6],
+        readings: &mut Vec<f64>,
+        mut add: impl FnMut(usize, f64),
+    ) {
+        let measured = &problem.mechanism.measured;
+        for l in 0..self.n {
+            let mut by_reading = 0.0;
+            for (j, &c) in measured.iter().enumerate() {
+                by_reading += by_pose[c] * self.inverse[j][l];
+            }
+            readings.push(by_reading);
+            let Some(slot) = problem.slot_of_leg[l].map(|s| &problem.slots[s]) else {
+                continue;
+            };
+            let own = &self.own[self.starts[l]..self.starts[l + 1]];
+            for (k, value) in own.iter().enumerate() {
+                add(slot.offset + k, -by_reading * value);
+            }
+        }
+    }
+
+    /// `∂P/∂x`: 6 × unknowns, zero rows for the coordinates the model does not measure.
+    pub(super) fn by_unknowns(&self, problem: &IdentificationProblem<'_>) -> DMatrix<f64> {
+        let mut matrix = DMatrix::zeros(6, problem.parameter_count());
+        for (j, &c) in problem.mechanism.measured.iter().enumerate() {
+            for slot in &problem.slots {
+                let own = &self.own[self.starts[slot.leg]..self.starts[slot.leg + 1]];
+                for (k, &value) in own.iter().enumerate() {
+                    matrix[(c, slot.offset + k)] = -self.inverse[j][slot.leg] * value;
+                }
+            }
+        }
+        matrix
+    }
+}
+
+impl IdentificationProblem<'_> {
+    /// How the closed pose `pose` moves (see the module), the legs `prepared` at the unknowns
+    /// (one per leg, prepared for their slots' columns), `seeds` the row's joints (the turn a
+    /// kernel reads its joints on, and the start of a leg solved again).
+    ///
+    /// # Errors
+    /// As many measured coordinates as legs (at most six) are needed; a leg solved again that
+    /// cannot reach the pose; a singular `A` (an assembly-mode change).
+    pub(super) fn pose_moves(
+        &self,
+        prepared: &[PreparedLeg<'_>],
+        pose: &[f64; 6],
+        seeds: &[Joints],
+    ) -> Result<Moves, KinematicsError> {
+        let mechanism = self.mechanism;
+        let measured = &mechanism.measured;
+        let (n, legs) = (measured.len(), prepared.len());
+        if legs != n || n > 6 || mechanism.legs.len() != legs {
+            return Err(KinematicsError::NotAssemblable {
+                residual: f64::INFINITY,
+            });
+        }
+        let platform = platform_transform(pose);
+        // The platform's derivatives: a position's is a unit translation (moving every point
+        // by it exactly), an angle's a rotation's derivative.
+        let angles = measured.iter().any(|&c| c >= 3);
+        let derivatives = angles.then(|| pose_derivatives(pose, measured));
+        let mut starts = [0; 7];
+        for (l, leg) in prepared.iter().enumerate() {
+            starts[l + 1] = starts[l] + leg.columns();
+        }
+        let mut own = vec![0.0; starts[legs]];
+        // A = ∂ψ/∂P over the measured coordinates, and each leg's ∂ψ_l/∂φ_l.
+        let mut a = [[0.0; 6]; 6];
+        for (l, leg) in prepared.iter().enumerate() {
+            let gradient = &mut own[starts[l]..starts[l + 1]];
+            let seed = seeds.get(l);
+            let row = match leg.actuated_gradients(&platform, seed, gradient) {
+                Some(row) => row,
+                None => {
+                    let home = &mechanism.home_pose;
+                    let solution = leg.solve_warm_on(&platform, pose, home, seed)?;
+                    leg.reading_and_gradient_on(&platform, &solution, gradient);
+                    let dims = leg.leg().closure_dims.min(3);
+                    let inverse = solution.closure_inverse.row(leg.leg().actuated);
+                    std::array::from_fn(|k| if k < dims { inverse[k] } else { 0.0 })
+                }
+            };
+            let attachment = Vector3::from(leg.geometry().attachment);
+            let gain = leg.geometry().gain;
+            for (j, &c) in measured.iter().enumerate() {
+                let moved = match &derivatives {
+                    Some(derivatives) => derivatives[j].of(&attachment),
+                    None => Vector3::ith(c, 1.0),
+                };
+                let actuated: f64 = (0..3).map(|k| row[k] * moved[k]).sum();
+                a[l][j] = actuated / gain;
+            }
+        }
+        let inverse = inverse(&a, n).ok_or(KinematicsError::AssemblyModeChange)?;
+        Ok(Moves {
+            n,
+            inverse,
+            own,
+            starts,
+        })
+    }
+}
+
+/// The inverse of `a`'s leading `n × n` block (`n ≤ 6`) in fixed storage, `None` if singular or
+/// not finite.
+fn inverse(a: &[[f64; 6]; 6], n: usize) -> Option<[[f64; 6]; 6]> {
+    match n {
+        1 => inverse_of::<1>(a),
+        2 => inverse_of::<2>(a),
+        3 => inverse_of::<3>(a),
+        4 => inverse_of::<4>(a),
+        5 => inverse_of::<5>(a),
+        6 => inverse_of::<6>(a),
+        _ => None,
+    }
+}
+
+fn inverse_of<const N: usize>(a: &[[f64; 6]; 6]) -> Option<[[f64; 6]; 6]> {
+    let matrix = SMatrix::<f64, N, N>::from_fn(|i, j| a[i][j]);
+    let inverse = matrix.try_inverse()?;
+    if !inverse.iter().all(|v| v.is_finite()) {
+        return None;
+    }
+    let mut out = [[0.0; 6]; 6];
+    for (i, row) in out.iter_mut().enumerate().take(N) {
+        for (j, value) in row.iter_mut().enumerate().take(N) {
+            *value = inverse[(i, j)];
+        }
+    }
+    Some(out)
+}
