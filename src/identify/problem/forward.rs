@@ -31,7 +31,7 @@ use rayon::prelude::*;
 use super::forward_rows::{Forward, ForwardEvaluation, ForwardRow, Latest};
 use super::instrument_derivatives::{Derivatives, PoseFunction, PreparedFunction};
 use super::noise::coordinate_sigmas;
-use super::pose_moves::Moves;
+use super::pose_moves::{pose_moves, Moves};
 use super::{BlockError, IdentificationProblem};
 use crate::error::KinematicsError;
 use crate::identify::jacobian::PreparedLeg;
@@ -150,6 +150,10 @@ impl IdentificationProblem<'_> {
             evaluation.reading_gradients.reserve(count * legs);
             evaluation.reading_starts.reserve(count + 1);
         }
+        // Each leg's slot, for the chain rule through the pose.
+        let slots = (self.mechanism.measured.as_slice(), |l: usize| {
+            self.slot_of_leg[l].map(|s| self.slots[s].offset)
+        });
         // One residual: its value, ∂r/∂P of each of its rows and its direct ∂r/∂θ.
         let mut push = |value: f64, parts: &[(usize, [f64; 6])], direct: &[f64]| {
             let i = evaluation.residuals.len();
@@ -163,7 +167,7 @@ impl IdentificationProblem<'_> {
             }
             for (r, by_pose) in parts {
                 let moves = closed[*r].moves.as_ref().expect("derivatives asked for");
-                moves.chain(self, by_pose, readings, |j, value| {
+                moves.chain(slots, by_pose, readings, |j, value| {
                     matrix[(i, j)] += value;
                 });
             }
@@ -286,7 +290,7 @@ impl IdentificationProblem<'_> {
             configuration.pose = pose;
             let moves = match moves {
                 true => Some(
-                    self.pose_moves(&prepared, &pose, &configuration.joints)
+                    pose_moves(self.mechanism, &prepared, &pose, &configuration.joints)
                         .map_err(fail)?,
                 ),
                 false => None,

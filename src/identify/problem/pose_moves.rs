@@ -11,12 +11,12 @@
 
 use nalgebra::{DMatrix, SMatrix, Vector3};
 
-use super::IdentificationProblem;
 use crate::error::KinematicsError;
 use crate::identify::jacobian::PreparedLeg;
 use crate::kinematics::chain::platform_transform;
 use crate::kinematics::inverse::Joints;
 use crate::kinematics::pose_derivative::pose_derivatives;
+use crate::model::mechanism::Mechanism;
 
 /// How one closed pose moves (see the module).
 #[derive(Debug, Clone)]
@@ -35,38 +35,46 @@ impl Moves {
     /// A residual's `∂r/∂s` (one value per leg) for its `∂r/∂P` `by_pose` (over the six pose
     /// coordinates; the `measured` ones read), appended to `readings`, and its `∂r/∂x` through
     /// the pose, `add(column, value)` for each identified leg parameter.
+    /// `measured` the model's measured pose coordinates, `offset_of(l)` the first unknown of
+    /// leg `l`'s identified parameters (if it has any).
     pub(super) fn chain(
         &self,
-        problem: &IdentificationProblem<'_>,
+        (measured, offset_of): (&[usize], impl Fn(usize) -> Option<usize>),
         by_pose: &[f64; 6],
         readings: &mut Vec<f64>,
         mut add: impl FnMut(usize, f64),
     ) {
-        let measured = &problem.mechanism.measured;
         for l in 0..self.n {
             let mut by_reading = 0.0;
             for (j, &c) in measured.iter().enumerate() {
                 by_reading += by_pose[c] * self.inverse[j][l];
             }
             readings.push(by_reading);
-            let Some(slot) = problem.slot_of_leg[l].map(|s| &problem.slots[s]) else {
+            let Some(offset) = offset_of(l) else {
                 continue;
             };
             let own = &self.own[self.starts[l]..self.starts[l + 1]];
             for (k, value) in own.iter().enumerate() {
-                add(slot.offset + k, -by_reading * value);
+                add(offset + k, -by_reading * value);
             }
         }
     }
 
-    /// `∂P/∂x`: 6 × unknowns, zero rows for the coordinates the model does not measure.
-    pub(super) fn by_unknowns(&self, problem: &IdentificationProblem<'_>) -> DMatrix<f64> {
-        let mut matrix = DMatrix::zeros(6, problem.parameter_count());
-        for (j, &c) in problem.mechanism.measured.iter().enumerate() {
-            for slot in &problem.slots {
-                let own = &self.own[self.starts[slot.leg]..self.starts[slot.leg + 1]];
+    /// `∂P/∂x`: 6 × `unknowns`, zero rows for the coordinates the model does not measure
+    /// (`measured` the measured ones; `slots` each identified leg and the first unknown of its
+    /// parameters).
+    pub(super) fn by_unknowns(
+        &self,
+        unknowns: usize,
+        measured: &[usize],
+        slots: &[(usize, usize)],
+    ) -> DMatrix<f64> {
+        let mut matrix = DMatrix::zeros(6, unknowns);
+        for (j, &c) in measured.iter().enumerate() {
+            for &(leg, offset) in slots {
+                let own = &self.own[self.starts[leg]..self.starts[leg + 1]];
                 for (k, &value) in own.iter().enumerate() {
-                    matrix[(c, slot.offset + k)] = -self.inverse[j][slot.leg] * value;
+                    matrix[(c, offset + k)] = -self.inverse[j][leg] * value;
                 }
             }
         }
@@ -74,21 +82,20 @@ impl Moves {
     }
 }
 
-impl IdentificationProblem<'_> {
-    /// How the closed pose `pose` moves (see the module), the legs `prepared` at the unknowns
-    /// (one per leg, prepared for their slots' columns), `seeds` the row's joints (the turn a
-    /// kernel reads its joints on, and the start of a leg solved again).
-    ///
-    /// # Errors
-    /// As many measured coordinates as legs (at most six) are needed; a leg solved again that
-    /// cannot reach the pose; a singular `A` (an assembly-mode change).
-    pub(super) fn pose_moves(
-        &self,
-        prepared: &[PreparedLeg<'_>],
-        pose: &[f64; 6],
-        seeds: &[Joints],
-    ) -> Result<Moves, KinematicsError> {
-        let mechanism = self.mechanism;
+/// How the closed pose `pose` of `mechanism` moves (see the module), the legs `prepared` at the
+/// unknowns (one per leg, prepared for their slots' columns), `seeds` the row's joints (the
+/// turn a kernel reads its joints on, and the start of a leg solved again).
+///
+/// # Errors
+/// As many measured coordinates as legs (at most six) are needed; a leg solved again that
+/// cannot reach the pose; a singular `A` (an assembly-mode change).
+pub(super) fn pose_moves(
+    mechanism: &Mechanism,
+    prepared: &[PreparedLeg<'_>],
+    pose: &[f64; 6],
+    seeds: &[Joints],
+) -> Result<Moves, KinematicsError> {
+    {
         let measured = &mechanism.measured;
         let (n, legs) = (measured.len(), prepared.len());
         if legs != n || n > 6 || mechanism.legs.len() != legs {

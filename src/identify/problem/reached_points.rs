@@ -59,6 +59,7 @@ impl IdentificationProblem<'_> {
         let shared = sighted.values(x.as_slice());
         let p = self.parameter_count();
         let first_shared = p - sighted.shared.len();
+        let slots: Vec<(usize, usize)> = self.slots.iter().map(|s| (s.leg, s.offset)).collect();
         Ok(closed
             .iter()
             .map(|row| {
@@ -68,11 +69,11 @@ impl IdentificationProblem<'_> {
                     &row.pose,
                     (&self.mechanism.measured, true),
                 );
-                let dx = row
-                    .moves
-                    .as_ref()
-                    .expect("moves asked for")
-                    .by_unknowns(self);
+                let dx = row.moves.as_ref().expect("moves asked for").by_unknowns(
+                    self.parameter_count(),
+                    &self.mechanism.measured,
+                    &slots,
+                );
                 let by_pose = DMatrix::from_fn(3, 6, |k, c| at.by_pose[k][c]);
                 let mut moves = by_pose * dx;
                 for k in 0..3 {
