@@ -1,6 +1,10 @@
 //! The dot product of two slices summed exactly as nalgebra sums that of two dynamic column
-//! vectors, so that the factorisations written on slices (no view built per product, no
-//! bounds check per entry) give the same bits as their first versions on nalgebra's views.
+//! vectors, so that the factorisations and products written on slices (no view built per
+//! product, no bounds check per entry) give the same bits as their first versions on
+//! nalgebra's views; and the products `AᵀB`, `AᵀA` and `Aᵀr` of column-major matrices built
+//! from it as nalgebra's `tr_mul`, `gemm_tr` and `gemv_tr` build them.
+
+use nalgebra::{DMatrix, DVector};
 
 /// `a · b` in nalgebra's order: eight running sums over blocks of eight, added pairwise into
 /// the result (0 and 4, 1 and 5, 2 and 6, 3 and 7), then the tail in order. Bit for bit the
@@ -25,6 +29,44 @@ pub(crate) fn dot(a: &[f64], b: &[f64]) -> f64 {
     result
 }
 
+/// Column `j` of the column-major `a`.
+fn column(a: &DMatrix<f64>, j: usize) -> &[f64] {
+    let m = a.nrows();
+    &a.as_slice()[j * m..(j + 1) * m]
+}
+
+/// `aᵀb`: entry `(i, j)` the dot product of column `i` of `a` and column `j` of `b`, as
+/// nalgebra's `a.tr_mul(b)`, bit for bit.
+pub(crate) fn transpose_times(a: &DMatrix<f64>, b: &DMatrix<f64>) -> DMatrix<f64> {
+    debug_assert_eq!(a.nrows(), b.nrows());
+    DMatrix::from_fn(a.ncols(), b.ncols(), |i, j| dot(column(a, i), column(b, j)))
+}
+
+/// `target += aᵀa` for a symmetric `target`, as nalgebra's `target.gemm_tr(1.0, a, a, 1.0)`
+/// bit for bit: each product below the diagonal is the one above it (the same dot product,
+/// each term's factors swapped), computed once.
+pub(crate) fn add_gram(target: &mut DMatrix<f64>, a: &DMatrix<f64>) {
+    let n = a.ncols();
+    debug_assert_eq!(target.shape(), (n, n));
+    for j in 0..n {
+        for i in 0..=j {
+            let product = dot(column(a, i), column(a, j));
+            target[(i, j)] += product;
+            if i != j {
+                target[(j, i)] += product;
+            }
+        }
+    }
+}
+
+/// `target += aᵀr`, as nalgebra's `target.gemv_tr(1.0, a, r, 1.0)` bit for bit.
+pub(crate) fn add_transpose_times(target: &mut DVector<f64>, a: &DMatrix<f64>, r: &DVector<f64>) {
+    debug_assert_eq!((a.nrows(), a.ncols()), (r.len(), target.len()));
+    for (i, value) in target.iter_mut().enumerate() {
+        *value += dot(column(a, i), r.as_slice());
+    }
+}
+
 /// Values of every magnitude and sign from a fixed recurrence (no two sums alike): the
 /// inputs of the bit-for-bit tests of the slice factorisations.
 #[cfg(test)]
@@ -43,9 +85,43 @@ pub(crate) fn awkward(count: usize, seed: u64) -> Vec<f64> {
 
 #[cfg(test)]
 mod tests {
-    use nalgebra::DVector;
+    use nalgebra::{DMatrix, DVector};
 
-    use super::{awkward, dot};
+    use super::{add_gram, add_transpose_times, awkward, dot, transpose_times};
+
+    /// The products are nalgebra's `tr_mul`, `gemm_tr` and `gemv_tr`, bit for bit, on row
+    /// counts around the dot product's blocks of eight, accumulated onto non-zero (symmetric)
+    /// matrices and vectors.
+    #[test]
+    fn the_products_are_nalgebras() {
+        let bits = |m: &[f64]| m.iter().map(|v| v.to_bits()).collect::<Vec<_>>();
+        for (m, n, k, seed) in [
+            (1, 1, 1, 1),
+            (7, 3, 2, 2),
+            (8, 4, 5, 3),
+            (23, 6, 3, 4),
+            (300, 9, 4, 5),
+        ] {
+            let a = DMatrix::from_vec(m, n, awkward(m * n, seed));
+            let b = DMatrix::from_vec(m, k, awkward(m * k, seed + 10));
+            let r = DVector::from_vec(awkward(m, seed + 20));
+            assert_eq!(
+                bits(transpose_times(&a, &b).as_slice()),
+                bits(a.tr_mul(&b).as_slice())
+            );
+            let start = DMatrix::from_vec(n, n, awkward(n * n, seed + 30));
+            let symmetric = &start + start.transpose();
+            let (mut ours, mut theirs) = (symmetric.clone(), symmetric);
+            add_gram(&mut ours, &a);
+            theirs.gemm_tr(1.0, &a, &a, 1.0);
+            assert_eq!(bits(ours.as_slice()), bits(theirs.as_slice()), "{m}x{n}");
+            let start = DVector::from_vec(awkward(n, seed + 40));
+            let (mut ours, mut theirs) = (start.clone(), start);
+            add_transpose_times(&mut ours, &a, &r);
+            theirs.gemv_tr(1.0, &a, &r, 1.0);
+            assert_eq!(bits(ours.as_slice()), bits(theirs.as_slice()), "{m}x{n}");
+        }
+    }
 
     /// nalgebra's dot product and squared norm, bit for bit, at every length around its blocks
     /// of eight.

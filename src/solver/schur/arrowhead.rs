@@ -21,6 +21,7 @@ use std::fmt;
 use nalgebra::{DMatrix, DVector};
 
 use crate::solver::bordered::{check_blocks, BorderedBlock, BorderedLayout, LayoutMismatch};
+use crate::solver::column_dot::{add_gram, add_transpose_times, transpose_times};
 
 /// A Cholesky pivot below this fraction of its matrix's diagonal entry means the column is a
 /// combination of the previous ones to working precision: the matrix counts as singular.
@@ -109,12 +110,18 @@ impl ArrowheadSystem {
             .iter()
             .map(|block| {
                 let (j, b, r) = (&block.own, &block.shared, &block.residuals);
-                shared.gemm_tr(1.0, b, b, 1.0);
-                shared_gradient.gemv_tr(1.0, b, r, 1.0);
+                // nalgebra's products (gemm_tr, gemv_tr, tr_mul) on the columns as slices,
+                // the symmetric ones computed on one side of the diagonal: the same bits.
+                add_gram(&mut shared, b);
+                add_transpose_times(&mut shared_gradient, b, r);
+                let mut own = DMatrix::zeros(j.ncols(), j.ncols());
+                add_gram(&mut own, j);
+                let mut gradient = DVector::zeros(j.ncols());
+                add_transpose_times(&mut gradient, j, r);
                 GroupNormal {
-                    own: j.tr_mul(j),
-                    coupling: j.tr_mul(b),
-                    gradient: j.tr_mul(r),
+                    own,
+                    coupling: transpose_times(j, b),
+                    gradient,
                 }
             })
             .collect();
