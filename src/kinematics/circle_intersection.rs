@@ -26,12 +26,28 @@ pub(crate) fn nearest_intersection(
     }
     let across = across2.sqrt();
     let foot = [centres[0][0] + along * e[0], centres[0][1] + along * e[1]];
-    let [left, right] = [across, -across].map(|h| [foot[0] - h * e[1], foot[1] + h * e[0]]);
-    let squared = |p: [f64; 2]| (p[0] - near[0]).powi(2) + (p[1] - near[1]).powi(2);
-    let (nearer, nearest, farthest) = if squared(left) <= squared(right) {
-        (left, squared(left), squared(right))
+    let pair = [across, -across].map(|h| [foot[0] - h * e[1], foot[1] + h * e[0]]);
+    clearly_nearer(pair, near)
+}
+
+/// Of two intersections `pair`, the one nearer `near` when it is clearly the nearer: the
+/// other at least twice as far (its squared distance four times); `None` otherwise (Newton's
+/// method from `near` could go either way). The circles' rule and the spheres'
+/// ([`super::sphere_intersection`]).
+pub(super) fn clearly_nearer<const N: usize>(
+    pair: [[f64; N]; 2],
+    near: [f64; N],
+) -> Option<[f64; N]> {
+    let squared = |p: &[f64; N]| {
+        p.iter()
+            .zip(&near)
+            .fold(0.0, |sum, (a, b)| sum + (a - b) * (a - b))
+    };
+    let [first, second] = pair;
+    let (nearer, nearest, farthest) = if squared(&first) <= squared(&second) {
+        (first, squared(&first), squared(&second))
     } else {
-        (right, squared(right), squared(left))
+        (second, squared(&second), squared(&first))
     };
     (farthest >= 4.0 * nearest).then_some(nearer)
 }

@@ -166,16 +166,8 @@ impl KernelForward {
     /// nearer (Newton's method from `pose` would go there) and within a Newton step's limit of
     /// it; `None` otherwise.
     fn circle_start(&self, readings: &[f64], pose: &[f64; 6], size: f64) -> Option<[f64; 2]> {
-        let platform = platform_transform_f64(pose);
-        let mut centres = [[0.0; 2]; 2];
-        let mut radii = [0.0; 2];
-        for (l, leg) in self.legs.iter().enumerate().take(2) {
-            let wanted = leg.actuator.0 * readings[l] + leg.actuator.1;
-            let (elbow, radius) = leg.kernel.tip_circle(wanted)?;
-            let tip = attachment_on(&platform, &leg.attachment);
-            centres[l] = [elbow[0] - (tip[0] - pose[0]), elbow[1] - (tip[1] - pose[1])];
-            radii[l] = radius;
-        }
+        let (centres, radii) =
+            self.tip_surfaces(readings, pose, |kernel, wanted| kernel.tip_circle(wanted))?;
         let reached = nearest_intersection(centres, radii, [pose[0], pose[1]])?;
         let moved = (reached[0] - pose[0]).hypot(reached[1] - pose[1]);
         (moved <= MAX_STEP * size).then_some(reached)
@@ -188,20 +180,36 @@ impl KernelForward {
     /// method from `pose` would go there) and within a Newton step's limit of it; `None`
     /// otherwise.
     fn sphere_start(&self, readings: &[f64], pose: &[f64; 6], size: f64) -> Option<[f64; 3]> {
-        let platform = platform_transform_f64(pose);
-        let mut centres = [[0.0; 3]; 3];
-        let mut radii = [0.0; 3];
-        for (l, leg) in self.legs.iter().enumerate().take(3) {
-            let wanted = leg.actuator.0 * readings[l] + leg.actuator.1;
-            let (joint, radius) = leg.kernel.tip_sphere(wanted)?;
-            let tip = attachment_on(&platform, &leg.attachment);
-            centres[l] = [0, 1, 2].map(|k| joint[k] - (tip[k] - pose[k]));
-            radii[l] = radius;
-        }
+        let (centres, radii) =
+            self.tip_surfaces(readings, pose, |kernel, wanted| kernel.tip_sphere(wanted))?;
         let near = [pose[0], pose[1], pose[2]];
         let reached = sphere_intersection::nearest_intersection(centres, radii, near)?;
         let moved = (0..3).map(|k| (reached[k] - near[k]).powi(2)).sum::<f64>();
         (moved.sqrt() <= MAX_STEP * size).then_some(reached)
+    }
+
+    /// The first `N` legs' tip surfaces once their actuators reach `readings` (a circle or a
+    /// sphere, `surface` of the leg's kernel and its actuated joint's value: centre and
+    /// radius), each centre moved by the leg's attachment offset from the platform point at
+    /// `pose` (the platform's angles held at `pose`'s): the surfaces the platform point is on.
+    /// `None` if a leg's kernel gives no surface.
+    fn tip_surfaces<const N: usize>(
+        &self,
+        readings: &[f64],
+        pose: &[f64; 6],
+        surface: impl Fn(&PreparedKernel<f64>, f64) -> Option<([f64; N], f64)>,
+    ) -> Option<([[f64; N]; N], [f64; N])> {
+        let platform = platform_transform_f64(pose);
+        let mut centres = [[0.0; N]; N];
+        let mut radii = [0.0; N];
+        for (l, leg) in self.legs.iter().enumerate().take(N) {
+            let wanted = leg.actuator.0 * readings[l] + leg.actuator.1;
+            let (centre, radius) = surface(&leg.kernel, wanted)?;
+            let tip = attachment_on(&platform, &leg.attachment);
+            centres[l] = std::array::from_fn(|k| centre[k] - (tip[k] - pose[k]));
+            radii[l] = radius;
+        }
+        Some((centres, radii))
     }
 
     /// Every leg's actuated joint and actuated row at `pose` ([`KernelRows`]).
@@ -425,123 +433,4 @@ fn solve_two(a: &[[f64; 6]; 6], b: &[f64; 6]) -> Option<([f64; 6], f64)> {
 }
 
 #[cfg(test)]
-mod tests {
-    use super::{solve_small, KernelForward, LegKernel};
-    use crate::kinematics::inverse::predict_reading;
-    use crate::model::Mechanism;
-
-    /// The bundled model `name` and its reduced forward kinematics at the nominal parameters.
-    fn nominal(name: &str) -> (Mechanism, KernelForward) {
-        let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
-            .join("models")
-            .join(name);
-        let mechanism = Mechanism::load(&path).unwrap();
-        let parameters = mechanism.nominal_parameters();
-        let geometries: Vec<_> = mechanism
-            .legs
-            .iter()
-            .zip(&parameters)
-            .map(|(leg, phi)| leg.geometry(phi))
-            .collect();
-        let kernels: Vec<_> = mechanism.legs.iter().map(LegKernel::recognise).collect();
-        let forward = KernelForward::new(&mechanism, &geometries, &kernels).unwrap();
-        (mechanism, forward)
-    }
-
-    /// Every leg's nominal reading at `pose`.
-    fn readings_at(mechanism: &Mechanism, pose: &[f64; 6]) -> Vec<f64> {
-        let home = mechanism.home_pose;
-        let parameters = mechanism.nominal_parameters();
-        let legs = mechanism.legs.iter().zip(&parameters);
-        legs.map(|(leg, phi)| predict_reading(leg, phi, pose, &home).unwrap())
-            .collect()
-    }
-
-    #[test]
-    fn the_five_bar_starts_at_its_circles_intersection() {
-        let (mechanism, forward) = nominal("5r.yaml");
-        assert!(forward.starts_in_closed_form());
-        let home = mechanism.home_pose;
-        for (dx, dy) in [(0.0, 0.0), (0.02, -0.01), (-0.03, 0.015)] {
-            let mut pose = home;
-            (pose[0], pose[1]) = (home[0] + dx, home[1] + dy);
-            let readings = readings_at(&mechanism, &pose);
-            // From a start 1 mm away: the pose itself, to round-off.
-            let mut start = pose;
-            start[0] += 1e-3;
-            let reached = forward.circle_start(&readings, &start, 1.0).unwrap();
-            let miss = (reached[0] - pose[0]).hypot(reached[1] - pose[1]);
-            assert!(miss < 1e-15, "{miss:e} at ({dx}, {dy})");
-        }
-    }
-
-    #[test]
-    fn the_delta_starts_at_its_spheres_intersection() {
-        let (mechanism, forward) = nominal("delta.yaml");
-        assert!(forward.starts_in_closed_form() && !forward.circles);
-        let home = mechanism.home_pose;
-        for d in [[0.0, 0.0, 0.0], [0.02, -0.01, 0.01], [-0.03, 0.015, -0.02]] {
-            let mut pose = home;
-            for k in 0..3 {
-                pose[k] += d[k];
-            }
-            let readings = readings_at(&mechanism, &pose);
-            // From a start 1 mm away: the pose itself, to round-off.
-            let mut start = pose;
-            start[0] += 1e-3;
-            start[2] -= 1e-3;
-            let reached = forward.sphere_start(&readings, &start, 1.0).unwrap();
-            let miss = (0..3).map(|k| (reached[k] - pose[k]).powi(2)).sum::<f64>();
-            assert!(miss.sqrt() < 1e-15, "{:e} at {d:?}", miss.sqrt());
-            // Newton from there confirms it in one evaluation: the same pose.
-            let mut solved = start;
-            let size = (1.0, true);
-            forward
-                .newton(&readings, &mut solved, None, size, None)
-                .unwrap();
-            assert_eq!(&solved[..3], &reached[..]);
-        }
-        // A start beyond the step limit, or readings no platform reaches: no closed-form start.
-        let readings = vec![mechanism.legs[0].home_joints[0]; 3];
-        let mut far = home;
-        far[2] += 10.0;
-        assert!(forward.sphere_start(&readings, &far, 1e-3).is_none());
-        assert!(forward
-            .sphere_start(&[5.0, -5.0, 5.0], &home, 1.0)
-            .is_none());
-    }
-
-    #[test]
-    fn a_small_system_is_solved_with_its_column_normalised_determinant() {
-        // [[0, 2], [3, 4]] x = [2, 10]: x = [2, 1]; det −6 over column norms 3 and √20.
-        let mut a = [[0.0; 6]; 6];
-        a[0][1] = 2.0;
-        a[1][0] = 3.0;
-        a[1][1] = 4.0;
-        let mut b = [0.0; 6];
-        b[0] = 2.0;
-        b[1] = 10.0;
-        let (x, determinant) = solve_small(a, b, 2).unwrap();
-        assert!(
-            (x[0] - 2.0).abs() < 1e-15 && (x[1] - 1.0).abs() < 1e-15,
-            "{x:?}"
-        );
-        let expected = -6.0 / (3.0 * 20f64.sqrt());
-        assert!((determinant - expected).abs() < 1e-15, "{determinant}");
-        // A singular block: no solution.
-        a[1][0] = 0.0;
-        a[1][1] = 0.0;
-        assert!(solve_small(a, b, 2).is_none());
-        // Three rows, by elimination with pivoting: [[0, 1, 0], [2, 0, 0], [0, 0, 4]] x =
-        // [1, 4, 8]: x = [2, 1, 2]; det −8 over column norms 2, 1 and 4.
-        let mut a = [[0.0; 6]; 6];
-        (a[0][1], a[1][0], a[2][2]) = (1.0, 2.0, 4.0);
-        let mut b = [0.0; 6];
-        (b[0], b[1], b[2]) = (1.0, 4.0, 8.0);
-        let (x, determinant) = solve_small(a, b, 3).unwrap();
-        assert_eq!(&x[..3], &[2.0, 1.0, 2.0]);
-        assert!((determinant + 1.0).abs() < 1e-15, "{determinant}");
-        a[2][2] = 0.0;
-        assert!(solve_small(a, b, 3).is_none());
-    }
-}
+mod tests;

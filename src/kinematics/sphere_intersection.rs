@@ -3,6 +3,8 @@
 //! known sphere once their actuators are set (a carriage leg: the rod turns about the
 //! carriage's universal joint).
 
+use super::circle_intersection::clearly_nearer;
+
 /// The intersection of the spheres about `centres` with `radii` nearest `near`, when it is
 /// clearly the nearer of the two: the far one at least twice as far from `near`. `None` where
 /// the spheres do not meet in two points (or barely: the two within `1e-9` of the first two
@@ -43,14 +45,8 @@ pub(crate) fn nearest_intersection(
     }
     let z = z2.sqrt();
     let foot = [0, 1, 2].map(|k| centres[0][k] + x * ex[k] + y * ey[k]);
-    let [above, below] = [z, -z].map(|h| [0, 1, 2].map(|k| foot[k] + h * ez[k]));
-    let squared = |p: [f64; 3]| dot(sub(p, near), sub(p, near));
-    let (nearer, nearest, farthest) = if squared(above) <= squared(below) {
-        (above, squared(above), squared(below))
-    } else {
-        (below, squared(below), squared(above))
-    };
-    (farthest >= 4.0 * nearest).then_some(nearer)
+    let pair = [z, -z].map(|h| [0, 1, 2].map(|k| foot[k] + h * ez[k]));
+    clearly_nearer(pair, near)
 }
 
 #[cfg(test)]

@@ -67,6 +67,12 @@ pub(crate) fn add_transpose_times(target: &mut DVector<f64>, a: &DMatrix<f64>, r
     }
 }
 
+/// The bits of `values`: what the bit-for-bit tests of the slice products compare.
+#[cfg(test)]
+pub(crate) fn bits(values: &[f64]) -> Vec<u64> {
+    values.iter().map(|v| v.to_bits()).collect()
+}
+
 /// Values of every magnitude and sign from a fixed recurrence (no two sums alike): the
 /// inputs of the bit-for-bit tests of the slice factorisations.
 #[cfg(test)]
@@ -87,14 +93,13 @@ pub(crate) fn awkward(count: usize, seed: u64) -> Vec<f64> {
 mod tests {
     use nalgebra::{DMatrix, DVector};
 
-    use super::{add_gram, add_transpose_times, awkward, dot, transpose_times};
+    use super::{add_gram, add_transpose_times, awkward, bits, dot, transpose_times};
 
     /// The products are nalgebra's `tr_mul`, `gemm_tr` and `gemv_tr`, bit for bit, on row
     /// counts around the dot product's blocks of eight, accumulated onto non-zero (symmetric)
     /// matrices and vectors.
     #[test]
     fn the_products_are_nalgebras() {
-        let bits = |m: &[f64]| m.iter().map(|v| v.to_bits()).collect::<Vec<_>>();
         for (m, n, k, seed) in [
             (1, 1, 1, 1),
             (7, 3, 2, 2),

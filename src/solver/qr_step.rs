@@ -118,7 +118,7 @@ mod tests {
     use nalgebra::{DMatrix, DVector};
 
     use super::{qr_step, WELL_CONDITIONED};
-    use crate::solver::column_dot::awkward;
+    use crate::solver::column_dot::{awkward, bits};
 
     /// The step as first written, on nalgebra's `QR`: the reference the slice version must
     /// match bit for bit.
@@ -145,10 +145,7 @@ mod tests {
     /// ill-conditioned and wide ones.
     #[test]
     fn the_slice_step_is_nalgebras_bit_for_bit() {
-        let bits = |v: &Option<DVector<f64>>| {
-            v.as_ref()
-                .map(|v| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>())
-        };
+        let bits = |v: &Option<DVector<f64>>| v.as_ref().map(|v| bits(v.as_slice()));
         for (m, n, seed) in [
             (18, 6, 1),
             (37, 6, 2),

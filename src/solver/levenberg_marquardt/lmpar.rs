@@ -318,7 +318,7 @@ fn givens(a: f64, b: f64) -> (f64, f64) {
 #[cfg(test)]
 mod tests {
     use super::householder_qr;
-    use crate::solver::column_dot::awkward;
+    use crate::solver::column_dot::{awkward, bits};
     use nalgebra::{DMatrix, DVector};
 
     /// The factorisation as first written, on nalgebra's column views: the reference the
@@ -378,7 +378,6 @@ mod tests {
             let (mut a0, mut b0, mut p0) = (j, rhs, (0..n).collect::<Vec<_>>());
             on_views(&mut a0, &mut b0, &mut p0);
             assert_eq!(p, p0, "{m}x{n}");
-            let bits = |v: &[f64]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
             assert_eq!(bits(a.as_slice()), bits(a0.as_slice()), "{m}x{n}");
             assert_eq!(bits(b.as_slice()), bits(b0.as_slice()), "{m}x{n}");
         }
