@@ -3,6 +3,7 @@
 //! terminal and, when a phase promises to last longer than [`ANNOUNCED_AFTER`], a line saying
 //! how long.
 
+use std::collections::HashSet;
 use std::time::{Duration, Instant};
 
 use nalgebra::DMatrix;
@@ -100,6 +101,10 @@ pub(super) fn run(
     }
     drop(greedy);
     let mut counts = Counts::default();
+    // Every design the exchange has been at: each step strictly improves the criterion, so a
+    // design seen before can only come back by round-off (a swap and its undoing both
+    // computed above the acceptance), and the exchange then stops where it is.
+    let mut visited = HashSet::from([sorted(&design)]);
     while counts.sweeps < options.max_sweeps {
         counts.sweeps += 1;
         let (minv, ridge) = pool.exchange_inverse(&design)?;
@@ -120,6 +125,11 @@ pub(super) fn run(
             let Some((pos, j)) = engine.best_swap(&step)? else {
                 break;
             };
+            let mut next = design.clone();
+            next[pos] = j;
+            if !visited.insert(sorted(&next)) {
+                break;
+            }
             engine.swapped(&design, pos, j);
             let i = design[pos];
             copies[i] -= 1;
@@ -137,7 +147,7 @@ pub(super) fn run(
         }
         // No single swap improves: try DETMAX excursions, then resume the exchange.
         match excursion(pool, options, engine, &design, &eligible) {
-            Some(better) => {
+            Some(better) if visited.insert(sorted(&better)) => {
                 design = better;
                 copies.fill(0);
                 for &j in &design {
@@ -148,10 +158,18 @@ pub(super) fn run(
                 }
                 counts.excursions += 1;
             }
-            None => break,
+            _ => break,
         }
     }
     finish(pool, design, counts, engine.name())
+}
+
+/// The candidates of `design` in increasing order (a design as a set, for [`run`]'s record of
+/// the designs visited).
+fn sorted(design: &[usize]) -> Vec<usize> {
+    let mut sorted = design.to_vec();
+    sorted.sort_unstable();
+    sorted
 }
 
 /// Positions of `design` ordered by candidate index (the tie-breaking order).

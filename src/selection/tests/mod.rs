@@ -8,6 +8,7 @@ use rand_chacha::ChaCha8Rng;
 use rand_distr::StandardNormal;
 
 mod engines;
+mod exchange;
 mod gains;
 mod linalg;
 mod optimality;
