@@ -7,6 +7,8 @@
 //! Unknowns of the stacked Newton: the measured pose coordinates and every leg's passive
 //! joints; equations: every leg's closure with its actuated joint at `gain·reading + offset`.
 
+use std::sync::OnceLock;
+
 use nalgebra::Vector3;
 
 use super::chain::ChainFrames;
@@ -101,18 +103,22 @@ pub struct ForwardKinematics<'m> {
     /// offsets and its platform joint, end to end), for a platform whose joints all pass
     /// through the world origin.
     smallest_size: f64,
-    /// The home readings and the sign of the home assembly mode, or why they do not exist.
-    home: Result<(Vec<f64>, f64), KinematicsError>,
-    /// The forward kinematics through the legs' closed-form kernels, when every leg has one,
-    /// with the sign of its determinant at home ([`KernelForward`]): tried first by
-    /// [`Self::solve_near`].
+    /// The home readings, or why a leg cannot reach the home pose.
+    home_readings: Result<Vec<f64>, KinematicsError>,
+    /// The sign of the home assembly mode by the stacked Newton at home, or why it does not
+    /// close there: computed when a solve first needs it (one through the kernels does not).
+    home_sign: OnceLock<Result<f64, KinematicsError>>,
+    /// The forward kinematics through the legs' closed-form kernels, when every leg has one and
+    /// they assemble at the home readings, with the sign of its determinant at home
+    /// ([`KernelForward`]): tried first by [`Self::solve_near`].
     kernel: Option<(KernelForward, f64)>,
 }
 
 impl<'m> ForwardKinematics<'m> {
     /// Prepares the forward kinematics of `mechanism` with parameters `params` (one full vector
     /// per leg). A failure at home (a leg that cannot reach the home pose, a home that does not
-    /// assemble) is returned by every solve.
+    /// assemble) is returned by every solve (where the legs' kernels assemble at home, the
+    /// mechanism does: their solves need no other check).
     pub fn new(mechanism: &'m Mechanism, params: &[Vec<f64>]) -> Self {
         let kernels: Vec<_> = mechanism.legs.iter().map(LegKernel::recognise).collect();
         Self::with_kernels(mechanism, params, &kernels)
@@ -150,21 +156,29 @@ impl<'m> ForwardKinematics<'m> {
             geometries,
             frames,
             smallest_size: 1e-3 * longest,
-            home: Err(KinematicsError::NotAssemblable {
+            home_readings: Err(KinematicsError::NotAssemblable {
                 residual: f64::INFINITY,
             }),
+            home_sign: OnceLock::new(),
             kernel: None,
         };
-        solver.home = solver.home_readings(params, kernels).and_then(|readings| {
-            let mut start = solver.home_configuration();
-            let sign = solver.newton(&readings, &mut start)?.signum();
-            Ok((readings, sign))
-        });
-        solver.kernel = match &solver.home {
-            Ok((readings, _)) => solver.kernel_assembly(readings, longest, kernels),
+        solver.home_readings = solver.home_readings(params, kernels);
+        solver.kernel = match &solver.home_readings {
+            Ok(readings) => solver.kernel_assembly(readings, longest, kernels),
             Err(_) => None,
         };
         solver
+    }
+
+    /// The home readings and the sign of the home assembly mode by the stacked Newton (solved
+    /// at the first call), or why they do not exist.
+    fn home(&self) -> Result<(&[f64], f64), KinematicsError> {
+        let readings = self.home_readings.as_ref().map_err(Clone::clone)?;
+        let sign = self.home_sign.get_or_init(|| {
+            let mut start = self.home_configuration();
+            self.newton(readings, &mut start).map(f64::signum)
+        });
+        Ok((readings, sign.clone()?))
     }
 
     /// Every leg's reading at the home pose.
@@ -217,7 +231,7 @@ impl<'m> ForwardKinematics<'m> {
     /// # Errors
     /// As [`forward`].
     pub fn solve(&self, readings: &[f64]) -> Result<[f64; 6], KinematicsError> {
-        let (home_readings, home_sign) = self.home.clone()?;
+        let (home_readings, home_sign) = self.home()?;
         for steps in [1usize, 8, 32] {
             let mut trial = self.home_configuration();
             let mut ok = true;
@@ -259,7 +273,6 @@ impl<'m> ForwardKinematics<'m> {
         readings: &[f64],
         start: &mut Configuration,
     ) -> Result<[f64; 6], KinematicsError> {
-        let (_, home_sign) = self.home.as_ref().map_err(Clone::clone)?;
         if let Some((kernel, kernel_home_sign)) = &self.kernel {
             let (mut pose, mut joints) = (start.pose, start.joints.clone());
             let size = 1e3 * self.smallest_size;
@@ -273,9 +286,10 @@ impl<'m> ForwardKinematics<'m> {
                 }
             }
         }
+        let (_, home_sign) = self.home()?;
         if start.joints.len() == self.mechanism.legs.len() {
             if let Ok(sign) = self.newton(readings, start) {
-                if same_mode(sign, *home_sign) {
+                if same_mode(sign, home_sign) {
                     return Ok(start.pose);
                 }
             }
@@ -296,7 +310,6 @@ impl<'m> ForwardKinematics<'m> {
         readings: &[f64],
         start: &mut Configuration,
     ) -> Result<[f64; 6], KinematicsError> {
-        self.home.as_ref().map_err(Clone::clone)?;
         if let Some((kernel, kernel_home_sign)) = &self.kernel {
             let mut pose = start.pose;
             let size = 1e3 * self.smallest_size;
@@ -347,7 +360,6 @@ impl<'m> ForwardKinematics<'m> {
         start: &Configuration,
         first: Option<&KernelRows>,
     ) -> Result<[f64; 6], KinematicsError> {
-        self.home.as_ref().map_err(Clone::clone)?;
         if let Some((kernel, kernel_home_sign)) = &self.kernel {
             let mut pose = start.pose;
             let size = 1e3 * self.smallest_size;
