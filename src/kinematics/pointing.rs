@@ -212,7 +212,19 @@ pub fn composed<T: Scalar>(
 ) -> Transform<T> {
     let mut transform = Transform::<T>::identity();
     for j in joints {
-        transform *= origin_transform(&geometry.origins[j]);
+        let origin = &geometry.origins[j];
+        // An origin that does not turn (its three angles +0, differentiated by nothing) only
+        // moves the frame along its axes: the translation of the product, without forming an
+        // identity rotation and multiplying by it.
+        let turns = origin[3..]
+            .iter()
+            .any(|angle| angle.re().to_bits() != 0 || !angle.is_constant());
+        if turns {
+            transform *= origin_transform(origin);
+        } else {
+            let shift = transform.rotation * Vector3::new(origin[0], origin[1], origin[2]);
+            transform.translation.vector += shift;
+        }
     }
     transform
 }
@@ -225,4 +237,81 @@ pub fn rotation_value<T: Scalar>(transform: &Transform<T>) -> Matrix3<f64> {
 /// The f64 value of a vector in `T`.
 pub fn vector_value<T: Scalar>(v: &Vector3<T>) -> Vector3<f64> {
     v.map(|x| x.re())
+}
+
+#[cfg(test)]
+mod tests {
+    use num_dual::DualSVec64;
+
+    use super::*;
+    use crate::scalar::lift;
+
+    /// The chain's origins multiplied out in full, every origin's rotation formed.
+    fn multiplied<T: Scalar>(geometry: &LegGeometry<T>) -> Transform<T> {
+        let mut transform = Transform::<T>::identity();
+        for origin in &geometry.origins {
+            transform *= origin_transform(origin);
+        }
+        transform
+    }
+
+    /// Origins that do not turn (angles +0, with no derivative) are composed as the full
+    /// product composes them, bit for bit, in f64 and in dual numbers; an angle of 0 that is
+    /// differentiated, or of −0, still turns the frame (its derivative) through the full product.
+    #[test]
+    fn origins_without_a_turn_compose_as_the_full_product() {
+        let origins = [
+            [0.1, -0.2, 0.3, 0.0, 0.0, 0.0],
+            [0.0, 0.175, 0.0, 0.0, 0.0, -1.2],
+            [0.3, 0.0, 0.0, 0.0, 0.0, 0.0],
+            [-0.05, 0.02, 0.01, 0.2, -0.1, 0.3],
+            [0.0, 0.0, 0.0, -0.0, 0.0, 0.0],
+            [0.01, 0.0, -0.02, 0.0, 0.0, 0.0],
+        ];
+        let f64_geometry = LegGeometry {
+            origins: origins.to_vec(),
+            gain: 1.0,
+            offset: 0.0,
+            attachment: [0.0; 3],
+        };
+        let bits = |t: &Transform<f64>| -> Vec<u64> {
+            let m = t.to_homogeneous();
+            m.iter().map(|v| v.to_bits()).collect()
+        };
+        assert_eq!(
+            bits(&composed(&f64_geometry, 0..origins.len())),
+            bits(&multiplied(&f64_geometry))
+        );
+        // In duals: lane 0 on the first origin's x, lane 1 on the third origin's roll (0, but
+        // differentiated: it turns), lane 2 on the second origin's yaw.
+        type D = DualSVec64<3>;
+        let mut dual: Vec<[D; 6]> = origins.iter().map(|o| o.map(lift::<D>)).collect();
+        dual[0][0] = dual[0][0].derivative(0);
+        dual[2][3] = dual[2][3].derivative(1);
+        dual[1][5] = dual[1][5].derivative(2);
+        let dual_geometry = LegGeometry {
+            origins: dual,
+            gain: lift::<D>(1.0),
+            offset: lift::<D>(0.0),
+            attachment: [lift::<D>(0.0); 3],
+        };
+        let (fast, full) = (
+            composed(&dual_geometry, 0..origins.len()).to_homogeneous(),
+            multiplied(&dual_geometry).to_homogeneous(),
+        );
+        for (a, b) in fast.iter().zip(full.iter()) {
+            assert_eq!(a.re.to_bits(), b.re.to_bits());
+            let (da, db) = (
+                a.eps.unwrap_generic(nalgebra::Const::<3>, nalgebra::U1),
+                b.eps.unwrap_generic(nalgebra::Const::<3>, nalgebra::U1),
+            );
+            for (x, y) in da.iter().zip(db.iter()) {
+                assert_eq!(x.to_bits(), y.to_bits(), "{a} against {b}");
+            }
+        }
+        // The differentiated roll turns the rod: its lane is not zero.
+        assert!(full
+            .iter()
+            .any(|v| v.eps.unwrap_generic(nalgebra::Const::<3>, nalgebra::U1)[1] != 0.0));
+    }
 }
