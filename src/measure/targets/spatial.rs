@@ -85,19 +85,41 @@ pub fn observe_framed<T: Scalar>(
     observed: &mut Vec<T>,
 ) {
     let p = vector(&pose[..]);
+    // A platform that does not turn (the identity, differentiated by nothing) leaves every
+    // offset as it is: `R_P t = t`, the product's own numbers.
+    let turns = platform.iter().enumerate().any(|(k, v)| {
+        let bits = v.re().to_bits();
+        // 1 on the diagonal, ±0 elsewhere
+        let identity = match k % 4 {
+            0 => bits == 1f64.to_bits(),
+            _ => bits & !(1 << 63) == 0,
+        };
+        !identity || !v.is_constant()
+    });
     for (k, target) in instrument.targets.iter().enumerate() {
         let t = vector(&shared[instrument.offset_index(k)..]);
-        let m = frame.transposed * (p + platform * t - frame.origin);
+        let turned = if turns { platform * t } else { t };
+        let v = p + turned - frame.origin;
         match target.measures {
-            Measures::Coordinates(_) => {
-                observed.extend(target.pose_indices().iter().map(|&c| m[c]));
-            }
-            _ => observed.extend(m.iter()),
+            // Only the reported coordinates of `R_fᵀ v`, each summed as the product sums it.
+            Measures::Coordinates(_) => observed.extend(
+                target
+                    .pose_indices()
+                    .iter()
+                    .map(|&c| row_times(&frame.transposed, c, &v)),
+            ),
+            _ => observed.extend((frame.transposed * v).iter()),
         }
         if target.measures == Measures::Pose {
             observed.extend(angles(&(frame.transposed * platform)));
         }
     }
+}
+
+/// Row `row` of `m` times `v`: the entry `row` of `m * v`, summed in the order nalgebra's
+/// product sums it (column after column).
+fn row_times<T: Scalar>(m: &Matrix3<T>, row: usize, v: &Vector3<T>) -> T {
+    m[(row, 0)] * v[0] + m[(row, 1)] * v[1] + m[(row, 2)] * v[2]
 }
 
 /// The platform pose from one row's target coordinates (see [`super::platform_pose_from`]).

@@ -241,3 +241,54 @@ fn the_dual_derivatives_with_respect_to_the_shared_parameters_and_the_report_mat
         assert!(checked > 10, "the derivatives are not all zero");
     }
 }
+
+/// The report's shortcuts — a platform that does not turn leaves its offsets as they are, and a
+/// target reporting some coordinates has only those computed — give the full product's
+/// numbers bit for bit, values and derivatives (dual lanes on the pose's z, the frame's roll and
+/// the target's z offset), for every subset of coordinates, turning and not.
+#[test]
+fn the_report_s_shortcuts_are_the_full_product_bit_for_bit() {
+    use num_dual::DualSVec64;
+    type D = DualSVec64<3>;
+    let lanes = |v: &D| -> Vec<u64> {
+        let eps = v.eps.unwrap_generic(nalgebra::Const::<3>, nalgebra::U1);
+        std::iter::once(v.re.to_bits())
+            .chain(eps.iter().map(|e| e.to_bits()))
+            .collect()
+    };
+    for mask in 1u8..8 {
+        let setup = instrument(
+            &[("n", Measures::Coordinates(mask), [0.0, 0.0, -0.02])],
+            false,
+        );
+        let mut shared: Vec<D> = setup.nominal().iter().map(|&v| D::from_re(v)).collect();
+        shared[Instrument::FRAME + 3] = shared[Instrument::FRAME + 3].derivative(1);
+        let offset = setup.offset_index(0);
+        shared[offset + 2] = shared[offset + 2].derivative(2);
+        let frame = Frame::new(&shared);
+        for pose in [HOME, POSE] {
+            let mut seeded: [D; 6] = pose.map(D::from_re);
+            seeded[2] = seeded[2].derivative(0);
+            let platform = platform_rotation(&seeded);
+            let mut fast = Vec::new();
+            observe_framed(&setup, (&shared, &frame), (&platform, &seeded), &mut fast);
+            // The full product, every coordinate, then the reported ones picked.
+            let t = Vector3::new(shared[offset], shared[offset + 1], shared[offset + 2]);
+            let p = Vector3::new(seeded[0], seeded[1], seeded[2]);
+            let m = frame.transposed * (p + platform * t - frame.origin);
+            let full: Vec<D> = setup.targets[0]
+                .pose_indices()
+                .iter()
+                .map(|&c| m[c])
+                .collect();
+            assert_eq!(fast.len(), full.len(), "mask {mask}");
+            for (a, b) in fast.iter().zip(&full) {
+                assert_eq!(
+                    lanes(a),
+                    lanes(b),
+                    "mask {mask}, pose {pose:?}: {a} against {b}"
+                );
+            }
+        }
+    }
+}
