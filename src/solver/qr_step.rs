@@ -105,9 +105,10 @@ fn reflection_axis(column: &mut [f64]) -> (f64, bool) {
 }
 
 /// nalgebra's `Reflection::reflect_with_sign` of one column by the unit `axis` (through the
-/// origin): `y ← f a + sign y` with `f = −2 sign (a·y)`.
+/// origin, so nalgebra's bias term is zero and left out: `x − 0` is `x` for every `x`):
+/// `y ← f a + sign y` with `f = −2 sign (a·y)`.
 fn reflect(axis: &[f64], column: &mut [f64], sign: f64) {
-    let factor = (dot(axis, column) - 0.0) * (sign * -2.0);
+    let factor = dot(axis, column) * (sign * -2.0);
     for (value, a) in column.iter_mut().zip(axis) {
         *value = factor * a + sign * *value;
     }

@@ -95,59 +95,57 @@ pub(super) fn pose_moves(
     pose: &[f64; 6],
     seeds: &[Joints],
 ) -> Result<Moves, KinematicsError> {
-    {
-        let measured = &mechanism.measured;
-        let (n, legs) = (measured.len(), prepared.len());
-        if legs != n || n > 6 || mechanism.legs.len() != legs {
-            return Err(KinematicsError::NotAssemblable {
-                residual: f64::INFINITY,
-            });
-        }
-        let platform = platform_transform(pose);
-        // The platform's derivatives: a position's is a unit translation (moving every point
-        // by it exactly), an angle's a rotation's derivative.
-        let angles = measured.iter().any(|&c| c >= 3);
-        let derivatives = angles.then(|| pose_derivatives(pose, measured));
-        let mut starts = [0; 7];
-        for (l, leg) in prepared.iter().enumerate() {
-            starts[l + 1] = starts[l] + leg.columns();
-        }
-        let mut own = vec![0.0; starts[legs]];
-        // A = ∂ψ/∂P over the measured coordinates, and each leg's ∂ψ_l/∂φ_l.
-        let mut a = [[0.0; 6]; 6];
-        for (l, leg) in prepared.iter().enumerate() {
-            let gradient = &mut own[starts[l]..starts[l + 1]];
-            let seed = seeds.get(l);
-            let row = match leg.actuated_gradients(&platform, seed, gradient) {
-                Some(row) => row,
-                None => {
-                    let home = &mechanism.home_pose;
-                    let solution = leg.solve_warm_on(&platform, pose, home, seed)?;
-                    leg.reading_and_gradient_on(&platform, &solution, gradient);
-                    let dims = leg.leg().closure_dims.min(3);
-                    let inverse = solution.closure_inverse.row(leg.leg().actuated);
-                    std::array::from_fn(|k| if k < dims { inverse[k] } else { 0.0 })
-                }
-            };
-            let attachment = Vector3::from(leg.geometry().attachment);
-            let gain = leg.geometry().gain;
-            for (j, &c) in measured.iter().enumerate() {
-                let moved = match &derivatives {
-                    Some(derivatives) => derivatives[j].of(&attachment),
-                    None => Vector3::ith(c, 1.0),
-                };
-                let actuated: f64 = (0..3).map(|k| row[k] * moved[k]).sum();
-                a[l][j] = actuated / gain;
-            }
-        }
-        let inverse = inverse(&a, n).ok_or(KinematicsError::AssemblyModeChange)?;
-        Ok(Moves {
-            n,
-            inverse,
-            own,
-            starts,
-        })
+    let measured = &mechanism.measured;
+    let (n, legs) = (measured.len(), prepared.len());
+    if legs != n || n > 6 || mechanism.legs.len() != legs {
+        return Err(KinematicsError::NotAssemblable {
+            residual: f64::INFINITY,
+        });
     }
+    let platform = platform_transform(pose);
+    // The platform's derivatives: a position's is a unit translation (moving every point
+    // by it exactly), an angle's a rotation's derivative.
+    let angles = measured.iter().any(|&c| c >= 3);
+    let derivatives = angles.then(|| pose_derivatives(pose, measured));
+    let mut starts = [0; 7];
+    for (l, leg) in prepared.iter().enumerate() {
+        starts[l + 1] = starts[l] + leg.columns();
+    }
+    let mut own = vec![0.0; starts[legs]];
+    // A = ∂ψ/∂P over the measured coordinates, and each leg's ∂ψ_l/∂φ_l.
+    let mut a = [[0.0; 6]; 6];
+    for (l, leg) in prepared.iter().enumerate() {
+        let gradient = &mut own[starts[l]..starts[l + 1]];
+        let seed = seeds.get(l);
+        let row = match leg.actuated_gradients(&platform, seed, gradient) {
+            Some(row) => row,
+            None => {
+                let home = &mechanism.home_pose;
+                let solution = leg.solve_warm_on(&platform, pose, home, seed)?;
+                leg.reading_and_gradient_on(&platform, &solution, gradient);
+                let dims = leg.leg().closure_dims.min(3);
+                let inverse = solution.closure_inverse.row(leg.leg().actuated);
+                std::array::from_fn(|k| if k < dims { inverse[k] } else { 0.0 })
+            }
+        };
+        let attachment = Vector3::from(leg.geometry().attachment);
+        let gain = leg.geometry().gain;
+        for (j, &c) in measured.iter().enumerate() {
+            let moved = match &derivatives {
+                Some(derivatives) => derivatives[j].of(&attachment),
+                None => Vector3::ith(c, 1.0),
+            };
+            let actuated: f64 = (0..3).map(|k| row[k] * moved[k]).sum();
+            a[l][j] = actuated / gain;
+        }
+    }
+    let inverse = inverse(&a, n).ok_or(KinematicsError::AssemblyModeChange)?;
+    Ok(Moves {
+        n,
+        inverse,
+        own,
+        starts,
+    })
 }
 
 /// The inverse of `a`'s leading `n × n` block (`n ≤ 6`) in fixed storage, `None` if singular or
