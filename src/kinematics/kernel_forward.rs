@@ -20,7 +20,9 @@ use nalgebra::Vector3;
 use super::chain::{attachment_on, platform_transform_f64};
 use super::circle_intersection::nearest_intersection;
 use super::inverse::{joints, wrap_angle, Joints};
-use super::kernel::{LegKernel, PreparedKernel};
+#[cfg(test)]
+use super::kernel::LegKernel;
+use super::kernel::PreparedKernel;
 use super::newton_stop::beyond_round_off;
 use super::pose_derivative::{pose_derivatives, PoseDerivative};
 use super::sphere_intersection;
@@ -71,6 +73,20 @@ pub struct KernelRows {
     rows: [Option<(f64, [f64; 3])>; 6],
 }
 
+impl KernelRows {
+    /// Leg `leg`'s actuated joint and actuated row, if these rows were evaluated at exactly
+    /// `pose` (its bits) and the leg's kernel reaches it there.
+    pub(crate) fn leg_at(&self, pose: &[f64; 6], leg: usize) -> Option<(f64, [f64; 3])> {
+        let same = self
+            .pose
+            .iter()
+            .zip(pose)
+            .all(|(a, b)| a.to_bits() == b.to_bits());
+        same.then(|| self.rows.get(leg).copied().flatten())
+            .flatten()
+    }
+}
+
 /// The reduced forward kinematics of a mechanism at one parameter vector.
 #[derive(Debug, Clone)]
 pub(crate) struct KernelForward {
@@ -96,23 +112,40 @@ impl KernelForward {
     /// The reduced forward kinematics of `mechanism` at `geometries` (one per leg), if every
     /// leg's chain has a closed-form kernel (`kernels`, one per leg: [`LegKernel::recognise`]
     /// of it) and the measured coordinates are as many as the legs (at most six).
+    #[cfg(test)]
     pub(crate) fn new(
         mechanism: &Mechanism,
         geometries: &[LegGeometry<f64>],
         kernels: &[Option<LegKernel>],
     ) -> Option<Self> {
+        let prepared: Vec<_> = (kernels.iter().zip(geometries))
+            .map(|(kernel, geometry)| kernel.map(|kernel| kernel.prepare(geometry)))
+            .collect();
+        if prepared.len() != kernels.len() {
+            return None;
+        }
+        Self::with_prepared(mechanism, geometries, &prepared)
+    }
+
+    /// As [`Self::new`], with every leg's kernel already prepared at its geometry (`prepared`,
+    /// one per leg).
+    pub(crate) fn with_prepared(
+        mechanism: &Mechanism,
+        geometries: &[LegGeometry<f64>],
+        prepared: &[Option<PreparedKernel<f64>>],
+    ) -> Option<Self> {
         let measured = mechanism.measured.clone();
         let legs = mechanism.legs.len();
-        if measured.len() != legs || measured.len() > 6 || kernels.len() != legs {
+        if measured.len() != legs || measured.len() > 6 || prepared.len() != legs {
             return None;
         }
         let legs = mechanism
             .legs
             .iter()
             .zip(geometries)
-            .zip(kernels)
+            .zip(prepared)
             .map(|((leg, geometry), kernel)| {
-                let kernel = kernel.as_ref()?.prepare(geometry);
+                let kernel = (*kernel)?;
                 let revolute = leg.joints[leg.moving[leg.actuated]].kind == JointKind::Revolute;
                 Some(KernelLeg {
                     kernel,
@@ -243,6 +276,22 @@ impl KernelForward {
         (size, exact): (f64, bool),
         first: Option<&KernelRows>,
     ) -> Option<f64> {
+        self.newton_rows(readings, pose, joints, (size, exact), (first, &mut None))
+    }
+
+    /// [`Self::newton`], with the legs' rows of its last evaluation written into `last` when
+    /// that was at the pose it returns (a step at round-off, not taken): what the pose's
+    /// derivatives need of the legs there, without evaluating the kernels again. `last` is
+    /// left as it is otherwise (after a landing step the last evaluation is a round-off step
+    /// away).
+    pub(crate) fn newton_rows(
+        &self,
+        readings: &[f64],
+        pose: &mut [f64; 6],
+        joints: Option<&mut [Joints]>,
+        (size, exact): (f64, bool),
+        (first, last): (Option<&KernelRows>, &mut Option<KernelRows>),
+    ) -> Option<f64> {
         let m = self.measured.len();
         if readings.len() != m || joints.as_ref().is_some_and(|j| j.len() != m) {
             return None;
@@ -271,6 +320,7 @@ impl KernelForward {
         // The legs' attachment points at the last evaluation: where the joints handed back
         // are solved (a round-off step from the pose returned).
         let mut targets = [Vector3::zeros(); 6];
+        let mut rows = [None; 6];
         for _ in 0..MAX_ITERATIONS {
             let platform = platform_transform_f64(pose);
             // The platform's derivatives: constant unless an angle is measured.
@@ -293,6 +343,7 @@ impl KernelForward {
                     None => leg.kernel.actuated_row(&target)?,
                 };
                 targets[l] = target;
+                rows[l] = Some((actuated, row));
                 let difference = actuated - wanted;
                 residual[l] = if revolute {
                     wrap_angle(difference)
@@ -325,7 +376,9 @@ impl KernelForward {
             }
             let accepted = (determinant.abs() > NEAR_SINGULAR).then_some(determinant);
             if !beyond_round_off(&unknowns[..m], &step[..m]) {
-                return self.with_joints(accepted?, readings, &targets, joints);
+                let determinant = self.with_joints(accepted?, readings, &targets, joints)?;
+                *last = Some(KernelRows { pose: *pose, rows });
+                return Some(determinant);
             }
             for (k, &c) in self.measured.iter().enumerate() {
                 pose[c] -= step[k];

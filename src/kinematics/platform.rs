@@ -13,9 +13,9 @@ use nalgebra::Vector3;
 
 use super::chain::ChainFrames;
 use super::inverse::{joints, Joints};
-use super::kernel::LegKernel;
+use super::kernel::{LegKernel, PreparedKernel};
 use super::kernel_forward::{KernelForward, KernelRows};
-use super::reading::ReadingPredictor;
+use super::reading::predict_with;
 use crate::error::KinematicsError;
 use crate::model::leg::LegGeometry;
 use crate::model::Mechanism;
@@ -162,9 +162,14 @@ impl<'m> ForwardKinematics<'m> {
             home_sign: OnceLock::new(),
             kernel: None,
         };
-        solver.home_readings = solver.home_readings(params, kernels);
+        // Each leg's kernel prepared once, for the home readings and the kernels' assembly.
+        let kernels = kernels.iter().chain(std::iter::repeat(&None));
+        let prepared: Vec<Option<PreparedKernel<f64>>> = (solver.geometries.iter().zip(kernels))
+            .map(|(geometry, kernel)| kernel.map(|kernel| kernel.prepare(geometry)))
+            .collect();
+        solver.home_readings = solver.home_readings(&prepared);
         solver.kernel = match &solver.home_readings {
-            Ok(readings) => solver.kernel_assembly(readings, longest, kernels),
+            Ok(readings) => solver.kernel_assembly(readings, longest, &prepared),
             Err(_) => None,
         };
         solver
@@ -184,20 +189,15 @@ impl<'m> ForwardKinematics<'m> {
     /// Every leg's reading at the home pose.
     fn home_readings(
         &self,
-        params: &[Vec<f64>],
-        kernels: &[Option<LegKernel>],
+        kernels: &[Option<PreparedKernel<f64>>],
     ) -> Result<Vec<f64>, KinematicsError> {
         let home = self.mechanism.home_pose;
-        let home_readings: Vec<f64> = self
-            .mechanism
-            .legs
-            .iter()
-            .zip(params)
-            .zip(kernels.iter().chain(std::iter::repeat(&None)))
+        let legs = self.mechanism.legs.iter().zip(&self.geometries);
+        let home_readings: Vec<f64> = (legs.zip(&self.frames).zip(kernels))
             // Through a leg's kernel where it has one (the generic chain's reading to
             // round-off), as a simulation predicts it.
-            .map(|((leg, phi), kernel)| {
-                ReadingPredictor::with_kernel(leg, phi, *kernel).predict(&home, &home)
+            .map(|(((leg, geometry), frames), kernel)| {
+                predict_with(leg, (geometry, frames, kernel.as_ref()), &home, &home)
             })
             .collect::<Result<_, _>>()?;
         Ok(home_readings)
@@ -210,9 +210,9 @@ impl<'m> ForwardKinematics<'m> {
         &self,
         home_readings: &[f64],
         size: f64,
-        kernels: &[Option<LegKernel>],
+        kernels: &[Option<PreparedKernel<f64>>],
     ) -> Option<(KernelForward, f64)> {
-        let kernel = KernelForward::new(self.mechanism, &self.geometries, kernels)?;
+        let kernel = KernelForward::with_prepared(self.mechanism, &self.geometries, kernels)?;
         let mut start = self.home_configuration();
         let joints = Some(start.joints.as_mut_slice());
         let determinant =
@@ -301,7 +301,10 @@ impl<'m> ForwardKinematics<'m> {
     /// same pose, bit for bit), left in `start`: through the legs' kernels only the pose is
     /// closed and `start`'s joints are kept (the seed of a later stacked solve); through the
     /// stacked Newton the configuration is handed back as [`Self::solve_near`] does. A forward
-    /// row's solve, whose legs are solved again at the pose for their derivatives.
+    /// row's solve, whose legs are differentiated at the pose. The legs' kernel rows there
+    /// ([`KernelRows`]) are written into `rows` when the kernels' Newton evaluated them at
+    /// exactly that pose (what the pose's derivatives need of the legs, not evaluated again),
+    /// `None` otherwise.
     ///
     /// # Errors
     /// As [`forward`].
@@ -309,16 +312,20 @@ impl<'m> ForwardKinematics<'m> {
         &self,
         readings: &[f64],
         start: &mut Configuration,
+        rows: &mut Option<KernelRows>,
     ) -> Result<[f64; 6], KinematicsError> {
+        *rows = None;
         if let Some((kernel, kernel_home_sign)) = &self.kernel {
             let mut pose = start.pose;
             let size = 1e3 * self.smallest_size;
-            if let Some(sign) = kernel.newton(readings, &mut pose, None, (size, true), None) {
+            let solved = kernel.newton_rows(readings, &mut pose, None, (size, true), (None, rows));
+            if let Some(sign) = solved {
                 if same_mode(sign, *kernel_home_sign) {
                     start.pose = pose;
                     return Ok(pose);
                 }
             }
+            *rows = None;
         }
         self.solve_near(readings, start)
     }

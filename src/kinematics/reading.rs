@@ -49,18 +49,36 @@ impl<'a> ReadingPredictor<'a> {
     /// # Errors
     /// As [`super::inverse::predict_reading`].
     pub fn predict(&self, pose: &[f64; 6], home_pose: &[f64; 6]) -> Result<f64, KinematicsError> {
-        let (leg, geometry) = (self.leg, &self.geometry);
-        let target = attachment_world(pose, &geometry.attachment);
-        if let Some((value, _)) = self.kernel.and_then(|k| k.actuated_row(&target)) {
-            // A revolute's angle on the home turn; a prismatic joint's length as it is.
-            let actuated = if leg.actuated_is_revolute() {
-                on_turn_of(value, leg.home_joints[leg.actuated])
-            } else {
-                value
-            };
-            return Ok((actuated - geometry.offset) / geometry.gain);
-        }
-        let solution = solve_from_home(leg, geometry, &self.frames, pose, home_pose)?;
-        Ok(reading_at(leg, &self.frames, geometry, &target, &solution))
+        let prepared = (&self.geometry, &self.frames, self.kernel.as_ref());
+        predict_with(self.leg, prepared, pose, home_pose)
     }
+}
+
+/// [`ReadingPredictor::predict`] of `leg` from its geometry, chain frames and prepared kernel
+/// (`prepared`, built by whoever has them already).
+///
+/// # Errors
+/// As [`super::inverse::predict_reading`].
+pub(crate) fn predict_with(
+    leg: &LegModel,
+    (geometry, frames, kernel): (
+        &LegGeometry<f64>,
+        &ChainFrames<f64>,
+        Option<&PreparedKernel<f64>>,
+    ),
+    pose: &[f64; 6],
+    home_pose: &[f64; 6],
+) -> Result<f64, KinematicsError> {
+    let target = attachment_world(pose, &geometry.attachment);
+    if let Some((value, _)) = kernel.and_then(|k| k.actuated_row(&target)) {
+        // A revolute's angle on the home turn; a prismatic joint's length as it is.
+        let actuated = if leg.actuated_is_revolute() {
+            on_turn_of(value, leg.home_joints[leg.actuated])
+        } else {
+            value
+        };
+        return Ok((actuated - geometry.offset) / geometry.gain);
+    }
+    let solution = solve_from_home(leg, geometry, frames, pose, home_pose)?;
+    Ok(reading_at(leg, frames, geometry, &target, &solution))
 }

@@ -15,7 +15,9 @@ impl PreparedLeg<'_> {
     /// [`Self::reading_and_gradient_on`] does) and returns the actuated row of the closure
     /// Jacobian's inverse, `∂q_a/∂X` (zero beyond the leg's closure dimensions; `∂ψ/∂X` is it
     /// over the gain). `seed`: joints on whose turn a revolute kernel reads its actuated joint
-    /// (the home joints without one); the derivatives do not depend on the turn.
+    /// (the home joints without one); the derivatives do not depend on the turn. `known`: the
+    /// kernel's actuated joint and row at this very target, if evaluated already (by the
+    /// forward solve that closed the pose): not evaluated again.
     ///
     /// `None` for a leg without a kernel, where the kernel leaves the pose to the generic
     /// solve, or where a pass's closed form fails: then solve the leg
@@ -23,12 +25,14 @@ impl PreparedLeg<'_> {
     pub fn actuated_gradients(
         &self,
         platform: &Transform<f64>,
-        seed: Option<&Joints>,
+        (seed, known): (Option<&Joints>, Option<(f64, [f64; 3])>),
         gradient: &mut [f64],
     ) -> Option<[f64; 3]> {
         let kernel = self.kernel.as_ref()?;
-        let target = attachment_on(platform, &self.geometry.attachment);
-        let (_, row) = kernel.actuated_row(&target)?;
+        let (_, row) = match known {
+            Some(known) => known,
+            None => kernel.actuated_row(&attachment_on(platform, &self.geometry.attachment))?,
+        };
         let dims = self.leg.closure_dims.min(3);
         let row: [f64; 3] = std::array::from_fn(|k| if k < dims { row[k] } else { 0.0 });
         let mut closure_inverse = Matrix3::zeros();
@@ -89,7 +93,7 @@ mod tests {
                     prepared.reading_and_gradient_on(&platform, &solution, &mut solved);
                     let mut closed = vec![0.0; columns.len()];
                     let row = prepared
-                        .actuated_gradients(&platform, Some(&solution.q), &mut closed)
+                        .actuated_gradients(&platform, (Some(&solution.q), None), &mut closed)
                         .expect("the kernel reaches the pose");
                     let scale = solved.iter().fold(1e-3f64, |m, v| m.max(v.abs()));
                     for (a, b) in solved.iter().zip(&closed) {

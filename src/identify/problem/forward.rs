@@ -36,6 +36,7 @@ use super::{BlockError, IdentificationProblem};
 use crate::error::KinematicsError;
 use crate::identify::jacobian::PreparedLeg;
 use crate::kinematics::platform::{Configuration, ForwardKinematics};
+use crate::kinematics::KernelRows;
 use crate::model::mechanism::MeasurementNoise;
 
 /// Forward rows closed by one task at least (a row is a few microseconds: fewer would spend
@@ -46,10 +47,23 @@ const ROWS_PER_TASK: usize = 4;
 /// what a few dozen rows do (docs/benchmarks.md, the forward benches).
 const PARALLEL_ROWS: usize = 64;
 
-/// A row's closed pose and, for the Jacobian, how it moves ([`Moves`]).
-pub(super) struct Closed {
-    pub(super) pose: [f64; 6],
-    pub(super) moves: Option<Moves>,
+/// Rows closed already at the unknowns: their poses and their legs' kernel rows there.
+pub(super) type KnownRows<'k> = (&'k [[f64; 6]], &'k [Option<KernelRows>]);
+
+/// One row as closed: its readings and start, and where its pose and its legs' kernel rows
+/// are written.
+type RowSlots<'r> = (
+    (&'r ForwardRow, &'r mut Option<Configuration>),
+    (&'r mut [f64; 6], &'r mut Option<KernelRows>),
+);
+
+/// Every row's closed pose and, for the Jacobian, how it moves ([`Moves`]), row after row.
+pub(super) struct ClosedRows {
+    pub(super) poses: Vec<[f64; 6]>,
+    /// Each row's legs' kernel rows at its pose, if the forward solve evaluated them there.
+    pub(super) rows: Vec<Option<KernelRows>>,
+    /// Each row's movements; empty when they were not asked for.
+    pub(super) moves: Vec<Moves>,
 }
 
 impl IdentificationProblem<'_> {
@@ -91,6 +105,7 @@ impl IdentificationProblem<'_> {
             .unwrap_or_else(std::sync::PoisonError::into_inner) = Some(Latest {
             key: x.iter().map(|v| v.to_bits()).collect(),
             poses,
+            rows: Vec::new(),
             moves: None,
             evaluation: None,
         });
@@ -127,11 +142,14 @@ impl IdentificationProblem<'_> {
         if let Some(evaluation) = complete {
             return Ok(evaluation.clone());
         }
-        let known_poses = known.map(|l| l.poses.clone());
+        // This evaluation replaces the latest one: what it knows is taken, not copied (an
+        // evaluation that fails leaves none).
+        let known = latest.take().filter(|l| l.key == key);
         let instrument = sighted.instrument;
         let params = self.all_leg_parameters(x);
         let shared = sighted.values(x.as_slice());
-        let closed = self.close_rows(forward, (&params, x), (jacobian, known_poses.as_deref()))?;
+        let known_poses = known.as_ref().map(|l| (&l.poses[..], &l.rows[..]));
+        let closed = self.close_rows(forward, (&params, x), (jacobian, known_poses))?;
         let measured = &self.mechanism.measured;
         let p = self.parameter_count();
         let first_shared = p - sighted.shared.len();
@@ -166,7 +184,7 @@ impl IdentificationProblem<'_> {
                 evaluation.reading_starts.push(0);
             }
             for (r, by_pose) in parts {
-                let moves = closed[*r].moves.as_ref().expect("derivatives asked for");
+                let moves = &closed.moves[*r];
                 moves.chain(slots, by_pose, readings, |j, value| {
                     matrix[(i, j)] += value;
                 });
@@ -186,7 +204,7 @@ impl IdentificationProblem<'_> {
             if row.observed.is_empty() {
                 continue;
             }
-            report.at(&closed[r].pose, &mut at);
+            report.at(&closed.poses[r], &mut at);
             for (o, (value, seen)) in at.values.iter().zip(&row.observed).enumerate() {
                 push(value - seen, &[(r, at.by_pose[o])], at.by_shared(o));
             }
@@ -200,8 +218,8 @@ impl IdentificationProblem<'_> {
             let (mut a, mut b) = (Derivatives::default(), Derivatives::default());
             let mut direct = vec![0.0; sighted.shared.len()];
             for distance in forward.distances.iter() {
-                position.at(&closed[distance.rows[0]].pose, &mut a);
-                position.at(&closed[distance.rows[1]].pose, &mut b);
+                position.at(&closed.poses[distance.rows[0]], &mut a);
+                position.at(&closed.poses[distance.rows[1]], &mut b);
                 let gap: [f64; 3] = std::array::from_fn(|k| a.values[k] - b.values[k]);
                 let length = gap.iter().map(|g| g * g).sum::<f64>().sqrt();
                 let u = gap.map(|g| g / length.max(f64::MIN_POSITIVE));
@@ -225,22 +243,23 @@ impl IdentificationProblem<'_> {
         evaluation.jacobian = matrix;
         *latest = Some(Latest {
             key,
-            poses: closed.iter().map(|c| c.pose).collect(),
-            moves: closed.into_iter().map(|c| c.moves).collect(),
+            poses: closed.poses,
+            rows: closed.rows,
+            moves: (jacobian && !closed.moves.is_empty()).then_some(closed.moves),
             evaluation: Some(evaluation.clone()),
         });
         Ok(evaluation)
     }
 
     /// Every row's closed pose at the leg parameters `params` (the unknowns `x`), warm-started
-    /// from its last configuration (or `known`, closed there by the latest evaluation), with
-    /// its movements when `moves`.
+    /// from its last configuration (or `known`, closed there by the latest evaluation, with
+    /// the legs' kernel rows it evaluated there), with its movements when `moves`.
     pub(super) fn close_rows(
         &self,
         forward: &Forward,
         (params, x): (&[Vec<f64>], &DVector<f64>),
-        (moves, known): (bool, Option<&[[f64; 6]]>),
-    ) -> Result<Vec<Closed>, BlockError> {
+        (moves, known): (bool, Option<KnownRows<'_>>),
+    ) -> Result<ClosedRows, BlockError> {
         let mechanism = self.mechanism;
         // Poses already closed at these unknowns need no solve (their configurations are the
         // rows' starts).
@@ -272,13 +291,24 @@ impl IdentificationProblem<'_> {
         // Rows are independent: each closed from its own start (the same poses whatever the
         // order), the first failing row in row order reported; many rows are closed on every
         // core.
-        let close = |(index, (row, start)): (usize, (&ForwardRow, &mut Option<Configuration>))| {
+        let count = forward.rows.len();
+        let mut closed = ClosedRows {
+            poses: vec![[0.0; 6]; count],
+            rows: vec![None; count],
+            moves: vec![Moves::default(); if moves { count } else { 0 }],
+        };
+        // Each row's results are written into their place.
+        let close = |(index, ((row, start), (pose_out, rows_out))): (usize, RowSlots<'_>),
+                     moves_out: Option<&mut Moves>| {
             let fail = |source: KinematicsError| self.forward_error(index, source, x);
             let configuration = start.get_or_insert_with(|| Configuration::home(mechanism));
             let pose = match (known, &kinematics) {
-                (Some(poses), _) => poses[index],
+                (Some((poses, rows)), _) => {
+                    *rows_out = rows.get(index).copied().flatten();
+                    poses[index]
+                }
                 (None, Some(kinematics)) => kinematics
-                    .solve_near_closed(&row.readings, configuration)
+                    .solve_near_closed(&row.readings, configuration, rows_out)
                     .map_err(fail)?,
                 (None, None) => {
                     return Err(fail(KinematicsError::NotAssemblable {
@@ -288,34 +318,49 @@ impl IdentificationProblem<'_> {
             };
             // solve_near_closed may fall back to a continuation from home: keep where it closed.
             configuration.pose = pose;
-            let moves = match moves {
-                true => Some(
-                    pose_moves(self.mechanism, &prepared, &pose, &configuration.joints)
-                        .map_err(fail)?,
-                ),
-                false => None,
-            };
-            Ok(Closed { pose, moves })
+            *pose_out = pose;
+            if let Some(moves_out) = moves_out {
+                let joints = &configuration.joints;
+                pose_moves(
+                    mechanism,
+                    &prepared,
+                    (&pose, rows_out.as_ref()),
+                    joints,
+                    moves_out,
+                )
+                .map_err(fail)?;
+            }
+            Ok(())
         };
-        let closed: Vec<Result<Closed, BlockError>> = if forward.rows.len() >= PARALLEL_ROWS {
-            forward
+        // Rows are independent: each closed from its own start (the same poses whatever the
+        // order), every row closed (its start kept for the next evaluation) and the first
+        // failing row in row order reported; many rows are closed on every core.
+        let results: Vec<Result<(), BlockError>> = if count >= PARALLEL_ROWS {
+            let slots = closed.poses.par_iter_mut().zip(closed.rows.par_iter_mut());
+            let rows = forward
                 .rows
                 .par_iter()
                 .zip(starts.par_iter_mut())
-                .enumerate()
-                .with_min_len(ROWS_PER_TASK)
-                .map(close)
-                .collect()
+                .zip(slots);
+            let rows = rows.enumerate().with_min_len(ROWS_PER_TASK);
+            if moves {
+                let moves = closed.moves.par_iter_mut().with_min_len(ROWS_PER_TASK);
+                rows.zip(moves)
+                    .map(|(row, m)| close(row, Some(m)))
+                    .collect()
+            } else {
+                rows.map(|row| close(row, None)).collect()
+            }
         } else {
-            forward
-                .rows
-                .iter()
-                .zip(starts.iter_mut())
-                .enumerate()
-                .map(close)
+            let slots = closed.poses.iter_mut().zip(closed.rows.iter_mut());
+            let rows = forward.rows.iter().zip(starts.iter_mut()).zip(slots);
+            let mut moves_out = closed.moves.iter_mut();
+            rows.enumerate()
+                .map(|row| close(row, moves_out.next()))
                 .collect()
         };
-        closed.into_iter().collect()
+        results.into_iter().collect::<Result<(), BlockError>>()?;
+        Ok(closed)
     }
 
     /// The error of forward row `index` at the unknowns `x`, located.

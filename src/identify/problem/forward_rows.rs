@@ -10,6 +10,7 @@ use nalgebra::DMatrix;
 use super::pose_moves::Moves;
 use crate::kinematics::kernel::LegKernel;
 use crate::kinematics::platform::Configuration;
+use crate::kinematics::KernelRows;
 
 /// One forward row: every leg's reading and what the instrument reported there.
 #[derive(Debug, Clone)]
@@ -64,6 +65,9 @@ pub(super) struct Latest {
     pub(super) key: Vec<u64>,
     /// Every row's closed pose there.
     pub(super) poses: Vec<[f64; 6]>,
+    /// Every row's legs' kernel rows at its pose, where the forward solve evaluated them there
+    /// (empty for poses closed elsewhere).
+    pub(super) rows: Vec<Option<KernelRows>>,
     /// Every row's movements there ([`Moves`]), if the Jacobian was asked for.
     pub(super) moves: Option<Vec<Moves>>,
     /// The evaluation (with its derivatives if they were asked for); `None` for poses closed

@@ -13,6 +13,7 @@ use nalgebra::{Const, Matrix3, U1};
 use num_dual::{DualSVec64, DualStruct};
 
 use crate::identify::jacobian::LANES;
+use crate::kinematics::chain::platform_transform_f64;
 use crate::measure::targets::{
     observe_framed, observe_in, platform_rotation, target_position, SpatialFrame,
 };
@@ -163,7 +164,9 @@ impl<'a> PreparedFunction<'a> {
         out.width = self.width;
         // The platform's rotation: only a spatial report reads it.
         let platform = match self.frame {
-            Some(_) => platform_rotation(pose),
+            // The platform's rotation as the spatial report computes it, bit for bit, without
+            // the trigonometry when the pose does not turn (a delta's).
+            Some(_) => platform_transform_f64(pose).rotation.into_inner(),
             None => Matrix3::identity(),
         };
         if self.passes.is_empty() {

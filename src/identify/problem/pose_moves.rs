@@ -13,13 +13,14 @@ use nalgebra::{DMatrix, SMatrix, Vector3};
 
 use crate::error::KinematicsError;
 use crate::identify::jacobian::PreparedLeg;
-use crate::kinematics::chain::platform_transform;
+use crate::kinematics::chain::platform_transform_f64;
 use crate::kinematics::inverse::Joints;
 use crate::kinematics::pose_derivative::pose_derivatives;
+use crate::kinematics::KernelRows;
 use crate::model::mechanism::Mechanism;
 
 /// How one closed pose moves (see the module).
-#[derive(Debug, Clone)]
+#[derive(Debug, Clone, Default)]
 pub(super) struct Moves {
     /// The measured coordinates' count `n` (as many as legs, at most six).
     n: usize,
@@ -84,7 +85,9 @@ impl Moves {
 
 /// How the closed pose `pose` of `mechanism` moves (see the module), the legs `prepared` at the
 /// unknowns (one per leg, prepared for their slots' columns), `seeds` the row's joints (the
-/// turn a kernel reads its joints on, and the start of a leg solved again).
+/// turn a kernel reads its joints on, and the start of a leg solved again); `rows` the legs'
+/// kernel rows if the forward solve evaluated them (used where they are at exactly `pose`).
+/// Written into `moves` (its storage reused), which is not to be read after an error.
 ///
 /// # Errors
 /// As many measured coordinates as legs (at most six) are needed; a leg solved again that
@@ -92,9 +95,10 @@ impl Moves {
 pub(super) fn pose_moves(
     mechanism: &Mechanism,
     prepared: &[PreparedLeg<'_>],
-    pose: &[f64; 6],
+    (pose, rows): (&[f64; 6], Option<&KernelRows>),
     seeds: &[Joints],
-) -> Result<Moves, KinematicsError> {
+    moves: &mut Moves,
+) -> Result<(), KinematicsError> {
     let measured = &mechanism.measured;
     let (n, legs) = (measured.len(), prepared.len());
     if legs != n || n > 6 || mechanism.legs.len() != legs {
@@ -102,7 +106,8 @@ pub(super) fn pose_moves(
             residual: f64::INFINITY,
         });
     }
-    let platform = platform_transform(pose);
+    // The forward solve's platform, bit for bit (its kernel rows were evaluated on it).
+    let platform = platform_transform_f64(pose);
     // The platform's derivatives: a position's is a unit translation (moving every point
     // by it exactly), an angle's a rotation's derivative.
     let angles = measured.iter().any(|&c| c >= 3);
@@ -111,13 +116,16 @@ pub(super) fn pose_moves(
     for (l, leg) in prepared.iter().enumerate() {
         starts[l + 1] = starts[l] + leg.columns();
     }
-    let mut own = vec![0.0; starts[legs]];
+    let own = &mut moves.own;
+    own.clear();
+    own.resize(starts[legs], 0.0);
     // A = ∂ψ/∂P over the measured coordinates, and each leg's ∂ψ_l/∂φ_l.
     let mut a = [[0.0; 6]; 6];
     for (l, leg) in prepared.iter().enumerate() {
         let gradient = &mut own[starts[l]..starts[l + 1]];
         let seed = seeds.get(l);
-        let row = match leg.actuated_gradients(&platform, seed, gradient) {
+        let known = rows.and_then(|rows| rows.leg_at(pose, l));
+        let row = match leg.actuated_gradients(&platform, (seed, known), gradient) {
             Some(row) => row,
             None => {
                 let home = &mechanism.home_pose;
@@ -139,13 +147,9 @@ pub(super) fn pose_moves(
             a[l][j] = actuated / gain;
         }
     }
-    let inverse = inverse(&a, n).ok_or(KinematicsError::AssemblyModeChange)?;
-    Ok(Moves {
-        n,
-        inverse,
-        own,
-        starts,
-    })
+    moves.inverse = inverse(&a, n).ok_or(KinematicsError::AssemblyModeChange)?;
+    (moves.n, moves.starts) = (n, starts);
+    Ok(())
 }
 
 /// The inverse of `a`'s leading `n × n` block (`n ≤ 6`) in fixed storage, `None` if singular or

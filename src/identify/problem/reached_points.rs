@@ -4,7 +4,7 @@
 
 use nalgebra::{DMatrix, DVector};
 
-use super::forward::Closed;
+use super::forward::ClosedRows;
 use super::instrument_derivatives::{derivatives, PoseFunction};
 use super::{BlockError, IdentificationProblem};
 
@@ -40,20 +40,15 @@ impl IdentificationProblem<'_> {
             .unwrap_or_else(std::sync::PoisonError::into_inner)
             .as_ref()
             .filter(|l| l.key == key)
-            .map(|l| (l.poses.clone(), l.moves.clone()));
+            .map(|l| (l.poses.clone(), l.rows.clone(), l.moves.clone()));
         let closed = match known {
-            Some((poses, Some(moves))) => poses
-                .into_iter()
-                .zip(moves)
-                .map(|(pose, moves)| Closed {
-                    pose,
-                    moves: Some(moves),
-                })
-                .collect(),
+            Some((poses, rows, Some(moves))) => ClosedRows { poses, rows, moves },
             known => {
                 let params = self.all_leg_parameters(x);
-                let poses = known.map(|(poses, _)| poses);
-                self.close_rows(forward, (&params, x), (true, poses.as_deref()))?
+                let known = known
+                    .as_ref()
+                    .map(|(poses, rows, _)| (&poses[..], &rows[..]));
+                self.close_rows(forward, (&params, x), (true, known))?
             }
         };
         let shared = sighted.values(x.as_slice());
@@ -61,19 +56,18 @@ impl IdentificationProblem<'_> {
         let first_shared = p - sighted.shared.len();
         let slots: Vec<(usize, usize)> = self.slots.iter().map(|s| (s.leg, s.offset)).collect();
         Ok(closed
+            .poses
             .iter()
-            .map(|row| {
+            .zip(&closed.moves)
+            .map(|(pose, row_moves)| {
                 let at = derivatives(
                     PoseFunction::Position(instrument, target),
                     (&shared, &sighted.shared),
-                    &row.pose,
+                    pose,
                     (&self.mechanism.measured, true),
                 );
-                let dx = row.moves.as_ref().expect("moves asked for").by_unknowns(
-                    self.parameter_count(),
-                    &self.mechanism.measured,
-                    &slots,
-                );
+                let dx =
+                    row_moves.by_unknowns(self.parameter_count(), &self.mechanism.measured, &slots);
                 let by_pose = DMatrix::from_fn(3, 6, |k, c| at.by_pose[k][c]);
                 let mut moves = by_pose * dx;
                 for k in 0..3 {

@@ -1,8 +1,9 @@
 //! Tests of the kernel forward step's private parts: the small solves and the closed-form
 //! starts.
 
-use super::{solve_small, KernelForward, LegKernel};
+use super::{solve_small, KernelForward};
 use crate::kinematics::inverse::predict_reading;
+use crate::kinematics::kernel::LegKernel;
 use crate::model::Mechanism;
 
 /// The bundled model `name` and its reduced forward kinematics at the nominal parameters.
@@ -118,4 +119,56 @@ fn a_small_system_is_solved_with_its_column_normalised_determinant() {
     assert!((determinant + 1.0).abs() < 1e-15, "{determinant}");
     a[2][2] = 0.0;
     assert!(solve_small(a, b, 3).is_none());
+}
+
+/// The rows Newton hands back are the kernels' rows at the pose it returns, bit for bit (what
+/// a forward row's derivatives reuse instead of evaluating the legs again), for the models
+/// whose forward solve goes through their kernels (a closed-form start, one check; and the
+/// hexapod's iterations); at any other pose the rows give nothing.
+#[test]
+fn newtons_last_rows_are_the_kernels_rows_at_the_pose_returned() {
+    let bits = |row: Option<(f64, [f64; 3])>| row.map(|(q, r)| (q.to_bits(), r.map(f64::to_bits)));
+    let mut handed_back = 0;
+    let models = [
+        ("delta.yaml", [0.02, -0.01, 0.01, 0.0, 0.0, 0.0]),
+        ("5r.yaml", [0.01, 0.02, 0.0, 0.0, 0.0, 0.0]),
+        ("hexapod.yaml", [0.01, -0.02, 0.01, 0.02, -0.01, 0.03]),
+    ];
+    for (name, moved) in models {
+        let (mechanism, forward) = nominal(name);
+        let home = mechanism.home_pose;
+        let mut pose = home;
+        for (value, d) in pose.iter_mut().zip(moved) {
+            *value += d;
+        }
+        let readings = readings_at(&mechanism, &pose);
+        for exact in [true, false] {
+            let mut reached = home;
+            let mut last = None;
+            let size = 1.0;
+            let solved = forward.newton_rows(
+                &readings,
+                &mut reached,
+                None,
+                (size, exact),
+                (None, &mut last),
+            );
+            assert!(solved.is_some(), "{name}");
+            let Some(rows) = last else { continue };
+            handed_back += 1;
+            let at = forward.rows_at(&reached);
+            for l in 0..mechanism.legs.len() {
+                let row = rows.leg_at(&reached, l);
+                assert!(row.is_some(), "{name}: leg {l}");
+                assert_eq!(bits(row), bits(at.leg_at(&reached, l)), "{name}: leg {l}");
+                let mut elsewhere = reached;
+                elsewhere[0] = f64::from_bits(reached[0].to_bits() + 1);
+                assert!(rows.leg_at(&elsewhere, l).is_none(), "{name}: leg {l}");
+            }
+        }
+    }
+    assert!(
+        handed_back >= 2,
+        "{handed_back} solves handed their rows back"
+    );
 }
