@@ -1,7 +1,9 @@
 //! The derivatives of what an instrument reports at a closed pose, with respect to the pose's
 //! measured coordinates and to the identified shared parameters, by multi-lane dual numbers:
 //! every column seeded on its own lane, up to [`LANES`] columns a pass (the residual-only
-//! evaluation takes the f64 values alone).
+//! evaluation takes the f64 values alone). A spatial instrument reporting target positions (a
+//! tracker's reflectors, a probe's height) takes them in closed form instead, every column in
+//! one pass (`instrument_derivatives/spatial_pass.rs`): the same derivatives to round-off.
 //!
 //! Everything that depends only on the shared parameters (their seeded dual values, a spatial
 //! instrument's frame rotation) is prepared once per evaluation ([`PreparedFunction`]) and
@@ -19,6 +21,8 @@ use crate::measure::targets::{
 };
 use crate::model::instrument::Instrument;
 use crate::scalar::Scalar;
+
+mod spatial_pass;
 
 /// A function of the shared parameters and the platform pose, in any scalar: what the
 /// instrument reports ([`observe_in`]), or one target's base-frame position
@@ -120,6 +124,17 @@ impl<'a> PreparedFunction<'a> {
         (shared, identified): (&[f64], &[usize]),
         (measured, columns): (&[usize], bool),
     ) -> Self {
+        Self::with_passes(f, (shared, identified), (measured, columns), true)
+    }
+
+    /// As [`Self::new`]; `closed_form`: a spatial report of positions takes its derivatives in
+    /// closed form (`instrument_derivatives/spatial_pass.rs`), else every function takes the dual-number passes.
+    fn with_passes(
+        f: PoseFunction<'a>,
+        (shared, identified): (&[f64], &[usize]),
+        (measured, columns): (&[usize], bool),
+        closed_form: bool,
+    ) -> Self {
         let total = if columns {
             measured.len() + identified.len()
         } else {
@@ -135,14 +150,21 @@ impl<'a> PreparedFunction<'a> {
                 }
             }
         };
-        let passes = (0..total)
-            .step_by(LANES)
-            .map(|first| {
-                let count = (total - first).min(LANES);
-                let seeds: Vec<Seed> = (first..first + count).map(seed).collect();
-                pass(f, shared, seeds)
-            })
-            .collect();
+        let every = || (0..total).map(seed).collect::<Vec<Seed>>();
+        let closed = (closed_form && total > 0)
+            .then(|| Self::closed_form_pass(f, shared, every()))
+            .flatten();
+        let passes = match closed {
+            Some(closed) => vec![closed],
+            None => (0..total)
+                .step_by(LANES)
+                .map(|first| {
+                    let count = (total - first).min(LANES);
+                    let seeds: Vec<Seed> = (first..first + count).map(seed).collect();
+                    pass(f, shared, seeds)
+                })
+                .collect(),
+        };
         Self {
             f,
             shared: shared.to_vec(),

@@ -55,6 +55,16 @@ impl<T: Scalar> Frame<T> {
             transposed: frame.transpose(),
         }
     }
+
+    /// The frame's origin `f` in the base frame.
+    pub fn origin(&self) -> &Vector3<T> {
+        &self.origin
+    }
+
+    /// The frame's rotation transposed, `R_fᵀ`.
+    pub fn transposed(&self) -> &Matrix3<T> {
+        &self.transposed
+    }
 }
 
 /// The platform's rotation `R_P` at `pose` (its roll, pitch, yaw).
