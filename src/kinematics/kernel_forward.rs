@@ -276,13 +276,13 @@ impl KernelForward {
         (size, exact): (f64, bool),
         first: Option<&KernelRows>,
     ) -> Option<f64> {
-        self.newton_rows(readings, pose, joints, (size, exact), (first, &mut None))
+        self.newton_rows(readings, pose, joints, (size, exact), (first, None))
     }
 
-    /// [`Self::newton`], with the legs' rows of its last evaluation written into `last` when
-    /// that was at the pose it returns (a step at round-off, not taken): what the pose's
-    /// derivatives need of the legs there, without evaluating the kernels again. `last` is
-    /// left as it is otherwise (after a landing step the last evaluation is a round-off step
+    /// [`Self::newton`], with the legs' rows of its last evaluation written into `last` (when
+    /// given) if that was at the pose it returns (a step at round-off, not taken): what the
+    /// pose's derivatives need of the legs there, without evaluating the kernels again. `last`
+    /// is left as it is otherwise (after a landing step the last evaluation is a round-off step
     /// away).
     pub(crate) fn newton_rows(
         &self,
@@ -290,7 +290,7 @@ impl KernelForward {
         pose: &mut [f64; 6],
         joints: Option<&mut [Joints]>,
         (size, exact): (f64, bool),
-        (first, last): (Option<&KernelRows>, &mut Option<KernelRows>),
+        (first, last): (Option<&KernelRows>, Option<&mut Option<KernelRows>>),
     ) -> Option<f64> {
         let m = self.measured.len();
         if readings.len() != m || joints.as_ref().is_some_and(|j| j.len() != m) {
@@ -343,7 +343,9 @@ impl KernelForward {
                     None => leg.kernel.actuated_row(&target)?,
                 };
                 targets[l] = target;
-                rows[l] = Some((actuated, row));
+                if last.is_some() {
+                    rows[l] = Some((actuated, row));
+                }
                 let difference = actuated - wanted;
                 residual[l] = if revolute {
                     wrap_angle(difference)
@@ -377,7 +379,9 @@ impl KernelForward {
             let accepted = (determinant.abs() > NEAR_SINGULAR).then_some(determinant);
             if !beyond_round_off(&unknowns[..m], &step[..m]) {
                 let determinant = self.with_joints(accepted?, readings, &targets, joints)?;
-                *last = Some(KernelRows { pose: *pose, rows });
+                if let Some(last) = last {
+                    *last = Some(KernelRows { pose: *pose, rows });
+                }
                 return Some(determinant);
             }
             for (k, &c) in self.measured.iter().enumerate() {

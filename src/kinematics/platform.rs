@@ -318,7 +318,8 @@ impl<'m> ForwardKinematics<'m> {
         if let Some((kernel, kernel_home_sign)) = &self.kernel {
             let mut pose = start.pose;
             let size = 1e3 * self.smallest_size;
-            let solved = kernel.newton_rows(readings, &mut pose, None, (size, true), (None, rows));
+            let solved =
+                kernel.newton_rows(readings, &mut pose, None, (size, true), (None, Some(rows)));
             if let Some(sign) = solved {
                 if same_mode(sign, *kernel_home_sign) {
                     start.pose = pose;

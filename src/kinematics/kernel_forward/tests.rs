@@ -151,7 +151,7 @@ fn newtons_last_rows_are_the_kernels_rows_at_the_pose_returned() {
                 &mut reached,
                 None,
                 (size, exact),
-                (None, &mut last),
+                (None, Some(&mut last)),
             );
             assert!(solved.is_some(), "{name}");
             let Some(rows) = last else { continue };
