@@ -70,6 +70,18 @@ impl LegKernel {
     }
 }
 
+/// Each leg's kernel (`kernels`, one per leg, `None` for a leg without one; missing ones
+/// count as `None`) prepared at its geometry (`geometries`, one per leg).
+pub(crate) fn prepare_each(
+    kernels: &[Option<LegKernel>],
+    geometries: &[LegGeometry<f64>],
+) -> Vec<Option<PreparedKernel<f64>>> {
+    let kernels = kernels.iter().chain(std::iter::repeat(&None));
+    (geometries.iter().zip(kernels))
+        .map(|(geometry, kernel)| kernel.map(|kernel| kernel.prepare(geometry)))
+        .collect()
+}
+
 impl PreparedKernel<f64> {
     /// The solution reaching `target` (the world position of the leg's attachment at the
     /// pose), joints in the 2π window centred on `seed`; `None`: left to the generic solve.

@@ -20,9 +20,9 @@ use nalgebra::Vector3;
 use super::chain::{attachment_on, platform_transform_f64};
 use super::circle_intersection::nearest_intersection;
 use super::inverse::{joints, wrap_angle, Joints};
-#[cfg(test)]
-use super::kernel::LegKernel;
 use super::kernel::PreparedKernel;
+#[cfg(test)]
+use super::kernel::{prepare_each, LegKernel};
 use super::newton_stop::beyond_round_off;
 use super::pose_derivative::{pose_derivatives, PoseDerivative};
 use super::sphere_intersection;
@@ -77,13 +77,14 @@ impl KernelRows {
     /// Leg `leg`'s actuated joint and actuated row, if these rows were evaluated at exactly
     /// `pose` (its bits) and the leg's kernel reaches it there.
     pub(crate) fn leg_at(&self, pose: &[f64; 6], leg: usize) -> Option<(f64, [f64; 3])> {
-        let same = self
-            .pose
-            .iter()
-            .zip(pose)
-            .all(|(a, b)| a.to_bits() == b.to_bits());
-        same.then(|| self.rows.get(leg).copied().flatten())
+        self.evaluated_at(pose)
+            .then(|| self.rows.get(leg).copied().flatten())
             .flatten()
+    }
+
+    /// Whether these rows were evaluated at exactly `pose` (its bits).
+    fn evaluated_at(&self, pose: &[f64; 6]) -> bool {
+        (self.pose.iter().zip(pose)).all(|(a, b)| a.to_bits() == b.to_bits())
     }
 }
 
@@ -118,13 +119,10 @@ impl KernelForward {
         geometries: &[LegGeometry<f64>],
         kernels: &[Option<LegKernel>],
     ) -> Option<Self> {
-        let prepared: Vec<_> = (kernels.iter().zip(geometries))
-            .map(|(kernel, geometry)| kernel.map(|kernel| kernel.prepare(geometry)))
-            .collect();
-        if prepared.len() != kernels.len() {
+        if geometries.len() < kernels.len() {
             return None;
         }
-        Self::with_prepared(mechanism, geometries, &prepared)
+        Self::with_prepared(mechanism, geometries, &prepare_each(kernels, geometries))
     }
 
     /// As [`Self::new`], with every leg's kernel already prepared at its geometry (`prepared`,
@@ -307,14 +305,7 @@ impl KernelForward {
                 pose[..3].copy_from_slice(&reached);
             }
         }
-        let same_start = |rows: &&KernelRows| {
-            joints.is_none()
-                && rows
-                    .pose
-                    .iter()
-                    .zip(pose.iter())
-                    .all(|(a, b)| a.to_bits() == b.to_bits())
-        };
+        let same_start = |rows: &&KernelRows| joints.is_none() && rows.evaluated_at(pose);
         let mut first = first.filter(same_start);
         let mut previous = f64::INFINITY;
         // The legs' attachment points at the last evaluation: where the joints handed back

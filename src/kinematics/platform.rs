@@ -13,7 +13,7 @@ use nalgebra::Vector3;
 
 use super::chain::ChainFrames;
 use super::inverse::{joints, Joints};
-use super::kernel::{LegKernel, PreparedKernel};
+use super::kernel::{prepare_each, LegKernel, PreparedKernel};
 use super::kernel_forward::{KernelForward, KernelRows};
 use super::reading::predict_with;
 use crate::error::KinematicsError;
@@ -163,10 +163,7 @@ impl<'m> ForwardKinematics<'m> {
             kernel: None,
         };
         // Each leg's kernel prepared once, for the home readings and the kernels' assembly.
-        let kernels = kernels.iter().chain(std::iter::repeat(&None));
-        let prepared: Vec<Option<PreparedKernel<f64>>> = (solver.geometries.iter().zip(kernels))
-            .map(|(geometry, kernel)| kernel.map(|kernel| kernel.prepare(geometry)))
-            .collect();
+        let prepared = prepare_each(kernels, &solver.geometries);
         solver.home_readings = solver.home_readings(&prepared);
         solver.kernel = match &solver.home_readings {
             Ok(readings) => solver.kernel_assembly(readings, longest, &prepared),

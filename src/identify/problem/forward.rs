@@ -31,7 +31,7 @@ use rayon::prelude::*;
 use super::forward_rows::{Forward, ForwardEvaluation, ForwardRow, Latest};
 use super::instrument_derivatives::{Derivatives, PoseFunction, PreparedFunction};
 use super::noise::coordinate_sigmas;
-use super::pose_moves::{pose_moves, Moves};
+use super::pose_moves::{pose_moves, Moves, RowsMoves};
 use super::{BlockError, IdentificationProblem};
 use crate::error::KinematicsError;
 use crate::identify::jacobian::PreparedLeg;
@@ -63,7 +63,7 @@ pub(super) struct ClosedRows {
     /// Each row's legs' kernel rows at its pose, if the forward solve evaluated them there.
     pub(super) rows: Vec<Option<KernelRows>>,
     /// Each row's movements; empty when they were not asked for.
-    pub(super) moves: Vec<Moves>,
+    pub(super) moves: RowsMoves,
 }
 
 impl IdentificationProblem<'_> {
@@ -184,10 +184,12 @@ impl IdentificationProblem<'_> {
                 evaluation.reading_starts.push(0);
             }
             for (r, by_pose) in parts {
-                let moves = &closed.moves[*r];
-                moves.chain(slots, by_pose, readings, |j, value| {
-                    matrix[(i, j)] += value;
-                });
+                closed
+                    .moves
+                    .row(*r)
+                    .chain(slots, by_pose, readings, |j, value| {
+                        matrix[(i, j)] += value;
+                    });
             }
             evaluation.reading_starts.push(readings.len());
             for (j, &value) in direct.iter().enumerate() {
@@ -295,11 +297,14 @@ impl IdentificationProblem<'_> {
         let mut closed = ClosedRows {
             poses: vec![[0.0; 6]; count],
             rows: vec![None; count],
-            moves: vec![Moves::default(); if moves { count } else { 0 }],
+            moves: match moves {
+                true => RowsMoves::new(count, prepared.iter().map(|l| l.columns()).sum()),
+                false => RowsMoves::default(),
+            },
         };
         // Each row's results are written into their place.
         let close = |(index, ((row, start), (pose_out, rows_out))): (usize, RowSlots<'_>),
-                     moves_out: Option<&mut Moves>| {
+                     moves_out: Option<(&mut Moves, &mut [f64])>| {
             let fail = |source: KinematicsError| self.forward_error(index, source, x);
             let configuration = start.get_or_insert_with(|| Configuration::home(mechanism));
             let pose = match (known, &kinematics) {
@@ -344,7 +349,7 @@ impl IdentificationProblem<'_> {
                 .zip(slots);
             let rows = rows.enumerate().with_min_len(ROWS_PER_TASK);
             if moves {
-                let moves = closed.moves.par_iter_mut().with_min_len(ROWS_PER_TASK);
+                let moves = closed.moves.par_slots_mut().with_min_len(ROWS_PER_TASK);
                 rows.zip(moves)
                     .map(|(row, m)| close(row, Some(m)))
                     .collect()
@@ -354,7 +359,7 @@ impl IdentificationProblem<'_> {
         } else {
             let slots = closed.poses.iter_mut().zip(closed.rows.iter_mut());
             let rows = forward.rows.iter().zip(starts.iter_mut()).zip(slots);
-            let mut moves_out = closed.moves.iter_mut();
+            let mut moves_out = closed.moves.slots_mut();
             rows.enumerate()
                 .map(|row| close(row, moves_out.next()))
                 .collect()

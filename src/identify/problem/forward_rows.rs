@@ -7,7 +7,7 @@ use std::sync::{Arc, Mutex};
 
 use nalgebra::DMatrix;
 
-use super::pose_moves::Moves;
+use super::pose_moves::RowsMoves;
 use crate::kinematics::kernel::LegKernel;
 use crate::kinematics::platform::Configuration;
 use crate::kinematics::KernelRows;
@@ -68,8 +68,8 @@ pub(super) struct Latest {
     /// Every row's legs' kernel rows at its pose, where the forward solve evaluated them there
     /// (empty for poses closed elsewhere).
     pub(super) rows: Vec<Option<KernelRows>>,
-    /// Every row's movements there ([`Moves`]), if the Jacobian was asked for.
-    pub(super) moves: Option<Vec<Moves>>,
+    /// Every row's movements there ([`RowsMoves`]), if the Jacobian was asked for.
+    pub(super) moves: Option<RowsMoves>,
     /// The evaluation (with its derivatives if they were asked for); `None` for poses closed
     /// elsewhere (known poses).
     pub(super) evaluation: Option<ForwardEvaluation>,

@@ -10,6 +10,7 @@
 //! leg is solved at the pose and differentiated at its solution.
 
 use nalgebra::{DMatrix, SMatrix, Vector3};
+use rayon::prelude::*;
 
 use crate::error::KinematicsError;
 use crate::identify::jacobian::PreparedLeg;
@@ -19,20 +20,87 @@ use crate::kinematics::pose_derivative::pose_derivatives;
 use crate::kinematics::KernelRows;
 use crate::model::mechanism::Mechanism;
 
-/// How one closed pose moves (see the module).
+/// How one closed pose moves (see the module), but its legs' gradients (kept for all the rows
+/// in one buffer, [`RowsMoves`]).
 #[derive(Debug, Clone, Default)]
 pub(super) struct Moves {
     /// The measured coordinates' count `n` (as many as legs, at most six).
     n: usize,
     /// `A⁻¹`: row `j` the `j`-th measured coordinate, column `l` leg `l`.
     inverse: [[f64; 6]; 6],
-    /// Every leg's `∂ψ_l/∂φ_l` over its prepared columns, leg after leg.
-    own: Vec<f64>,
-    /// Where each leg's part of `own` starts (and the last one ends).
+    /// Where each leg's `∂ψ_l/∂φ_l` starts in the row's gradients (and the last one ends).
     starts: [usize; 7],
 }
 
-impl Moves {
+/// Every row's [`Moves`] and their legs' gradients: `width` values a row (every leg's
+/// `∂ψ_l/∂φ_l` over its prepared columns, leg after leg), all in one buffer.
+#[derive(Debug, Clone, Default)]
+pub(super) struct RowsMoves {
+    moves: Vec<Moves>,
+    own: Vec<f64>,
+    width: usize,
+}
+
+impl RowsMoves {
+    /// Room for `count` rows of `width` gradient values each.
+    pub(super) fn new(count: usize, width: usize) -> Self {
+        Self {
+            moves: vec![Moves::default(); count],
+            // A chunk a row even when there are no gradients (chunks are at least 1 long).
+            own: vec![0.0; count * width.max(1)],
+            width,
+        }
+    }
+
+    /// Whether it holds no row.
+    pub(super) fn is_empty(&self) -> bool {
+        self.moves.is_empty()
+    }
+
+    /// Row `r`'s movements.
+    pub(super) fn row(&self, r: usize) -> RowMoves<'_> {
+        let chunk = self.width.max(1);
+        RowMoves {
+            moves: &self.moves[r],
+            own: &self.own[r * chunk..r * chunk + self.width],
+        }
+    }
+
+    /// Every row's movements, in row order.
+    pub(super) fn rows(&self) -> impl Iterator<Item = RowMoves<'_>> {
+        (0..self.moves.len()).map(|r| self.row(r))
+    }
+
+    /// Every row's slots to write its movements into ([`pose_moves`]), in row order.
+    pub(super) fn slots_mut(&mut self) -> impl Iterator<Item = (&mut Moves, &mut [f64])> {
+        let width = self.width;
+        let chunks = self.own.chunks_mut(width.max(1));
+        (self.moves.iter_mut().zip(chunks)).map(move |(m, own)| (m, &mut own[..width]))
+    }
+
+    /// [`Self::slots_mut`] for rayon, in row order.
+    pub(super) fn par_slots_mut(
+        &mut self,
+    ) -> impl IndexedParallelIterator<Item = (&mut Moves, &mut [f64])> {
+        let width = self.width;
+        let chunks = self.own.par_chunks_mut(width.max(1));
+        (self.moves.par_iter_mut().zip(chunks)).map(move |(m, own)| (m, &mut own[..width]))
+    }
+}
+
+/// One row's movements: its [`Moves`] and its legs' gradients.
+#[derive(Debug, Clone, Copy)]
+pub(super) struct RowMoves<'a> {
+    moves: &'a Moves,
+    own: &'a [f64],
+}
+
+impl RowMoves<'_> {
+    /// Leg `l`'s `∂ψ_l/∂φ_l`.
+    fn own(&self, l: usize) -> &[f64] {
+        &self.own[self.moves.starts[l]..self.moves.starts[l + 1]]
+    }
+
     /// A residual's `∂r/∂s` (one value per leg) for its `∂r/∂P` `by_pose` (over the six pose
     /// coordinates; the `measured` ones read), appended to `readings`, and its `∂r/∂x` through
     /// the pose, `add(column, value)` for each identified leg parameter.
@@ -45,17 +113,16 @@ impl Moves {
         readings: &mut Vec<f64>,
         mut add: impl FnMut(usize, f64),
     ) {
-        for l in 0..self.n {
+        for l in 0..self.moves.n {
             let mut by_reading = 0.0;
             for (j, &c) in measured.iter().enumerate() {
-                by_reading += by_pose[c] * self.inverse[j][l];
+                by_reading += by_pose[c] * self.moves.inverse[j][l];
             }
             readings.push(by_reading);
             let Some(offset) = offset_of(l) else {
                 continue;
             };
-            let own = &self.own[self.starts[l]..self.starts[l + 1]];
-            for (k, value) in own.iter().enumerate() {
+            for (k, value) in self.own(l).iter().enumerate() {
                 add(offset + k, -by_reading * value);
             }
         }
@@ -73,9 +140,8 @@ impl Moves {
         let mut matrix = DMatrix::zeros(6, unknowns);
         for (j, &c) in measured.iter().enumerate() {
             for &(leg, offset) in slots {
-                let own = &self.own[self.starts[leg]..self.starts[leg + 1]];
-                for (k, &value) in own.iter().enumerate() {
-                    matrix[(c, offset + k)] = -self.inverse[j][leg] * value;
+                for (k, &value) in self.own(leg).iter().enumerate() {
+                    matrix[(c, offset + k)] = -self.moves.inverse[j][leg] * value;
                 }
             }
         }
@@ -87,7 +153,8 @@ impl Moves {
 /// unknowns (one per leg, prepared for their slots' columns), `seeds` the row's joints (the
 /// turn a kernel reads its joints on, and the start of a leg solved again); `rows` the legs'
 /// kernel rows if the forward solve evaluated them (used where they are at exactly `pose`).
-/// Written into `moves` (its storage reused), which is not to be read after an error.
+/// Written into `moves` and its legs' gradients into `own` (as long as the prepared legs'
+/// columns together), which are not to be read after an error.
 ///
 /// # Errors
 /// As many measured coordinates as legs (at most six) are needed; a leg solved again that
@@ -97,7 +164,7 @@ pub(super) fn pose_moves(
     prepared: &[PreparedLeg<'_>],
     (pose, rows): (&[f64; 6], Option<&KernelRows>),
     seeds: &[Joints],
-    moves: &mut Moves,
+    (moves, own): (&mut Moves, &mut [f64]),
 ) -> Result<(), KinematicsError> {
     let measured = &mechanism.measured;
     let (n, legs) = (measured.len(), prepared.len());
@@ -116,9 +183,11 @@ pub(super) fn pose_moves(
     for (l, leg) in prepared.iter().enumerate() {
         starts[l + 1] = starts[l] + leg.columns();
     }
-    let own = &mut moves.own;
-    own.clear();
-    own.resize(starts[legs], 0.0);
+    if own.len() != starts[legs] {
+        return Err(KinematicsError::NotAssemblable {
+            residual: f64::INFINITY,
+        });
+    }
     // A = ∂ψ/∂P over the measured coordinates, and each leg's ∂ψ_l/∂φ_l.
     let mut a = [[0.0; 6]; 6];
     for (l, leg) in prepared.iter().enumerate() {

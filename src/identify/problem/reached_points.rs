@@ -58,7 +58,7 @@ impl IdentificationProblem<'_> {
         Ok(closed
             .poses
             .iter()
-            .zip(&closed.moves)
+            .zip(closed.moves.rows())
             .map(|(pose, row_moves)| {
                 let at = derivatives(
                     PoseFunction::Position(instrument, target),

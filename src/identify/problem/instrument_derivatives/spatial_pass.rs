@@ -93,12 +93,13 @@ impl Pass for SpatialPass<'_> {
         let transposed = self.frame.transposed();
         let p = Vector3::new(pose[0], pose[1], pose[2]);
         let width = out.width;
+        // ∂m/∂t_k = R_fᵀ R_P, every target's.
+        let by_offset = transposed * platform;
         let mut o = 0;
         for (k, target) in self.instrument.targets.iter().enumerate() {
             let offset = self.instrument.offset_index(k);
             let t = Vector3::from_column_slice(&self.shared[offset..offset + 3]);
             let v = p + platform * t - self.frame.origin();
-            let by_offset = transposed * platform;
             // R_fᵀ (∂R_P/∂θ) t for each pose angle θ.
             let by_angle = platform_turns
                 .as_ref()
