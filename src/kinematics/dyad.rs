@@ -166,6 +166,7 @@ impl Dyad {
 
     /// [`Self::rotation`] in f64 with the kernels' arc tangent ([`super::arc_tangent::atan2`]:
     /// the same angle to a few ulp, without libm's rounding-mode switches).
+    #[inline]
     fn rotation_f64(frame: &DyadFrame<f64>, elbow: &[[f64; 2]; 2], which: usize) -> f64 {
         let (cross, dot) = Self::rotation_sides(frame, elbow, which);
         arc_tangent::atan2(cross, dot)
