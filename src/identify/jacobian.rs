@@ -80,10 +80,13 @@ struct DualPass<const N: usize> {
     /// Which joints' origin angles carry derivatives (for the chain).
     variable_angles: Vec<bool>,
     geometry: LegGeometry<DualSVec64<N>>,
-    /// The closed-form kernel in duals: the reading's derivatives from its closed form.
-    kernel: Option<PreparedKernel<DualSVec64<N>>>,
+    /// The leg's closed-form pattern, if it has one.
+    pattern: Option<LegKernel>,
+    /// The closed-form kernel in duals (the reading's derivatives from its closed form where
+    /// its f64 partials fail), built on first use when the lanes were not taken from it.
+    kernel: OnceLock<Option<PreparedKernel<DualSVec64<N>>>>,
     /// The kernel's inputs split into values and lanes: the reading's derivatives by the
-    /// chain rule on the kernel's f64 partials ([`PreparedKernel::actuated_partials`]).
+    /// chain rule on the kernel's f64 partials ([`LegKernel::actuated_partials`]).
     lanes: Option<KernelLanes<N>>,
 }
 
@@ -110,8 +113,19 @@ fn split<const N: usize>(x: &DualSVec64<N>) -> Lanes<N> {
 
 impl<const N: usize> KernelLanes<N> {
     fn new(kernel: &PreparedKernel<DualSVec64<N>>, geometry: &LegGeometry<DualSVec64<N>>) -> Self {
+        Self::with_frame(kernel.frame_scalars().map(|x| split(&x)), geometry)
+    }
+
+    /// The lanes of a pass that moves no joint origin: the kernel frame's numbers are
+    /// `frame`'s (the f64 kernel's at the same parameters, the values the dual frame would
+    /// have, bit for bit) and carry no derivative.
+    fn fixed_frame(frame: &PreparedKernel<f64>, geometry: &LegGeometry<DualSVec64<N>>) -> Self {
+        Self::with_frame(frame.frame_scalars().map(|x| (x, [0.0; N])), geometry)
+    }
+
+    fn with_frame(frame: [Lanes<N>; 8], geometry: &LegGeometry<DualSVec64<N>>) -> Self {
         Self {
-            frame: kernel.frame_scalars().map(|x| split(&x)),
+            frame,
             attachment: geometry.attachment.map(|x| split(&x)),
             gain: split(&geometry.gain),
             offset: split(&geometry.offset),
@@ -124,7 +138,7 @@ impl<const N: usize> KernelLanes<N> {
     /// where the closed form fails.
     fn reading(
         &self,
-        kernel: &PreparedKernel<DualSVec64<N>>,
+        kernel: &LegKernel,
         platform: &Transform<f64>,
         solution: &Solution,
         gradient: &mut [f64],
@@ -164,31 +178,54 @@ impl<const N: usize> KernelLanes<N> {
 }
 
 impl<const N: usize> DualPass<N> {
-    /// Lane `k` carries ∂/∂φ[columns[first + k]].
+    /// Lane `k` carries ∂/∂φ[columns[first + k]]; `kernel` the leg's closed-form kernel
+    /// prepared at `phi` in f64, if it has one.
     fn new(
         leg: &LegModel,
         (phi, columns, first): (&[f64], &[usize], usize),
-        kernel: Option<&LegKernel>,
+        kernel: Option<&PreparedKernel<f64>>,
     ) -> Self {
         let mut phi_dual: Vec<DualSVec64<N>> =
             phi.iter().map(|&v| DualSVec64::<N>::from_re(v)).collect();
         let mut variable_angles = vec![false; leg.joints.len()];
+        let mut moves_origins = false;
         for (lane, &column) in columns[first..first + N].iter().enumerate() {
             phi_dual[column] = DualSVec64::<N>::from_re(phi[column]).derivative(lane);
             if let ParamTarget::JointOrigin { joint, component } = leg.params[column].target {
                 variable_angles[joint] |= component >= 3;
+                moves_origins = true;
             }
         }
         let geometry = leg.geometry(&phi_dual);
-        let kernel = kernel.map(|kernel| kernel.prepare(&geometry));
+        let pattern = kernel.map(PreparedKernel::kernel);
+        let dual_kernel = OnceLock::new();
+        // The kernel's frame is built from the joint origins alone: where the pass seeds none,
+        // its lanes are zero and its numbers the f64 kernel's, so the frame is not composed in
+        // duals.
+        let lanes = match kernel {
+            Some(kernel) if !moves_origins => Some(KernelLanes::fixed_frame(kernel, &geometry)),
+            _ => {
+                let prepared = pattern.map(|pattern| pattern.prepare(&geometry));
+                let lanes = prepared.as_ref().map(|k| KernelLanes::new(k, &geometry));
+                let _ = dual_kernel.set(prepared);
+                lanes
+            }
+        };
         Self {
             first,
             chain: OnceLock::new(),
             variable_angles,
-            lanes: kernel.as_ref().map(|k| KernelLanes::new(k, &geometry)),
-            kernel,
+            pattern,
+            lanes,
+            kernel: dual_kernel,
             geometry,
         }
+    }
+
+    /// The closed-form kernel in duals, if the leg has one.
+    fn dual_kernel(&self) -> Option<&PreparedKernel<DualSVec64<N>>> {
+        let prepare = || self.pattern.map(|pattern| pattern.prepare(&self.geometry));
+        self.kernel.get_or_init(prepare).as_ref()
     }
 }
 
@@ -204,7 +241,7 @@ impl<const N: usize> GradientPass for DualPass<N> {
             return reading;
         }
         let target = attachment_on_constant(platform, &self.geometry.attachment);
-        let closed_form = self.kernel.as_ref();
+        let closed_form = self.dual_kernel();
         let reading = match closed_form.and_then(|k| k.reading(&self.geometry, &target, solution)) {
             Some(reading) => reading,
             None => {
@@ -226,9 +263,9 @@ impl<const N: usize> GradientPass for DualPass<N> {
         solution: &Solution,
         gradient: &mut [f64],
     ) -> Option<f64> {
-        let (kernel, lanes) = (self.kernel.as_ref()?, self.lanes.as_ref()?);
+        let (pattern, lanes) = (self.pattern.as_ref()?, self.lanes.as_ref()?);
         let own = &mut gradient[self.first..self.first + N];
-        lanes.reading(kernel, platform, solution, own)
+        lanes.reading(pattern, platform, solution, own)
     }
 }
 
@@ -237,7 +274,7 @@ fn pass(
     leg: &LegModel,
     (phi, columns, first): (&[f64], &[usize], usize),
     count: usize,
-    kernel: Option<&LegKernel>,
+    kernel: Option<&PreparedKernel<f64>>,
 ) -> Arc<dyn GradientPass> {
     let at = (phi, columns, first);
     match count {
@@ -299,12 +336,12 @@ impl<'a> PreparedLeg<'a> {
             self.passes.is_empty(),
             "the leg already has derivative passes"
         );
-        let kernel = self.kernel.as_ref().map(PreparedKernel::kernel);
+        let kernel = self.kernel.as_ref();
         self.passes = (0..columns.len())
             .step_by(LANES)
             .map(|first| {
                 let count = LANES.min(columns.len() - first);
-                pass(self.leg, (phi, columns, first), count, kernel.as_ref())
+                pass(self.leg, (phi, columns, first), count, kernel)
             })
             .collect();
         self.columns = columns.len();

@@ -56,6 +56,33 @@ impl LegKernel {
             .or_else(|| CarriageLeg::recognise(leg).map(Self::Carriage))
     }
 
+    /// The actuated joint at the world `target` from the frame's numbers `frame` (the value
+    /// parts of [`PreparedKernel::frame_scalars`]), on the turn of `solution`, with its partial
+    /// derivatives with respect to the frame's eight numbers and the target's three
+    /// ([`Dyad::actuated_partials`], [`DistanceLeg::actuated_partials`],
+    /// [`CarriageLeg::actuated_partials`]; a planar kernel's partial along z is zero); `None`
+    /// where the closed form fails, then the caller takes [`PreparedKernel::reading`] in its
+    /// scalar.
+    #[inline]
+    pub fn actuated_partials(
+        &self,
+        frame: &[f64; 8],
+        target: [f64; 3],
+        solution: &Solution,
+    ) -> Option<(f64, [f64; 11])> {
+        match self {
+            LegKernel::Dyad(dyad) => {
+                let (value, planar) =
+                    dyad.actuated_partials(frame, [target[0], target[1]], solution)?;
+                let mut partials = [0.0; 11];
+                partials[..10].copy_from_slice(&planar);
+                Some((value, partials))
+            }
+            LegKernel::Distance(leg) => leg.actuated_partials(frame, target),
+            LegKernel::Carriage(leg) => leg.actuated_partials(frame, target),
+        }
+    }
+
     /// The kernel prepared at `geometry` (the leg's geometry at one parameter vector).
     pub fn prepare<T: Scalar>(&self, geometry: &LegGeometry<T>) -> PreparedKernel<T> {
         let frame = match self {
@@ -232,7 +259,7 @@ impl<T: Scalar> PreparedKernel<T> {
     }
 
     /// The numbers the kernel's frame holds (in `T`): the inputs
-    /// [`PreparedKernel::actuated_partials`] differentiates by ([`super::dyad::DyadFrame::scalars`],
+    /// [`LegKernel::actuated_partials`] differentiates by ([`super::dyad::DyadFrame::scalars`],
     /// [`super::distance_leg::DistanceFrame::scalars`],
     /// [`super::carriage_leg::CarriageFrame::scalars`]).
     #[inline]
@@ -241,32 +268,6 @@ impl<T: Scalar> PreparedKernel<T> {
             KernelFrame::Dyad(frame) => frame.scalars(),
             KernelFrame::Distance(frame) => frame.scalars(),
             KernelFrame::Carriage(frame) => frame.scalars(),
-        }
-    }
-
-    /// The actuated joint at the world `target` from the frame's numbers `frame` (the value
-    /// parts of [`Self::frame_scalars`]), on the turn of `solution`, with its partial
-    /// derivatives with respect to the frame's eight numbers and the target's three
-    /// ([`Dyad::actuated_partials`], [`DistanceLeg::actuated_partials`],
-    /// [`CarriageLeg::actuated_partials`]; a planar kernel's partial along z is zero); `None`
-    /// where the closed form fails, then the caller takes [`Self::reading`] in its scalar.
-    #[inline]
-    pub fn actuated_partials(
-        &self,
-        frame: &[f64; 8],
-        target: [f64; 3],
-        solution: &Solution,
-    ) -> Option<(f64, [f64; 11])> {
-        match &self.kernel {
-            LegKernel::Dyad(dyad) => {
-                let (value, planar) =
-                    dyad.actuated_partials(frame, [target[0], target[1]], solution)?;
-                let mut partials = [0.0; 11];
-                partials[..10].copy_from_slice(&planar);
-                Some((value, partials))
-            }
-            LegKernel::Distance(leg) => leg.actuated_partials(frame, target),
-            LegKernel::Carriage(leg) => leg.actuated_partials(frame, target),
         }
     }
 

@@ -25,6 +25,7 @@ use super::kernel::PreparedKernel;
 use super::kernel::{prepare_each, LegKernel};
 use super::newton_stop::beyond_round_off;
 use super::pose_derivative::{pose_derivatives, PoseDerivative};
+use super::small_solve::solve_small;
 use super::sphere_intersection;
 use crate::model::joint::JointKind;
 use crate::model::leg::LegGeometry;
@@ -415,69 +416,6 @@ impl KernelForward {
         }
         Some(determinant)
     }
-}
-
-/// The solution `x` of `a x = b` over the first `m` rows and columns (Gaussian elimination with
-/// partial pivoting, in fixed storage) and the determinant of `a`'s block with its columns
-/// scaled to unit norm; `None` if the block is singular or the solution not finite.
-fn solve_small(mut a: [[f64; 6]; 6], mut b: [f64; 6], m: usize) -> Option<([f64; 6], f64)> {
-    if m == 2 {
-        return solve_two(&a, &b);
-    }
-    let scales: f64 = (0..m)
-        .map(|k| {
-            let norm = a[..m].iter().map(|row| row[k] * row[k]).sum::<f64>().sqrt();
-            norm.max(f64::MIN_POSITIVE)
-        })
-        .product();
-    let mut determinant = 1.0;
-    for k in 0..m {
-        let pivot = (k..m).max_by(|&i, &j| a[i][k].abs().total_cmp(&a[j][k].abs()))?;
-        if a[pivot][k] == 0.0 {
-            return None;
-        }
-        if pivot != k {
-            a.swap(pivot, k);
-            b.swap(pivot, k);
-            determinant = -determinant;
-        }
-        determinant *= a[k][k];
-        let pivot_row = a[k];
-        for i in k + 1..m {
-            let factor = a[i][k] / pivot_row[k];
-            for (value, &above) in a[i][k..m].iter_mut().zip(&pivot_row[k..m]) {
-                *value -= factor * above;
-            }
-            b[i] -= factor * b[k];
-        }
-    }
-    let mut x = [0.0; 6];
-    for k in (0..m).rev() {
-        let sum: f64 = (k + 1..m).map(|j| a[k][j] * x[j]).sum();
-        x[k] = (b[k] - sum) / a[k][k];
-    }
-    x.iter()
-        .all(|v| v.is_finite())
-        .then_some((x, determinant / scales))
-}
-
-/// [`solve_small`] of two rows and columns, by Cramer's rule (the pose of a planar two-leg
-/// mechanism: a block near enough to singular for Cramer's rule to lose accuracy is left to the
-/// stacked solve anyway, [`NEAR_SINGULAR`]).
-fn solve_two(a: &[[f64; 6]; 6], b: &[f64; 6]) -> Option<([f64; 6], f64)> {
-    let ([a00, a01], [a10, a11]) = ([a[0][0], a[0][1]], [a[1][0], a[1][1]]);
-    let determinant = a00 * a11 - a01 * a10;
-    if determinant == 0.0 {
-        return None;
-    }
-    let mut x = [0.0; 6];
-    x[0] = (b[0] * a11 - a01 * b[1]) / determinant;
-    x[1] = (a00 * b[1] - a10 * b[0]) / determinant;
-    let norm = |p: f64, q: f64| (p * p + q * q).sqrt().max(f64::MIN_POSITIVE);
-    let scales = norm(a00, a10) * norm(a01, a11);
-    x.iter()
-        .all(|v| v.is_finite())
-        .then_some((x, determinant / scales))
 }
 
 #[cfg(test)]

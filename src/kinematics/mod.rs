@@ -16,4 +16,5 @@ pub mod pointing;
 pub(crate) mod pose_derivative;
 pub mod reading;
 pub mod singularity;
+mod small_solve;
 mod sphere_intersection;
