@@ -83,7 +83,7 @@ struct DualPass<const N: usize> {
     /// The leg's closed-form pattern, if it has one.
     pattern: Option<LegKernel>,
     /// The closed-form kernel in duals (the reading's derivatives from its closed form where
-    /// its f64 partials fail), built on first use when the lanes were not taken from it.
+    /// its f64 partials fail), built on first use.
     kernel: OnceLock<Option<PreparedKernel<DualSVec64<N>>>>,
     /// The kernel's inputs split into values and lanes: the reading's derivatives by the
     /// chain rule on the kernel's f64 partials ([`LegKernel::actuated_partials`]).
@@ -112,8 +112,9 @@ fn split<const N: usize>(x: &DualSVec64<N>) -> Lanes<N> {
 }
 
 impl<const N: usize> KernelLanes<N> {
-    fn new(kernel: &PreparedKernel<DualSVec64<N>>, geometry: &LegGeometry<DualSVec64<N>>) -> Self {
-        Self::with_frame(kernel.frame_scalars().map(|x| split(&x)), geometry)
+    /// The lanes of `kernel`'s frame at the dual `geometry`.
+    fn new(kernel: &LegKernel, geometry: &LegGeometry<DualSVec64<N>>) -> Self {
+        Self::with_frame(kernel.frame_scalars(geometry).map(|x| split(&x)), geometry)
     }
 
     /// The lanes of a pass that moves no joint origin: the kernel frame's numbers are
@@ -198,18 +199,15 @@ impl<const N: usize> DualPass<N> {
         }
         let geometry = leg.geometry(&phi_dual);
         let pattern = kernel.map(PreparedKernel::kernel);
-        let dual_kernel = OnceLock::new();
         // The kernel's frame is built from the joint origins alone: where the pass seeds none,
         // its lanes are zero and its numbers the f64 kernel's, so the frame is not composed in
         // duals.
-        let lanes = match kernel {
-            Some(kernel) if !moves_origins => Some(KernelLanes::fixed_frame(kernel, &geometry)),
-            _ => {
-                let prepared = pattern.map(|pattern| pattern.prepare(&geometry));
-                let lanes = prepared.as_ref().map(|k| KernelLanes::new(k, &geometry));
-                let _ = dual_kernel.set(prepared);
-                lanes
+        let lanes = match (kernel, pattern) {
+            (Some(kernel), _) if !moves_origins => {
+                Some(KernelLanes::fixed_frame(kernel, &geometry))
             }
+            (_, Some(pattern)) => Some(KernelLanes::new(&pattern, &geometry)),
+            _ => None,
         };
         Self {
             first,
@@ -217,7 +215,7 @@ impl<const N: usize> DualPass<N> {
             variable_angles,
             pattern,
             lanes,
-            kernel: dual_kernel,
+            kernel: OnceLock::new(),
             geometry,
         }
     }

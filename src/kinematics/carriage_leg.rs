@@ -16,7 +16,7 @@
 
 use nalgebra::{Matrix3, Vector3};
 
-use super::chain::tip_position;
+use super::chain::{tip_position, Transform};
 use super::inverse::{normalised_determinant, Joints, Solution, SINGULAR_DETERMINANT};
 use super::pointing::{composed, rotation_value, still, vector_value, Pointed, Pointing};
 use crate::model::joint::JointKind;
@@ -51,6 +51,18 @@ pub struct CarriageFrame<T> {
     /// `L²`.
     squared_rod: T,
     pointing: Pointing,
+}
+
+/// The carriage's line in a leg's geometry ([`CarriageLeg::frame`]).
+struct CarriageLine<T: Scalar> {
+    /// The carriage joint's frame at a zero carriage.
+    carriage: Transform<T>,
+    /// From the carriage's frame to the first revolute's.
+    to_first: Transform<T>,
+    /// The first revolute's joint index.
+    first: usize,
+    /// `v`: the carriage's world direction.
+    direction: [T; 3],
 }
 
 /// A carriage leg solved at one target.
@@ -111,19 +123,15 @@ impl CarriageLeg {
 
     /// The leg's geometry at `geometry`.
     pub fn frame<T: Scalar>(&self, geometry: &LegGeometry<T>) -> CarriageFrame<T> {
-        let [p, r1, r2] = self.joints;
-        let carriage = composed(geometry, 0..p + 1);
-        let [a, w1, w2] = self.axes.map(Vector3::from);
-        let direction = carriage.rotation.matrix() * a.map(lift::<T>);
-        let base = carriage * composed(geometry, p + 1..r1 + 1);
-        let to_second = rotation_value(&composed(geometry, r1 + 1..r2 + 1));
-        let rod = composed(geometry, r2 + 1..geometry.origins.len())
-            .translation
-            .vector;
+        let [_, _, r2] = self.joints;
+        let [_, w1, w2] = self.axes.map(Vector3::from);
+        let (line, rod) = self.line(geometry);
+        let base = line.carriage * line.to_first;
+        let to_second = rotation_value(&composed(geometry, line.first + 1..r2 + 1));
         let t = &base.translation.vector;
         CarriageFrame {
             start: [t[0], t[1], t[2]],
-            direction: [direction[0], direction[1], direction[2]],
+            direction: line.direction,
             squared_rod: rod.dot(&rod),
             pointing: Pointing::new(
                 rotation_value(&base),
@@ -132,6 +140,39 @@ impl CarriageLeg {
                 to_second * vector_value(&rod),
             ),
         }
+    }
+
+    /// [`CarriageFrame::scalars`] of [`Self::frame`] at `geometry`, bit for bit, without the
+    /// revolutes' pointing (f64 only) and the base's rotation: what a derivative pass needs of
+    /// the frame.
+    pub fn frame_scalars<T: Scalar>(&self, geometry: &LegGeometry<T>) -> [T; 8] {
+        let (line, rod) = self.line(geometry);
+        // The translation of `carriage * to_first`, summed as the isometries' product sums it.
+        let shift = line.carriage.rotation * line.to_first.translation.vector;
+        let t = line.carriage.translation.vector + shift;
+        let [vx, vy, vz] = line.direction;
+        [t[0], t[1], t[2], vx, vy, vz, rod.dot(&rod), lift::<T>(0.0)]
+    }
+
+    /// The carriage's line at `geometry`: its frame, the transform on to the first revolute
+    /// and the carriage's world direction; and the rod (from the second revolute to the tip,
+    /// in the rod's frame).
+    fn line<T: Scalar>(&self, geometry: &LegGeometry<T>) -> (CarriageLine<T>, Vector3<T>) {
+        let [p, r1, r2] = self.joints;
+        let carriage = composed(geometry, 0..p + 1);
+        let a = Vector3::from(self.axes[0]);
+        let direction = carriage.rotation.matrix() * a.map(lift::<T>);
+        let to_first = composed(geometry, p + 1..r1 + 1);
+        let rod = composed(geometry, r2 + 1..geometry.origins.len())
+            .translation
+            .vector;
+        let line = CarriageLine {
+            carriage,
+            to_first,
+            first: r1,
+            direction: [direction[0], direction[1], direction[2]],
+        };
+        (line, rod)
     }
 
     /// The carriage `q` reaching `target` on the home side and the target from the start

@@ -126,12 +126,7 @@ impl DistanceLeg {
         let base = composed(geometry, 0..self.first + 1);
         let axis = Vector3::from(self.axis);
         let t = &base.translation.vector;
-        let offset = (self.prismatic + 1..geometry.origins.len())
-            .map(|j| {
-                let o = &geometry.origins[j];
-                o[0] * lift::<T>(axis[0]) + o[1] * lift::<T>(axis[1]) + o[2] * lift::<T>(axis[2])
-            })
-            .fold(lift::<T>(0.0), |sum, v| sum + v);
+        let offset = self.offset(geometry);
         // The joints after the first revolute up to the prismatic one only turn.
         let (second, pointer) = match self.second {
             Some(second) => {
@@ -155,6 +150,35 @@ impl DistanceLeg {
             offset,
             pointing: Pointing::new(rotation_value(&base), first_axis, second, pointer),
         }
+    }
+
+    /// [`DistanceFrame::scalars`] of [`Self::frame`] at `geometry`, bit for bit, without the
+    /// revolutes' pointing (f64 only): what a derivative pass needs of the frame.
+    pub fn frame_scalars<T: Scalar>(&self, geometry: &LegGeometry<T>) -> [T; 8] {
+        let t = composed(geometry, 0..self.first + 1).translation.vector;
+        let zero = lift::<T>(0.0);
+        [
+            t[0],
+            t[1],
+            self.offset(geometry),
+            t[2],
+            zero,
+            zero,
+            zero,
+            zero,
+        ]
+    }
+
+    /// `s`: the origins after the prismatic joint along its axis.
+    #[inline]
+    fn offset<T: Scalar>(&self, geometry: &LegGeometry<T>) -> T {
+        let axis = Vector3::from(self.axis);
+        (self.prismatic + 1..geometry.origins.len())
+            .map(|j| {
+                let o = &geometry.origins[j];
+                o[0] * lift::<T>(axis[0]) + o[1] * lift::<T>(axis[1]) + o[2] * lift::<T>(axis[2])
+            })
+            .fold(lift::<T>(0.0), |sum, v| sum + v)
     }
 
     /// The closure coordinates: 2 in the plane, 3 in space.

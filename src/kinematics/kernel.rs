@@ -83,6 +83,16 @@ impl LegKernel {
         }
     }
 
+    /// [`PreparedKernel::frame_scalars`] of the kernel prepared at `geometry`, bit for bit,
+    /// without what only the f64 solve needs of the frame (a derivative pass's lanes).
+    pub fn frame_scalars<T: Scalar>(&self, geometry: &LegGeometry<T>) -> [T; 8] {
+        match self {
+            Self::Dyad(dyad) => dyad.frame(geometry).scalars(),
+            Self::Distance(leg) => leg.frame_scalars(geometry),
+            Self::Carriage(leg) => leg.frame_scalars(geometry),
+        }
+    }
+
     /// The kernel prepared at `geometry` (the leg's geometry at one parameter vector).
     pub fn prepare<T: Scalar>(&self, geometry: &LegGeometry<T>) -> PreparedKernel<T> {
         let frame = match self {

@@ -44,9 +44,9 @@ pub(crate) fn nearest_intersection(
         return None;
     }
     let z = z2.sqrt();
-    let foot = [0, 1, 2].map(|k| centres[0][k] + x * ex[k] + y * ey[k]);
-    let pair = [z, -z].map(|h| [0, 1, 2].map(|k| foot[k] + h * ez[k]));
-    clearly_nearer(pair, near)
+    let foot: [f64; 3] = std::array::from_fn(|k| centres[0][k] + x * ex[k] + y * ey[k]);
+    let at = |h: f64| -> [f64; 3] { std::array::from_fn(|k| foot[k] + h * ez[k]) };
+    clearly_nearer([at(z), at(-z)], near)
 }
 
 #[cfg(test)]

@@ -16,7 +16,8 @@ use legwise::kinematics::reading::ReadingPredictor;
 use legwise::model::joint::{JointKind, JointModel};
 use legwise::model::leg::LegModel;
 use legwise::model::params::{ParamTarget, Parameter, Unit};
-use nalgebra::Vector3;
+use nalgebra::{Const, Vector3, U1};
+use num_dual::{DualSVec64, DualStruct};
 use proptest::prelude::*;
 
 use crate::kernels::config;
@@ -411,6 +412,32 @@ proptest! {
             }
         }
         prop_assume!(compared > 0);
+    }
+
+    /// A kernel's frame numbers taken alone ([`LegKernel::frame_scalars`], what a derivative
+    /// pass needs) are those of the whole prepared frame, bit for bit, in f64 and in duals
+    /// seeded on three random parameters (values and every lane).
+    #[test]
+    fn the_frame_numbers_alone_are_the_prepared_frames(
+        r in random_leg(),
+        seeded in proptest::collection::vec(0..64usize, 3),
+    ) {
+        let leg = leg_model(&r);
+        let kernel = LegKernel::recognise(&leg).expect("recognised");
+        let phi = leg.nominal();
+        let bits = |x: &DualSVec64<3>| (x.re.to_bits(), x.eps.unwrap_generic(Const::<3>, U1).map(f64::to_bits));
+        let geometry = leg.geometry(&phi);
+        let alone = kernel.frame_scalars(&geometry).map(f64::to_bits);
+        prop_assert_eq!(alone, kernel.prepare(&geometry).frame_scalars().map(f64::to_bits));
+        let mut dual: Vec<DualSVec64<3>> = phi.iter().map(|&v| DualSVec64::from_re(v)).collect();
+        for (lane, &k) in seeded.iter().enumerate() {
+            let k = k % phi.len();
+            dual[k] = DualSVec64::from_re(phi[k]).derivative(lane);
+        }
+        let geometry = leg.geometry(&dual);
+        let alone = kernel.frame_scalars(&geometry).map(|x| bits(&x));
+        let whole = kernel.prepare(&geometry).frame_scalars().map(|x| bits(&x));
+        prop_assert_eq!(alone, whole);
     }
 
     /// A carriage leg's target farther from the carriage line than the rod is long is refused
