@@ -11,7 +11,7 @@ pub use super::error_stats::ErrorStats;
 use super::observed_frame::{observed_frame_error, ObservedFrameError};
 use crate::error::{Error, Result};
 use crate::identify::estimate::StrategyResult;
-use crate::kinematics::chain::{attachment_on, platform_transform_f64, ChainFrames};
+use crate::kinematics::chain::{attachment_on, platform_transform_f64, LazyChainFrames};
 use crate::kinematics::inverse::{predict_reading, reading_value, Joints, MAX_JOINTS};
 use crate::kinematics::kernel::LegInverse;
 use crate::kinematics::platform::{forward, Configuration, ForwardKinematics};
@@ -267,7 +267,7 @@ pub fn commanded_each(
         .zip(commanding)
         .map(|(leg, phi)| leg.geometry(phi))
         .collect();
-    let frames: Vec<ChainFrames<f64>> = geometries.iter().map(ChainFrames::new).collect();
+    let frames: Vec<LazyChainFrames> = geometries.iter().map(|_| LazyChainFrames::new()).collect();
     // Each leg's closed-form kernel where its chain has one (the generic chain otherwise).
     let inverses: Vec<LegInverse<'_>> = mechanism
         .legs

@@ -21,7 +21,7 @@ use num_dual::{DualSVec64, DualStruct};
 
 use crate::error::KinematicsError;
 use crate::kinematics::chain::{
-    attachment_on, attachment_on_constant, attachment_world, platform_transform, ChainFrames,
+    attachment_on, attachment_on_constant, attachment_world, platform_transform, LazyChainFrames,
     TipChain, Transform,
 };
 use crate::kinematics::inverse::{
@@ -41,7 +41,7 @@ pub const LANES: usize = 8;
 pub struct PreparedLeg<'a> {
     leg: &'a LegModel,
     geometry: LegGeometry<f64>,
-    frames: ChainFrames<f64>,
+    frames: LazyChainFrames,
     /// The leg's closed-form kernel at the parameters, if its chain has one.
     kernel: Option<PreparedKernel<f64>>,
     passes: Vec<Arc<dyn GradientPass>>,
@@ -312,7 +312,7 @@ impl<'a> PreparedLeg<'a> {
         let geometry = leg.geometry(phi);
         let mut prepared = Self {
             leg,
-            frames: ChainFrames::new(&geometry),
+            frames: LazyChainFrames::new(),
             kernel: kernel.map(|kernel| kernel.prepare(&geometry)),
             geometry,
             passes: Vec::new(),
@@ -509,7 +509,7 @@ impl<'a> PreparedLeg<'a> {
         gradient: &mut [f64],
     ) -> f64 {
         let q = joints(&solution.q);
-        let tip = self.frames.tip(self.leg, &solution.q);
+        let tip = self.frames.get(&self.geometry).tip(self.leg, &solution.q);
         let target = attachment_on(&platform_transform(pose), &self.geometry.attachment);
         let mut closure = tip - target;
         for k in self.leg.closure_dims..3 {

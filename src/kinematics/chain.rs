@@ -1,6 +1,7 @@
 //! Forward kinematics of a leg chain, generic over the scalar (f64 and dual numbers).
 
 use std::borrow::Borrow;
+use std::sync::OnceLock;
 
 use nalgebra::{Matrix3, Rotation3, Translation3, Vector3};
 
@@ -93,6 +94,24 @@ impl<T: Scalar> ChainFrames<T> {
             |_, _| {},
         );
         Vector3::from(last)
+    }
+}
+
+/// A geometry's [`ChainFrames`] built on first use: a leg whose closed-form kernel solves every
+/// pose never needs its chain (the frames' trigonometry is then not done at all).
+#[derive(Debug, Clone, Default)]
+pub struct LazyChainFrames(OnceLock<ChainFrames<f64>>);
+
+impl LazyChainFrames {
+    /// Frames not built yet.
+    pub fn new() -> Self {
+        Self::default()
+    }
+
+    /// The frames of `geometry` (the geometry these frames are always asked for), built at the
+    /// first call.
+    pub fn get(&self, geometry: &LegGeometry<f64>) -> &ChainFrames<f64> {
+        self.0.get_or_init(|| ChainFrames::new(geometry))
     }
 }
 

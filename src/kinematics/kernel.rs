@@ -11,7 +11,7 @@
 use nalgebra::Vector3;
 
 use super::carriage_leg::{CarriageFrame, CarriageLeg};
-use super::chain::ChainFrames;
+use super::chain::LazyChainFrames;
 use super::distance_leg::{DistanceFrame, DistanceLeg};
 use super::dyad::{on_turn_of, Dyad, DyadFrame};
 use super::inverse::{joints, solve_warm, Joints, Solution};
@@ -186,17 +186,17 @@ impl PreparedKernel<f64> {
 pub struct LegInverse<'a> {
     leg: &'a LegModel,
     geometry: &'a LegGeometry<f64>,
-    frames: &'a ChainFrames<f64>,
+    frames: &'a LazyChainFrames,
     kernel: Option<PreparedKernel<f64>>,
 }
 
 impl<'a> LegInverse<'a> {
-    /// `leg`'s inverse kinematics at `geometry` (its chain `frames`, [`ChainFrames::new`] of
-    /// it), with the closed-form kernel its chain matches, if any.
+    /// `leg`'s inverse kinematics at `geometry` (its chain `frames`, built on first use), with
+    /// the closed-form kernel its chain matches, if any.
     pub fn new(
         leg: &'a LegModel,
         geometry: &'a LegGeometry<f64>,
-        frames: &'a ChainFrames<f64>,
+        frames: &'a LazyChainFrames,
     ) -> Self {
         Self {
             leg,
@@ -231,7 +231,7 @@ impl<'a> LegInverse<'a> {
 /// As [`solve_warm`]: the leg cannot reach the pose on its home branch.
 pub fn solve_warm_through(
     kernel: Option<&PreparedKernel<f64>>,
-    (leg, geometry, frames): (&LegModel, &LegGeometry<f64>, &ChainFrames<f64>),
+    (leg, geometry, frames): (&LegModel, &LegGeometry<f64>, &LazyChainFrames),
     (pose, target): (&[f64; 6], &Vector3<f64>),
     home_pose: &[f64; 6],
     seed: Option<&Joints>,
@@ -242,6 +242,7 @@ pub fn solve_warm_through(
             return Ok(solution);
         }
     }
+    let frames = frames.get(geometry);
     solve_warm(leg, geometry, frames, (pose, target), home_pose, seed)
 }
 

@@ -11,7 +11,7 @@ use std::sync::OnceLock;
 
 use nalgebra::Vector3;
 
-use super::chain::ChainFrames;
+use super::chain::LazyChainFrames;
 use super::inverse::{joints, Joints};
 use super::kernel::{prepare_each, LegKernel, PreparedKernel};
 use super::kernel_forward::{KernelForward, KernelRows};
@@ -98,7 +98,7 @@ pub struct ForwardKinematics<'m> {
     mechanism: &'m Mechanism,
     layout: Layout,
     geometries: Vec<LegGeometry<f64>>,
-    frames: Vec<ChainFrames<f64>>,
+    frames: Vec<LazyChainFrames>,
     /// The smallest size the tolerances use: 1e-3 of the longest leg (its joint origins'
     /// offsets and its platform joint, end to end), for a platform whose joints all pass
     /// through the world origin.
@@ -138,7 +138,7 @@ impl<'m> ForwardKinematics<'m> {
             .zip(params)
             .map(|(l, p)| l.geometry(p))
             .collect();
-        let frames = geometries.iter().map(ChainFrames::new).collect();
+        let frames = geometries.iter().map(|_| LazyChainFrames::new()).collect();
         let longest = geometries
             .iter()
             .map(|g| {

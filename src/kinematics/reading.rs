@@ -2,7 +2,7 @@
 //! legs): [`super::inverse::predict_reading`] in f64 with the leg's geometry, chain frames and
 //! closed-form kernel built once instead of at every pose.
 
-use super::chain::{attachment_world, ChainFrames};
+use super::chain::{attachment_world, LazyChainFrames};
 use super::dyad::on_turn_of;
 use super::inverse::{reading_at, solve_from_home};
 use super::kernel::{LegKernel, PreparedKernel};
@@ -14,7 +14,7 @@ use crate::model::leg::{LegGeometry, LegModel};
 pub struct ReadingPredictor<'a> {
     leg: &'a LegModel,
     geometry: LegGeometry<f64>,
-    frames: ChainFrames<f64>,
+    frames: LazyChainFrames,
     /// The leg's closed-form kernel at these parameters, when its chain has one.
     kernel: Option<PreparedKernel<f64>>,
 }
@@ -28,7 +28,7 @@ impl<'a> ReadingPredictor<'a> {
     /// As [`Self::new`], with `leg`'s kernel already recognised ([`LegKernel::recognise`]).
     pub fn with_kernel(leg: &'a LegModel, phi: &[f64], kernel: Option<LegKernel>) -> Self {
         let geometry = leg.geometry(phi);
-        let frames = ChainFrames::new(&geometry);
+        let frames = LazyChainFrames::new();
         let kernel = kernel.map(|kernel| kernel.prepare(&geometry));
         Self {
             leg,
@@ -63,7 +63,7 @@ pub(crate) fn predict_with(
     leg: &LegModel,
     (geometry, frames, kernel): (
         &LegGeometry<f64>,
-        &ChainFrames<f64>,
+        &LazyChainFrames,
         Option<&PreparedKernel<f64>>,
     ),
     pose: &[f64; 6],
@@ -79,6 +79,7 @@ pub(crate) fn predict_with(
         };
         return Ok((actuated - geometry.offset) / geometry.gain);
     }
+    let frames = frames.get(geometry);
     let solution = solve_from_home(leg, geometry, frames, pose, home_pose)?;
     Ok(reading_at(leg, frames, geometry, &target, &solution))
 }
