@@ -47,8 +47,9 @@ const ROWS_PER_TASK: usize = 4;
 /// what a few dozen rows do (docs/benchmarks.md, the forward benches).
 const PARALLEL_ROWS: usize = 64;
 
-/// Rows closed already at the unknowns: their poses and their legs' kernel rows there.
-pub(super) type KnownRows<'k> = (&'k [[f64; 6]], &'k [Option<KernelRows>]);
+/// Rows closed already at the unknowns: their poses and their legs' kernel rows there (taken
+/// from the latest evaluation, not copied).
+pub(super) type KnownRows = (Vec<[f64; 6]>, Vec<Option<KernelRows>>);
 
 /// One row as closed: its readings and start, and where its pose and its legs' kernel rows
 /// are written.
@@ -148,7 +149,7 @@ impl IdentificationProblem<'_> {
         let instrument = sighted.instrument;
         let params = self.all_leg_parameters(x);
         let shared = sighted.values(x.as_slice());
-        let known_poses = known.as_ref().map(|l| (&l.poses[..], &l.rows[..]));
+        let known_poses = known.map(|l| (l.poses, l.rows));
         let closed = self.close_rows(forward, (&params, x), (jacobian, known_poses))?;
         let measured = &self.mechanism.measured;
         let p = self.parameter_count();
@@ -260,9 +261,11 @@ impl IdentificationProblem<'_> {
         &self,
         forward: &Forward,
         (params, x): (&[Vec<f64>], &DVector<f64>),
-        (moves, known): (bool, Option<KnownRows<'_>>),
+        (moves, known): (bool, Option<KnownRows>),
     ) -> Result<ClosedRows, BlockError> {
         let mechanism = self.mechanism;
+        let count = forward.rows.len();
+        let known = known.filter(|(poses, _)| poses.len() == count);
         // Poses already closed at these unknowns need no solve (their configurations are the
         // rows' starts).
         let kinematics = match known {
@@ -290,13 +293,16 @@ impl IdentificationProblem<'_> {
             .starts
             .lock()
             .unwrap_or_else(std::sync::PoisonError::into_inner);
-        // Rows are independent: each closed from its own start (the same poses whatever the
-        // order), the first failing row in row order reported; many rows are closed on every
-        // core.
-        let count = forward.rows.len();
+        // Known rows are where they were closed (their poses and kernel rows moved in).
+        let is_known = known.is_some();
+        let (poses, rows) = match known {
+            Some((poses, rows)) if rows.len() == count => (poses, rows),
+            Some((poses, _)) => (poses, vec![None; count]),
+            None => (vec![[0.0; 6]; count], vec![None; count]),
+        };
         let mut closed = ClosedRows {
-            poses: vec![[0.0; 6]; count],
-            rows: vec![None; count],
+            poses,
+            rows,
             moves: match moves {
                 true => RowsMoves::new(count, prepared.iter().map(|l| l.columns()).sum()),
                 false => RowsMoves::default(),
@@ -307,15 +313,12 @@ impl IdentificationProblem<'_> {
                      moves_out: Option<(&mut Moves, &mut [f64])>| {
             let fail = |source: KinematicsError| self.forward_error(index, source, x);
             let configuration = start.get_or_insert_with(|| Configuration::home(mechanism));
-            let pose = match (known, &kinematics) {
-                (Some((poses, rows)), _) => {
-                    *rows_out = rows.get(index).copied().flatten();
-                    poses[index]
-                }
-                (None, Some(kinematics)) => kinematics
+            let pose = match (is_known, &kinematics) {
+                (true, _) => *pose_out,
+                (false, Some(kinematics)) => kinematics
                     .solve_near_closed(&row.readings, configuration, rows_out)
                     .map_err(fail)?,
-                (None, None) => {
+                (false, None) => {
                     return Err(fail(KinematicsError::NotAssemblable {
                         residual: f64::INFINITY,
                     }))

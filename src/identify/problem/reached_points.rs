@@ -45,9 +45,7 @@ impl IdentificationProblem<'_> {
             Some((poses, rows, Some(moves))) => ClosedRows { poses, rows, moves },
             known => {
                 let params = self.all_leg_parameters(x);
-                let known = known
-                    .as_ref()
-                    .map(|(poses, rows, _)| (&poses[..], &rows[..]));
+                let known = known.map(|(poses, rows, _)| (poses, rows));
                 self.close_rows(forward, (&params, x), (true, known))?
             }
         };
