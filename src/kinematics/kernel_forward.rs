@@ -31,6 +31,16 @@ use crate::model::joint::JointKind;
 use crate::model::leg::LegGeometry;
 use crate::model::Mechanism;
 
+/// What a Newton solve of the pose starts from: the readings, the pose (the start, then the
+/// solution), where the legs' joints are handed back, and the mechanism's size with whether the
+/// configuration is handed back exactly ([`KernelForward::newton`]).
+type NewtonAt<'a> = (
+    &'a [f64],
+    &'a mut [f64; 6],
+    Option<&'a mut [Joints]>,
+    (f64, bool),
+);
+
 /// Newton iterations before the pose is left to the stacked solve.
 const MAX_ITERATIONS: usize = 30;
 
@@ -281,8 +291,8 @@ impl KernelForward {
     /// [`Self::newton`], with the legs' rows of its last evaluation written into `last` (when
     /// given) if that was at the pose it returns (a step at round-off, not taken): what the
     /// pose's derivatives need of the legs there, without evaluating the kernels again. `last`
-    /// is left as it is otherwise (after a landing step the last evaluation is a round-off step
-    /// away).
+    /// is `None` otherwise (after a landing step the last evaluation is a round-off step away;
+    /// without a solution).
     pub(crate) fn newton_rows(
         &self,
         readings: &[f64],
@@ -291,6 +301,33 @@ impl KernelForward {
         (size, exact): (f64, bool),
         (first, last): (Option<&KernelRows>, Option<&mut Option<KernelRows>>),
     ) -> Option<f64> {
+        let at = (readings, pose, joints, (size, exact));
+        let Some(slot) = last else {
+            return self
+                .newton_kept(at, (first, None))
+                .map(|(determinant, _)| determinant);
+        };
+        // The rows are written where they are kept, as they are evaluated.
+        let kept = slot.insert(KernelRows {
+            pose: *at.1,
+            rows: [None; 6],
+        });
+        match self.newton_kept(at, (first, Some(kept))) {
+            Some((determinant, true)) => Some(determinant),
+            solved => {
+                *slot = None;
+                solved.map(|(determinant, _)| determinant)
+            }
+        }
+    }
+
+    /// [`Self::newton_rows`] writing each evaluation's rows into `kept` (when given), and
+    /// whether they are at the pose returned (else they are not to be read).
+    fn newton_kept(
+        &self,
+        (readings, pose, joints, (size, exact)): NewtonAt<'_>,
+        (first, mut kept): (Option<&KernelRows>, Option<&mut KernelRows>),
+    ) -> Option<(f64, bool)> {
         let m = self.measured.len();
         if readings.len() != m || joints.as_ref().is_some_and(|j| j.len() != m) {
             return None;
@@ -312,7 +349,6 @@ impl KernelForward {
         // The legs' attachment points at the last evaluation: where the joints handed back
         // are solved (a round-off step from the pose returned).
         let mut targets = [Vector3::zeros(); 6];
-        let mut rows = [None; 6];
         for _ in 0..MAX_ITERATIONS {
             let platform = platform_transform_f64(pose);
             // The platform's derivatives: constant unless an angle is measured.
@@ -335,8 +371,8 @@ impl KernelForward {
                     None => leg.kernel.actuated_row(&target)?,
                 };
                 targets[l] = target;
-                if last.is_some() {
-                    rows[l] = Some((actuated, row));
+                if let Some(kept) = kept.as_deref_mut() {
+                    kept.rows[l] = Some((actuated, row));
                 }
                 let difference = actuated - wanted;
                 residual[l] = if revolute {
@@ -371,10 +407,10 @@ impl KernelForward {
             let accepted = (determinant.abs() > NEAR_SINGULAR).then_some(determinant);
             if !beyond_round_off(&unknowns[..m], &step[..m]) {
                 let determinant = self.with_joints(accepted?, readings, &targets, joints)?;
-                if let Some(last) = last {
-                    *last = Some(KernelRows { pose: *pose, rows });
+                if let Some(kept) = kept {
+                    kept.pose = *pose;
                 }
-                return Some(determinant);
+                return Some((determinant, true));
             }
             for (k, &c) in self.measured.iter().enumerate() {
                 pose[c] -= step[k];
@@ -388,7 +424,8 @@ impl KernelForward {
             let next = largest * largest * (largest / (previous * previous));
             let predicted = previous.is_finite() || (joints.is_none() && !exact);
             if largest <= LANDING && next <= LANDED && predicted {
-                return self.with_joints(accepted?, readings, &targets, joints);
+                let determinant = self.with_joints(accepted?, readings, &targets, joints)?;
+                return Some((determinant, false));
             }
             previous = largest;
         }

@@ -40,6 +40,10 @@ struct SpatialPass<'a> {
     frame_turns: [Matrix3<f64>; 3],
     /// Whether a seed is a pose angle (the platform's rotation derivatives are then needed).
     angles: bool,
+    /// Whether a seed is a frame angle (`v` is then needed).
+    frame_angles: bool,
+    /// Whether a seed is a target's offset (`R_fᵀ R_P` is then needed).
+    offsets: bool,
 }
 
 impl<'a> SpatialPass<'a> {
@@ -63,9 +67,18 @@ impl<'a> SpatialPass<'a> {
         let mut frame_pose = [0.0; 6];
         frame_pose[3..].copy_from_slice(&shared[FRAME + 3..FRAME + 6]);
         let turns = pose_derivatives(&frame_pose, &[3, 4, 5]);
+        let shared_index = |k: &Seed| match *k {
+            Seed::Shared { k, .. } => Some(k),
+            Seed::Pose(_) => None,
+        };
+        let seeded = |first: usize, end: usize| {
+            (seeds.iter().filter_map(shared_index)).any(|k| (first..end).contains(&k))
+        };
         Some(Self {
             instrument,
             angles: seeds.iter().any(|s| matches!(s, Seed::Pose(c) if *c >= 3)),
+            frame_angles: seeded(FRAME + 3, FRAME + 6),
+            offsets: seeded(FRAME + 6, usize::MAX),
             seeds,
             shared: shared.to_vec(),
             frame: SpatialFrame::new(shared),
@@ -93,13 +106,22 @@ impl Pass for SpatialPass<'_> {
         let transposed = self.frame.transposed();
         let p = Vector3::new(pose[0], pose[1], pose[2]);
         let width = out.width;
-        // ∂m/∂t_k = R_fᵀ R_P, every target's.
-        let by_offset = transposed * platform;
+        // ∂m/∂t_k = R_fᵀ R_P, every target's (when an offset is seeded).
+        let by_offset = if self.offsets {
+            transposed * platform
+        } else {
+            Matrix3::zeros()
+        };
         let mut o = 0;
         for (k, target) in self.instrument.targets.iter().enumerate() {
             let offset = self.instrument.offset_index(k);
             let t = Vector3::from_column_slice(&self.shared[offset..offset + 3]);
-            let v = p + platform * t - self.frame.origin();
+            // `v` (when a frame angle is seeded).
+            let v = if self.frame_angles {
+                p + platform * t - self.frame.origin()
+            } else {
+                Vector3::zeros()
+            };
             // R_fᵀ (∂R_P/∂θ) t for each pose angle θ.
             let by_angle = platform_turns
                 .as_ref()
