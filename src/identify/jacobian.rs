@@ -103,6 +103,9 @@ struct KernelLanes<const N: usize> {
     attachment: [Lanes<N>; 3],
     gain: Lanes<N>,
     offset: Lanes<N>,
+    /// Which of the frame's numbers, and whether the attachment, carry a non-zero lane: a
+    /// term of zero lanes adds nothing to a sum that starts at `+0` (its partial finite).
+    moving: ([bool; 8], bool),
 }
 
 /// `x`'s value and its `N` derivative lanes.
@@ -125,9 +128,12 @@ impl<const N: usize> KernelLanes<N> {
     }
 
     fn with_frame(frame: [Lanes<N>; 8], geometry: &LegGeometry<DualSVec64<N>>) -> Self {
+        let attachment = geometry.attachment.map(|x| split(&x));
+        let moves = |(_, lanes): &Lanes<N>| lanes.iter().any(|&lane| lane != 0.0);
         Self {
+            moving: (frame.each_ref().map(moves), attachment.iter().any(moves)),
             frame,
-            attachment: geometry.attachment.map(|x| split(&x)),
+            attachment,
             gain: split(&geometry.gain),
             offset: split(&geometry.offset),
         }
@@ -159,13 +165,20 @@ impl<const N: usize> KernelLanes<N> {
         // Every lane at once, each lane's sum in the same order as one lane alone: the frame's
         // terms, then the target's three.
         let mut d = [0.0; N];
-        for ((_, lanes), p) in self.frame.iter().zip(&partials) {
+        let (frame_moving, attachment_moving) = self.moving;
+        for (((_, lanes), p), moving) in self.frame.iter().zip(&partials).zip(frame_moving) {
+            if !moving && p.is_finite() {
+                continue;
+            }
             for (d, lane) in d.iter_mut().zip(lanes) {
                 *d += p * lane;
             }
         }
         let [(_, a0), (_, a1), (_, a2)] = &self.attachment;
         for (i, p) in partials[8..].iter().enumerate() {
+            if !attachment_moving && p.is_finite() {
+                continue;
+            }
             let (m0, m1, m2) = (m[(i, 0)], m[(i, 1)], m[(i, 2)]);
             for j in 0..N {
                 d[j] += p * (a0[j] * m0 + a1[j] * m1 + a2[j] * m2);
