@@ -17,7 +17,7 @@ use legwise::model::joint::{JointKind, JointModel};
 use legwise::model::leg::LegModel;
 use legwise::model::params::{ParamTarget, Parameter, Unit};
 use nalgebra::{Const, Vector3, U1};
-use num_dual::{DualSVec64, DualStruct};
+use num_dual::DualSVec64;
 use proptest::prelude::*;
 
 use crate::kernels::config;
