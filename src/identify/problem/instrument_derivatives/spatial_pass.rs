@@ -166,7 +166,7 @@ mod tests {
     /// passes' to 1e-15 of each output's scale, and its values are theirs bit for bit: a probe's
     /// height (the delta, which does not turn) and a reflector's position (the hexapod, every
     /// pose coordinate measured), every shared parameter identified, at perturbed shared values
-    /// and poses.
+    /// and poses; and with each shared parameter identified alone.
     #[test]
     fn the_closed_form_report_derivatives_equal_the_dual_passes() {
         for model in ["delta-probe", "hexapod-reflector"] {
@@ -177,32 +177,38 @@ mod tests {
             for (i, value) in shared.iter_mut().enumerate() {
                 *value += 0.01 * (i as f64 + 1.0).sin();
             }
-            let identified: Vec<usize> = (0..shared.len()).collect();
+            let every: Vec<usize> = (0..shared.len()).collect();
             let measured = &mechanism.measured;
             let f = PoseFunction::Report(instrument);
-            let at = (&shared[..], &identified[..]);
-            let closed = PreparedFunction::with_passes(f, at, (measured, true), true);
-            let dual = PreparedFunction::with_passes(f, at, (measured, true), false);
-            assert!(closed.passes.len() == 1 && dual.passes.len() > 1, "{model}");
-            for step in 0..3 {
-                let mut pose = mechanism.home_pose;
-                for (c, value) in pose.iter_mut().enumerate() {
-                    if measured.contains(&c) {
-                        *value += 0.01 * (step as f64) * (1.0 + c as f64).cos();
+            // Every shared parameter identified, and each alone (what a column needs is formed
+            // for it whatever else is seeded).
+            let alone = every.iter().map(|&k| vec![k]);
+            for identified in std::iter::once(every.clone()).chain(alone) {
+                let at = (&shared[..], &identified[..]);
+                let closed = PreparedFunction::with_passes(f, at, (measured, true), true);
+                let dual = PreparedFunction::with_passes(f, at, (measured, true), false);
+                assert_eq!(closed.passes.len(), 1, "{model}");
+                assert!(identified.len() == 1 || dual.passes.len() > 1, "{model}");
+                for step in 0..3 {
+                    let mut pose = mechanism.home_pose;
+                    for (c, value) in pose.iter_mut().enumerate() {
+                        if measured.contains(&c) {
+                            *value += 0.01 * (step as f64) * (1.0 + c as f64).cos();
+                        }
                     }
-                }
-                let (mut a, mut b) = (Derivatives::default(), Derivatives::default());
-                closed.at(&pose, &mut a);
-                dual.at(&pose, &mut b);
-                let bits = |v: &[f64]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
-                assert_eq!(bits(&a.values), bits(&b.values), "{model}");
-                for o in 0..a.values.len() {
-                    let (x, y) = (&a.by_pose[o], &b.by_pose[o]);
-                    let (u, v) = (a.by_shared(o), b.by_shared(o));
-                    let scale = x.iter().chain(u).map(|d| d.abs()).fold(1.0, f64::max);
-                    let all = x.iter().zip(y).chain(u.iter().zip(v));
-                    for (k, (p, q)) in all.enumerate() {
-                        assert!((p - q).abs() <= 1e-15 * scale, "{model} {o} {k}: {p} {q}");
+                    let (mut a, mut b) = (Derivatives::default(), Derivatives::default());
+                    closed.at(&pose, &mut a);
+                    dual.at(&pose, &mut b);
+                    let bits = |v: &[f64]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+                    assert_eq!(bits(&a.values), bits(&b.values), "{model}");
+                    for o in 0..a.values.len() {
+                        let (x, y) = (&a.by_pose[o], &b.by_pose[o]);
+                        let (u, v) = (a.by_shared(o), b.by_shared(o));
+                        let scale = x.iter().chain(u).map(|d| d.abs()).fold(1.0, f64::max);
+                        let all = x.iter().zip(y).chain(u.iter().zip(v));
+                        for (k, (p, q)) in all.enumerate() {
+                            assert!((p - q).abs() <= 1e-15 * scale, "{model} {o} {k}: {p} {q}");
+                        }
                     }
                 }
             }
