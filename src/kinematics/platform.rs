@@ -96,7 +96,9 @@ impl Configuration {
 /// computed once. Newton's method works in preallocated fixed storage.
 pub struct ForwardKinematics<'m> {
     mechanism: &'m Mechanism,
-    layout: Layout,
+    /// The stacked Newton's unknowns and equations, worked out the first time it runs (a
+    /// solve through the legs' kernels never needs them).
+    layout: OnceLock<Layout>,
     geometries: Vec<LegGeometry<f64>>,
     frames: Vec<LazyChainFrames>,
     /// The smallest size the tolerances use: 1e-3 of the longest leg (its joint origins'
@@ -152,7 +154,7 @@ impl<'m> ForwardKinematics<'m> {
             .fold(0.0, f64::max);
         let mut solver = Self {
             mechanism,
-            layout: layout(mechanism),
+            layout: OnceLock::new(),
             geometries,
             frames,
             smallest_size: 1e-3 * longest,
@@ -215,6 +217,11 @@ impl<'m> ForwardKinematics<'m> {
         let determinant =
             kernel.newton(home_readings, &mut start.pose, joints, (size, false), None)?;
         Some((kernel, determinant.signum()))
+    }
+
+    /// The stacked Newton's unknowns and equations ([`Layout`]).
+    fn layout(&self) -> &Layout {
+        self.layout.get_or_init(|| layout(self.mechanism))
     }
 
     /// The home pose with every leg's home joints.

@@ -36,7 +36,7 @@ impl ForwardKinematics<'_> {
         configuration: &mut Configuration,
     ) -> Result<f64, KinematicsError> {
         let mechanism = self.mechanism;
-        let layout = &self.layout;
+        let layout = self.layout();
         let (n, equations) = (layout.unknowns, layout.equations);
         if n != equations {
             return Err(KinematicsError::NotAssemblable {
@@ -180,7 +180,7 @@ impl ForwardKinematics<'_> {
     /// The factor (at most 1) that keeps every angle of `step` within 0.5 rad and every length
     /// within half the mechanism's `size`.
     fn step_scale(&self, step: &DVector<f64>, size: f64) -> f64 {
-        let layout = &self.layout;
+        let layout = self.layout();
         let length = 0.5 * size.max(f64::MIN_POSITIVE);
         let mut largest = 0.0f64;
         for (k, &c) in layout.pose.iter().enumerate() {
