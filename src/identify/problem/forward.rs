@@ -343,7 +343,7 @@ impl IdentificationProblem<'_> {
         // Rows are independent: each closed from its own start (the same poses whatever the
         // order), every row closed (its start kept for the next evaluation) and the first
         // failing row in row order reported; many rows are closed on every core.
-        let failure = if count >= PARALLEL_ROWS {
+        let results: Vec<Result<(), BlockError>> = if count >= PARALLEL_ROWS {
             let slots = closed.poses.par_iter_mut().zip(closed.rows.par_iter_mut());
             let rows = forward
                 .rows
@@ -351,31 +351,24 @@ impl IdentificationProblem<'_> {
                 .zip(starts.par_iter_mut())
                 .zip(slots);
             let rows = rows.enumerate().with_min_len(ROWS_PER_TASK);
-            let results: Vec<Result<(), BlockError>> = if moves {
+            if moves {
                 let moves = closed.moves.par_slots_mut().with_min_len(ROWS_PER_TASK);
                 rows.zip(moves)
                     .map(|(row, m)| close(row, Some(m)))
                     .collect()
             } else {
                 rows.map(|row| close(row, None)).collect()
-            };
-            results.into_iter().find_map(Result::err)
+            }
         } else {
             let slots = closed.poses.iter_mut().zip(closed.rows.iter_mut());
             let rows = forward.rows.iter().zip(starts.iter_mut()).zip(slots);
             let mut moves_out = closed.moves.slots_mut();
-            let mut first = None;
-            for row in rows.enumerate() {
-                if let Err(failure) = close(row, moves_out.next()) {
-                    first.get_or_insert(failure);
-                }
-            }
-            first
+            rows.enumerate()
+                .map(|row| close(row, moves_out.next()))
+                .collect()
         };
-        match failure {
-            Some(failure) => Err(failure),
-            None => Ok(closed),
-        }
+        results.into_iter().collect::<Result<(), BlockError>>()?;
+        Ok(closed)
     }
 
     /// The error of forward row `index` at the unknowns `x`, located.
