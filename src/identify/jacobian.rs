@@ -121,8 +121,10 @@ impl<const N: usize> KernelLanes<N> {
     }
 
     /// The lanes of a pass that moves no joint origin: the kernel frame's numbers are
-    /// `frame`'s (the f64 kernel's at the same parameters, the values the dual frame would
-    /// have, bit for bit) and carry no derivative.
+    /// `frame`'s (the f64 kernel's at the same parameters, the frame the f64 solve reads) and
+    /// carry no derivative. They are the dual frame's values bit for bit where the frame does
+    /// not divide (the carriage and distance legs), to round-off where it does (the dyad's:
+    /// num-dual divides by multiplying with the reciprocal).
     fn fixed_frame(frame: &PreparedKernel<f64>, geometry: &LegGeometry<DualSVec64<N>>) -> Self {
         Self::with_frame(frame.frame_scalars().map(|x| (x, [0.0; N])), geometry)
     }

@@ -7,10 +7,11 @@
 
 /// The solution `x` of `a x = b` over the first `m` rows and columns (Gaussian elimination with
 /// partial pivoting; Cramer's rule for two) and the determinant of `a`'s block with its columns
-/// scaled to unit norm; `None` if the block is singular, `m` is not 1 to 6 or the solution is
-/// not finite.
+/// scaled to unit norm; `None` if the block is singular, `m` is above 6 or the solution is not
+/// finite (an empty block, `m = 0`, solves to zeros with determinant 1).
 pub(crate) fn solve_small(a: [[f64; 6]; 6], b: [f64; 6], m: usize) -> Option<([f64; 6], f64)> {
     match m {
+        0 => solve_fixed::<0>(&a, &b),
         1 => solve_fixed::<1>(&a, &b),
         2 => solve_two(&a, &b),
         3 => solve_fixed::<3>(&a, &b),

@@ -322,6 +322,18 @@ proptest! {
             for (j, (a, b)) in g_mine.iter().zip(&g_theirs).enumerate() {
                 prop_assert!(close(*a, *b, scale, 1e-12), "∂ψ/∂{}: {a} vs {b}", leg.params[j].name);
             }
+            // The columns no joint origin is among (gain, offset, attachment) take the kernel
+            // frame's numbers from the f64 kernel, without lanes: the derivatives of a pass that
+            // composes the frame in duals to round-off (not bit for bit: the dyad's frame
+            // divides, and num-dual divides by multiplying with the reciprocal).
+            let origin = |c: &usize| matches!(leg.params[*c].target, ParamTarget::JointOrigin { .. });
+            let fixed: Vec<usize> = columns.iter().copied().filter(|c| !origin(c)).collect();
+            let mut g_fixed = vec![0.0; fixed.len()];
+            PreparedLeg::new(&leg, &phi, &fixed).reading_and_gradient_of(&pose, &mine, &mut g_fixed);
+            for (k, &c) in fixed.iter().enumerate() {
+                let (a, b) = (g_fixed[k], g_mine[c]);
+                prop_assert!(close(a, b, scale, 1e-14), "∂ψ/∂{}: {a} vs {b}", leg.params[c].name);
+            }
             let measured = [0, 1, 5];
             let p_mine = kernel.pose_gradient_of(&pose, &mine, &measured);
             let p_theirs = generic.pose_gradient_of(&pose, &theirs, &measured);

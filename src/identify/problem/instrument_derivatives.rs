@@ -128,7 +128,8 @@ impl<'a> PreparedFunction<'a> {
     }
 
     /// As [`Self::new`]; `closed_form`: a spatial report of positions takes its derivatives in
-    /// closed form (`instrument_derivatives/spatial_pass.rs`), else every function takes the dual-number passes.
+    /// closed form (`instrument_derivatives/spatial_pass.rs`), else every function takes the
+    /// dual-number passes.
     fn with_passes(
         f: PoseFunction<'a>,
         (shared, identified): (&[f64], &[usize]),

@@ -119,6 +119,16 @@ fn a_small_system_is_solved_with_its_column_normalised_determinant() {
     assert!((determinant + 1.0).abs() < 1e-15, "{determinant}");
     a[2][2] = 0.0;
     assert!(solve_small(a, b, 3).is_none());
+    // One row: 2 x = 4 (the column's norm 2); no row: nothing to solve, determinant 1; more
+    // rows than the storage: refused.
+    let (mut a, mut b) = ([[0.0; 6]; 6], [0.0; 6]);
+    (a[0][0], b[0]) = (2.0, 4.0);
+    assert_eq!(
+        solve_small(a, b, 1),
+        Some(([2.0, 0.0, 0.0, 0.0, 0.0, 0.0], 1.0))
+    );
+    assert_eq!(solve_small(a, b, 0), Some(([0.0; 6], 1.0)));
+    assert_eq!(solve_small(a, b, 7), None);
 }
 
 /// The rows Newton hands back are the kernels' rows at the pose it returns, bit for bit (what

@@ -78,9 +78,8 @@ impl ForwardKinematics<'_> {
             for (l, leg) in mechanism.legs.iter().enumerate() {
                 let geometry = &self.geometries[l];
                 let moving = leg.moving.len();
-                let (tip, tip_jacobian) = self.frames[l]
-                    .get(&self.geometries[l])
-                    .tip_and_jacobian(leg, &joints[l][..moving]);
+                let (tip, tip_jacobian) =
+                    (self.frames[l].get(geometry)).tip_and_jacobian(leg, &joints[l][..moving]);
                 let target = attachment_on(&platform, &geometry.attachment);
                 size = size.max(target.norm());
                 let attachment = Vector3::from(geometry.attachment);
@@ -158,9 +157,7 @@ impl ForwardKinematics<'_> {
         let mut row = 0;
         for (l, leg) in self.mechanism.legs.iter().enumerate() {
             let geometry = &self.geometries[l];
-            let tip = self.frames[l]
-                .get(&self.geometries[l])
-                .tip(leg, &joints[l][..leg.moving.len()]);
+            let tip = (self.frames[l].get(geometry)).tip(leg, &joints[l][..leg.moving.len()]);
             let target = attachment_on(platform, &geometry.attachment);
             size = size.max(target.norm());
             for d in 0..leg.closure_dims {
