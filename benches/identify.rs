@@ -4,7 +4,11 @@
 //! poses for the 5R, 24 for the hexapod's 8 parameters);
 //! `strategy/{5r,3rpr}/{dc,traditional}` — the whole identification (rank check, solve,
 //! statistics) by divide and conquer and by the traditional all-legs problem, on identical
-//! shared poses.
+//! shared poses;
+//! `identify_leg/5r/{floor_solver,floor_fixed}` — the floor of the 5R leg's fit on the same
+//! rows: the leg written by hand in closed form (benches/reference/closed_form_leg.rs), solved
+//! by legwise's `solve` and by a fixed-size Levenberg–Marquardt (each checked to land on
+//! `identify_leg/5r/lm`'s estimate before it is timed).
 //! Run: `cargo bench --bench identify`; `benches/scipy_leg.py` compares
 //! `identify_leg/5r/lm` with scipy on the same poses.
 use std::hint::black_box;
@@ -16,6 +20,11 @@ use legwise::identify::problem::IdentificationProblem;
 use legwise::measure::simulate::{simulate, SimulationOptions};
 use legwise::model::Mechanism;
 use legwise::solver::{solve, SolverKind};
+use nalgebra::DVector;
+
+#[path = "reference/closed_form_leg.rs"]
+mod closed_form_leg;
+use closed_form_leg::{fixed_size_lm, ClosedFormLeg, NOMINAL};
 
 fn model(name: &str) -> Mechanism {
     let path = PathBuf::from(env!("CARGO_MANIFEST_DIR"))
@@ -38,8 +47,54 @@ fn solvers(c: &mut Criterion) {
                 b.iter(|| solve(black_box(&problem), problem.start(), kind).expect("solves"))
             });
         }
+        if name == "5r.yaml" {
+            floor(&mut group, &problem, data.leg_blocks(0));
+        }
         group.finish();
     }
+}
+
+/// The 5R leg's floor benches (`floor_solver`, `floor_fixed`), after checking that both land
+/// on the identification's estimate (relative 1e-9: the stopping rules differ).
+fn floor(
+    group: &mut criterion::BenchmarkGroup<'_, criterion::measurement::WallTime>,
+    problem: &IdentificationProblem<'_>,
+    blocks: Vec<legwise::measure::ResidualBlock>,
+) {
+    let leg = ClosedFormLeg {
+        rows: blocks
+            .iter()
+            .map(|b| (b.pose[0], b.pose[1], b.reading))
+            .collect(),
+    };
+    let start = DVector::from_column_slice(&NOMINAL);
+    let reference = solve(problem, problem.start(), SolverKind::LevenbergMarquardt)
+        .expect("solves")
+        .x;
+    let by_solver = solve(&leg, start.clone(), SolverKind::LevenbergMarquardt)
+        .expect("solves")
+        .x;
+    let fixed = DVector::from_column_slice(&fixed_size_lm(&leg.rows, NOMINAL));
+    for (name, estimate) in [("floor_solver", &by_solver), ("floor_fixed", &fixed)] {
+        let gap = (estimate - &reference).amax() / reference.amax();
+        assert!(
+            gap < 1e-9,
+            "{name} lands {gap:e} away from the identification"
+        );
+    }
+    group.bench_function("floor_solver", |b| {
+        b.iter(|| {
+            solve(
+                black_box(&leg),
+                start.clone(),
+                SolverKind::LevenbergMarquardt,
+            )
+            .expect("solves")
+        })
+    });
+    group.bench_function("floor_fixed", |b| {
+        b.iter(|| fixed_size_lm(black_box(&leg.rows), NOMINAL))
+    });
 }
 
 fn strategies(c: &mut Criterion) {

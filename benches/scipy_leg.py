@@ -33,6 +33,9 @@ ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 # Nominal [l1, L1, A1x, A1y, k1, gamma1] of models/5r.urdf and models/5r.yaml.
 NOMINAL = np.array([0.75, 1.10, -0.5, 0.0, 1.0, 0.0])
 BENCH_ID = "identify_leg/5r/lm"
+# The floor of the same fit (benches/reference/closed_form_leg.rs): the leg by hand in closed
+# form, solved by legwise's `solve` and by a fixed-size Levenberg-Marquardt.
+FLOOR_IDS = ["identify_leg/5r/floor_solver", "identify_leg/5r/floor_fixed"]
 
 
 def simulate(path):
@@ -77,10 +80,11 @@ def time_scipy(x, y, psi, repeats, **options):
     return statistics.median(per_call), result
 
 
-def criterion_median(target_dir):
-    """Median of the last `identify_leg/5r/lm` run, seconds, from criterion's estimates."""
-    pattern = os.path.join(target_dir, "criterion", "identify_leg_5r", "lm", "new",
-                           "estimates.json")
+def criterion_median(target_dir, bench_id=BENCH_ID):
+    """Median of the last run of `bench_id` (in the group identify_leg/5r), seconds, from
+    criterion's estimates."""
+    pattern = os.path.join(target_dir, "criterion", "identify_leg_5r", bench_id.split("/")[-1],
+                           "new", "estimates.json")
     found = glob.glob(pattern)
     if not found:
         sys.exit(f"no criterion estimates at {pattern}")
@@ -110,12 +114,17 @@ def main():
     if args.no_cargo:
         return
     target_dir = os.environ.get("CARGO_TARGET_DIR", os.path.join(ROOT, "target"))
-    subprocess.run(["cargo", "bench", "--bench", "identify", "--", f"^{BENCH_ID}$"],
+    pattern = "^identify_leg/5r/(lm|floor_solver|floor_fixed)$"
+    subprocess.run(["cargo", "bench", "--bench", "identify", "--", pattern],
                    cwd=ROOT, check=True)
     legwise = criterion_median(target_dir)
     print(f"{'legwise ' + BENCH_ID:34s} median {legwise * 1e6:9.1f} us")
     print(f"ratio scipy (default) / legwise: {default / legwise:7.1f}x")
     print(f"ratio scipy (1e-12)   / legwise: {tight / legwise:7.1f}x")
+    for floor_id in FLOOR_IDS:
+        floor = criterion_median(target_dir, floor_id)
+        print(f"{floor_id:34s} median {floor * 1e6:9.1f} us: scipy (default) / it "
+              f"{default / floor:6.1f}x, legwise / it {legwise / floor:5.2f}x")
 
 
 if __name__ == "__main__":
