@@ -8,7 +8,10 @@
 //! `identify_leg/5r/{floor_solver,floor_fixed}` — the floor of the 5R leg's fit on the same
 //! rows: the leg written by hand in closed form (benches/reference/closed_form_leg.rs), solved
 //! by legwise's `solve` and by a fixed-size Levenberg–Marquardt (each checked to land on
-//! `identify_leg/5r/lm`'s estimate before it is timed).
+//! `identify_leg/5r/lm`'s estimate before it is timed); `identify_leg/5r/{rows,rows_gradients}`
+//! — one evaluation of the same 18 rows through legwise's own leg path (the leg prepared at
+//! the parameters, each row's warm-started closed-form solve and its reading, with the
+//! gradient for the second), what a solve repeats at every evaluation.
 //! Run: `cargo bench --bench identify`; `benches/scipy_leg.py` compares
 //! `identify_leg/5r/lm` with scipy on the same poses.
 use std::hint::black_box;
@@ -16,7 +19,9 @@ use std::path::PathBuf;
 
 use criterion::{criterion_group, criterion_main, Criterion};
 use legwise::identify::estimate::{identify, Strategy};
+use legwise::identify::jacobian::PreparedLeg;
 use legwise::identify::problem::IdentificationProblem;
+use legwise::kinematics::chain::platform_transform_f64;
 use legwise::measure::simulate::{simulate, SimulationOptions};
 use legwise::model::Mechanism;
 use legwise::solver::{solve, SolverKind};
@@ -94,6 +99,41 @@ fn floor(
     });
     group.bench_function("floor_fixed", |b| {
         b.iter(|| fixed_size_lm(black_box(&leg.rows), NOMINAL))
+    });
+    rows(group, problem.mechanism(), &blocks);
+}
+
+/// `rows` and `rows_gradients`: one evaluation of leg 0's `blocks` at the nominal parameters
+/// through [`PreparedLeg`], each row warm-started from its own last solution.
+fn rows(
+    group: &mut criterion::BenchmarkGroup<'_, criterion::measurement::WallTime>,
+    mechanism: &legwise::Mechanism,
+    blocks: &[legwise::measure::ResidualBlock],
+) {
+    let leg = &mechanism.legs[0];
+    let (phi, identified, home) = (leg.nominal(), leg.identified(), mechanism.home_pose);
+    let mut seeds = vec![None; blocks.len()];
+    let mut gradient = vec![0.0; identified.len()];
+    let mut evaluate = |columns: &[usize]| {
+        let prepared = PreparedLeg::new(leg, &phi, columns);
+        let mut sum = 0.0;
+        for (block, seed) in blocks.iter().zip(seeds.iter_mut()) {
+            let platform = platform_transform_f64(&block.pose);
+            let solution = prepared
+                .solve_warm_on(&platform, &block.pose, &home, seed.as_ref())
+                .expect("reaches");
+            sum += match columns.is_empty() {
+                true => prepared.reading_of(&solution),
+                false => prepared.reading_and_gradient_on(&platform, &solution, &mut gradient),
+            };
+            *seed = Some(solution.q);
+        }
+        sum
+    };
+    evaluate(&[]);
+    group.bench_function("rows", |b| b.iter(|| evaluate(black_box(&[]))));
+    group.bench_function("rows_gradients", |b| {
+        b.iter(|| evaluate(black_box(&identified)))
     });
 }
 
