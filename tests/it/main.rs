@@ -47,6 +47,7 @@ mod kernel_forward_spatial;
 mod kernels;
 mod kinematics;
 mod klipper_printer;
+mod leg_floor;
 mod library_example;
 mod lm_behaviour;
 mod mgh;
